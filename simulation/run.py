@@ -1,0 +1,247 @@
+"""Fixed-step RK4 simulation of the closed loop ``qdot = B u(q, t)``, chunk by chunk."""
+from __future__ import annotations
+
+import math
+import sys
+import time as _time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import casadi as ca
+import numpy as np
+
+from symbolic import ConfigError, CoordinatingController, SingularityError
+
+#: Default singularity thresholds on the dimensionless margins (0 = singular).
+DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.05}
+#: Steps integrated per call of the closed-loop chunk Function.
+DEFAULT_CHUNK = 500
+
+
+@dataclass
+class Run:
+    """A simulated run, sampled at every step (row k is time ``t[k]``).
+
+    Attributes
+    ----------
+    t : (N+1,) array
+        Time [s].
+    q : (N+1, m) array
+        Joint coordinates [rad].
+    u : (N+1, m) array
+        Control at each sample [rad/s for B = I].
+    e : (N+1, m-1) array
+        Deviations ``e^2..e^m`` from the curve [m].
+    s : (N+1,) array
+        Arc length ``s^m`` of the end point [m].
+    link_margins : (N+1, m-1) array
+        Link margins of links 2..m (0 = link perpendicular to the curve).
+    longitudinal : (N+1,) array
+        Longitudinal margin (0 = end point cannot be pushed along the curve).
+    v_star : (N+1,) array
+        Commanded speed [m/s].
+    info : dict
+        Backend, wall time, stop reason.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    u: np.ndarray
+    e: np.ndarray
+    s: np.ndarray
+    link_margins: np.ndarray
+    longitudinal: np.ndarray
+    v_star: np.ndarray
+    info: dict = field(default_factory=dict)
+
+    def s_reference(self) -> np.ndarray:
+        """``s(0) + integral of v*`` on the sample grid (trapezoidal rule)."""
+        dt = np.diff(self.t)
+        return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (self.v_star[1:] + self.v_star[:-1]))])
+
+    def summary(self) -> dict[str, float]:
+        """Final ``max|e|``, worst ``s`` tracking error, smallest margins and where."""
+        lm = self.link_margins
+        k, j = np.unravel_index(np.argmin(lm), lm.shape)
+        return {"duration": float(self.t[-1] - self.t[0]), "steps": len(self.t) - 1,
+                "final_max_abs_e": float(np.max(np.abs(self.e[-1]))),
+                "max_s_tracking_error": float(np.max(np.abs(self.s - self.s_reference()))),
+                "min_link_margin": float(lm[k, j]), "min_link_margin_link": int(j) + 2,
+                "min_link_margin_time": float(self.t[k]),
+                "min_longitudinal_margin": float(np.min(self.longitudinal)),
+                "min_longitudinal_margin_time": float(self.t[np.argmin(self.longitudinal)]),
+                "max_abs_u": float(np.max(np.abs(self.u)))}
+
+
+def _number(value: Any, name: str, positive: bool = True) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f"{name}: need a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise ConfigError(f"{name}: must be > 0, got {value!r}")
+    return float(value)
+
+
+class Progress:
+    """A one-line progress bar on stderr (redrawn in place on a terminal, every 10% otherwise)."""
+
+    def __init__(self, total: float, label: str = "run", stream=None) -> None:
+        self.total, self.label, self.stream = total, label, stream or sys.stderr
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.start, self.last = _time.perf_counter(), -1
+
+    def update(self, done: float) -> None:
+        frac = min(max(done / self.total, 0.0), 1.0)
+        decile = int(frac * 10)
+        if not self.tty and decile == self.last:
+            return
+        self.last = decile
+        bar = "#" * int(frac * 30)
+        msg = (f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  t = {done:.2f}/{self.total:.2f} s  "
+               f"{_time.perf_counter() - self.start:.1f} s wall")
+        self.stream.write(("\r" + msg) if self.tty else msg + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def check_curve_reaches_base(ctrl: CoordinatingController, t0: float, t1: float, samples: int = 201) -> None:
+    """Raise a ConfigError if the curve passes farther than one link length from the base."""
+    for t in np.linspace(t0, t1, samples):
+        off = ctrl.base_offset(float(t))
+        if not off <= ctrl.chain.xi:
+            raise ConfigError(f"curve: passes {off:.4g} m from the base at t = {t:.3f} s, more than "
+                              f"one link length ({ctrl.chain.xi} m); the pinned base cannot follow it")
+
+
+def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
+                    thresholds: dict[str, float]) -> tuple[int, str, int | None, float] | None:
+    """First row whose margins are below threshold or not finite: ``(row, kind, link, margin)``."""
+    lm_min = np.min(link_margins, axis=1)
+    bad = ~(lm_min >= thresholds["link"]) | ~(longitudinal >= thresholds["longitudinal"])
+    if not bad.any():
+        return None
+    k = int(np.argmax(bad))
+    if not lm_min[k] >= thresholds["link"]:
+        j = int(np.nanargmin(link_margins[k])) if np.isfinite(link_margins[k]).any() else 0
+        return k, "link", j + 2, float(link_margins[k, j])
+    return k, "longitudinal", None, float(longitudinal[k])
+
+
+def chunk_function(ctrl: CoordinatingController, step: float, n: int, backend: str = "interpreted"):
+    """Closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, u, e, s, links, long)``.
+
+    Column k of ``Q`` is the state after step k; the diagnostics are at each step's start.
+    """
+    if backend != "interpreted":
+        raise ConfigError(f"backend: expected 'interpreted', got {backend!r}")
+    key = ("chunk", float(step), n)
+    if key not in ctrl._cache:
+        ctrl._cache[key] = ctrl.rk4_step(step).expand().mapaccum("chunk", n)
+    return ctrl._cache[key]
+
+
+def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.001,
+             t0: float = 0.0, *, backend: str = "interpreted", chunk: int = DEFAULT_CHUNK,
+             thresholds: dict[str, float] | None = None, progress: bool | None = None,
+             on_chunk: Callable[[Run], None] | None = None) -> Run:
+    """Integrate the closed loop with fixed-step RK4 from ``q0`` at ``t0`` for ``duration``.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller (chain, curve, gain, speed).
+    q0 : (m,) array_like
+        Start configuration [rad].
+    duration, step, t0 : float
+        Simulated time span, RK4 step and start time [s].
+    backend : str
+        ``"interpreted"`` (CasADi virtual machine).
+    chunk : int
+        Steps per call of the closed-loop Function (and per ``on_chunk`` call).
+    thresholds : dict, optional
+        ``{"link": .., "longitudinal": ..}`` margins below which the run stops.
+    progress : bool, optional
+        Show a progress bar on stderr (default: for runs of more than 20,000 steps).
+    on_chunk : callable, optional
+        Called with each completed chunk (a :class:`Run` of its rows), e.g. a logger.
+
+    Returns
+    -------
+    Run
+
+    Raises
+    ------
+    ConfigError
+        Bad input or a singular start, before any integration.
+    SingularityError
+        A margin fell below its threshold; ``err.run`` holds the run up to there.
+    """
+    duration, step = _number(duration, "duration"), _number(step, "step")
+    t0 = _number(t0, "t0", positive=False)
+    if step > duration:
+        raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
+    if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
+        raise ConfigError(f"chunk: need a positive integer, got {chunk!r}")
+    thr = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
+    q0 = ctrl.chain.check_q(q0, "q0")
+    check_curve_reaches_base(ctrl, t0, t0 + duration)
+    start = ctrl.evaluate(q0, t0)
+    bad = first_violation(start["link_margins"][None], np.array([start["longitudinal"]]), thr)
+    if bad is not None:
+        _, kind, link, margin = bad
+        where = f"link {link}" if link else "the end point"
+        raise ConfigError(f"q0: start configuration is (near) singular: {kind} margin of {where} is "
+                          f"{margin:.3g} < {thr[kind]}")
+
+    n_steps = int(round(duration / step))
+    speed = ctrl.speed_function()
+    bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
+    parts: list[Run] = []
+    q, k, wall = q0, 0, _time.perf_counter()
+    try:
+        while k < n_steps:
+            n = min(chunk, n_steps - k)
+            times = t0 + step * np.arange(k, k + n)
+            Q, U, E, S, LM, LG = (np.asarray(x) for x in chunk_function(ctrl, step, n, backend)(q, times))
+            part = Run(times, np.column_stack([q, Q[:, :-1]]).T, U.T, E.T, S.ravel(), LM.T, LG.ravel(),
+                       np.asarray(speed.map(n)(times)).ravel())
+            bad = first_violation(part.link_margins, part.longitudinal, thr)
+            if bad is not None:
+                row, kind, link, margin = bad
+                part = _rows(part, slice(0, row + 1))
+                parts.append(part)
+                if on_chunk:
+                    on_chunk(part)
+                run = _concat(parts, dict(backend=backend, stopped="singularity"))
+                raise SingularityError(part.t[-1], link, margin, kind, thr[kind], run=run)
+            parts.append(part)
+            if on_chunk:
+                on_chunk(part)
+            q, k = Q[:, -1], k + n
+            if bar:
+                bar.update(step * k)
+        final = ctrl.evaluate(q, t0 + step * n_steps)
+        last = Run(np.array([t0 + step * n_steps]), q[None], final["u"][None], final["e"][None],
+                   np.array([final["s"]]), final["link_margins"][None], np.array([final["longitudinal"]]),
+                   np.array([ctrl.speed_at(t0 + step * n_steps)]))
+        parts.append(last)
+        if on_chunk:
+            on_chunk(last)
+    finally:
+        if bar:
+            bar.close()
+    return _concat(parts, dict(backend=backend, stopped="completed", wall_time=_time.perf_counter() - wall))
+
+
+ARRAYS = ("t", "q", "u", "e", "s", "link_margins", "longitudinal", "v_star")
+
+
+def _rows(run: Run, rows: slice) -> Run:
+    return Run(*(getattr(run, a)[rows] for a in ARRAYS), info=dict(run.info))
+
+
+def _concat(parts: list[Run], info: dict) -> Run:
+    return Run(*(np.concatenate([getattr(p, a) for p in parts]) for a in ARRAYS), info=info)

@@ -1,0 +1,14 @@
+"""CasADi models of coordarm: chain kinematics, curves, and the coordinating law.
+
+Imports nothing else of coordarm.
+"""
+from .chain import PlanarChain
+from .controller import OUTPUTS, CoordinatingController
+from .curves import Arc, Circle, Curve, Line, curve_from_spec
+from .errors import BuildError, ConfigError, CoordarmError, LogError, SingularityError
+from .motions import Constant, Ramp, Sinusoid, Smoothstep, motion_from_spec, motion_to_spec
+
+__all__ = ["PlanarChain", "CoordinatingController", "OUTPUTS", "Curve", "Line", "Circle", "Arc",
+           "curve_from_spec", "Constant", "Ramp", "Sinusoid", "Smoothstep", "motion_from_spec",
+           "motion_to_spec", "CoordarmError", "ConfigError", "BuildError", "LogError",
+           "SingularityError"]

@@ -1,0 +1,249 @@
+"""The coordinating control law (paper eqs. 12-27) as CasADi Functions.
+
+Task outputs are ``e^j = phi(y^j, t)`` (j = 2..m) and ``s^m = psi(y^m, t)``. The law
+sets ``u_s = v*(t) - dpsi/dt``, ``u_e^j = -K e^j - dphi/dt`` and solves
+``C(q) u = (u_s, u_e)`` with the decoupling matrix of eq. 26, whose rows are ordered
+``(s^m, e^2, ..., e^m)`` here. Two forms agree to rounding:
+
+* ``"structured"`` (default): the O(m) recursion of DESIGN.md section 3, a CasADi
+  ``mapaccum`` over links, which also yields the singularity margins;
+* ``"dense"``: the decoupling matrix from AD Jacobians ``C^j = dc^j/dq`` and a dense
+  linear solve (the reference, O(m^3)).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+import casadi as ca
+import numpy as np
+
+from .chain import PlanarChain, direction, normal
+from .curves import Curve, _param, evaluate
+from .errors import ConfigError
+
+LAWS = ("structured", "dense")
+#: Names of the outputs of :meth:`CoordinatingController.law`, in order.
+OUTPUTS = ("u", "e", "s", "link_margins", "longitudinal", "longitudinal_pivot")
+
+
+class CoordinatingController:
+    """Coordinating controller of a planar chain along a time-varying curve.
+
+    Parameters
+    ----------
+    chain : PlanarChain
+        The manipulator.
+    curve : Curve
+        The goal curve ``S(t)``; it must pass within one link length of the base.
+    gain : float
+        Error gain K > 0 [1/s]: every ``e^j`` decays like ``exp(-K t)``.
+    speed : float or callable
+        Commanded end-point speed ``v*(t)`` along the curve [m/s].
+    law : {"structured", "dense"}
+        Form of the inverse control transformation used by :meth:`control`.
+    """
+
+    def __init__(self, chain: PlanarChain, curve: Curve, gain: float, speed: Any,
+                 law: str = "structured") -> None:
+        if not isinstance(chain, PlanarChain):
+            raise ConfigError(f"chain: expected a PlanarChain, got {type(chain).__name__}")
+        if not isinstance(curve, Curve):
+            raise ConfigError(f"curve: expected a Curve (Line, Circle, Arc), got {type(curve).__name__}")
+        if (isinstance(gain, bool) or not isinstance(gain, (int, float))
+                or not math.isfinite(gain) or gain <= 0):
+            raise ConfigError(f"gain: K must be a finite number > 0, got {gain!r}")
+        if law not in LAWS:
+            raise ConfigError(f"law: expected one of {LAWS}, got {law!r}")
+        self.chain, self.curve, self.gain, self.law_form = chain, curve, float(gain), law
+        self.speed = _param(speed, "speed")
+        self._geometry = self._geometry_function()
+        self._cache: dict = {}
+
+    # ------------------------------------------------------------ building blocks
+    def _geometry_function(self) -> ca.Function:
+        """``(y, t) -> (phi, grad phi, dphi/dt, psi, grad psi, dpsi/dt)`` by AD."""
+        y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
+        try:
+            phi, psi = self.curve.phi(y, t), self.curve.psi(y, t)
+            phi, psi = ca.SX(phi), ca.SX(psi)
+        except Exception as exc:  # a user callable returned something unusable
+            raise ConfigError(f"curve: its parameters must be numbers or callables of t "
+                              f"returning CasADi scalars ({exc})") from None
+        if phi.numel() != 1 or psi.numel() != 1:
+            raise ConfigError("curve: phi and psi must be scalars")
+        return ca.Function("geometry", [y, t],
+                           [phi, ca.gradient(phi, y), ca.jacobian(phi, t),
+                            psi, ca.gradient(psi, y), ca.jacobian(psi, t)],
+                           ["y", "t"], ["phi", "gphi", "phit", "psi", "gpsi", "psit"])
+
+    def speed_function(self) -> ca.Function:
+        """``t -> v*(t)``."""
+        t = ca.SX.sym("t")
+        return ca.Function("speed", [t], [ca.SX(self.speed(t))], ["t"], ["v"])
+
+    def link_step(self) -> ca.Function:
+        """One link of the O(m) recursion: ``(carry, q_j, t) -> (carry, out_j)``.
+
+        ``carry = (y^{j-1}, alpha_{j-1}, A, B, a, b)`` where ``ydot^{j-1} = A + B p`` and
+        ``w_{j-1} = a + b p`` are affine in the free rate ``p = w_1``;
+        ``out_j = (e^j, link margin, a_j, b_j)``.
+        """
+        xi, K = self.chain.xi, self.gain
+        carry, qj, t = ca.SX.sym("carry", 9), ca.SX.sym("q_j"), ca.SX.sym("t")
+        y, alpha_prev, A, Bv, a_prev, b_prev = (carry[0:2], carry[2], carry[3:5], carry[5:7],
+                                                carry[7], carry[8])
+        alpha = alpha_prev + qj
+        y_j = y + 0.5 * xi * (direction(alpha_prev) + direction(alpha))
+        phi, g, phit, *_ = self._geometry(y_j, t)
+        n_prev, n_j = normal(alpha_prev), normal(alpha)
+        PA = A + 0.5 * xi * n_prev * a_prev
+        PB = Bv + 0.5 * xi * n_prev * b_prev
+        pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
+        den = 0.5 * xi * pivot
+        a_j = (-K * phi - phit - ca.dot(g, PA)) / den
+        b_j = -ca.dot(g, PB) / den
+        new = ca.vertcat(y_j, alpha, PA + 0.5 * xi * n_j * a_j, PB + 0.5 * xi * n_j * b_j, a_j, b_j)
+        out = ca.vertcat(phi, pivot / ca.norm_2(g), a_j, b_j)
+        return ca.Function("link_step", [carry, qj, t], [new, out], ["carry", "q_j", "t"],
+                           ["carry_next", "out"])
+
+    def _u_from_rates(self, qdot):
+        """``u = B^{-1} qdot`` (a division when B is diagonal)."""
+        bd = self.chain.b_diagonal
+        if bd is not None:
+            return qdot / ca.DM(bd) if not np.all(bd == 1) else qdot
+        return ca.mtimes(ca.DM(np.linalg.inv(self.chain.B)), qdot)
+
+    def _structured(self, q, t):
+        m, xi = self.chain.m, self.chain.xi
+        fold = self.link_step().mapaccum("links", m - 1)
+        carry0 = ca.vertcat(0, 0, q[0], 0, 0, 0, 0, 0, 1)
+        carries, outs = fold(carry0, q[1:].T, ca.repmat(t, 1, m - 1))
+        last = carries[:, m - 2]
+        y_m, A_m, B_m = last[0:2], last[3:5], last[5:7]
+        _, _, _, psi, h, psit, = self._geometry(y_m, t)
+        a = ca.vertcat(0, outs[2, :].T)
+        b = ca.vertcat(1, outs[3, :].T)
+        pivot = ca.dot(h, B_m)                       # the longitudinal pivot [m/rad]
+        p = (self.speed(t) - psit - ca.dot(h, A_m)) / pivot
+        w = a + b * p
+        qdot = w - ca.vertcat(0, w[:-1])
+        # dimensionless: end-point speed along the curve per unit of joint-rate effort
+        margin = ca.fabs(pivot) / (xi * ca.norm_1(b))          # = sin(beta) on a zig-zag
+        return (self._u_from_rates(qdot), outs[0, :].T, psi, outs[1, :].T, margin, pivot)
+
+    def decoupling_matrix_expr(self, q, t):
+        """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD."""
+        y = self.chain.centres(q)
+        rows, rhs = [], []
+        for j in [self.chain.m - 1] + list(range(1, self.chain.m)):
+            phi, g, phit, psi, h, psit = self._geometry(y[:, j], t)
+            Cj = ca.jacobian(y[:, j], q)
+            if j == self.chain.m - 1 and not rows:
+                rows.append(ca.mtimes(h.T, Cj))
+                rhs.append(self.speed(t) - psit)
+                continue
+            rows.append(ca.mtimes(g.T, Cj))
+            rhs.append(-self.gain * phi - phit)
+        M = ca.mtimes(ca.vertcat(*rows), ca.DM(self.chain.B))
+        return M, ca.vertcat(*rhs)
+
+    # ------------------------------------------------------------ CasADi Functions
+    def law(self, form: str | None = None) -> ca.Function:
+        """The control law ``(q, t) -> (u, e, s, link_margins, longitudinal, longitudinal_pivot)``.
+
+        ``form="structured"`` is an MX Function with a loop over links (for code
+        generation); ``form="dense"`` solves the dense eq. 27 and takes its margins
+        from the structured recursion.
+        """
+        form = form or self.law_form
+        if form not in LAWS:
+            raise ConfigError(f"law: expected one of {LAWS}, got {form!r}")
+        key = ("law", form)
+        if key not in self._cache:
+            q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
+            outs = list(self._structured(q, t))
+            if form == "dense":
+                qs, ts = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
+                M, r = self.decoupling_matrix_expr(qs, ts)
+                Mr = ca.Function("decoupling", [qs, ts], [M, r])
+                Mq, rq = Mr(q, t)
+                outs[0] = ca.solve(Mq, rq, "qr")
+            self._cache[key] = ca.Function(f"coordinating_law_{form}", [q, t], outs,
+                                           ["q", "t"], list(OUTPUTS))
+        return self._cache[key]
+
+    def fast_law(self, form: str | None = None) -> ca.Function:
+        """:meth:`law` expanded to a flat SX Function: fastest in CasADi's interpreter."""
+        form = form or self.law_form
+        key = ("fast", form)
+        if key not in self._cache:
+            self._cache[key] = self.law(form).expand() if form == "structured" else self.law(form)
+        return self._cache[key]
+
+    def rk4_step(self, h: float, form: str | None = None) -> ca.Function:
+        """Closed-loop RK4 step of ``qdot = B u(q, t)``: ``(q, t) -> (q_next, u, e, s, links, long)``.
+
+        The diagnostics are those of the law at the step's start ``(q, t)``.
+        """
+        form = form or self.law_form
+        key = ("rk4", form, float(h))
+        if key not in self._cache:
+            law = self.fast_law(form)
+            B = ca.DM(self.chain.B)
+            q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
+            out1 = law(q, t)
+            k1 = ca.mtimes(B, out1[0])
+            k2 = ca.mtimes(B, law(q + h / 2 * k1, t + h / 2)[0])
+            k3 = ca.mtimes(B, law(q + h / 2 * k2, t + h / 2)[0])
+            k4 = ca.mtimes(B, law(q + h * k3, t + h)[0])
+            q_next = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *out1[:5]],
+                                           ["q", "t"], ["q_next", *OUTPUTS[:5]])
+        return self._cache[key]
+
+    def decoupling_function(self) -> ca.Function:
+        """``(q, t) -> (M, rhs)``: the dense decoupling matrix of eq. 26 and its right-hand side."""
+        if "M" not in self._cache:
+            q, t = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
+            M, r = self.decoupling_matrix_expr(q, t)
+            self._cache["M"] = ca.Function("decoupling", [q, t], [M, r], ["q", "t"], ["M", "rhs"])
+        return self._cache["M"]
+
+    # --------------------------------------------------------------- numeric API
+    def evaluate(self, q, t: float = 0.0, form: str | None = None) -> dict[str, Any]:
+        """All outputs of the law at ``(q, t)`` as numpy values, keyed by :data:`OUTPUTS`."""
+        q = self.chain.check_q(q)
+        if not math.isfinite(t):
+            raise ConfigError(f"t: must be finite, got {t!r}")
+        res = self.fast_law(form)(q, t)
+        out = {}
+        for name, v in zip(OUTPUTS, res):
+            v = np.asarray(v, dtype=float).ravel()
+            out[name] = float(v[0]) if name in ("s", "longitudinal", "longitudinal_pivot") else v
+        return out
+
+    def control(self, q, t: float = 0.0) -> np.ndarray:
+        """Control ``u(q, t)``, shape (m,)."""
+        return self.evaluate(q, t)["u"]
+
+    def decoupling_matrix(self, q, t: float = 0.0) -> np.ndarray:
+        """Numeric decoupling matrix (eq. 26), shape (m, m)."""
+        return np.asarray(self.decoupling_function()(self.chain.check_q(q), t)[0])
+
+    def cond(self, q, t: float = 0.0) -> float:
+        """2-norm condition number of the decoupling matrix (see DESIGN.md section 2)."""
+        return float(np.linalg.cond(self.decoupling_matrix(q, t)))
+
+    def base_offset(self, t: float = 0.0) -> float:
+        """``|phi(0, t)|``: how far the curve passes from the pinned base [m]."""
+        return abs(float(self._geometry([0, 0], t)[0]))
+
+    def speed_at(self, t: float) -> float:
+        """``v*(t)`` [m/s]."""
+        return evaluate(self.speed, t)
+
+    def __repr__(self) -> str:
+        return (f"CoordinatingController({self.chain!r}, {type(self.curve).__name__}, "
+                f"gain={self.gain}, law={self.law_form!r})")

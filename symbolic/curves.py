@@ -1,0 +1,198 @@
+"""Smooth time-varying curves with an orthonormalised description (paper eqs. 8-11).
+
+A curve gives ``phi(y, t)`` (signed distance, zero on the curve) and ``psi(y, t)``
+(arc length) whose Jacobian w.r.t. ``y`` is the rotation ``T(alpha*)`` on the curve.
+Every parameter is a number, a tuple of numbers, or a callable of time returning a
+CasADi expression (the motion primitives of :mod:`symbolic.motions` are such callables).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+import casadi as ca
+import numpy as np
+
+from .errors import ConfigError
+from .motions import Constant, motion_from_spec, motion_to_spec
+
+Param = Any  # float | Callable[[t], expression]
+
+
+def _param(value: Param, field: str) -> Callable:
+    """A scalar parameter as a callable of time, validated."""
+    if callable(value):
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise ConfigError(f"{field}: expected a number or a callable of t, got {value!r}")
+    if not math.isfinite(value):
+        raise ConfigError(f"{field}: must be finite, got {value!r}")
+    return Constant(float(value))
+
+
+def _point(value: Any, field: str) -> tuple[Callable, Callable]:
+    """A 2-D point parameter as two callables of time (or one callable returning 2 values)."""
+    if callable(value):
+        return (lambda t: value(t)[0], lambda t: value(t)[1])
+    if not isinstance(value, (tuple, list, np.ndarray)) or len(value) != 2:
+        raise ConfigError(f"{field}: expected a pair (x, y), got {value!r}")
+    return _param(value[0], f"{field}[0]"), _param(value[1], f"{field}[1]")
+
+
+def evaluate(param: Callable, t: float) -> float:
+    """Numeric value of a parameter callable at time ``t``."""
+    v = param(ca.DM(t))
+    return float(ca.DM(v)) if not isinstance(v, (int, float)) else float(v)
+
+
+class Curve:
+    """Base class: subclasses define :meth:`phi`, :meth:`psi`, :meth:`sample`, :meth:`to_spec`."""
+
+    kind = "curve"
+
+    def phi(self, y, t):
+        """Signed distance from the curve (zero on it); ``y`` is a 2-vector."""
+        raise NotImplementedError
+
+    def psi(self, y, t):
+        """Arc-length coordinate of the point ``y``."""
+        raise NotImplementedError
+
+    def sample(self, t: float, n: int = 400, extent: float = 10.0) -> np.ndarray:
+        """Points on the curve at time ``t`` for plotting, shape (n, 2)."""
+        raise NotImplementedError
+
+    def to_spec(self) -> dict:
+        """The curve as data (only for parameters built from motion primitives)."""
+        raise NotImplementedError
+
+    def functions(self) -> ca.Function:
+        """CasADi Function ``(y, t) -> (phi, psi)``."""
+        y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
+        return ca.Function(f"{self.kind}_curve", [y, t], [self.phi(y, t), self.psi(y, t)],
+                           ["y", "t"], ["phi", "psi"])
+
+
+class Line(Curve):
+    """Straight line through ``point`` at ``angle`` [rad]; ``psi`` grows along ``(cos, sin)(angle)``.
+
+    Parameters
+    ----------
+    point : (float | callable, float | callable) or callable
+        A point of the line [m].
+    angle : float or callable
+        Direction of the line [rad].
+    """
+
+    kind = "line"
+
+    def __init__(self, point: Any = (0.0, 0.0), angle: Param = 0.0) -> None:
+        self.point, self.angle = _point(point, "curve.point"), _param(angle, "curve.angle")
+
+    def phi(self, y, t):
+        th = self.angle(t)
+        return -ca.sin(th) * (y[0] - self.point[0](t)) + ca.cos(th) * (y[1] - self.point[1](t))
+
+    def psi(self, y, t):
+        th = self.angle(t)
+        return ca.cos(th) * (y[0] - self.point[0](t)) + ca.sin(th) * (y[1] - self.point[1](t))
+
+    def sample(self, t: float, n: int = 400, extent: float = 10.0) -> np.ndarray:
+        p = np.array([evaluate(c, t) for c in self.point])
+        th = evaluate(self.angle, t)
+        s = np.linspace(-extent, extent, n)
+        return p + s[:, None] * np.array([math.cos(th), math.sin(th)])
+
+    def to_spec(self) -> dict:
+        return {"kind": "line", "point": [motion_to_spec(c) for c in self.point],
+                "angle": motion_to_spec(self.angle)}
+
+
+class Circle(Curve):
+    """Circle of centre ``center`` and radius ``radius``, travelled counter-clockwise.
+
+    ``phi = R - |y - c|`` (positive inside) and ``psi = R * angle(y - c)``, the angle
+    measured from ``reference`` [rad] (default: the direction of the base seen from
+    the centre at t = 0), so the branch cut of ``atan2`` lies opposite the reference.
+    """
+
+    kind = "circle"
+
+    def __init__(self, center: Any, radius: Param, reference: Param | None = None) -> None:
+        self.center, self.radius = _point(center, "curve.center"), _param(radius, "curve.radius")
+        r0 = evaluate(self.radius, 0.0)
+        if not r0 > 0:
+            raise ConfigError(f"curve.radius: must be > 0, got {r0}")
+        if reference is None:
+            c0 = [evaluate(c, 0.0) for c in self.center]
+            reference = math.atan2(-c0[1], -c0[0])
+        self.reference = _param(reference, "curve.reference")
+
+    def phi(self, y, t):
+        r = ca.vertcat(y[0] - self.center[0](t), y[1] - self.center[1](t))
+        return self.radius(t) - ca.norm_2(r)
+
+    def psi(self, y, t):
+        r = ca.vertcat(y[0] - self.center[0](t), y[1] - self.center[1](t))
+        a0 = self.reference(t)
+        cross = ca.cos(a0) * r[1] - ca.sin(a0) * r[0]
+        dot = ca.cos(a0) * r[0] + ca.sin(a0) * r[1]
+        return self.radius(t) * ca.atan2(cross, dot)
+
+    def sample(self, t: float, n: int = 400, extent: float = 10.0) -> np.ndarray:
+        c = np.array([evaluate(v, t) for v in self.center])
+        a = np.linspace(0, 2 * math.pi, n)
+        return c + evaluate(self.radius, t) * np.stack([np.cos(a), np.sin(a)], axis=1)
+
+    def to_spec(self) -> dict:
+        return {"kind": "circle", "center": [motion_to_spec(c) for c in self.center],
+                "radius": motion_to_spec(self.radius), "reference": motion_to_spec(self.reference)}
+
+
+class Arc(Circle):
+    """Circle through ``point`` with tangent direction ``angle`` there, radius ``radius``.
+
+    The centre is ``point + R n(angle)`` (to the left of the tangent) and ``psi = 0`` at
+    ``point``; ``point``, ``angle`` and ``radius`` may all move.
+    """
+
+    kind = "arc"
+
+    def __init__(self, point: Any = (0.0, 0.0), angle: Param = 0.0, radius: Param = 1.0) -> None:
+        self.point, self.angle = _point(point, "curve.point"), _param(angle, "curve.angle")
+        radius = _param(radius, "curve.radius")
+        center = (lambda t: self.point[0](t) - radius(t) * ca.sin(self.angle(t)),
+                  lambda t: self.point[1](t) + radius(t) * ca.cos(self.angle(t)))
+        super().__init__(center, radius, reference=lambda t: self.angle(t) - math.pi / 2)
+
+    def to_spec(self) -> dict:
+        return {"kind": "arc", "point": [motion_to_spec(c) for c in self.point],
+                "angle": motion_to_spec(self.angle), "radius": motion_to_spec(self.radius)}
+
+
+CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "radius", "reference")),
+          "arc": (Arc, ("point", "angle", "radius"))}
+
+
+def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
+    """Build a curve from data, e.g. ``{"kind": "line", "point": [0, 0], "angle": 0.3}``."""
+    if not isinstance(spec, dict):
+        raise ConfigError(f"{field}: expected a table, got {spec!r}")
+    kind = spec.get("kind")
+    if kind not in CURVES:
+        raise ConfigError(f"{field}.kind: expected one of {sorted(CURVES)}, got {kind!r}")
+    cls, keys = CURVES[kind]
+    unknown = set(spec) - set(keys) - {"kind"}
+    if unknown:
+        raise ConfigError(f"{field}: unknown key(s) {sorted(unknown)} for kind {kind!r}; allowed: {list(keys)}")
+    args = {}
+    for k, v in spec.items():
+        if k == "kind":
+            continue
+        if k in ("point", "center"):
+            if not isinstance(v, list) or len(v) != 2:
+                raise ConfigError(f"{field}.{k}: expected a pair [x, y], got {v!r}")
+            args[k] = tuple(motion_from_spec(c, f"{field}.{k}[{i}]") for i, c in enumerate(v))
+        else:
+            args[k] = motion_from_spec(v, f"{field}.{k}")
+    return cls(**args)

@@ -1,0 +1,52 @@
+"""Error hierarchy shared by every layer of coordarm.
+
+Every message names the field, file, time or link it is about.
+"""
+from __future__ import annotations
+
+
+class CoordarmError(Exception):
+    """Base class of all coordarm errors."""
+
+
+class ConfigError(CoordarmError, ValueError):
+    """Invalid input: a parameter, a scenario field or a start configuration."""
+
+
+class BuildError(CoordarmError):
+    """Code generation, compilation or loading of a generated library failed."""
+
+
+class LogError(CoordarmError):
+    """A run log cannot be written or read."""
+
+
+class SingularityError(CoordarmError):
+    """A singularity margin fell below its threshold during a run.
+
+    Attributes
+    ----------
+    time : float
+        Simulated time [s] of the first state whose margin is below threshold.
+    link : int or None
+        1-based index of the offending link, or None for the longitudinal margin.
+    margin : float
+        The margin value (dimensionless) at that time.
+    kind : str
+        ``"link"`` or ``"longitudinal"``.
+    run : object or None
+        The run up to (and including) the offending state, if available.
+    """
+
+    def __init__(self, time: float, link: int | None, margin: float, kind: str,
+                 threshold: float, run: object | None = None) -> None:
+        self.time, self.link, self.margin = float(time), link, float(margin)
+        self.kind, self.threshold, self.run = kind, float(threshold), run
+        where = f"link {link}" if link is not None else "the end point (longitudinal)"
+        super().__init__(
+            f"singularity ahead at t = {self.time:.4f} s: {kind} margin of {where} "
+            f"is {self.margin:.3g} < threshold {self.threshold:.3g}; run stopped")
+
+    def __reduce__(self):
+        return (SingularityError, (self.time, self.link, self.margin, self.kind,
+                                   self.threshold, None))
