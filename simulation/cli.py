@@ -1,0 +1,48 @@
+"""``coordarm`` command line: one sub-command per module, imported only when used."""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from symbolic.errors import CoordarmError
+
+#: Sub-command name -> module defining ``register(subparsers)``; the parser it adds sets ``func``.
+COMMANDS = {
+    "run": "simulation.cli_run",
+    "regen": "generated.cli_regen",
+    "replay": "analysis.cli_replay",
+    "report": "analysis.cli_report",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full ``coordarm`` argument parser."""
+    parser = argparse.ArgumentParser(prog="coordarm", description=(
+        "Coordinating control of hyper-redundant planar manipulators: run scenarios, "
+        "regenerate the compiled controller, replay logs, write singularity reports."))
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, module in COMMANDS.items():
+        try:
+            importlib.import_module(module).register(sub)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``coordarm`` console script; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except CoordarmError as exc:
+        print(f"coordarm {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"coordarm {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
