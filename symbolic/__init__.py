@@ -6,9 +6,10 @@ from .chain import PlanarChain
 from .controller import OUTPUTS, CoordinatingController
 from .curves import Arc, Circle, Curve, Line, curve_from_spec
 from .errors import BuildError, ConfigError, CoordarmError, LogError, SingularityError
+from .start import project_onto_curve
 from .motions import Constant, Ramp, Sinusoid, Smoothstep, motion_from_spec, motion_to_spec
 
 __all__ = ["PlanarChain", "CoordinatingController", "OUTPUTS", "Curve", "Line", "Circle", "Arc",
            "curve_from_spec", "Constant", "Ramp", "Sinusoid", "Smoothstep", "motion_from_spec",
            "motion_to_spec", "CoordarmError", "ConfigError", "BuildError", "LogError",
-           "SingularityError"]
+           "SingularityError", "project_onto_curve"]

@@ -104,7 +104,7 @@ class CoordinatingController:
         a_j = (-K * phi - phit - ca.dot(g, PA)) / den
         b_j = -ca.dot(g, PB) / den
         new = ca.vertcat(y_j, alpha, PA + 0.5 * xi * n_j * a_j, PB + 0.5 * xi * n_j * b_j, a_j, b_j)
-        out = ca.vertcat(phi, pivot / ca.norm_2(g), a_j, b_j)
+        out = ca.vertcat(phi, ca.fabs(pivot) / ca.norm_2(g), a_j, b_j)
         return ca.Function("link_step", [carry, qj, t], [new, out], ["carry", "q_j", "t"],
                            ["carry_next", "out"])
 

@@ -1,0 +1,88 @@
+"""``coordarm run``: simulate a scenario, print a summary, write the log and figures."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from symbolic import SingularityError
+
+from .figures import plot_stages, plot_tracking
+from .obstacles import clearance, wall_crossings
+from .run import Run, simulate
+from .scenario import Scenario, load_scenario, presets
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``run`` sub-command."""
+    p = sub.add_parser("run", help="simulate a scenario (preset or TOML file)",
+                       description=f"Simulate a scenario: a preset ({', '.join(presets())}) or a TOML file. "
+                                   "Prints a summary and writes the log and PNG figures next to it.")
+    p.add_argument("scenario", metavar="SCENARIO_OR_TOML")
+    p.add_argument("--links", type=int, help="override the number of links")
+    p.add_argument("--duration", type=float, help="override the simulated duration [s]")
+    p.add_argument("--step", type=float, help="override the RK4 step [s]")
+    p.add_argument("--law", choices=("structured", "dense"), help="form of the control law")
+    p.add_argument("--out", type=Path, help="log file (default: logs/<scenario>.mcap); figures go beside it")
+    p.add_argument("--no-figures", action="store_true", help="do not draw figures")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=main)
+
+
+def print_summary(run: Run, scenario: Scenario, out=sys.stdout) -> None:
+    """Human-readable summary of a run."""
+    s = run.summary()
+    lines = [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1]} links",
+             f"simulated     {s['duration']:.3f} s in {s['steps']} steps ({run.info.get('stopped', '?')}, "
+             f"backend {run.info.get('backend', '?')})",
+             f"final max|e|  {s['final_max_abs_e']:.3e} m",
+             f"s tracking    max |s - (s0 + ∫v*)| = {s['max_s_tracking_error']:.3e} m",
+             f"link margin   min {s['min_link_margin']:.4f} (link {s['min_link_margin_link']}, "
+             f"t = {s['min_link_margin_time']:.2f} s)",
+             f"longitudinal  min {s['min_longitudinal_margin']:.4f} (t = {s['min_longitudinal_margin_time']:.2f} s)",
+             f"max|u|        {s['max_abs_u']:.4g}"]
+    if len(scenario.obstacles):
+        joints = scenario.chain().joints_np(run.q) if run.q.shape[1] == scenario.chain().m else None
+        if joints is not None:
+            hits = wall_crossings(joints, scenario.obstacles)
+            if len(hits):
+                k, link, wall = hits[0]
+                lines.append(f"walls         COLLISION: link {link} touches wall {wall} at t = {run.t[k]:.3f} s "
+                             f"({len(hits)} contacts)")
+            else:
+                lines.append(f"walls         no link touches a wall (min clearance "
+                             f"{clearance(joints, scenario.obstacles).min():.4f} m)")
+    print("\n".join(lines), file=out)
+
+
+def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
+    """Stage and tracking figures as ``<stem>_stages.png`` and ``<stem>_tracking.png``."""
+    title = f"{scenario.name}: {ctrl.chain.m} links"
+    return [plot_stages(run, ctrl, stem.with_name(stem.name + "_stages.png"), walls=scenario.obstacles,
+                        title=f"{title}, stages of the motion (dashed: the curve at that time)"),
+            plot_tracking(run, ctrl.gain, stem.with_name(stem.name + "_tracking.png"),
+                          thresholds=scenario.thresholds, title=title)]
+
+
+def main(args: argparse.Namespace) -> int:
+    scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step)
+    ctrl = scenario.controller(law=args.law)
+    q0 = scenario.start(ctrl)
+    out = args.out or Path("logs") / f"{scenario.name}.mcap"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    status = 0
+    try:
+        run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0,
+                       thresholds=scenario.thresholds, progress=not args.quiet)
+    except SingularityError as err:
+        print(f"coordarm run: {err}", file=sys.stderr)
+        run, status = err.run, 3
+    np.savez(out.with_suffix(".npz"), **{k: getattr(run, k) for k in ("t", "q", "u", "e", "s")})
+    print_summary(run, scenario)
+    print(f"log           {out.with_suffix('.npz')}")
+    if not args.no_figures:
+        for p in write_figures(run, scenario, ctrl, out.with_suffix("")):
+            print(f"figure        {p}")
+    return status

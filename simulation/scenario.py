@@ -1,0 +1,239 @@
+"""Scenarios as data: TOML files (or named presets) describing a whole run.
+
+A scenario file is data only: every time-varying quantity is built from the motion
+primitives of :mod:`symbolic.motions`; nothing read from a file is evaluated.
+
+Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
+
+    name = "line"
+    description = "..."
+    [chain]     links = 64, link_length = 0.1
+    [curve]     kind = "line" | "circle" | "arc", with its parameters
+    [control]   gain = 2.0, speed = 0.1 (or a motion), law = "structured" | "dense"
+    [start]     kind = "zigzag" | "projected", beta = 1.3, heading = 0.0,
+                curve = {...}  (projected: project onto this curve instead)
+    [run]       duration = 20.0, step = 0.001, t0 = 0.0
+    [thresholds] link = 0.02, longitudinal = 0.05
+    [[obstacles]] a = [x, y], b = [x, y]      (wall segments)
+"""
+from __future__ import annotations
+
+import copy
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from symbolic import (ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
+                      motion_from_spec, project_onto_curve)
+
+from .run import DEFAULT_THRESHOLDS
+
+SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
+            "obstacles"}
+KEYS = {"chain": {"links", "link_length"}, "control": {"gain", "speed", "law"},
+        "start": {"kind", "beta", "heading", "curve"}, "run": {"duration", "step", "t0"},
+        "thresholds": {"link", "longitudinal"}}
+DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
+            "run": {"duration": 20.0, "step": 0.001, "t0": 0.0},
+            "control": {"law": "structured"}}
+
+
+def presets() -> list[str]:
+    """Names of the scenarios shipped with coordarm."""
+    return sorted(p.name[:-5] for p in resources.files("simulation.presets").iterdir()
+                  if p.name.endswith(".toml"))
+
+
+def _num(value: Any, field: str, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f"{field}: need a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise ConfigError(f"{field}: must be > 0, got {value!r}")
+    return float(value)
+
+
+def _segment(spec: Any, field: str) -> np.ndarray:
+    if not isinstance(spec, dict) or set(spec) != {"a", "b"}:
+        raise ConfigError(f"{field}: expected a table with keys a = [x, y] and b = [x, y], got {spec!r}")
+    pts = []
+    for k in ("a", "b"):
+        p = spec[k]
+        if not isinstance(p, list) or len(p) != 2:
+            raise ConfigError(f"{field}.{k}: expected [x, y], got {p!r}")
+        pts.append([_num(v, f"{field}.{k}[{i}]") for i, v in enumerate(p)])
+    return np.array(pts)
+
+
+@dataclass
+class Scenario:
+    """A validated scenario; build its parts with :meth:`controller` and :meth:`start`.
+
+    Use :func:`load_scenario` (name or path) or :meth:`from_dict`.
+    """
+
+    spec: dict
+    source: str = "<dict>"
+    obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+
+    @classmethod
+    def from_dict(cls, data: Any, source: str = "<dict>") -> "Scenario":
+        """Validate ``data`` (as read from TOML) and fill in defaults; errors name ``source`` and the field."""
+        try:
+            return cls._from_dict(data, source)
+        except ConfigError as exc:
+            raise ConfigError(f"{source}: {exc}") from None
+
+    @classmethod
+    def _from_dict(cls, data: Any, source: str) -> "Scenario":
+        if not isinstance(data, dict):
+            raise ConfigError("a scenario must be a table")
+        unknown = set(data) - SECTIONS
+        if unknown:
+            raise ConfigError(f"unknown section(s) {sorted(unknown)}; allowed: {sorted(SECTIONS)}")
+        spec = copy.deepcopy(data)
+        for sec in ("chain", "curve", "control"):
+            if not isinstance(spec.get(sec), dict):
+                raise ConfigError(f"[{sec}]: missing or not a table")
+        for sec, keys in KEYS.items():
+            if sec in spec and not isinstance(spec[sec], dict):
+                raise ConfigError(f"[{sec}]: not a table")
+            spec[sec] = {**DEFAULTS.get(sec, {}), **spec.get(sec, {})}
+            bad = set(spec[sec]) - keys
+            if bad:
+                raise ConfigError(f"[{sec}]: unknown key(s) {sorted(bad)}; allowed: {sorted(keys)}")
+        spec["thresholds"] = {**DEFAULT_THRESHOLDS, **spec["thresholds"]}
+        for k in ("name", "description"):
+            if not isinstance(spec.setdefault(k, ""), str):
+                raise ConfigError(f"{k}: expected a string")
+        ch = spec["chain"]
+        for k in ("links", "link_length"):
+            if k not in ch:
+                raise ConfigError(f"chain.{k}: missing")
+        if isinstance(ch["links"], bool) or not isinstance(ch["links"], int) or ch["links"] < 2:
+            raise ConfigError(f"chain.links: need an integer >= 2, got {ch['links']!r}")
+        _num(ch["link_length"], "chain.link_length", positive=True)
+        if "gain" not in spec["control"]:
+            raise ConfigError("control.gain: missing")
+        _num(spec["control"]["gain"], "control.gain", positive=True)
+        motion_from_spec(spec["control"].get("speed", 0.0), "control.speed")
+        if spec["control"]["law"] not in ("structured", "dense"):
+            raise ConfigError(f"control.law: expected 'structured' or 'dense', got {spec['control']['law']!r}")
+        curve_from_spec(spec["curve"], "curve")
+        st = spec["start"]
+        if st["kind"] not in ("zigzag", "projected"):
+            raise ConfigError(f"start.kind: expected 'zigzag' or 'projected', got {st['kind']!r}")
+        b = _num(st["beta"], "start.beta")
+        if not 0 < abs(b) < math.pi / 2:
+            raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {b}")
+        _num(st["heading"], "start.heading")
+        if "curve" in st:
+            curve_from_spec(st["curve"], "start.curve")
+        r = spec["run"]
+        _num(r["duration"], "run.duration", positive=True)
+        _num(r["step"], "run.step", positive=True)
+        _num(r["t0"], "run.t0")
+        if r["step"] > r["duration"]:
+            raise ConfigError(f"run.step: {r['step']} is longer than run.duration {r['duration']}")
+        for k in ("link", "longitudinal"):
+            v = _num(spec["thresholds"][k], f"thresholds.{k}")
+            if not 0 <= v < 1:
+                raise ConfigError(f"thresholds.{k}: need 0 <= value < 1, got {v}")
+        walls = spec.setdefault("obstacles", [])
+        if not isinstance(walls, list):
+            raise ConfigError("obstacles: expected an array of tables [[obstacles]]")
+        segs = [_segment(w, f"obstacles[{i}]") for i, w in enumerate(walls)]
+        return cls(spec, source, np.array(segs).reshape(-1, 2, 2))
+
+    # -------------------------------------------------------------- accessors
+    @property
+    def name(self) -> str:
+        return self.spec["name"] or Path(self.source).stem
+
+    @property
+    def duration(self) -> float:
+        return float(self.spec["run"]["duration"])
+
+    @property
+    def step(self) -> float:
+        return float(self.spec["run"]["step"])
+
+    @property
+    def t0(self) -> float:
+        return float(self.spec["run"]["t0"])
+
+    @property
+    def thresholds(self) -> dict[str, float]:
+        return dict(self.spec["thresholds"])
+
+    def with_overrides(self, links: int | None = None, duration: float | None = None,
+                       step: float | None = None) -> "Scenario":
+        """A copy with the chain length, duration or step replaced (validated again)."""
+        spec = copy.deepcopy(self.spec)
+        if links is not None:
+            spec["chain"]["links"] = links
+        if duration is not None:
+            spec["run"]["duration"] = duration
+        if step is not None:
+            spec["run"]["step"] = step
+        return Scenario.from_dict(spec, self.source)
+
+    def chain(self) -> PlanarChain:
+        return PlanarChain(self.spec["chain"]["links"], float(self.spec["chain"]["link_length"]))
+
+    def controller(self, law: str | None = None) -> CoordinatingController:
+        """The coordinating controller this scenario describes."""
+        c = self.spec["control"]
+        return CoordinatingController(self.chain(), curve_from_spec(self.spec["curve"]), float(c["gain"]),
+                                      motion_from_spec(c.get("speed", 0.0), "control.speed"),
+                                      law=law or c["law"])
+
+    def start(self, ctrl: CoordinatingController | None = None) -> np.ndarray:
+        """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked)."""
+        st = self.spec["start"]
+        ctrl = ctrl or self.controller()
+        q = ctrl.chain.zigzag(float(st["beta"]), float(st["heading"]))
+        if st["kind"] == "projected":
+            target = ctrl
+            if "curve" in st:
+                target = CoordinatingController(ctrl.chain, curve_from_spec(st["curve"], "start.curve"),
+                                                ctrl.gain, 0.0)
+            q = project_onto_curve(target, q, self.t0)
+        return q
+
+    def to_json(self) -> str:
+        """The whole scenario as JSON (what a log stores to rebuild the run)."""
+        return json.dumps(self.spec, sort_keys=True)
+
+
+def load_scenario(name_or_path: str | Path) -> Scenario:
+    """Load a preset by name (``line``, ``arc``, ``hole``) or a TOML file by path.
+
+    Raises
+    ------
+    ConfigError
+        Unknown preset, unreadable file, malformed TOML or an invalid field (named).
+    """
+    text = str(name_or_path)
+    if text in presets():
+        source = f"preset '{text}'"
+        data = (resources.files("simulation.presets") / f"{text}.toml").read_text()
+    else:
+        path = Path(text)
+        if not path.is_file():
+            raise ConfigError(f"{text}: neither a preset ({', '.join(presets())}) nor a readable file")
+        source = str(path)
+        try:
+            data = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ConfigError(f"{path}: cannot read: {exc}") from None
+    try:
+        parsed = tomllib.loads(data)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source}: not valid TOML: {exc}") from None
+    return Scenario.from_dict(parsed, source)
