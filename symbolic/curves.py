@@ -195,4 +195,7 @@ def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
             args[k] = tuple(motion_from_spec(c, f"{field}.{k}[{i}]") for i, c in enumerate(v))
         else:
             args[k] = motion_from_spec(v, f"{field}.{k}")
-    return cls(**args)
+    try:
+        return cls(**args)
+    except TypeError as exc:            # a missing parameter
+        raise ConfigError(f"{field}: {exc}".replace("__init__()", kind)) from None

@@ -1,0 +1,131 @@
+"""Simulation vs closed form: e(t) = e(0) exp(-K t), s(t) = s(0) + ∫v*; singularity stops; bad input."""
+import io
+
+import casadi as ca
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from simulation import ConfigError, SingularityError, simulate
+from simulation.obstacles import clearance, wall_crossings
+from simulation.run import Progress
+from simulation.scenario import load_scenario
+from symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
+
+
+@pytest.fixture(scope="module", params=["line", "arc", "hole"])
+def preset_run(request):
+    sc = load_scenario(request.param)
+    ctrl = sc.controller()
+    return sc, ctrl, simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, sc.t0, thresholds=sc.thresholds)
+
+
+def test_preset_errors_decay_like_exp_minus_k_t(preset_run):
+    sc, ctrl, run = preset_run
+    assert run.info["stopped"] == "completed" and run.t[-1] == pytest.approx(sc.duration)
+    predicted = run.e[0] * np.exp(-ctrl.gain * (run.t - run.t[0]))[:, None]
+    assert np.max(np.abs(run.e[0])) > 1e-2                    # a visible transient to check against
+    np.testing.assert_allclose(run.e, predicted, atol=1e-12)
+    early = run.t - run.t[0] < 1.0
+    np.testing.assert_allclose(run.e[early], predicted[early], rtol=1e-8, atol=1e-15)
+
+
+def test_preset_end_point_tracks_the_commanded_speed(preset_run):
+    sc, ctrl, run = preset_run
+    v = ctrl.speed_function()
+
+    def integral(a, b):      # adaptive quadrature split at whole seconds, where the presets' motions switch
+        cuts = [a, *np.arange(np.floor(a) + 1, b), b]
+        return sum(quad(lambda x: float(v(x)), lo, hi, epsabs=1e-14, limit=200)[0] for lo, hi in zip(cuts, cuts[1:]))
+    for k in np.linspace(0, len(run.t) - 1, 15).astype(int):
+        assert run.s[k] == pytest.approx(run.s[0] + integral(run.t[0], run.t[k]), abs=1e-12)
+
+
+def test_hole_preset_body_passes_the_hole_without_touching_a_wall():
+    sc = load_scenario("hole")
+    ctrl = sc.controller()
+    run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step)
+    joints = ctrl.chain.joints_np(run.q)
+    assert len(wall_crossings(joints, sc.obstacles)) == 0
+    assert clearance(joints, sc.obstacles).min() > 0
+    wall_mid = sc.obstacles[0, 0] - np.array([0.06 * -np.sin(0.8), 0.06 * np.cos(0.8)])
+    past = joints[-1, -1] @ np.array([np.cos(0.8), np.sin(0.8)])
+    assert past > wall_mid @ np.array([np.cos(0.8), np.sin(0.8)]) + 0.5   # the end is well beyond the wall
+
+
+def test_wall_check_sees_a_link_across_a_wall():
+    joints = np.array([[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]])
+    walls = np.array([[[1.5, -1.0], [1.5, 1.0]], [[5.0, -1.0], [5.0, 1.0]]])
+    np.testing.assert_array_equal(wall_crossings(joints, walls), [[0, 2, 0]])
+    assert clearance(joints, walls)[0] == pytest.approx(0.5)
+
+
+def test_run_nearing_the_longitudinal_singularity_stops_with_time_margin_and_no_garbage():
+    chain = PlanarChain(64, 0.1)
+    ctrl = CoordinatingController(chain, Arc(radius=2.0), 2.0, 0.2)
+    q0 = project_onto_curve(ctrl, chain.zigzag(1.3))
+    seen = []
+    with pytest.raises(SingularityError) as info:
+        simulate(ctrl, q0, 30.0, 0.001, on_chunk=seen.append)
+    err = info.value
+    assert err.kind == "longitudinal" and err.link is None
+    assert 5.0 < err.time < 12.0 and err.margin < 0.05
+    assert "t = " in str(err) and "longitudinal margin" in str(err)
+    run = err.run
+    assert run.t[-1] == err.time and np.all(np.isfinite(run.q)) and np.all(run.longitudinal[:-1] >= 0.05)
+    assert sum(len(p.t) for p in seen) == len(run.t)        # the logger saw exactly the kept rows
+    nominal = np.max(np.abs(run.u[:100]))
+    assert np.max(np.abs(run.u)) < 10 * nominal               # stopped before |u| blew up
+
+
+def test_link_singularity_stops_naming_the_link():
+    chain = PlanarChain(8, 0.1)
+    ctrl = CoordinatingController(chain, Line(angle=lambda t: 0.3 * ca.sin(t)), 2.0, -0.05)
+    with pytest.raises(SingularityError) as info:     # pushing back folds the chain until a link stands across
+        simulate(ctrl, chain.zigzag(1.3), 20.0, 0.001)
+    assert info.value.kind == "link" and 2 <= info.value.link <= 8 and "link" in str(info.value)
+
+
+def test_singular_start_is_refused_before_any_work():
+    chain = PlanarChain(16, 0.1)
+    ctrl = CoordinatingController(chain, Line(), 2.0, 0.1)
+    with pytest.raises(ConfigError, match="q0: start configuration is .*singular: link margin of link"):
+        simulate(ctrl, chain.zigzag(1.5699), 1.0)
+    with pytest.raises(ConfigError, match="longitudinal"):
+        simulate(ctrl, chain.zigzag(0.01), 1.0)
+
+
+def test_curve_missing_the_base_is_refused_naming_the_time():
+    chain = PlanarChain(8, 0.1)
+    ctrl = CoordinatingController(chain, Line(point=(0.0, lambda t: 0.05 * t)), 2.0, 0.1)
+    with pytest.raises(ConfigError, match=r"curve: passes 0.1\d* m from the base at t = 2.0"):
+        simulate(ctrl, chain.zigzag(1.0), 5.0)
+
+
+@pytest.mark.parametrize("kwargs,match", [(dict(duration=0.0), "duration"), (dict(duration=float("nan")), "duration"),
+                                          (dict(step=-1e-3), "step"), (dict(step=2.0), "step"),
+                                          (dict(chunk=0), "chunk"), (dict(backend="gpu"), "backend")])
+def test_bad_run_parameters_are_refused(kwargs, match):
+    chain = PlanarChain(4, 0.1)
+    ctrl = CoordinatingController(chain, Line(), 2.0, 0.1)
+    args = {"duration": 1.0, "step": 1e-3, **kwargs}
+    with pytest.raises(ConfigError, match=match):
+        simulate(ctrl, chain.zigzag(1.0), **args)
+
+
+def test_chunking_does_not_change_the_result():
+    chain = PlanarChain(12, 0.1)
+    ctrl = CoordinatingController(chain, Line(angle=lambda t: 0.2 * ca.sin(t)), 2.0, 0.1)
+    a = simulate(ctrl, chain.zigzag(1.2, 0.05), 0.5, 0.001, chunk=500)
+    b = simulate(ctrl, chain.zigzag(1.2, 0.05), 0.5, 0.001, chunk=37)
+    np.testing.assert_array_equal(a.q, b.q)
+    np.testing.assert_array_equal(a.e, b.e)
+
+
+def test_progress_bar_reports_each_tenth_on_a_pipe():
+    buf = io.StringIO()
+    bar = Progress(10.0, stream=buf)
+    for k in range(101):
+        bar.update(0.1 * k)
+    lines = buf.getvalue().splitlines()
+    assert len(lines) == 11 and "100.0%" in lines[-1] and "t = 10.00/10.00 s" in lines[-1]
