@@ -67,6 +67,7 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
 
 
 def main(args: argparse.Namespace) -> int:
+    """Run the scenario named in ``args``; return 0 (done), 3 (stopped ahead of a singularity)."""
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step)
     ctrl = scenario.controller(law=args.law)
     q0 = scenario.start(ctrl)

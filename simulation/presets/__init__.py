@@ -1,0 +1,1 @@
+"""Scenario presets shipped with coordarm: line, arc, hole (TOML data)."""
