@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -31,8 +32,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=main)
 
 
-def print_summary(run: Run, scenario: Scenario, out=sys.stdout) -> None:
-    """Human-readable summary of a run."""
+def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> None:
+    """Human-readable summary of a run (to ``out``, standard output by default)."""
+    out = sys.stdout if out is None else out
     s = run.summary()
     lines = [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1]} links",
              f"simulated     {s['duration']:.3f} s in {s['steps']} steps ({run.info.get('stopped', '?')}, "
