@@ -1,0 +1,121 @@
+"""Linearised closed-loop error dynamics in task coordinates, by CasADi AD.
+
+The closed loop is ``qdot = f(q, t) = B u(q, t)``; the task map is
+``z = h(q, t) = (s^m, e^2, ..., e^m)``. A perturbation ``dq`` of a trajectory ``q*(t)``
+obeys ``d(dq)/dt = F dq`` with ``F = df/dq``, and ``dz = H dq`` with ``H = dh/dq``, so
+
+    d(dz)/dt = (H F + Hdot) H^{-1} dz,   Hdot = dH/dq [f] + dH/dt
+
+(``Hdot`` is the change of the task map along the trajectory). The frozen Jacobian
+``H F H^{-1}`` alone is *not* the error dynamics while the chain moves. By design the task
+dynamics are ``sdot = v*(t)`` and ``edot = -K e``, so the task matrix must be
+``diag(0, -K, ..., -K)``: eigenvalue ``-K`` (m-1 times) and 0 in the ``s`` direction, whose
+input is ``v*`` alone.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from symbolic import CoordinatingController
+
+
+@dataclass
+class Linearisation:
+    """The closed loop linearised at one point ``(q, t)``.
+
+    Attributes
+    ----------
+    t : float
+        Time [s].
+    q : (m,) array
+        Configuration [rad].
+    task_matrix : (m, m) array
+        ``(H F + Hdot) H^{-1}``: the error dynamics in task coordinates ``(s, e^2..e^m)`` [1/s].
+    frozen_task_matrix : (m, m) array
+        ``H F H^{-1}``, the frozen-Jacobian approximation (wrong while the chain moves) [1/s].
+    joint_matrix : (m, m) array
+        ``F = df/dq`` in joint coordinates [1/s].
+    task_rate : (m,) array
+        ``H f + dh/dt``: the task velocity ``(sdot, edot)`` at the point.
+    """
+
+    t: float
+    q: np.ndarray
+    task_matrix: np.ndarray
+    frozen_task_matrix: np.ndarray
+    joint_matrix: np.ndarray
+    task_rate: np.ndarray
+
+    def eigenvalues(self) -> np.ndarray:
+        """Eigenvalues of :attr:`task_matrix`, sorted by real part (descending) [1/s]."""
+        ev = np.linalg.eigvals(self.task_matrix)
+        return ev[np.argsort(-ev.real, kind="stable")]
+
+    def deviation_from_design(self, gain: float) -> float:
+        """``max |task_matrix - diag(0, -K, ..., -K)|`` [1/s]."""
+        target = np.diag([0.0] + [-gain] * (len(self.q) - 1))
+        return float(np.max(np.abs(self.task_matrix - target)))
+
+
+def linearisation_function(ctrl: CoordinatingController, form: str | None = None) -> ca.Function:
+    """``(q, t) -> (H, F, Hdot, task_rate)`` as a CasADi Function, by AD of the law.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller; its law (``form``) is the one differentiated.
+    form : {"structured", "dense"}, optional
+        Form of the law (default: the controller's).
+    """
+    form = form or ctrl.law_form
+    key = ("linearise", form)
+    if key not in ctrl._cache:
+        m = ctrl.chain.m
+        sym = ca.SX if form == "structured" else ca.MX      # the dense law's linear solve is MX only
+        q, t, dq = sym.sym("q", m), sym.sym("t"), sym.sym("dq", m)
+        u, e, s, *_ = ctrl.fast_law(form)(q, t)
+        f = ca.mtimes(ca.DM(ctrl.chain.B), u)
+        z = ca.vertcat(s, e)
+        H = ca.jacobian(z, q)
+        F = ca.jacobian(f, q)
+        Hdq = ca.mtimes(H, dq)                                   # d/dt (H dq) at fixed dq
+        Hdot = ca.jacobian(ca.mtimes(ca.jacobian(Hdq, q), f) + ca.jacobian(Hdq, t), dq)
+        rate = ca.mtimes(H, f) + ca.jacobian(z, t)
+        ctrl._cache[key] = ca.Function("linearised_loop", [q, t], [H, F, Hdot, rate],
+                                       ["q", "t"], ["H", "F", "Hdot", "task_rate"])
+    return ctrl._cache[key]
+
+
+def linearise(ctrl: CoordinatingController, q, t: float = 0.0, form: str | None = None) -> Linearisation:
+    """Linearise the closed loop of ``ctrl`` at ``(q, t)`` and map it to task coordinates.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller.
+    q : (m,) array_like
+        Configuration [rad] (typically a point of a simulated trajectory).
+    t : float
+        Time [s].
+    form : {"structured", "dense"}, optional
+        Form of the law to differentiate.
+
+    Returns
+    -------
+    Linearisation
+    """
+    q = ctrl.chain.check_q(q)
+    H, F, Hdot, rate = (np.asarray(x) for x in linearisation_function(ctrl, form)(q, float(t)))
+    Hinv = np.linalg.inv(H)
+    return Linearisation(float(t), q, (H @ F + Hdot) @ Hinv, H @ F @ Hinv, F, rate.ravel())
+
+
+def linearise_run(ctrl: CoordinatingController, t, q, points: int = 5,
+                  form: str | None = None) -> list[Linearisation]:
+    """Linearise at ``points`` samples spread evenly over a trajectory ``(t, q)``."""
+    t = np.asarray(t, dtype=float)
+    idx = np.unique(np.linspace(0, len(t) - 1, points).round().astype(int))
+    return [linearise(ctrl, q[k], float(t[k]), form) for k in idx]

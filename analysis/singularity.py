@@ -1,0 +1,153 @@
+"""Singularity margins of the coordinating law at a configuration and along a run.
+
+Every margin is dimensionless and 0 exactly at its singularity:
+
+``links``
+    ``|grad phi(y^j) . n(alpha_j)| / |grad phi(y^j)|`` for links 2..m: the link pivots of
+    the structured solve (DESIGN.md section 3), 0 when link j stands perpendicular to the
+    curve. Computed here from the chain and curve geometry, independently of the law.
+``longitudinal``
+    How far the end point can still be pushed along the curve: with ``n`` a null vector of
+    the ``e`` rows of the decoupling matrix (the one-parameter family of joint rates that
+    keeps every centre on the curve), ``|ds^m/dq . n| / (xi |L n|_1)``, ``L`` the lower
+    triangular matrix of ones (``w = L qdot``). This is scale-free in ``n`` and equals the
+    structured solve's normalised longitudinal pivot, ``(m-1)/m sin(beta)`` on a zig-zag on a
+    line, 0 at a stretched chain. Here it comes from an SVD of the dense matrix, so it stays
+    defined where a link pivot vanishes (where the structured recursion divides by zero).
+``sigma_min``, ``inverse_cond``, ``inverse_cond_scaled``
+    Smallest singular value of ``M / xi`` (``M`` the decoupling matrix, eq. 26), ``1/cond(M)``
+    and ``1/cond`` of ``M`` with rows and then columns equilibrated to unit 2-norm (invariant
+    to the units chosen for each task coordinate and joint rate).
+
+Also returned, not margins: ``cond`` and ``cond_scaled`` (infinite at a singular ``M``),
+``amplification`` = ``xi |u|_2 / |v*|`` (``u`` from a dense solve; ``nan`` when ``v* = 0``),
+``u_max`` = ``|u|_inf`` [rad/s for B = I] and ``worst_link`` (1-based index of the smallest
+link margin).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from symbolic import ConfigError, CoordinatingController
+from symbolic.chain import normal
+
+#: Margins (dimensionless, 0 = singular), in report order.
+MARGINS = ("links", "longitudinal", "sigma_min", "inverse_cond", "inverse_cond_scaled")
+#: Default report thresholds of the margins (the simulator's stop thresholds for links and
+#: longitudinal live in :data:`simulation.run.DEFAULT_THRESHOLDS`).
+REPORT_THRESHOLDS = {"sigma_min": 1e-3, "inverse_cond": 1e-6, "inverse_cond_scaled": 1e-4}
+
+
+def _equilibrated(M: np.ndarray) -> np.ndarray:
+    """``M`` (..., m, m) with rows, then columns, scaled to unit 2-norm (zero rows left alone)."""
+    r = np.linalg.norm(M, axis=-1, keepdims=True)
+    M = M / np.where(r > 0, r, 1.0)
+    c = np.linalg.norm(M, axis=-2, keepdims=True)
+    return M / np.where(c > 0, c, 1.0)
+
+
+def _solve(M: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Batched ``M u = r``; a singular ``M`` gives ``u = inf``."""
+    try:
+        return np.linalg.solve(M, r[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        out = np.full(r.shape, np.inf)
+        for i in range(len(M)):
+            try:
+                out[i] = np.linalg.solve(M[i], r[i])
+            except np.linalg.LinAlgError:
+                pass
+        return out
+
+
+def _margins_batch(ctrl: CoordinatingController, Q: np.ndarray, T: np.ndarray) -> dict[str, np.ndarray]:
+    """Margins at N configurations ``Q`` (N, m) and times ``T`` (N,): arrays with leading axis N."""
+    chain = ctrl.chain
+    m, xi, N = chain.m, chain.xi, len(T)
+    fn = ctrl.decoupling_function()
+    fmap = fn.map(N) if N > 1 else fn
+    Ms, rhs = fmap(Q.T, T[None, :])
+    # map stacks the (m, m) matrices side by side: (m, N m) -> (N, m, m)
+    M = np.asarray(Ms).reshape(m, N, m).transpose(1, 0, 2)
+    r = np.asarray(rhs).T.reshape(N, m)
+
+    # link margins from the geometry: grad phi at the centres, normals of the links
+    Y = chain.centres_np(Q)                                   # (N, m, 2)
+    geo = ctrl._geometry.map(N * (m - 1)) if N * (m - 1) > 1 else ctrl._geometry
+    g = np.asarray(geo(Y[:, 1:, :].reshape(-1, 2).T, np.repeat(T, m - 1)[None, :])[1]).T.reshape(N, m - 1, 2)
+    nrm = normal(np.cumsum(Q, axis=-1))[:, 1:, :]
+    links = np.abs(np.sum(g * nrm, axis=-1)) / np.linalg.norm(g, axis=-1)
+
+    # longitudinal margin from the null vector of the e rows (in joint-rate space)
+    Mq = M @ np.linalg.inv(chain.B)                           # rows d(task)/dq
+    _, _, Vt = np.linalg.svd(Mq[:, 1:, :])
+    n = Vt[:, -1, :]                                          # (N, m) null direction of the e rows
+    pivot = np.einsum("ni,ni->n", Mq[:, 0, :], n)
+    longitudinal = np.abs(pivot) / (xi * np.sum(np.abs(np.cumsum(n, axis=-1)), axis=-1))
+
+    sv = np.linalg.svd(M, compute_uv=False)
+    sve = np.linalg.svd(_equilibrated(M), compute_uv=False)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = _solve(M, r)
+        v = np.array([ctrl.speed_at(float(t)) for t in T])
+        amp = np.where(v != 0, xi * np.linalg.norm(u, axis=-1) / np.abs(v), np.nan)
+        cond = sv[:, 0] / sv[:, -1]
+        cond_s = sve[:, 0] / sve[:, -1]
+    return {"links": links, "worst_link": np.argmin(links, axis=-1) + 2, "longitudinal": longitudinal,
+            "sigma_min": sv[:, -1] / xi, "cond": cond, "inverse_cond": sv[:, -1] / sv[:, 0],
+            "cond_scaled": cond_s, "inverse_cond_scaled": sve[:, -1] / sve[:, 0],
+            "amplification": amp, "u_max": np.max(np.abs(u), axis=-1)}
+
+
+def margins(controller: CoordinatingController, q, t: float = 0.0) -> dict[str, Any]:
+    """Singularity margins of ``controller`` at configuration ``q`` and time ``t``.
+
+    Parameters
+    ----------
+    controller : CoordinatingController
+        Chain, curve, gain and speed.
+    q : (m,) array_like
+        Joint coordinates [rad].
+    t : float
+        Time [s].
+
+    Returns
+    -------
+    dict
+        ``links`` ((m-1,) array, links 2..m), ``worst_link`` (int, 1-based), ``longitudinal``,
+        ``sigma_min``, ``inverse_cond``, ``inverse_cond_scaled`` (margins, 0 = singular),
+        ``cond``, ``cond_scaled``, ``amplification``, ``u_max`` (floats); see the module notes.
+    """
+    q = controller.chain.check_q(q)
+    out = _margins_batch(controller, q[None, :], np.array([float(t)]))
+    return {k: (v[0] if k == "links" else (int(v[0]) if k == "worst_link" else float(v[0])))
+            for k, v in out.items()}
+
+
+def run_margins(controller: CoordinatingController, t, q, batch: int = 500) -> dict[str, np.ndarray]:
+    """:func:`margins` along a trajectory: every value becomes an array over samples.
+
+    Parameters
+    ----------
+    controller : CoordinatingController
+        The controller the run used.
+    t : (N,) array_like
+        Sample times [s].
+    q : (N, m) array_like
+        Configurations [rad].
+    batch : int
+        Samples evaluated per CasADi map call.
+
+    Returns
+    -------
+    dict
+        Same keys as :func:`margins`; ``links`` has shape (N, m-1), the others (N,).
+    """
+    t = np.asarray(t, dtype=float).ravel()
+    q = np.asarray(q, dtype=float)
+    if q.shape != (len(t), controller.chain.m):
+        raise ConfigError(f"q: need shape ({len(t)}, {controller.chain.m}), got {q.shape}")
+    parts = [_margins_batch(controller, q[i:i + batch], t[i:i + batch]) for i in range(0, len(t), batch)]
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

@@ -1,0 +1,152 @@
+"""LTI error model of one task coordinate (python-control): sampled-data and delay limits.
+
+Every deviation obeys ``edot = u_e`` with ``u_e = -K e`` (the law cancels the rest, see
+:mod:`analysis.linearise`). A digital controller samples every ``h``, holds its output
+(zero-order hold) and applies it ``n`` samples late, so the loop is
+
+    L(z) = K * ZOH{1/s}(z) * z^{-n} = K h / (z - 1) * z^{-n},
+
+closed-loop characteristic polynomial ``z^{n+1} - z^n + K h``. It is stable exactly for
+``K h < 2 sin(pi / (2 (2 n + 1)))`` (n = 0: ``K h < 2``; n = 1: ``K h < 1``). The continuous
+loop ``K e^{-s tau} / s`` has phase margin 90 deg at crossover ``K``: delay margin
+``tau < pi / (2 K)``. RK4 integration of ``edot = -K e`` is stable for ``K h < 2.7853``.
+:func:`simulated_limit` checks a limit on the real nonlinear closed loop with
+:func:`simulation.sampled.simulate_sampled`.
+"""
+from __future__ import annotations
+
+import math
+
+import control as ct
+import numpy as np
+from scipy.optimize import brentq
+
+from symbolic import ConfigError, CoordinatingController
+
+#: ``K h`` limit of classical RK4 on ``edot = -K e`` (real negative axis of its stability region).
+RK4_LIMIT = float(brentq(lambda x: abs(1 - x + x**2 / 2 - x**3 / 6 + x**4 / 24) - 1, 2.5, 3.0, xtol=1e-15))
+
+
+def _check(gain: float, period: float | None = None, delay: int = 0) -> None:
+    for name, v in (("gain", gain), ("period", period)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
+                              or not math.isfinite(v) or v <= 0):
+            raise ConfigError(f"{name}: need a finite number > 0, got {v!r}")
+    if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
+        raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
+
+
+def sampled_limit(delay: int = 0) -> float:
+    """Closed-form limit of ``K h`` for the ZOH loop with an ``delay``-sample delay: ``2 sin(pi/(2(2n+1)))``."""
+    _check(1.0, 1.0, delay)
+    return 2.0 * math.sin(math.pi / (2 * (2 * delay + 1)))
+
+
+def error_loop(gain: float, period: float | None = None, delay: int = 0) -> ct.TransferFunction:
+    """Open loop of one deviation: ``K / s`` (``period`` None) or ``K h z^{-n} / (z - 1)`` (ZOH, delayed)."""
+    _check(gain, period, delay)
+    plant = ct.tf([1.0], [1.0, 0.0])
+    if period is None:
+        return gain * plant
+    late = ct.tf([1.0], [1.0] + [0.0] * delay, dt=period)
+    return gain * ct.c2d(plant, period, "zoh") * late
+
+
+def error_closed_loop(gain: float, period: float | None = None, delay: int = 0) -> ct.TransferFunction:
+    """Closed loop ``e_ref -> e`` (unit negative feedback around :func:`error_loop`)."""
+    return ct.feedback(error_loop(gain, period, delay), 1)
+
+
+def spectral_radius(gain: float, period: float, delay: int = 0) -> float:
+    """Largest pole magnitude of the sampled closed loop (python-control); < 1 is stable."""
+    return float(np.max(np.abs(error_closed_loop(gain, period, delay).poles())))
+
+
+def control_limit(gain: float, period: float, delay: int = 0) -> float:
+    """``K h`` limit from python-control: where the closed loop's largest pole reaches the unit circle.
+
+    (The gain margin of ``L(z)`` cannot be used for ``n = 0``: its phase reaches -180 deg only
+    at the Nyquist frequency, where python-control reports an infinite margin.)
+    """
+    _check(gain, period, delay)
+    return float(brentq(lambda x: spectral_radius(x / period, period, delay) - 1.0, 1e-6, 2.5, xtol=1e-14))
+
+
+def delay_margin(gain: float, period: float | None = None) -> float:
+    """Delay margin [s] of the deviation loop: phase margin / crossover frequency.
+
+    ``period`` None: the continuous loop, ``pi / (2 K)``. Otherwise the sampled loop with
+    zero-order hold, whose own half-sample lag already uses part of the margin.
+    """
+    gm, pm, sm, wpc, wgc, wms = ct.stability_margins(error_loop(gain, period, 0))
+    return float(np.deg2rad(pm) / wgc)
+
+
+def max_stable_delay(gain: float, period: float) -> int:
+    """Largest delay in samples for which the sampled loop is stable (-1: unstable without delay)."""
+    _check(gain, period)
+    n = -1
+    while gain * period < sampled_limit(n + 1):
+        n += 1
+        if n > 10_000:
+            break
+    return n
+
+
+def step_responses(gain: float, period: float, delays=(0, 1, 2), duration: float | None = None) -> dict:
+    """Step responses of the deviation loop: continuous and sampled with each delay.
+
+    Returns
+    -------
+    dict
+        ``label -> (t, y)`` arrays, ``y`` the response of ``e`` to a unit step of its reference.
+    """
+    duration = duration or 5.0 / gain
+    out = {"continuous": ct.step_response(error_closed_loop(gain), T=np.linspace(0, duration, 400))}
+    for n in delays:
+        out[f"ZOH h = {period:g} s, delay {n}"] = ct.step_response(
+            error_closed_loop(gain, period, n), T=np.arange(0, duration + period / 2, period))
+    return {k: (np.asarray(r.time), np.asarray(r.outputs).ravel()) for k, r in out.items()}
+
+
+def grows(ctrl: CoordinatingController, q0, period: float, delay: int = 0, samples: int = 600,
+          factor: float = 10.0) -> bool:
+    """Whether ``max|e|`` of a sampled run exceeds ``factor`` times its start value within ``samples``."""
+    from simulation.sampled import simulate_sampled
+
+    e0 = float(np.max(np.abs(ctrl.evaluate(q0, 0.0)["e"])))
+    if not e0 > 0:
+        raise ConfigError("q0: needs a nonzero deviation from the curve to see it grow or decay")
+    run = simulate_sampled(ctrl, q0, samples * period, period, delay, diverge_at=factor * e0)
+    return run.info["stopped"] == "diverged"
+
+
+def simulated_limit(ctrl: CoordinatingController, q0, delay: int = 0, rel_tol: float = 1e-3,
+                    samples: int = 600) -> float:
+    """``K h`` at which the simulated sampled-data loop starts to diverge (bisection on ``h``).
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller; use a curve and speed that leave the deviations unforced (e.g. a static
+        curve, ``v* = 0``) so that growth is the loop's own.
+    q0 : (m,) array_like
+        Start with a small deviation from the curve [rad].
+    delay : int
+        Control delay [samples].
+    rel_tol : float
+        Relative width of the final bracket.
+    samples : int
+        Samples simulated per trial.
+    """
+    K, guess = ctrl.gain, sampled_limit(delay)
+    lo, hi = 0.5 * guess / K, 1.5 * guess / K
+    if grows(ctrl, q0, lo, delay, samples) or not grows(ctrl, q0, hi, delay, samples):
+        raise ConfigError(f"the simulated limit is not within [0.5, 1.5] x the predicted {guess:.4g}")
+    while hi - lo > rel_tol * lo:
+        mid = 0.5 * (lo + hi)
+        if grows(ctrl, q0, mid, delay, samples):
+            hi = mid
+        else:
+            lo = mid
+    return K * 0.5 * (lo + hi)
