@@ -13,7 +13,7 @@ import numpy as np
 from symbolic import ConfigError, CoordinatingController, SingularityError
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
-DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.05}
+DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
 #: Steps integrated per call of the closed-loop chunk Function.
 DEFAULT_CHUNK = 500
 

@@ -1,0 +1,63 @@
+"""``coordarm report``: singularity and condition report of a log or of a freshly simulated scenario."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from symbolic import ConfigError, SingularityError
+
+#: Stop thresholds used when simulating a scenario for a report: never stop, so a blow-up shows.
+NO_STOP = {"link": 0.0, "longitudinal": 0.0}
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``report`` sub-command."""
+    p = sub.add_parser("report", help="singularity/condition report of a log (.mcap) or a scenario",
+                       description="Write a Markdown report with PNG plots of every singularity margin over a "
+                                   "run: a log (LOG.mcap) or a scenario (preset or TOML), simulated first without "
+                                   "stopping at singularities so that a blow-up is visible.")
+    p.add_argument("source", metavar="LOG.mcap|SCENARIO")
+    p.add_argument("--out", type=Path, help="output directory (default: logs/<name>_report)")
+    p.add_argument("--links", type=int, help="scenario only: override the number of links")
+    p.add_argument("--duration", type=float, help="scenario only: override the duration [s]")
+    p.add_argument("--samples", type=int, default=1200, help="margin samples over the run (default 1200)")
+    p.set_defaults(func=main)
+
+
+def simulate_scenario(scenario: Any) -> Any:
+    """Simulate ``scenario`` without singularity stops; a run ending in NaN is kept up to there."""
+    from simulation.run import simulate
+
+    ctrl = scenario.controller()
+    try:
+        return simulate(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0,
+                        thresholds=NO_STOP, progress=False)
+    except SingularityError as err:        # only non-finite margins stop it: keep what was computed
+        return err.run
+
+
+def main(args: argparse.Namespace) -> int:
+    """Write the report for ``args.source``; print where it went; return 0."""
+    from simulation.scenario import load_scenario
+
+    from .report import write_report
+
+    src = str(args.source)
+    if src.endswith(".mcap"):
+        if args.links is not None or args.duration is not None:
+            raise ConfigError("--links/--duration: only for a scenario, not for a log")
+        from .replay import load           # written by the MCAP work; imported only when needed
+
+        run = load(src)
+        scenario = run.scenario
+    else:
+        scenario = load_scenario(src).with_overrides(args.links, args.duration)
+        run = simulate_scenario(scenario)
+    out = args.out or Path("logs") / f"{scenario.name}_report"
+    path = write_report(run, scenario, out, samples=args.samples)
+    print(f"report        {path}", file=sys.stdout)
+    for png in sorted(path.parent.glob("*.png")):
+        print(f"figure        {png}")
+    return 0

@@ -1,0 +1,264 @@
+"""Singularity and condition report of a run: which margin predicts a blow-up, and when.
+
+Works from any object with arrays ``t`` (N,), ``q`` (N, m) and ``u`` (N, m) — a
+:class:`simulation.run.Run` or a replayed log — plus its :class:`simulation.scenario.Scenario`.
+Margins are recomputed from ``q`` (:func:`analysis.singularity.run_margins`) on an even
+subsample of the run, refined to full resolution around every threshold crossing.
+
+A *blow-up* is the first sample where ``|u|_inf`` exceeds ``BLOWUP_FACTOR`` (10) times its
+nominal value, the median of ``|u|_inf`` over the first second. A margin *predicts* it when
+it falls below its threshold strictly before that time.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from symbolic import CoordinatingController
+
+from .linearise import linearise_run
+from .orthonormal import check_orthonormal
+from .singularity import MARGINS, REPORT_THRESHOLDS, run_margins
+from .stability import RK4_LIMIT, delay_margin, max_stable_delay, sampled_limit
+
+#: ``|u|`` above this many times its nominal value counts as a blow-up.
+BLOWUP_FACTOR = 10.0
+#: Descriptions of the margins, for tables and legends.
+LABELS = {"links": "smallest link margin", "longitudinal": "longitudinal margin",
+          "sigma_min": "sigma_min(M)/xi", "inverse_cond": "1/cond(M)",
+          "inverse_cond_scaled": "1/cond(M), equilibrated"}
+
+
+@dataclass
+class RunAnalysis:
+    """Margins of a run and what they predicted.
+
+    Attributes
+    ----------
+    t : (n,) array
+        Times of the margin samples [s].
+    margins : dict
+        :func:`~analysis.singularity.run_margins` at those samples.
+    t_all, u_norm : (N,) arrays
+        All sample times [s] and ``|u|_inf`` there [rad/s].
+    nominal_u : float
+        Median ``|u|_inf`` over the first second [rad/s].
+    blowup_time : float or None
+        First time ``|u|_inf > BLOWUP_FACTOR * nominal_u`` [s].
+    thresholds : dict
+        Threshold of each margin.
+    crossings : dict
+        Margin -> first time below its threshold [s] (None: never).
+    minima : dict
+        Margin -> (smallest value, time) over the run.
+    """
+
+    t: np.ndarray
+    margins: dict
+    t_all: np.ndarray
+    u_norm: np.ndarray
+    nominal_u: float
+    blowup_time: float | None
+    thresholds: dict
+    crossings: dict
+    minima: dict
+    extra: dict = field(default_factory=dict)
+
+    def smallest(self, name: str) -> np.ndarray:
+        """Margin ``name`` per sample (the smallest link margin for ``"links"``)."""
+        v = self.margins[name]
+        return np.min(v, axis=1) if v.ndim == 2 else v
+
+    def predicted(self) -> dict[str, bool | None]:
+        """Margin -> crossed its threshold before the blow-up (None when there was no blow-up)."""
+        if self.blowup_time is None:
+            return {k: None for k in self.crossings}
+        return {k: (c is not None and c < self.blowup_time) for k, c in self.crossings.items()}
+
+
+def _smallest(mg: dict, name: str) -> np.ndarray:
+    v = mg[name]
+    return np.min(v, axis=1) if v.ndim == 2 else v
+
+
+def _below(values: np.ndarray, thr: float) -> np.ndarray:
+    return ~(values >= thr)          # NaN counts as crossed
+
+
+def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, float] | None = None,
+                samples: int = 1200) -> RunAnalysis:
+    """Margins along a run, their first threshold crossings and the blow-up time.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller of the run.
+    t : (N,) array_like
+        Times [s].
+    q, u : (N, m) array_like
+        Configurations [rad] and controls [rad/s].
+    thresholds : dict, optional
+        Thresholds per margin (defaults: the simulator's for links and longitudinal,
+        :data:`~analysis.singularity.REPORT_THRESHOLDS` for the others).
+    samples : int
+        Margin samples spread evenly over the run before refinement.
+
+    Returns
+    -------
+    RunAnalysis
+    """
+    from simulation.run import DEFAULT_THRESHOLDS
+
+    t, q, u = (np.asarray(a, dtype=float) for a in (t, q, u))
+    finite = np.all(np.isfinite(q), axis=1) & np.isfinite(t)
+    t, q, u = t[finite], q[finite], u[finite]
+    thr = {"links": DEFAULT_THRESHOLDS["link"], "longitudinal": DEFAULT_THRESHOLDS["longitudinal"],
+           **REPORT_THRESHOLDS}
+    for k, v in (thresholds or {}).items():
+        thr["links" if k == "link" else k] = float(v)
+    u_norm = np.max(np.abs(u), axis=1)
+    first_second = t - t[0] <= 1.0
+    nominal = float(np.median(u_norm[first_second]))
+    over = np.flatnonzero(~(u_norm <= BLOWUP_FACTOR * nominal))
+    blowup = float(t[over[0]]) if len(over) else None
+
+    idx = np.unique(np.linspace(0, len(t) - 1, min(samples, len(t))).round().astype(int))
+    mg = run_margins(ctrl, t[idx], q[idx])
+    extra_idx = []
+    for name in MARGINS:                     # refine around the first crossing of every margin
+        hit = np.flatnonzero(_below(_smallest(mg, name), thr[name]))
+        if len(hit) and hit[0] > 0:
+            extra_idx.extend(range(idx[hit[0] - 1] + 1, idx[hit[0]]))
+    if extra_idx:
+        extra_idx = np.setdiff1d(np.unique(extra_idx), idx)
+        more = run_margins(ctrl, t[extra_idx], q[extra_idx])
+        order = np.argsort(np.concatenate([idx, extra_idx]), kind="stable")
+        idx = np.concatenate([idx, extra_idx])[order]
+        mg = {k: np.concatenate([mg[k], more[k]])[order] for k in mg}
+    ts = t[idx]
+    crossings, minima = {}, {}
+    for name in MARGINS:
+        v = _smallest(mg, name)
+        hit = np.flatnonzero(_below(v, thr[name]))
+        crossings[name] = float(ts[hit[0]]) if len(hit) else None
+        k = int(np.nanargmin(v)) if np.isfinite(v).any() else 0
+        minima[name] = (float(v[k]), float(ts[k]))
+    return RunAnalysis(ts, mg, t, u_norm, nominal, blowup, thr, crossings, minima)
+
+
+def _fmt(x: float | None, unit: str = " s") -> str:
+    return "never" if x is None else f"{x:.3f}{unit}"
+
+
+def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController, step: float | None,
+             figures: list[Path], checks: dict) -> str:
+    """The report as Markdown text (tables of margins, predictions, linearisation, sampled-data limits)."""
+    a = analysis
+    m, K = ctrl.chain.m, ctrl.gain
+    lines = [f"# Singularity report: {scenario.name}", "",
+             f"* scenario: `{scenario.source}`, {m} links of {ctrl.chain.xi} m, K = {K:g} 1/s",
+             f"* run: t = {a.t_all[0]:.3f} .. {a.t_all[-1]:.3f} s, {len(a.t_all)} samples "
+             f"(margins at {len(a.t)} of them)",
+             f"* curve description: {checks['orthonormal']}", "",
+             "## Margins (dimensionless, 0 = singular)", "",
+             "| margin | threshold | smallest (at) | first below threshold | predicted the blow-up |",
+             "|---|---|---|---|---|"]
+    pred = a.predicted()
+    for name in MARGINS:
+        lo, when = a.minima[name]
+        p = pred[name]
+        ptxt = ("no blow-up" if p is None else
+                (f"**yes**, {a.blowup_time - a.crossings[name]:.3f} s ahead" if p else "no"))
+        lines.append(f"| {LABELS[name]} | {a.thresholds[name]:g} | {lo:.3g} ({when:.3f} s) | "
+                     f"{_fmt(a.crossings[name])} | {ptxt} |")
+    worst = a.margins["worst_link"]
+    k = int(np.argmin(a.smallest("links")))
+    lines += ["", f"Worst link over the run: link {int(worst[k])} at t = {a.t[k]:.3f} s; "
+              f"links that were ever the worst: {sorted(set(int(w) for w in worst))[:20]}.", "",
+              "## Blow-up", "",
+              f"* nominal |u|_inf (median over the first second): {a.nominal_u:.4g} rad/s",
+              f"* first |u|_inf > {BLOWUP_FACTOR:g} x nominal: {_fmt(a.blowup_time)}",
+              f"* largest |u|_inf: {np.nanmax(a.u_norm):.4g} rad/s; largest cond(M): "
+              f"{np.nanmax(a.margins['cond']):.4g}; largest amplification xi|u|/|v*|: "
+              f"{np.nanmax(a.margins['amplification']):.4g}"]
+    if a.blowup_time is not None:
+        good = [LABELS[n] for n, p in pred.items() if p]
+        lines.append(f"* predicted by: {', '.join(good) if good else 'no margin at its threshold'}")
+    lines += ["", "## Linearised error dynamics", "",
+              "Closed loop linearised by CasADi AD at points of the run, mapped to task coordinates "
+              "(s, e^2..e^m) including the change of the task map along the trajectory; the design is "
+              f"diag(0, -K, ..., -K) with K = {K:g}.", "",
+              "| t [s] | max abs(A - design) | eigenvalue farthest from design | frozen-Jacobian error |",
+              "|---|---|---|---|"]
+    for L in checks["linearisations"]:
+        ev = L.eigenvalues()
+        target = np.array([0.0] + [-K] * (m - 1))
+        far = ev[np.argmax(np.abs(ev - target))]
+        frozen = float(np.max(np.abs(L.frozen_task_matrix - np.diag(target))))
+        lines.append(f"| {L.t:.3f} | {L.deviation_from_design(K):.2e} | {far.real:.6g}{far.imag:+.2g}j | {frozen:.3g} |")
+    lines += ["", "## Sampled-data and delay limits (per deviation, python-control model)", ""]
+    if step:
+        lines.append(f"* RK4 step h = {step:g} s: K h = {K * step:.4g} (RK4 stable for K h < {RK4_LIMIT:.4f})")
+        lines.append(f"* as a digital controller with period h and zero-order hold: stable for K h < "
+                     f"{sampled_limit(0):g}; with an n-sample delay for K h < 2 sin(pi/(2(2n+1))) "
+                     f"(n = 1: {sampled_limit(1):.4g}, n = 2: {sampled_limit(2):.4g}); "
+                     f"at this h up to {max_stable_delay(K, step)} samples of delay")
+    lines.append(f"* continuous loop: delay margin pi/(2K) = {delay_margin(K):.4g} s")
+    lines += ["", "## Figures", ""] + [f"![{p.stem}]({p.name})" for p in figures]
+    return "\n".join(lines) + "\n"
+
+
+def write_report(run: Any, scenario: Any, out_dir: str | Path, ctrl: CoordinatingController | None = None,
+                 samples: int = 1200) -> Path:
+    """Write ``report.md`` and its PNG figures for ``run`` (any object with ``t``, ``q``, ``u``).
+
+    Parameters
+    ----------
+    run : object
+        Has arrays ``t`` (N,), ``q`` (N, m), ``u`` (N, m).
+    scenario : Scenario
+        The scenario of the run (thresholds, curve, name).
+    out_dir : path
+        Directory for the report (created).
+    ctrl : CoordinatingController, optional
+        The controller (default: built from ``scenario`` with the run's link count).
+    samples : int
+        Margin samples before refinement.
+
+    Returns
+    -------
+    Path
+        The Markdown file.
+    """
+    from .report_figures import plot_links, plot_margins, plot_step_responses
+
+    q = np.asarray(run.q, dtype=float)
+    if ctrl is None:
+        sc = scenario if scenario.chain().m == q.shape[1] else scenario.with_overrides(links=q.shape[1])
+        ctrl = sc.controller()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    a = analyse_run(ctrl, run.t, q, run.u, scenario.thresholds, samples)
+    t = np.asarray(run.t, dtype=float)
+    step = float(np.median(np.diff(t))) if len(t) > 1 else None
+    ok = np.all(np.isfinite(q), axis=1)
+    lin_t = t[ok]
+    if a.blowup_time is not None:              # linearise where the law is still well conditioned
+        keep = lin_t < a.blowup_time - 0.1 * (a.blowup_time - lin_t[0])
+        lin_t, lin_q = lin_t[keep], q[ok][keep]
+    else:
+        lin_q = q[ok]
+    checks = {"orthonormal": check_orthonormal(ctrl.curve, times=np.linspace(t[0], t[-1], 3),
+                                               warn=False).message(),
+              "linearisations": linearise_run(ctrl, lin_t, lin_q, 4) if len(lin_t) else []}
+    title = f"{scenario.name}: {ctrl.chain.m} links"
+    figs = [plot_margins(a, out / "margins.png", title),
+            plot_links(a, out / "links.png", title),
+            plot_step_responses(ctrl.gain, step or 0.001, out / "step_responses.png", title)]
+    path = out / "report.md"
+    path.write_text(markdown(a, scenario, ctrl, step, figs, checks), encoding="utf-8")
+    return path

@@ -1,0 +1,101 @@
+"""PNG figures of a singularity report: margins over time, worst link, step responses."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from .report import BLOWUP_FACTOR, LABELS, RunAnalysis  # noqa: E402
+from .singularity import MARGINS  # noqa: E402
+from .stability import sampled_limit, step_responses  # noqa: E402
+
+COLORS = dict(zip(MARGINS, ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:olive")))
+
+
+def _save(fig, path: str | Path) -> Path:
+    path = Path(path)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _mark_blowup(ax, a: RunAnalysis) -> None:
+    if a.blowup_time is not None:
+        ax.axvline(a.blowup_time, color="k", ls="--", lw=1, label=f"|u| > {BLOWUP_FACTOR:g}x nominal")
+
+
+def plot_margins(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
+    """Three panels over time: link and longitudinal margins; matrix margins; ``|u|`` and amplification."""
+    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+    floor = 1e-12
+    for ax, names in ((axes[0], ("links", "longitudinal")),
+                      (axes[1], ("sigma_min", "inverse_cond", "inverse_cond_scaled"))):
+        for n in names:
+            ax.semilogy(a.t, np.maximum(a.smallest(n), floor), color=COLORS[n], label=LABELS[n])
+            ax.axhline(a.thresholds[n], color=COLORS[n], ls=":", lw=1, label=f"threshold {a.thresholds[n]:g}")
+            if a.crossings[n] is not None:
+                ax.plot(a.crossings[n], a.thresholds[n], "v", color=COLORS[n], ms=8)
+        _mark_blowup(ax, a)
+        ax.set_ylabel("margin [-] (0 = singular)")
+        ax.legend(fontsize=7, loc="lower left", ncol=2)
+    axes[0].set_title(title + ": singularity margins (triangles: first below threshold)")
+    axes[1].set_title("margins of the decoupling matrix M", fontsize=10)
+    axes[2].semilogy(a.t_all, np.maximum(a.u_norm, floor), color="tab:blue", label="|u|$_\\infty$ [rad/s]")
+    axes[2].axhline(BLOWUP_FACTOR * a.nominal_u, color="tab:blue", ls=":", lw=1,
+                    label=f"{BLOWUP_FACTOR:g} x nominal |u| [rad/s]")
+    amp = a.margins["amplification"]
+    if np.isfinite(amp).any():
+        axes[2].semilogy(a.t, amp, color="tab:orange", label="amplification $\\xi$|u|/|v*| [-]")
+    axes[2].semilogy(a.t, a.margins["cond"], color="tab:gray", label="cond(M) [-]")
+    _mark_blowup(axes[2], a)
+    axes[2].set_ylabel("|u|, amplification, cond")
+    axes[2].set_xlabel("t [s]")
+    axes[2].legend(fontsize=7, loc="upper left")
+    axes[2].set_title("control effort", fontsize=10)
+    for ax in axes:
+        ax.grid(alpha=0.3, which="both")
+    return _save(fig, path)
+
+
+def plot_links(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
+    """Worst link over time (top) and every link margin as a heat map over time x link (bottom)."""
+    fig, axes = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [1, 2]})
+    axes[0].step(a.t, a.margins["worst_link"], where="post", color="tab:blue", label="worst link (smallest margin)")
+    _mark_blowup(axes[0], a)
+    axes[0].set_ylabel("link index [-]")
+    axes[0].legend(fontsize=8, loc="best")
+    axes[0].set_title(title + ": which link is closest to perpendicular")
+    L = a.margins["links"]
+    m = L.shape[1] + 1
+    im = axes[1].imshow(L.T, aspect="auto", origin="lower", cmap="viridis", vmin=0, vmax=1,
+                        extent=(a.t[0], a.t[-1], 1.5, m + 0.5), interpolation="nearest")
+    fig.colorbar(im, ax=axes[1], label="link margin |grad phi . n| / |grad phi| [-]")
+    axes[1].set_ylabel("link j")
+    axes[1].set_xlabel("t [s]")
+    axes[1].set_title("link margins (0 = link perpendicular to the curve)", fontsize=10)
+    return _save(fig, path)
+
+
+def plot_step_responses(gain: float, period: float, path: str | Path, title: str = "",
+                        delays=(0, 1, 2)) -> Path:
+    """Step responses of one deviation loop: continuous and digital (ZOH) with delays."""
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    h = period
+    if gain * h < 0.05:          # the run's own step is too fine to show the effect: use a telling one
+        h = 0.5 * sampled_limit(2) / gain
+    for label, (t, y) in step_responses(gain, h, delays).items():
+        if label == "continuous":
+            ax.plot(t, y, "k-", lw=1.5, label=f"continuous, K = {gain:g} 1/s")
+        else:
+            ax.step(t, y, where="post", label=f"{label} (K h = {gain * h:.3g})")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("deviation response to a unit reference step [-]")
+    ax.set_title(f"{title}: linear error model, sampled-data and delay effects")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return _save(fig, path)
