@@ -37,7 +37,7 @@ from symbolic.chain import normal
 MARGINS = ("links", "longitudinal", "sigma_min", "inverse_cond", "inverse_cond_scaled")
 #: Default report thresholds of the margins (the simulator's stop thresholds for links and
 #: longitudinal live in :data:`simulation.run.DEFAULT_THRESHOLDS`).
-REPORT_THRESHOLDS = {"sigma_min": 1e-3, "inverse_cond": 1e-6, "inverse_cond_scaled": 1e-4}
+REPORT_THRESHOLDS = {"sigma_min": 1e-3, "inverse_cond": 1e-6, "inverse_cond_scaled": 1e-6}
 
 
 def _equilibrated(M: np.ndarray) -> np.ndarray:

@@ -1,0 +1,140 @@
+"""Workspace map: margins over fold angle ``beta`` x curve curvature x link count, as heat maps.
+
+The configurations are *zig-zags on the curve*: the first link at angle ``beta`` to the
+tangent at the base, and every next centre the other intersection of the curve with the
+circle of radius ``xi/2`` about the free joint, so that every centre lies exactly on the
+curve (for a line this is the uniform zig-zag of DESIGN.md section 2). The curves are arcs
+through the base, tangent to the x axis there, of curvature ``kappa`` (``kappa = 0``: the
+line). ``python -m analysis.workspace OUT.png`` draws the default map.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain
+
+from .singularity import run_margins
+
+#: Quantities mapped, with their colour-bar labels.
+MAPPED = {"longitudinal": "longitudinal margin [-]", "smallest_link": "smallest link margin [-]",
+          "log10_cond": "log$_{10}$ cond(M) [-]"}
+
+
+def curve_zigzag(m: int, xi: float, beta: float, curvature: float) -> np.ndarray | None:
+    """Joint angles of the zig-zag on the arc of ``curvature`` [1/m] (None if it does not fit).
+
+    Parameters
+    ----------
+    m : int
+        Links.
+    xi : float
+        Link length [m].
+    beta : float
+        Angle of the first link to the curve's tangent at the base [rad].
+    curvature : float
+        ``1/R`` of the arc through the base with centre ``(0, R)``; 0 for the x axis.
+    """
+    y, a = np.zeros(2), float(beta)
+    alphas = [a]
+    centre = np.array([0.0, 1.0 / curvature]) if curvature else None
+    for _ in range(1, m):
+        P = y + 0.5 * xi * np.array([np.cos(a), np.sin(a)])
+        w = np.array([0.0, 1.0]) if centre is None else P - centre   # reflect across the normal through P
+        nw = np.linalg.norm(w)
+        if not nw > 1e-12:
+            return None
+        w = w / nw
+        y_new = P + (2 * np.outer(w, w) - np.eye(2)) @ (y - P)
+        if np.linalg.norm(y_new - y) < 1e-9 * xi:                     # tangent: no second intersection
+            return None
+        a_new = np.arctan2(*(y_new - P)[::-1])
+        a = a + (a_new - a + np.pi) % (2 * np.pi) - np.pi                 # keep alpha continuous
+        alphas.append(a)
+        y = y_new
+    return np.diff(np.concatenate([[0.0], alphas]))
+
+
+def workspace_map(links=(8, 16, 32, 64), betas=None, curvatures=None, xi: float = 0.1) -> dict:
+    """Margins of on-curve zig-zags over ``betas`` x ``curvatures`` for each link count.
+
+    Returns
+    -------
+    dict
+        ``link_counts``, ``betas`` [rad], ``curvatures`` [1/m], and for each key of :data:`MAPPED`
+        an array of shape (len(links), len(curvatures), len(betas)) (NaN where no zig-zag fits).
+    """
+    betas = np.linspace(0.02, 1.56, 30) if betas is None else np.asarray(betas, dtype=float)
+    curvatures = np.linspace(0.0, 1.5, 13) if curvatures is None else np.asarray(curvatures, dtype=float)
+    if np.any(curvatures < 0) or not np.all(np.isfinite(curvatures)):
+        raise ConfigError("curvatures: need finite values >= 0")
+    shape = (len(links), len(curvatures), len(betas))
+    out = {k: np.full(shape, np.nan) for k in MAPPED}
+    for i, m in enumerate(links):
+        chain = PlanarChain(int(m), xi)
+        for j, kappa in enumerate(curvatures):
+            curve = Line() if kappa == 0 else Arc(radius=1.0 / kappa)
+            ctrl = CoordinatingController(chain, curve, 1.0, 0.1)
+            qs = [curve_zigzag(chain.m, xi, b, kappa) for b in betas]
+            ok = [k for k, q in enumerate(qs) if q is not None]
+            if not ok:
+                continue
+            mg = run_margins(ctrl, np.zeros(len(ok)), np.array([qs[k] for k in ok]))
+            out["longitudinal"][i, j, ok] = mg["longitudinal"]
+            out["smallest_link"][i, j, ok] = np.min(mg["links"], axis=1)
+            out["log10_cond"][i, j, ok] = np.log10(mg["cond"])
+    return {"link_counts": list(links), "betas": betas, "curvatures": curvatures, **out}
+
+
+def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = None) -> Path:
+    """Heat maps: one row per link count, one column per mapped quantity; threshold contours dashed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from simulation.run import DEFAULT_THRESHOLDS
+
+    thr = {"longitudinal": DEFAULT_THRESHOLDS["longitudinal"], "smallest_link": DEFAULT_THRESHOLDS["link"],
+           **(thresholds or {})}
+    L = result["link_counts"]
+    fig, axes = plt.subplots(len(L), len(MAPPED), figsize=(4.6 * len(MAPPED), 3.2 * len(L) + 0.6),
+                             squeeze=False, layout="constrained")
+    b, k = result["betas"], result["curvatures"]
+    for col, (key, label) in enumerate(MAPPED.items()):
+        data = result[key]
+        lo, hi = (0.0, 1.0) if key != "log10_cond" else (np.nanmin(data), np.nanmax(data))
+        for row, m in enumerate(L):
+            ax = axes[row, col]
+            im = ax.pcolormesh(b, k, data[row], shading="nearest", cmap="viridis", vmin=lo, vmax=hi)
+            if key in thr and np.isfinite(data[row]).sum() > 3:
+                ax.contour(b, k, data[row], levels=[thr[key]], colors="red", linestyles="--", linewidths=1.2)
+            ax.set_title(f"{m} links: {label.split(' [')[0]}", fontsize=9)
+            ax.set_xlabel("fold angle beta [rad]")
+            ax.set_ylabel("curvature [1/m]")
+            fig.colorbar(im, ax=ax, label=label)
+    fig.suptitle("Workspace map of on-curve zig-zags (red dashed: stop threshold; white: no zig-zag fits)")
+    path = Path(path)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m analysis.workspace OUT.png [--links 8 16 ...]``: compute and draw the map."""
+    p = argparse.ArgumentParser(prog="python -m analysis.workspace", description=__doc__.splitlines()[0])
+    p.add_argument("out", type=Path, help="PNG file to write")
+    p.add_argument("--links", type=int, nargs="+", default=[8, 16, 32, 64], help="link counts")
+    p.add_argument("--betas", type=int, default=30, help="number of fold angles in [0.02, 1.56] rad")
+    p.add_argument("--curvatures", type=int, default=13, help="number of curvatures in [0, 1.5] 1/m")
+    args = p.parse_args(argv)
+    res = workspace_map(args.links, np.linspace(0.02, 1.56, args.betas), np.linspace(0.0, 1.5, args.curvatures))
+    print(f"workspace map  {plot_workspace(res, args.out)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
