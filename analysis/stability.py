@@ -16,6 +16,7 @@ loop ``K e^{-s tau} / s`` has phase margin 90 deg at crossover ``K``: delay marg
 from __future__ import annotations
 
 import math
+import warnings
 
 import control as ct
 import numpy as np
@@ -78,7 +79,9 @@ def delay_margin(gain: float, period: float | None = None) -> float:
     ``period`` None: the continuous loop, ``pi / (2 K)``. Otherwise the sampled loop with
     zero-order hold, whose own half-sample lag already uses part of the margin.
     """
-    gm, pm, sm, wpc, wgc, wms = ct.stability_margins(error_loop(gain, period, 0))
+    with warnings.catch_warnings(), np.errstate(divide="ignore", invalid="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)     # K/s evaluated at s = 0 while searching
+        gm, pm, sm, wpc, wgc, wms = ct.stability_margins(error_loop(gain, period, 0))
     return float(np.deg2rad(pm) / wgc)
 
 
