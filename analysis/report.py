@@ -177,14 +177,15 @@ def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController,
                      f"{_fmt(a.crossings[name])} | {ptxt} |")
     worst = a.margins["worst_link"]
     k = int(np.argmin(a.smallest("links")))
+    amps = a.margins["amplification"]
+    amp = f"{np.nanmax(amps):.4g}" if np.isfinite(amps).any() else "n/a (v* = 0 throughout)"
     lines += ["", f"Worst link over the run: link {int(worst[k])} at t = {a.t[k]:.3f} s; "
               f"links that were ever the worst: {sorted(set(int(w) for w in worst))[:20]}.", "",
               "## Blow-up", "",
               f"* nominal |u|_inf (median over the first second): {a.nominal_u:.4g} rad/s",
               f"* first |u|_inf > {BLOWUP_FACTOR:g} x nominal: {_fmt(a.blowup_time)}",
               f"* largest |u|_inf: {np.nanmax(a.u_norm):.4g} rad/s; largest cond(M): "
-              f"{np.nanmax(a.margins['cond']):.4g}; largest amplification xi|u|/|v*|: "
-              f"{np.nanmax(a.margins['amplification']):.4g}"]
+              f"{np.nanmax(a.margins['cond']):.4g}; largest amplification xi|u|/|v*|: {amp}"]
     if a.blowup_time is not None:
         good = [LABELS[n] for n, p in pred.items() if p]
         lines.append(f"* predicted by: {', '.join(good) if good else 'no margin at its threshold'}")

@@ -95,7 +95,8 @@ def plot_step_responses(gain: float, period: float, path: str | Path, title: str
             ax.step(t, y, where="post", label=f"{label} (K h = {gain * h:.3g})")
     ax.set_xlabel("t [s]")
     ax.set_ylabel("deviation response to a unit reference step [-]")
-    ax.set_title(f"{title}: linear error model, sampled-data and delay effects")
+    note = "" if h == period else f" (h chosen at 0.5x the 2-sample-delay limit; the run's h = {period:g} s)"
+    ax.set_title(f"{title}: linear error model, sampled-data and delay effects\n{note}", fontsize=10)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     return _save(fig, path)

@@ -107,7 +107,7 @@ def step_responses(gain: float, period: float, delays=(0, 1, 2), duration: float
     duration = duration or 5.0 / gain
     out = {"continuous": ct.step_response(error_closed_loop(gain), T=np.linspace(0, duration, 400))}
     for n in delays:
-        out[f"ZOH h = {period:g} s, delay {n}"] = ct.step_response(
+        out[f"ZOH h = {period:.3g} s, delay {n}"] = ct.step_response(
             error_closed_loop(gain, period, n), T=np.arange(0, duration + period / 2, period))
     return {k: (np.asarray(r.time), np.asarray(r.outputs).ravel()) for k, r in out.items()}
 

@@ -1,0 +1,96 @@
+"""``coordarm report`` and the workspace map: files written, blow-up predicted by the longitudinal margin."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from analysis.cli_report import simulate_scenario
+from analysis.report import analyse_run, write_report
+from analysis.workspace import curve_zigzag, plot_workspace, workspace_map
+from simulation.cli import main
+from simulation.run import DEFAULT_THRESHOLDS, simulate
+from simulation.scenario import load_scenario
+from symbolic import Arc, CoordinatingController, Line, PlanarChain
+
+FAST_ARC = ('name = "fast"\n[chain]\nlinks = 16\nlink_length = 0.1\n[curve]\nkind = "arc"\nradius = 1.0\n'
+            '[control]\ngain = 2.0\nspeed = 0.4\n[start]\nkind = "projected"\n[run]\nduration = 3.0\n')
+
+
+@pytest.mark.parametrize("preset", ["line", "arc", "hole"])
+def test_report_on_each_preset_writes_markdown_and_readable_plots(preset, tmp_path, capsys):
+    out = tmp_path / preset
+    assert main(["report", preset, "--links", "12", "--duration", "2", "--out", str(out), "--samples", "300"]) == 0
+    text = (out / "report.md").read_text()
+    for section in ("## Margins", "## Blow-up", "## Linearised error dynamics", "## Sampled-data",
+                    "longitudinal margin", "1/cond(M)", "![margins](margins.png)"):
+        assert section in text
+    for png in ("margins.png", "links.png", "step_responses.png"):
+        assert (out / png).stat().st_size > 20_000
+    assert str(out / "report.md") in capsys.readouterr().out
+
+
+def test_blow_up_is_predicted_by_the_longitudinal_margin_not_by_cond(tmp_path):
+    toml = tmp_path / "fast.toml"
+    toml.write_text(FAST_ARC)
+    sc = load_scenario(toml)
+    run = simulate_scenario(sc)                     # stop thresholds off: the blow-up happens
+    a = analyse_run(sc.controller(), run.t, run.q, run.u, samples=400)
+    assert a.blowup_time is not None
+    assert np.max(run.u[run.t <= a.blowup_time]) > 0  # sanity
+    pred = a.predicted()
+    assert pred["longitudinal"] and a.crossings["longitudinal"] < a.blowup_time
+    assert a.thresholds["longitudinal"] == DEFAULT_THRESHOLDS["longitudinal"]
+    assert not pred["inverse_cond"] and not pred["sigma_min"]
+    path = write_report(run, sc, tmp_path / "rep", samples=400)
+    text = path.read_text()
+    assert "predicted by: longitudinal margin" in text and "**yes**" in text
+
+
+def test_default_stop_fires_before_u_exceeds_ten_times_nominal(tmp_path):
+    toml = tmp_path / "fast.toml"
+    toml.write_text(FAST_ARC)
+    sc = load_scenario(toml)
+    a = analyse_run(sc.controller(), *(lambda r: (r.t, r.q, r.u))(simulate_scenario(sc)), samples=400)
+    ctrl = sc.controller()
+    from symbolic import SingularityError
+    with pytest.raises(SingularityError) as info:
+        simulate(ctrl, sc.start(ctrl), sc.duration, sc.step)
+    assert info.value.kind == "longitudinal" and info.value.time < a.blowup_time
+    assert np.max(np.abs(info.value.run.u)) < 10 * a.nominal_u
+
+
+def test_report_from_a_run_object(tmp_path):
+    sc = load_scenario("line").with_overrides(links=8, duration=1.0)
+    ctrl = sc.controller()
+    run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step)
+    path = write_report(run, sc, tmp_path, ctrl=ctrl, samples=200)
+    text = path.read_text()
+    assert "first |u|_inf > 10 x nominal: never" in text and "no blow-up" in text
+    rows = [ln for ln in text.splitlines() if ln.startswith("| 0.") or ln.startswith("| 1.")]
+    assert rows and all(float(r.split("|")[2]) < 1e-8 for r in rows)      # linearised = design
+
+
+def test_report_of_a_log_without_the_replay_module_is_a_clear_error(tmp_path):
+    res = subprocess.run([sys.executable, "-m", "simulation.cli", "report", str(tmp_path / "missing.mcap")],
+                         capture_output=True, text=True)
+    assert res.returncode == 2 and "missing.mcap" in res.stderr and "Traceback" not in res.stderr
+
+
+def test_curve_zigzag_puts_every_centre_on_the_curve():
+    for kappa, curve in ((0.0, Line()), (0.8, Arc(radius=1 / 0.8))):
+        ctrl = CoordinatingController(PlanarChain(10, 0.1), curve, 1.0, 0.1)
+        for beta in (0.1, 0.9, 1.5):
+            q = curve_zigzag(10, 0.1, beta, kappa)
+            assert np.max(np.abs(ctrl.evaluate(q)["e"])) < 1e-13
+    np.testing.assert_allclose(curve_zigzag(6, 0.1, 0.7, 0.0), PlanarChain(6, 0.1).zigzag(0.7), atol=1e-14)
+
+
+def test_workspace_map_on_a_line_has_the_closed_form_and_is_drawn(tmp_path):
+    betas = np.array([0.2, 0.7, 1.2])
+    res = workspace_map(links=(4, 8), betas=betas, curvatures=np.array([0.0, 0.5, 1.0]))
+    for i, m in enumerate((4, 8)):
+        np.testing.assert_allclose(res["longitudinal"][i, 0], (m - 1) / m * np.sin(betas), rtol=1e-12)
+        np.testing.assert_allclose(res["smallest_link"][i, 0], np.cos(betas), rtol=1e-12)
+    assert np.all(np.isfinite(res["log10_cond"]))
+    assert plot_workspace(res, tmp_path / "ws.png").stat().st_size > 20_000
