@@ -75,14 +75,14 @@ def linearisation_function(ctrl: CoordinatingController, form: str | None = None
     if key not in ctrl._cache:
         m = ctrl.chain.m
         sym = ca.SX if form == "structured" else ca.MX      # the dense law's linear solve is MX only
-        q, t, dq = sym.sym("q", m), sym.sym("t"), sym.sym("dq", m)
+        q, t = sym.sym("q", m), sym.sym("t")
         u, e, s, *_ = ctrl.fast_law(form)(q, t)
         f = ca.mtimes(ca.DM(ctrl.chain.B), u)
         z = ca.vertcat(s, e)
         H = ca.jacobian(z, q)
         F = ca.jacobian(f, q)
-        Hdq = ca.mtimes(H, dq)                                   # d/dt (H dq) at fixed dq
-        Hdot = ca.jacobian(ca.mtimes(ca.jacobian(Hdq, q), f) + ca.jacobian(Hdq, t), dq)
+        # Hdot: one forward directional derivative of H along the flow (f, 1) in (q, t)
+        Hdot = ca.reshape(ca.jtimes(ca.vec(H), ca.vertcat(q, t), ca.vertcat(f, 1)), m, m)
         rate = ca.mtimes(H, f) + ca.jacobian(z, t)
         ctrl._cache[key] = ca.Function("linearised_loop", [q, t], [H, F, Hdot, rate],
                                        ["q", "t"], ["H", "F", "Hdot", "task_rate"])

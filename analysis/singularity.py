@@ -12,7 +12,7 @@ Every margin is dimensionless and 0 exactly at its singularity:
     keeps every centre on the curve), ``|ds^m/dq . n| / (xi |L n|_1)``, ``L`` the lower
     triangular matrix of ones (``w = L qdot``). This is scale-free in ``n`` and equals the
     structured solve's normalised longitudinal pivot, ``(m-1)/m sin(beta)`` on a zig-zag on a
-    line, 0 at a stretched chain. Here it comes from an SVD of the dense matrix, so it stays
+    line, 0 at a stretched chain. Here it comes from a QR factorisation of the dense matrix, so it stays
     defined where a link pivot vanishes (where the structured recursion divides by zero).
 ``sigma_min``, ``inverse_cond``, ``inverse_cond_scaled``
     Smallest singular value of ``M / xi`` (``M`` the decoupling matrix, eq. 26), ``1/cond(M)``
@@ -82,8 +82,8 @@ def _margins_batch(ctrl: CoordinatingController, Q: np.ndarray, T: np.ndarray) -
 
     # longitudinal margin from the null vector of the e rows (in joint-rate space)
     Mq = M @ np.linalg.inv(chain.B)                           # rows d(task)/dq
-    _, _, Vt = np.linalg.svd(Mq[:, 1:, :])
-    n = Vt[:, -1, :]                                          # (N, m) null direction of the e rows
+    Qf, _ = np.linalg.qr(np.swapaxes(Mq[:, 1:, :], 1, 2), mode="complete")
+    n = Qf[:, :, -1]                                          # (N, m) null direction of the e rows
     pivot = np.einsum("ni,ni->n", Mq[:, 0, :], n)
     longitudinal = np.abs(pivot) / (xi * np.sum(np.abs(np.cumsum(n, axis=-1)), axis=-1))
 

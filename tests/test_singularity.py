@@ -29,7 +29,7 @@ def test_margins_equal_the_structured_solve_pivots_at_random_configurations(m, s
     q = chain.zigzag(1.1) + 0.05 * np.random.default_rng(seed).standard_normal(m)
     mg, law = margins(ctrl, q, 0.7), ctrl.evaluate(q, 0.7)
     np.testing.assert_allclose(mg["links"], law["link_margins"], rtol=1e-9, atol=1e-12)
-    assert mg["longitudinal"] == pytest.approx(law["longitudinal"], rel=1e-8)   # SVD null vector vs recursion
+    assert mg["longitudinal"] == pytest.approx(law["longitudinal"], rel=1e-8)   # QR null vector vs recursion
     assert mg["u_max"] == pytest.approx(np.max(np.abs(law["u"])), rel=1e-8)      # dense solve vs recursion
     v = ctrl.speed_at(0.7)
     assert mg["amplification"] == pytest.approx(0.1 * np.linalg.norm(law["u"]) / abs(v), rel=1e-8)
