@@ -94,3 +94,18 @@ def test_workspace_map_on_a_line_has_the_closed_form_and_is_drawn(tmp_path):
         np.testing.assert_allclose(res["smallest_link"][i, 0], np.cos(betas), rtol=1e-12)
     assert np.all(np.isfinite(res["log10_cond"]))
     assert plot_workspace(res, tmp_path / "ws.png").stat().st_size > 20_000
+
+
+@pytest.mark.parametrize("case", ["32 links, arc R = 1.0, v* = 0.4", "16 links, swinging line, v* = 0.2"])
+def test_threshold_study_cases_stop_before_the_blow_up(case):
+    """The two blow-up runs of analysis.threshold_study with the least lead (the others take ~30 s)."""
+    from analysis.threshold_study import blowup_cases
+    from symbolic import SingularityError
+    ctrl, q0, duration = blowup_cases()[case]
+    free = simulate(ctrl, q0, duration, 0.001, thresholds={"link": 0.0, "longitudinal": 0.0})
+    a = analyse_run(ctrl, free.t, free.q, free.u, samples=300)
+    assert a.blowup_time is not None and a.predicted()["longitudinal"]
+    with pytest.raises(SingularityError) as info:
+        simulate(ctrl, q0, duration, 0.001)
+    assert info.value.kind == "longitudinal" and info.value.time < a.blowup_time - 0.05
+    assert np.max(np.abs(info.value.run.u), axis=1).max() < 10 * a.nominal_u

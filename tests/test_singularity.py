@@ -103,3 +103,14 @@ def test_run_margins_matches_pointwise_margins_and_checks_shapes():
             np.testing.assert_allclose(r[key][k], v, rtol=1e-12)
     with pytest.raises(ConfigError, match="q: need shape"):
         run_margins(ctrl, T, Q[:, :5])
+
+
+def test_margins_with_a_non_diagonal_input_matrix_equal_the_law():
+    rng = np.random.default_rng(7)
+    B = np.eye(7) + 0.2 * rng.standard_normal((7, 7))
+    chain = PlanarChain(7, 0.1, B)
+    ctrl = CoordinatingController(chain, Arc(radius=1.5), 2.0, 0.1, law="dense")
+    q = chain.zigzag(1.0) + 0.05 * rng.standard_normal(7)
+    mg, law = margins(ctrl, q, 0.2), ctrl.evaluate(q, 0.2)
+    assert mg["longitudinal"] == pytest.approx(law["longitudinal"], rel=1e-8)
+    assert mg["u_max"] == pytest.approx(np.max(np.abs(law["u"])), rel=1e-8)
