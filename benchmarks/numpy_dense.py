@@ -29,16 +29,11 @@ def dense_law_line(q: np.ndarray, xi: float, gain: float, v_star: float, theta: 
     # centres y^j = sum of xi/2 (d(alpha_{l-1}) + d(alpha_l)), l = 1..j
     steps = 0.5 * xi * (np.stack([c[:-1] + c[1:], s[:-1] + s[1:]], axis=1))
     y = np.vstack([np.zeros(2), np.cumsum(steps, axis=0)])
-    # dy^j/dalpha_i = xi/2 n(alpha_i) * weight[j, i]; weight 1 for i = 0 and i = j, 2 in between
-    idx = np.arange(m)
-    weight = np.where(idx[None, :] < idx[:, None], 2.0, 0.0) + (idx[None, :] == idx[:, None])
+    # dy^j/dalpha_i = xi/2 n(alpha_i) weight[j, i]: weight 1 for i = 0 and i = j, 2 in between
+    weight = 2.0 * np.tri(m, m, -1) + np.eye(m)
     weight[1:, 0] = 1.0
     weight[0, 0] = 0.0
-    Jx = -0.5 * xi * weight * s[None, :]
-    Jy = 0.5 * xi * weight * c[None, :]
-    # d alpha_i / d q_k = 1 for k <= i: C = J @ tril(ones) is a reversed cumulative sum
-    Cx = np.cumsum(Jx[:, ::-1], axis=1)[:, ::-1]
-    Cy = np.cumsum(Jy[:, ::-1], axis=1)[:, ::-1]
+    normals = np.stack([-s, c], axis=1)
     st, ct = np.sin(theta), np.cos(theta)
     r = y - np.asarray(point)
     phi = -st * r[:, 0] + ct * r[:, 1]
@@ -46,8 +41,11 @@ def dense_law_line(q: np.ndarray, xi: float, gain: float, v_star: float, theta: 
     g, h, pd = np.array([-st, ct]), np.array([ct, st]), np.asarray(point_dot)
     phit = -theta_dot * psi - g @ pd
     psit = theta_dot * phi - h @ pd
-    M = np.empty((m, m))
-    M[0] = h[0] * Cx[-1] + h[1] * Cy[-1]
-    M[1:] = g[0] * Cx[1:] + g[1] * Cy[1:]
+    G = np.tile(g, (m, 1))                       # gradient of phi at every centre (rows)
+    # rows grad(phi)(y^j) . C^j, with C^j = (dy^j/dalpha) L and d alpha_i / d q_k = 1 for k <= i:
+    # the product with L is a reversed cumulative sum along each row
+    Jg = 0.5 * xi * weight * (G @ normals.T)
+    M = np.cumsum(Jg[:, ::-1], axis=1)[:, ::-1]
+    M[0] = np.cumsum((0.5 * xi * weight[-1] * (normals @ h))[::-1])[::-1]   # the s^m row
     rhs = np.concatenate([[v_star - psit[-1]], -gain * phi[1:] - phit[1:]])
     return np.linalg.solve(M, rhs)

@@ -134,7 +134,7 @@ def cached(entry: Path, key: str) -> bool:
 
 
 def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
-          force: bool = False) -> Library:
+          force: bool = False, timeout: float | None = None) -> Library:
     """Compile ``source`` (or take it from the cache) and return the library.
 
     Parameters
@@ -149,11 +149,13 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
         Cache directory (default :func:`build_root`).
     force : bool
         Recompile even if the cache holds the library.
+    timeout : float, optional
+        Give up (and stop the compiler) after this many seconds.
 
     Raises
     ------
     BuildError
-        No compiler, or it failed (its message included).
+        No compiler, it failed (its message included) or it exceeded ``timeout``.
     """
     cc_path = find_compiler(cc)
     flags = compile_flags(flags)
@@ -172,7 +174,10 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
     cmd = [cc_path, *flags, *REQUIRED_FLAGS, "-o", tmp, str(src), "-lm"]
     start = time.perf_counter()
     try:
-        res = subprocess.run(cmd, capture_output=True, text=True)
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        Path(tmp).unlink(missing_ok=True)
+        raise BuildError(f"compiling {src} took longer than {timeout} s; stopped") from None
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
         raise BuildError(f"C compiler {cc_path} did not run: {exc}") from None
