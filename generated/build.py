@@ -31,7 +31,7 @@ from .codegen import CODEGEN_OPTIONS, Source
 #: Optimisation flags (see benchmarks/RESULTS.md for -O2 vs -O3); override with COORDARM_CFLAGS.
 DEFAULT_FLAGS = ("-O3",)
 #: Flags every build needs: position-independent shared object, only the glue API exported.
-REQUIRED_FLAGS = ("-fPIC", "-shared", "-fvisibility=hidden")
+REQUIRED_FLAGS = ("-fPIC", "-shared", "-fvisibility=hidden")   # before the user flags
 LIBRARY, SOURCE, META = "libcoordarm.so", "coordarm.c", "meta.json"
 
 
@@ -171,7 +171,7 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
         os.close(fd)
     except OSError as exc:
         raise BuildError(f"build directory {entry}: {exc}") from None
-    cmd = [cc_path, *flags, *REQUIRED_FLAGS, "-o", tmp, str(src), "-lm"]
+    cmd = [cc_path, *REQUIRED_FLAGS, *flags, "-o", tmp, str(src), "-lm"]   # later flags win
     start = time.perf_counter()
     try:
         res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)

@@ -83,29 +83,34 @@ class CoordinatingController:
         return ca.Function("speed", [t], [ca.SX(self.speed(t))], ["t"], ["v"])
 
     #: Layout of the carry of the link recursion (see :meth:`link_step`).
-    CARRY = ("y1", "y2", "alpha", "cos_alpha", "sin_alpha", "A1", "A2", "B1", "B2", "a", "b", "sum_abs_b")
+    CARRY = ("y1", "y2", "alpha", "cos_alpha", "sin_alpha", "P1", "P2", "Q1", "Q2", "a", "b", "sum_abs_b")
 
     def _link_expressions(self):
-        """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd)."""
+        """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd).
+
+        The carried ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}`` is the part of
+        ``ydot^j`` known before ``w_j``; the only division (by the link pivot) is turned into
+        a reciprocal off the loop-carried dependency chain, which sets the speed of the
+        compiled loop (see benchmarks/RESULTS.md).
+        """
         xi, K = self.chain.xi, self.gain
         carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
-        y, alpha_prev, d_prev, A, Bv = carry[0:2], carry[2], carry[3:5], carry[5:7], carry[7:9]
-        a_prev, b_prev, nb = carry[9], carry[10], carry[11]
+        y, alpha_prev, d_prev, P, Q = carry[0:2], carry[2], carry[3:5], carry[5:7], carry[7:9]
+        nb = carry[11]
         alpha = alpha_prev + qj
         d_j = ca.vertcat(ca.cos(alpha), ca.sin(alpha))   # the only sine/cosine pair of the link
-        n_prev, n_j = ca.vertcat(-d_prev[1], d_prev[0]), ca.vertcat(-d_j[1], d_j[0])
+        n_j = ca.vertcat(-d_j[1], d_j[0])
         y_j = y + 0.5 * xi * (d_prev + d_j)
         phi, g, phit, *_ = self._geometry(y_j, t)
-        PA = A + 0.5 * xi * n_prev * a_prev
-        PB = Bv + 0.5 * xi * n_prev * b_prev
         pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
-        den = 0.5 * xi * pivot
-        a_j = (-K * phi - phit - ca.dot(g, PA)) / den
-        b_j = -ca.dot(g, PB) / den
-        new = ca.vertcat(y_j, alpha, d_j, PA + 0.5 * xi * n_j * a_j, PB + 0.5 * xi * n_j * b_j,
-                         a_j, b_j, nb + ca.fabs(b_j))
+        inv = 1 / (0.5 * xi * pivot)
+        a_j = (-K * phi - phit - ca.dot(g, P)) * inv
+        b_j = -ca.dot(g, Q) * inv
+        step = xi * n_j                              # ydot^j = P + xi/2 n_j w_j; next P adds it again
+        new = ca.vertcat(y_j, alpha, d_j, P + step * a_j, Q + step * b_j, a_j, b_j, nb + ca.fabs(b_j))
         out = ca.vertcat(phi, ca.fabs(pivot) / ca.norm_2(g), a_j, b_j)
-        return carry, qj, t, ca.cse(new), ca.cse(out)
+        both = ca.cse(ca.vertcat(new, out))          # one CSE over both, so a_j, b_j are shared
+        return carry, qj, t, both[:new.numel()], both[new.numel():]
 
     def _hoisted_link(self):
         """The link step split into time-only terms ``w(t)`` and the per-link rest (cached)."""
@@ -129,9 +134,10 @@ class CoordinatingController:
         """One link of the O(m) recursion: ``(carry, q_j, w) -> (carry_next, out_j)``.
 
         ``carry`` (layout :attr:`CARRY`) holds ``y^{j-1}``, ``alpha_{j-1}`` with its cosine
-        and sine (so each link evaluates one sine/cosine pair), ``ydot^{j-1} = A + B p`` and
-        ``w_{j-1} = a + b p``, affine in the free rate ``p = w_1``, and the running
-        ``sum |b|``; ``w`` is :meth:`time_features` at the current time;
+        and sine (so each link evaluates one sine/cosine pair), ``w_{j-1} = a + b p`` and
+        ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}``, affine in the free rate
+        ``p = w_1``, and the running ``sum |b|``; ``w`` is :meth:`time_features` at the
+        current time;
         ``out_j = (e^j, link margin, a_j, b_j)``.
         """
         return self._hoisted_link()[1]
@@ -139,8 +145,10 @@ class CoordinatingController:
     def first_carry(self) -> ca.Function:
         """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``)."""
         q1 = ca.SX.sym("q_1")
-        return ca.Function("first_carry", [q1], [ca.vertcat(0, 0, q1, ca.cos(q1), ca.sin(q1), 0, 0, 0, 0,
-                                                            0, 1, 1)], ["q_1"], ["carry"])
+        c, s = ca.cos(q1), ca.sin(q1)
+        h = 0.5 * self.chain.xi
+        return ca.Function("first_carry", [q1], [ca.vertcat(0, 0, q1, c, s, 0, 0, -h * s, h * c, 0, 1, 1)],
+                           ["q_1"], ["carry"])
 
     def tail(self) -> ca.Function:
         """``(carry_m, t) -> (s, p, longitudinal, longitudinal_pivot)`` after the last link.
@@ -150,7 +158,9 @@ class CoordinatingController:
         ``|pivot| / (xi sum |b|)`` is dimensionless (``sin(beta)`` on a zig-zag).
         """
         carry, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("t")
-        y_m, A_m, B_m, nb = carry[0:2], carry[5:7], carry[7:9], carry[11]
+        y_m, n_m, nb = carry[0:2], ca.vertcat(-carry[4], carry[3]), carry[11]
+        half = 0.5 * self.chain.xi * n_m
+        A_m, B_m = carry[5:7] - half * carry[9], carry[7:9] - half * carry[10]   # ydot^m = A_m + B_m p
         _, _, _, psi, h, psit = self._geometry(y_m, t)
         pivot = ca.dot(h, B_m)
         p = (self.speed(t) - psit - ca.dot(h, A_m)) / pivot
