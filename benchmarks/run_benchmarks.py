@@ -12,11 +12,17 @@ style line whose angle swings as ``0.6 sin(0.2 t)``, at m = 8, 64, 256, 1024:
 * the interpreted CasADi law and RK4 step (the expanded SX Function);
 * the vectorised numpy dense law of ``numpy_dense.py`` (same law, tested against ours);
 * cold generate + compile time per m, and a 64-link, 30 s run at 1 ms steps.
+
+numpy runs with a single BLAS thread (``OPENBLAS_NUM_THREADS=1`` unless set): on a
+shared 2-core machine a threaded BLAS fighting other jobs was up to 3x slower and far
+noisier, which would flatter the compiled code.
 """
 from __future__ import annotations
 
 import argparse
 import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")   # before numpy is imported (see the docstring)
 import platform
 import statistics
 import subprocess
@@ -53,8 +59,8 @@ def c_driver() -> Path:
 
 
 def time_from_c(driver: Path, comp, q: np.ndarray, reps: int, t: float = 1.0) -> tuple[float, float]:
-    """Median ns per ``coordarm_law`` and per ``coordarm_rk4`` call, timed in C."""
-    calls = max(100, 400_000 // comp.m)
+    """Median ns per ``coordarm_law`` and per ``coordarm_rk4`` call, timed in C (batches of about 1 ms)."""
+    calls = max(40, 60_000 // comp.m)
     with tempfile.NamedTemporaryFile(suffix=".bin", delete=False) as f:
         np.ascontiguousarray(q, dtype=float).tofile(f)
     try:
@@ -65,7 +71,7 @@ def time_from_c(driver: Path, comp, q: np.ndarray, reps: int, t: float = 1.0) ->
     return float(out[0]), float(out[1])
 
 
-def median_time(fn, target: float = 0.02, repeat: int = 15) -> float:
+def median_time(fn, target: float = 0.005, repeat: int = 31) -> float:
     """Median seconds per call of ``fn`` over ``repeat`` batches of about ``target`` seconds each."""
     fn()
     start = time.perf_counter()
@@ -134,9 +140,9 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="fewer repeats, no dense build above m = 8")
     ap.add_argument("--out", type=Path, help="also write the report to this file")
     args = ap.parse_args()
-    reps = 5 if args.quick else 15
+    reps = 5 if args.quick else 41
     report = ["# coordarm benchmark run", "", f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}", ""]
-    report += machine() + [""]
+    report += machine() + [f"* numpy BLAS threads: OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}", ""]
     driver = c_driver()
     rows, dense_stop = {}, None
     with tempfile.TemporaryDirectory() as cache:

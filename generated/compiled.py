@@ -61,6 +61,10 @@ class CompiledController:
         Path, cache key, whether the build hit the cache, compile time.
     generate_seconds : float
         Time spent generating the C source.
+
+    Notes
+    -----
+    The buffers are shared by all calls of one object: use one object per thread.
     """
 
     def __init__(self, ctrl: CoordinatingController, form: str = "structured", *, cc: str | None = None,
