@@ -45,8 +45,10 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true")
     args = ap.parse_args()
     driver = c_driver()
-    reps = 5 if args.quick else 15
-    variants = [("t per link, 2 sin/cos pairs", False, False, "-O3"),
+    reps = 5 if args.quick else 41
+    variants = [("t per link, 2 sin/cos pairs", False, False, "-O2"),
+                ("t per link, 2 sin/cos pairs, no inlining", False, False, "-O3 -fvisibility=default"),
+                ("t per link, 2 sin/cos pairs", False, False, "-O3"),
                 ("carried trig (1 pair)", True, False, "-O3"),
                 ("carried trig + hoisted time terms", True, True, "-O2"),
                 ("carried trig + hoisted time terms", True, True, "-O3"),

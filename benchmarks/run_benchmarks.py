@@ -71,7 +71,7 @@ def time_from_c(driver: Path, comp, q: np.ndarray, reps: int, t: float = 1.0) ->
     return float(out[0]), float(out[1])
 
 
-def median_time(fn, target: float = 0.005, repeat: int = 31) -> float:
+def median_time(fn, target: float = 0.001, repeat: int = 61) -> float:
     """Median seconds per call of ``fn`` over ``repeat`` batches of about ``target`` seconds each."""
     fn()
     start = time.perf_counter()
