@@ -12,7 +12,7 @@ from symbolic import SingularityError
 
 from .figures import plot_stages, plot_tracking
 from .obstacles import clearance, wall_crossings
-from .run import Run, simulate
+from .run import BACKENDS, Run, simulate
 from .scenario import Scenario, load_scenario, presets
 
 
@@ -26,6 +26,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, help="override the simulated duration [s]")
     p.add_argument("--step", type=float, help="override the RK4 step [s]")
     p.add_argument("--law", choices=("structured", "dense"), help="form of the control law")
+    p.add_argument("--backend", choices=BACKENDS, default="auto",
+                   help="compiled C (built or taken from the cache), interpreted CasADi, or auto (default: "
+                        "compiled when a C compiler is found, else interpreted with a warning)")
     p.add_argument("--out", type=Path, help="log file (default: logs/<scenario>.mcap); figures go beside it")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -78,12 +81,14 @@ def main(args: argparse.Namespace) -> int:
     status = 0
     try:
         run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0,
-                       thresholds=scenario.thresholds, progress=not args.quiet)
+                       thresholds=scenario.thresholds, progress=not args.quiet, backend=args.backend)
     except SingularityError as err:
         print(f"coordarm run: {err}", file=sys.stderr)
         run, status = err.run, 3
     np.savez(out.with_suffix(".npz"), **{k: getattr(run, k) for k in ("t", "q", "u", "e", "s")})
     print_summary(run, scenario)
+    if run.info.get("backend") == "compiled":
+        print(f"library       {run.info['library']} ({'cache hit' if run.info['cache_hit'] else 'built now'})")
     print(f"log           {out.with_suffix('.npz')}")
     if not args.no_figures:
         for p in write_figures(run, scenario, ctrl, out.with_suffix("")):

@@ -4,18 +4,25 @@ from __future__ import annotations
 import math
 import sys
 import time as _time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import casadi as ca
 import numpy as np
 
-from symbolic import ConfigError, CoordinatingController, SingularityError
+from symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
 #: Steps integrated per call of the closed-loop chunk Function.
 DEFAULT_CHUNK = 500
+#: ``auto`` = compiled when a C compiler builds the library, else interpreted (with a warning).
+BACKENDS = ("auto", "compiled", "interpreted")
+
+
+class BackendFallbackWarning(UserWarning):
+    """``backend="auto"`` could not build the compiled controller and runs interpreted CasADi."""
 
 
 @dataclass
@@ -143,8 +150,46 @@ def chunk_function(ctrl: CoordinatingController, step: float, n: int, backend: s
     return ctrl._cache[key]
 
 
+def select_backend(ctrl: CoordinatingController, backend: str = "auto", **build_options: Any):
+    """Resolve ``backend`` to ``(name, compiled controller or None, info)``.
+
+    ``"auto"`` compiles (or takes from the cache) the generated library and falls back to
+    ``"interpreted"`` with a :class:`BackendFallbackWarning` when that fails (e.g. no C
+    compiler); ``"compiled"`` raises the BuildError instead. The compiled controller is
+    kept on ``ctrl`` so later runs reuse it.
+
+    Raises
+    ------
+    ConfigError
+        Unknown backend.
+    BuildError
+        ``backend="compiled"`` and the library cannot be built or loaded.
+    """
+    if backend not in BACKENDS:
+        raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+    if backend == "interpreted":
+        return "interpreted", None, {"backend": "interpreted"}
+    key = ("compiled", ctrl.law_form, tuple(sorted(build_options.items())))
+    compiled = ctrl._cache.get(key)
+    if compiled is None:
+        try:
+            compiled = ctrl.compile(**build_options)
+        except BuildError as exc:
+            if backend == "compiled":
+                raise
+            warnings.warn(f"compiled backend unavailable, running the interpreted CasADi backend "
+                          f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)
+            return "interpreted", None, {"backend": "interpreted", "fallback_reason": str(exc)}
+        ctrl._cache[key] = compiled
+        hit = compiled.cache_hit
+    else:
+        hit = True
+    return "compiled", compiled, {"backend": "compiled", "cache_hit": hit,
+                                  "library": str(compiled.library.path)}
+
+
 def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.001,
-             t0: float = 0.0, *, backend: str = "interpreted", chunk: int = DEFAULT_CHUNK,
+             t0: float = 0.0, *, backend: str = "auto", chunk: int = DEFAULT_CHUNK,
              thresholds: dict[str, float] | None = None, progress: bool | None = None,
              on_chunk: Callable[[Run], None] | None = None) -> Run:
     """Integrate the closed loop with fixed-step RK4 from ``q0`` at ``t0`` for ``duration``.
@@ -157,8 +202,11 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         Start configuration [rad].
     duration, step, t0 : float
         Simulated time span, RK4 step and start time [s].
-    backend : str
-        ``"interpreted"`` (CasADi virtual machine).
+    backend : {"auto", "compiled", "interpreted"}
+        ``"compiled"``: generated C (built or taken from the cache, see :mod:`generated`);
+        ``"interpreted"``: CasADi's virtual machine; ``"auto"``: compiled when a C compiler
+        is found, else interpreted with a :class:`BackendFallbackWarning`. ``run.info``
+        records the backend used, ``cache_hit`` and the ``library`` path.
     chunk : int
         Steps per call of the closed-loop Function (and per ``on_chunk`` call).
     thresholds : dict, optional
@@ -176,6 +224,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     ------
     ConfigError
         Bad input or a singular start, before any integration.
+    BuildError
+        ``backend="compiled"`` and the generated library cannot be built.
     SingularityError
         A margin fell below its threshold; ``err.run`` holds the run up to there.
     """
@@ -185,6 +235,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
     if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
         raise ConfigError(f"chunk: need a positive integer, got {chunk!r}")
+    if backend not in BACKENDS:
+        raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
     thr = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
     q0 = ctrl.chain.check_q(q0, "q0")
     check_curve_reaches_base(ctrl, t0, t0 + duration)
@@ -196,6 +248,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         raise ConfigError(f"q0: start configuration is (near) singular: {kind} margin of {where} is "
                           f"{margin:.3g} < {thr[kind]}")
 
+    backend, compiled, info = select_backend(ctrl, backend)
     n_steps = int(round(duration / step))
     speed = ctrl.speed_function()
     bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
@@ -205,8 +258,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         while k < n_steps:
             n = min(chunk, n_steps - k)
             times = t0 + step * np.arange(k, k + n)
-            Q, U, E, S, LM, LG = (np.asarray(x) for x in chunk_function(ctrl, step, n, backend)(q, times))
-            part = Run(times, np.column_stack([q, Q[:, :-1]]).T, U.T, E.T, S.ravel(), LM.T, LG.ravel(),
+            Q, U, E, S, LM, LG = _advance(ctrl, compiled, q, times, step)
+            part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG,
                        np.asarray(speed.map(n)(times)).ravel())
             bad = first_violation(part.link_margins, part.longitudinal, thr)
             if bad is not None:
@@ -215,15 +268,15 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
                 parts.append(part)
                 if on_chunk:
                     on_chunk(part)
-                run = _concat(parts, dict(backend=backend, stopped="singularity"))
+                run = _concat(parts, dict(info, stopped="singularity"))
                 raise SingularityError(part.t[-1], link, margin, kind, thr[kind], run=run)
             parts.append(part)
             if on_chunk:
                 on_chunk(part)
-            q, k = Q[:, -1], k + n
+            q, k = Q[-1], k + n
             if bar:
                 bar.update(step * k)
-        final = ctrl.evaluate(q, t0 + step * n_steps)
+        final = (compiled or ctrl).evaluate(q, t0 + step * n_steps)
         last = Run(np.array([t0 + step * n_steps]), q[None], final["u"][None], final["e"][None],
                    np.array([final["s"]]), final["link_margins"][None], np.array([final["longitudinal"]]),
                    np.array([ctrl.speed_at(t0 + step * n_steps)]))
@@ -233,7 +286,17 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     finally:
         if bar:
             bar.close()
-    return _concat(parts, dict(backend=backend, stopped="completed", wall_time=_time.perf_counter() - wall))
+    return _concat(parts, dict(info, stopped="completed", wall_time=_time.perf_counter() - wall))
+
+
+def _advance(ctrl, compiled, q, times, step):
+    """RK4 steps from ``q`` at each of ``times``: states after each step and the law at each start (rows)."""
+    if compiled is not None:
+        Q, D = compiled.chunk(q, times, step)
+        m = ctrl.chain.m
+        return Q, D[:, :m], D[:, m:2 * m - 1], D[:, 2 * m - 1], D[:, 2 * m:3 * m - 1], D[:, 3 * m - 1]
+    Q, U, E, S, LM, LG = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
+    return Q.T, U.T, E.T, S.ravel(), LM.T, LG.ravel()
 
 
 ARRAYS = ("t", "q", "u", "e", "s", "link_margins", "longitudinal", "v_star")

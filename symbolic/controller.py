@@ -82,31 +82,91 @@ class CoordinatingController:
         t = ca.SX.sym("t")
         return ca.Function("speed", [t], [ca.SX(self.speed(t))], ["t"], ["v"])
 
-    def link_step(self) -> ca.Function:
-        """One link of the O(m) recursion: ``(carry, q_j, t) -> (carry, out_j)``.
+    #: Layout of the carry of the link recursion (see :meth:`link_step`).
+    CARRY = ("y1", "y2", "alpha", "cos_alpha", "sin_alpha", "P1", "P2", "Q1", "Q2", "a", "b", "sum_abs_b")
 
-        ``carry = (y^{j-1}, alpha_{j-1}, A, B, a, b)`` where ``ydot^{j-1} = A + B p`` and
-        ``w_{j-1} = a + b p`` are affine in the free rate ``p = w_1``;
-        ``out_j = (e^j, link margin, a_j, b_j)``.
+    def _link_expressions(self):
+        """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd).
+
+        The carried ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}`` is the part of
+        ``ydot^j`` known before ``w_j``; the only division (by the link pivot) is turned into
+        a reciprocal off the loop-carried dependency chain, which sets the speed of the
+        compiled loop (see benchmarks/RESULTS.md).
         """
         xi, K = self.chain.xi, self.gain
-        carry, qj, t = ca.SX.sym("carry", 9), ca.SX.sym("q_j"), ca.SX.sym("t")
-        y, alpha_prev, A, Bv, a_prev, b_prev = (carry[0:2], carry[2], carry[3:5], carry[5:7],
-                                                carry[7], carry[8])
+        carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
+        y, alpha_prev, d_prev, P, Q = carry[0:2], carry[2], carry[3:5], carry[5:7], carry[7:9]
+        nb = carry[11]
         alpha = alpha_prev + qj
-        y_j = y + 0.5 * xi * (direction(alpha_prev) + direction(alpha))
+        d_j = ca.vertcat(ca.cos(alpha), ca.sin(alpha))   # the only sine/cosine pair of the link
+        n_j = ca.vertcat(-d_j[1], d_j[0])
+        y_j = y + 0.5 * xi * (d_prev + d_j)
         phi, g, phit, *_ = self._geometry(y_j, t)
-        n_prev, n_j = normal(alpha_prev), normal(alpha)
-        PA = A + 0.5 * xi * n_prev * a_prev
-        PB = Bv + 0.5 * xi * n_prev * b_prev
         pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
-        den = 0.5 * xi * pivot
-        a_j = (-K * phi - phit - ca.dot(g, PA)) / den
-        b_j = -ca.dot(g, PB) / den
-        new = ca.vertcat(y_j, alpha, PA + 0.5 * xi * n_j * a_j, PB + 0.5 * xi * n_j * b_j, a_j, b_j)
+        inv = 1 / (0.5 * xi * pivot)
+        a_j = (-K * phi - phit - ca.dot(g, P)) * inv
+        b_j = -ca.dot(g, Q) * inv
+        step = xi * n_j                              # ydot^j = P + xi/2 n_j w_j; next P adds it again
+        new = ca.vertcat(y_j, alpha, d_j, P + step * a_j, Q + step * b_j, a_j, b_j, nb + ca.fabs(b_j))
         out = ca.vertcat(phi, ca.fabs(pivot) / ca.norm_2(g), a_j, b_j)
-        return ca.Function("link_step", [carry, qj, t], [new, out], ["carry", "q_j", "t"],
-                           ["carry_next", "out"])
+        both = ca.cse(ca.vertcat(new, out))          # one CSE over both, so a_j, b_j are shared
+        return carry, qj, t, both[:new.numel()], both[new.numel():]
+
+    def _hoisted_link(self):
+        """The link step split into time-only terms ``w(t)`` and the per-link rest (cached)."""
+        if "hoisted" not in self._cache:
+            carry, qj, t, new, out = self._link_expressions()
+            expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new, out), t)
+            wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 0)
+            wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX(0, 1)
+            n_new = new.numel()
+            tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
+            step = ca.Function("link_step", [carry, qj, wsym], [expr[:n_new], expr[n_new:]],
+                               ["carry", "q_j", "w"], ["carry_next", "out"])
+            self._cache["hoisted"] = (tf, step)
+        return self._cache["hoisted"]
+
+    def time_features(self) -> ca.Function:
+        """``t -> w``: the terms of :meth:`link_step` that depend on time only, computed once per ``t``."""
+        return self._hoisted_link()[0]
+
+    def link_step(self) -> ca.Function:
+        """One link of the O(m) recursion: ``(carry, q_j, w) -> (carry_next, out_j)``.
+
+        ``carry`` (layout :attr:`CARRY`) holds ``y^{j-1}``, ``alpha_{j-1}`` with its cosine
+        and sine (so each link evaluates one sine/cosine pair), ``w_{j-1} = a + b p`` and
+        ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}``, affine in the free rate
+        ``p = w_1``, and the running ``sum |b|``; ``w`` is :meth:`time_features` at the
+        current time;
+        ``out_j = (e^j, link margin, a_j, b_j)``.
+        """
+        return self._hoisted_link()[1]
+
+    def first_carry(self) -> ca.Function:
+        """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``)."""
+        q1 = ca.SX.sym("q_1")
+        c, s = ca.cos(q1), ca.sin(q1)
+        h = 0.5 * self.chain.xi
+        return ca.Function("first_carry", [q1], [ca.vertcat(0, 0, q1, c, s, 0, 0, -h * s, h * c, 0, 1, 1)],
+                           ["q_1"], ["carry"])
+
+    def tail(self) -> ca.Function:
+        """``(carry_m, t) -> (s, p, longitudinal, longitudinal_pivot)`` after the last link.
+
+        The ``s`` equation fixes the free rate ``p = w_1`` by dividing by the longitudinal
+        pivot ``grad(psi)(y^m) . d ydot^m / dp`` [m/rad]; the longitudinal margin
+        ``|pivot| / (xi sum |b|)`` is dimensionless (``sin(beta)`` on a zig-zag).
+        """
+        carry, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("t")
+        y_m, n_m, nb = carry[0:2], ca.vertcat(-carry[4], carry[3]), carry[11]
+        half = 0.5 * self.chain.xi * n_m
+        A_m, B_m = carry[5:7] - half * carry[9], carry[7:9] - half * carry[10]   # ydot^m = A_m + B_m p
+        _, _, _, psi, h, psit = self._geometry(y_m, t)
+        pivot = ca.dot(h, B_m)
+        p = (self.speed(t) - psit - ca.dot(h, A_m)) / pivot
+        margin = ca.fabs(pivot) / (self.chain.xi * nb)
+        return ca.Function("tail", [carry, t], [psi, p, margin, pivot], ["carry", "t"],
+                           ["s", "p", "longitudinal", "longitudinal_pivot"])
 
     def _u_from_rates(self, qdot):
         """``u = B^{-1} qdot`` (a division when B is diagonal)."""
@@ -116,21 +176,15 @@ class CoordinatingController:
         return ca.mtimes(ca.DM(np.linalg.inv(self.chain.B)), qdot)
 
     def _structured(self, q, t):
-        m, xi = self.chain.m, self.chain.xi
+        m = self.chain.m
+        w_t = self.time_features()(t)
         fold = self.link_step().mapaccum("links", m - 1)
-        carry0 = ca.vertcat(0, 0, q[0], 0, 0, 0, 0, 0, 1)
-        carries, outs = fold(carry0, q[1:].T, ca.repmat(t, 1, m - 1))
-        last = carries[:, m - 2]
-        y_m, A_m, B_m = last[0:2], last[3:5], last[5:7]
-        _, _, _, psi, h, psit, = self._geometry(y_m, t)
+        carries, outs = fold(self.first_carry()(q[0]), q[1:].T, ca.repmat(w_t, 1, m - 1))
+        psi, p, margin, pivot = self.tail()(carries[:, m - 2], t)
         a = ca.vertcat(0, outs[2, :].T)
         b = ca.vertcat(1, outs[3, :].T)
-        pivot = ca.dot(h, B_m)                       # the longitudinal pivot [m/rad]
-        p = (self.speed(t) - psit - ca.dot(h, A_m)) / pivot
         w = a + b * p
         qdot = w - ca.vertcat(0, w[:-1])
-        # dimensionless: end-point speed along the curve per unit of joint-rate effort
-        margin = ca.fabs(pivot) / (xi * ca.norm_1(b))          # = sin(beta) on a zig-zag
         return (self._u_from_rates(qdot), outs[0, :].T, psi, outs[1, :].T, margin, pivot)
 
     def decoupling_matrix_expr(self, q, t):
@@ -210,6 +264,30 @@ class CoordinatingController:
             M, r = self.decoupling_matrix_expr(q, t)
             self._cache["M"] = ca.Function("decoupling", [q, t], [M, r], ["q", "t"], ["M", "rhs"])
         return self._cache["M"]
+
+    def compile(self, form: str | None = None, **build_options: Any):
+        """The law as generated C, compiled (or taken from the build cache) and loaded.
+
+        Parameters
+        ----------
+        form : {"structured", "dense"}, optional
+            Law form (default: this controller's).
+        **build_options
+            Passed to :class:`generated.compiled.CompiledController` (``cc``, ``flags``,
+            ``build_dir``).
+
+        Returns
+        -------
+        generated.compiled.CompiledController
+            Same ``control(q, t)`` and ``evaluate(q, t)`` as this object, backed by C.
+
+        Raises
+        ------
+        BuildError
+            No C compiler, or the generated code did not compile or load.
+        """
+        from generated.compiled import CompiledController   # generated imports symbolic, not back
+        return CompiledController(self, form or self.law_form, **build_options)
 
     # --------------------------------------------------------------- numeric API
     def evaluate(self, q, t: float = 0.0, form: str | None = None) -> dict[str, Any]:

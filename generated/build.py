@@ -1,0 +1,207 @@
+"""Compile generated C into a shared library, cached by a content hash.
+
+Cache entry: ``<build dir>/<key[:16]>/`` with ``coordarm.c``, ``libcoordarm.so`` and
+``meta.json`` (the full key and the library's SHA-256). The key hashes everything that
+determines the library: the generated source, the compiler (path and version), the
+flags, the CasADi version and the code-generation options. Every file is written under
+a temporary name and renamed into place, and a library is loaded only when its checksum
+matches ``meta.json``: a stale or half-written entry is rebuilt, never loaded, and two
+processes building the same key both end with a valid library.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import shlex
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import casadi as ca
+
+from symbolic import BuildError
+
+from .codegen import CODEGEN_OPTIONS, Source
+
+#: Optimisation flags (see benchmarks/RESULTS.md for -O2 vs -O3); override with COORDARM_CFLAGS.
+DEFAULT_FLAGS = ("-O3",)
+#: Flags every build needs: position-independent shared object, only the glue API exported.
+REQUIRED_FLAGS = ("-fPIC", "-shared", "-fvisibility=hidden")   # before the user flags
+LIBRARY, SOURCE, META = "libcoordarm.so", "coordarm.c", "meta.json"
+
+
+@dataclass(frozen=True)
+class Library:
+    """A compiled controller library in the cache.
+
+    Attributes
+    ----------
+    path : Path
+        The shared library.
+    key : str
+        Its cache key (SHA-256 hex).
+    cache_hit : bool
+        True when it was found in the cache, False when it was compiled now.
+    compile_seconds : float
+        Wall time of the compiler run (0 on a cache hit).
+    """
+
+    path: Path
+    key: str
+    cache_hit: bool
+    compile_seconds: float
+
+
+def build_root(build_dir: str | os.PathLike | None = None) -> Path:
+    """The cache directory: ``build_dir``, else ``$COORDARM_BUILD_DIR``, else ``generated/_build``."""
+    if build_dir is not None:
+        return Path(build_dir)
+    env = os.environ.get("COORDARM_BUILD_DIR")
+    return Path(env) if env else Path(__file__).resolve().parent / "_build"
+
+
+def find_compiler(cc: str | None = None) -> str:
+    """Absolute path of the C compiler: ``cc``, else ``$CC``, else ``cc`` or ``gcc`` on the PATH.
+
+    Raises
+    ------
+    BuildError
+        No such compiler.
+    """
+    names = [cc] if cc else ([os.environ["CC"]] if os.environ.get("CC") else ["cc", "gcc", "clang"])
+    for name in names:
+        path = shutil.which(name)
+        if path:
+            return path
+    raise BuildError(f"no C compiler found (tried {', '.join(names)}; set CC to one); "
+                     "the compiled backend needs one")
+
+
+@functools.lru_cache(maxsize=None)
+def _compiler_version(path: str) -> str:
+    try:
+        res = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=30)
+    except OSError as exc:
+        raise BuildError(f"C compiler {path} does not run: {exc}") from None
+    return res.stdout.strip()
+
+
+def compile_flags(flags: tuple[str, ...] | list[str] | str | None = None) -> tuple[str, ...]:
+    """Optimisation flags: ``flags``, else ``$COORDARM_CFLAGS``, else :data:`DEFAULT_FLAGS`."""
+    if flags is None:
+        env = os.environ.get("COORDARM_CFLAGS")
+        return tuple(shlex.split(env)) if env else DEFAULT_FLAGS
+    return tuple(shlex.split(flags)) if isinstance(flags, str) else tuple(flags)
+
+
+def cache_key(source: Source, cc: str, flags: tuple[str, ...]) -> str:
+    """SHA-256 over source, compiler path and version, flags, CasADi version, codegen options."""
+    h = hashlib.sha256()
+    for part in (source.text, cc, _compiler_version(cc), json.dumps(list(flags)), ca.__version__,
+                 json.dumps(CODEGEN_OPTIONS, sort_keys=True), json.dumps(list(REQUIRED_FLAGS))):
+        h.update(part.encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _write_atomic(path: Path, data: bytes) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def cached(entry: Path, key: str) -> bool:
+    """True if ``entry`` holds a complete library for ``key`` whose checksum matches its metadata."""
+    try:
+        meta = json.loads((entry / META).read_text())
+        return meta.get("key") == key and meta.get("sha256") == _sha256(entry / LIBRARY)
+    except (OSError, ValueError):
+        return False
+
+
+def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
+          force: bool = False, timeout: float | None = None) -> Library:
+    """Compile ``source`` (or take it from the cache) and return the library.
+
+    Parameters
+    ----------
+    source : Source
+        From :func:`generated.codegen.generate_source`.
+    cc : str, optional
+        C compiler (default ``$CC``, else ``cc``/``gcc``/``clang``).
+    flags : sequence of str or str, optional
+        Optimisation flags (default ``$COORDARM_CFLAGS``, else :data:`DEFAULT_FLAGS`).
+    build_dir : path, optional
+        Cache directory (default :func:`build_root`).
+    force : bool
+        Recompile even if the cache holds the library.
+    timeout : float, optional
+        Give up (and stop the compiler) after this many seconds.
+
+    Raises
+    ------
+    BuildError
+        No compiler, it failed (its message included) or it exceeded ``timeout``.
+    """
+    cc_path = find_compiler(cc)
+    flags = compile_flags(flags)
+    key = cache_key(source, cc_path, flags)
+    entry = build_root(build_dir) / key[:16]
+    if not force and cached(entry, key):
+        return Library(entry / LIBRARY, key, True, 0.0)
+    try:
+        entry.mkdir(parents=True, exist_ok=True)
+        src = entry / SOURCE
+        _write_atomic(src, source.text.encode())
+        fd, tmp = tempfile.mkstemp(dir=entry, prefix=LIBRARY + ".", suffix=".tmp")
+        os.close(fd)
+    except OSError as exc:
+        raise BuildError(f"build directory {entry}: {exc}") from None
+    cmd = [cc_path, *REQUIRED_FLAGS, *flags, "-o", tmp, str(src), "-lm"]   # later flags win
+    start = time.perf_counter()
+    try:
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        Path(tmp).unlink(missing_ok=True)
+        raise BuildError(f"compiling {src} took longer than {timeout} s; stopped") from None
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise BuildError(f"C compiler {cc_path} did not run: {exc}") from None
+    seconds = time.perf_counter() - start
+    if res.returncode != 0:
+        Path(tmp).unlink(missing_ok=True)
+        raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
+    digest = _sha256(Path(tmp))
+    os.replace(tmp, entry / LIBRARY)
+    meta = {"key": key, "sha256": digest, "compiler": cc_path, "compiler_version": _compiler_version(cc_path),
+            "flags": list(flags), "casadi": ca.__version__, "codegen_options": CODEGEN_OPTIONS,
+            "form": source.form, "links": source.m, "compile_seconds": seconds}
+    _write_atomic(entry / META, json.dumps(meta, indent=1).encode())
+    return Library(entry / LIBRARY, key, False, seconds)
+
+
+def clean(build_dir=None) -> int:
+    """Delete every cached library under the cache directory; return how many entries went."""
+    root = build_root(build_dir)
+    if not root.is_dir():
+        return 0
+    n = 0
+    for entry in root.iterdir():
+        if entry.is_dir() and len(entry.name) == 16:
+            shutil.rmtree(entry, ignore_errors=True)
+            n += 1
+    return n

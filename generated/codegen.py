@@ -1,0 +1,94 @@
+"""Emit the C source of a controller: CasADi-generated Functions plus the glue of :mod:`.templates`.
+
+The structured law is emitted as four small Functions (time features, first carry, one
+link step, tail) and a C loop over links, so the code size and the compile time do not
+grow with the number of links. The dense law (eq. 27) is emitted as one Function.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from symbolic import BuildError, CoordinatingController
+
+from . import templates
+
+#: Options of CasADi's CodeGenerator (part of the cache key).
+CODEGEN_OPTIONS = {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"}
+
+
+@dataclass(frozen=True)
+class Source:
+    """Generated C source of one controller.
+
+    Attributes
+    ----------
+    text : str
+        The complete C translation unit.
+    form : str
+        ``"structured"`` or ``"dense"``.
+    m : int
+        Number of links.
+    """
+
+    text: str
+    form: str
+    m: int
+
+
+def _functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
+    if form == "structured":
+        return [ctrl.time_features(), ctrl.first_carry(), ctrl.link_step(), ctrl.tail()]
+    return [ctrl.law("dense")]
+
+
+def _b_macros(ctrl: CoordinatingController) -> str:
+    bd = ctrl.chain.b_diagonal
+    if bd is None:
+        raise BuildError("B: the compiled backend needs a diagonal input matrix B; "
+                         "use backend='interpreted' for a full B")
+    if np.all(bd == 1):
+        return templates.B_IDENTITY
+    return templates.B_DIAGONAL.format(values=", ".join(repr(float(v)) for v in bd))
+
+
+def generate_source(ctrl: CoordinatingController, form: str = "structured") -> Source:
+    """The C source of ``ctrl``'s law (``form``), RK4 step and chunk loop.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Chain (with a diagonal B), curve, gain and speed.
+    form : {"structured", "dense"}
+        Law form.
+
+    Returns
+    -------
+    Source
+
+    Raises
+    ------
+    BuildError
+        A non-diagonal B, or an unknown form.
+    """
+    if form not in ("structured", "dense"):
+        raise BuildError(f"law: expected 'structured' or 'dense', got {form!r}")
+    b_macros = _b_macros(ctrl)
+    funcs = _functions(ctrl, form)
+    cg = ca.CodeGenerator("coordarm", dict(CODEGEN_OPTIONS))
+    for f in funcs:
+        cg.add(f)
+    sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
+             for k in ("arg", "res", "iw", "w")}
+    m = ctrl.chain.m
+    parts = [cg.dump(), templates.HEADER.format(m=m, b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
+    if form == "structured":
+        parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
+                     f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
+        parts.append(templates.STRUCTURED_LAW)
+    else:
+        parts.append(templates.DENSE_LAW.replace("{law_name}", funcs[0].name()))
+    parts.append(templates.LOOP)
+    return Source("\n".join(parts), form, m)

@@ -1,0 +1,172 @@
+"""The compiled controller: the generated library loaded with ctypes, with a lean call path.
+
+Buffers (state, outputs, CasADi work arrays) are allocated once per object, so a call
+from Python is one ctypes call plus a copy of ``q`` in and of ``u`` out.
+"""
+from __future__ import annotations
+
+import ctypes
+import time
+from typing import Any
+
+import numpy as np
+
+from symbolic import OUTPUTS, BuildError, ConfigError, CoordinatingController
+
+from .build import Library, build
+from .codegen import generate_source
+
+_P, _D, _I = ctypes.c_void_p, ctypes.c_double, ctypes.c_longlong
+_SIGNATURES = {"coordarm_law": [_P, _D, _P, _P, _P],
+               "coordarm_rk4": [_P, _D, _D, _P, _P, _P, _P],
+               "coordarm_chunk": [_P, _P, _D, _I, _P, _P, _P, _P]}
+
+
+def load_library(path) -> ctypes.CDLL:
+    """Load a generated library and declare its functions' argument types.
+
+    Raises
+    ------
+    BuildError
+        The file is not a loadable library or lacks the coordarm API.
+    """
+    try:
+        lib = ctypes.CDLL(str(path))
+        for name, argtypes in _SIGNATURES.items():
+            f = getattr(lib, name)
+            f.argtypes, f.restype = argtypes, ctypes.c_int
+        lib.coordarm_sizes.argtypes, lib.coordarm_sizes.restype = [_P], None
+    except (OSError, AttributeError) as exc:
+        raise BuildError(f"cannot load generated library {path}: {exc}") from None
+    return lib
+
+
+class CompiledController:
+    """A :class:`~symbolic.CoordinatingController`'s law, RK4 step and chunk loop as compiled C.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller to compile (its chain needs a diagonal B).
+    form : {"structured", "dense"}
+        Law form.
+    cc, flags, build_dir :
+        Compiler, optimisation flags and cache directory (see :func:`generated.build.build`).
+    force : bool
+        Recompile even on a cache hit.
+
+    Attributes
+    ----------
+    library : Library
+        Path, cache key, whether the build hit the cache, compile time.
+    generate_seconds : float
+        Time spent generating the C source.
+
+    Notes
+    -----
+    The buffers are shared by all calls of one object: use one object per thread.
+    """
+
+    def __init__(self, ctrl: CoordinatingController, form: str = "structured", *, cc: str | None = None,
+                 flags=None, build_dir=None, force: bool = False) -> None:
+        self.ctrl, self.form, self.chain = ctrl, form, ctrl.chain
+        start = time.perf_counter()
+        source = generate_source(ctrl, form)
+        self.generate_seconds = time.perf_counter() - start
+        self.library: Library = build(source, cc=cc, flags=flags, build_dir=build_dir, force=force)
+        self._lib = load_library(self.library.path)
+        sizes = np.zeros(4, dtype=np.int64)
+        self._lib.coordarm_sizes(sizes.ctypes.data)
+        m, self.n_out, n_iw, n_w = (int(v) for v in sizes)
+        if m != self.chain.m:
+            raise BuildError(f"generated library {self.library.path} is for {m} links, not {self.chain.m}")
+        self.m = m
+        self._q = np.zeros(m)
+        self._out = np.zeros(self.n_out)
+        self._qn = np.zeros(m)
+        self._iw = np.zeros(n_iw, dtype=np.int64)
+        self._w = np.zeros(n_w)
+        self._ptr = (self._q.ctypes.data, self._out.ctypes.data, self._iw.ctypes.data, self._w.ctypes.data,
+                     self._qn.ctypes.data)
+        self._law_c, self._rk4_c, self._chunk_c = (self._lib.coordarm_law, self._lib.coordarm_rk4,
+                                                   self._lib.coordarm_chunk)
+
+    @property
+    def cache_hit(self) -> bool:
+        """Whether the library came from the build cache."""
+        return self.library.cache_hit
+
+    def _load_q(self, q) -> None:
+        if type(q) is np.ndarray and q.shape == self._q.shape:
+            self._q[:] = q
+        else:
+            self._q[:] = self.chain.check_q(q)
+
+    def _fail(self, rc: int, t: float) -> None:
+        if rc == 1:
+            self.chain.check_q(self._q)
+            raise ConfigError(f"t: must be finite, got {t!r}")
+        raise BuildError(f"generated library {self.library.path}: a generated Function failed (code {rc})")
+
+    def control(self, q, t: float = 0.0) -> np.ndarray:
+        """Control ``u(q, t)``, shape (m,)."""
+        self._load_q(q)
+        rc = self._law_c(self._ptr[0], t, self._ptr[1], self._ptr[2], self._ptr[3])
+        if rc:
+            self._fail(rc, t)
+        return self._out[:self.m].copy()
+
+    def evaluate(self, q, t: float = 0.0) -> dict[str, Any]:
+        """All outputs of the law at ``(q, t)``, keyed like :meth:`CoordinatingController.evaluate`."""
+        self.control(q, t)
+        return split_outputs(self._out, self.m)
+
+    def step(self, q, t: float, h: float) -> np.ndarray:
+        """One closed-loop RK4 step of length ``h`` from ``(q, t)``: the next state."""
+        self._load_q(q)
+        p = self._ptr
+        rc = self._rk4_c(p[0], t, h, p[4], p[1], p[2], p[3])
+        if rc:
+            self._fail(rc, t)
+        return self._qn.copy()
+
+    def chunk(self, q0, times: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+        """RK4 steps of length ``h`` starting at each of ``times``, all in one call of C.
+
+        Returns
+        -------
+        Q : (n, m) array
+            State after each step.
+        D : (n, 3m+1) array
+            The law at each step's start (see :func:`split_outputs`).
+        """
+        self._load_q(q0)
+        times = np.ascontiguousarray(times, dtype=float)
+        n = len(times)
+        Q, D = np.empty((n, self.m)), np.empty((n, self.n_out))
+        p = self._ptr
+        rc = self._chunk_c(p[0], times.ctypes.data, h, n, Q.ctypes.data, D.ctypes.data, p[2], p[3])
+        if rc:
+            self._fail(rc, float(times[0]) if n else 0.0)
+        return Q, D
+
+    def __repr__(self) -> str:
+        return (f"CompiledController({self.ctrl!r}, form={self.form!r}, library={str(self.library.path)!r}, "
+                f"cache_hit={self.cache_hit})")
+
+
+def split_outputs(out: np.ndarray, m: int) -> dict[str, Any]:
+    """Split a packed output row ``(u, e, s, link_margins, longitudinal, pivot)`` into a dict.
+
+    Works on one row (shape (3m+1,)) or a block of rows (shape (n, 3m+1)).
+    """
+    cuts = np.cumsum([m, m - 1, 1, m - 1, 1, 1])[:-1]
+    parts = np.split(np.array(out, dtype=float), cuts, axis=-1)
+    result: dict[str, Any] = {}
+    for name, v in zip(OUTPUTS, parts):
+        if name in ("s", "longitudinal", "longitudinal_pivot"):
+            v = v[..., 0]
+            result[name] = float(v) if v.ndim == 0 else v
+        else:
+            result[name] = v
+    return result

@@ -1,0 +1,147 @@
+"""Hand-written C glue around the CasADi-generated Functions (kept apart from the logic).
+
+The glue defines the library's whole API (every other symbol is hidden):
+
+* ``coordarm_law(q, t, out, iw, w)``: the law at ``(q, t)``; ``out`` holds
+  ``u[m], e[m-1], s, link_margins[m-1], longitudinal, longitudinal_pivot``;
+* ``coordarm_rk4(q, t, h, q_next, out, iw, w)``: one closed-loop RK4 step, ``out`` being
+  the law at the step's start;
+* ``coordarm_chunk(q0, times, h, n, Q, D, iw, w)``: ``n`` RK4 steps in one call;
+* ``coordarm_sizes(sizes)``: ``m``, ``len(out)``, ``len(iw)``, ``len(w)``.
+
+A law call returns 1 when ``q`` or ``t`` is not finite (nothing is computed), 2 when a
+generated Function failed, 0 otherwise.
+"""
+from __future__ import annotations
+
+#: Preamble: sizes and the exported-symbol marker; formatted with the layout numbers.
+HEADER = """
+/* ---- coordarm glue (generated/templates.py) ---- */
+#define CA_M {m}
+#define CA_NOUT (3 * CA_M + 1)
+#define CA_SZ_ARG {sz_arg}
+#define CA_SZ_RES {sz_res}
+#define CA_SZ_IW {sz_iw}
+#define CA_SZ_W {sz_w}
+#define CA_SCRATCH (6 * CA_M + CA_NOUT)
+#define COORDARM_API __attribute__((visibility("default")))
+{b_diagonal}
+static int ca_finite(const casadi_real* q, casadi_real t) {{
+  casadi_int j;
+  casadi_real acc = t - t;
+  for (j = 0; j < CA_M; ++j) acc += q[j] - q[j];   /* NaN iff some entry is NaN or inf */
+  return acc == 0;
+}}
+"""
+
+#: ``u = qdot / diag(B)`` and ``k = diag(B) u`` when B is a non-unit diagonal.
+B_DIAGONAL = """static const casadi_real ca_bd[CA_M] = {{{values}}};
+#define CA_U_FROM_QDOT(j, v) ((v) / ca_bd[j])
+#define CA_K_FROM_U(j, v) (ca_bd[j] * (v))"""
+#: The same for B = I.
+B_IDENTITY = """#define CA_U_FROM_QDOT(j, v) (v)
+#define CA_K_FROM_U(j, v) (v)"""
+
+#: The structured law: a loop over links calling the generated per-link step.
+STRUCTURED_LAW = """
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
+  casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[4], tl[4], a[CA_M], b[CA_M];
+  casadi_real *cur = c0, *nxt = c1, *tmp, p, rate, prev;
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  casadi_int j;
+  arg[0] = &t; res[0] = wt;
+  if (time_features(arg, res, iw, w, 0)) return 2;
+  arg[0] = q; res[0] = cur;
+  if (first_carry(arg, res, iw, w, 0)) return 2;
+  a[0] = 0; b[0] = 1;
+  for (j = 1; j < CA_M; ++j) {
+    arg[0] = cur; arg[1] = q + j; arg[2] = wt; res[0] = nxt; res[1] = o;
+    if (link_step(arg, res, iw, w, 0)) return 2;
+    out[CA_M + j - 1] = o[0];          /* e^j */
+    out[2 * CA_M + j - 1] = o[1];      /* link margin */
+    a[j] = o[2]; b[j] = o[3];
+    tmp = cur; cur = nxt; nxt = tmp;
+  }
+  arg[0] = cur; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
+  if (tail(arg, res, iw, w, 0)) return 2;
+  out[2 * CA_M - 1] = tl[0];           /* s */
+  out[3 * CA_M - 1] = tl[2];           /* longitudinal margin */
+  out[3 * CA_M] = tl[3];               /* longitudinal pivot */
+  p = tl[1];                           /* the free rate w_1 */
+  prev = 0;
+  for (j = 0; j < CA_M; ++j) {         /* w_j = a_j + b_j p, qdot_j = w_j - w_{j-1} */
+    rate = a[j] + b[j] * p;
+    out[j] = CA_U_FROM_QDOT(j, rate - prev);
+    prev = rate;
+  }
+  return 0;
+}
+"""
+
+#: The dense law: one call of the generated eq. 27 Function.
+DENSE_LAW = """
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  arg[0] = q; arg[1] = &t;
+  res[0] = out; res[1] = out + CA_M; res[2] = out + 2 * CA_M - 1; res[3] = out + 2 * CA_M;
+  res[4] = out + 3 * CA_M - 1; res[5] = out + 3 * CA_M;
+  return {law_name}(arg, res, iw, w, 0) ? 2 : 0;
+}
+"""
+
+#: RK4 step, chunk loop and sizes: shared by both law forms.
+LOOP = """
+COORDARM_API int coordarm_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw,
+                              casadi_real* w) {
+  if (!ca_finite(q, t)) return 1;
+  return ca_law(q, t, out, iw, w);
+}
+
+/* Same operation order as CoordinatingController.rk4_step, so both agree to rounding. */
+static int ca_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_real* q_next,
+                  casadi_real* out, casadi_int* iw, casadi_real* w) {
+  casadi_real *k1 = w + CA_SZ_W, *k2 = k1 + CA_M, *k3 = k2 + CA_M, *k4 = k3 + CA_M;
+  casadi_real *x = k4 + CA_M, *o = x + CA_M;
+  casadi_real h2 = h / 2, h6 = h / 6;
+  casadi_int j;
+  int rc;
+  if ((rc = ca_law(q, t, out, iw, w))) return rc;
+  for (j = 0; j < CA_M; ++j) { k1[j] = CA_K_FROM_U(j, out[j]); x[j] = q[j] + h2 * k1[j]; }
+  if ((rc = ca_law(x, t + h2, o, iw, w))) return rc;
+  for (j = 0; j < CA_M; ++j) { k2[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h2 * k2[j]; }
+  if ((rc = ca_law(x, t + h2, o, iw, w))) return rc;
+  for (j = 0; j < CA_M; ++j) { k3[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h * k3[j]; }
+  if ((rc = ca_law(x, t + h, o, iw, w))) return rc;
+  for (j = 0; j < CA_M; ++j) {
+    k4[j] = CA_K_FROM_U(j, o[j]);
+    q_next[j] = q[j] + h6 * (((k1[j] + 2 * k2[j]) + 2 * k3[j]) + k4[j]);
+  }
+  return 0;
+}
+
+COORDARM_API int coordarm_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_real* q_next,
+                              casadi_real* out, casadi_int* iw, casadi_real* w) {
+  if (!ca_finite(q, t)) return 1;
+  return ca_rk4(q, t, h, q_next, out, iw, w);
+}
+
+/* n steps: Q[k] is the state after step k, D[k] the law at the start of step k (time times[k]). */
+COORDARM_API int coordarm_chunk(const casadi_real* q0, const casadi_real* times, casadi_real h, casadi_int n,
+                                casadi_real* Q, casadi_real* D, casadi_int* iw, casadi_real* w) {
+  const casadi_real* q = q0;
+  casadi_int k;
+  int rc;
+  if (!ca_finite(q0, h)) return 1;     /* afterwards NaN propagates, as in the interpreted loop */
+  for (k = 0; k < n; ++k) {
+    if ((rc = ca_rk4(q, times[k], h, Q + k * CA_M, D + k * CA_NOUT, iw, w))) return rc;
+    q = Q + k * CA_M;
+  }
+  return 0;
+}
+
+COORDARM_API void coordarm_sizes(casadi_int* sizes) {
+  sizes[0] = CA_M; sizes[1] = CA_NOUT; sizes[2] = CA_SZ_IW + 1; sizes[3] = CA_SZ_W + CA_SCRATCH;
+}
+"""

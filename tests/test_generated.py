@@ -1,0 +1,283 @@
+"""Generated C: the compiled law, RK4 step and chunk loop agree with interpreted CasADi; the build cache."""
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import warnings
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from generated.build import LIBRARY, META, build, cached
+from generated.codegen import generate_source
+from generated.compiled import CompiledController, split_outputs
+from simulation.cli import main as cli_main
+from simulation.run import BackendFallbackWarning, simulate
+from simulation.scenario import load_scenario, presets
+from symbolic import (OUTPUTS, Arc, BuildError, Circle, ConfigError, CoordinatingController, Line,
+                      PlanarChain)
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def moving_curve(kind):
+    if kind == "line":
+        return Line(point=(lambda t: 0.02 * ca.sin(t), 0.01), angle=lambda t: 0.6 * ca.sin(0.2 * t))
+    if kind == "circle":
+        return Circle(center=(lambda t: 0.1 * ca.sin(0.5 * t), 2.0), radius=lambda t: 2.0 + 0.1 * ca.cos(t))
+    return Arc(angle=lambda t: 0.3 * ca.sin(0.4 * t), radius=lambda t: 1.5 + 0.2 * ca.sin(t))
+
+
+def controller(kind, m, B=None, law="structured"):
+    return CoordinatingController(PlanarChain(m, 0.1, B=B), moving_curve(kind), 2.0,
+                                  speed=lambda t: 0.1 + 0.05 * ca.sin(t), law=law)
+
+
+def random_state(chain, rng, spread=0.15):
+    return chain.zigzag(rng.uniform(0.5, 1.4), rng.uniform(-0.5, 0.5)) + rng.normal(0, spread, chain.m)
+
+
+def assert_outputs_agree(a, b, tol=1e-12):
+    for name in OUTPUTS:
+        x, y = np.asarray(a[name], dtype=float), np.asarray(b[name], dtype=float)
+        assert x.shape == y.shape, name
+        np.testing.assert_allclose(x, y, rtol=tol, atol=tol, err_msg=name)
+
+
+COMPILED = {}
+
+
+def compiled(kind, m, B=None, law="structured"):
+    """One controller and its compiled twin per configuration (compiling is the slow part)."""
+    key = (kind, m, None if B is None else tuple(B), law)
+    if key not in COMPILED:
+        ctrl = controller(kind, m, B, law)
+        COMPILED[key] = (ctrl, ctrl.compile())
+    return COMPILED[key]
+
+
+@pytest.mark.parametrize("kind", ["line", "circle", "arc"])
+@pytest.mark.parametrize("m", [2, 7, 33])
+@given(seed=st.integers(0, 2**31))
+def test_compiled_law_agrees_with_interpreted_to_1e12_on_random_states(kind, m, seed):
+    ctrl, comp = compiled(kind, m)
+    rng = np.random.default_rng(seed)
+    q, t = random_state(ctrl.chain, rng), rng.uniform(0, 10)
+    assert_outputs_agree(comp.evaluate(q, t), ctrl.evaluate(q, t))
+    np.testing.assert_allclose(comp.control(q, t), ctrl.control(q, t), rtol=1e-12, atol=1e-12)
+
+
+def test_compiled_law_with_a_diagonal_b_agrees(rng):
+    B = rng.uniform(0.5, 2.0, 9)
+    ctrl, comp = compiled("circle", 9, B=B)
+    for _ in range(10):
+        q, t = random_state(ctrl.chain, rng), rng.uniform(0, 10)
+        assert_outputs_agree(comp.evaluate(q, t), ctrl.evaluate(q, t))
+        h = 1e-3
+        np.testing.assert_allclose(comp.step(q, t, h), np.asarray(ctrl.rk4_step(h)(q, t)[0]).ravel(),
+                                   rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["line", "arc"])
+def test_compiled_dense_law_agrees_with_interpreted_dense(kind, rng):
+    ctrl, comp = compiled(kind, 6, law="dense")
+    for _ in range(10):
+        q, t = random_state(ctrl.chain, rng), rng.uniform(0, 10)
+        assert_outputs_agree(comp.evaluate(q, t), ctrl.evaluate(q, t, "dense"))
+
+
+@pytest.mark.parametrize("kind", ["line", "circle"])
+def test_compiled_rk4_step_and_chunk_agree_with_the_interpreted_step(kind, rng):
+    ctrl, comp = compiled(kind, 7)
+    h, q = 2e-3, random_state(ctrl.chain, rng)
+    times = 0.5 + h * np.arange(20)
+    Q, D = comp.chunk(q, times, h)
+    step = ctrl.rk4_step(h)
+    x = q
+    for k, t in enumerate(times):
+        res = [np.asarray(v).ravel() for v in step(x, t)]
+        np.testing.assert_allclose(comp.step(x, t, h), res[0], rtol=1e-12, atol=1e-12)
+        d = split_outputs(D[k], ctrl.chain.m)
+        for name, ref in zip(OUTPUTS[:5], res[1:]):
+            np.testing.assert_allclose(np.atleast_1d(d[name]), ref, rtol=1e-12, atol=1e-12, err_msg=name)
+        x = res[0]
+        np.testing.assert_allclose(Q[k], x, rtol=1e-12, atol=1e-12)
+
+
+def test_generated_code_does_not_grow_with_the_number_of_links():
+    small = generate_source(controller("line", 8)).text
+    large = generate_source(controller("line", 1024)).text
+    assert abs(len(large) - len(small)) < 100
+
+
+@pytest.mark.parametrize("name", presets())
+def test_compiled_runs_reproduce_interpreted_runs_of_every_preset(name):
+    scenario = load_scenario(name).with_overrides(12, 0.3, None)
+    ctrl = scenario.controller()
+    q0 = scenario.start(ctrl)
+    args = (ctrl, q0, scenario.duration, scenario.step, scenario.t0)
+    a = simulate(*args, backend="compiled", chunk=128)
+    b = simulate(*args, backend="interpreted", chunk=128)
+    assert a.info["backend"] == "compiled" and b.info["backend"] == "interpreted"
+    for field in ("t", "q", "u", "e", "s", "link_margins", "longitudinal", "v_star"):
+        np.testing.assert_allclose(getattr(a, field), getattr(b, field), rtol=1e-12, atol=1e-12, err_msg=field)
+
+
+def test_bad_inputs_to_the_compiled_law_are_clear_errors():
+    ctrl, comp = compiled("line", 7)
+    q = ctrl.chain.zigzag(1.0)
+    with pytest.raises(ConfigError, match="q: need shape"):
+        comp.control(q[:-1])
+    bad = q.copy()
+    bad[3] = np.nan
+    with pytest.raises(ConfigError, match="index 3"):
+        comp.control(bad)
+    with pytest.raises(ConfigError, match="t: must be finite"):
+        comp.control(q, float("inf"))
+
+
+# ------------------------------------------------------------------ build cache
+def test_cold_build_then_cache_hit(tmp_path):
+    ctrl = controller("line", 5)
+    cold = CompiledController(ctrl, build_dir=tmp_path)
+    assert not cold.cache_hit and cold.library.path.is_file()
+    meta = json.loads((cold.library.path.parent / META).read_text())
+    assert meta["key"] == cold.library.key and meta["casadi"] == ca.__version__
+    warm = CompiledController(controller("line", 5), build_dir=tmp_path)
+    assert warm.cache_hit and warm.library.path == cold.library.path
+    q = ctrl.chain.zigzag(1.0)
+    np.testing.assert_array_equal(warm.control(q, 1.0), cold.control(q, 1.0))
+
+
+def test_everything_that_determines_the_code_changes_the_key(tmp_path):
+    base = generate_source(controller("line", 5))
+    key = build(base, build_dir=tmp_path).key
+    assert build(base, build_dir=tmp_path, flags=["-O1"]).key != key
+    other_gain = CoordinatingController(PlanarChain(5, 0.1), moving_curve("line"), 3.0,
+                                        speed=lambda t: 0.1 + 0.05 * ca.sin(t))
+    assert build(generate_source(other_gain), build_dir=tmp_path).key != key
+    assert build(generate_source(controller("circle", 5)), build_dir=tmp_path).key != key
+
+
+@pytest.mark.parametrize("damage", ["truncate", "garbage", "no_meta", "stale_meta"])
+def test_a_damaged_cache_entry_is_rebuilt_not_loaded(tmp_path, damage):
+    source = generate_source(controller("line", 5))
+    lib = build(source, build_dir=tmp_path)
+    entry = lib.path.parent
+    if damage == "truncate":                     # half-written library
+        data = lib.path.read_bytes()
+        lib.path.write_bytes(data[:len(data) // 2])
+    elif damage == "garbage":
+        lib.path.write_bytes(b"\x7fELF not really")
+    elif damage == "no_meta":
+        (entry / META).unlink()
+    else:
+        meta = json.loads((entry / META).read_text())
+        meta["key"] = "0" * 64
+        (entry / META).write_text(json.dumps(meta))
+    assert not cached(entry, lib.key)
+    again = build(source, build_dir=tmp_path)
+    assert not again.cache_hit and cached(entry, lib.key)
+    assert not list(entry.glob("*.tmp"))
+
+
+def test_two_processes_building_the_same_key_at_once_both_end_with_a_valid_library(tmp_path):
+    script = textwrap.dedent(f"""
+        import sys, time
+        sys.path.insert(0, {str(REPO)!r})
+        import numpy as np
+        from symbolic import CoordinatingController, Line, PlanarChain
+        from generated.compiled import CompiledController
+        ctrl = CoordinatingController(PlanarChain(40, 0.1), Line(angle=0.2), 2.0, 0.1)
+        start = float(sys.argv[1])
+        while time.time() < start:
+            pass
+        comp = CompiledController(ctrl, build_dir={str(tmp_path)!r}, force=True)
+        u = comp.control(ctrl.chain.zigzag(1.0), 0.5)
+        print(comp.library.key, float(np.abs(u - ctrl.control(ctrl.chain.zigzag(1.0), 0.5)).max()))
+        """)
+    import time
+    start = str(time.time() + 3.0)   # both past their imports, then build at once
+    procs = [subprocess.Popen([sys.executable, "-c", script, start], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [o[1] for o in outs]
+    keys = {o[0].split()[0] for o in outs}
+    assert len(keys) == 1 and all(float(o[0].split()[1]) <= 1e-12 for o in outs)
+    key = keys.pop()
+    entry = tmp_path / key[:16]
+    assert cached(entry, key) and not list(entry.glob("*.tmp"))
+
+
+def test_missing_compiler_auto_falls_back_with_a_warning_and_compiled_is_an_error(monkeypatch):
+    monkeypatch.setenv("CC", str(Path("/nonexistent/cc")))
+    chain = PlanarChain(6, 0.1)
+    ctrl = CoordinatingController(chain, Line(angle=0.1), 2.0, 0.1)
+    with pytest.warns(BackendFallbackWarning, match="no C compiler found"):
+        run = simulate(ctrl, chain.zigzag(1.0), 0.01)
+    assert run.info["backend"] == "interpreted"
+    with pytest.raises(BuildError, match="no C compiler found"):
+        simulate(CoordinatingController(chain, Line(angle=0.1), 2.0, 0.1), chain.zigzag(1.0), 0.01,
+                 backend="compiled")
+
+
+def test_compiler_failure_is_a_build_error_with_the_compiler_message(tmp_path):
+    with pytest.raises(BuildError, match="not-a-flag"):
+        build(generate_source(controller("line", 3)), build_dir=tmp_path, flags=["-fnot-a-flag"])
+
+
+def test_full_b_is_refused_by_the_compiled_backend_and_auto_falls_back():
+    B = np.eye(4) + 0.1 * np.eye(4, k=1)
+    chain = PlanarChain(4, 0.1, B=B)
+    ctrl = CoordinatingController(chain, Line(angle=0.1), 2.0, 0.1)
+    with pytest.raises(BuildError, match="diagonal input matrix B"):
+        ctrl.compile()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run = simulate(ctrl, chain.zigzag(1.0), 0.01)
+    assert run.info["backend"] == "interpreted" and caught
+
+
+def test_default_backend_is_compiled_and_reports_the_cache():
+    chain = PlanarChain(6, 0.1)
+    ctrl = CoordinatingController(chain, Line(angle=0.1), 2.0, 0.1)
+    run = simulate(ctrl, chain.zigzag(1.0), 0.01)
+    assert run.info["backend"] == "compiled" and Path(run.info["library"]).is_file()
+    assert isinstance(run.info["cache_hit"], bool)
+
+
+# ------------------------------------------------------------------------- CLI
+def test_regen_builds_the_named_scenarios_and_clean_empties_the_cache(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path))
+    assert cli_main(["regen", "line", "hole", "--links", "6"]) == 0
+    out = capsys.readouterr().out
+    assert out.count(LIBRARY) == 2 and "line: structured law, 6 links" in out
+    libs = list(tmp_path.glob(f"*/{LIBRARY}"))
+    assert len(libs) == 2
+    assert cli_main(["regen", "line", "--links", "6", "--law", "dense", "--clean"]) == 0
+    out = capsys.readouterr().out
+    assert "removed 2 cached libraries" in out and "dense law" in out
+    assert len(list(tmp_path.glob(f"*/{LIBRARY}"))) == 1
+
+
+def test_regen_of_a_bad_scenario_exits_2(tmp_path, capsys):
+    assert cli_main(["regen", str(tmp_path / "missing.toml")]) == 2
+    assert "missing.toml" in capsys.readouterr().err
+
+
+def test_run_reports_the_backend_and_the_cache(tmp_path, capsys):
+    args = ["run", "line", "--links", "6", "--duration", "0.05", "--quiet", "--no-figures",
+            "--out", str(tmp_path / "line.mcap")]
+    assert cli_main(args + ["--backend", "compiled"]) == 0
+    first = capsys.readouterr().out
+    assert cli_main(args) == 0
+    second = capsys.readouterr().out
+    assert "backend compiled" in first and ("built now" in first or "cache hit" in first)
+    assert "cache hit" in second
+    assert cli_main(args + ["--backend", "interpreted"]) == 0
+    assert "backend interpreted" in capsys.readouterr().out
