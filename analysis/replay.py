@@ -166,7 +166,7 @@ def load(path: str | Path) -> Replay:
     if not path.is_file():
         raise LogError(f"{path}: no such log file")
     schemas, channels, messages, meta, complete, error = _read_records(path)
-    where = f"{path}: MCAP log cut off"
+    where = f"{path}: {'not a coordarm run log' if complete else 'MCAP log cut off'}"
     detail = f" ({type(error).__name__}: {error})" if error else ""
     if "scenario" not in meta:
         raise LogError(f"{where}: no 'scenario' metadata could be read ({len(messages)} messages recovered "

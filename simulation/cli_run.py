@@ -6,11 +6,10 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-import numpy as np
-
 from symbolic import SingularityError
 
 from .figures import plot_stages, plot_tracking
+from .mcap_writer import RunLogger
 from .obstacles import clearance, wall_crossings
 from .run import Run, simulate
 from .scenario import Scenario, load_scenario, presets
@@ -27,6 +26,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--step", type=float, help="override the RK4 step [s]")
     p.add_argument("--law", choices=("structured", "dense"), help="form of the control law")
     p.add_argument("--out", type=Path, help="log file (default: logs/<scenario>.mcap); figures go beside it")
+    p.add_argument("--log-rate", type=float, metavar="HZ",
+                   help="samples per simulated second in the log (default: every step)")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
@@ -70,21 +71,23 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
 
 def main(args: argparse.Namespace) -> int:
     """Run the scenario named in ``args``; return 0 (done), 3 (stopped ahead of a singularity)."""
-    scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step)
-    ctrl = scenario.controller(law=args.law)
+    scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
+    ctrl = scenario.controller()
     q0 = scenario.start(ctrl)
     out = args.out or Path("logs") / f"{scenario.name}.mcap"
     out.parent.mkdir(parents=True, exist_ok=True)
     status = 0
     try:
-        run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0,
-                       thresholds=scenario.thresholds, progress=not args.quiet)
+        # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
+        with RunLogger(out, scenario, ctrl, log_rate=args.log_rate,
+                       backend=getattr(args, "backend", None) or "interpreted") as log:
+            run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0,
+                           thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=log.on_chunk)
     except SingularityError as err:
         print(f"coordarm run: {err}", file=sys.stderr)
         run, status = err.run, 3
-    np.savez(out.with_suffix(".npz"), **{k: getattr(run, k) for k in ("t", "q", "u", "e", "s")})
     print_summary(run, scenario)
-    print(f"log           {out.with_suffix('.npz')}")
+    print(f"log           {out}")
     if not args.no_figures:
         for p in write_figures(run, scenario, ctrl, out.with_suffix("")):
             print(f"figure        {p}")

@@ -104,6 +104,8 @@ class RunLogger:
         Wall time between pushes of the written chunks to the operating system [s].
     command : list of str, optional
         Command line stored in the ``run`` metadata (default: ``sys.argv``).
+    backend : str
+        Simulation backend, stored in the ``build`` metadata.
 
     Raises
     ------
@@ -116,7 +118,7 @@ class RunLogger:
     def __init__(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
                  log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float = COND_RATE,
                  chunk_size: int = 256 * 1024, flush_interval: float = 1.0,
-                 command: list[str] | None = None) -> None:
+                 command: list[str] | None = None, backend: str = "interpreted") -> None:
         self.scenario, self.ctrl = scenario, ctrl or scenario.controller()
         self.step = scenario.step
         self.every = self._decimation(log_rate, "log_rate") if log_rate is not None else 1
@@ -138,7 +140,7 @@ class RunLogger:
         self.ids["scene"] = self.file.add_channel(SCENE_TOPIC, "json", sid)
         self.origin = min(0.0, scenario.t0)  # log times are ns since this simulated time (>= 0)
         self.file.add_metadata("scenario", {"json": scenario.to_json(), "source": scenario.source})
-        self.file.add_metadata("build", build_info(scenario))
+        self.file.add_metadata("build", {**build_info(scenario), "backend": backend})
         self.file.add_metadata("run", {
             "command": json.dumps(list(sys.argv if command is None else command)),
             "started": datetime.now(timezone.utc).isoformat(timespec="seconds"), "host": socket.gethostname(),
