@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from symbolic import ConfigError, CoordinatingController, LogError, SingularityError
+from symbolic.curves import Line
 
 from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, NumericChannel, numeric_channels,
                           scene_update_schema_bytes)
@@ -254,7 +255,7 @@ class RunLogger:
         t = float(part.t[k])
         joints = self.ctrl.chain.joints_np(part.q[k])
         reach = self.ctrl.chain.m * self.ctrl.chain.xi
-        curve = self.ctrl.curve.sample(t, n=120, extent=2.2 * reach)
+        curve = self.ctrl.curve.sample(t, n=2 if isinstance(self.ctrl.curve, Line) else 90, extent=2.2 * reach)
         lines = [_line(joints, 0, 0.004, (0.15, 0.45, 0.9, 1.0)), _line(curve, 0, 0.002, (0.9, 0.5, 0.1, 0.8))]
         if len(self._walls):
             lines.append(_line(self._walls.reshape(-1, 2), 2, 0.01, (0.2, 0.2, 0.2, 1.0)))
@@ -293,8 +294,13 @@ class RunLogger:
         return False
 
 
+_POINT = '{"x":%.6f,"y":%.6f,"z":0}'
+
+
 def _line(points: np.ndarray, kind: int, thickness: float, color: tuple[float, ...]) -> str:
-    pts = ",".join(f'{{"x":{x:.6f},"y":{y:.6f},"z":0}}' for x, y in np.asarray(points, float).reshape(-1, 2))
+    """A ``foxglove.LinePrimitive`` in JSON (points formatted in one pass)."""
+    xy = np.asarray(points, float).reshape(-1, 2)
+    pts = ",".join([_POINT] * len(xy)) % tuple(xy.ravel().tolist())
     r, g, b, a = color
     return (f'{{"type":{kind},"pose":{{"position":{{"x":0,"y":0,"z":0}},"orientation":{{"x":0,"y":0,"z":0,"w":1}}}},'
             f'"thickness":{thickness},"scale_invariant":false,"points":[{pts}],'
