@@ -11,21 +11,25 @@ Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, 
 ``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
 ``outcome``. Chunks are built with numpy for a whole block of steps at once, compressed with
 zstd, and pushed to the operating system about once a second, so a killed run loses at most
-the last second of data.
+the last second of data. All of this runs on a worker thread (``threaded=True``): compression,
+numpy and a compiled simulation release the GIL, so logging overlaps the simulation.
 """
 from __future__ import annotations
 
 import hashlib
 import json
 import platform
+import queue
 import socket
 import sys
+import threading
 import time
 from datetime import datetime, timezone
 from importlib import metadata as _metadata
 from pathlib import Path
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
 from symbolic import ConfigError, CoordinatingController, LogError, SingularityError
@@ -107,6 +111,8 @@ class RunLogger:
         Command line stored in the ``run`` metadata (default: ``sys.argv``).
     backend : str
         Simulation backend, stored in the ``build`` metadata.
+    threaded : bool
+        Encode, compress and write on a worker thread (blocks are queued by :meth:`on_chunk`).
 
     Raises
     ------
@@ -119,7 +125,7 @@ class RunLogger:
     def __init__(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
                  log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float = COND_RATE,
                  chunk_size: int = 256 * 1024, flush_interval: float = 1.0,
-                 command: list[str] | None = None, backend: str = "interpreted") -> None:
+                 command: list[str] | None = None, backend: str = "interpreted", threaded: bool = True) -> None:
         self.scenario, self.ctrl = scenario, ctrl or scenario.controller()
         self.step = scenario.step
         self.every = self._decimation(log_rate, "log_rate") if log_rate is not None else 1
@@ -164,6 +170,29 @@ class RunLogger:
         self._flushed = time.monotonic()
         self._walls = np.asarray(scenario.obstacles, dtype=float).reshape(-1, 2, 2)
         self.outcome: dict[str, Any] | None = None
+        self._error: BaseException | None = None
+        self._queue: queue.Queue | None = None
+        if threaded:
+            self._queue = queue.Queue(maxsize=8)
+            self._worker = threading.Thread(target=self._work, name="coordarm-log", daemon=True)
+            self._worker.start()
+
+    def _work(self) -> None:
+        while True:
+            part = self._queue.get()
+            try:
+                if part is None:
+                    return
+                if self._error is None:
+                    self._process(part)
+            except BaseException as exc:  # reported to the caller by on_chunk / finish
+                self._error = exc
+            finally:
+                self._queue.task_done()
+
+    def _check(self) -> None:
+        if self._error is not None:
+            raise LogError(f"{self.path}: writing the log failed: {type(self._error).__name__}: {self._error}")
 
     def _decimation(self, rate: Any, name: str) -> int:
         if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0 or not np.isfinite(rate):
@@ -172,7 +201,20 @@ class RunLogger:
 
     # ---------------------------------------------------------------- writing
     def on_chunk(self, part: Run) -> None:
-        """Log a block of consecutive steps (a :class:`Run` of their rows)."""
+        """Log a block of consecutive steps (a :class:`Run` of their rows; its arrays must not change later).
+
+        Raises
+        ------
+        LogError
+            Writing an earlier block failed (e.g. the disk is full).
+        """
+        self._check()
+        if self._queue is not None:
+            self._queue.put(part)
+        else:
+            self._process(part)
+
+    def _process(self, part: Run) -> None:
         n = len(part.t)
         g = self._seen + np.arange(n)
         self._seen += n
@@ -181,14 +223,17 @@ class RunLogger:
         if len(rows):
             self._add_samples(part, rows)
             self._last_logged = int(g[rows[-1]])
-        for every, encode, key in ((self.scene_every, self._scene, "scene"), (self.cond_every, self._cond, "cond")):
-            if every:
-                for k in np.flatnonzero(g % every == 0):
-                    self._extras.append((key, int(self._ns(part.t[k])), encode(part, int(k))))
+        if self.scene_every:
+            ks = np.flatnonzero(g % self.scene_every == 0)
+            for k, data in zip(ks, self._scenes(part, ks)):
+                self._extras.append(("scene", int(self._ns(part.t[k])), data))
+        if self.cond_every:
+            for k in np.flatnonzero(g % self.cond_every == 0):
+                self._extras.append(("cond", int(self._ns(part.t[k])), self._cond(part, int(k))))
         while len(self._pending) >= self.samples_per_chunk:
             self._write_chunk(self.samples_per_chunk)
         if time.monotonic() - self._flushed >= self.flush_interval:
-            self.flush()
+            self._flush_now()
 
     def _ns(self, t: float | np.ndarray):
         return np.round((np.asarray(t) - self.origin) * 1e9).astype(np.uint64)
@@ -240,7 +285,13 @@ class RunLogger:
         self.file.write_chunk(b"".join(parts), index)
 
     def flush(self) -> None:
-        """Write the samples buffered so far as a chunk and push the file to the operating system."""
+        """Wait for the queued blocks, write them as a chunk, push the file to the operating system."""
+        if self._queue is not None:
+            self._queue.join()
+        self._check()
+        self._flush_now()
+
+    def _flush_now(self) -> None:
         if len(self._pending) or self._extras:
             self._write_chunk(len(self._pending))
         self.file.flush()
@@ -251,26 +302,47 @@ class RunLogger:
         value = self.ctrl.cond(part.q[k], float(part.t[k]))
         return CDR_HEADER + np.array([part.t[k], value], "<f8").tobytes()
 
-    def _scene(self, part: Run, k: int) -> bytes:
-        t = float(part.t[k])
-        joints = self.ctrl.chain.joints_np(part.q[k])
-        reach = self.ctrl.chain.m * self.ctrl.chain.xi
-        curve = self.ctrl.curve.sample(t, n=2 if isinstance(self.ctrl.curve, Line) else 90, extent=2.2 * reach)
-        lines = [_line(joints, 0, 0.004, (0.15, 0.45, 0.9, 1.0)), _line(curve, 0, 0.002, (0.9, 0.5, 0.1, 0.8))]
-        if len(self._walls):
-            lines.append(_line(self._walls.reshape(-1, 2), 2, 0.01, (0.2, 0.2, 0.2, 1.0)))
-        ns = int(self._ns(t))
-        stamp = f'{{"sec":{ns // 10**9},"nsec":{ns % 10**9}}}'
-        return ('{"deletions":[],"entities":[{"timestamp":' + stamp + ',"frame_id":"world","id":"coordarm",'
-                '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],'
-                '"spheres":[],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":['
-                + ",".join(lines) + "]}]}").encode()
+    def _curves(self, times: np.ndarray) -> list[np.ndarray]:
+        """The curve at each of ``times`` as a polyline (a straight line: evaluated for all times at once)."""
+        reach = 2.2 * self.ctrl.chain.m * self.ctrl.chain.xi
+        curve = self.ctrl.curve
+        if isinstance(curve, Line) and len(times):
+            th, px, py = (_at_times(f, times) for f in (curve.angle, *curve.point))
+            ends = np.array([-reach, reach])
+            pts = np.stack([px[:, None] + ends * np.cos(th)[:, None], py[:, None] + ends * np.sin(th)[:, None]], -1)
+            if np.allclose(pts[0], curve.sample(float(times[0]), n=2, extent=reach), rtol=0, atol=1e-12):
+                return list(pts)
+        return [curve.sample(float(t), n=90, extent=reach) for t in times]
+
+    def _scenes(self, part: Run, ks: np.ndarray) -> list[bytes]:
+        if not len(ks):
+            return []
+        joints = self.ctrl.chain.joints_np(part.q[ks])
+        curves = self._curves(part.t[ks])
+        walls = (_line(self._walls.reshape(-1, 2), 2, 0.01, (0.2, 0.2, 0.2, 1.0)),) if len(self._walls) else ()
+        out = []
+        for J, C, t in zip(joints, curves, part.t[ks]):
+            lines = (_line(J, 0, 0.004, (0.15, 0.45, 0.9, 1.0)), _line(C, 0, 0.002, (0.9, 0.5, 0.1, 0.8))) + walls
+            ns = int(self._ns(t))
+            stamp = f'{{"sec":{ns // 10**9},"nsec":{ns % 10**9}}}'
+            out.append(('{"deletions":[],"entities":[{"timestamp":' + stamp + ',"frame_id":"world","id":"coordarm",'
+                        '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],'
+                        '"spheres":[],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":['
+                        + ",".join(lines) + "]}]}").encode())
+        return out
 
     # ---------------------------------------------------------------- closing
     def finish(self, error: BaseException | None = None) -> None:
         """Log the last step if decimation skipped it, write ``outcome``, close the file."""
         if self.file.closed:
             return
+        if self._queue is not None:
+            self._queue.put(None)
+            self._worker.join()
+            self._queue = None
+        if self._error is not None:
+            self.file.abandon()
+            self._check()
         try:
             last_t = None
             if self._last is not None:
@@ -292,6 +364,12 @@ class RunLogger:
     def __exit__(self, exc_type, exc, tb) -> bool:
         self.finish(exc)
         return False
+
+
+def _at_times(param, times: np.ndarray) -> np.ndarray:
+    """A motion parameter evaluated at many times in one CasADi call."""
+    v = param(ca.DM(times))
+    return np.broadcast_to(np.asarray(ca.DM(v), float).ravel(), times.shape)
 
 
 _POINT = '{"x":%.6f,"y":%.6f,"z":0}'

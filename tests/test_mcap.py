@@ -10,9 +10,9 @@ from mcap.stream_reader import StreamReader
 from analysis.replay import load
 from simulation.log_schemas import numeric_channels, scene_update_schema
 from simulation.mcap_writer import RunLogger, code_hash
-from simulation.run import simulate
+from simulation.run import Run, simulate
 from simulation.scenario import Scenario, load_scenario
-from symbolic import ConfigError, SingularityError
+from symbolic import ConfigError, LogError, SingularityError
 
 LINKS, DURATION = 6, 0.6
 
@@ -117,6 +117,9 @@ def test_scene_messages_follow_the_scene_update_schema_and_draw_the_chain(logged
         arm, curve, walls = scene["entities"][0]["lines"]
         pts = np.array([[p["x"], p["y"]] for p in arm["points"]])
         np.testing.assert_allclose(pts, chain.joints_np(run.q[k]), atol=1e-6)  # 6 decimals in the JSON
+        line = np.array([[p["x"], p["y"]] for p in curve["points"]])  # evaluated for many times at once
+        expected = scenario.controller().curve.sample(run.t[k], n=2, extent=2.2 * LINKS * chain.xi)
+        np.testing.assert_allclose(line, expected, atol=1e-6)
         assert walls["type"] == 2 and len(walls["points"]) == 2 * len(scenario.obstacles)
 
 
@@ -200,6 +203,7 @@ def test_flush_makes_the_samples_so_far_readable_before_the_file_is_closed(scena
     path = tmp_path / "open.mcap"
     log = RunLogger(path, scenario, ctrl, flush_interval=0.0)
     run = simulate(ctrl, scenario.start(ctrl), 0.2, scenario.step, chunk=50, on_chunk=log.on_chunk)
+    log.flush()  # waits for the worker thread's queue
     rep = load(path)  # the writer is still open: no summary, no footer
     assert rep.recovered is True and rep.outcome == {"status": "unknown"}
     np.testing.assert_array_equal(rep.q, run.q)
@@ -219,3 +223,24 @@ def test_numeric_channel_layout_matches_its_schema_text():
     assert ch.schema_text() == "float64 t\nfloat64 s\nfloat64 v_star\nfloat64[4] e\n"
     assert ch.width == 7 and ch.size == 4 + 56
     assert ch.slices() == {"t": 0, "s": 1, "v_star": 2, "e": slice(3, 7)}
+
+
+def test_a_failure_on_the_writer_thread_surfaces_as_a_log_error_naming_the_file(scenario, tmp_path):
+    path = tmp_path / "bad.mcap"
+    log = RunLogger(path, scenario)
+    m = LINKS
+    bad = Run(np.zeros(3), np.zeros((3, m + 1)), np.zeros((3, m)), np.zeros((3, m - 1)), np.zeros(3),
+              np.zeros((3, m - 1)), np.zeros(3), np.zeros(3))
+    log.on_chunk(bad)  # q has one column too many: fails on the worker
+    with pytest.raises(LogError, match=str(path)):
+        log.finish()
+
+
+def test_unthreaded_logger_writes_the_same_samples(scenario, tmp_path):
+    ctrl = scenario.controller()
+    a, b = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    for path, threaded in ((a, True), (b, False)):
+        with RunLogger(path, scenario, ctrl, threaded=threaded) as log:
+            simulate(ctrl, scenario.start(ctrl), 0.3, scenario.step, chunk=64, on_chunk=log.on_chunk)
+    ra, rb = load(a), load(b)
+    assert np.array_equal(ra.q, rb.q) and np.array_equal(ra.cond, rb.cond) and ra.messages == rb.messages
