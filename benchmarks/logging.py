@@ -118,21 +118,27 @@ def main() -> None:
     def plain():
         simulate(ctrl, q0, DURATION, STEP, progress=False, **kw)
 
-    def logged():
-        with RunLogger(tmp / "run.mcap", sc, ctrl, command=["bench"]) as log:
-            simulate(ctrl, q0, DURATION, STEP, progress=False, on_chunk=log.on_chunk, **kw)
+    def logged(name: str, **options):
+        def go():
+            with RunLogger(tmp / name, sc, ctrl, command=["bench"], **options) as log:
+                simulate(ctrl, q0, DURATION, STEP, progress=False, on_chunk=log.on_chunk, **kw)
+        return go
 
+    variants = {"without log": plain, "full-rate log": logged("run.mcap"),
+                "full-rate log, 1 thread": logged("run_sync.mcap", threaded=False),
+                "log at 100 Hz": logged("run100.mcap", log_rate=100.0)}
     plain()  # build and cache the chunk Function
-    t_plain, t_logged = [], []
-    for _ in range(args.repeats):
-        t_plain.append(timed(plain))
-        t_logged.append(timed(logged))
-    mp, ml = statistics.median(t_plain), statistics.median(t_logged)
-    size = (tmp / "run.mcap").stat().st_size
+    times: dict[str, list[float]] = {k: [] for k in variants}
+    for _ in range(args.repeats):  # interleaved, so that load changes hit every variant alike
+        for k, fn in variants.items():
+            times[k].append(timed(fn))
+    base = statistics.median(times["without log"])
     print(f"\n{LINKS}-link line run, {DURATION:g} s at {STEP * 1e3:g} ms, backend {args.backend or 'default'}")
-    print(f"  without log  median {mp:7.3f} s  ({', '.join(f'{t:.3f}' for t in t_plain)})")
-    print(f"  with log     median {ml:7.3f} s  ({', '.join(f'{t:.3f}' for t in t_logged)})")
-    print(f"  ratio        {ml / mp:.3f}   log {size / 2**20:.2f} MiB = {size / DURATION / 2**20:.3f} MiB per simulated s")
+    files = {"full-rate log": "run.mcap", "full-rate log, 1 thread": "run_sync.mcap", "log at 100 Hz": "run100.mcap"}
+    for k, ts in times.items():
+        med = statistics.median(ts)
+        size = f"   log {(tmp / files[k]).stat().st_size / DURATION / 2**20:.3f} MiB per simulated s" if k in files else ""
+        print(f"  {k:24s} median {med:7.3f} s  ratio {med / base:5.2f}  ({', '.join(f'{t:.3f}' for t in ts)}){size}")
 
 
 if __name__ == "__main__":

@@ -11,7 +11,9 @@ classes of the ``mcap`` library itself.
 """
 from __future__ import annotations
 
+import queue
 import struct
+import threading
 import zlib
 from collections import defaultdict
 from pathlib import Path
@@ -56,9 +58,13 @@ class McapFile:
         MCAP profile written in the header (``"ros2"`` for ``cdr`` channels).
     compression_level : int
         zstd level of the chunks.
+    background : bool
+        Compress and write chunks on a thread of their own (zstd and zlib release the GIL), so
+        that the caller can build the next chunk meanwhile; :meth:`flush` and :meth:`close` wait.
     """
 
-    def __init__(self, path: str | Path, profile: str = "", compression_level: int = 3) -> None:
+    def __init__(self, path: str | Path, profile: str = "", compression_level: int = 3,
+                 background: bool = False) -> None:
         self.path = Path(path)
         self._stream: BinaryIO = open(self.path, "wb")
         self._zstd = zstandard.ZstdCompressor(level=compression_level)
@@ -72,6 +78,32 @@ class McapFile:
         self._closed = False
         self._stream.write(MCAP0_MAGIC)
         self._write(Header(profile, LIBRARY_IDENTIFIER))
+        self._error: BaseException | None = None
+        self._queue: queue.Queue | None = None
+        if background:
+            self._queue = queue.Queue(maxsize=4)
+            self._thread = threading.Thread(target=self._work, name="mcap-chunks", daemon=True)
+            self._thread.start()
+
+    def _work(self) -> None:
+        while True:
+            job = self._queue.get()
+            try:
+                if job is None:
+                    return
+                if self._error is None:
+                    self._write_chunk_now(*job)
+            except BaseException as exc:  # re-raised by the next call of the owner
+                self._error = exc
+            finally:
+                self._queue.task_done()
+
+    def _wait(self) -> None:
+        """Wait until every queued chunk is written; re-raise a failure of the chunk thread."""
+        if self._queue is not None:
+            self._queue.join()
+        if self._error is not None:
+            raise self._error
 
     @property
     def closed(self) -> bool:
@@ -105,6 +137,7 @@ class McapFile:
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         """Write a Metadata record (string values only) and index it."""
+        self._wait()
         builder = RecordBuilder()
         Metadata(name=name, metadata=data).write(builder)
         raw = builder.end()
@@ -126,6 +159,14 @@ class McapFile:
         """
         if not index:
             return
+        if self._queue is not None:
+            if self._error is not None:
+                raise self._error
+            self._queue.put((records, index))
+        else:
+            self._write_chunk_now(records, index)
+
+    def _write_chunk_now(self, records: bytes, index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
         times = np.concatenate([lt for lt, _ in index.values()])
         start, end = int(times.min()), int(times.max())
         data = self._zstd.compress(records)
@@ -155,12 +196,15 @@ class McapFile:
 
     def flush(self) -> None:
         """Push everything written so far to the operating system (survives a kill of this process)."""
+        self._wait()
         self._stream.flush()
 
     def close(self) -> None:
         """Write the data end, the summary section (schemas, channels, statistics, indexes), footer."""
         if self._closed:
             return
+        self._wait()
+        self._stop()
         self._closed = True
         self._write(DataEnd(0))
         summary_start = self._stream.tell()
@@ -189,8 +233,15 @@ class McapFile:
     def abandon(self) -> None:
         """Close the file as it is, without a summary (what a crash leaves behind)."""
         if not self._closed:
+            self._stop()
             self._closed = True
             self._stream.close()
+
+    def _stop(self) -> None:
+        if self._queue is not None:
+            self._queue.put(None)
+            self._thread.join()
+            self._queue = None
 
     def _statistics(self) -> Statistics:
         return Statistics(attachment_count=0, channel_count=len(self._channels),

@@ -136,7 +136,7 @@ class RunLogger:
         m = self.ctrl.chain.m
         self.channels: dict[str, NumericChannel] = numeric_channels(m)
         try:
-            self.file = McapFile(self.path, profile="ros2")
+            self.file = McapFile(self.path, profile="ros2", compression_level=1, background=threaded)
         except OSError as exc:
             raise LogError(f"{self.path}: cannot create the log: {exc}") from None
         self.ids: dict[str, int] = {}
@@ -354,6 +354,9 @@ class RunLogger:
             self.outcome = outcome_of(error, last_t)
             self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in self.outcome.items()})
             self.file.close()
+        except Exception as exc:
+            self.file.abandon()
+            raise LogError(f"{self.path}: writing the log failed: {type(exc).__name__}: {exc}") from exc
         except BaseException:
             self.file.abandon()
             raise
