@@ -169,6 +169,7 @@ class RunLogger:
         self._last_logged = -1  # global index of the last sample logged
         self._flushed = time.monotonic()
         self._walls = np.asarray(scenario.obstacles, dtype=float).reshape(-1, 2, 2)
+        self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
         self.outcome: dict[str, Any] | None = None
         self._error: BaseException | None = None
         self._queue: queue.Queue | None = None
@@ -303,15 +304,23 @@ class RunLogger:
         return CDR_HEADER + np.array([part.t[k], value], "<f8").tobytes()
 
     def _curves(self, times: np.ndarray) -> list[np.ndarray]:
-        """The curve at each of ``times`` as a polyline (a straight line: evaluated for all times at once)."""
+        """The curve at each of ``times`` as a polyline (a straight line: one CasADi call for all times)."""
         reach = 2.2 * self.ctrl.chain.m * self.ctrl.chain.xi
         curve = self.ctrl.curve
-        if isinstance(curve, Line) and len(times):
-            th, px, py = (_at_times(f, times) for f in (curve.angle, *curve.point))
+        if self._line_params is None and isinstance(curve, Line) and len(times):
+            t = ca.SX.sym("t")
+            f = ca.Function("line_params", [t], [curve.angle(t), curve.point[0](t), curve.point[1](t)])
+            # Trusted only if it reproduces the curve's own sampling.
+            th, px, py = (float(v) for v in f(float(times[0])))
             ends = np.array([-reach, reach])
-            pts = np.stack([px[:, None] + ends * np.cos(th)[:, None], py[:, None] + ends * np.sin(th)[:, None]], -1)
-            if np.allclose(pts[0], curve.sample(float(times[0]), n=2, extent=reach), rtol=0, atol=1e-12):
-                return list(pts)
+            first = np.column_stack([px + ends * np.cos(th), py + ends * np.sin(th)])
+            ok = np.allclose(first, curve.sample(float(times[0]), n=2, extent=reach), rtol=0, atol=1e-12)
+            self._line_params = f if ok else False
+        if self._line_params and len(times):
+            th, px, py = (np.asarray(v, float).ravel() for v in self._line_params(ca.DM(times).T))
+            ends = np.array([-reach, reach])
+            return list(np.stack([px[:, None] + ends * np.cos(th)[:, None],
+                                  py[:, None] + ends * np.sin(th)[:, None]], -1))
         return [curve.sample(float(t), n=90, extent=reach) for t in times]
 
     def _scenes(self, part: Run, ks: np.ndarray) -> list[bytes]:
@@ -367,12 +376,6 @@ class RunLogger:
     def __exit__(self, exc_type, exc, tb) -> bool:
         self.finish(exc)
         return False
-
-
-def _at_times(param, times: np.ndarray) -> np.ndarray:
-    """A motion parameter evaluated at many times in one CasADi call."""
-    v = param(ca.DM(times))
-    return np.broadcast_to(np.asarray(ca.DM(v), float).ravel(), times.shape)
 
 
 _POINT = '{"x":%.6f,"y":%.6f,"z":0}'
