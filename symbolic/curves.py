@@ -179,7 +179,7 @@ def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
     if not isinstance(spec, dict):
         raise ConfigError(f"{field}: expected a table, got {spec!r}")
     kind = spec.get("kind")
-    if kind not in CURVES:
+    if not isinstance(kind, str) or kind not in CURVES:
         raise ConfigError(f"{field}.kind: expected one of {sorted(CURVES)}, got {kind!r}")
     cls, keys = CURVES[kind]
     unknown = set(spec) - set(keys) - {"kind"}

@@ -111,7 +111,7 @@ def motion_from_spec(spec: Any, field: str) -> Motion:
     if not isinstance(spec, dict):
         raise ConfigError(f"{field}: expected a number, a motion table or a list, got {spec!r}")
     kind = spec.get("kind")
-    if kind not in KINDS:
+    if not isinstance(kind, str) or kind not in KINDS:
         raise ConfigError(f"{field}.kind: expected one of {sorted(KINDS)}, got {kind!r}")
     cls = KINDS[kind]
     names = {f.name for f in fields(cls)}

@@ -244,3 +244,18 @@ def test_unthreaded_logger_writes_the_same_samples(scenario, tmp_path):
             simulate(ctrl, scenario.start(ctrl), 0.3, scenario.step, chunk=64, on_chunk=log.on_chunk)
     ra, rb = load(a), load(b)
     assert np.array_equal(ra.q, rb.q) and np.array_equal(ra.cond, rb.cond) and ra.messages == rb.messages
+
+
+def test_coordarm_run_writes_the_log_at_the_chosen_rate_with_a_singularity_outcome(tmp_path, capsys):
+    from simulation.cli import main
+    toml = tmp_path / "fast.toml"
+    toml.write_text('name = "fast"\n[chain]\nlinks = 8\nlink_length = 0.1\n[curve]\nkind = "line"\n'
+                    '[control]\ngain = 2.0\nspeed = 0.4\n[run]\nduration = 5.0\n')
+    out = tmp_path / "fast.mcap"
+    assert main(["run", str(toml), "--quiet", "--no-figures", "--log-rate", "100", "--out", str(out)]) == 3
+    assert f"log           {out}" in capsys.readouterr().out
+    rep = load(out)
+    assert rep.outcome["status"] == "singularity" and rep.outcome["kind"] == "longitudinal"
+    assert rep.t[-1] == rep.outcome["time"]  # the offending state is logged although off the 100 Hz grid
+    np.testing.assert_allclose(np.diff(rep.t[:-1]), 0.01, rtol=1e-9)
+    assert rep.scenario.spec["control"]["speed"] == 0.4 and rep.run_info["log_every_steps"] == "10"
