@@ -190,6 +190,12 @@ def load(path: str | Path) -> Replay:
         order = np.argsort(data[:, 0], kind="stable")
         per_channel[key] = data[order]
     problems = []
+    for key in PER_STEP:  # publisher sequence numbers run 0, 1, 2, ... on every per-step channel
+        cid = by_topic.get(specs[key].topic)
+        seq = np.unique([msg.sequence for msg in grouped.get(cid, [])])
+        missing = int(seq[-1] - seq[0] + 1 - len(seq)) if len(seq) else 0
+        if missing:
+            problems.append(f"{specs[key].topic}: {missing} message(s) missing (sequence gaps)")
     # A sample is complete when every per-step channel has it; keep those times only.
     times = [per_channel[k][:, 0] for k in PER_STEP]
     common = times[0]

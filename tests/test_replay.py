@@ -166,3 +166,26 @@ def test_replay_cli_reads_a_cut_log_and_says_so(full_log, tmp_path, capsys):
     cut.write_bytes(data[: len(data) // 2])
     assert main(["replay", str(cut), "--no-animation"]) == 0
     assert "breaks off" in capsys.readouterr().err
+
+
+def test_a_lost_chunk_in_the_middle_shows_as_sequence_gaps(tmp_path):
+    from simulation.mcap_writer import RunLogger
+    from simulation.scenario import load_scenario
+    sc = load_scenario("line").with_overrides(links=4, duration=0.3)
+    ctrl = sc.controller()
+    path = tmp_path / "gap.mcap"
+    log = RunLogger(path, sc, ctrl, chunk_size=4096, threaded=False)
+    write, calls = log.file.write_chunk, []
+
+    def drop_the_third(records, index):  # fault injection: the third chunk never reaches the file
+        calls.append(1)
+        if len(calls) != 3:
+            write(records, index)
+
+    log.file.write_chunk = drop_the_third
+    with log:
+        run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, on_chunk=log.on_chunk)
+    rep = load(path)
+    lost = len(run.t) - len(rep.t)
+    assert lost > 0 and rep.recovered is False
+    assert any(p.startswith("/joint_state: ") and f"{lost} message(s) missing" in p for p in rep.problems)
