@@ -12,9 +12,11 @@ its end), giving how many messages were read before the damage.
 """
 from __future__ import annotations
 
+import io
 import json
 import struct
 import zlib
+from collections import namedtuple
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,8 +25,10 @@ import numpy as np
 import zstandard
 
 from mcap.exceptions import McapError
-from mcap.records import Channel, DataEnd, Footer, Message, Metadata, Schema
-from mcap.stream_reader import CRCValidationError, StreamReader
+from mcap.opcode import Opcode
+from mcap.records import Channel, Chunk, DataEnd, Footer, Metadata, Schema
+from mcap.data_stream import ReadDataStream
+from mcap.stream_reader import CRCValidationError
 
 from simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels
 from simulation.run import Run
@@ -35,6 +39,43 @@ MCAP_MAGIC = b"\x89MCAP0\r\n"
 #: Exceptions the mcap reader raises on damaged input (it has no single base class for them).
 READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error, zlib.error, EOFError,
                UnicodeDecodeError, ValueError, KeyError, IndexError, MemoryError)
+
+
+#: A message as read here: much lighter than ``mcap.records.Message`` (a log has ~10^5 of them).
+RawMessage = namedtuple("RawMessage", "channel_id sequence log_time data")
+_RECORD = struct.Struct("<BQ")
+_MESSAGE = struct.Struct("<HIQ")
+
+
+def chunk_messages(chunk: Chunk) -> list[RawMessage]:
+    """The messages of a chunk, its CRC checked (other records inside a chunk are skipped).
+
+    Raises
+    ------
+    CRCValidationError, zstandard.ZstdError, struct.error, ValueError
+        Damaged chunk (the caller turns these into a LogError).
+    """
+    if chunk.compression == "zstd":
+        data = zstandard.decompress(chunk.data, chunk.uncompressed_size)
+    elif chunk.compression == "":
+        data = chunk.data
+    else:
+        raise ValueError(f"unsupported chunk compression {chunk.compression!r}")
+    if len(data) != chunk.uncompressed_size:
+        raise ValueError(f"chunk holds {len(data)} bytes, its header says {chunk.uncompressed_size}")
+    if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
+        raise CRCValidationError(chunk.uncompressed_crc, zlib.crc32(data), chunk)
+    out, pos, end, view = [], 0, len(data), memoryview(data)
+    while pos < end:
+        opcode, length = _RECORD.unpack_from(data, pos)
+        body = pos + 9
+        if body + length > end:
+            raise ValueError(f"record of {length} bytes runs past the end of its chunk")
+        if opcode == Opcode.MESSAGE:
+            cid, seq, log_time = _MESSAGE.unpack_from(data, body)
+            out.append(RawMessage(cid, seq, log_time, view[body + 22:body + length]))
+        pos = body + length
+    return out
 
 
 @dataclass
@@ -103,49 +144,63 @@ class Replay:
 def _read_records(path: Path):
     """Schemas, channels, messages, metadata; whether the end was reached; the error that stopped reading.
 
-    A file that ends with the MCAP magic was closed by its writer: a read error in it is damage.
+    The records are read in file order, chunk CRCs checked; message indexes and the summary
+    are skipped (a killed run has none). A file that ends with the MCAP magic was closed by its
+    writer: a read error in it is damage.
     """
     schemas, channels, messages, meta = {}, {}, [], {}
     complete, error = False, None
+    readers = {Opcode.SCHEMA: Schema.read, Opcode.CHANNEL: Channel.read, Opcode.METADATA: Metadata.read,
+               Opcode.CHUNK: Chunk.read, Opcode.DATA_END: DataEnd.read, Opcode.FOOTER: Footer.read}
     with open(path, "rb") as f:
         head = f.read(len(MCAP_MAGIC))
         if head != MCAP_MAGIC:
             what = "an empty file" if not head else "not an MCAP file (no MCAP magic at its start)"
             raise LogError(f"{path}: {what}")
-        f.seek(0)
         size = path.stat().st_size
-        reader = StreamReader(f, validate_crcs=True, record_size_limit=size)
         try:
-            for rec in reader.records:
-                if isinstance(rec, Message):
-                    messages.append(rec)
+            while True:
+                header = f.read(_RECORD.size)
+                if len(header) < _RECORD.size:
+                    raise EOFError(f"the file ends {'inside a record header' if header else 'without its footer'}")
+                opcode, length = _RECORD.unpack(header)
+                if length > size - f.tell():
+                    raise EOFError(f"a record of {length} bytes runs past the end of the file")
+                body = f.read(length)
+                if opcode not in readers:
+                    continue
+                rec = readers[opcode](ReadDataStream(io.BytesIO(body)))
+                if isinstance(rec, Chunk):
+                    messages += chunk_messages(rec)
                 elif isinstance(rec, Channel):
                     channels[rec.id] = rec
                 elif isinstance(rec, Schema):
                     schemas[rec.id] = rec
                 elif isinstance(rec, Metadata):
                     meta[rec.name] = dict(rec.metadata)
-                elif isinstance(rec, (DataEnd, Footer)):
+                elif isinstance(rec, Footer):
                     complete = True
+                    break
         except READ_ERRORS as exc:
             error = exc
             complete = False
         f.seek(max(0, size - len(MCAP_MAGIC)))
         has_end = size >= 2 * len(MCAP_MAGIC) and f.read() == MCAP_MAGIC
+    complete = complete and has_end
     if error is not None and has_end:
         raise LogError(f"{path}: corrupted MCAP log: {type(error).__name__}: {error} "
                        f"({len(messages)} messages read before the damage)")
     return schemas, channels, messages, meta, complete, error
 
 
-def _decode(channel_messages: list[Message], width: int, topic: str, path: Path) -> np.ndarray:
+def _decode(channel_messages: list[RawMessage], width: int, topic: str, path: Path) -> np.ndarray:
     size = len(CDR_HEADER) + 8 * width
-    bad = [m for m in channel_messages if len(m.data) != size or m.data[:4] != CDR_HEADER]
-    if bad:
-        raise LogError(f"{path}: {topic}: message of {len(bad[0].data)} bytes, expected {size} "
-                       f"(CDR little-endian, {width} float64)")
+    wrong = [len(m.data) for m in channel_messages if len(m.data) != size]
     raw = b"".join(m.data for m in channel_messages)
-    rec = np.frombuffer(raw, np.dtype([("h", "V4"), ("d", "<f8", (width,))]))
+    rec = np.frombuffer(raw, np.dtype([("h", "V4"), ("d", "<f8", (width,))])) if not wrong else None
+    if wrong or not (rec["h"] == np.frombuffer(CDR_HEADER, "V4")[0]).all():
+        got = f"a message of {wrong[0]} bytes" if wrong else "a message without the CDR little-endian header"
+        raise LogError(f"{path}: {topic}: {got}; expected {size} bytes (CDR little-endian, {width} float64)")
     return rec["d"].reshape(len(channel_messages), width).copy()
 
 
@@ -180,7 +235,7 @@ def load(path: str | Path) -> Replay:
     specs = numeric_channels(m)
     by_topic = {ch.topic: cid for cid, ch in channels.items()}
     per_channel: dict[str, np.ndarray] = {}
-    grouped: dict[int, list[Message]] = {}
+    grouped: dict[int, list[RawMessage]] = {}
     for msg in messages:
         grouped.setdefault(msg.channel_id, []).append(msg)
     for key, ch in specs.items():

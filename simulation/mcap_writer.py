@@ -328,10 +328,10 @@ class RunLogger:
             return []
         joints = self.ctrl.chain.joints_np(part.q[ks])
         curves = self._curves(part.t[ks])
-        walls = (_line(self._walls.reshape(-1, 2), 2, 0.01, (0.2, 0.2, 0.2, 1.0)),) if len(self._walls) else ()
+        walls = (_line(self._walls.reshape(-1, 2), 2, 0.02, (0.2, 0.2, 0.2, 1.0)),) if len(self._walls) else ()
         out = []
         for J, C, t in zip(joints, curves, part.t[ks]):
-            lines = (_line(J, 0, 0.004, (0.15, 0.45, 0.9, 1.0)), _line(C, 0, 0.002, (0.9, 0.5, 0.1, 0.8))) + walls
+            lines = (_line(J, 0, 0.01, (0.15, 0.45, 0.9, 1.0)), _line(C, 0, 0.005, (0.9, 0.5, 0.1, 0.8))) + walls
             ns = int(self._ns(t))
             stamp = f'{{"sec":{ns // 10**9},"nsec":{ns % 10**9}}}'
             out.append(('{"deletions":[],"entities":[{"timestamp":' + stamp + ',"frame_id":"world","id":"coordarm",'
