@@ -129,7 +129,7 @@ def main() -> None:
         return go
 
     variants = {"without log": plain, "full-rate log": logged("run.mcap"),
-                "full-rate log, 1 thread": logged("run_sync.mcap", threaded=False),
+                "full-rate log, threaded": logged("run_threaded.mcap", threaded=True),
                 "log at 100 Hz": logged("run100.mcap", log_rate=100.0)}
     plain()  # build and cache the chunk Function
     times: dict[str, list[float]] = {k: [] for k in variants}
@@ -138,7 +138,7 @@ def main() -> None:
             times[k].append(timed(fn))
     base = statistics.median(times["without log"])
     print(f"\n{LINKS}-link line run, {DURATION:g} s at {STEP * 1e3:g} ms, backend {args.backend or 'default'}")
-    files = {"full-rate log": "run.mcap", "full-rate log, 1 thread": "run_sync.mcap", "log at 100 Hz": "run100.mcap"}
+    files = {"full-rate log": "run.mcap", "full-rate log, threaded": "run_threaded.mcap", "log at 100 Hz": "run100.mcap"}
     for k, ts in times.items():
         med = statistics.median(ts)
         size = f"   log {(tmp / files[k]).stat().st_size / DURATION / 2**20:.3f} MiB per simulated s" if k in files else ""

@@ -11,8 +11,9 @@ Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, 
 ``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
 ``outcome``. Chunks are built with numpy for a whole block of steps at once, compressed with
 zstd, and pushed to the operating system about once a second, so a killed run loses at most
-the last second of data. All of this runs on a worker thread (``threaded=True``): compression,
-numpy and a compiled simulation release the GIL, so logging overlaps the simulation.
+the last second of data. With ``threaded=True`` this runs on worker threads (compression,
+numpy and a compiled simulation release the GIL), which overlaps logging with the simulation
+when a core is free.
 """
 from __future__ import annotations
 
@@ -112,7 +113,9 @@ class RunLogger:
     backend : str
         Simulation backend, stored in the ``build`` metadata.
     threaded : bool
-        Encode, compress and write on a worker thread (blocks are queued by :meth:`on_chunk`).
+        Encode on a worker thread and compress on another (blocks are queued by :meth:`on_chunk`).
+        Worth it only with a free core: on the shared 2-core test machine it measured no faster
+        than the default (see benchmarks/RESULTS_logging.md).
 
     Raises
     ------
@@ -125,7 +128,7 @@ class RunLogger:
     def __init__(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
                  log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float = COND_RATE,
                  chunk_size: int = 256 * 1024, flush_interval: float = 1.0,
-                 command: list[str] | None = None, backend: str = "interpreted", threaded: bool = True) -> None:
+                 command: list[str] | None = None, backend: str = "interpreted", threaded: bool = False) -> None:
         self.scenario, self.ctrl = scenario, ctrl or scenario.controller()
         self.step = scenario.step
         self.every = self._decimation(log_rate, "log_rate") if log_rate is not None else 1

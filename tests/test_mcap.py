@@ -201,9 +201,9 @@ def test_an_exception_or_ctrl_c_still_leaves_a_closed_log_with_its_outcome(scena
 def test_flush_makes_the_samples_so_far_readable_before_the_file_is_closed(scenario, tmp_path):
     ctrl = scenario.controller()
     path = tmp_path / "open.mcap"
-    log = RunLogger(path, scenario, ctrl, flush_interval=0.0)
+    log = RunLogger(path, scenario, ctrl, flush_interval=0.0, threaded=True)
     run = simulate(ctrl, scenario.start(ctrl), 0.2, scenario.step, chunk=50, on_chunk=log.on_chunk)
-    log.flush()  # waits for the worker thread's queue
+    log.flush()  # waits for the worker threads' queues
     rep = load(path)  # the writer is still open: no summary, no footer
     assert rep.recovered is True and rep.outcome == {"status": "unknown"}
     np.testing.assert_array_equal(rep.q, run.q)
@@ -227,7 +227,7 @@ def test_numeric_channel_layout_matches_its_schema_text():
 
 def test_a_failure_on_the_writer_thread_surfaces_as_a_log_error_naming_the_file(scenario, tmp_path):
     path = tmp_path / "bad.mcap"
-    log = RunLogger(path, scenario)
+    log = RunLogger(path, scenario, threaded=True)
     m = LINKS
     bad = Run(np.zeros(3), np.zeros((3, m + 1)), np.zeros((3, m)), np.zeros((3, m - 1)), np.zeros(3),
               np.zeros((3, m - 1)), np.zeros(3), np.zeros(3))
@@ -236,7 +236,7 @@ def test_a_failure_on_the_writer_thread_surfaces_as_a_log_error_naming_the_file(
         log.finish()
 
 
-def test_unthreaded_logger_writes_the_same_samples(scenario, tmp_path):
+def test_threaded_and_unthreaded_loggers_write_the_same_log(scenario, tmp_path):
     ctrl = scenario.controller()
     a, b = tmp_path / "a.mcap", tmp_path / "b.mcap"
     for path, threaded in ((a, True), (b, False)):
