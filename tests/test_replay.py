@@ -40,22 +40,29 @@ def full_log(tmp_path_factory):
     return path, path.read_bytes()
 
 
-def test_a_run_killed_with_sigkill_leaves_a_log_that_load_recovers(tmp_path):
+def _start_and_wait_for_flushes(tmp_path):
+    """Start ``coordarm run`` on a long scenario; return the process once its log had a few flushes."""
     toml = tmp_path / "swing.toml"
     toml.write_text(SWING)
     out = tmp_path / "swing.mcap"
     proc = subprocess.Popen([sys.executable, "-m", "simulation.cli", "run", str(toml), "--quiet", "--no-figures",
                              "--out", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    start, grown_at = time.monotonic(), None
+    while time.monotonic() - start < 60:
+        time.sleep(0.1)
+        if proc.poll() is not None:
+            raise AssertionError(proc.stderr.read().decode())
+        size = out.stat().st_size if out.exists() else 0
+        if size > 50_000 and grown_at is None:
+            grown_at = time.monotonic()
+        if grown_at is not None and time.monotonic() - grown_at > 2.5:  # a few flushes (1 s apart)
+            break
+    return proc, out
+
+
+def test_a_run_killed_with_sigkill_leaves_a_log_that_load_recovers(tmp_path):
+    proc, out = _start_and_wait_for_flushes(tmp_path)
     try:
-        start, grown_at = time.monotonic(), None
-        while time.monotonic() - start < 60:
-            time.sleep(0.1)
-            assert proc.poll() is None, proc.stderr.read().decode()
-            size = out.stat().st_size if out.exists() else 0
-            if size > 50_000 and grown_at is None:
-                grown_at = time.monotonic()
-            if grown_at is not None and time.monotonic() - grown_at > 2.5:  # a few flushes (1 s apart)
-                break
         os.kill(proc.pid, signal.SIGKILL)
     finally:
         proc.wait()
@@ -73,6 +80,21 @@ def test_a_run_killed_with_sigkill_leaves_a_log_that_load_recovers(tmp_path):
     np.testing.assert_array_equal(rep.t, run.t)
     np.testing.assert_array_equal(rep.q, run.q)
     np.testing.assert_array_equal(rep.e, run.e)
+
+
+def test_ctrl_c_ends_the_run_with_a_closed_log_saying_interrupted(tmp_path):
+    proc, out = _start_and_wait_for_flushes(tmp_path)
+    try:
+        os.kill(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130 and b"interrupted" in err and b"Traceback" not in err
+    rep = load(out)
+    assert rep.recovered is False and rep.outcome["status"] == "interrupted"
+    assert rep.outcome["t_end"] == rep.t[-1] and rep.problems == []
 
 
 def test_a_log_cut_after_some_chunks_gives_back_exactly_its_complete_samples(full_log, tmp_path):
