@@ -21,10 +21,12 @@ import hashlib
 import json
 import platform
 import queue
+import signal
 import socket
 import sys
 import threading
 import time
+from contextlib import contextmanager
 from datetime import datetime, timezone
 from importlib import metadata as _metadata
 from pathlib import Path
@@ -216,7 +218,8 @@ class RunLogger:
         if self._queue is not None:
             self._queue.put(part)
         else:
-            self._process(part)
+            with _sigint_deferred():  # Ctrl-C half-way through a block would leave a gap in the log
+                self._process(part)
 
     def _process(self, part: Run) -> None:
         n = len(part.t)
@@ -382,6 +385,22 @@ class RunLogger:
 
 
 _POINT = '{"x":%.6f,"y":%.6f,"z":0}'
+
+
+@contextmanager
+def _sigint_deferred():
+    """Hold back SIGINT (Ctrl-C) until the block ends, then deliver it to the previous handler."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(frame))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught and callable(previous):
+            previous(signal.SIGINT, caught[0])
 
 
 def _line(points: np.ndarray, kind: int, thickness: float, color: tuple[float, ...]) -> str:

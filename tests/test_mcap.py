@@ -259,3 +259,26 @@ def test_coordarm_run_writes_the_log_at_the_chosen_rate_with_a_singularity_outco
     assert rep.t[-1] == rep.outcome["time"]  # the offending state is logged although off the 100 Hz grid
     np.testing.assert_allclose(np.diff(rep.t[:-1]), 0.01, rtol=1e-9)
     assert rep.scenario.spec["control"]["speed"] == 0.4 and rep.run_info["log_every_steps"] == "10"
+
+
+def test_ctrl_c_arriving_while_a_chunk_is_written_is_held_back_until_the_block_is_logged(scenario, tmp_path):
+    import os
+    import signal
+    ctrl = scenario.controller()
+    path = tmp_path / "sigint.mcap"
+    log = RunLogger(path, scenario, ctrl, chunk_size=4096)
+    write = log.file.write_chunk
+
+    def write_then_ctrl_c(records, index):  # a real SIGINT to this process in the middle of on_chunk
+        if len(log.file._chunk_indexes) == 2:
+            os.kill(os.getpid(), signal.SIGINT)
+        write(records, index)
+
+    log.file.write_chunk = write_then_ctrl_c
+    with pytest.raises(KeyboardInterrupt):
+        with log:
+            simulate(ctrl, scenario.start(ctrl), 0.5, scenario.step, chunk=100, on_chunk=log.on_chunk)
+    rep = load(path)
+    assert rep.outcome["status"] == "interrupted" and rep.problems == [] and rep.recovered is False
+    assert rep.t[-1] == rep.outcome["t_end"] and len(rep.t) % 100 == 0  # whole blocks only
+    np.testing.assert_allclose(np.diff(rep.t), scenario.step, rtol=1e-9)

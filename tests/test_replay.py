@@ -82,21 +82,6 @@ def test_a_run_killed_with_sigkill_leaves_a_log_that_load_recovers(tmp_path):
     np.testing.assert_array_equal(rep.e, run.e)
 
 
-def test_ctrl_c_ends_the_run_with_a_closed_log_saying_interrupted(tmp_path):
-    proc, out = _start_and_wait_for_flushes(tmp_path)
-    try:
-        os.kill(proc.pid, signal.SIGINT)
-        _, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == 130 and b"interrupted" in err and b"Traceback" not in err
-    rep = load(out)
-    assert rep.recovered is False and rep.outcome["status"] == "interrupted"
-    assert rep.outcome["t_end"] == rep.t[-1] and rep.problems == []
-
-
 def test_a_log_cut_after_some_chunks_gives_back_exactly_its_complete_samples(full_log, tmp_path):
     path, data = full_log
     full = load(path)
