@@ -6,13 +6,12 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-import numpy as np
-
 from symbolic import SingularityError
 
 from .figures import plot_stages, plot_tracking
+from .mcap_writer import RunLogger
 from .obstacles import clearance, wall_crossings
-from .run import BACKENDS, Run, simulate
+from .run import BACKENDS, Run, select_backend, simulate
 from .scenario import Scenario, load_scenario, presets
 
 
@@ -30,6 +29,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="compiled C (built or taken from the cache), interpreted CasADi, or auto (default: "
                         "compiled when a C compiler is found, else interpreted with a warning)")
     p.add_argument("--out", type=Path, help="log file (default: logs/<scenario>.mcap); figures go beside it")
+    p.add_argument("--log-rate", type=float, metavar="HZ",
+                   help="samples per simulated second in the log (default: every step)")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
@@ -73,23 +74,26 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
 
 def main(args: argparse.Namespace) -> int:
     """Run the scenario named in ``args``; return 0 (done), 3 (stopped ahead of a singularity)."""
-    scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step)
-    ctrl = scenario.controller(law=args.law)
+    scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
+    ctrl = scenario.controller()
     q0 = scenario.start(ctrl)
+    backend, compiled, _ = select_backend(ctrl, args.backend)  # builds or loads before the log opens
     out = args.out or Path("logs") / f"{scenario.name}.mcap"
     out.parent.mkdir(parents=True, exist_ok=True)
     status = 0
     try:
-        run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0,
-                       thresholds=scenario.thresholds, progress=not args.quiet, backend=args.backend)
+        # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
+        with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, backend=backend,
+                       library_key=compiled.library.key if compiled else None) as log:
+            run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
+                           thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=log.on_chunk)
     except SingularityError as err:
         print(f"coordarm run: {err}", file=sys.stderr)
         run, status = err.run, 3
-    np.savez(out.with_suffix(".npz"), **{k: getattr(run, k) for k in ("t", "q", "u", "e", "s")})
     print_summary(run, scenario)
-    if run.info.get("backend") == "compiled":
-        print(f"library       {run.info['library']} ({'cache hit' if run.info['cache_hit'] else 'built now'})")
-    print(f"log           {out.with_suffix('.npz')}")
+    if compiled:
+        print(f"library       {compiled.library.path} ({'cache hit' if compiled.cache_hit else 'built now'})")
+    print(f"log           {out}")
     if not args.no_figures:
         for p in write_figures(run, scenario, ctrl, out.with_suffix("")):
             print(f"figure        {p}")

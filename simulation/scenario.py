@@ -172,9 +172,11 @@ class Scenario:
         return dict(self.spec["thresholds"])
 
     def with_overrides(self, links: int | None = None, duration: float | None = None,
-                       step: float | None = None) -> "Scenario":
-        """A copy with the chain length, duration or step replaced (validated again)."""
+                       step: float | None = None, law: str | None = None) -> "Scenario":
+        """A copy with the chain length, duration, step or form of the law replaced (validated again)."""
         spec = copy.deepcopy(self.spec)
+        if law is not None:
+            spec["control"]["law"] = law
         if links is not None:
             spec["chain"]["links"] = links
         if duration is not None:

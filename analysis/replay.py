@@ -1,0 +1,281 @@
+"""Read a run log back: :func:`load` returns the arrays, the scenario and how the run ended.
+
+Only the file is needed: the scenario is rebuilt from the ``scenario`` metadata, so
+``replay.scenario.controller()`` is the controller that made the run.
+
+The file is read as a stream of records (not through its summary section), so that a log
+whose writer was killed, which lacks its end, is read up to its last complete chunk; such a
+log comes back with ``recovered = True``. Everything else raises
+:class:`~symbolic.errors.LogError` naming the file: not MCAP, empty, cut before its first
+complete sample, or damaged inside (a bad CRC or compressed data in a file that does have
+its end), giving how many messages were read before the damage.
+"""
+from __future__ import annotations
+
+import io
+import json
+import struct
+import zlib
+from collections import namedtuple
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import zstandard
+
+from mcap.exceptions import McapError
+from mcap.opcode import Opcode
+from mcap.records import Channel, Chunk, DataEnd, Footer, Metadata, Schema
+from mcap.data_stream import ReadDataStream
+from mcap.stream_reader import CRCValidationError
+
+from simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels
+from simulation.run import Run
+from simulation.scenario import Scenario
+from symbolic import ConfigError, LogError
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+#: Exceptions the mcap reader raises on damaged input (it has no single base class for them).
+READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error, zlib.error, EOFError,
+               UnicodeDecodeError, ValueError, KeyError, IndexError, MemoryError)
+
+
+#: A message as read here: much lighter than ``mcap.records.Message`` (a log has ~10^5 of them).
+RawMessage = namedtuple("RawMessage", "channel_id sequence log_time data")
+_RECORD = struct.Struct("<BQ")
+_MESSAGE = struct.Struct("<HIQ")
+
+
+def chunk_messages(chunk: Chunk) -> list[RawMessage]:
+    """The messages of a chunk, its CRC checked (other records inside a chunk are skipped).
+
+    Raises
+    ------
+    CRCValidationError, zstandard.ZstdError, struct.error, ValueError
+        Damaged chunk (the caller turns these into a LogError).
+    """
+    if chunk.compression == "zstd":
+        data = zstandard.decompress(chunk.data, chunk.uncompressed_size)
+    elif chunk.compression == "":
+        data = chunk.data
+    else:
+        raise ValueError(f"unsupported chunk compression {chunk.compression!r}")
+    if len(data) != chunk.uncompressed_size:
+        raise ValueError(f"chunk holds {len(data)} bytes, its header says {chunk.uncompressed_size}")
+    if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
+        raise CRCValidationError(chunk.uncompressed_crc, zlib.crc32(data), chunk)
+    out, pos, end, view = [], 0, len(data), memoryview(data)
+    while pos < end:
+        opcode, length = _RECORD.unpack_from(data, pos)
+        body = pos + 9
+        if body + length > end:
+            raise ValueError(f"record of {length} bytes runs past the end of its chunk")
+        if opcode == Opcode.MESSAGE:
+            cid, seq, log_time = _MESSAGE.unpack_from(data, body)
+            out.append(RawMessage(cid, seq, log_time, view[body + 22:body + length]))
+        pos = body + length
+    return out
+
+
+@dataclass
+class Replay:
+    """A run read back from its log; rows are samples in time order.
+
+    Attributes
+    ----------
+    path : Path
+        The log file.
+    t, s, v_star, longitudinal : (N,) arrays
+        Time [s], arc length of the end point [m], commanded speed [m/s], longitudinal margin.
+    q, u : (N, m) arrays
+        Joint coordinates [rad] and control.
+    e, link_margins : (N, m-1) arrays
+        Deviations ``e^2..e^m`` [m] and link margins of links 2..m.
+    cond_t, cond : (K,) arrays
+        Times and values of the decoupling matrix condition number (reduced rate).
+    scenario : Scenario
+        The scenario rebuilt from the log.
+    scenario_dict : dict
+        The scenario as stored (JSON).
+    build, run_info : dict
+        The ``build`` and ``run`` metadata.
+    outcome : dict
+        How the run ended (``status``: completed, singularity, error, interrupted), or
+        ``{"status": "unknown"}`` if the writer never finished (killed).
+    recovered : bool
+        True if the file lacks its end (a killed or truncated run) and was read up to the break.
+    messages : int
+        Messages read.
+    problems : list of str
+        What was dropped while reading (incomplete trailing samples, a damaged tail).
+    """
+
+    path: Path
+    t: np.ndarray
+    q: np.ndarray
+    u: np.ndarray
+    e: np.ndarray
+    s: np.ndarray
+    v_star: np.ndarray
+    link_margins: np.ndarray
+    longitudinal: np.ndarray
+    cond_t: np.ndarray
+    cond: np.ndarray
+    scenario: Scenario
+    scenario_dict: dict
+    build: dict
+    run_info: dict
+    outcome: dict
+    recovered: bool
+    messages: int
+    problems: list = field(default_factory=list)
+
+    def to_run(self) -> Run:
+        """The samples as a :class:`simulation.run.Run` (for the figure functions)."""
+        return Run(self.t, self.q, self.u, self.e, self.s, self.link_margins, self.longitudinal, self.v_star,
+                   info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
+
+    def controller(self):
+        """The controller that made the run, rebuilt from the scenario."""
+        return self.scenario.controller()
+
+
+def _read_records(path: Path):
+    """Schemas, channels, messages, metadata; whether the end was reached; the error that stopped reading.
+
+    The records are read in file order, chunk CRCs checked; message indexes and the summary
+    are skipped (a killed run has none). A file that ends with the MCAP magic was closed by its
+    writer: a read error in it is damage.
+    """
+    schemas, channels, messages, meta = {}, {}, [], {}
+    complete, error = False, None
+    readers = {Opcode.SCHEMA: Schema.read, Opcode.CHANNEL: Channel.read, Opcode.METADATA: Metadata.read,
+               Opcode.CHUNK: Chunk.read, Opcode.DATA_END: DataEnd.read, Opcode.FOOTER: Footer.read}
+    with open(path, "rb") as f:
+        head = f.read(len(MCAP_MAGIC))
+        if head != MCAP_MAGIC:
+            what = "an empty file" if not head else "not an MCAP file (no MCAP magic at its start)"
+            raise LogError(f"{path}: {what}")
+        size = path.stat().st_size
+        try:
+            while True:
+                header = f.read(_RECORD.size)
+                if len(header) < _RECORD.size:
+                    raise EOFError(f"the file ends {'inside a record header' if header else 'without its footer'}")
+                opcode, length = _RECORD.unpack(header)
+                if length > size - f.tell():
+                    raise EOFError(f"a record of {length} bytes runs past the end of the file")
+                body = f.read(length)
+                if opcode not in readers:
+                    continue
+                rec = readers[opcode](ReadDataStream(io.BytesIO(body)))
+                if isinstance(rec, Chunk):
+                    messages += chunk_messages(rec)
+                elif isinstance(rec, Channel):
+                    channels[rec.id] = rec
+                elif isinstance(rec, Schema):
+                    schemas[rec.id] = rec
+                elif isinstance(rec, Metadata):
+                    meta[rec.name] = dict(rec.metadata)
+                elif isinstance(rec, Footer):
+                    complete = True
+                    break
+        except READ_ERRORS as exc:
+            error = exc
+            complete = False
+        f.seek(max(0, size - len(MCAP_MAGIC)))
+        has_end = size >= 2 * len(MCAP_MAGIC) and f.read() == MCAP_MAGIC
+    complete = complete and has_end
+    if error is not None and has_end:
+        raise LogError(f"{path}: corrupted MCAP log: {type(error).__name__}: {error} "
+                       f"({len(messages)} messages read before the damage)")
+    return schemas, channels, messages, meta, complete, error
+
+
+def _decode(channel_messages: list[RawMessage], width: int, topic: str, path: Path) -> np.ndarray:
+    size = len(CDR_HEADER) + 8 * width
+    wrong = [len(m.data) for m in channel_messages if len(m.data) != size]
+    raw = b"".join(m.data for m in channel_messages)
+    rec = np.frombuffer(raw, np.dtype([("h", "V4"), ("d", "<f8", (width,))])) if not wrong else None
+    if wrong or not (rec["h"] == np.frombuffer(CDR_HEADER, "V4")[0]).all():
+        got = f"a message of {wrong[0]} bytes" if wrong else "a message without the CDR little-endian header"
+        raise LogError(f"{path}: {topic}: {got}; expected {size} bytes (CDR little-endian, {width} float64)")
+    return rec["d"].reshape(len(channel_messages), width).copy()
+
+
+def load(path: str | Path) -> Replay:
+    """Read the log at ``path``.
+
+    Returns
+    -------
+    Replay
+
+    Raises
+    ------
+    LogError
+        Missing, empty, foreign or damaged file (naming it and how many messages were read
+        before the damage), or a log without a usable scenario or any complete sample.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise LogError(f"{path}: no such log file")
+    schemas, channels, messages, meta, complete, error = _read_records(path)
+    where = f"{path}: {'not a coordarm run log' if complete else 'MCAP log cut off'}"
+    detail = f" ({type(error).__name__}: {error})" if error else ""
+    if "scenario" not in meta:
+        raise LogError(f"{where}: no 'scenario' metadata could be read ({len(messages)} messages recovered "
+                       f"before the break){detail}")
+    try:
+        spec = json.loads(meta["scenario"]["json"])
+        scenario = Scenario.from_dict(spec, f"{path} (scenario metadata)")
+    except (KeyError, ValueError, ConfigError) as exc:
+        raise LogError(f"{path}: the 'scenario' metadata is not a valid scenario: {exc}") from None
+    m = int(spec["chain"]["links"])
+    specs = numeric_channels(m)
+    by_topic = {ch.topic: cid for cid, ch in channels.items()}
+    per_channel: dict[str, np.ndarray] = {}
+    grouped: dict[int, list[RawMessage]] = {}
+    for msg in messages:
+        grouped.setdefault(msg.channel_id, []).append(msg)
+    for key, ch in specs.items():
+        cid = by_topic.get(ch.topic)
+        msgs = grouped.get(cid, []) if cid is not None else []
+        data = _decode(msgs, ch.width, ch.topic, path) if msgs else np.empty((0, ch.width))
+        order = np.argsort(data[:, 0], kind="stable")
+        per_channel[key] = data[order]
+    problems = []
+    for key in PER_STEP:  # publisher sequence numbers run 0, 1, 2, ... on every per-step channel
+        cid = by_topic.get(specs[key].topic)
+        seq = np.unique([msg.sequence for msg in grouped.get(cid, [])])
+        missing = int(seq[-1] - seq[0] + 1 - len(seq)) if len(seq) else 0
+        if missing:
+            problems.append(f"{specs[key].topic}: {missing} message(s) missing (sequence gaps)")
+    # A sample is complete when every per-step channel has it; keep those times only.
+    times = [per_channel[k][:, 0] for k in PER_STEP]
+    common = times[0]
+    for tk in times[1:]:
+        common = np.intersect1d(common, tk)
+    dropped = max(len(tk) for tk in times) - len(common)
+    if dropped:
+        problems.append(f"{dropped} incomplete sample(s) dropped")
+    if error is not None:
+        problems.append(f"reading stopped at damaged data: {type(error).__name__}: {error}")
+    if len(common) == 0:
+        raise LogError(f"{where}: no complete sample could be read ({len(messages)} messages recovered before "
+                       f"the break){detail}")
+    cols = {}
+    for key in PER_STEP:
+        data = per_channel[key]
+        _, first = np.unique(data[:, 0], return_index=True)
+        data = data[first]
+        data = data[np.isin(data[:, 0], common)]
+        for name, sl in specs[key].slices().items():
+            cols.setdefault(name, data[:, sl])
+    cond = per_channel["cond"]
+    outcome = {k: json.loads(v) for k, v in meta["outcome"].items()} if "outcome" in meta else {"status": "unknown"}
+    return Replay(path=path, t=cols["t"], q=cols["q"], u=cols["u"], e=cols["e"], s=cols["s"],
+                  v_star=cols["v_star"], link_margins=cols["link"], longitudinal=cols["longitudinal"],
+                  cond_t=cond[:, 0].copy(), cond=cond[:, 1].copy(), scenario=scenario, scenario_dict=spec,
+                  build=meta.get("build", {}), run_info=meta.get("run", {}), outcome=outcome,
+                  recovered=not complete, messages=len(messages), problems=problems)

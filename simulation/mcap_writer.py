@@ -1,0 +1,420 @@
+"""Log a run to MCAP: numeric channels in CDR, a Foxglove scene, the scenario and the outcome.
+
+Channels (timestamps: ns of simulated time)
+
+* ``/joint_state`` (``t``, ``q``, ``u``), ``/task_state`` (``t``, ``s``, ``v_star``, ``e``),
+  ``/margins`` (``t``, ``link`` margins of links 2..m, ``longitudinal``): every logged step;
+* ``/margins/cond``: condition number of the decoupling matrix, ~5 Hz (one SVD each);
+* ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, walls), ~20 Hz.
+
+Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, versions),
+``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
+``outcome``. Chunks are built with numpy for a whole block of steps at once, compressed with
+zstd, and pushed to the operating system about once a second, so a killed run loses at most
+the last second of data. With ``threaded=True`` this runs on worker threads (compression,
+numpy and a compiled simulation release the GIL), which overlaps logging with the simulation
+when a core is free.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import platform
+import queue
+import signal
+import socket
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from datetime import datetime, timezone
+from importlib import metadata as _metadata
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from symbolic import ConfigError, CoordinatingController, LogError, SingularityError
+from symbolic.curves import Line
+
+from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, NumericChannel, numeric_channels,
+                          scene_update_schema_bytes)
+from .mcap_file import MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, message_records
+from .run import Run
+from .scenario import Scenario
+
+#: Where each field of the numeric channels comes from in a :class:`~simulation.run.Run`.
+SOURCES = {"t": "t", "q": "q", "u": "u", "s": "s", "v_star": "v_star", "e": "e", "link": "link_margins",
+           "longitudinal": "longitudinal"}
+#: Default rates of the reduced-rate channels [Hz].
+SCENE_RATE, COND_RATE = 20.0, 5.0
+
+
+def _version(dist: str) -> str:
+    try:
+        return _metadata.version(dist)
+    except _metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def code_hash() -> str:
+    """SHA-256 over the Python sources of the ``symbolic`` and ``simulation`` packages (sorted by path)."""
+    digest = hashlib.sha256()
+    root = Path(__file__).resolve().parent.parent
+    for pkg in ("symbolic", "simulation"):
+        for path in sorted((root / pkg).glob("*.py")):
+            digest.update(f"{pkg}/{path.name}\0".encode())
+            digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def build_info(scenario: Scenario) -> dict[str, str]:
+    """The ``build`` metadata: code and scenario hashes and the versions that made the run."""
+    import casadi
+    return {"code_hash": code_hash(), "scenario_hash": hashlib.sha256(scenario.to_json().encode()).hexdigest(),
+            "coordarm": _version("coordarm"), "casadi": casadi.__version__, "numpy": np.__version__,
+            "mcap": _version("mcap"), "zstandard": _version("zstandard"), "python": platform.python_version()}
+
+
+def outcome_of(error: BaseException | None, last_t: float | None) -> dict[str, Any]:
+    """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``."""
+    if error is None:
+        return {"status": "completed", "t_end": last_t}
+    if isinstance(error, SingularityError):
+        return {"status": "singularity", "t_end": last_t, "time": error.time, "link": error.link,
+                "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
+    status = "interrupted" if isinstance(error, KeyboardInterrupt) else "error"
+    return {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
+
+
+class RunLogger:
+    """Writes one run to an MCAP file; pass :meth:`on_chunk` to :func:`simulation.run.simulate`.
+
+    Use as a context manager: leaving the block (normally, by a singularity, an exception or
+    Ctrl-C) writes the ``outcome`` and closes the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The log file to create.
+    scenario : Scenario
+        The scenario being run (stored whole in the ``scenario`` metadata).
+    ctrl : CoordinatingController, optional
+        Its controller (default: ``scenario.controller()``), for the scene and ``cond``.
+    log_rate : float, optional
+        Samples per simulated second on the per-step channels (default: every step).
+    scene_rate, cond_rate : float
+        Rates of ``/scene`` and ``/margins/cond`` [Hz]; 0 switches the channel off.
+    chunk_size : int
+        Target uncompressed chunk size [bytes].
+    flush_interval : float
+        Wall time between pushes of the written chunks to the operating system [s].
+    command : list of str, optional
+        Command line stored in the ``run`` metadata (default: ``sys.argv``).
+    backend : str
+        Simulation backend, stored in the ``build`` metadata.
+    library_key : str, optional
+        Cache key (SHA-256 of the generated code and its build) of the compiled library that
+        ran, stored in the ``build`` metadata.
+    threaded : bool
+        Encode on a worker thread and compress on another (blocks are queued by :meth:`on_chunk`).
+        Worth it only with a free core: on the shared 2-core test machine it measured no faster
+        than the default (see benchmarks/RESULTS_logging.md).
+
+    Raises
+    ------
+    ConfigError
+        A rate that is not a positive number.
+    LogError
+        The file cannot be created.
+    """
+
+    def __init__(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
+                 log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float = COND_RATE,
+                 chunk_size: int = 256 * 1024, flush_interval: float = 1.0,
+                 command: list[str] | None = None, backend: str = "interpreted", library_key: str | None = None,
+                 threaded: bool = False) -> None:
+        self.scenario, self.ctrl = scenario, ctrl or scenario.controller()
+        self.step = scenario.step
+        self.every = self._decimation(log_rate, "log_rate") if log_rate is not None else 1
+        self.scene_every = self._decimation(scene_rate, "scene_rate") if scene_rate else 0
+        self.cond_every = self._decimation(cond_rate, "cond_rate") if cond_rate else 0
+        self.flush_interval = float(flush_interval)
+        self.path = Path(path)
+        m = self.ctrl.chain.m
+        self.channels: dict[str, NumericChannel] = numeric_channels(m)
+        try:
+            self.file = McapFile(self.path, profile="ros2", compression_level=1, background=threaded)
+        except OSError as exc:
+            raise LogError(f"{self.path}: cannot create the log: {exc}") from None
+        self.ids: dict[str, int] = {}
+        for key, ch in self.channels.items():
+            sid = self.file.add_schema(ch.schema_name, "ros2msg", ch.schema_text().encode())
+            self.ids[key] = self.file.add_channel(ch.topic, "cdr", sid)
+        sid = self.file.add_schema(SCENE_SCHEMA_NAME, "jsonschema", scene_update_schema_bytes())
+        self.ids["scene"] = self.file.add_channel(SCENE_TOPIC, "json", sid)
+        self.origin = min(0.0, scenario.t0)  # log times are ns since this simulated time (>= 0)
+        self.file.add_metadata("scenario", {"json": scenario.to_json(), "source": scenario.source})
+        build = {**build_info(scenario), "backend": backend}
+        if library_key:
+            build["library_key"] = library_key
+        self.file.add_metadata("build", build)
+        self.file.add_metadata("run", {
+            "command": json.dumps(list(sys.argv if command is None else command)),
+            "started": datetime.now(timezone.utc).isoformat(timespec="seconds"), "host": socket.gethostname(),
+            "platform": platform.platform(), "log_every_steps": str(self.every),
+            "scene_every_steps": str(self.scene_every), "cond_every_steps": str(self.cond_every),
+            "time_origin": repr(self.origin)})
+        # One sample = one message on each per-step channel, laid out as a packed record.
+        layout = []
+        for key in PER_STEP:
+            ch = self.channels[key]
+            layout += [(key + "_hdr", MESSAGE_HEADER_DTYPE), (key + "_cdr", "V4"), (key, "<f8", (ch.width,))]
+        self.sample_dtype = np.dtype(layout)
+        self.samples_per_chunk = max(1, chunk_size // self.sample_dtype.itemsize)
+        self._pending = np.empty(0, self.sample_dtype)
+        self._extras: list[tuple[str, int, bytes]] = []  # (channel key, log time, data) at reduced rates
+        self._sequence = {key: 0 for key in self.ids}
+        self._seen = 0          # steps received so far (the global index of the next one)
+        self._last: Run | None = None
+        self._last_logged = -1  # global index of the last sample logged
+        self._flushed = time.monotonic()
+        self._walls = np.asarray(scenario.obstacles, dtype=float).reshape(-1, 2, 2)
+        self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
+        self.outcome: dict[str, Any] | None = None
+        self._error: BaseException | None = None
+        self._queue: queue.Queue | None = None
+        if threaded:
+            self._queue = queue.Queue(maxsize=8)
+            self._worker = threading.Thread(target=self._work, name="coordarm-log", daemon=True)
+            self._worker.start()
+
+    def _work(self) -> None:
+        while True:
+            part = self._queue.get()
+            try:
+                if part is None:
+                    return
+                if self._error is None:
+                    self._process(part)
+            except BaseException as exc:  # reported to the caller by on_chunk / finish
+                self._error = exc
+            finally:
+                self._queue.task_done()
+
+    def _check(self) -> None:
+        if self._error is not None:
+            raise LogError(f"{self.path}: writing the log failed: {type(self._error).__name__}: {self._error}")
+
+    def _decimation(self, rate: Any, name: str) -> int:
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0 or not np.isfinite(rate):
+            raise ConfigError(f"{name}: need a positive number of samples per second, got {rate!r}")
+        return max(1, int(round(1.0 / (rate * self.step))))
+
+    # ---------------------------------------------------------------- writing
+    def on_chunk(self, part: Run) -> None:
+        """Log a block of consecutive steps (a :class:`Run` of their rows; its arrays must not change later).
+
+        Raises
+        ------
+        LogError
+            Writing an earlier block failed (e.g. the disk is full).
+        """
+        self._check()
+        if self._queue is not None:
+            self._queue.put(part)
+        else:
+            with _sigint_deferred():  # Ctrl-C half-way through a block would leave a gap in the log
+                self._process(part)
+
+    def _process(self, part: Run) -> None:
+        n = len(part.t)
+        g = self._seen + np.arange(n)
+        self._seen += n
+        self._last = part
+        rows = np.flatnonzero(g % self.every == 0)
+        if len(rows):
+            self._add_samples(part, rows)
+            self._last_logged = int(g[rows[-1]])
+        if self.scene_every:
+            ks = np.flatnonzero(g % self.scene_every == 0)
+            for k, data in zip(ks, self._scenes(part, ks)):
+                self._extras.append(("scene", int(self._ns(part.t[k])), data))
+        if self.cond_every:
+            for k in np.flatnonzero(g % self.cond_every == 0):
+                self._extras.append(("cond", int(self._ns(part.t[k])), self._cond(part, int(k))))
+        while len(self._pending) >= self.samples_per_chunk:
+            self._write_chunk(self.samples_per_chunk)
+        if time.monotonic() - self._flushed >= self.flush_interval:
+            self._flush_now()
+
+    def _ns(self, t: float | np.ndarray):
+        return np.round((np.asarray(t) - self.origin) * 1e9).astype(np.uint64)
+
+    def _add_samples(self, part: Run, rows: np.ndarray) -> None:
+        n = len(rows)
+        rec = np.empty(n, self.sample_dtype)
+        ns = self._ns(part.t[rows])
+        for key in PER_STEP:
+            ch = self.channels[key]
+            hdr = rec[key + "_hdr"]
+            hdr["opcode"] = 0x05
+            hdr["length"] = MESSAGE_HEADER_SIZE - 9 + ch.size
+            hdr["channel"] = self.ids[key]
+            hdr["sequence"] = (self._sequence[key] + np.arange(n)) & 0xFFFFFFFF
+            hdr["log_time"] = ns
+            hdr["publish_time"] = ns
+            self._sequence[key] += n
+            rec[key + "_cdr"] = np.frombuffer(CDR_HEADER, "V4")[0]
+            data = rec[key]
+            for name, cols in ch.slices().items():
+                data[:, cols] = getattr(part, SOURCES[name])[rows]
+        self._pending = np.concatenate([self._pending, rec]) if len(self._pending) else rec
+
+    def _write_chunk(self, n: int) -> None:
+        block, self._pending = self._pending[:n], self._pending[n:]
+        size = self.sample_dtype.itemsize
+        index = {}
+        base = np.arange(n, dtype=np.uint64) * np.uint64(size)
+        for key in PER_STEP:
+            if n:
+                offset = np.uint64(self.sample_dtype.fields[key + "_hdr"][1])
+                index[self.ids[key]] = (block[key + "_hdr"]["log_time"], base + offset)
+        if n and len(self._pending):  # more samples follow: keep their scene/cond for the next chunk
+            end = int(block[PER_STEP[0] + "_hdr"]["log_time"][-1])
+            extras = [x for x in self._extras if x[1] <= end]
+            self._extras = [x for x in self._extras if x[1] > end]
+        else:
+            extras, self._extras = self._extras, []
+        parts, pos = [block.tobytes()], n * size
+        for key, lt, data in extras:
+            cid = self.ids[key]
+            record = message_records(cid, [lt], [data], self._sequence[key])
+            self._sequence[key] += 1
+            lts, offs = index.get(cid, (np.empty(0, np.uint64), np.empty(0, np.uint64)))
+            index[cid] = (np.append(lts, np.uint64(lt)), np.append(offs, np.uint64(pos)))
+            parts.append(record)
+            pos += len(record)
+        self.file.write_chunk(b"".join(parts), index)
+
+    def flush(self) -> None:
+        """Wait for the queued blocks, write them as a chunk, push the file to the operating system."""
+        if self._queue is not None:
+            self._queue.join()
+        self._check()
+        self._flush_now()
+
+    def _flush_now(self) -> None:
+        if len(self._pending) or self._extras:
+            self._write_chunk(len(self._pending))
+        self.file.flush()
+        self._flushed = time.monotonic()
+
+    # ------------------------------------------------------- reduced-rate channels
+    def _cond(self, part: Run, k: int) -> bytes:
+        value = self.ctrl.cond(part.q[k], float(part.t[k]))
+        return CDR_HEADER + np.array([part.t[k], value], "<f8").tobytes()
+
+    def _curves(self, times: np.ndarray) -> list[np.ndarray]:
+        """The curve at each of ``times`` as a polyline (a straight line: one CasADi call for all times)."""
+        reach = 2.2 * self.ctrl.chain.m * self.ctrl.chain.xi
+        curve = self.ctrl.curve
+        if self._line_params is None and isinstance(curve, Line) and len(times):
+            t = ca.SX.sym("t")
+            f = ca.Function("line_params", [t], [curve.angle(t), curve.point[0](t), curve.point[1](t)])
+            # Trusted only if it reproduces the curve's own sampling.
+            th, px, py = (float(v) for v in f(float(times[0])))
+            ends = np.array([-reach, reach])
+            first = np.column_stack([px + ends * np.cos(th), py + ends * np.sin(th)])
+            ok = np.allclose(first, curve.sample(float(times[0]), n=2, extent=reach), rtol=0, atol=1e-12)
+            self._line_params = f if ok else False
+        if self._line_params and len(times):
+            th, px, py = (np.asarray(v, float).ravel() for v in self._line_params(ca.DM(times).T))
+            ends = np.array([-reach, reach])
+            return list(np.stack([px[:, None] + ends * np.cos(th)[:, None],
+                                  py[:, None] + ends * np.sin(th)[:, None]], -1))
+        return [curve.sample(float(t), n=90, extent=reach) for t in times]
+
+    def _scenes(self, part: Run, ks: np.ndarray) -> list[bytes]:
+        if not len(ks):
+            return []
+        joints = self.ctrl.chain.joints_np(part.q[ks])
+        curves = self._curves(part.t[ks])
+        walls = (_line(self._walls.reshape(-1, 2), 2, 0.02, (0.2, 0.2, 0.2, 1.0)),) if len(self._walls) else ()
+        out = []
+        for J, C, t in zip(joints, curves, part.t[ks]):
+            lines = (_line(J, 0, 0.01, (0.15, 0.45, 0.9, 1.0)), _line(C, 0, 0.005, (0.9, 0.5, 0.1, 0.8))) + walls
+            ns = int(self._ns(t))
+            stamp = f'{{"sec":{ns // 10**9},"nsec":{ns % 10**9}}}'
+            out.append(('{"deletions":[],"entities":[{"timestamp":' + stamp + ',"frame_id":"world","id":"coordarm",'
+                        '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],'
+                        '"spheres":[],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":['
+                        + ",".join(lines) + "]}]}").encode())
+        return out
+
+    # ---------------------------------------------------------------- closing
+    def finish(self, error: BaseException | None = None) -> None:
+        """Log the last step if decimation skipped it, write ``outcome``, close the file."""
+        if self.file.closed:
+            return
+        if self._queue is not None:
+            self._queue.put(None)
+            self._worker.join()
+            self._queue = None
+        if self._error is not None:
+            self.file.abandon()
+            self._check()
+        try:
+            last_t = None
+            if self._last is not None:
+                last_t = float(self._last.t[-1])
+                if self._last_logged != self._seen - 1:
+                    self._add_samples(self._last, np.array([len(self._last.t) - 1]))
+            if len(self._pending) or self._extras:
+                self._write_chunk(len(self._pending))
+            self.outcome = outcome_of(error, last_t)
+            self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in self.outcome.items()})
+            self.file.close()
+        except Exception as exc:
+            self.file.abandon()
+            raise LogError(f"{self.path}: writing the log failed: {type(exc).__name__}: {exc}") from exc
+        except BaseException:
+            self.file.abandon()
+            raise
+
+    def __enter__(self) -> "RunLogger":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        self.finish(exc)
+        return False
+
+
+_POINT = '{"x":%.6f,"y":%.6f,"z":0}'
+
+
+@contextmanager
+def _sigint_deferred():
+    """Hold back SIGINT (Ctrl-C) until the block ends, then deliver it to the previous handler."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(frame))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if caught and callable(previous):
+            previous(signal.SIGINT, caught[0])
+
+
+def _line(points: np.ndarray, kind: int, thickness: float, color: tuple[float, ...]) -> str:
+    """A ``foxglove.LinePrimitive`` in JSON (points formatted in one pass)."""
+    xy = np.asarray(points, float).reshape(-1, 2)
+    pts = ",".join([_POINT] * len(xy)) % tuple(xy.ravel().tolist())
+    r, g, b, a = color
+    return (f'{{"type":{kind},"pose":{{"position":{{"x":0,"y":0,"z":0}},"orientation":{{"x":0,"y":0,"z":0,"w":1}}}},'
+            f'"thickness":{thickness},"scale_invariant":false,"points":[{pts}],'
+            f'"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}},"colors":[],"indices":[]}}')

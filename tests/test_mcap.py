@@ -1,0 +1,284 @@
+"""The run log: what the plain ``mcap`` library reads from it, metadata, rates, outcomes."""
+import json
+import struct
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from mcap.stream_reader import StreamReader
+
+from analysis.replay import load
+from simulation.log_schemas import numeric_channels, scene_update_schema
+from simulation.mcap_writer import RunLogger, code_hash
+from simulation.run import Run, simulate
+from simulation.scenario import Scenario, load_scenario
+from symbolic import ConfigError, LogError, SingularityError
+
+LINKS, DURATION = 6, 0.6
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario("hole").with_overrides(links=LINKS, duration=DURATION)
+
+
+@pytest.fixture(scope="module")
+def logged(scenario, tmp_path_factory):
+    """A short run of the ``hole`` preset (it has walls) logged at every step, and what simulate returned."""
+    path = tmp_path_factory.mktemp("log") / "hole.mcap"
+    ctrl = scenario.controller()
+    with RunLogger(path, scenario, ctrl, chunk_size=16 * 1024, command=["test"]) as log:
+        run = simulate(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0,
+                       chunk=97, on_chunk=log.on_chunk)
+    return path, run
+
+
+def test_load_returns_exactly_what_the_run_computed(logged):
+    path, run = logged
+    rep = load(path)
+    for name in ("t", "q", "u", "e", "s", "v_star", "link_margins", "longitudinal"):
+        assert np.array_equal(getattr(rep, name), getattr(run, name)), name
+    assert rep.recovered is False and rep.problems == []
+    assert rep.outcome == {"status": "completed", "t_end": DURATION}
+
+
+def test_the_plain_mcap_reader_sees_schemas_channels_metadata_and_statistics(logged):
+    path, run = logged
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        topics = {c.topic: c for c in summary.channels.values()}
+        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene"}
+        schemas = {s.id: s for s in summary.schemas.values()}
+        scene = topics["/scene"]
+        assert scene.message_encoding == "json"
+        assert (schemas[scene.schema_id].name, schemas[scene.schema_id].encoding) == ("foxglove.SceneUpdate",
+                                                                                      "jsonschema")
+        js = topics["/joint_state"]
+        assert (schemas[js.schema_id].encoding, js.message_encoding) == ("ros2msg", "cdr")
+        assert schemas[js.schema_id].data.decode() == f"float64 t\nfloat64[{LINKS}] q\nfloat64[{LINKS}] u\n"
+        n = len(run.t)
+        counts = {c.topic: summary.statistics.channel_message_counts[c.id] for c in topics.values()}
+        assert counts["/joint_state"] == counts["/task_state"] == counts["/margins"] == n
+        assert counts["/scene"] == len(range(0, n, 50)) and counts["/margins/cond"] == len(range(0, n, 200))
+        assert summary.statistics.message_end_time == round(DURATION * 1e9)
+        meta = {m.name: m.metadata for m in reader.iter_metadata()}
+    assert set(meta) == {"scenario", "build", "run", "outcome"}
+    assert meta["build"]["code_hash"] == code_hash() and meta["build"]["casadi"] == "3.8.2"
+    assert json.loads(meta["run"]["command"]) == ["test"]
+
+
+def test_cdr_messages_decode_field_by_field_with_struct(logged):
+    path, run = logged
+    m = LINKS
+    with open(path, "rb") as f:
+        msgs = [(msg.log_time, msg.data) for _, ch, msg in make_reader(f).iter_messages(topics=["/joint_state"])]
+    for k in (0, 1, len(run.t) // 2, len(run.t) - 1):
+        log_time, data = msgs[k]
+        assert data[:4] == b"\x00\x01\x00\x00"
+        values = struct.unpack(f"<{1 + 2 * m}d", data[4:])
+        assert log_time == round(run.t[k] * 1e9)
+        assert values[0] == run.t[k] and list(values[1:1 + m]) == list(run.q[k]) and list(values[1 + m:]) == list(run.u[k])
+
+
+def _validate(value, schema, where="$"):
+    """A small JSON Schema check (type, properties, required, items, const/oneOf, minimum)."""
+    types = {"object": dict, "array": list, "string": str, "boolean": bool, "integer": int, "number": (int, float)}
+    if "oneOf" in schema:
+        assert any(value == alt["const"] for alt in schema["oneOf"]), where
+    kind = schema.get("type")
+    if kind:
+        assert isinstance(value, types[kind]) and not (kind in ("integer", "number") and isinstance(value, bool)), where
+    if "minimum" in schema:
+        assert value >= schema["minimum"], where
+    if kind == "object":
+        for key in schema.get("required", []):
+            assert key in value, f"{where}.{key} missing"
+        for key, sub in schema.get("properties", {}).items():
+            if key in value:
+                _validate(value[key], sub, f"{where}.{key}")
+    if kind == "array":
+        for i, item in enumerate(value):
+            _validate(item, schema.get("items", {}), f"{where}[{i}]")
+
+
+def test_scene_messages_follow_the_scene_update_schema_and_draw_the_chain(logged, scenario):
+    path, run = logged
+    with open(path, "rb") as f:
+        scenes = [(msg.log_time, json.loads(msg.data))
+                  for _, _, msg in make_reader(f).iter_messages(topics=["/scene"])]
+        schema = json.loads(next(s for s in make_reader(open(path, "rb")).get_summary().schemas.values()
+                                 if s.name == "foxglove.SceneUpdate").data)
+    assert schema == scene_update_schema()
+    chain = scenario.chain()
+    for log_time, scene in scenes[:3] + scenes[-1:]:
+        _validate(scene, schema)
+        k = int(np.flatnonzero(np.round(run.t * 1e9) == log_time)[0])
+        arm, curve, walls = scene["entities"][0]["lines"]
+        pts = np.array([[p["x"], p["y"]] for p in arm["points"]])
+        np.testing.assert_allclose(pts, chain.joints_np(run.q[k]), atol=1e-6)  # 6 decimals in the JSON
+        line = np.array([[p["x"], p["y"]] for p in curve["points"]])  # evaluated for many times at once
+        expected = scenario.controller().curve.sample(run.t[k], n=2, extent=2.2 * LINKS * chain.xi)
+        np.testing.assert_allclose(line, expected, atol=1e-6)
+        assert walls["type"] == 2 and len(walls["points"]) == 2 * len(scenario.obstacles)
+
+
+def test_the_scenario_metadata_alone_rebuilds_the_controller(logged, scenario):
+    path, run = logged
+    rep = load(path)
+    assert rep.scenario.spec == scenario.spec
+    np.testing.assert_array_equal(rep.scenario.obstacles, scenario.obstacles)
+    ctrl = rep.controller()
+    k = len(run.t) // 3
+    assert np.array_equal(ctrl.control(rep.q[k], float(rep.t[k])), run.u[k])
+
+
+def test_cond_channel_is_the_condition_number_of_the_decoupling_matrix(logged, scenario):
+    path, run = logged
+    rep = load(path)
+    ctrl = scenario.controller()
+    assert len(rep.cond) == len(range(0, len(run.t), 200))
+    for tk, c in zip(rep.cond_t, rep.cond):
+        k = int(np.flatnonzero(run.t == tk)[0])
+        M = ctrl.decoupling_matrix(run.q[k], tk)
+        sv = np.linalg.svd(M, compute_uv=False)
+        assert c == pytest.approx(sv[0] / sv[-1], rel=1e-9)
+
+
+def test_log_rate_keeps_every_kth_step_and_the_last(scenario, tmp_path):
+    ctrl = scenario.controller()
+    path = tmp_path / "rate.mcap"
+    with RunLogger(path, scenario, ctrl, log_rate=150.0) as log:  # 1/(150 * 1 ms) -> every 7th step
+        run = simulate(ctrl, scenario.start(ctrl), 0.1, scenario.step, on_chunk=log.on_chunk)
+    rep = load(path)
+    keep = sorted(set(range(0, len(run.t), 7)) | {len(run.t) - 1})
+    np.testing.assert_array_equal(rep.t, run.t[keep])
+    np.testing.assert_array_equal(rep.q, run.q[keep])
+
+
+@pytest.mark.parametrize("rate", [0.0, -5.0, float("nan"), "fast"])
+def test_bad_log_rate_is_a_config_error_before_the_file_exists(scenario, tmp_path, rate):
+    with pytest.raises(ConfigError, match="log_rate"):
+        RunLogger(tmp_path / "x.mcap", scenario, log_rate=rate)
+    assert not (tmp_path / "x.mcap").exists()
+
+
+def test_a_singularity_is_recorded_as_the_outcome(tmp_path):
+    spec = {"name": "fast", "chain": {"links": 8, "link_length": 0.1}, "curve": {"kind": "line"},
+            "control": {"gain": 2.0, "speed": 0.4}, "run": {"duration": 5.0}}
+    sc = Scenario.from_dict(spec)
+    ctrl = sc.controller()
+    path = tmp_path / "fast.mcap"
+    with pytest.raises(SingularityError) as info:
+        with RunLogger(path, sc, ctrl) as log:
+            simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, on_chunk=log.on_chunk)
+    rep = load(path)
+    err = info.value
+    assert rep.outcome["status"] == "singularity" and rep.outcome["time"] == err.time
+    assert rep.outcome["kind"] == err.kind and rep.outcome["margin"] == err.margin
+    assert rep.t[-1] == err.time and np.array_equal(rep.q, err.run.q)
+
+
+@pytest.mark.parametrize("error", [RuntimeError("solver blew up"), KeyboardInterrupt()])
+def test_an_exception_or_ctrl_c_still_leaves_a_closed_log_with_its_outcome(scenario, tmp_path, error):
+    ctrl = scenario.controller()
+    path = tmp_path / "err.mcap"
+
+    def on_chunk(part):
+        log.on_chunk(part)
+        if part.t[-1] > 0.05:
+            raise error
+
+    with pytest.raises(type(error)):
+        with RunLogger(path, scenario, ctrl) as log:
+            simulate(ctrl, scenario.start(ctrl), 1.0, scenario.step, chunk=20, on_chunk=on_chunk)
+    rep = load(path)
+    assert rep.recovered is False and len(rep.t) == 60  # three chunks of 20, the third ends past 0.05 s
+    assert rep.outcome["status"] == ("interrupted" if isinstance(error, KeyboardInterrupt) else "error")
+    assert rep.outcome["error"] == type(error).__name__
+
+
+def test_flush_makes_the_samples_so_far_readable_before_the_file_is_closed(scenario, tmp_path):
+    ctrl = scenario.controller()
+    path = tmp_path / "open.mcap"
+    log = RunLogger(path, scenario, ctrl, flush_interval=0.0, threaded=True)
+    run = simulate(ctrl, scenario.start(ctrl), 0.2, scenario.step, chunk=50, on_chunk=log.on_chunk)
+    log.flush()  # waits for the worker threads' queues
+    rep = load(path)  # the writer is still open: no summary, no footer
+    assert rep.recovered is True and rep.outcome == {"status": "unknown"}
+    np.testing.assert_array_equal(rep.q, run.q)
+    log.finish()
+    assert load(path).recovered is False
+
+
+def test_stream_reader_of_mcap_reads_the_whole_file_with_crc_checks(logged):
+    path, run = logged
+    with open(path, "rb") as f:
+        n = sum(1 for _ in StreamReader(f, validate_crcs=True).records)
+    assert n > 3 * len(run.t)
+
+
+def test_numeric_channel_layout_matches_its_schema_text():
+    ch = numeric_channels(5)["task_state"]
+    assert ch.schema_text() == "float64 t\nfloat64 s\nfloat64 v_star\nfloat64[4] e\n"
+    assert ch.width == 7 and ch.size == 4 + 56
+    assert ch.slices() == {"t": 0, "s": 1, "v_star": 2, "e": slice(3, 7)}
+
+
+def test_a_failure_on_the_writer_thread_surfaces_as_a_log_error_naming_the_file(scenario, tmp_path):
+    path = tmp_path / "bad.mcap"
+    log = RunLogger(path, scenario, threaded=True)
+    m = LINKS
+    bad = Run(np.zeros(3), np.zeros((3, m + 1)), np.zeros((3, m)), np.zeros((3, m - 1)), np.zeros(3),
+              np.zeros((3, m - 1)), np.zeros(3), np.zeros(3))
+    log.on_chunk(bad)  # q has one column too many: fails on the worker
+    with pytest.raises(LogError, match=str(path)):
+        log.finish()
+
+
+def test_threaded_and_unthreaded_loggers_write_the_same_log(scenario, tmp_path):
+    ctrl = scenario.controller()
+    a, b = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    for path, threaded in ((a, True), (b, False)):
+        with RunLogger(path, scenario, ctrl, threaded=threaded) as log:
+            simulate(ctrl, scenario.start(ctrl), 0.3, scenario.step, chunk=64, on_chunk=log.on_chunk)
+    ra, rb = load(a), load(b)
+    assert np.array_equal(ra.q, rb.q) and np.array_equal(ra.cond, rb.cond) and ra.messages == rb.messages
+
+
+def test_coordarm_run_writes_the_log_at_the_chosen_rate_with_a_singularity_outcome(tmp_path, capsys):
+    from simulation.cli import main
+    toml = tmp_path / "fast.toml"
+    toml.write_text('name = "fast"\n[chain]\nlinks = 8\nlink_length = 0.1\n[curve]\nkind = "line"\n'
+                    '[control]\ngain = 2.0\nspeed = 0.4\n[run]\nduration = 5.0\n')
+    out = tmp_path / "fast.mcap"
+    assert main(["run", str(toml), "--quiet", "--no-figures", "--log-rate", "100", "--out", str(out)]) == 3
+    assert f"log           {out}" in capsys.readouterr().out
+    rep = load(out)
+    assert rep.outcome["status"] == "singularity" and rep.outcome["kind"] == "longitudinal"
+    assert rep.t[-1] == rep.outcome["time"]  # the offending state is logged although off the 100 Hz grid
+    np.testing.assert_allclose(np.diff(rep.t[:-1]), 0.01, rtol=1e-9)
+    assert rep.scenario.spec["control"]["speed"] == 0.4 and rep.run_info["log_every_steps"] == "10"
+
+
+def test_ctrl_c_arriving_while_a_chunk_is_written_is_held_back_until_the_block_is_logged(scenario, tmp_path):
+    import os
+    import signal
+    ctrl = scenario.controller()
+    path = tmp_path / "sigint.mcap"
+    log = RunLogger(path, scenario, ctrl, chunk_size=4096)
+    write = log.file.write_chunk
+
+    def write_then_ctrl_c(records, index):  # a real SIGINT to this process in the middle of on_chunk
+        if len(log.file._chunk_indexes) == 2:
+            os.kill(os.getpid(), signal.SIGINT)
+        write(records, index)
+
+    log.file.write_chunk = write_then_ctrl_c
+    with pytest.raises(KeyboardInterrupt):
+        with log:
+            simulate(ctrl, scenario.start(ctrl), 0.5, scenario.step, chunk=100, on_chunk=log.on_chunk)
+    rep = load(path)
+    assert rep.outcome["status"] == "interrupted" and rep.problems == [] and rep.recovered is False
+    assert rep.t[-1] == rep.outcome["t_end"] and len(rep.t) % 100 == 0  # whole blocks only
+    np.testing.assert_allclose(np.diff(rep.t), scenario.step, rtol=1e-9)

@@ -1,0 +1,198 @@
+"""Reading logs back: a killed run, truncated, bit-flipped and foreign files, ``coordarm replay``."""
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from mcap.writer import Writer
+
+from analysis.replay import load
+from simulation.cli import main
+from simulation.run import simulate
+from symbolic import LogError
+
+SWING = """name = "swing"
+[chain]
+links = 8
+link_length = 0.1
+[curve]
+kind = "line"
+point = [0.0, 0.0]
+angle = { kind = "sinusoid", amplitude = 0.5, omega = 0.5 }
+[control]
+gain = 2.0
+speed = 0.0
+[run]
+duration = 100000.0
+"""
+
+
+@pytest.fixture(scope="module")
+def full_log(tmp_path_factory):
+    """A complete log written by ``coordarm run`` (line preset, 8 links, 1.5 s) and its bytes."""
+    path = tmp_path_factory.mktemp("replay") / "line.mcap"
+    assert main(["run", "line", "--links", "8", "--duration", "1.5", "--quiet", "--no-figures",
+                 "--out", str(path)]) == 0
+    return path, path.read_bytes()
+
+
+def _start_and_wait_for_flushes(tmp_path):
+    """Start ``coordarm run`` on a long scenario; return the process once its log had a few flushes."""
+    toml = tmp_path / "swing.toml"
+    toml.write_text(SWING)
+    out = tmp_path / "swing.mcap"
+    proc = subprocess.Popen([sys.executable, "-m", "simulation.cli", "run", str(toml), "--quiet", "--no-figures",
+                             "--out", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    start, grown_at = time.monotonic(), None
+    while time.monotonic() - start < 60:
+        time.sleep(0.1)
+        if proc.poll() is not None:
+            raise AssertionError(proc.stderr.read().decode())
+        size = out.stat().st_size if out.exists() else 0
+        if size > 50_000 and grown_at is None:
+            grown_at = time.monotonic()
+        if grown_at is not None and time.monotonic() - grown_at > 2.5:  # a few flushes (1 s apart)
+            break
+    return proc, out
+
+
+def test_a_run_killed_with_sigkill_leaves_a_log_that_load_recovers(tmp_path):
+    proc, out = _start_and_wait_for_flushes(tmp_path)
+    try:
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait()
+    assert proc.returncode == -signal.SIGKILL
+    rep = load(out)
+    assert rep.recovered is True and rep.outcome == {"status": "unknown"}
+    assert len(rep.t) > 1000
+    np.testing.assert_allclose(np.diff(rep.t), rep.scenario.step, rtol=1e-6)  # no gap
+    assert rep.t[0] == 0.0
+    # The recovered samples are those of the same run made again in this process.
+    sc = rep.scenario
+    ctrl = sc.controller()
+    n = len(rep.t) - 1
+    run = simulate(ctrl, sc.start(ctrl), n * sc.step, sc.step, sc.t0)
+    np.testing.assert_array_equal(rep.t, run.t)
+    np.testing.assert_array_equal(rep.q, run.q)
+    np.testing.assert_array_equal(rep.e, run.e)
+
+
+def test_a_log_cut_after_some_chunks_gives_back_exactly_its_complete_samples(full_log, tmp_path):
+    path, data = full_log
+    full = load(path)
+    with open(path, "rb") as f:
+        chunks = sorted(make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
+    assert len(chunks) >= 3
+    cut_file = tmp_path / "cut.mcap"
+    for cut in (chunks[1].chunk_start_offset + 10,                       # inside the second chunk
+                chunks[2].chunk_start_offset,                           # right after the second chunk's index
+                len(data) - 3):                                         # only the end magic lost
+        cut_file.write_bytes(data[:cut])
+        rep = load(cut_file)
+        assert rep.recovered is True
+        k = len(rep.t)
+        assert k > 0 and np.array_equal(rep.t, full.t[:k]) and np.array_equal(rep.q, full.q[:k])
+        assert np.array_equal(rep.link_margins, full.link_margins[:k])
+    assert k == len(full.t)
+
+
+@pytest.mark.parametrize("cut", [0, 5, 8, 40, 300])
+def test_a_log_cut_before_its_first_sample_is_a_log_error_naming_the_file(full_log, tmp_path, cut):
+    path, data = full_log
+    bad = tmp_path / "early.mcap"
+    bad.write_bytes(data[:cut])
+    with pytest.raises(LogError, match=str(bad)):
+        load(bad)
+
+
+def test_a_bit_flip_inside_a_chunk_is_a_log_error_saying_how_much_was_read(full_log, tmp_path):
+    path, data = full_log
+    with open(path, "rb") as f:
+        chunks = sorted(make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
+    for which in (0, 2):
+        c = chunks[which]
+        flipped = bytearray(data)
+        flipped[c.chunk_start_offset + c.chunk_length - 50] ^= 0x10  # inside the compressed records
+        bad = tmp_path / f"flip{which}.mcap"
+        bad.write_bytes(bytes(flipped))
+        with pytest.raises(LogError, match="corrupted") as info:
+            load(bad)
+        assert str(bad) in str(info.value) and "messages read before the damage" in str(info.value)
+
+
+@pytest.mark.parametrize("content", [b"", b"\x89PNG\r\n\x1a\n" + bytes(200), b"just some text\n" * 20],
+                         ids=["empty", "png", "text"])
+def test_foreign_files_are_log_errors_and_the_cli_exits_2_without_traceback(tmp_path, capsys, content):
+    bad = tmp_path / "foreign.mcap"
+    bad.write_bytes(content)
+    with pytest.raises(LogError, match=str(bad)):
+        load(bad)
+    assert main(["replay", str(bad), "--no-animation"]) == 2
+    err = capsys.readouterr().err
+    assert str(bad) in err and "Traceback" not in err
+
+
+def test_an_mcap_file_from_another_tool_is_not_a_coordarm_log(tmp_path):
+    other = tmp_path / "other.mcap"
+    with open(other, "wb") as f:
+        w = Writer(f)
+        w.start()
+        sid = w.register_schema("x", "jsonschema", b"{}")
+        cid = w.register_channel("/x", "json", sid)
+        w.add_message(cid, log_time=1, data=b"{}", publish_time=1)
+        w.finish()
+    with pytest.raises(LogError, match="not a coordarm run log"):
+        load(other)
+
+
+def test_missing_file_is_a_log_error(tmp_path):
+    with pytest.raises(LogError, match="no such log file"):
+        load(tmp_path / "nope.mcap")
+
+
+def test_replay_cli_redraws_figures_and_writes_an_animation_from_the_log_alone(full_log, tmp_path, capsys):
+    path, _ = full_log
+    out = tmp_path / "figs"
+    assert main(["replay", str(path), "--out", str(out), "--fps", "4"]) == 0
+    text = capsys.readouterr().out
+    assert "outcome       completed" in text and "final max|e|" in text
+    assert (out / "line_stages.png").stat().st_size > 10_000
+    assert (out / "line_tracking.png").stat().st_size > 10_000
+    gif = (out / "line.gif").read_bytes()
+    assert gif[:6] == b"GIF89a"
+
+
+def test_replay_cli_reads_a_cut_log_and_says_so(full_log, tmp_path, capsys):
+    _, data = full_log
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) // 2])
+    assert main(["replay", str(cut), "--no-animation"]) == 0
+    assert "breaks off" in capsys.readouterr().err
+
+
+def test_a_lost_chunk_in_the_middle_shows_as_sequence_gaps(tmp_path):
+    from simulation.mcap_writer import RunLogger
+    from simulation.scenario import load_scenario
+    sc = load_scenario("line").with_overrides(links=4, duration=0.3)
+    ctrl = sc.controller()
+    path = tmp_path / "gap.mcap"
+    log = RunLogger(path, sc, ctrl, chunk_size=4096, threaded=False)
+    write, calls = log.file.write_chunk, []
+
+    def drop_the_third(records, index):  # fault injection: the third chunk never reaches the file
+        calls.append(1)
+        if len(calls) != 3:
+            write(records, index)
+
+    log.file.write_chunk = drop_the_third
+    with log:
+        run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, on_chunk=log.on_chunk)
+    rep = load(path)
+    lost = len(run.t) - len(rep.t)
+    assert lost > 0 and rep.recovered is False
+    assert any(p.startswith("/joint_state: ") and f"{lost} message(s) missing" in p for p in rep.problems)
