@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from symbolic import ConfigError, LogError, SingularityError
+from symbolic import ConfigError, SingularityError
 
 #: Stop thresholds used when simulating a scenario for a report: never stop, so a blow-up shows.
 NO_STOP = {"link": 0.0, "longitudinal": 0.0}
@@ -48,12 +48,7 @@ def main(args: argparse.Namespace) -> int:
     if src.endswith(".mcap"):
         if args.links is not None or args.duration is not None:
             raise ConfigError("--links/--duration: only for a scenario, not for a log")
-        try:
-            from .replay import load       # the MCAP reader; imported only when needed
-        except ModuleNotFoundError as exc:
-            if exc.name != "analysis.replay":
-                raise
-            raise LogError(f"{src}: cannot read MCAP logs: analysis.replay is not installed") from None
+        from .replay import load
         run = load(src)
         scenario = run.scenario
     else:

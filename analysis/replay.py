@@ -19,7 +19,6 @@ import zlib
 from collections import namedtuple
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import zstandard

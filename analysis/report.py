@@ -11,7 +11,6 @@ it falls below its threshold strictly before that time.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any

@@ -8,7 +8,6 @@ import warnings
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-import casadi as ca
 import numpy as np
 
 from symbolic import BuildError, ConfigError, CoordinatingController, SingularityError

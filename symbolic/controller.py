@@ -13,12 +13,12 @@ sets ``u_s = v*(t) - dpsi/dt``, ``u_e^j = -K e^j - dphi/dt`` and solves
 from __future__ import annotations
 
 import math
-from typing import Any, Callable
+from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from .chain import PlanarChain, direction, normal
+from .chain import PlanarChain
 from .curves import Curve, _param, evaluate
 from .errors import ConfigError
 
@@ -155,7 +155,7 @@ class CoordinatingController:
 
         The ``s`` equation fixes the free rate ``p = w_1`` by dividing by the longitudinal
         pivot ``grad(psi)(y^m) . d ydot^m / dp`` [m/rad]; the longitudinal margin
-        ``|pivot| / (xi sum |b|)`` is dimensionless (``sin(beta)`` on a zig-zag).
+        ``|pivot| / (xi sum |b|)`` is dimensionless (``(m-1)/m sin(beta)`` on a zig-zag of m links).
         """
         carry, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("t")
         y_m, n_m, nb = carry[0:2], ca.vertcat(-carry[4], carry[3]), carry[11]

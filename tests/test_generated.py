@@ -1,6 +1,5 @@
 """Generated C: the compiled law, RK4 step and chunk loop agree with interpreted CasADi; the build cache."""
 import json
-import os
 import subprocess
 import sys
 import textwrap

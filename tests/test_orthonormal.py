@@ -2,7 +2,6 @@
 import warnings
 
 import casadi as ca
-import numpy as np
 import pytest
 
 from analysis.orthonormal import OrthonormalityWarning, check_orthonormal

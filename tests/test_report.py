@@ -71,7 +71,30 @@ def test_report_from_a_run_object(tmp_path):
     assert rows and all(float(r.split("|")[2]) < 1e-8 for r in rows)      # linearised = design
 
 
-def test_report_of_a_log_without_the_replay_module_is_a_clear_error(tmp_path):
+def test_report_of_a_logged_run_equals_the_report_of_the_run_itself(tmp_path, capsys):
+    from analysis.replay import load
+    from analysis.singularity import run_margins
+
+    log = tmp_path / "line.mcap"
+    assert main(["run", "line", "--links", "10", "--duration", "1.0", "--quiet", "--no-figures",
+                 "--out", str(log)]) == 0
+    assert main(["report", str(log), "--out", str(tmp_path / "from_log"), "--samples", "100"]) == 0
+    sc = load_scenario("line").with_overrides(links=10, duration=1.0)
+    ctrl = sc.controller()
+    run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted")
+    direct = write_report(run, sc, tmp_path / "direct", ctrl=ctrl, samples=100).read_text()
+    logged = (tmp_path / "from_log" / "report.md").read_text()
+    body = lambda text: [ln for ln in text.splitlines() if "scenario:" not in ln]   # noqa: E731
+    assert body(logged) == body(direct)
+    # margins logged by the compiled run == margins recomputed by the analysis module from q
+    rep = load(log)
+    idx = np.arange(0, len(rep.t), 97)
+    mg = run_margins(rep.scenario.controller(), rep.t[idx], rep.q[idx])
+    np.testing.assert_allclose(mg["longitudinal"], rep.longitudinal[idx], rtol=1e-10)
+    np.testing.assert_allclose(mg["links"], rep.link_margins[idx], rtol=1e-10)
+
+
+def test_report_of_a_missing_log_is_a_clear_error(tmp_path):
     res = subprocess.run([sys.executable, "-m", "simulation.cli", "report", str(tmp_path / "missing.mcap")],
                          capture_output=True, text=True)
     assert res.returncode == 2 and "missing.mcap" in res.stderr and "Traceback" not in res.stderr
