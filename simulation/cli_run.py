@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 from typing import TextIO
@@ -83,8 +84,10 @@ def main(args: argparse.Namespace) -> int:
     status = 0
     try:
         # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
+        # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
         with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, backend=backend,
-                       library_key=compiled.library.key if compiled else None) as log:
+                       library_key=compiled.library.key if compiled else None,
+                       threaded=(os.cpu_count() or 1) > 1) as log:
             run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
                            thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=log.on_chunk)
     except SingularityError as err:
