@@ -7,16 +7,16 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from symbolic import (Arc, Circle, ConfigError, CoordinatingController, Line, PlanarChain, Ramp,
-                      project_onto_curve)
-
-
-def moving_curve(kind):
-    if kind == "line":
-        return Line(point=(lambda t: 0.02 * ca.sin(t), 0.01), angle=lambda t: 0.6 * ca.sin(0.2 * t))
-    if kind == "circle":
-        return Circle(center=(lambda t: 0.1 * ca.sin(0.5 * t), 2.0), radius=lambda t: 2.0 + 0.1 * ca.cos(t))
-    return Arc(angle=lambda t: 0.3 * ca.sin(0.4 * t), radius=lambda t: 1.5 + 0.2 * ca.sin(t))
+from symbolic import (
+    Circle,
+    ConfigError,
+    CoordinatingController,
+    Line,
+    PlanarChain,
+    Ramp,
+    project_onto_curve,
+)
+from tests.curves_for_tests import moving_curve
 
 
 def random_state(chain, rng, spread=0.15):

@@ -18,18 +18,17 @@ from generated.compiled import CompiledController, split_outputs
 from simulation.cli import main as cli_main
 from simulation.run import BackendFallbackWarning, simulate
 from simulation.scenario import load_scenario, presets
-from symbolic import (OUTPUTS, Arc, BuildError, Circle, ConfigError, CoordinatingController, Line,
-                      PlanarChain)
+from symbolic import (
+    OUTPUTS,
+    BuildError,
+    ConfigError,
+    CoordinatingController,
+    Line,
+    PlanarChain,
+)
+from tests.curves_for_tests import moving_curve
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def moving_curve(kind):
-    if kind == "line":
-        return Line(point=(lambda t: 0.02 * ca.sin(t), 0.01), angle=lambda t: 0.6 * ca.sin(0.2 * t))
-    if kind == "circle":
-        return Circle(center=(lambda t: 0.1 * ca.sin(0.5 * t), 2.0), radius=lambda t: 2.0 + 0.1 * ca.cos(t))
-    return Arc(angle=lambda t: 0.3 * ca.sin(0.4 * t), radius=lambda t: 1.5 + 0.2 * ca.sin(t))
 
 
 def controller(kind, m, B=None, law="structured"):
