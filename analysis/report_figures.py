@@ -18,7 +18,8 @@ COLORS = dict(zip(MARGINS, ("tab:blue", "tab:red", "tab:green", "tab:purple", "t
 
 def _save(fig, path: str | Path) -> Path:
     path = Path(path)
-    fig.tight_layout()
+    if fig.get_layout_engine() is None:
+        fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -64,7 +65,8 @@ def plot_margins(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
 
 def plot_links(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
     """Worst link over time (top) and every link margin as a heat map over time x link (bottom)."""
-    fig, axes = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [1, 2]})
+    fig, axes = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [1, 2]},
+                             layout="constrained")
     axes[0].step(a.t, a.margins["worst_link"], where="post", color="tab:blue", label="worst link (smallest margin)")
     _mark_blowup(axes[0], a)
     axes[0].set_ylabel("link index [-]")
@@ -74,7 +76,7 @@ def plot_links(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
     m = L.shape[1] + 1
     im = axes[1].imshow(L.T, aspect="auto", origin="lower", cmap="viridis", vmin=0, vmax=1,
                         extent=(a.t[0], a.t[-1], 1.5, m + 0.5), interpolation="nearest")
-    fig.colorbar(im, ax=axes[1], label="link margin |grad phi . n| / |grad phi| [-]")
+    fig.colorbar(im, ax=list(axes), label="link margin |grad phi . n| / |grad phi| [-]")
     axes[1].set_ylabel("link j")
     axes[1].set_xlabel("t [s]")
     axes[1].set_title("link margins (0 = link perpendicular to the curve)", fontsize=10)
