@@ -39,7 +39,11 @@ def main(argv: list[str] | None = None) -> int:
     except CoordarmError as exc:
         print(f"coordarm {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, SystemError) as exc:
+        # CasADi's C++ calls can surface a Ctrl-C as "SystemError: ... returned a result with an
+        # exception set", chained from the KeyboardInterrupt.
+        if isinstance(exc, SystemError) and not isinstance(exc.__cause__, KeyboardInterrupt):
+            raise
         print(f"coordarm {args.command}: interrupted", file=sys.stderr)
         return 130
 

@@ -32,3 +32,23 @@ def test_singularity_exits_3_and_still_writes_figures(tmp_path):
     assert res.returncode == 3, res.stderr
     assert "singularity ahead at t = " in res.stderr and "longitudinal margin" in res.stderr
     assert (tmp_path / "fast_stages.png").exists()
+
+
+def test_ctrl_c_during_a_run_exits_130_and_leaves_a_closed_log(tmp_path, capsys):
+    import os
+    import signal
+    import threading
+
+    from analysis.replay import load
+
+    out = tmp_path / "line.mcap"
+    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        status = main(["run", "line", "--duration", "100", "--backend", "interpreted",
+                       "--quiet", "--no-figures", "--out", str(out)])
+    finally:
+        timer.cancel()
+    assert status == 130 and "interrupted" in capsys.readouterr().err
+    rep = load(out)
+    assert rep.outcome["status"] in ("interrupted", "error") and not rep.recovered and len(rep.t) > 0
