@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 from pathlib import Path
 from typing import TextIO
 
@@ -12,7 +13,7 @@ from symbolic import SingularityError
 from .figures import plot_stages, plot_tracking
 from .mcap_writer import RunLogger
 from .obstacles import clearance, wall_crossings
-from .run import BACKENDS, Run, select_backend, simulate
+from .run import BACKENDS, BackendFallbackWarning, Run, select_backend, simulate
 from .scenario import Scenario, load_scenario, presets
 
 
@@ -78,7 +79,11 @@ def main(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
     ctrl = scenario.controller()
     q0 = scenario.start(ctrl)
-    backend, compiled, _ = select_backend(ctrl, args.backend)  # builds or loads before the log opens
+    with warnings.catch_warnings(record=True) as caught:   # builds or loads before the log opens
+        warnings.simplefilter("always", BackendFallbackWarning)
+        backend, compiled, _ = select_backend(ctrl, args.backend)
+    for w in caught:
+        print(f"coordarm run: warning: {w.message}", file=sys.stderr)
     out = args.out or Path("logs") / f"{scenario.name}.mcap"
     out.parent.mkdir(parents=True, exist_ok=True)
     status = 0

@@ -1,5 +1,6 @@
 """Generated C: the compiled law, RK4 step and chunk loop agree with interpreted CasADi; the build cache."""
 import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -279,3 +280,13 @@ def test_run_reports_the_backend_and_the_cache(tmp_path, capsys):
     assert "cache hit" in second
     assert cli_main(args + ["--backend", "interpreted"]) == 0
     assert "backend interpreted" in capsys.readouterr().out
+
+
+def test_run_without_a_compiler_warns_in_one_line_and_runs_interpreted(tmp_path):
+    env = {**os.environ, "CC": "/nonexistent/cc", "COORDARM_BUILD_DIR": str(tmp_path / "build")}
+    res = subprocess.run([sys.executable, "-m", "simulation.cli", "run", "line", "--links", "6", "--duration", "0.05",
+                          "--quiet", "--no-figures", "--out", str(tmp_path / "x.mcap")],
+                         capture_output=True, text=True, env=env, cwd=REPO)
+    assert res.returncode == 0, res.stderr
+    assert "coordarm run: warning: compiled backend unavailable" in res.stderr and "Traceback" not in res.stderr
+    assert "backend interpreted" in res.stdout and not (tmp_path / "build").exists()
