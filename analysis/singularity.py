@@ -40,6 +40,14 @@ MARGINS = ("links", "longitudinal", "sigma_min", "inverse_cond", "inverse_cond_s
 REPORT_THRESHOLDS = {"sigma_min": 1e-3, "inverse_cond": 1e-6, "inverse_cond_scaled": 1e-6}
 
 
+
+TIE = 1e-9  # link margins this close to the smallest count as tied: the lowest such link is the worst
+
+
+def _worst_link(links: np.ndarray) -> np.ndarray:
+    """1-based index of the smallest link margin; among margins tied to within :data:`TIE`, the lowest."""
+    return np.argmax(links <= links.min(axis=-1, keepdims=True) + TIE, axis=-1) + 2
+
 def _equilibrated(M: np.ndarray) -> np.ndarray:
     """``M`` (..., m, m) with rows, then columns, scaled to unit 2-norm (zero rows left alone)."""
     r = np.linalg.norm(M, axis=-1, keepdims=True)
@@ -95,7 +103,7 @@ def _margins_batch(ctrl: CoordinatingController, Q: np.ndarray, T: np.ndarray) -
         amp = np.where(v != 0, xi * np.linalg.norm(u, axis=-1) / np.abs(v), np.nan)
         cond = sv[:, 0] / sv[:, -1]
         cond_s = sve[:, 0] / sve[:, -1]
-    return {"links": links, "worst_link": np.argmin(links, axis=-1) + 2, "longitudinal": longitudinal,
+    return {"links": links, "worst_link": _worst_link(links), "longitudinal": longitudinal,
             "sigma_min": sv[:, -1] / xi, "cond": cond, "inverse_cond": sv[:, -1] / sv[:, 0],
             "cond_scaled": cond_s, "inverse_cond_scaled": sve[:, -1] / sve[:, 0],
             "amplification": amp, "u_max": np.max(np.abs(u), axis=-1)}

@@ -20,6 +20,19 @@ def test_zigzag_on_a_line_has_the_closed_form_margins(m, beta):
     assert mg["longitudinal"] == pytest.approx((m - 1) / m * np.sin(beta), rel=1e-12)
     np.testing.assert_allclose(mg["links"], np.cos(beta), rtol=1e-12)
     assert mg["links"].shape == (m - 1,)
+    assert mg["worst_link"] == 2
+
+
+def test_worst_link_ignores_rounding_noise_but_not_a_real_dip():
+    from analysis.singularity import TIE, _worst_link
+
+    rng = np.random.default_rng(3)
+    tied = np.cos(1.3) + rng.normal(0, 1e-14, (50, 63))     # a converged zig-zag: equal up to rounding
+    assert np.unique(np.argmin(tied, axis=1)).size > 1      # plain argmin chatters between links
+    assert np.all(_worst_link(tied) == 2)
+    dip = tied.copy()
+    dip[:, 40] -= 10 * TIE                                   # link 42 really is the worst
+    assert np.all(_worst_link(dip) == 42)
 
 
 @given(m=st.integers(3, 12), seed=st.integers(0, 10_000), radius=st.floats(0.8, 5.0))
