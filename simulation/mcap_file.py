@@ -17,7 +17,7 @@ import threading
 import zlib
 from collections import defaultdict
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO, Callable
 
 import numpy as np
 import zstandard
@@ -45,6 +45,47 @@ def message_records(channel_id: int, log_times: np.ndarray, data: list[bytes], s
                            (sequence0 + i) & 0xFFFFFFFF, int(lt), int(lt))
         out += d
     return bytes(out)
+
+
+class Worker:
+    """One background thread that applies ``handle`` to queued jobs, in order.
+
+    The first failure is kept in :attr:`error` and the jobs after it are skipped; the owner
+    re-raises it on its next call.
+    """
+
+    def __init__(self, handle: Callable[[Any], None], name: str, maxsize: int) -> None:
+        self.error: BaseException | None = None
+        self._handle = handle
+        self._queue: queue.Queue = queue.Queue(maxsize=maxsize)
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while True:
+            job = self._queue.get()
+            try:
+                if job is None:
+                    return
+                if self.error is None:
+                    self._handle(job)
+            except BaseException as exc:  # re-raised by the owner
+                self.error = exc
+            finally:
+                self._queue.task_done()
+
+    def put(self, job: Any) -> None:
+        """Queue ``job`` (blocks while the queue is full)."""
+        self._queue.put(job)
+
+    def join(self) -> None:
+        """Wait until every queued job is done."""
+        self._queue.join()
+
+    def stop(self) -> None:
+        """Finish the queued jobs and end the thread."""
+        self._queue.put(None)
+        self._thread.join()
 
 
 class McapFile:
@@ -78,32 +119,14 @@ class McapFile:
         self._closed = False
         self._stream.write(MCAP0_MAGIC)
         self._write(Header(profile, LIBRARY_IDENTIFIER))
-        self._error: BaseException | None = None
-        self._queue: queue.Queue | None = None
-        if background:
-            self._queue = queue.Queue(maxsize=4)
-            self._thread = threading.Thread(target=self._work, name="mcap-chunks", daemon=True)
-            self._thread.start()
-
-    def _work(self) -> None:
-        while True:
-            job = self._queue.get()
-            try:
-                if job is None:
-                    return
-                if self._error is None:
-                    self._write_chunk_now(*job)
-            except BaseException as exc:  # re-raised by the next call of the owner
-                self._error = exc
-            finally:
-                self._queue.task_done()
+        self._worker = Worker(lambda job: self._write_chunk_now(*job), "mcap-chunks", 4) if background else None
 
     def _wait(self) -> None:
         """Wait until every queued chunk is written; re-raise a failure of the chunk thread."""
-        if self._queue is not None:
-            self._queue.join()
-        if self._error is not None:
-            raise self._error
+        if self._worker is not None:
+            self._worker.join()
+            if self._worker.error is not None:
+                raise self._worker.error
 
     @property
     def closed(self) -> bool:
@@ -159,10 +182,10 @@ class McapFile:
         """
         if not index:
             return
-        if self._queue is not None:
-            if self._error is not None:
-                raise self._error
-            self._queue.put((records, index))
+        if self._worker is not None:
+            if self._worker.error is not None:
+                raise self._worker.error
+            self._worker.put((records, index))
         else:
             self._write_chunk_now(records, index)
 
@@ -238,10 +261,9 @@ class McapFile:
             self._stream.close()
 
     def _stop(self) -> None:
-        if self._queue is not None:
-            self._queue.put(None)
-            self._thread.join()
-            self._queue = None
+        if self._worker is not None:
+            self._worker.stop()
+            self._worker = None
 
     def _statistics(self) -> Statistics:
         return Statistics(attachment_count=0, channel_count=len(self._channels),

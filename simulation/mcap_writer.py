@@ -20,7 +20,6 @@ from __future__ import annotations
 import hashlib
 import json
 import platform
-import queue
 import signal
 import socket
 import sys
@@ -40,7 +39,7 @@ from symbolic.curves import Line
 
 from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, NumericChannel, numeric_channels,
                           scene_update_schema_bytes)
-from .mcap_file import MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, message_records
+from .mcap_file import MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
 from .scenario import Scenario
 
@@ -183,29 +182,14 @@ class RunLogger:
         self._walls = np.asarray(scenario.obstacles, dtype=float).reshape(-1, 2, 2)
         self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
         self.outcome: dict[str, Any] | None = None
-        self._error: BaseException | None = None
-        self._queue: queue.Queue | None = None
-        if threaded:
-            self._queue = queue.Queue(maxsize=8)
-            self._worker = threading.Thread(target=self._work, name="coordarm-log", daemon=True)
-            self._worker.start()
-
-    def _work(self) -> None:
-        while True:
-            part = self._queue.get()
-            try:
-                if part is None:
-                    return
-                if self._error is None:
-                    self._process(part)
-            except BaseException as exc:  # reported to the caller by on_chunk / finish
-                self._error = exc
-            finally:
-                self._queue.task_done()
+        self._worker = Worker(self._process, "coordarm-log", 8) if threaded else None
 
     def _check(self) -> None:
-        if self._error is not None:
-            raise LogError(f"{self.path}: writing the log failed: {type(self._error).__name__}: {self._error}")
+        if self._worker is not None and self._worker.error is not None:
+            raise self._failure(self._worker.error)
+
+    def _failure(self, error: BaseException) -> LogError:
+        return LogError(f"{self.path}: writing the log failed: {type(error).__name__}: {error}")
 
     def _decimation(self, rate: Any, name: str) -> int:
         if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0 or not np.isfinite(rate):
@@ -222,8 +206,8 @@ class RunLogger:
             Writing an earlier block failed (e.g. the disk is full).
         """
         self._check()
-        if self._queue is not None:
-            self._queue.put(part)
+        if self._worker is not None:
+            self._worker.put(part)
         else:
             with _sigint_deferred():  # Ctrl-C half-way through a block would leave a gap in the log
                 self._process(part)
@@ -300,8 +284,8 @@ class RunLogger:
 
     def flush(self) -> None:
         """Wait for the queued blocks, write them as a chunk, push the file to the operating system."""
-        if self._queue is not None:
-            self._queue.join()
+        if self._worker is not None:
+            self._worker.join()
         self._check()
         self._flush_now()
 
@@ -358,13 +342,12 @@ class RunLogger:
         """Log the last step if decimation skipped it, write ``outcome``, close the file."""
         if self.file.closed:
             return
-        if self._queue is not None:
-            self._queue.put(None)
-            self._worker.join()
-            self._queue = None
-        if self._error is not None:
-            self.file.abandon()
-            self._check()
+        worker, self._worker = self._worker, None
+        if worker is not None:
+            worker.stop()
+            if worker.error is not None:
+                self.file.abandon()
+                raise self._failure(worker.error)
         try:
             last_t = None
             if self._last is not None:
