@@ -28,11 +28,11 @@ def main(args: argparse.Namespace) -> int:
     from simulation.scenario import load_scenario, presets   # scenarios are read only by the CLI
 
     names = args.scenarios or presets()
-    scenarios = [load_scenario(n).with_overrides(args.links, None, None) for n in names]  # validate all first
+    scenarios = [load_scenario(n).with_overrides(args.links, law=args.law) for n in names]  # validate all first
     if args.clean:
         print(f"removed {clean()} cached libraries from {build_root()}")
     for scenario in scenarios:
-        ctrl = scenario.controller(law=args.law)
+        ctrl = scenario.controller()
         start = time.perf_counter()
         source = generate_source(ctrl, ctrl.law_form)
         gen = time.perf_counter() - start

@@ -10,6 +10,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from generated.compiled import split_outputs
 from symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
@@ -136,20 +137,18 @@ def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
     return k, "longitudinal", None, float(longitudinal[k])
 
 
-def chunk_function(ctrl: CoordinatingController, step: float, n: int, backend: str = "interpreted"):
-    """Closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, u, e, s, links, long)``.
+def chunk_function(ctrl: CoordinatingController, step: float, n: int):
+    """Interpreted closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, u, e, s, links, long)``.
 
     Column k of ``Q`` is the state after step k; the diagnostics are at each step's start.
     """
-    if backend != "interpreted":
-        raise ConfigError(f"backend: expected 'interpreted', got {backend!r}")
     key = ("chunk", float(step), n)
     if key not in ctrl._cache:
         ctrl._cache[key] = ctrl.rk4_step(step).expand().mapaccum("chunk", n)
     return ctrl._cache[key]
 
 
-def select_backend(ctrl: CoordinatingController, backend: str = "auto", **build_options: Any):
+def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
     """Resolve ``backend`` to ``(name, compiled controller or None, info)``.
 
     ``"auto"`` compiles (or takes from the cache) the generated library and falls back to
@@ -168,11 +167,11 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto", **build_
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
     if backend == "interpreted":
         return "interpreted", None, {"backend": "interpreted"}
-    key = ("compiled", ctrl.law_form, tuple(sorted(build_options.items())))
+    key = ("compiled", ctrl.law_form)
     compiled = ctrl._cache.get(key)
     if compiled is None:
         try:
-            compiled = ctrl.compile(**build_options)
+            compiled = ctrl.compile()
         except BuildError as exc:
             if backend == "compiled":
                 raise
@@ -180,10 +179,7 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto", **build_
                           f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)
             return "interpreted", None, {"backend": "interpreted", "fallback_reason": str(exc)}
         ctrl._cache[key] = compiled
-        hit = compiled.cache_hit
-    else:
-        hit = True
-    return "compiled", compiled, {"backend": "compiled", "cache_hit": hit,
+    return "compiled", compiled, {"backend": "compiled", "cache_hit": compiled.cache_hit,
                                   "library": str(compiled.library.path)}
 
 
@@ -234,7 +230,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
     if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
         raise ConfigError(f"chunk: need a positive integer, got {chunk!r}")
-    if backend not in BACKENDS:
+    if backend not in BACKENDS:   # select_backend checks too, but only after the start checks below
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
     thr = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
     q0 = ctrl.chain.check_q(q0, "q0")
@@ -292,8 +288,8 @@ def _advance(ctrl, compiled, q, times, step):
     """RK4 steps from ``q`` at each of ``times``: states after each step and the law at each start (rows)."""
     if compiled is not None:
         Q, D = compiled.chunk(q, times, step)
-        m = ctrl.chain.m
-        return Q, D[:, :m], D[:, m:2 * m - 1], D[:, 2 * m - 1], D[:, 2 * m:3 * m - 1], D[:, 3 * m - 1]
+        d = split_outputs(D, ctrl.chain.m)
+        return Q, d["u"], d["e"], d["s"], d["link_margins"], d["longitudinal"]
     Q, U, E, S, LM, LG = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
     return Q.T, U.T, E.T, S.ravel(), LM.T, LG.ravel()
 

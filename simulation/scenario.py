@@ -188,12 +188,12 @@ class Scenario:
     def chain(self) -> PlanarChain:
         return PlanarChain(self.spec["chain"]["links"], float(self.spec["chain"]["link_length"]))
 
-    def controller(self, law: str | None = None) -> CoordinatingController:
+    def controller(self) -> CoordinatingController:
         """The coordinating controller this scenario describes."""
         c = self.spec["control"]
         return CoordinatingController(self.chain(), curve_from_spec(self.spec["curve"]), float(c["gain"]),
                                       motion_from_spec(c.get("speed", 0.0), "control.speed"),
-                                      law=law or c["law"])
+                                      law=c["law"])
 
     def start(self, ctrl: CoordinatingController | None = None) -> np.ndarray:
         """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked)."""

@@ -18,7 +18,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .chain import PlanarChain
+from .chain import PlanarChain, direction
 from .curves import Curve, _param, evaluate
 from .errors import ConfigError
 
@@ -98,7 +98,7 @@ class CoordinatingController:
         y, alpha_prev, d_prev, P, Q = carry[0:2], carry[2], carry[3:5], carry[5:7], carry[7:9]
         nb = carry[11]
         alpha = alpha_prev + qj
-        d_j = ca.vertcat(ca.cos(alpha), ca.sin(alpha))   # the only sine/cosine pair of the link
+        d_j = direction(alpha)   # the only sine/cosine pair of the link
         n_j = ca.vertcat(-d_j[1], d_j[0])
         y_j = y + 0.5 * xi * (d_prev + d_j)
         phi, g, phit, *_ = self._geometry(y_j, t)

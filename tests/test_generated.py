@@ -250,6 +250,20 @@ def test_default_backend_is_compiled_and_reports_the_cache():
     assert isinstance(run.info["cache_hit"], bool)
 
 
+def test_run_info_reports_a_library_built_now_even_when_the_backend_was_selected_first(tmp_path, monkeypatch):
+    from simulation.run import select_backend
+
+    monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path))     # empty cache: the library is built now
+    chain = PlanarChain(5, 0.1)
+    ctrl = CoordinatingController(chain, Line(angle=0.2), 2.0, 0.1)
+    name, compiled, info = select_backend(ctrl, "auto")           # what `coordarm run` does before logging
+    assert name == "compiled" and info["cache_hit"] is False
+    run = simulate(ctrl, chain.zigzag(1.0), 0.01, backend=name)
+    assert run.info["cache_hit"] is False and run.info["library"] == str(compiled.library.path)
+    again = simulate(CoordinatingController(chain, Line(angle=0.2), 2.0, 0.1), chain.zigzag(1.0), 0.01)
+    assert again.info["cache_hit"] is True
+
+
 # ------------------------------------------------------------------------- CLI
 def test_regen_builds_the_named_scenarios_and_clean_empties_the_cache(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path))
