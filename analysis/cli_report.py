@@ -6,10 +6,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from symbolic import ConfigError, SingularityError
-
-#: Stop thresholds used when simulating a scenario for a report: never stop, so a blow-up shows.
-NO_STOP = {"link": 0.0, "longitudinal": 0.0}
+from symbolic import ConfigError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -28,14 +25,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def simulate_scenario(scenario: Any) -> Any:
     """Simulate ``scenario`` without singularity stops; a run ending in NaN is kept up to there."""
-    from simulation.run import simulate
+    from .report import simulate_through
 
     ctrl = scenario.controller()
-    try:
-        return simulate(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0,
-                        thresholds=NO_STOP, progress=False)
-    except SingularityError as err:        # only non-finite margins stop it: keep what was computed
-        return err.run
+    return simulate_through(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0)
 
 
 def main(args: argparse.Namespace) -> int:

@@ -17,12 +17,25 @@ from typing import Any
 
 import numpy as np
 
-from symbolic import CoordinatingController
+from symbolic import CoordinatingController, SingularityError
 
 from .linearise import linearise_run
 from .orthonormal import check_orthonormal
 from .singularity import MARGINS, REPORT_THRESHOLDS, run_margins
 from .stability import RK4_LIMIT, delay_margin, max_stable_delay, sampled_limit
+
+#: Stop thresholds that never stop a run, so that a blow-up shows.
+NO_STOP = {"link": 0.0, "longitudinal": 0.0}
+
+
+def simulate_through(ctrl: CoordinatingController, q0, duration: float, step: float, t0: float = 0.0) -> Any:
+    """Simulate without singularity stops; a run that ends in non-finite margins is kept up to there."""
+    from simulation.run import simulate
+
+    try:
+        return simulate(ctrl, q0, duration, step, t0, thresholds=NO_STOP, progress=False)
+    except SingularityError as err:        # only non-finite margins stop it: keep what was computed
+        return err.run
 
 #: ``|u|`` above this many times its nominal value counts as a blow-up.
 BLOWUP_FACTOR = 10.0

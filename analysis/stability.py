@@ -22,6 +22,7 @@ import control as ct
 import numpy as np
 from scipy.optimize import brentq
 
+from simulation.sampled import check_delay, check_positive
 from symbolic import ConfigError, CoordinatingController
 
 #: ``K h`` limit of classical RK4 on ``edot = -K e`` (real negative axis of its stability region).
@@ -30,16 +31,14 @@ RK4_LIMIT = float(brentq(lambda x: abs(1 - x + x**2 / 2 - x**3 / 6 + x**4 / 24) 
 
 def _check(gain: float, period: float | None = None, delay: int = 0) -> None:
     for name, v in (("gain", gain), ("period", period)):
-        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
-                              or not math.isfinite(v) or v <= 0):
-            raise ConfigError(f"{name}: need a finite number > 0, got {v!r}")
-    if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
-        raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
+        if v is not None:
+            check_positive(name, v)
+    check_delay(delay)
 
 
 def sampled_limit(delay: int = 0) -> float:
     """Closed-form limit of ``K h`` for the ZOH loop with an ``delay``-sample delay: ``2 sin(pi/(2(2n+1)))``."""
-    _check(1.0, 1.0, delay)
+    check_delay(delay)
     return 2.0 * math.sin(math.pi / (2 * (2 * delay + 1)))
 
 

@@ -10,9 +10,9 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from symbolic import Arc, CoordinatingController, Line, PlanarChain, SingularityError, project_onto_curve
+from symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
-from .report import analyse_run
+from .report import analyse_run, simulate_through
 
 CANDIDATES = (0.05, 0.1, 0.15, 0.2)
 
@@ -37,14 +37,9 @@ def blowup_cases() -> dict[str, tuple[CoordinatingController, np.ndarray, float]
 
 def study(samples: int = 600) -> list[dict]:
     """Run every case of :func:`blowup_cases` without stops and analyse it."""
-    from simulation.run import simulate
-
     rows = []
     for name, (ctrl, q0, dur) in blowup_cases().items():
-        try:
-            run = simulate(ctrl, q0, dur, 0.001, thresholds={"link": 0.0, "longitudinal": 0.0}, progress=False)
-        except SingularityError as err:
-            run = err.run
+        run = simulate_through(ctrl, q0, dur, 0.001)
         a = analyse_run(ctrl, run.t, run.q, run.u, samples=samples)
         k = min(np.searchsorted(run.t, a.blowup_time), len(run.t) - 1) if a.blowup_time is not None else -1
         lead = {}

@@ -12,10 +12,23 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from symbolic import ConfigError, CoordinatingController
+
+
+def check_positive(name: str, value: Any) -> None:
+    """Raise ConfigError naming ``name`` unless ``value`` is a finite real number > 0."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise ConfigError(f"{name}: need a finite number > 0, got {value!r}")
+
+
+def check_delay(delay: Any) -> None:
+    """Raise ConfigError unless ``delay`` is an integer number of samples >= 0."""
+    if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
+        raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
 
 
 @dataclass
@@ -76,10 +89,8 @@ def simulate_sampled(ctrl: CoordinatingController, q0, duration: float, period: 
     SampledRun
     """
     for name, v in (("duration", duration), ("period", period), ("diverge_at", diverge_at)):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-            raise ConfigError(f"{name}: need a finite number > 0, got {v!r}")
-    if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
-        raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
+        check_positive(name, v)
+    check_delay(delay)
     if period > duration:
         raise ConfigError(f"period: {period} s is longer than the duration {duration} s")
     q = ctrl.chain.check_q(q0, "q0")
