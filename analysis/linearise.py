@@ -54,10 +54,10 @@ class Linearisation:
         ev = np.linalg.eigvals(self.task_matrix)
         return ev[np.argsort(-ev.real, kind="stable")]
 
-    def deviation_from_design(self, gain: float) -> float:
-        """``max |task_matrix - diag(0, -K, ..., -K)|`` [1/s]."""
+    def deviation_from_design(self, gain: float, frozen: bool = False) -> float:
+        """``max |A - diag(0, -K, ..., -K)|`` [1/s] of :attr:`task_matrix` (or :attr:`frozen_task_matrix`)."""
         target = np.diag([0.0] + [-gain] * (len(self.q) - 1))
-        return float(np.max(np.abs(self.task_matrix - target)))
+        return float(np.max(np.abs((self.frozen_task_matrix if frozen else self.task_matrix) - target)))
 
 
 def linearisation_function(ctrl: CoordinatingController, form: str | None = None) -> ca.Function:

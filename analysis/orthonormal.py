@@ -85,8 +85,8 @@ def check_orthonormal(curve: Curve, times=(0.0,), points: int = 64, extent: floa
     if not isinstance(curve, Curve):
         raise ConfigError(f"curve: expected a Curve, got {type(curve).__name__}")
     y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
-    f = ca.Function("psi_phi", [y, t], [ca.jacobian(ca.vertcat(curve.psi(y, t), curve.phi(y, t)), y),
-                                        curve.phi(y, t)])
+    phi = curve.phi(y, t)
+    f = ca.Function("psi_phi", [y, t], [ca.jacobian(ca.vertcat(curve.psi(y, t), phi), y), phi])
     worst, where, when, off, count = -1.0, np.zeros(2), 0.0, 0.0, 0
     for tk in np.atleast_1d(np.asarray(times, dtype=float)):
         pts = np.asarray(curve.sample(float(tk), n=points, extent=extent), dtype=float)

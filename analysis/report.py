@@ -11,7 +11,7 @@ it falls below its threshold strictly before that time.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -78,12 +78,10 @@ class RunAnalysis:
     thresholds: dict
     crossings: dict
     minima: dict
-    extra: dict = field(default_factory=dict)
 
     def smallest(self, name: str) -> np.ndarray:
         """Margin ``name`` per sample (the smallest link margin for ``"links"``)."""
-        v = self.margins[name]
-        return np.min(v, axis=1) if v.ndim == 2 else v
+        return _smallest(self.margins, name)
 
     def predicted(self) -> dict[str, bool | None]:
         """Margin -> crossed its threshold before the blow-up (None when there was no blow-up)."""
@@ -211,7 +209,7 @@ def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController,
         ev = L.eigenvalues()
         target = np.array([0.0] + [-K] * (m - 1))
         far = ev[np.argmax(np.abs(ev - target))]
-        frozen = float(np.max(np.abs(L.frozen_task_matrix - np.diag(target))))
+        frozen = L.deviation_from_design(K, frozen=True)
         lines.append(f"| {L.t:.3f} | {L.deviation_from_design(K):.2e} | {far.real:.6g}{far.imag:+.2g}j | {frozen:.3g} |")
     lines += ["", "## Sampled-data and delay limits (per deviation, python-control model)", ""]
     if step:
