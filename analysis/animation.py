@@ -10,6 +10,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
 
+from symbolic import CoordinatingController  # noqa: E402
+
 from .replay import Replay  # noqa: E402
 
 
@@ -21,9 +23,10 @@ def frame_indices(t: np.ndarray, fps: float, max_frames: int) -> np.ndarray:
     return np.unique(np.clip(np.searchsorted(t, targets), 0, len(t) - 1))
 
 
-def animate(replay: Replay, path: str | Path, fps: float = 15.0, max_frames: int = 200) -> Path:
-    """Write a GIF of the run in ``replay`` to ``path``; returns the path."""
-    ctrl = replay.controller()
+def animate(replay: Replay, path: str | Path, fps: float = 15.0, max_frames: int = 200,
+            ctrl: CoordinatingController | None = None) -> Path:
+    """Write a GIF of the run in ``replay`` to ``path`` (``ctrl``: its controller, rebuilt if None)."""
+    ctrl = ctrl or replay.controller()
     idx = frame_indices(replay.t, fps, max_frames)
     joints = ctrl.chain.joints_np(replay.q[idx])
     walls = np.asarray(replay.scenario.obstacles).reshape(-1, 2, 2)

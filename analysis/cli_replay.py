@@ -52,5 +52,5 @@ def main(args: argparse.Namespace) -> int:
         print(f"figure        {p}")
     if not args.no_animation:
         from .animation import animate
-        print(f"animation     {animate(replay, stem.with_name(stem.name + '.gif'), fps=args.fps)}")
+        print(f"animation     {animate(replay, stem.with_name(stem.name + '.gif'), fps=args.fps, ctrl=ctrl)}")
     return 0

@@ -28,13 +28,13 @@ from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, DataEnd, Footer, Metadata, Schema
 from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
+from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
 from simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels
 from simulation.run import Run
 from simulation.scenario import Scenario
 from symbolic import ConfigError, LogError
 
-MCAP_MAGIC = b"\x89MCAP0\r\n"
 #: Exceptions the mcap reader raises on damaged input (it has no single base class for them).
 READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error, zlib.error, EOFError,
                UnicodeDecodeError, ValueError, KeyError, IndexError, MemoryError)
