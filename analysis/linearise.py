@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from simulation.run import even_indices
 from symbolic import CoordinatingController
 
 
@@ -117,5 +118,5 @@ def linearise_run(ctrl: CoordinatingController, t, q, points: int = 5,
                   form: str | None = None) -> list[Linearisation]:
     """Linearise at ``points`` samples spread evenly over a trajectory ``(t, q)``."""
     t = np.asarray(t, dtype=float)
-    idx = np.unique(np.linspace(0, len(t) - 1, points).round().astype(int))
+    idx = even_indices(len(t), points)
     return [linearise(ctrl, q[k], float(t[k]), form) for k in idx]

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from simulation.run import even_indices
 from symbolic import CoordinatingController, SingularityError
 
 from .linearise import linearise_run
@@ -136,7 +137,7 @@ def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, flo
     over = np.flatnonzero(~(u_norm <= BLOWUP_FACTOR * nominal))
     blowup = float(t[over[0]]) if len(over) else None
 
-    idx = np.unique(np.linspace(0, len(t) - 1, min(samples, len(t))).round().astype(int))
+    idx = even_indices(len(t), samples)
     mg = run_margins(ctrl, t[idx], q[idx])
     extra_idx = []
     for name in MARGINS:                     # refine around the first crossing of every margin

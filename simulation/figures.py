@@ -11,12 +11,12 @@ import numpy as np  # noqa: E402
 
 from symbolic import CoordinatingController  # noqa: E402
 
-from .run import Run  # noqa: E402
+from .run import Run, even_indices  # noqa: E402
 
 
 def stage_indices(run: Run, stages: int = 5) -> np.ndarray:
     """Indices of ``stages`` samples evenly spread over the run (first and last included)."""
-    return np.unique(np.linspace(0, len(run.t) - 1, stages).round().astype(int))
+    return even_indices(len(run.t), stages)
 
 
 def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages: int = 5,

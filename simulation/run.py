@@ -137,6 +137,11 @@ def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
     return k, "longitudinal", None, float(longitudinal[k])
 
 
+def even_indices(n: int, k: int) -> np.ndarray:
+    """Up to ``k`` indices evenly spread over ``range(n)``, first and last included, no repeats."""
+    return np.unique(np.linspace(0, n - 1, k).round().astype(int))
+
+
 def chunk_function(ctrl: CoordinatingController, step: float, n: int):
     """Interpreted closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, u, e, s, links, long)``.
 
