@@ -74,12 +74,7 @@ def _margins_batch(ctrl: CoordinatingController, Q: np.ndarray, T: np.ndarray) -
     """Margins at N configurations ``Q`` (N, m) and times ``T`` (N,): arrays with leading axis N."""
     chain = ctrl.chain
     m, xi, N = chain.m, chain.xi, len(T)
-    fn = ctrl.decoupling_function()
-    fmap = fn.map(N) if N > 1 else fn
-    Ms, rhs = fmap(Q.T, T[None, :])
-    # map stacks the (m, m) matrices side by side: (m, N m) -> (N, m, m)
-    M = np.asarray(Ms).reshape(m, N, m).transpose(1, 0, 2)
-    r = np.asarray(rhs).T.reshape(N, m)
+    M, r = ctrl.decoupling_matrices(Q, T)
 
     # link margins from the geometry: grad phi at the centres, normals of the links
     Y = chain.centres_np(Q)                                   # (N, m, 2)

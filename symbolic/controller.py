@@ -18,7 +18,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .chain import PlanarChain, direction
+from .chain import PlanarChain, direction, normal
 from .curves import Curve, _param, evaluate
 from .errors import ConfigError
 
@@ -306,13 +306,75 @@ class CoordinatingController:
         """Control ``u(q, t)``, shape (m,)."""
         return self.evaluate(q, t)["u"]
 
+    def decoupling_matrices(self, Q, T) -> tuple[np.ndarray, np.ndarray]:
+        """Decoupling matrices (eq. 26) and right-hand sides at N states, in O(N m^2).
+
+        Numeric and batched: the Jacobians ``C^j`` by the closed form of eq. 7 through
+        prefix sums of the link normals, the curve gradients from one mapped call of the
+        geometry Function. Agrees with the AD :meth:`decoupling_function` to rounding,
+        without building its O(m^2) symbolic graph (which takes minutes at 1000 links).
+
+        Parameters
+        ----------
+        Q : (N, m) array_like
+            Joint coordinates [rad].
+        T : (N,) array_like
+            Times [s].
+
+        Returns
+        -------
+        M : (N, m, m) ndarray
+            Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``.
+        rhs : (N, m) ndarray
+            ``(v* - dpsi/dt, -K e^j - dphi/dt)``.
+        """
+        Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
+        m, xi = self.chain.m, self.chain.xi
+        if Q.shape[1:] != (m,) or T.shape != (len(Q),):
+            raise ConfigError(f"Q, T: need shapes (N, {m}) and (N,), got {Q.shape} and {T.shape}")
+        N = len(Q)
+        Y = self.chain.centres_np(Q)                                      # (N, m, 2)
+        geo = self._mapped("geometry", lambda: self._geometry, N * m)
+        phi, gphi, phit, _, gpsi, psit = (np.asarray(v) for v in geo(Y.reshape(-1, 2).T, np.repeat(T, m)[None]))
+        phi, phit, psit = (v.reshape(N, m) for v in (phi, phit, psit))
+        gphi, gpsi = gphi.T.reshape(N, m, 2), gpsi.T.reshape(N, m, 2)
+        # C^j[:, k] = xi/2 (S_{j-1} + S_j - P_k) for k <= j, with S the prefix sums of the
+        # normals n_0..n_{m-1} and P_0 = n_0, P_k = 2 S_{k-1}  (0-based j, k; C^0 = 0).
+        S = np.cumsum(normal(np.cumsum(Q, axis=-1)), axis=-2)            # (N, m, 2)
+        P = np.concatenate([S[:, :1], 2 * S[:, :-1]], axis=1)
+        rows = np.r_[m - 1, 1:m]                                           # target centre of each row
+        W = np.concatenate([gpsi[:, m - 1:], gphi[:, 1:]], axis=1)        # (N, m, 2) its gradient
+        Tj = S[:, rows] + S[:, rows - 1]
+        M = 0.5 * xi * (np.einsum("nri,nri->nr", W, Tj)[:, :, None] - W @ np.swapaxes(P, 1, 2))
+        M *= np.arange(m)[None, :] <= rows[:, None]
+        b = self.chain.b_diagonal
+        M = M * b if b is not None else M @ self.chain.B
+        v = np.asarray(self._mapped("speed", self.speed_function, N)(T[None])).ravel()
+        rhs = np.concatenate([(v - psit[:, m - 1])[:, None],
+                              -self.gain * phi[:, 1:] - phit[:, 1:]], axis=1)
+        return M, rhs
+
+    def _mapped(self, name: str, make, n: int) -> ca.Function:
+        """The Function ``make()`` evaluated at ``n`` points in one call (cached per name and ``n``)."""
+        key = ("map", name, n)
+        if key not in self._cache:
+            fn = make()
+            self._cache[key] = fn.map(n) if n > 1 else fn
+        return self._cache[key]
+
     def decoupling_matrix(self, q, t: float = 0.0) -> np.ndarray:
-        """Numeric decoupling matrix (eq. 26), shape (m, m)."""
-        return np.asarray(self.decoupling_function()(self.chain.check_q(q), t)[0])
+        """Numeric decoupling matrix (eq. 26), shape (m, m); see :meth:`decoupling_matrices`."""
+        return self.decoupling_matrices(self.chain.check_q(q)[None], [t])[0][0]
 
     def cond(self, q, t: float = 0.0) -> float:
         """2-norm condition number of the decoupling matrix (see DESIGN.md section 2)."""
-        return float(np.linalg.cond(self.decoupling_matrix(q, t)))
+        return float(self.conds(self.chain.check_q(q)[None], [t])[0])
+
+    def conds(self, Q, T) -> np.ndarray:
+        """2-norm condition numbers of the decoupling matrices at N states ``Q`` (N, m), ``T`` (N,)."""
+        sv = np.linalg.svd(self.decoupling_matrices(Q, T)[0], compute_uv=False)
+        with np.errstate(divide="ignore"):
+            return sv[:, 0] / sv[:, -1]
 
     def base_offset(self, t: float = 0.0) -> float:
         """``|phi(0, t)|``: how far the curve passes from the pinned base [m]."""

@@ -66,6 +66,28 @@ def test_control_makes_task_rates_as_designed_by_finite_differences(kind, rng):
     assert sdot == pytest.approx(0.1 + 0.02 * t, abs=1e-7)
 
 
+@pytest.mark.parametrize("kind", ["line", "circle", "arc"])
+@pytest.mark.parametrize("b_kind", ["ones", "diagonal", "full"])
+def test_closed_form_decoupling_matrices_equal_the_ad_ones(kind, b_kind, rng):
+    """Batched eq. 7 prefix sums (numpy) vs CasADi AD Jacobians, matrix and right-hand side."""
+    m, N = 15, 4
+    B = {"ones": None, "diagonal": rng.uniform(0.5, 2, m), "full": np.eye(m) + 0.2 * rng.normal(size=(m, m))}[b_kind]
+    ctrl = CoordinatingController(PlanarChain(m, 0.1, B=B), moving_curve(kind), 1.7,
+                                  speed=lambda t: 0.1 + 0.05 * ca.sin(t))
+    Q = np.array([random_state(ctrl.chain, rng, 0.5) for _ in range(N)])
+    T = rng.uniform(0, 5, N)
+    M, rhs = ctrl.decoupling_matrices(Q, T)
+    assert M.shape == (N, m, m) and rhs.shape == (N, m)
+    for k in range(N):
+        Ma, ra = (np.asarray(v) for v in ctrl.decoupling_function()(Q[k], T[k]))
+        np.testing.assert_allclose(M[k], Ma, rtol=0, atol=1e-14 * np.abs(Ma).max())
+        np.testing.assert_allclose(rhs[k], ra.ravel(), rtol=1e-14, atol=1e-15)
+        assert ctrl.cond(Q[k], T[k]) == pytest.approx(np.linalg.cond(Ma), rel=1e-9)
+    np.testing.assert_allclose(ctrl.conds(Q, T), [np.linalg.cond(x) for x in M], rtol=1e-12)
+    with pytest.raises(ConfigError, match="Q, T"):
+        ctrl.decoupling_matrices(Q[:, 1:], T)
+
+
 def test_decoupling_matrix_is_the_jacobian_of_the_task_map(rng):
     m = 10
     ctrl = CoordinatingController(PlanarChain(m, 0.1), moving_curve("arc"), 2.0, 0.0)
