@@ -20,6 +20,7 @@ from collections import namedtuple
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import lz4.frame
 import numpy as np
 import zstandard
 
@@ -56,6 +57,11 @@ def chunk_messages(chunk: Chunk) -> list[RawMessage]:
     """
     if chunk.compression == "zstd":
         data = zstandard.decompress(chunk.data, chunk.uncompressed_size)
+    elif chunk.compression == "lz4":
+        try:
+            data = lz4.frame.decompress(chunk.data)
+        except RuntimeError as exc:  # what python-lz4 raises on a damaged frame
+            raise ValueError(f"lz4: {exc}") from None
     elif chunk.compression == "":
         data = chunk.data
     else:

@@ -11,6 +11,7 @@ from typing import TextIO
 from symbolic import SingularityError
 
 from .figures import plot_stages, plot_tracking
+from .mcap_file import COMPRESSIONS
 from .mcap_writer import RunLogger
 from .obstacles import clearance, wall_crossings
 from .run import BACKENDS, BackendFallbackWarning, Run, select_backend, simulate
@@ -33,6 +34,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, help="log file (default: logs/<scenario>.mcap); figures go beside it")
     p.add_argument("--log-rate", type=float, metavar="HZ",
                    help="samples per simulated second in the log (default: every step)")
+    p.add_argument("--cond-rate", type=float, metavar="HZ",
+                   help="samples per simulated second of cond (an SVD each; default 5 Hz up to 64 links, "
+                        "then falling as 1/m^2; 0 = off)")
+    p.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
+                   help="chunk compression of the log: zstd (default, smaller) or lz4 (faster)")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
@@ -90,7 +96,8 @@ def main(args: argparse.Namespace) -> int:
     try:
         # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
         # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
-        with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, backend=backend,
+        with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, cond_rate=args.cond_rate,
+                       compression=args.compression, backend=backend,
                        library_key=compiled.library.key if compiled else None,
                        threaded=(os.cpu_count() or 1) > 1) as log:
             run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,

@@ -19,6 +19,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any, BinaryIO, Callable
 
+import lz4.frame
 import numpy as np
 import zstandard
 
@@ -27,6 +28,9 @@ from mcap.opcode import Opcode
 from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex, Schema,
                           Statistics, SummaryOffset)
 from mcap.writer import LIBRARY_IDENTIFIER, MCAP0_MAGIC
+
+#: Chunk compressions written here (both are in the MCAP specification and read by Foxglove).
+COMPRESSIONS = ("lz4", "zstd")
 
 #: Bytes of a Message record before its data: opcode, length, channel id, sequence, log and publish time.
 MESSAGE_HEADER_SIZE = 1 + 8 + 2 + 4 + 8 + 8
@@ -97,18 +101,24 @@ class McapFile:
         File to create (overwritten).
     profile : str
         MCAP profile written in the header (``"ros2"`` for ``cdr`` channels).
-    compression_level : int
-        zstd level of the chunks.
+    compression : {"zstd", "lz4"}
+        Chunk compression: zstd (level 1) makes smaller files, lz4 (frame format, fast mode)
+        compresses about twice as fast (benchmarks/RESULTS_logging.md).
     background : bool
-        Compress and write chunks on a thread of their own (zstd and zlib release the GIL), so
-        that the caller can build the next chunk meanwhile; :meth:`flush` and :meth:`close` wait.
+        Compress and write chunks on a thread of their own (zstd, lz4 and zlib release the
+        GIL), so that the caller can build the next chunk meanwhile; :meth:`flush` and
+        :meth:`close` wait.
     """
 
-    def __init__(self, path: str | Path, profile: str = "", compression_level: int = 3,
+    def __init__(self, path: str | Path, profile: str = "", compression: str = "zstd",
                  background: bool = False) -> None:
+        if compression not in COMPRESSIONS:
+            raise ValueError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
         self.path = Path(path)
+        self.compression = compression
+        self._compress: Callable[[bytes], bytes] = (
+            zstandard.ZstdCompressor(level=1).compress if compression == "zstd" else lz4.frame.compress)
         self._stream: BinaryIO = open(self.path, "wb")
-        self._zstd = zstandard.ZstdCompressor(level=compression_level)
         self._schemas: list[Schema] = []
         self._channels: list[Channel] = []
         self._chunk_indexes: list[ChunkIndex] = []
@@ -192,8 +202,8 @@ class McapFile:
     def _write_chunk_now(self, records: bytes, index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
         times = np.concatenate([lt for lt, _ in index.values()])
         start, end = int(times.min()), int(times.max())
-        data = self._zstd.compress(records)
-        chunk = Chunk(compression="zstd", data=data, message_start_time=start, message_end_time=end,
+        data = self._compress(records)
+        chunk = Chunk(compression=self.compression, data=data, message_start_time=start, message_end_time=end,
                       uncompressed_crc=zlib.crc32(records), uncompressed_size=len(records))
         builder = RecordBuilder()
         chunk.write(builder)
@@ -214,7 +224,7 @@ class McapFile:
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=start, message_end_time=end, chunk_start_offset=chunk_offset,
             chunk_length=len(chunk_raw), message_index_offsets=offsets, message_index_length=pos - index_offset,
-            compression="zstd", compressed_size=len(data), uncompressed_size=len(records)))
+            compression=self.compression, compressed_size=len(data), uncompressed_size=len(records)))
         self._time = [start if self._time[0] is None else min(self._time[0], start), max(self._time[1], end)]
 
     def flush(self) -> None:

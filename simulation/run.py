@@ -16,7 +16,7 @@ from symbolic import BuildError, ConfigError, CoordinatingController, Singularit
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
 #: Steps integrated per call of the closed-loop chunk Function.
-DEFAULT_CHUNK = 500
+DEFAULT_CHUNK = 2000
 #: ``auto`` = compiled when a C compiler builds the library, else interpreted (with a warning).
 BACKENDS = ("auto", "compiled", "interpreted")
 

@@ -40,6 +40,23 @@ def full_log(tmp_path_factory):
     return path, path.read_bytes()
 
 
+@pytest.fixture(scope="module")
+def lz4_log(tmp_path_factory):
+    """The same run as ``full_log``, its chunks lz4-compressed, ``cond`` at 2 Hz."""
+    path = tmp_path_factory.mktemp("replay") / "line_lz4.mcap"
+    assert main(["run", "line", "--links", "8", "--duration", "1.5", "--quiet", "--no-figures",
+                 "--compression", "lz4", "--cond-rate", "2", "--out", str(path)]) == 0
+    return path, path.read_bytes()
+
+
+def test_the_cli_writes_lz4_chunks_and_cond_at_the_chosen_rate(full_log, lz4_log):
+    a, b = load(full_log[0]), load(lz4_log[0])
+    assert np.array_equal(a.q, b.q) and np.array_equal(a.u, b.u)
+    np.testing.assert_array_equal(b.cond_t, [0.0, 0.5, 1.0, 1.5])
+    with open(lz4_log[0], "rb") as f:
+        assert {c.compression for c in make_reader(f).get_summary().chunk_indexes} == {"lz4"}
+
+
 def _start_and_wait_for_flushes(tmp_path):
     """Start ``coordarm run`` on a long scenario; return the process once its log had a few flushes."""
     toml = tmp_path / "swing.toml"
@@ -110,8 +127,9 @@ def test_a_log_cut_before_its_first_sample_is_a_log_error_naming_the_file(full_l
         load(bad)
 
 
-def test_a_bit_flip_inside_a_chunk_is_a_log_error_saying_how_much_was_read(full_log, tmp_path):
-    path, data = full_log
+@pytest.mark.parametrize("log", ["full_log", "lz4_log"])
+def test_a_bit_flip_inside_a_chunk_is_a_log_error_saying_how_much_was_read(log, tmp_path, request):
+    path, data = request.getfixturevalue(log)
     with open(path, "rb") as f:
         chunks = sorted(make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
     for which in (0, 2):
