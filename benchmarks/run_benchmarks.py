@@ -41,7 +41,7 @@ sys.path.insert(0, str(HERE))
 from generated.build import build, find_compiler  # noqa: E402
 from generated.codegen import generate_source  # noqa: E402
 from numpy_dense import dense_law_line  # noqa: E402
-from simulation.run import chunk_function, simulate  # noqa: E402
+from simulation.run import DEFAULT_CHUNK, chunk_function, simulate  # noqa: E402
 from simulation.scenario import load_scenario  # noqa: E402
 from symbolic import BuildError, CoordinatingController, Line, PlanarChain  # noqa: E402
 
@@ -228,7 +228,7 @@ def main() -> None:
     report += ["", "## Scale and the long run", "",
                f"* compiled law from C: m = 1024 costs {lin:.1f}× m = 64 "
                f"({1e3 * rows[64]['c_law'] / 64:.1f} and {1e3 * rows[1024]['c_law'] / 1024:.1f} ns per link)",
-               f"* 64-link line, 30 s at 1 ms (30,000 RK4 steps, chunks of 500 through Python): "
+               f"* 64-link line, 30 s at 1 ms (30,000 RK4 steps, chunks of {DEFAULT_CHUNK} through Python): "
                f"{long_run:.3f} s wall (median of {len(walls)}; stopped: {run.info['stopped']})",
                f"* load average at end: {os.getloadavg()[0]:.2f}"]
     text = "\n".join(report) + "\n"

@@ -16,6 +16,7 @@ import json
 import os
 import shlex
 import shutil
+import signal
 import subprocess
 import tempfile
 import time
@@ -174,7 +175,7 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
     cmd = [cc_path, *REQUIRED_FLAGS, *flags, "-o", tmp, str(src), "-lm"]   # later flags win
     start = time.perf_counter()
     try:
-        res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+        res = _run_compiler(cmd, timeout)
     except subprocess.TimeoutExpired:
         Path(tmp).unlink(missing_ok=True)
         raise BuildError(f"compiling {src} took longer than {timeout} s; stopped") from None
@@ -192,6 +193,23 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
             "form": source.form, "links": source.m, "compile_seconds": seconds}
     _write_atomic(entry / META, json.dumps(meta, indent=1).encode())
     return Library(entry / LIBRARY, key, False, seconds)
+
+
+def _run_compiler(cmd: list[str], timeout: float | None) -> subprocess.CompletedProcess:
+    """Run the compiler in a process group of its own; on a timeout or an interrupt kill the whole
+    group (``gcc`` is a driver: killing it alone leaves ``cc1`` compiling on)."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except BaseException:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError, AttributeError):  # gone already, or not POSIX
+            proc.kill()
+        proc.communicate()
+        raise
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
 
 
 def clean(build_dir=None) -> int:

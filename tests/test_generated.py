@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import time
 import warnings
 from pathlib import Path
 
@@ -228,6 +229,30 @@ def test_missing_compiler_auto_falls_back_with_a_warning_and_compiled_is_an_erro
 def test_compiler_failure_is_a_build_error_with_the_compiler_message(tmp_path):
     with pytest.raises(BuildError, match="not-a-flag"):
         build(generate_source(controller("line", 3)), build_dir=tmp_path, flags=["-fnot-a-flag"])
+
+
+def _processes_reading(path) -> list[int]:
+    """Pids of the live processes whose command line names ``path`` (Linux /proc)."""
+    pids = []
+    for entry in Path("/proc").iterdir():
+        try:
+            if entry.name.isdigit() and str(path).encode() in (entry / "cmdline").read_bytes():
+                pids.append(int(entry.name))
+        except OSError:
+            pass
+    return pids
+
+
+@pytest.mark.skipif(not Path("/proc/self/cmdline").exists(), reason="needs Linux /proc")
+def test_a_compile_over_its_timeout_is_stopped_with_every_compiler_process(tmp_path):
+    """gcc is a driver: the timeout must kill cc1 too, not leave it compiling (it did before)."""
+    source = generate_source(controller("line", 24), "dense")        # a few seconds of cc1
+    with pytest.raises(BuildError, match="took longer than 0.5 s; stopped"):
+        build(source, build_dir=tmp_path, timeout=0.5)
+    src = next(tmp_path.rglob("coordarm.c"))
+    time.sleep(0.2)
+    assert _processes_reading(src) == []
+    assert not list(tmp_path.rglob("*.tmp"))
 
 
 def test_full_b_is_refused_by_the_compiled_backend_and_auto_falls_back():
