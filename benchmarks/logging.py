@@ -130,7 +130,8 @@ def main() -> None:
 
     variants = {"without log": plain, "full-rate log": logged("run.mcap"),
                 "full-rate log, threaded": logged("run_threaded.mcap", threaded=True),
-                "log at 100 Hz": logged("run100.mcap", log_rate=100.0)}
+                "full-rate lz4, threaded": logged("run_lz4.mcap", threaded=True, compression="lz4"),
+                "log at 100 Hz, threaded": logged("run100.mcap", threaded=True, log_rate=100.0)}
     plain()  # build and cache the chunk Function
     times: dict[str, list[float]] = {k: [] for k in variants}
     for _ in range(args.repeats):  # interleaved, so that load changes hit every variant alike
@@ -138,11 +139,12 @@ def main() -> None:
             times[k].append(timed(fn))
     base = statistics.median(times["without log"])
     print(f"\n{LINKS}-link line run, {DURATION:g} s at {STEP * 1e3:g} ms, backend {args.backend or 'default'}")
-    files = {"full-rate log": "run.mcap", "full-rate log, threaded": "run_threaded.mcap", "log at 100 Hz": "run100.mcap"}
+    files = {"full-rate log": "run.mcap", "full-rate log, threaded": "run_threaded.mcap",
+             "full-rate lz4, threaded": "run_lz4.mcap", "log at 100 Hz, threaded": "run100.mcap"}
     for k, ts in times.items():
         med = statistics.median(ts)
         size = f"   log {(tmp / files[k]).stat().st_size / DURATION / 2**20:.3f} MiB per simulated s" if k in files else ""
-        print(f"  {k:24s} median {med:7.3f} s  ratio {med / base:5.2f}  ({', '.join(f'{t:.3f}' for t in ts)}){size}")
+        print(f"  {k:26s} median {med:7.3f} s  ratio {med / base:5.2f}  ({', '.join(f'{t:.3f}' for t in ts)}){size}")
 
 
 if __name__ == "__main__":

@@ -131,9 +131,10 @@ class RunLogger:
         Cache key (SHA-256 of the generated code and its build) of the compiled library that
         ran, stored in the ``build`` metadata.
     threaded : bool
-        Encode on a worker thread and compress on another (blocks are queued by :meth:`on_chunk`).
-        Worth it only with a free core: on the shared 2-core test machine it measured no faster
-        than the default (see benchmarks/RESULTS_logging.md).
+        Encode on a worker thread and compress on another (blocks are queued by :meth:`on_chunk`),
+        overlapping the log with a compiled simulation when a second core is free: on 2 cores
+        full-rate logging then costs 1.7x the unlogged run instead of 2.5x
+        (benchmarks/RESULTS_logging.md). ``coordarm run`` uses it on machines with 2+ cores.
 
     Raises
     ------
