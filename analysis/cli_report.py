@@ -6,6 +6,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from symbolic import ConfigError
 
 
@@ -19,7 +21,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, help="output directory (default: logs/<name>_report)")
     p.add_argument("--links", type=int, help="scenario only: override the number of links")
     p.add_argument("--duration", type=float, help="scenario only: override the duration [s]")
-    p.add_argument("--samples", type=int, default=1200, help="margin samples over the run (default 1200)")
+    p.add_argument("--samples", type=int,
+                   help="margin samples over the run (default 1200 up to 64 links, then 1200 (64/m)^2, "
+                        "at least 100: each costs O(m^3))")
     p.set_defaults(func=main)
 
 
@@ -35,7 +39,7 @@ def main(args: argparse.Namespace) -> int:
     """Write the report for ``args.source``; print where it went; return 0."""
     from simulation.scenario import load_scenario
 
-    from .report import write_report
+    from .report import default_samples, write_report
 
     src = str(args.source)
     if src.endswith(".mcap"):
@@ -48,6 +52,10 @@ def main(args: argparse.Namespace) -> int:
         scenario = load_scenario(src).with_overrides(args.links, args.duration)
         run = simulate_scenario(scenario)
     out = args.out or Path("logs") / f"{scenario.name}_report"
+    m = np.shape(run.q)[1]
+    if m > 128:  # about a second per 1000 samples at 64 links, a second per sample at 1024
+        print(f"report: margins at {args.samples or default_samples(m)} samples of a {m}-link chain "
+              "(an SVD and a QR of the m x m decoupling matrix each) ...", file=sys.stderr, flush=True)
     path = write_report(run, scenario, out, samples=args.samples)
     print(f"report        {path}", file=sys.stdout)
     for png in sorted(path.parent.glob("*.png")):

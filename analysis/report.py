@@ -100,8 +100,26 @@ def _below(values: np.ndarray, thr: float) -> np.ndarray:
     return ~(values >= thr)          # NaN counts as crossed
 
 
+def default_samples(links: int) -> int:
+    """Margin samples of a report before refinement: 1200 up to 64 links, then ``* (64/m)^2``, at least 100.
+
+    Each sample costs SVDs and a QR of the m x m decoupling matrix, O(m^3).
+    """
+    return max(100, min(1200, round(1200 * (64 / links) ** 2)))
+
+
+def _merge(idx: np.ndarray, mg: dict, new: np.ndarray, more: dict) -> tuple[np.ndarray, dict]:
+    """Samples ``idx`` with margins ``mg`` plus samples ``new`` with margins ``more``, sorted by index."""
+    order = np.argsort(np.concatenate([idx, new]), kind="stable")
+    return np.concatenate([idx, new])[order], {k: np.concatenate([mg[k], more[k]])[order] for k in mg}
+
+
+#: Most margin evaluations per zoom level when locating a first threshold crossing.
+ZOOM = 32
+
+
 def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, float] | None = None,
-                samples: int = 1200) -> RunAnalysis:
+                samples: int | None = None) -> RunAnalysis:
     """Margins along a run, their first threshold crossings and the blow-up time.
 
     Parameters
@@ -115,8 +133,10 @@ def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, flo
     thresholds : dict, optional
         Thresholds per margin (defaults: the simulator's for links and longitudinal,
         :data:`~analysis.singularity.REPORT_THRESHOLDS` for the others).
-    samples : int
-        Margin samples spread evenly over the run before refinement.
+    samples : int, optional
+        Margin samples spread evenly over the run (default :func:`default_samples`). Around
+        the first crossing of every margin the samples are then refined down to single rows,
+        at most :data:`ZOOM` evaluations per level.
 
     Returns
     -------
@@ -137,19 +157,18 @@ def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, flo
     over = np.flatnonzero(~(u_norm <= BLOWUP_FACTOR * nominal))
     blowup = float(t[over[0]]) if len(over) else None
 
-    idx = even_indices(len(t), samples)
+    idx = even_indices(len(t), samples or default_samples(ctrl.chain.m))
     mg = run_margins(ctrl, t[idx], q[idx])
-    extra_idx = []
-    for name in MARGINS:                     # refine around the first crossing of every margin
-        hit = np.flatnonzero(_below(_smallest(mg, name), thr[name]))
-        if len(hit) and hit[0] > 0:
-            extra_idx.extend(range(idx[hit[0] - 1] + 1, idx[hit[0]]))
-    if extra_idx:
-        extra_idx = np.setdiff1d(np.unique(extra_idx), idx)
-        more = run_margins(ctrl, t[extra_idx], q[extra_idx])
-        order = np.argsort(np.concatenate([idx, extra_idx]), kind="stable")
-        idx = np.concatenate([idx, extra_idx])[order]
-        mg = {k: np.concatenate([mg[k], more[k]])[order] for k in mg}
+    for name in MARGINS:                     # zoom in on the first crossing of every margin
+        while True:
+            hit = np.flatnonzero(_below(_smallest(mg, name), thr[name]))
+            if not len(hit) or hit[0] == 0:
+                break
+            lo, hi = int(idx[hit[0] - 1]), int(idx[hit[0]])
+            inside = np.unique(np.linspace(lo, hi, min(ZOOM, hi - lo - 1) + 2).round().astype(int))[1:-1]
+            if not len(inside):
+                break                        # adjacent rows: located
+            idx, mg = _merge(idx, mg, inside, run_margins(ctrl, t[inside], q[inside]))
     ts = t[idx]
     crossings, minima = {}, {}
     for name in MARGINS:
@@ -225,7 +244,7 @@ def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController,
 
 
 def write_report(run: Any, scenario: Any, out_dir: str | Path, ctrl: CoordinatingController | None = None,
-                 samples: int = 1200) -> Path:
+                 samples: int | None = None) -> Path:
     """Write ``report.md`` and its PNG figures for ``run`` (any object with ``t``, ``q``, ``u``).
 
     Parameters
@@ -238,8 +257,8 @@ def write_report(run: Any, scenario: Any, out_dir: str | Path, ctrl: Coordinatin
         Directory for the report (created).
     ctrl : CoordinatingController, optional
         The controller (default: built from ``scenario`` with the run's link count).
-    samples : int
-        Margin samples before refinement.
+    samples : int, optional
+        Margin samples before refinement (default :func:`default_samples`).
 
     Returns
     -------

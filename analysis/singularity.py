@@ -129,7 +129,7 @@ def margins(controller: CoordinatingController, q, t: float = 0.0) -> dict[str, 
             for k, v in out.items()}
 
 
-def run_margins(controller: CoordinatingController, t, q, batch: int = 500) -> dict[str, np.ndarray]:
+def run_margins(controller: CoordinatingController, t, q, batch: int | None = None) -> dict[str, np.ndarray]:
     """:func:`margins` along a trajectory: every value becomes an array over samples.
 
     Parameters
@@ -140,8 +140,9 @@ def run_margins(controller: CoordinatingController, t, q, batch: int = 500) -> d
         Sample times [s].
     q : (N, m) array_like
         Configurations [rad].
-    batch : int
-        Samples evaluated per CasADi map call.
+    batch : int, optional
+        Samples evaluated together (default: as many as keep one stack of m x m matrices
+        near 128 MiB, at most 500; a few such stacks are alive at once).
 
     Returns
     -------
@@ -152,5 +153,7 @@ def run_margins(controller: CoordinatingController, t, q, batch: int = 500) -> d
     q = np.asarray(q, dtype=float)
     if q.shape != (len(t), controller.chain.m):
         raise ConfigError(f"q: need shape ({len(t)}, {controller.chain.m}), got {q.shape}")
+    m = controller.chain.m
+    batch = batch or max(1, min(500, 2**24 // (m * m)))
     parts = [_margins_batch(controller, q[i:i + batch], t[i:i + batch]) for i in range(0, len(t), batch)]
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from analysis.cli_report import simulate_scenario
-from analysis.report import analyse_run, write_report
+from analysis.report import analyse_run, default_samples, write_report
 from analysis.workspace import curve_zigzag, plot_workspace, workspace_map
 from simulation.cli import main
 from simulation.run import DEFAULT_THRESHOLDS, simulate
@@ -45,6 +45,25 @@ def test_blow_up_is_predicted_by_the_longitudinal_margin_not_by_cond(tmp_path):
     path = write_report(run, sc, tmp_path / "rep", samples=400)
     text = path.read_text()
     assert "predicted by: longitudinal margin" in text and "**yes**" in text
+
+
+def test_zoomed_first_crossings_equal_those_of_every_row_and_samples_scale_with_m(tmp_path):
+    """Coarse samples + zoom (a few dozen margin evaluations) vs margins at every one of 3001 rows."""
+    toml = tmp_path / "fast.toml"
+    toml.write_text(FAST_ARC)
+    sc = load_scenario(toml)
+    ctrl = sc.controller()
+    run = simulate_scenario(sc)
+    every = analyse_run(ctrl, run.t, run.q, run.u, samples=len(run.t))
+    zoomed = analyse_run(ctrl, run.t, run.q, run.u, samples=20)
+    assert every.crossings["longitudinal"] == zoomed.crossings["longitudinal"] == pytest.approx(1.731)
+    for name, first in every.crossings.items():  # samples can miss a crossing, never invent an earlier one
+        assert zoomed.crossings[name] is None or zoomed.crossings[name] >= first
+    # after the blow-up sigma_min dips below 1e-3 at the single row t = 1.912: only every row sees it
+    assert every.crossings["sigma_min"] == pytest.approx(1.912) and zoomed.crossings["sigma_min"] is None
+    assert len(zoomed.t) < 100 < len(every.t)
+    assert default_samples(16) == default_samples(64) == 1200
+    assert default_samples(128) == 300 and default_samples(1024) == 100
 
 
 def test_default_stop_fires_before_u_exceeds_ten_times_nominal(tmp_path):
