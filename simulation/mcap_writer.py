@@ -10,10 +10,10 @@ Channels (timestamps: ns of simulated time)
 Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, versions),
 ``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
 ``outcome``. Chunks are built with numpy for a whole block of steps at once, compressed with
-zstd (default) or lz4, and pushed to the operating system about once a second, so a killed run loses at most
-the last second of data. With ``threaded=True`` this runs on worker threads (compression,
-numpy and a compiled simulation release the GIL), which overlaps logging with the simulation
-when a core is free.
+zstd (default) or lz4, and pushed to the operating system about once a second, so a killed
+run loses at most the last second of data. With ``threaded=True`` this runs on worker
+threads (compression and a compiled simulation release the GIL), which overlaps logging with
+the simulation when a core is free.
 """
 from __future__ import annotations
 
@@ -82,7 +82,8 @@ def build_info(scenario: Scenario) -> dict[str, str]:
     import casadi
     return {"code_hash": code_hash(), "scenario_hash": hashlib.sha256(scenario.to_json().encode()).hexdigest(),
             "coordarm": _version("coordarm"), "casadi": casadi.__version__, "numpy": np.__version__,
-            "mcap": _version("mcap"), "zstandard": _version("zstandard"), "lz4": _version("lz4"), "python": platform.python_version()}
+            "mcap": _version("mcap"), "zstandard": _version("zstandard"), "lz4": _version("lz4"),
+            "python": platform.python_version()}
 
 
 def outcome_of(error: BaseException | None, last_t: float | None) -> dict[str, Any]:
