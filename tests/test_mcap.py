@@ -156,6 +156,17 @@ def test_log_rate_keeps_every_kth_step_and_the_last(scenario, tmp_path):
     np.testing.assert_array_equal(rep.q, run.q[keep])
 
 
+def test_rate_zero_switches_the_scene_and_cond_channels_off(scenario, tmp_path):
+    ctrl = scenario.controller()
+    path = tmp_path / "off.mcap"
+    with RunLogger(path, scenario, ctrl, scene_rate=0, cond_rate=0) as log:
+        run = simulate(ctrl, scenario.start(ctrl), 0.1, scenario.step, on_chunk=log.on_chunk)
+    with open(path, "rb") as f:
+        topics = [ch.topic for _, ch, _ in make_reader(f).iter_messages()]
+    assert len(topics) == 3 * len(run.t) and not {"/scene", "/margins/cond"} & set(topics)
+    assert len(load(path).cond) == 0
+
+
 @pytest.mark.parametrize("rate", [0.0, -5.0, float("nan"), "fast"])
 def test_bad_log_rate_is_a_config_error_before_the_file_exists(scenario, tmp_path, rate):
     with pytest.raises(ConfigError, match="log_rate"):
