@@ -8,7 +8,7 @@
    (as ``simulate`` does), so the number stands whatever the simulation backend; for
    comparison the same per-step messages written one by one with ``mcap.writer.Writer``.
 
-Usage: ``python benchmarks/logging.py [--repeats 3] [--backend compiled] [--skip-run]``
+Usage: ``python benchmarks/logging.py [--repeats 3] [--backend compiled] [--skip-run] [--links 64] [--duration 30]``
 """
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ from simulation.mcap_writer import RunLogger  # noqa: E402
 from simulation.run import Run, simulate  # noqa: E402
 from simulation.scenario import load_scenario  # noqa: E402
 
-LINKS, DURATION, STEP, BLOCK = 64, 30.0, 0.001, 500
+STEP, BLOCK = 0.001, 500
 
 
 def timed(fn) -> float:
@@ -83,13 +83,16 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--backend", help="simulation backend (if simulate() has that option)")
     ap.add_argument("--skip-run", action="store_true", help="only the synthetic logging benchmark")
+    ap.add_argument("--links", type=int, default=64)
+    ap.add_argument("--duration", type=float, default=30.0, help="simulated seconds")
     args = ap.parse_args()
-    sc = load_scenario("line").with_overrides(links=LINKS, duration=DURATION, step=STEP)
+    links, duration = args.links, args.duration
+    sc = load_scenario("line").with_overrides(links=links, duration=duration, step=STEP)
     ctrl = sc.controller()
     tmp = Path(tempfile.mkdtemp(prefix="coordarm-bench-"))
     print(f"python {platform.python_version()}, {platform.machine()}, repeats {args.repeats}")
 
-    blocks = synthetic_blocks(LINKS, int(DURATION / STEP), BLOCK)
+    blocks = synthetic_blocks(links, int(duration / STEP), BLOCK)
 
     def log_synthetic(path: Path, **kw) -> None:
         with RunLogger(path, sc, ctrl, command=["bench"], **kw) as log:
@@ -102,11 +105,11 @@ def main() -> None:
             ("RunLogger, all channels", lambda p: log_synthetic(p), tmp / "syn_all.mcap"),
             ("RunLogger, per-step channels only", lambda p: log_synthetic(p, scene_rate=0, cond_rate=0),
              tmp / "syn_step.mcap"),
-            ("mcap Writer.add_message, per-step channels", lambda p: per_message_writer(p, blocks, LINKS),
+            ("mcap Writer.add_message, per-step channels", lambda p: per_message_writer(p, blocks, links),
              tmp / "syn_writer.mcap")):
         times = [timed(lambda: fn(path)) for _ in range(args.repeats)]
         rows.append((label, statistics.median(times), path.stat().st_size))
-    print(f"\nsynthetic: {len(blocks) * BLOCK} samples of {LINKS} links in blocks of {BLOCK}")
+    print(f"\nsynthetic: {len(blocks) * BLOCK} samples of {links} links in blocks of {BLOCK}")
     for label, t, size in rows:
         print(f"  {label:45s} {t:7.3f} s   {size / 2**20:6.2f} MiB")
 
@@ -120,12 +123,12 @@ def main() -> None:
     q0 = sc.start(ctrl)
 
     def plain():
-        simulate(ctrl, q0, DURATION, STEP, progress=False, **kw)
+        simulate(ctrl, q0, duration, STEP, progress=False, **kw)
 
     def logged(name: str, **options):
         def go():
             with RunLogger(tmp / name, sc, ctrl, command=["bench"], **options) as log:
-                simulate(ctrl, q0, DURATION, STEP, progress=False, on_chunk=log.on_chunk, **kw)
+                simulate(ctrl, q0, duration, STEP, progress=False, on_chunk=log.on_chunk, **kw)
         return go
 
     variants = {"without log": plain, "full-rate log": logged("run.mcap"),
@@ -138,12 +141,12 @@ def main() -> None:
         for k, fn in variants.items():
             times[k].append(timed(fn))
     base = statistics.median(times["without log"])
-    print(f"\n{LINKS}-link line run, {DURATION:g} s at {STEP * 1e3:g} ms, backend {args.backend or 'default'}")
+    print(f"\n{links}-link line run, {duration:g} s at {STEP * 1e3:g} ms, backend {args.backend or 'default'}")
     files = {"full-rate log": "run.mcap", "full-rate log, threaded": "run_threaded.mcap",
              "full-rate lz4, threaded": "run_lz4.mcap", "log at 100 Hz, threaded": "run100.mcap"}
     for k, ts in times.items():
         med = statistics.median(ts)
-        size = f"   log {(tmp / files[k]).stat().st_size / DURATION / 2**20:.3f} MiB per simulated s" if k in files else ""
+        size = f"   log {(tmp / files[k]).stat().st_size / duration / 2**20:.3f} MiB per simulated s" if k in files else ""
         print(f"  {k:26s} median {med:7.3f} s  ratio {med / base:5.2f}  ({', '.join(f'{t:.3f}' for t in ts)}){size}")
 
 
