@@ -4,7 +4,7 @@ import math
 import casadi as ca
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from symbolic import (
@@ -16,6 +16,7 @@ from symbolic import (
     Ramp,
     project_onto_curve,
 )
+from simulation.run import DEFAULT_THRESHOLDS
 from tests.curves_for_tests import moving_curve
 
 
@@ -32,15 +33,17 @@ def test_structured_solve_equals_dense_eq27_on_random_states(kind, m, seed, gain
                                   speed=lambda t: 0.1 + 0.05 * ca.sin(t))
     q, t = random_state(ctrl.chain, rng), rng.uniform(0, 10)
     s, d = ctrl.evaluate(q, t, "structured"), ctrl.evaluate(q, t, "dense")
+    # Where the law is used: the simulator stops below these margins. The structured recursion
+    # divides by the link pivots, so below them it loses digits (a 12-link state with a link
+    # margin of 6.4e-5 agreed to 1.8e-10 only; a 39-link one to 3.0e-10).
+    assume(s["link_margins"].min() >= DEFAULT_THRESHOLDS["link"]
+           and s["longitudinal"] >= DEFAULT_THRESHOLDS["longitudinal"])
     M, rhs = (np.asarray(v) for v in ctrl.decoupling_function()(q, t))
     assert np.linalg.norm(M @ s["u"] - rhs.ravel()) <= 1e-10 * np.linalg.norm(M) * np.linalg.norm(s["u"]) \
         + 1e-12 * np.linalg.norm(rhs)
-    # The two forms agree to 1e-10 relative (the bar) where M is well conditioned; near
-    # a singularity no solve can beat the forward-error bound of a backward-stable one, cond * eps
-    # (a random state of 39 links with cond 2.6e8 gave 3.0e-10, against a bound of 5.8e-8).
+    # the two forms agree to 1e-10 relative (the bar)
     err = np.linalg.norm(s["u"] - d["u"]) / np.linalg.norm(d["u"])
-    cond = np.linalg.cond(M)
-    assert err <= max(1e-10, 4 * cond * np.finfo(float).eps), (err, cond)
+    assert err <= 1e-10, (err, np.linalg.cond(M))
     for k in ("e", "s", "link_margins", "longitudinal"):
         np.testing.assert_array_equal(s[k], d[k])
 
