@@ -38,15 +38,14 @@ MARGINS = ("links", "longitudinal", "sigma_min", "inverse_cond", "inverse_cond_s
 #: Default report thresholds of the margins (the simulator's stop thresholds for links and
 #: longitudinal live in :data:`simulation.run.DEFAULT_THRESHOLDS`).
 REPORT_THRESHOLDS = {"sigma_min": 1e-3, "inverse_cond": 1e-6, "inverse_cond_scaled": 1e-6}
-
-
-
-TIE = 1e-9  # link margins this close to the smallest count as tied: the lowest such link is the worst
+#: Link margins this close to the smallest count as tied: the lowest such link is the worst.
+TIE = 1e-9
 
 
 def _worst_link(links: np.ndarray) -> np.ndarray:
     """1-based index of the smallest link margin; among margins tied to within :data:`TIE`, the lowest."""
     return np.argmax(links <= links.min(axis=-1, keepdims=True) + TIE, axis=-1) + 2
+
 
 def _equilibrated(M: np.ndarray) -> np.ndarray:
     """``M`` (..., m, m) with rows, then columns, scaled to unit 2-norm (zero rows left alone)."""
@@ -73,13 +72,12 @@ def _solve(M: np.ndarray, r: np.ndarray) -> np.ndarray:
 def _margins_batch(ctrl: CoordinatingController, Q: np.ndarray, T: np.ndarray) -> dict[str, np.ndarray]:
     """Margins at N configurations ``Q`` (N, m) and times ``T`` (N,): arrays with leading axis N."""
     chain = ctrl.chain
-    m, xi, N = chain.m, chain.xi, len(T)
-    M, r = ctrl.decoupling_matrices(Q, T)
+    xi = chain.xi
+    geo = ctrl.centre_geometry(Q, T)
+    M, r = ctrl.decoupling_matrices(Q, T, geo)
 
     # link margins from the geometry: grad phi at the centres, normals of the links
-    Y = chain.centres_np(Q)                                   # (N, m, 2)
-    geo = ctrl._geometry.map(N * (m - 1)) if N * (m - 1) > 1 else ctrl._geometry
-    g = np.asarray(geo(Y[:, 1:, :].reshape(-1, 2).T, np.repeat(T, m - 1)[None, :])[1]).T.reshape(N, m - 1, 2)
+    g = geo["gphi"][:, 1:]                                    # (N, m-1, 2)
     nrm = normal(np.cumsum(Q, axis=-1))[:, 1:, :]
     links = np.abs(np.sum(g * nrm, axis=-1)) / np.linalg.norm(g, axis=-1)
 
@@ -94,7 +92,7 @@ def _margins_batch(ctrl: CoordinatingController, Q: np.ndarray, T: np.ndarray) -
     sve = np.linalg.svd(_equilibrated(M), compute_uv=False)
     with np.errstate(divide="ignore", invalid="ignore"):
         u = _solve(M, r)
-        v = np.array([ctrl.speed_at(float(t)) for t in T])
+        v = ctrl.speeds(T)
         amp = np.where(v != 0, xi * np.linalg.norm(u, axis=-1) / np.abs(v), np.nan)
         cond = sv[:, 0] / sv[:, -1]
         cond_s = sve[:, 0] / sve[:, -1]

@@ -250,7 +250,6 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
 
     backend, compiled, info = select_backend(ctrl, backend)
     n_steps = int(round(duration / step))
-    speed = ctrl.speed_function()
     bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
     parts: list[Run] = []
     q, k, wall = q0, 0, _time.perf_counter()
@@ -259,8 +258,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
             n = min(chunk, n_steps - k)
             times = t0 + step * np.arange(k, k + n)
             Q, U, E, S, LM, LG = _advance(ctrl, compiled, q, times, step)
-            part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG,
-                       np.asarray(speed.map(n)(times)).ravel())
+            part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG, ctrl.speeds(times))
             bad = first_violation(part.link_margins, part.longitudinal, thr)
             if bad is not None:
                 row, kind, link, margin = bad

@@ -306,13 +306,8 @@ class CoordinatingController:
         """Control ``u(q, t)``, shape (m,)."""
         return self.evaluate(q, t)["u"]
 
-    def decoupling_matrices(self, Q, T) -> tuple[np.ndarray, np.ndarray]:
-        """Decoupling matrices (eq. 26) and right-hand sides at N states, in O(N m^2).
-
-        Numeric and batched: the Jacobians ``C^j`` by the closed form of eq. 7 through
-        prefix sums of the link normals, the curve gradients from one mapped call of the
-        geometry Function. Agrees with the AD :meth:`decoupling_function` to rounding,
-        without building its O(m^2) symbolic graph (which takes minutes at 1000 links).
+    def centre_geometry(self, Q, T) -> dict[str, np.ndarray]:
+        """The curve's ``phi``, ``psi`` and their derivatives at every link centre of N states.
 
         Parameters
         ----------
@@ -323,35 +318,70 @@ class CoordinatingController:
 
         Returns
         -------
-        M : (N, m, m) ndarray
-            Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``.
-        rhs : (N, m) ndarray
-            ``(v* - dpsi/dt, -K e^j - dphi/dt)``.
+        dict
+            ``phi``, ``phit``, ``psi``, ``psit`` of shape (N, m) and the gradients ``gphi``,
+            ``gpsi`` of shape (N, m, 2), from one mapped call of the geometry Function.
         """
         Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
-        m, xi = self.chain.m, self.chain.xi
+        m = self.chain.m
         if Q.shape[1:] != (m,) or T.shape != (len(Q),):
             raise ConfigError(f"Q, T: need shapes (N, {m}) and (N,), got {Q.shape} and {T.shape}")
         N = len(Q)
         Y = self.chain.centres_np(Q)                                      # (N, m, 2)
         geo = self._mapped("geometry", lambda: self._geometry, N * m)
-        phi, gphi, phit, _, gpsi, psit = (np.asarray(v) for v in geo(Y.reshape(-1, 2).T, np.repeat(T, m)[None]))
-        phi, phit, psit = (v.reshape(N, m) for v in (phi, phit, psit))
-        gphi, gpsi = gphi.T.reshape(N, m, 2), gpsi.T.reshape(N, m, 2)
+        values = geo(Y.reshape(-1, 2).T, np.repeat(T, m)[None])
+        out = {}
+        for name, v in zip(("phi", "gphi", "phit", "psi", "gpsi", "psit"), values):
+            v = np.asarray(v)
+            out[name] = v.T.reshape(N, m, 2) if name[0] == "g" else v.reshape(N, m)
+        return out
+
+    def speeds(self, T) -> np.ndarray:
+        """``v*(t)`` at each of the times ``T`` (N,), in one call [m/s]."""
+        T = np.atleast_1d(np.asarray(T, float))
+        return np.asarray(self._mapped("speed", self.speed_function, len(T))(T[None])).ravel()
+
+    def decoupling_matrices(self, Q, T, geometry: dict[str, np.ndarray] | None = None
+                            ) -> tuple[np.ndarray, np.ndarray]:
+        """Decoupling matrices (eq. 26) and right-hand sides at N states, in O(N m^2).
+
+        Numeric and batched: the Jacobians ``C^j`` by the closed form of eq. 7 through
+        prefix sums of the link normals, the curve gradients from :meth:`centre_geometry`.
+        Agrees with the AD :meth:`decoupling_function` to rounding, without building its
+        O(m^2) symbolic graph (which takes minutes at 1000 links).
+
+        Parameters
+        ----------
+        Q : (N, m) array_like
+            Joint coordinates [rad].
+        T : (N,) array_like
+            Times [s].
+        geometry : dict, optional
+            :meth:`centre_geometry` of ``(Q, T)``, when the caller has it already.
+
+        Returns
+        -------
+        M : (N, m, m) ndarray
+            Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``.
+        rhs : (N, m) ndarray
+            ``(v* - dpsi/dt, -K e^j - dphi/dt)``.
+        """
+        geo = geometry if geometry is not None else self.centre_geometry(Q, T)
+        Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
+        m, xi = self.chain.m, self.chain.xi
         # C^j[:, k] = xi/2 (S_{j-1} + S_j - P_k) for k <= j, with S the prefix sums of the
         # normals n_0..n_{m-1} and P_0 = n_0, P_k = 2 S_{k-1}  (0-based j, k; C^0 = 0).
         S = np.cumsum(normal(np.cumsum(Q, axis=-1)), axis=-2)            # (N, m, 2)
         P = np.concatenate([S[:, :1], 2 * S[:, :-1]], axis=1)
         rows = np.r_[m - 1, 1:m]                                           # target centre of each row
-        W = np.concatenate([gpsi[:, m - 1:], gphi[:, 1:]], axis=1)        # (N, m, 2) its gradient
+        W = np.concatenate([geo["gpsi"][:, m - 1:], geo["gphi"][:, 1:]], axis=1)  # (N, m, 2) its gradient
         Tj = S[:, rows] + S[:, rows - 1]
         M = 0.5 * xi * (np.einsum("nri,nri->nr", W, Tj)[:, :, None] - W @ np.swapaxes(P, 1, 2))
         M *= np.arange(m)[None, :] <= rows[:, None]
         b = self.chain.b_diagonal
         M = M * b if b is not None else M @ self.chain.B
-        v = np.asarray(self._mapped("speed", self.speed_function, N)(T[None])).ravel()
-        rhs = np.concatenate([(v - psit[:, m - 1])[:, None],
-                              -self.gain * phi[:, 1:] - phit[:, 1:]], axis=1)
+        rhs = np.concatenate([(self.speeds(T) - geo["psit"][:, m - 1])[:, None],
+                              -self.gain * geo["phi"][:, 1:] - geo["phit"][:, 1:]], axis=1)
         return M, rhs
 
     def _mapped(self, name: str, make, n: int) -> ca.Function:
