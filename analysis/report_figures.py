@@ -9,20 +9,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from simulation.figures import save_figure  # noqa: E402
+
 from .report import BLOWUP_FACTOR, LABELS, RunAnalysis  # noqa: E402
 from .singularity import MARGINS  # noqa: E402
 from .stability import sampled_limit, step_responses  # noqa: E402
 
 COLORS = dict(zip(MARGINS, ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:olive")))
-
-
-def _save(fig, path: str | Path) -> Path:
-    path = Path(path)
-    if fig.get_layout_engine() is None:
-        fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
 
 
 def _mark_blowup(ax, a: RunAnalysis) -> None:
@@ -60,7 +53,7 @@ def plot_margins(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
     axes[2].set_title("control effort", fontsize=10)
     for ax in axes:
         ax.grid(alpha=0.3, which="both")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_links(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
@@ -80,7 +73,7 @@ def plot_links(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
     axes[1].set_ylabel("link j")
     axes[1].set_xlabel("t [s]")
     axes[1].set_title("link margins (0 = link perpendicular to the curve)", fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_step_responses(gain: float, period: float, path: str | Path, title: str = "",
@@ -101,4 +94,4 @@ def plot_step_responses(gain: float, period: float, path: str | Path, title: str
     ax.set_title(f"{title}: linear error model, sampled-data and delay effects\n{note}", fontsize=10)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -96,6 +96,7 @@ def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = Non
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from simulation.figures import save_figure
     from simulation.run import DEFAULT_THRESHOLDS
 
     thr = {"longitudinal": DEFAULT_THRESHOLDS["longitudinal"], "smallest_link": DEFAULT_THRESHOLDS["link"],
@@ -117,10 +118,7 @@ def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = Non
             ax.set_ylabel("curvature [1/m]")
             fig.colorbar(im, ax=ax, label=label)
     fig.suptitle("Workspace map of on-curve zig-zags (red dashed: stop threshold; white: no zig-zag fits)")
-    path = Path(path)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -14,6 +14,16 @@ from symbolic import CoordinatingController  # noqa: E402
 from .run import Run, even_indices  # noqa: E402
 
 
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Lay out ``fig`` (tight, unless it has a layout engine), write it to ``path``, close it."""
+    path = Path(path)
+    if fig.get_layout_engine() is None:
+        fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
+
+
 def stage_indices(run: Run, stages: int = 5) -> np.ndarray:
     """Indices of ``stages`` samples evenly spread over the run (first and last included)."""
     return even_indices(len(run.t), stages)
@@ -57,11 +67,7 @@ def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages
     ax.set_title(title or f"{ctrl.chain.m}-link robot: stages of the motion (dashed: the curve then)")
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
-    path = Path(path)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str, float] | None = None,
@@ -90,8 +96,4 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     for ax in axes:
         ax.grid(alpha=0.3)
     axes[0].set_title(title or "tracking and singularity margins")
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
