@@ -22,7 +22,8 @@ import control as ct
 import numpy as np
 from scipy.optimize import brentq
 
-from simulation.sampled import check_delay, check_positive
+from simulation.run import check_number
+from simulation.sampled import check_delay
 from symbolic import ConfigError, CoordinatingController
 
 #: ``K h`` limit of classical RK4 on ``edot = -K e`` (real negative axis of its stability region).
@@ -32,7 +33,7 @@ RK4_LIMIT = float(brentq(lambda x: abs(1 - x + x**2 / 2 - x**3 / 6 + x**4 / 24) 
 def _check(gain: float, period: float | None = None, delay: int = 0) -> None:
     for name, v in (("gain", gain), ("period", period)):
         if v is not None:
-            check_positive(name, v)
+            check_number(v, name)
     check_delay(delay)
 
 

@@ -5,6 +5,8 @@ import argparse
 import sys
 import time
 
+from symbolic import LAWS
+
 from .build import build, build_root, clean
 from .codegen import generate_source
 
@@ -18,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scenarios", nargs="*", metavar="SCENARIO_OR_TOML",
                    help="preset names or TOML files (default: all presets)")
     p.add_argument("--clean", action="store_true", help="delete every cached library first")
-    p.add_argument("--law", choices=("structured", "dense"), help="form of the control law (default: the scenario's)")
+    p.add_argument("--law", choices=LAWS, help="form of the control law (default: the scenario's)")
     p.add_argument("--links", type=int, help="override the number of links")
     p.set_defaults(func=main)
 

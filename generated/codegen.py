@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from symbolic import BuildError, CoordinatingController
+from symbolic import LAWS, BuildError, CoordinatingController
 
 from . import templates
 
@@ -73,8 +73,8 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     BuildError
         A non-diagonal B, or an unknown form.
     """
-    if form not in ("structured", "dense"):
-        raise BuildError(f"law: expected 'structured' or 'dense', got {form!r}")
+    if form not in LAWS:
+        raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
     b_macros = _b_macros(ctrl)
     funcs = _functions(ctrl, form)
     cg = ca.CodeGenerator("coordarm", dict(CODEGEN_OPTIONS))

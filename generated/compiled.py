@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from symbolic import OUTPUTS, BuildError, ConfigError, CoordinatingController
+from symbolic import OUTPUTS, SCALAR_OUTPUTS, BuildError, ConfigError, CoordinatingController
 
 from .build import Library, build
 from .codegen import generate_source
@@ -164,7 +164,7 @@ def split_outputs(out: np.ndarray, m: int) -> dict[str, Any]:
     parts = np.split(np.array(out, dtype=float), cuts, axis=-1)
     result: dict[str, Any] = {}
     for name, v in zip(OUTPUTS, parts):
-        if name in ("s", "longitudinal", "longitudinal_pivot"):
+        if name in SCALAR_OUTPUTS:
             v = v[..., 0]
             result[name] = float(v) if v.ndim == 0 else v
         else:

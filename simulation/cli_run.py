@@ -8,7 +8,7 @@ import warnings
 from pathlib import Path
 from typing import TextIO
 
-from symbolic import SingularityError
+from symbolic import LAWS, SingularityError
 
 from .figures import plot_stages, plot_tracking
 from .mcap_file import COMPRESSIONS
@@ -27,7 +27,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--links", type=int, help="override the number of links")
     p.add_argument("--duration", type=float, help="override the simulated duration [s]")
     p.add_argument("--step", type=float, help="override the RK4 step [s]")
-    p.add_argument("--law", choices=("structured", "dense"), help="form of the control law")
+    p.add_argument("--law", choices=LAWS, help="form of the control law")
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="compiled C (built or taken from the cache), interpreted CasADi, or auto (default: "
                         "compiled when a C compiler is found, else interpreted with a warning)")

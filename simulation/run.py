@@ -80,7 +80,8 @@ class Run:
                 "max_abs_u": float(np.max(np.abs(self.u)))}
 
 
-def _number(value: Any, name: str, positive: bool = True) -> float:
+def check_number(value: Any, name: str, positive: bool = True) -> float:
+    """``value`` as a float; a ConfigError naming ``name`` unless it is a finite real number (> 0 if ``positive``)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ConfigError(f"{name}: need a finite number, got {value!r}")
     if positive and value <= 0:
@@ -229,8 +230,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     SingularityError
         A margin fell below its threshold; ``err.run`` holds the run up to there.
     """
-    duration, step = _number(duration, "duration"), _number(step, "step")
-    t0 = _number(t0, "t0", positive=False)
+    duration, step = check_number(duration, "duration"), check_number(step, "step")
+    t0 = check_number(t0, "t0", positive=False)
     if step > duration:
         raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
     if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:

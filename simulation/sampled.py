@@ -9,7 +9,6 @@ exactly: ``q_{k+1} = q_k + h B u_k``. This simulator is separate from :mod:`simu
 """
 from __future__ import annotations
 
-import math
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
@@ -18,11 +17,7 @@ import numpy as np
 
 from symbolic import ConfigError, CoordinatingController
 
-
-def check_positive(name: str, value: Any) -> None:
-    """Raise ConfigError naming ``name`` unless ``value`` is a finite real number > 0."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise ConfigError(f"{name}: need a finite number > 0, got {value!r}")
+from .run import check_number
 
 
 def check_delay(delay: Any) -> None:
@@ -89,7 +84,7 @@ def simulate_sampled(ctrl: CoordinatingController, q0, duration: float, period: 
     SampledRun
     """
     for name, v in (("duration", duration), ("period", period), ("diverge_at", diverge_at)):
-        check_positive(name, v)
+        check_number(v, name)
     check_delay(delay)
     if period > duration:
         raise ConfigError(f"period: {period} s is longer than the duration {duration} s")

@@ -29,10 +29,10 @@ from typing import Any
 
 import numpy as np
 
-from symbolic import (ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
+from symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
                       motion_from_spec, project_onto_curve)
 
-from .run import DEFAULT_THRESHOLDS
+from .run import DEFAULT_THRESHOLDS, check_number
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
             "obstacles"}
@@ -50,14 +50,6 @@ def presets() -> list[str]:
                   if p.name.endswith(".toml"))
 
 
-def _num(value: Any, field: str, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(f"{field}: need a finite number, got {value!r}")
-    if positive and value <= 0:
-        raise ConfigError(f"{field}: must be > 0, got {value!r}")
-    return float(value)
-
-
 def _segment(spec: Any, field: str) -> np.ndarray:
     if not isinstance(spec, dict) or set(spec) != {"a", "b"}:
         raise ConfigError(f"{field}: expected a table with keys a = [x, y] and b = [x, y], got {spec!r}")
@@ -66,7 +58,7 @@ def _segment(spec: Any, field: str) -> np.ndarray:
         p = spec[k]
         if not isinstance(p, list) or len(p) != 2:
             raise ConfigError(f"{field}.{k}: expected [x, y], got {p!r}")
-        pts.append([_num(v, f"{field}.{k}[{i}]") for i, v in enumerate(p)])
+        pts.append([check_number(v, f"{field}.{k}[{i}]", positive=False) for i, v in enumerate(p)])
     return np.array(pts)
 
 
@@ -117,31 +109,31 @@ class Scenario:
                 raise ConfigError(f"chain.{k}: missing")
         if isinstance(ch["links"], bool) or not isinstance(ch["links"], int) or ch["links"] < 2:
             raise ConfigError(f"chain.links: need an integer >= 2, got {ch['links']!r}")
-        _num(ch["link_length"], "chain.link_length", positive=True)
+        check_number(ch["link_length"], "chain.link_length")
         if "gain" not in spec["control"]:
             raise ConfigError("control.gain: missing")
-        _num(spec["control"]["gain"], "control.gain", positive=True)
+        check_number(spec["control"]["gain"], "control.gain")
         motion_from_spec(spec["control"].get("speed", 0.0), "control.speed")
-        if spec["control"]["law"] not in ("structured", "dense"):
-            raise ConfigError(f"control.law: expected 'structured' or 'dense', got {spec['control']['law']!r}")
+        if spec["control"]["law"] not in LAWS:
+            raise ConfigError(f"control.law: expected one of {LAWS}, got {spec['control']['law']!r}")
         curve_from_spec(spec["curve"], "curve")
         st = spec["start"]
         if st["kind"] not in ("zigzag", "projected"):
             raise ConfigError(f"start.kind: expected 'zigzag' or 'projected', got {st['kind']!r}")
-        b = _num(st["beta"], "start.beta")
+        b = check_number(st["beta"], "start.beta", positive=False)
         if not 0 < abs(b) < math.pi / 2:
             raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {b}")
-        _num(st["heading"], "start.heading")
+        check_number(st["heading"], "start.heading", positive=False)
         if "curve" in st:
             curve_from_spec(st["curve"], "start.curve")
         r = spec["run"]
-        _num(r["duration"], "run.duration", positive=True)
-        _num(r["step"], "run.step", positive=True)
-        _num(r["t0"], "run.t0")
+        check_number(r["duration"], "run.duration")
+        check_number(r["step"], "run.step")
+        check_number(r["t0"], "run.t0", positive=False)
         if r["step"] > r["duration"]:
             raise ConfigError(f"run.step: {r['step']} is longer than run.duration {r['duration']}")
         for k in ("link", "longitudinal"):
-            v = _num(spec["thresholds"][k], f"thresholds.{k}")
+            v = check_number(spec["thresholds"][k], f"thresholds.{k}", positive=False)
             if not 0 <= v < 1:
                 raise ConfigError(f"thresholds.{k}: need 0 <= value < 1, got {v}")
         walls = spec.setdefault("obstacles", [])

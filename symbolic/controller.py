@@ -25,6 +25,8 @@ from .errors import ConfigError
 LAWS = ("structured", "dense")
 #: Names of the outputs of :meth:`CoordinatingController.law`, in order.
 OUTPUTS = ("u", "e", "s", "link_margins", "longitudinal", "longitudinal_pivot")
+#: The outputs that are scalars (the others are vectors over links).
+SCALAR_OUTPUTS = ("s", "longitudinal", "longitudinal_pivot")
 
 
 class CoordinatingController:
@@ -299,7 +301,7 @@ class CoordinatingController:
         out = {}
         for name, v in zip(OUTPUTS, res):
             v = np.asarray(v, dtype=float).ravel()
-            out[name] = float(v[0]) if name in ("s", "longitudinal", "longitudinal_pivot") else v
+            out[name] = float(v[0]) if name in SCALAR_OUTPUTS else v
         return out
 
     def control(self, q, t: float = 0.0) -> np.ndarray:
