@@ -31,7 +31,7 @@ from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
-from simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels
+from simulation.log_schemas import CDR_HEADER, PER_STEP, SOURCES, numeric_channels
 from simulation.run import Run
 from simulation.scenario import Scenario
 from symbolic import ConfigError, LogError
@@ -279,8 +279,7 @@ def load(path: str | Path) -> Replay:
             cols.setdefault(name, data[:, sl])
     cond = per_channel["cond"]
     outcome = {k: json.loads(v) for k, v in meta["outcome"].items()} if "outcome" in meta else {"status": "unknown"}
-    return Replay(path=path, t=cols["t"], q=cols["q"], u=cols["u"], e=cols["e"], s=cols["s"],
-                  v_star=cols["v_star"], link_margins=cols["link"], longitudinal=cols["longitudinal"],
-                  cond_t=cond[:, 0].copy(), cond=cond[:, 1].copy(), scenario=scenario, scenario_dict=spec,
+    return Replay(path=path, **{SOURCES[name]: v for name, v in cols.items()}, cond_t=cond[:, 0].copy(),
+                  cond=cond[:, 1].copy(), scenario=scenario, scenario_dict=spec,
                   build=meta.get("build", {}), run_info=meta.get("run", {}), outcome=outcome,
                   recovered=not complete, messages=len(messages), problems=problems)

@@ -46,7 +46,7 @@ def study(samples: int = 600) -> list[dict]:
         for thr in CANDIDATES:
             hit = np.flatnonzero(~(run.longitudinal >= thr))
             lead[thr] = (a.blowup_time - run.t[hit[0]]) if (len(hit) and a.blowup_time is not None) else None
-        rows.append({"name": name, "blowup": a.blowup_time, "crossings": a.crossings,
+        rows.append({"name": name, "blowup": a.blowup_time, "crossings": a.crossings, "predicted": a.predicted(),
                      "longitudinal_at_blowup": float(run.longitudinal[k]), "lead": lead})
     return rows
 
@@ -58,9 +58,7 @@ def main() -> None:
           " | ".join(f"lead of {t} [s]" for t in CANDIDATES) + " | sigma_min / 1/cond fire first? |")
     print("|---|---|---|" + "---|" * (len(CANDIDATES) + 1))
     for r in rows:
-        fired = ["yes" if (r["crossings"][n] is not None and r["blowup"] is not None
-                           and r["crossings"][n] < r["blowup"]) else "no"
-                 for n in ("sigma_min", "inverse_cond", "inverse_cond_scaled")]
+        fired = ["yes" if r["predicted"][n] else "no" for n in ("sigma_min", "inverse_cond", "inverse_cond_scaled")]
         leads = " | ".join("—" if v is None else f"{v:+.3f}" for v in r["lead"].values())
         print(f"| {r['name']} | {r['blowup']:.3f} | {r['longitudinal_at_blowup']:.4f} | {leads} | "
               f"{' / '.join(fired)} |")

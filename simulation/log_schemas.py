@@ -60,6 +60,11 @@ class NumericChannel:
         return out
 
 
+#: The :class:`~simulation.run.Run` array behind each field of the per-step channels.
+SOURCES = {"t": "t", "q": "q", "u": "u", "s": "s", "v_star": "v_star", "e": "e", "link": "link_margins",
+           "longitudinal": "longitudinal"}
+
+
 def numeric_channels(links: int) -> dict[str, NumericChannel]:
     """The per-step channels and the condition-number channel for a chain of ``links`` links.
 

@@ -37,15 +37,12 @@ import numpy as np
 from symbolic import ConfigError, CoordinatingController, LogError, SingularityError
 from symbolic.curves import Line
 
-from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, NumericChannel, numeric_channels,
-                          scene_update_schema_bytes)
+from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, SOURCES, NumericChannel,
+                          numeric_channels, scene_update_schema_bytes)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
 from .scenario import Scenario
 
-#: Where each field of the numeric channels comes from in a :class:`~simulation.run.Run`.
-SOURCES = {"t": "t", "q": "q", "u": "u", "s": "s", "v_star": "v_star", "e": "e", "link": "link_margins",
-           "longitudinal": "longitudinal"}
 #: Default rates of the reduced-rate channels [Hz].
 SCENE_RATE, COND_RATE = 20.0, 5.0
 
