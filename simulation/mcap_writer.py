@@ -196,7 +196,8 @@ class RunLogger:
         self._last: Run | None = None
         self._last_logged = -1  # global index of the last sample logged
         self._flushed = time.monotonic()
-        self._walls = np.asarray(scenario.obstacles, dtype=float).reshape(-1, 2, 2)
+        walls = np.asarray(scenario.obstacles, dtype=float).reshape(-1, 2)
+        self._wall_lines = (_line(walls, 2, 0.02, (0.2, 0.2, 0.2, 1.0)),) if len(walls) else ()  # same in every scene
         self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
         self.outcome: dict[str, Any] | None = None
         self._worker = Worker(self._process, "coordarm-log", 8) if threaded else None
@@ -240,8 +241,7 @@ class RunLogger:
             self._last_logged = int(g[rows[-1]])
         if self.scene_every:
             ks = np.flatnonzero(g % self.scene_every == 0)
-            for k, data in zip(ks, self._scenes(part, ks)):
-                self._extras.append(("scene", int(self._ns(part.t[k])), data))
+            self._extras += [("scene", ns, data) for ns, data in self._scenes(part, ks)]
         if self.cond_every:
             ks = np.flatnonzero(g % self.cond_every == 0)
             if len(ks):
@@ -336,21 +336,22 @@ class RunLogger:
                                   py[:, None] + ends * np.sin(th)[:, None]], -1))
         return [curve.sample(float(t), n=90, extent=reach) for t in times]
 
-    def _scenes(self, part: Run, ks: np.ndarray) -> list[bytes]:
+    def _scenes(self, part: Run, ks: np.ndarray) -> list[tuple[int, bytes]]:
+        """``(log time, SceneUpdate JSON)`` at rows ``ks`` of ``part``."""
         if not len(ks):
             return []
         joints = self.ctrl.chain.joints_np(part.q[ks])
         curves = self._curves(part.t[ks])
-        walls = (_line(self._walls.reshape(-1, 2), 2, 0.02, (0.2, 0.2, 0.2, 1.0)),) if len(self._walls) else ()
         out = []
-        for J, C, t in zip(joints, curves, part.t[ks]):
-            lines = (_line(J, 0, 0.01, (0.15, 0.45, 0.9, 1.0)), _line(C, 0, 0.005, (0.9, 0.5, 0.1, 0.8))) + walls
-            ns = int(self._ns(t))
+        for J, C, ns in zip(joints, curves, self._ns(part.t[ks]).tolist()):
+            lines = (_line(J, 0, 0.01, (0.15, 0.45, 0.9, 1.0)), _line(C, 0, 0.005, (0.9, 0.5, 0.1, 0.8)),
+                     *self._wall_lines)
             stamp = f'{{"sec":{ns // 10**9},"nsec":{ns % 10**9}}}'
-            out.append(('{"deletions":[],"entities":[{"timestamp":' + stamp + ',"frame_id":"world","id":"coordarm",'
-                        '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],'
-                        '"spheres":[],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":['
-                        + ",".join(lines) + "]}]}").encode())
+            text = ('{"deletions":[],"entities":[{"timestamp":' + stamp + ',"frame_id":"world","id":"coordarm",'
+                    '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],'
+                    '"spheres":[],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":['
+                    + ",".join(lines) + "]}]}")
+            out.append((ns, text.encode()))
         return out
 
     # ---------------------------------------------------------------- closing
