@@ -22,4 +22,4 @@ bench: install
 	$(PY) benchmarks/run_benchmarks.py
 
 clean:
-	rm -rf $(VENV) generated/_build logs/*.mcap logs/*.png logs/*.gif
+	rm -rf $(VENV) logs/*.mcap logs/*.png logs/*.gif

@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
 
-from symbolic import CoordinatingController  # noqa: E402
+from coordarm.symbolic import CoordinatingController  # noqa: E402
 
 from .replay import Replay  # noqa: E402
 

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from simulation.run import even_indices
-from symbolic import CoordinatingController
+from coordarm.simulation.run import even_indices
+from coordarm.symbolic import CoordinatingController
 
 
 @dataclass

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from symbolic import ConfigError, Curve
+from coordarm.symbolic import ConfigError, Curve
 
 
 class OrthonormalityWarning(UserWarning):

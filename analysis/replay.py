@@ -31,10 +31,10 @@ from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
-from simulation.log_schemas import CDR_HEADER, PER_STEP, SOURCES, numeric_channels
-from simulation.run import Run
-from simulation.scenario import Scenario
-from symbolic import ConfigError, LogError
+from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, SOURCES, numeric_channels
+from coordarm.simulation.run import Run
+from coordarm.simulation.scenario import Scenario
+from coordarm.symbolic import ConfigError, LogError
 
 #: Exceptions the mcap reader raises on damaged input (it has no single base class for them).
 READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error, zlib.error, EOFError,

@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from simulation.run import even_indices
-from symbolic import CoordinatingController, SingularityError
+from coordarm.simulation.run import even_indices
+from coordarm.symbolic import CoordinatingController, SingularityError
 
 from .linearise import linearise_run
 from .orthonormal import check_orthonormal
@@ -31,7 +31,7 @@ NO_STOP = {"link": 0.0, "longitudinal": 0.0}
 
 def simulate_through(ctrl: CoordinatingController, q0, duration: float, step: float, t0: float = 0.0) -> Any:
     """Simulate without singularity stops; a run that ends in non-finite margins is kept up to there."""
-    from simulation.run import simulate
+    from coordarm.simulation.run import simulate
 
     try:
         return simulate(ctrl, q0, duration, step, t0, thresholds=NO_STOP, progress=False)
@@ -142,7 +142,7 @@ def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, flo
     -------
     RunAnalysis
     """
-    from simulation.run import DEFAULT_THRESHOLDS
+    from coordarm.simulation.run import DEFAULT_THRESHOLDS
 
     t, q, u = (np.asarray(a, dtype=float) for a in (t, q, u))
     finite = np.all(np.isfinite(q), axis=1) & np.isfinite(t)

@@ -9,7 +9,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from simulation.figures import save_figure  # noqa: E402
+from coordarm.simulation.figures import save_figure  # noqa: E402
 
 from .report import BLOWUP_FACTOR, LABELS, RunAnalysis  # noqa: E402
 from .singularity import MARGINS  # noqa: E402

@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from symbolic import ConfigError, CoordinatingController
-from symbolic.chain import normal
+from coordarm.symbolic import ConfigError, CoordinatingController
+from coordarm.symbolic.chain import normal
 
 #: Margins (dimensionless, 0 = singular), in report order.
 MARGINS = ("links", "longitudinal", "sigma_min", "inverse_cond", "inverse_cond_scaled")

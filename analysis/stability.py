@@ -22,9 +22,9 @@ import control as ct
 import numpy as np
 from scipy.optimize import brentq
 
-from simulation.run import check_number
-from simulation.sampled import check_delay
-from symbolic import ConfigError, CoordinatingController
+from coordarm.simulation.run import check_number
+from coordarm.simulation.sampled import check_delay
+from coordarm.symbolic import ConfigError, CoordinatingController
 
 #: ``K h`` limit of classical RK4 on ``edot = -K e`` (real negative axis of its stability region).
 RK4_LIMIT = float(brentq(lambda x: abs(1 - x + x**2 / 2 - x**3 / 6 + x**4 / 24) - 1, 2.5, 3.0, xtol=1e-15))
@@ -115,7 +115,7 @@ def step_responses(gain: float, period: float, delays=(0, 1, 2), duration: float
 def grows(ctrl: CoordinatingController, q0, period: float, delay: int = 0, samples: int = 600,
           factor: float = 10.0) -> bool:
     """Whether ``max|e|`` of a sampled run exceeds ``factor`` times its start value within ``samples``."""
-    from simulation.sampled import simulate_sampled
+    from coordarm.simulation.sampled import simulate_sampled
 
     e0 = float(np.max(np.abs(ctrl.evaluate(q0, 0.0)["e"])))
     if not e0 > 0:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
+from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
 from .report import analyse_run, simulate_through
 
@@ -19,7 +19,7 @@ CANDIDATES = (0.05, 0.1, 0.15, 0.2)
 
 def blowup_cases() -> dict[str, tuple[CoordinatingController, np.ndarray, float]]:
     """``name -> (controller, q0, duration)`` of runs that reach the longitudinal singularity."""
-    from simulation.scenario import load_scenario
+    from coordarm.simulation.scenario import load_scenario
 
     cases = {}
     for preset, v, dur in (("arc", 0.15, 16.0), ("arc", 0.25, 10.0), ("line", 0.3, 17.0)):

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain
+from coordarm.symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain
 
 from .singularity import run_margins
 
@@ -96,8 +96,8 @@ def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = Non
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from simulation.figures import save_figure
-    from simulation.run import DEFAULT_THRESHOLDS
+    from coordarm.simulation.figures import save_figure
+    from coordarm.simulation.run import DEFAULT_THRESHOLDS
 
     thr = {"longitudinal": DEFAULT_THRESHOLDS["longitudinal"], "smallest_link": DEFAULT_THRESHOLDS["link"],
            **(thresholds or {})}

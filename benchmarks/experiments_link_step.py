@@ -18,7 +18,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from symbolic import CoordinatingController, Line, PlanarChain  # noqa: E402
+from coordarm.symbolic import CoordinatingController, Line, PlanarChain  # noqa: E402
 from run_benchmarks import c_driver, time_from_c  # noqa: E402
 
 

@@ -28,10 +28,10 @@ sys.path.insert(0, str(ROOT))
 
 from mcap.writer import CompressionType, Writer  # noqa: E402
 
-from simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels  # noqa: E402
-from simulation.mcap_writer import RunLogger  # noqa: E402
-from simulation.run import Run, simulate  # noqa: E402
-from simulation.scenario import load_scenario  # noqa: E402
+from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels  # noqa: E402
+from coordarm.simulation.mcap_writer import RunLogger  # noqa: E402
+from coordarm.simulation.run import Run, simulate  # noqa: E402
+from coordarm.simulation.scenario import load_scenario  # noqa: E402
 
 STEP, BLOCK = 0.001, 500
 

@@ -38,12 +38,12 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
-from generated.build import build, find_compiler  # noqa: E402
-from generated.codegen import generate_source  # noqa: E402
+from coordarm.generated.build import build, find_compiler  # noqa: E402
+from coordarm.generated.codegen import generate_source  # noqa: E402
 from numpy_dense import dense_law_line  # noqa: E402
-from simulation.run import DEFAULT_CHUNK, chunk_function, simulate  # noqa: E402
-from simulation.scenario import load_scenario  # noqa: E402
-from symbolic import BuildError, CoordinatingController, Line, PlanarChain  # noqa: E402
+from coordarm.simulation.run import DEFAULT_CHUNK, chunk_function, simulate  # noqa: E402
+from coordarm.simulation.scenario import load_scenario  # noqa: E402
+from coordarm.symbolic import BuildError, CoordinatingController, Line, PlanarChain  # noqa: E402
 
 SIZES = (8, 64, 256, 1024)
 DENSE_LIMIT_SECONDS = 60.0

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import casadi as ca
 
-from symbolic import BuildError
+from coordarm.symbolic import BuildError
 
 from .codegen import CODEGEN_OPTIONS, Source
 
@@ -59,11 +59,18 @@ class Library:
 
 
 def build_root(build_dir: str | os.PathLike | None = None) -> Path:
-    """The cache directory: ``build_dir``, else ``$COORDARM_BUILD_DIR``, else ``generated/_build``."""
+    """The cache directory of compiled libraries.
+
+    ``build_dir``, else ``$COORDARM_BUILD_DIR``, else ``$XDG_CACHE_HOME/coordarm``, else
+    ``~/.cache/coordarm``: a per-user cache, never inside the installed package.
+    """
     if build_dir is not None:
         return Path(build_dir)
     env = os.environ.get("COORDARM_BUILD_DIR")
-    return Path(env) if env else Path(__file__).resolve().parent / "_build"
+    if env:
+        return Path(env)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "coordarm"
 
 
 def find_compiler(cc: str | None = None) -> str:

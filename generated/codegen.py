@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from symbolic import LAWS, BuildError, CoordinatingController
+from coordarm.symbolic import LAWS, BuildError, CoordinatingController
 
 from . import templates
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from symbolic import OUTPUTS, SCALAR_OUTPUTS, BuildError, ConfigError, CoordinatingController
+from coordarm.symbolic import OUTPUTS, SCALAR_OUTPUTS, BuildError, ConfigError, CoordinatingController
 
 from .build import Library, build
 from .codegen import generate_source

@@ -1,5 +1,5 @@
 """Scenarios, the simulation loop, logs and the command line of coordarm."""
-from symbolic.errors import ConfigError, CoordarmError, LogError, SingularityError
+from coordarm.symbolic.errors import ConfigError, CoordarmError, LogError, SingularityError
 
 from .run import DEFAULT_THRESHOLDS, Run, simulate
 

@@ -9,7 +9,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from symbolic import CoordinatingController  # noqa: E402
+from coordarm.symbolic import CoordinatingController  # noqa: E402
 
 from .run import Run, even_indices  # noqa: E402
 

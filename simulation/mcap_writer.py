@@ -34,8 +34,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from symbolic import ConfigError, CoordinatingController, LogError, SingularityError
-from symbolic.curves import Line
+from coordarm.symbolic import ConfigError, CoordinatingController, LogError, SingularityError
+from coordarm.symbolic.curves import Line
 
 from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, SOURCES, NumericChannel,
                           numeric_channels, scene_update_schema_bytes)

@@ -10,8 +10,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from generated.compiled import split_outputs
-from symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
+from coordarm.generated.compiled import split_outputs
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}

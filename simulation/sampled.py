@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from symbolic import ConfigError, CoordinatingController
+from coordarm.symbolic import ConfigError, CoordinatingController
 
 from .run import check_number
 

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
+from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
                       motion_from_spec, project_onto_curve)
 
 from .run import DEFAULT_THRESHOLDS, check_number
@@ -46,7 +46,7 @@ DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
 
 def presets() -> list[str]:
     """Names of the scenarios shipped with coordarm."""
-    return sorted(p.name[:-5] for p in resources.files("simulation.presets").iterdir()
+    return sorted(p.name[:-5] for p in (resources.files("coordarm.simulation") / "presets").iterdir()
                   if p.name.endswith(".toml"))
 
 
@@ -216,7 +216,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     text = str(name_or_path)
     if text in presets():
         source = f"preset '{text}'"
-        data = (resources.files("simulation.presets") / f"{text}.toml").read_text()
+        data = (resources.files("coordarm.simulation") / "presets" / f"{text}.toml").read_text()
     else:
         path = Path(text)
         if not path.is_file():

@@ -288,7 +288,7 @@ class CoordinatingController:
         BuildError
             No C compiler, or the generated code did not compile or load.
         """
-        from generated.compiled import CompiledController   # generated imports symbolic, not back
+        from coordarm.generated.compiled import CompiledController   # generated imports symbolic, not back
         return CompiledController(self, form or self.law_form, **build_options)
 
     # --------------------------------------------------------------- numeric API

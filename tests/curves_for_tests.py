@@ -1,7 +1,7 @@
 """Curves with moving parameters shared by the law tests (interpreted and compiled)."""
 import casadi as ca
 
-from symbolic import Arc, Circle, Line
+from coordarm.symbolic import Arc, Circle, Line
 
 
 def moving_curve(kind: str):

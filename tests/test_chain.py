@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from symbolic import ConfigError, PlanarChain
+from coordarm.symbolic import ConfigError, PlanarChain
 
 
 def ad_jacobians(chain, q):

@@ -2,7 +2,7 @@
 import subprocess
 import sys
 
-from simulation.cli import main
+from coordarm.cli import main
 
 
 def test_run_prints_summary_and_writes_figures(tmp_path, capsys):
@@ -27,7 +27,7 @@ def test_singularity_exits_3_and_still_writes_figures(tmp_path):
     toml = tmp_path / "fast.toml"
     toml.write_text('name = "fast"\n[chain]\nlinks = 32\nlink_length = 0.1\n[curve]\nkind = "arc"\nradius = 1.0\n'
                     '[control]\ngain = 2.0\nspeed = 0.4\n[start]\nkind = "projected"\n[run]\nduration = 20.0\n')
-    res = subprocess.run([sys.executable, "-m", "simulation.cli", "run", str(toml), "--quiet",
+    res = subprocess.run([sys.executable, "-m", "coordarm", "run", str(toml), "--quiet",
                           "--out", str(tmp_path / "fast.mcap")], capture_output=True, text=True)
     assert res.returncode == 3, res.stderr
     assert "singularity ahead at t = " in res.stderr and "longitudinal margin" in res.stderr
@@ -39,7 +39,7 @@ def test_ctrl_c_during_a_run_exits_130_and_leaves_a_closed_log(tmp_path, capsys)
     import signal
     import threading
 
-    from analysis.replay import load
+    from coordarm.analysis.replay import load
 
     out = tmp_path / "line.mcap"
     timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from symbolic import (
+from coordarm.symbolic import (
     Circle,
     ConfigError,
     CoordinatingController,
@@ -16,7 +16,7 @@ from symbolic import (
     Ramp,
     project_onto_curve,
 )
-from simulation.run import DEFAULT_THRESHOLDS
+from coordarm.simulation.run import DEFAULT_THRESHOLDS
 from tests.curves_for_tests import moving_curve
 
 

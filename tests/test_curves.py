@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from symbolic import (Arc, Circle, ConfigError, CoordinatingController, Line, PlanarChain, Smoothstep,
+from coordarm.symbolic import (Arc, Circle, ConfigError, CoordinatingController, Line, PlanarChain, Smoothstep,
                       Sinusoid, curve_from_spec, motion_from_spec, motion_to_spec)
 
 MOVING = {

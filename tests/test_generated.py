@@ -14,13 +14,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from generated.build import LIBRARY, META, build, cached
-from generated.codegen import generate_source
-from generated.compiled import CompiledController, split_outputs
-from simulation.cli import main as cli_main
-from simulation.run import BackendFallbackWarning, simulate
-from simulation.scenario import load_scenario, presets
-from symbolic import (
+from coordarm.generated.build import LIBRARY, META, build, cached
+from coordarm.generated.codegen import generate_source
+from coordarm.generated.compiled import CompiledController, split_outputs
+from coordarm.cli import main as cli_main
+from coordarm.simulation.run import BackendFallbackWarning, simulate
+from coordarm.simulation.scenario import load_scenario, presets
+from coordarm.symbolic import (
     OUTPUTS,
     BuildError,
     ConfigError,
@@ -191,8 +191,8 @@ def test_two_processes_building_the_same_key_at_once_both_end_with_a_valid_libra
         import sys, time
         sys.path.insert(0, {str(REPO)!r})
         import numpy as np
-        from symbolic import CoordinatingController, Line, PlanarChain
-        from generated.compiled import CompiledController
+        from coordarm.symbolic import CoordinatingController, Line, PlanarChain
+        from coordarm.generated.compiled import CompiledController
         ctrl = CoordinatingController(PlanarChain(40, 0.1), Line(angle=0.2), 2.0, 0.1)
         start = float(sys.argv[1])
         while time.time() < start:
@@ -276,7 +276,7 @@ def test_default_backend_is_compiled_and_reports_the_cache():
 
 
 def test_run_info_reports_a_library_built_now_even_when_the_backend_was_selected_first(tmp_path, monkeypatch):
-    from simulation.run import select_backend
+    from coordarm.simulation.run import select_backend
 
     monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path))     # empty cache: the library is built now
     chain = PlanarChain(5, 0.1)
@@ -323,7 +323,7 @@ def test_run_reports_the_backend_and_the_cache(tmp_path, capsys):
 
 def test_run_without_a_compiler_warns_in_one_line_and_runs_interpreted(tmp_path):
     env = {**os.environ, "CC": "/nonexistent/cc", "COORDARM_BUILD_DIR": str(tmp_path / "build")}
-    res = subprocess.run([sys.executable, "-m", "simulation.cli", "run", "line", "--links", "6", "--duration", "0.05",
+    res = subprocess.run([sys.executable, "-m", "coordarm", "run", "line", "--links", "6", "--duration", "0.05",
                           "--quiet", "--no-figures", "--out", str(tmp_path / "x.mcap")],
                          capture_output=True, text=True, env=env, cwd=REPO)
     assert res.returncode == 0, res.stderr

@@ -3,9 +3,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from analysis.linearise import linearisation_function, linearise, linearise_run
-from simulation import simulate
-from symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
+from coordarm.analysis.linearise import linearisation_function, linearise, linearise_run
+from coordarm.simulation import simulate
+from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
 
 @pytest.fixture(scope="module")

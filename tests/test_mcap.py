@@ -7,12 +7,12 @@ import pytest
 from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
 
-from analysis.replay import load
-from simulation.log_schemas import numeric_channels, scene_update_schema
-from simulation.mcap_writer import COND_RATE, RunLogger, code_hash, default_cond_rate
-from simulation.run import Run, simulate
-from simulation.scenario import Scenario, load_scenario
-from symbolic import ConfigError, LogError, SingularityError
+from coordarm.analysis.replay import load
+from coordarm.simulation.log_schemas import numeric_channels, scene_update_schema
+from coordarm.simulation.mcap_writer import COND_RATE, RunLogger, code_hash, default_cond_rate
+from coordarm.simulation.run import Run, simulate
+from coordarm.simulation.scenario import Scenario, load_scenario
+from coordarm.symbolic import ConfigError, LogError, SingularityError
 
 LINKS, DURATION = 6, 0.6
 
@@ -288,7 +288,7 @@ def test_threaded_and_unthreaded_loggers_write_the_same_log(scenario, tmp_path):
 
 
 def test_coordarm_run_writes_the_log_at_the_chosen_rate_with_a_singularity_outcome(tmp_path, capsys):
-    from simulation.cli import main
+    from coordarm.cli import main
     toml = tmp_path / "fast.toml"
     toml.write_text('name = "fast"\n[chain]\nlinks = 8\nlink_length = 0.1\n[curve]\nkind = "line"\n'
                     '[control]\ngain = 2.0\nspeed = 0.4\n[run]\nduration = 5.0\n')

@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from symbolic import CoordinatingController, Line, PlanarChain
+from coordarm.symbolic import CoordinatingController, Line, PlanarChain
 
 _spec = importlib.util.spec_from_file_location(
     "numpy_dense", Path(__file__).resolve().parents[1] / "benchmarks" / "numpy_dense.py")

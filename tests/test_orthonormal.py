@@ -4,8 +4,8 @@ import warnings
 import casadi as ca
 import pytest
 
-from analysis.orthonormal import OrthonormalityWarning, check_orthonormal
-from symbolic import Arc, Circle, ConfigError, Line
+from coordarm.analysis.orthonormal import OrthonormalityWarning, check_orthonormal
+from coordarm.symbolic import Arc, Circle, ConfigError, Line
 
 
 @pytest.mark.parametrize("curve", [Line(angle=0.3), Line(point=(0.1, lambda t: 0.2 * t), angle=lambda t: ca.sin(t)),

@@ -20,7 +20,7 @@ def test_readme_api_compiled_and_analysis_examples_run():
 
 
 def test_readme_replay_example_runs_on_a_real_log(tmp_path, monkeypatch):
-    from simulation.cli import main
+    from coordarm.cli import main
 
     block = next(b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S) if "load(" in b)
     monkeypatch.chdir(tmp_path)

@@ -10,10 +10,10 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from analysis.replay import load
-from simulation.cli import main
-from simulation.run import simulate
-from symbolic import LogError
+from coordarm.analysis.replay import load
+from coordarm.cli import main
+from coordarm.simulation.run import simulate
+from coordarm.symbolic import LogError
 
 SWING = """name = "swing"
 [chain]
@@ -62,7 +62,7 @@ def _start_and_wait_for_flushes(tmp_path):
     toml = tmp_path / "swing.toml"
     toml.write_text(SWING)
     out = tmp_path / "swing.mcap"
-    proc = subprocess.Popen([sys.executable, "-m", "simulation.cli", "run", str(toml), "--quiet", "--no-figures",
+    proc = subprocess.Popen([sys.executable, "-m", "coordarm", "run", str(toml), "--quiet", "--no-figures",
                              "--out", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     start, grown_at = time.monotonic(), None
     while time.monotonic() - start < 60:
@@ -194,8 +194,8 @@ def test_replay_cli_reads_a_cut_log_and_says_so(full_log, tmp_path, capsys):
 
 
 def test_a_lost_chunk_in_the_middle_shows_as_sequence_gaps(tmp_path):
-    from simulation.mcap_writer import RunLogger
-    from simulation.scenario import load_scenario
+    from coordarm.simulation.mcap_writer import RunLogger
+    from coordarm.simulation.scenario import load_scenario
     sc = load_scenario("line").with_overrides(links=4, duration=0.3)
     ctrl = sc.controller()
     path = tmp_path / "gap.mcap"

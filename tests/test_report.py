@@ -5,13 +5,13 @@ import sys
 import numpy as np
 import pytest
 
-from analysis.cli_report import simulate_scenario
-from analysis.report import analyse_run, default_samples, write_report
-from analysis.workspace import curve_zigzag, plot_workspace, workspace_map
-from simulation.cli import main
-from simulation.run import DEFAULT_THRESHOLDS, simulate
-from simulation.scenario import load_scenario
-from symbolic import Arc, CoordinatingController, Line, PlanarChain
+from coordarm.commands.report import simulate_scenario
+from coordarm.analysis.report import analyse_run, default_samples, write_report
+from coordarm.analysis.workspace import curve_zigzag, plot_workspace, workspace_map
+from coordarm.cli import main
+from coordarm.simulation.run import DEFAULT_THRESHOLDS, simulate
+from coordarm.simulation.scenario import load_scenario
+from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain
 
 FAST_ARC = ('name = "fast"\n[chain]\nlinks = 16\nlink_length = 0.1\n[curve]\nkind = "arc"\nradius = 1.0\n'
             '[control]\ngain = 2.0\nspeed = 0.4\n[start]\nkind = "projected"\n[run]\nduration = 3.0\n')
@@ -72,7 +72,7 @@ def test_default_stop_fires_before_u_exceeds_ten_times_nominal(tmp_path):
     sc = load_scenario(toml)
     a = analyse_run(sc.controller(), *(lambda r: (r.t, r.q, r.u))(simulate_scenario(sc)), samples=400)
     ctrl = sc.controller()
-    from symbolic import SingularityError
+    from coordarm.symbolic import SingularityError
     with pytest.raises(SingularityError) as info:
         simulate(ctrl, sc.start(ctrl), sc.duration, sc.step)
     assert info.value.kind == "longitudinal" and info.value.time < a.blowup_time
@@ -91,8 +91,8 @@ def test_report_from_a_run_object(tmp_path):
 
 
 def test_report_of_a_logged_run_equals_the_report_of_the_run_itself(tmp_path, capsys):
-    from analysis.replay import load
-    from analysis.singularity import run_margins
+    from coordarm.analysis.replay import load
+    from coordarm.analysis.singularity import run_margins
 
     log = tmp_path / "line.mcap"
     assert main(["run", "line", "--links", "10", "--duration", "1.0", "--quiet", "--no-figures",
@@ -114,7 +114,7 @@ def test_report_of_a_logged_run_equals_the_report_of_the_run_itself(tmp_path, ca
 
 
 def test_report_of_a_missing_log_is_a_clear_error(tmp_path):
-    res = subprocess.run([sys.executable, "-m", "simulation.cli", "report", str(tmp_path / "missing.mcap")],
+    res = subprocess.run([sys.executable, "-m", "coordarm", "report", str(tmp_path / "missing.mcap")],
                          capture_output=True, text=True)
     assert res.returncode == 2 and "missing.mcap" in res.stderr and "Traceback" not in res.stderr
 
@@ -141,8 +141,8 @@ def test_workspace_map_on_a_line_has_the_closed_form_and_is_drawn(tmp_path):
 @pytest.mark.parametrize("case", ["32 links, arc R = 1.0, v* = 0.4", "16 links, swinging line, v* = 0.2"])
 def test_threshold_study_cases_stop_before_the_blow_up(case):
     """The two blow-up runs of analysis.threshold_study with the least lead (the others take ~30 s)."""
-    from analysis.threshold_study import blowup_cases
-    from symbolic import SingularityError
+    from coordarm.analysis.threshold_study import blowup_cases
+    from coordarm.symbolic import SingularityError
     ctrl, q0, duration = blowup_cases()[case]
     free = simulate(ctrl, q0, duration, 0.001, thresholds={"link": 0.0, "longitudinal": 0.0})
     a = analyse_run(ctrl, free.t, free.q, free.u, samples=300)

@@ -6,14 +6,14 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from simulation.scenario import Scenario, load_scenario, presets
-from symbolic import ConfigError
+from coordarm.simulation.scenario import Scenario, load_scenario, presets
+from coordarm.symbolic import ConfigError
 
 from importlib import resources
 
 
 def preset_text(name):
-    return (resources.files("simulation.presets") / f"{name}.toml").read_text()
+    return (resources.files("coordarm.simulation") / "presets" / f"{name}.toml").read_text()
 
 
 def test_presets_are_the_papers_three_scenarios_and_load():

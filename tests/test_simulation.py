@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from simulation import ConfigError, SingularityError, simulate
-from simulation.obstacles import clearance, wall_crossings
-from simulation.run import DEFAULT_THRESHOLDS, Progress
-from simulation.scenario import load_scenario
-from symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
+from coordarm.simulation import ConfigError, SingularityError, simulate
+from coordarm.simulation.obstacles import clearance, wall_crossings
+from coordarm.simulation.run import DEFAULT_THRESHOLDS, Progress
+from coordarm.simulation.scenario import load_scenario
+from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
 
 @pytest.fixture(scope="module", params=["line", "arc", "hole"])

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from analysis.singularity import margins, run_margins
-from symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain, project_onto_curve
+from coordarm.analysis.singularity import margins, run_margins
+from coordarm.symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain, project_onto_curve
 
 
 def line_ctrl(m, speed=0.1):
@@ -24,7 +24,7 @@ def test_zigzag_on_a_line_has_the_closed_form_margins(m, beta):
 
 
 def test_worst_link_ignores_rounding_noise_but_not_a_real_dip():
-    from analysis.singularity import TIE, _worst_link
+    from coordarm.analysis.singularity import TIE, _worst_link
 
     rng = np.random.default_rng(3)
     tied = np.cos(1.3) + rng.normal(0, 1e-14, (50, 63))     # a converged zig-zag: equal up to rounding
@@ -63,7 +63,7 @@ def test_fully_stretched_chain_zeroes_the_longitudinal_margin_and_the_matrix_mar
 def test_stretched_chain_on_a_circle_zeroes_the_longitudinal_margin():
     # A chain along the circle with all centres on it and the end point at its farthest reach:
     # there s^m is stationary along the family of on-curve configurations.
-    from analysis.workspace import curve_zigzag
+    from coordarm.analysis.workspace import curve_zigzag
     chain = PlanarChain(6, 0.1)
     ctrl = CoordinatingController(chain, Arc(radius=1.0), 2.0, 0.1)
     s_end = lambda b: ctrl.evaluate(curve_zigzag(6, 0.1, b, 1.0))["s"]

@@ -1,7 +1,7 @@
 """A ``kind`` that is not a string is a ConfigError, not a TypeError (found by hypothesis in test_scenario)."""
 import pytest
 
-from symbolic import ConfigError, curve_from_spec, motion_from_spec
+from coordarm.symbolic import ConfigError, curve_from_spec, motion_from_spec
 
 
 @pytest.mark.parametrize("kind", [[], {}, 3, None])

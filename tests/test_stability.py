@@ -5,11 +5,11 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from analysis.stability import (RK4_LIMIT, control_limit, delay_margin, error_loop, grows, max_stable_delay,
+from coordarm.analysis.stability import (RK4_LIMIT, control_limit, delay_margin, error_loop, grows, max_stable_delay,
                                 sampled_limit, simulated_limit, spectral_radius, step_responses)
-from simulation import simulate
-from simulation.sampled import simulate_sampled
-from symbolic import ConfigError, CoordinatingController, Line, PlanarChain, SingularityError
+from coordarm.simulation import simulate
+from coordarm.simulation.sampled import simulate_sampled
+from coordarm.symbolic import ConfigError, CoordinatingController, Line, PlanarChain, SingularityError
 
 K = 20.0
 

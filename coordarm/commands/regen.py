@@ -5,10 +5,11 @@ import argparse
 import sys
 import time
 
-from symbolic import LAWS
+from coordarm.symbolic import LAWS
 
-from .build import build, build_root, clean
-from .codegen import generate_source
+from coordarm.generated.build import build, build_root, clean
+from coordarm.generated.codegen import generate_source
+from coordarm.simulation.scenario import load_scenario, presets
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -16,18 +17,22 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("regen", help="regenerate and recompile the C controller of scenarios",
                        description="Generate the C code of each scenario's control law, RK4 step and chunk "
                                    "loop, compile it and store it in the build cache (default: every preset). "
-                                   "The cache directory is generated/_build or $COORDARM_BUILD_DIR.")
+                                   "The cache directory is $COORDARM_BUILD_DIR, else $XDG_CACHE_HOME/coordarm, "
+                                   "else ~/.cache/coordarm (see --print-cache-dir).")
     p.add_argument("scenarios", nargs="*", metavar="SCENARIO_OR_TOML",
                    help="preset names or TOML files (default: all presets)")
     p.add_argument("--clean", action="store_true", help="delete every cached library first")
     p.add_argument("--law", choices=LAWS, help="form of the control law (default: the scenario's)")
     p.add_argument("--links", type=int, help="override the number of links")
+    p.add_argument("--print-cache-dir", action="store_true", help="print the build cache directory and exit")
     p.set_defaults(func=main)
 
 
 def main(args: argparse.Namespace) -> int:
     """Regenerate and recompile the libraries of ``args.scenarios``; print where each went; return 0."""
-    from simulation.scenario import load_scenario, presets   # scenarios are read only by the CLI
+    if args.print_cache_dir:
+        print(build_root())
+        return 0
 
     names = args.scenarios or presets()
     scenarios = [load_scenario(n).with_overrides(args.links, law=args.law) for n in names]  # validate all first

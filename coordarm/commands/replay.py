@@ -5,10 +5,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from simulation.cli_run import print_summary, write_figures
-from symbolic import ConfigError
+from coordarm.commands.run import print_summary, write_figures
+from coordarm.symbolic import ConfigError
 
-from .replay import load
+from coordarm.analysis.replay import load
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -51,6 +51,6 @@ def main(args: argparse.Namespace) -> int:
     for p in write_figures(run, replay.scenario, ctrl, stem):
         print(f"figure        {p}")
     if not args.no_animation:
-        from .animation import animate
+        from coordarm.analysis.animation import animate
         print(f"animation     {animate(replay, stem.with_name(stem.name + '.gif'), fps=args.fps, ctrl=ctrl)}")
     return 0

@@ -5,14 +5,14 @@ import argparse
 import importlib
 import sys
 
-from symbolic.errors import CoordarmError
+from coordarm.symbolic.errors import CoordarmError
 
 #: Sub-command name -> module defining ``register(subparsers)``; the parser it adds sets ``func``.
 COMMANDS = {
-    "run": "simulation.cli_run",
-    "regen": "generated.cli_regen",
-    "replay": "analysis.cli_replay",
-    "report": "analysis.cli_report",
+    "run": "coordarm.commands.run",
+    "regen": "coordarm.commands.regen",
+    "replay": "coordarm.commands.replay",
+    "report": "coordarm.commands.report",
 }
 
 

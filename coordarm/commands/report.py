@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from symbolic import ConfigError
+from coordarm.symbolic import ConfigError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -29,7 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def simulate_scenario(scenario: Any) -> Any:
     """Simulate ``scenario`` without singularity stops; a run ending in NaN is kept up to there."""
-    from .report import simulate_through
+    from coordarm.analysis.report import simulate_through
 
     ctrl = scenario.controller()
     return simulate_through(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0)
@@ -37,15 +37,15 @@ def simulate_scenario(scenario: Any) -> Any:
 
 def main(args: argparse.Namespace) -> int:
     """Write the report for ``args.source``; print where it went; return 0."""
-    from simulation.scenario import load_scenario
+    from coordarm.simulation.scenario import load_scenario
 
-    from .report import default_samples, write_report
+    from coordarm.analysis.report import default_samples, write_report
 
     src = str(args.source)
     if src.endswith(".mcap"):
         if args.links is not None or args.duration is not None:
             raise ConfigError("--links/--duration: only for a scenario, not for a log")
-        from .replay import load
+        from coordarm.analysis.replay import load
         run = load(src)
         scenario = run.scenario
     else:

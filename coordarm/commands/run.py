@@ -8,14 +8,14 @@ import warnings
 from pathlib import Path
 from typing import TextIO
 
-from symbolic import LAWS, SingularityError
+from coordarm.symbolic import LAWS, SingularityError
 
-from .figures import plot_stages, plot_tracking
-from .mcap_file import COMPRESSIONS
-from .mcap_writer import RunLogger
-from .obstacles import clearance, wall_crossings
-from .run import BACKENDS, BackendFallbackWarning, Run, select_backend, simulate
-from .scenario import Scenario, load_scenario, presets
+from coordarm.simulation.figures import plot_stages, plot_tracking
+from coordarm.simulation.mcap_file import COMPRESSIONS
+from coordarm.simulation.mcap_writer import RunLogger
+from coordarm.simulation.obstacles import clearance, wall_crossings
+from coordarm.simulation.run import BACKENDS, BackendFallbackWarning, Run, select_backend, simulate
+from coordarm.simulation.scenario import Scenario, load_scenario, presets
 
 
 def register(sub: argparse._SubParsersAction) -> None:

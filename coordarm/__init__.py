@@ -1,0 +1,71 @@
+"""coordarm: coordinating control of hyper-redundant planar manipulators.
+
+The public face of the package. Names load on first use, so ``import coordarm`` (and the
+command line) start at once; CasADi, matplotlib and python-control are imported only by
+the parts that need them.
+
+>>> import coordarm
+>>> scenario = coordarm.load_scenario("line")          # doctest: +SKIP
+>>> ctrl = scenario.controller()                       # doctest: +SKIP
+>>> run = coordarm.simulate(ctrl, scenario.start(ctrl), 1.0)   # doctest: +SKIP
+
+Layers (imports flow one way): ``coordarm.symbolic`` <- ``coordarm.generated`` <-
+``coordarm.simulation`` <- ``coordarm.analysis`` <- ``coordarm.cli``.
+"""
+from __future__ import annotations
+
+from importlib import import_module
+from importlib.metadata import PackageNotFoundError, version
+from typing import Any
+
+try:
+    __version__ = version("coordarm")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree without an install
+    __version__ = "0+unknown"
+
+#: Public name -> module that defines it (loaded on first attribute access).
+_EXPORTS = {
+    "PlanarChain": "coordarm.symbolic.chain",
+    "CoordinatingController": "coordarm.symbolic.controller",
+    "Curve": "coordarm.symbolic.curves",
+    "Line": "coordarm.symbolic.curves",
+    "Circle": "coordarm.symbolic.curves",
+    "Arc": "coordarm.symbolic.curves",
+    "curve_from_spec": "coordarm.symbolic.curves",
+    "Constant": "coordarm.symbolic.motions",
+    "Ramp": "coordarm.symbolic.motions",
+    "Sinusoid": "coordarm.symbolic.motions",
+    "Smoothstep": "coordarm.symbolic.motions",
+    "motion_from_spec": "coordarm.symbolic.motions",
+    "project_onto_curve": "coordarm.symbolic.start",
+    "CoordarmError": "coordarm.symbolic.errors",
+    "ConfigError": "coordarm.symbolic.errors",
+    "SingularityError": "coordarm.symbolic.errors",
+    "LogError": "coordarm.symbolic.errors",
+    "BuildError": "coordarm.symbolic.errors",
+    "Scenario": "coordarm.simulation.scenario",
+    "load_scenario": "coordarm.simulation.scenario",
+    "presets": "coordarm.simulation.scenario",
+    "simulate": "coordarm.simulation.run",
+    "Run": "coordarm.simulation.run",
+    "Replay": "coordarm.analysis.replay",
+    "load_log": "coordarm.analysis.replay",
+}
+_ALIASES = {"load_log": "load"}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    """Load a public name from its module on first use (PEP 562)."""
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'coordarm' has no attribute {name!r}") from None
+    value = getattr(import_module(module), _ALIASES.get(name, name))
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,1 @@
+"""One module per ``coordarm`` sub-command, each with ``register(subparsers)``; imported only by :mod:`coordarm.cli`."""
