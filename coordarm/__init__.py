@@ -32,6 +32,7 @@ _EXPORTS = {
     "Circle": "coordarm.symbolic.curves",
     "Arc": "coordarm.symbolic.curves",
     "curve_from_spec": "coordarm.symbolic.curves",
+    "Path": "coordarm.symbolic.paths",
     "Constant": "coordarm.symbolic.motions",
     "Ramp": "coordarm.symbolic.motions",
     "Sinusoid": "coordarm.symbolic.motions",

@@ -174,13 +174,41 @@ CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "rad
           "arc": (Arc, ("point", "angle", "radius"))}
 
 
+#: Curve kinds built by :mod:`symbolic.paths` and their keys.
+PATH_KINDS = {"path": ("start", "heading", "segments", "offset", "rotation"),
+              "waypoints": ("points", "radius", "offset", "rotation")}
+
+
 def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
-    """Build a curve from data, e.g. ``{"kind": "line", "point": [0, 0], "angle": 0.3}``."""
+    """Build a curve from data, e.g. ``{"kind": "line", "point": [0, 0], "angle": 0.3}``.
+
+    Kinds: ``line``, ``circle``, ``arc`` (moving curves of :mod:`symbolic.curves`) and
+    ``path``, ``waypoints`` (composite paths of :mod:`symbolic.paths`).
+
+    Parameters
+    ----------
+    spec : dict
+        The ``[curve]`` table of a scenario.
+    field : str
+        Name used in error messages.
+
+    Returns
+    -------
+    Curve
+
+    Raises
+    ------
+    ConfigError
+        An unknown kind or key, a missing or malformed parameter (named).
+    """
     if not isinstance(spec, dict):
         raise ConfigError(f"{field}: expected a table, got {spec!r}")
     kind = spec.get("kind")
+    if kind in PATH_KINDS:
+        from .paths import path_from_spec   # paths builds on this module
+        return path_from_spec(spec, field)
     if not isinstance(kind, str) or kind not in CURVES:
-        raise ConfigError(f"{field}.kind: expected one of {sorted(CURVES)}, got {kind!r}")
+        raise ConfigError(f"{field}.kind: expected one of {sorted(CURVES) + list(PATH_KINDS)}, got {kind!r}")
     cls, keys = CURVES[kind]
     unknown = set(spec) - set(keys) - {"kind"}
     if unknown:
