@@ -129,43 +129,48 @@ def build_pieces(start: Sequence[float], heading: float, segments: Sequence[tupl
     return pieces
 
 
-def _sq_distance(piece: Piece, p):
-    """Squared distance from ``p`` (path frame, CasADi) to the piece as a set (rays unbounded)."""
-    v = p - ca.DM(piece.p0)
+def _junction_tests(pieces: list[Piece], p) -> list:
+    """``g_i = t_i . (p - J_i)`` at the start of every piece (``J_i`` its start point, ``t_i`` the tangent there).
+
+    A piece's closest-point range is ``g_k >= 0`` and ``g_{k+1} <= 0`` (for an arc: its wedge,
+    and the opposite one): neighbours share one test, so the ranges tile the tube.
+    """
+    return [pc.d0[0] * p[0] + pc.d0[1] * p[1] - float(pc.d0 @ pc.p0) for pc in pieces]
+
+
+def _abs_phi(piece: Piece, p):
+    """``|phi|`` of the piece's own formula at ``p`` and, for an arc, the test excluding the opposite wedge."""
     if piece.k == 0:
-        tau = ca.dot(ca.DM(piece.d0), v)
-        lo = -ca.inf if piece.ray_before else 0.0
-        tau = ca.fmax(ca.fmin(tau, piece.length), lo) if math.isfinite(piece.length) else ca.fmax(tau, lo)
-        r = v - tau * ca.DM(piece.d0)
-        return ca.dot(r, r)
+        n0 = piece.n0
+        return ca.fabs(n0[0] * p[0] + n0[1] * p[1] - float(n0 @ piece.p0)), None
     c = piece.centre
-    R = 1.0 / abs(piece.k)
-    r = p - ca.DM(c)
-    u0 = (piece.p0 - c) * abs(piece.k)                       # radial unit vector at the start
-    p1, _ = piece.end()
-    u1 = (p1 - c) * abs(piece.k)
-    sg = math.copysign(1.0, piece.k)
-    c0 = sg * (u0[0] * r[1] - u0[1] * r[0])                  # >= 0: past the start radius
-    c1 = sg * (r[0] * u1[1] - r[1] * u1[0])                  # >= 0: before the end radius
-    wedge = ca.logic_and(c0 >= 0, c1 >= 0)                   # pieces turn at most 2 pi / 3
-    rho = ca.norm_2(r)
-    on_arc = (rho - R) ** 2
-    e0, e1 = p - ca.DM(piece.p0), p - ca.DM(p1)
-    ends = ca.fmin(ca.dot(e0, e0), ca.dot(e1, e1))
-    return ca.if_else(wedge, on_arc, ends)
+    rx, ry = p[0] - c[0], p[1] - c[1]
+    mid = piece.p0 + piece.end()[0] - 2 * c                    # towards the arc's middle from its centre
+    return ca.fabs(ca.sqrt(rx * rx + ry * ry) - 1.0 / abs(piece.k)), mid[0] * rx + mid[1] * ry > 0
 
 
 def closest_piece_formulas(pieces: list[Piece], p):
-    """``(phi, psi)`` of the path at ``p`` (path frame): select the closest piece, evaluate its formula."""
-    # parameters of the selected piece: p0 (2), d0 (2), k, s0, is_arc
-    params = [ca.DM(np.r_[pc.p0, pc.d0, pc.k, pc.s0, float(pc.k != 0)]) for pc in pieces]
-    best, sel = _sq_distance(pieces[0], p), params[0]
-    for pc, par in zip(pieces[1:], params[1:]):
-        dist = _sq_distance(pc, p)
+    """``(phi, psi)`` of the path at ``p`` (path frame): select the closest piece, evaluate its formula.
+
+    Among the pieces whose closest-point range holds ``p`` (shared junction tests), the one
+    with the smallest ``|phi|``; its constants are selected and one line and one arc formula
+    evaluated with them.
+    """
+    g = _junction_tests(pieces, p)
+    params = [ca.DM(np.r_[pc.p0, pc.d0, pc.k, pc.s0]) for pc in pieces]
+    best, sel = ca.inf, params[0]
+    last = len(pieces) - 1
+    for i, (pc, par) in enumerate(zip(pieces, params)):
+        dist, extra = _abs_phi(pc, p)
+        tests = ([] if pc.ray_before or i == 0 else [g[i] >= 0]) + ([] if i == last else [g[i + 1] <= 0])
+        tests += [extra] if extra is not None else []
         closer = dist < best
+        for tst in tests:
+            closer = ca.logic_and(closer, tst)
         best = ca.if_else(closer, dist, best)
         sel = ca.if_else(closer, par, sel)
-    p0, d0, k, s0, is_arc = sel[0:2], sel[2:4], sel[4], sel[5], sel[6]
+    p0, d0, k, s0 = sel[0:2], sel[2:4], sel[4], sel[5]
+    is_arc = k != 0
     n0 = ca.vertcat(-d0[1], d0[0])
     v = p - p0
     # line: tau along d0, phi along n0
