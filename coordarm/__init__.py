@@ -42,6 +42,7 @@ _EXPORTS = {
     "CoordarmError": "coordarm.symbolic.errors",
     "ConfigError": "coordarm.symbolic.errors",
     "SingularityError": "coordarm.symbolic.errors",
+    "TubeError": "coordarm.symbolic.errors",
     "LogError": "coordarm.symbolic.errors",
     "BuildError": "coordarm.symbolic.errors",
     "Scenario": "coordarm.simulation.scenario",

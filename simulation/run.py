@@ -11,7 +11,7 @@ from typing import Any, Callable
 import numpy as np
 
 from coordarm.generated.compiled import split_outputs
-from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError, TubeError
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
@@ -138,6 +138,18 @@ def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
     return k, "longitudinal", None, float(longitudinal[k])
 
 
+def tube_exit(e: np.ndarray, radius: float) -> tuple[int, int, float] | None:
+    """First row where a deviation ``|e^j|`` reaches the tube radius: ``(row, link, |e|)``, else None."""
+    if not np.isfinite(radius):
+        return None
+    bad = ~(np.abs(e) < radius)
+    if not bad.any():
+        return None
+    k = int(np.argmax(bad.any(axis=1)))
+    j = int(np.argmax(bad[k]))
+    return k, j + 2, float(abs(e[k, j]))
+
+
 def even_indices(n: int, k: int) -> np.ndarray:
     """Up to ``k`` indices evenly spread over ``range(n)``, first and last included, no repeats."""
     return np.unique(np.linspace(0, n - 1, k).round().astype(int))
@@ -229,6 +241,10 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         ``backend="compiled"`` and the generated library cannot be built.
     SingularityError
         A margin fell below its threshold; ``err.run`` holds the run up to there.
+    TubeError
+        (a SingularityError, ``kind = "tube"``) a central point reached the tube radius of a
+        :class:`~symbolic.paths.Path` (its smallest arc radius), where ``phi``, ``psi`` stop being
+        smooth; ``err.run`` holds the run up to there.
     """
     duration, step = check_number(duration, "duration"), check_number(step, "step")
     t0 = check_number(t0, "t0", positive=False)
@@ -249,6 +265,11 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         raise ConfigError(f"q0: start configuration is (near) singular: {kind} margin of {where} is "
                           f"{margin:.3g} < {thr[kind]}")
 
+    tube = float(getattr(ctrl.curve, "tube_radius", math.inf))
+    start_out = tube_exit(start["e"][None], tube)
+    if start_out is not None:
+        raise ConfigError(f"q0: the central point of link {start_out[1]} is {start_out[2]:.4g} m from the path, "
+                          f"not inside its tube (|phi| < {tube:.4g} m, the smallest radius)")
     backend, compiled, info = select_backend(ctrl, backend)
     n_steps = int(round(duration / step))
     bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
@@ -261,14 +282,20 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
             Q, U, E, S, LM, LG = _advance(ctrl, compiled, q, times, step)
             part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG, ctrl.speeds(times))
             bad = first_violation(part.link_margins, part.longitudinal, thr)
-            if bad is not None:
+            out = tube_exit(part.e, tube)
+            if out is not None and (bad is None or out[0] <= bad[0]):
+                row, link, dist = out
+                error = TubeError(part.t[row], link, dist, "tube", tube)
+            elif bad is not None:
                 row, kind, link, margin = bad
+                error = SingularityError(part.t[row], link, margin, kind, thr[kind])
+            if out is not None or bad is not None:
                 part = _rows(part, slice(0, row + 1))
                 parts.append(part)
                 if on_chunk:
                     on_chunk(part)
-                run = _concat(parts, dict(info, stopped="singularity"))
-                raise SingularityError(part.t[-1], link, margin, kind, thr[kind], run=run)
+                error.run = _concat(parts, dict(info, stopped=error.kind if error.kind == "tube" else "singularity"))
+                raise error
             parts.append(part)
             if on_chunk:
                 on_chunk(part)

@@ -10,8 +10,9 @@ Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
     [chain]     links = 64, link_length = 0.1
     [curve]     kind = "line" | "circle" | "arc", with its parameters
     [control]   gain = 2.0, speed = 0.1 (or a motion), law = "structured" | "dense"
-    [start]     kind = "zigzag" | "projected", beta = 1.3, heading = 0.0,
-                curve = {...}  (projected: project onto this curve instead)
+    [start]     kind = "zigzag" | "projected" | "follow", beta = 1.3, heading = 0.0,
+                curve = {...}  (projected: project onto this curve instead;
+                follow: a zig-zag laid link by link along the curve, for bent paths)
     [run]       duration = 20.0, step = 0.001, t0 = 0.0
     [thresholds] link = 0.02, longitudinal = 0.05
     [[obstacles]] a = [x, y], b = [x, y]      (wall segments)
@@ -30,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
-                      motion_from_spec, project_onto_curve)
+                               follow_curve, motion_from_spec, project_onto_curve)
 
 from .run import DEFAULT_THRESHOLDS, check_number
 
@@ -39,6 +40,7 @@ SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", 
 KEYS = {"chain": {"links", "link_length"}, "control": {"gain", "speed", "law"},
         "start": {"kind", "beta", "heading", "curve"}, "run": {"duration", "step", "t0"},
         "thresholds": {"link", "longitudinal"}}
+START_KINDS = ("zigzag", "projected", "follow")
 DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
             "run": {"duration": 20.0, "step": 0.001, "t0": 0.0},
             "control": {"law": "structured"}}
@@ -118,8 +120,8 @@ class Scenario:
             raise ConfigError(f"control.law: expected one of {LAWS}, got {spec['control']['law']!r}")
         curve_from_spec(spec["curve"], "curve")
         st = spec["start"]
-        if st["kind"] not in ("zigzag", "projected"):
-            raise ConfigError(f"start.kind: expected 'zigzag' or 'projected', got {st['kind']!r}")
+        if st["kind"] not in START_KINDS:
+            raise ConfigError(f"start.kind: expected one of {START_KINDS}, got {st['kind']!r}")
         b = check_number(st["beta"], "start.beta", positive=False)
         if not 0 < abs(b) < math.pi / 2:
             raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {b}")
@@ -191,6 +193,8 @@ class Scenario:
         """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked)."""
         st = self.spec["start"]
         ctrl = ctrl or self.controller()
+        if st["kind"] == "follow":
+            return follow_curve(ctrl, float(st["beta"]), self.t0)
         q = ctrl.chain.zigzag(float(st["beta"]), float(st["heading"]))
         if st["kind"] == "projected":
             target = ctrl

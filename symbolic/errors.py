@@ -50,3 +50,21 @@ class SingularityError(CoordarmError):
     def __reduce__(self):
         return (SingularityError, (self.time, self.link, self.margin, self.kind,
                                    self.threshold, None))
+
+
+class TubeError(SingularityError):
+    """A central point left a path's tube ``|phi| < smallest radius`` (the closest point is no longer unique).
+
+    Attributes as :class:`SingularityError`, with ``kind = "tube"``, ``margin`` the offending
+    ``|phi|`` [m] and ``threshold`` the tube radius [m].
+    """
+
+    def __init__(self, time: float, link: int | None, margin: float, kind: str = "tube",
+                 threshold: float = 0.0, run: object | None = None) -> None:
+        super().__init__(time, link, margin, kind, threshold, run)
+        self.args = (f"left the path's tube at t = {self.time:.4f} s: the central point of link {link} is "
+                     f"{self.margin:.4g} m from the path, not less than its smallest radius "
+                     f"{self.threshold:.4g} m (its closest point is no longer unique); run stopped",)
+
+    def __reduce__(self):
+        return (TubeError, (self.time, self.link, self.margin, self.kind, self.threshold, None))

@@ -217,3 +217,45 @@ def test_law_structured_equals_dense_at_random_configurations_across_junctions()
         M, rhs = ctrl.decoupling_matrices(qk[None], [0.3])
         u_dense = np.linalg.solve(M[0], rhs[0])
         np.testing.assert_allclose(out["u"], u_dense, rtol=1e-10, atol=1e-10 * np.max(np.abs(u_dense)))
+
+
+def test_compiled_path_law_agrees_with_the_interpreted_law(tmp_path):
+    chain = PlanarChain(12, 0.1)
+    path = Path((-0.6, 0.0), 0.0, [{"line": 0.8}, {"arc": 1.2, "radius": 0.5}, {"arc": -1.0, "radius": 0.7}],
+                offset=(Sinusoid(0.02, 1.0), 0.0), rotation=Sinusoid(0.1, 0.5))
+    ctrl = CoordinatingController(chain, path, 2.0, 0.1)
+    fast = ctrl.compile(build_dir=tmp_path)
+    rng = np.random.default_rng(4)
+    q0 = project_onto_curve(ctrl, chain.zigzag(1.1), 0.0)
+    for t in (0.0, 0.7, 2.1):
+        q = q0 + rng.normal(scale=0.03, size=chain.m)
+        a, b = ctrl.evaluate(q, t), fast.evaluate(q, t)
+        for k in a:
+            np.testing.assert_allclose(b[k], a[k], rtol=1e-12, atol=1e-12)
+
+
+def test_a_point_leaving_the_tube_stops_the_run_naming_link_time_and_radius():
+    from coordarm import TubeError, simulate
+    from coordarm.symbolic import follow_curve
+    chain = PlanarChain(20, 0.1)
+    path = Path((0.0, 0.0), 0.0, [{"line": 0.4}, {"arc": 1.0, "radius": 0.25}, {"line": 1.5}])
+    ctrl = CoordinatingController(chain, path, 40.0, 0.0)
+    q0 = follow_curve(ctrl, 1.0) + np.random.default_rng(5).normal(scale=1e-3, size=chain.m)
+    # K h = 4 is beyond RK4's stability limit (2.79): the deviations grow until one leaves the tube
+    with pytest.raises(TubeError, match=r"left the path's tube at t = .* link \d+ is .* smallest radius 0.25 m") as err:
+        simulate(ctrl, q0, 5.0, 0.1, backend="interpreted", thresholds={"link": 0.0, "longitudinal": 0.0})
+    run = err.value.run
+    assert err.value.kind == "tube" and run.info["stopped"] == "tube"
+    assert np.max(np.abs(run.e[-1])) >= 0.25 > np.max(np.abs(run.e[-2]))
+    assert err.value.time == run.t[-1] and err.value.margin == np.max(np.abs(run.e[-1]))
+
+
+def test_follow_curve_lays_a_zigzag_along_a_bent_path():
+    from coordarm.symbolic import follow_curve
+    chain = PlanarChain(30, 0.1)
+    ctrl = CoordinatingController(chain, path_through_base(), 2.0, 0.1)
+    q = follow_curve(ctrl, 1.1)
+    g = ctrl.centre_geometry(q[None], [0.0])
+    assert np.max(np.abs(g["phi"][0, 1:])) < 1e-9 and np.all(np.diff(g["psi"][0]) > 0)
+    assert g["psi"][0, -1] > 1.4                      # past the second junction
+    np.testing.assert_allclose(chain.centres_np(q)[0], 0.0)
