@@ -43,6 +43,8 @@ _EXPORTS = {
     "ConfigError": "coordarm.symbolic.errors",
     "SingularityError": "coordarm.symbolic.errors",
     "TubeError": "coordarm.symbolic.errors",
+    "CollisionError": "coordarm.symbolic.errors",
+    "check_configuration": "coordarm.simulation.physical",
     "LogError": "coordarm.symbolic.errors",
     "BuildError": "coordarm.symbolic.errors",
     "Scenario": "coordarm.simulation.scenario",

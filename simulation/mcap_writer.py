@@ -34,12 +34,13 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from coordarm.symbolic import ConfigError, CoordinatingController, LogError, SingularityError
+from coordarm.symbolic import CollisionError, ConfigError, CoordinatingController, LogError, SingularityError
 from coordarm.symbolic.curves import Line
 
 from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, SOURCES, NumericChannel,
                           numeric_channels, scene_update_schema_bytes)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
+from .obstacles import outline
 from .run import Run
 from .scenario import Scenario
 
@@ -83,15 +84,27 @@ def build_info(scenario: Scenario) -> dict[str, str]:
             "python": platform.python_version()}
 
 
-def outcome_of(error: BaseException | None, last_t: float | None) -> dict[str, Any]:
-    """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``."""
+def outcome_of(error: BaseException | None, last_t: float | None,
+               contacts: list[dict] | None = None) -> dict[str, Any]:
+    """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``.
+
+    ``contacts`` (the records of an ``--allow-contact`` run) are added when there are any.
+    """
     if error is None:
-        return {"status": "completed", "t_end": last_t}
-    if isinstance(error, SingularityError):
-        return {"status": "singularity", "t_end": last_t, "time": error.time, "link": error.link,
-                "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
-    status = "interrupted" if isinstance(error, KeyboardInterrupt) else "error"
-    return {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
+        out = {"status": "completed", "t_end": last_t}
+    elif isinstance(error, SingularityError):
+        out = {"status": "singularity", "t_end": last_t, "time": error.time, "link": error.link,
+               "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
+    elif isinstance(error, CollisionError):
+        c = error.contact
+        out = {"status": "collision", "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
+               "value": c.value, "threshold": c.threshold, "obstacle": c.obstacle, "message": str(error)}
+    else:
+        status = "interrupted" if isinstance(error, KeyboardInterrupt) else "error"
+        out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
+    if contacts:
+        out["contacts"] = contacts
+    return out
 
 
 class RunLogger:
@@ -196,10 +209,12 @@ class RunLogger:
         self._last: Run | None = None
         self._last_logged = -1  # global index of the last sample logged
         self._flushed = time.monotonic()
-        walls = np.asarray(scenario.obstacles, dtype=float).reshape(-1, 2)
-        self._wall_lines = (_line(walls, 2, 0.02, (0.2, 0.2, 0.2, 1.0)),) if len(walls) else ()  # same in every scene
+        self._wall_lines = tuple(_line(outline(ob), 0, 0.02, (0.2, 0.2, 0.2, 1.0))  # same in every scene
+                                 for ob in scenario.obstacles)
         self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
         self.outcome: dict[str, Any] | None = None
+        #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
+        self.contacts: list[dict] = []
         self._worker = Worker(self._process, "coordarm-log", 8) if threaded else None
 
     def _check(self) -> None:
@@ -373,7 +388,7 @@ class RunLogger:
                     self._add_samples(self._last, np.array([len(self._last.t) - 1]))
             if len(self._pending) or self._extras:
                 self._write_chunk(len(self._pending))
-            self.outcome = outcome_of(error, last_t)
+            self.outcome = outcome_of(error, last_t, self.contacts)
             self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in self.outcome.items()})
             self.file.close()
         except Exception as exc:

@@ -11,7 +11,9 @@ from typing import Any, Callable
 import numpy as np
 
 from coordarm.generated.compiled import split_outputs
-from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError, TubeError
+from coordarm.symbolic import (BuildError, CollisionError, ConfigError, CoordarmError, CoordinatingController,
+                               SingularityError, TubeError)
+from coordarm.symbolic.curves import unwrap_s
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
@@ -92,8 +94,8 @@ def check_number(value: Any, name: str, positive: bool = True) -> float:
 class Progress:
     """A one-line progress bar on stderr (redrawn in place on a terminal, every 10% otherwise)."""
 
-    def __init__(self, total: float, label: str = "run", stream=None) -> None:
-        self.total, self.label, self.stream = total, label, stream or sys.stderr
+    def __init__(self, total: float, label: str = "run", stream=None, unit: str = "t = {done:.2f}/{total:.2f} s") -> None:
+        self.total, self.label, self.stream, self.unit = total, label, stream or sys.stderr, unit
         self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
         self.start, self.last = _time.perf_counter(), -1
 
@@ -104,7 +106,7 @@ class Progress:
             return
         self.last = decile
         bar = "#" * int(frac * 30)
-        msg = (f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  t = {done:.2f}/{self.total:.2f} s  "
+        msg = (f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  {self.unit.format(done=done, total=self.total)}  "
                f"{_time.perf_counter() - self.start:.1f} s wall")
         self.stream.write(("\r" + msg) if self.tty else msg + "\n")
         self.stream.flush()
@@ -204,7 +206,8 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
 def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.001,
              t0: float = 0.0, *, backend: str = "auto", chunk: int = DEFAULT_CHUNK,
              thresholds: dict[str, float] | None = None, progress: bool | None = None,
-             on_chunk: Callable[[Run], None] | None = None) -> Run:
+             on_chunk: Callable[[Run], None] | None = None, physical: Any = None,
+             check_every: int = 1, allow_contact: bool = False) -> Run:
     """Integrate the closed loop with fixed-step RK4 from ``q0`` at ``t0`` for ``duration``.
 
     Parameters
@@ -228,10 +231,19 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         Show a progress bar on stderr (default: for runs of more than 20,000 steps).
     on_chunk : callable, optional
         Called with each completed chunk (a :class:`Run` of its rows), e.g. a logger.
+    physical : Physical, optional
+        Joint limits, self-collision and obstacles to check
+        (:class:`coordarm.simulation.physical.Physical`, anything with ``check(t, q)``).
+    check_every : int
+        Check every this many steps (e.g. the log's decimation); the last state is always checked.
+    allow_contact : bool
+        Keep going after a contact; ``run.info["contacts"]`` then lists the first contact of
+        every (kind, links, obstacle).
 
     Returns
     -------
     Run
+        ``s`` is continuous on closed curves (unwrapped past the branch cut, turns kept).
 
     Raises
     ------
@@ -245,6 +257,9 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         (a SingularityError, ``kind = "tube"``) a central point reached the tube radius of a
         :class:`~symbolic.paths.Path` (its smallest arc radius), where ``phi``, ``psi`` stop being
         smooth; ``err.run`` holds the run up to there.
+    CollisionError
+        A contact (joint limit, self-collision, obstacle) and not ``allow_contact``;
+        ``err.contact`` is the first, ``err.run`` holds the run up to there.
     """
     duration, step = check_number(duration, "duration"), check_number(step, "step")
     t0 = check_number(t0, "t0", positive=False)
@@ -264,6 +279,12 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         where = f"link {link}" if link else "the end point"
         raise ConfigError(f"q0: start configuration is (near) singular: {kind} margin of {where} is "
                           f"{margin:.3g} < {thr[kind]}")
+    if isinstance(check_every, bool) or not isinstance(check_every, int) or check_every < 1:
+        raise ConfigError(f"check_every: need a positive integer, got {check_every!r}")
+    if physical is not None:
+        invalid = physical.check(np.array([t0]), q0[None])
+        if invalid:
+            raise ConfigError(f"q0: start configuration is not physically valid: {invalid[0].describe()}")
 
     tube = float(getattr(ctrl.curve, "tube_radius", math.inf))
     start_out = tube_exit(start["e"][None], tube)
@@ -274,45 +295,87 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     n_steps = int(round(duration / step))
     bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
     parts: list[Run] = []
+    contacts: list = []
     q, k, wall = q0, 0, _time.perf_counter()
+    prev: tuple[float, float] | None = None
     try:
-        while k < n_steps:
-            n = min(chunk, n_steps - k)
-            times = t0 + step * np.arange(k, k + n)
-            Q, U, E, S, LM, LG = _advance(ctrl, compiled, q, times, step)
-            part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG, ctrl.speeds(times))
-            bad = first_violation(part.link_margins, part.longitudinal, thr)
-            out = tube_exit(part.e, tube)
-            if out is not None and (bad is None or out[0] <= bad[0]):
-                row, link, dist = out
-                error = TubeError(part.t[row], link, dist, "tube", tube)
-            elif bad is not None:
-                row, kind, link, margin = bad
-                error = SingularityError(part.t[row], link, margin, kind, thr[kind])
-            if out is not None or bad is not None:
+        while k <= n_steps:
+            if k < n_steps:
+                n = min(chunk, n_steps - k)
+                times = t0 + step * np.arange(k, k + n)
+                Q, U, E, S, LM, LG = _advance(ctrl, compiled, q, times, step)
+                part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG, ctrl.speeds(times))
+            else:          # the final state
+                n, t_end = 1, t0 + step * n_steps
+                final = (compiled or ctrl).evaluate(q, t_end)
+                part = Run(np.array([t_end]), q[None], final["u"][None], final["e"][None],
+                           np.array([final["s"]]), final["link_margins"][None], np.array([final["longitudinal"]]),
+                           np.array([ctrl.speed_at(t_end)]))
+            part.s = unwrap_s(ctrl.curve, part.t, part.s, prev)
+            prev = (float(part.t[-1]), float(part.s[-1]))
+            stop = _first_stop(part, k, n_steps, thr, physical, check_every, allow_contact, contacts, tube)
+            if stop is not None:
+                row, error = stop
                 part = _rows(part, slice(0, row + 1))
                 parts.append(part)
                 if on_chunk:
                     on_chunk(part)
-                error.run = _concat(parts, dict(info, stopped=error.kind if error.kind == "tube" else "singularity"))
+                error.run = _concat(parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts)))
                 raise error
             parts.append(part)
             if on_chunk:
                 on_chunk(part)
+            if k == n_steps:
+                break
             q, k = Q[-1], k + n
             if bar:
                 bar.update(step * k)
-        final = (compiled or ctrl).evaluate(q, t0 + step * n_steps)
-        last = Run(np.array([t0 + step * n_steps]), q[None], final["u"][None], final["e"][None],
-                   np.array([final["s"]]), final["link_margins"][None], np.array([final["longitudinal"]]),
-                   np.array([ctrl.speed_at(t0 + step * n_steps)]))
-        parts.append(last)
-        if on_chunk:
-            on_chunk(last)
     finally:
         if bar:
             bar.close()
+    info = dict(info, contacts=_records(contacts))
     return _concat(parts, dict(info, stopped="completed", wall_time=_time.perf_counter() - wall))
+
+
+_STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision"}
+
+
+def _records(contacts: list) -> list[dict]:
+    return [c.to_dict() for c in contacts]
+
+
+def _first_stop(part: Run, k: int, n_steps: int, thr: dict, physical: Any, check_every: int,
+                allow_contact: bool, contacts: list, tube: float = math.inf) -> tuple[int, CoordarmError] | None:
+    """The first row of ``part`` (global step ``k`` at row 0) where the run must stop, and why.
+
+    A contact at or before the first singular row wins. With ``allow_contact`` the first
+    contact of every (kind, links, obstacle) is appended to ``contacts`` instead.
+    """
+    stop = None
+    bad = first_violation(part.link_margins, part.longitudinal, thr)
+    if bad is not None:
+        row, kind, link, margin = bad
+        stop = row, SingularityError(part.t[row], link, margin, kind, thr[kind])
+    out = tube_exit(part.e, tube)
+    if out is not None and (stop is None or out[0] <= stop[0]):
+        row, link, dist = out
+        stop = row, TubeError(part.t[row], link, dist, "tube", tube)
+    if physical is not None:
+        g = k + np.arange(len(part.t))
+        rows = np.flatnonzero((g % check_every == 0) | (g == n_steps))
+        if stop is not None:
+            rows = rows[rows <= stop[0]]
+        if len(rows):
+            found = physical.check(part.t[rows], part.q[rows])
+            if found and not allow_contact:
+                row = int(rows[np.searchsorted(part.t[rows], found[0].time)])
+                return row, CollisionError(found[0])
+            seen = {(c.kind, c.links, c.obstacle) for c in contacts}
+            for c in found:
+                if (c.kind, c.links, c.obstacle) not in seen:
+                    seen.add((c.kind, c.links, c.obstacle))
+                    contacts.append(c)
+    return stop
 
 
 def _advance(ctrl, compiled, q, times, step):
