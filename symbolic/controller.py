@@ -25,8 +25,11 @@ from .errors import ConfigError
 LAWS = ("structured", "dense")
 #: Names of the outputs of :meth:`CoordinatingController.law`, in order.
 OUTPUTS = ("u", "e", "s", "link_margins", "longitudinal", "longitudinal_pivot")
+#: Extra outputs of a chain on a rail (introduction axis): the span ``sigma = psi(y^m) - psi(y^1)``
+#: and the rail margin ``|grad psi(y^1) . rail| / |grad psi(y^1)|`` (its pivot, 0 = rail across the path).
+RAIL_OUTPUTS = ("sigma", "rail_margin")
 #: The outputs that are scalars (the others are vectors over links).
-SCALAR_OUTPUTS = ("s", "longitudinal", "longitudinal_pivot")
+SCALAR_OUTPUTS = ("s", "longitudinal", "longitudinal_pivot") + RAIL_OUTPUTS
 
 
 class CoordinatingController:
@@ -44,10 +47,21 @@ class CoordinatingController:
         Commanded end-point speed ``v*(t)`` along the curve [m/s].
     law : {"structured", "dense"}
         Form of the inverse control transformation used by :meth:`control`.
+    span : float or callable, optional
+        Only for a chain on a rail: the commanded span ``sigma*(t)`` [m], tracked by
+        ``sigma_dot = sigma*' - K (sigma - sigma*)``. None (default): the span is held,
+        ``sigma_dot = 0``.
+
+    Notes
+    -----
+    On a rail (``chain.rail``) ``q = (d, q_1..q_m)`` and the outputs are ``(s, sigma, e^2..e^m)``:
+    the rail rate follows from the span row alone, ``d_dot = (v* - sigma_dot - dpsi/dt(y^1)) /
+    (grad psi(y^1) . rail)`` (the rail pivot), then the revolute joints from the usual O(m)
+    recursion with ``ydot^1 = d_dot rail``.
     """
 
     def __init__(self, chain: PlanarChain, curve: Curve, gain: float, speed: Any,
-                 law: str = "structured") -> None:
+                 law: str = "structured", span: Any = None) -> None:
         if not isinstance(chain, PlanarChain):
             raise ConfigError(f"chain: expected a PlanarChain, got {type(chain).__name__}")
         if not isinstance(curve, Curve):
@@ -59,6 +73,11 @@ class CoordinatingController:
             raise ConfigError(f"law: expected one of {LAWS}, got {law!r}")
         self.chain, self.curve, self.gain, self.law_form = chain, curve, float(gain), law
         self.speed = _param(speed, "speed")
+        if span is not None and not chain.rail:
+            raise ConfigError("span: only a chain on a rail (base = 'rail') has a span output")
+        self.span = None if span is None else _param(span, "span")
+        #: Names of the outputs of :meth:`law`, in order (the rail adds :data:`RAIL_OUTPUTS`).
+        self.outputs = OUTPUTS + (RAIL_OUTPUTS if chain.rail else ())
         self._geometry = self._geometry_function()
         self._cache: dict = {}
 
@@ -152,6 +171,41 @@ class CoordinatingController:
         return ca.Function("first_carry", [q1], [ca.vertcat(0, 0, q1, c, s, 0, 0, -h * s, h * c, 0, 1, 1)],
                            ["q_1"], ["carry"])
 
+    def span_rate(self, sigma, t):
+        """Commanded ``sigma_dot``: ``sigma*' - K (sigma - sigma*)``, or 0 when the span is held."""
+        if self.span is None:
+            return 0 * t
+        ts = ca.SX.sym("ts")
+        target = ca.SX(self.span(ts))
+        rate = ca.Function("span", [ts], [target, ca.jacobian(target, ts)])
+        sig_t, sig_dot = rate(t)
+        return sig_dot - self.gain * (sigma - sig_t)
+
+    def rail_head(self) -> ca.Function:
+        """``(d, q_1, t, sigma) -> (carry, d_dot, rail_margin, psi_1)`` of a chain on a rail.
+
+        The span row minus the ``s`` row leaves ``grad psi(y^1) . rail d_dot = v* - sigma_dot -
+        dpsi/dt(y^1)``: the rail rate, dividing by the rail pivot ``grad psi(y^1) . rail``; the carry
+        is :meth:`first_carry`'s with ``y^1 = d rail`` and ``ydot^1 = d_dot rail``.
+        """
+        d, q1, t, sigma = ca.SX.sym("d"), ca.SX.sym("q_1"), ca.SX.sym("t"), ca.SX.sym("sigma")
+        rail = ca.DM(self.chain.rail_direction)
+        y1 = d * rail
+        _, _, _, psi1, h1, psit1 = self._geometry(y1, t)
+        pivot = ca.dot(h1, rail)
+        rate = (ca.SX(self.speed(t)) - self.span_rate(sigma, t) - psit1) / pivot
+        carry = self.first_carry()(q1)
+        carry = ca.vertcat(y1, carry[2:5], rate * rail, carry[7:])
+        return ca.Function("rail_head", [d, q1, t, sigma], [carry, rate, ca.fabs(pivot) / ca.norm_2(h1), psi1],
+                           ["d", "q_1", "t", "sigma"], ["carry", "d_dot", "rail_margin", "psi_1"])
+
+    def _span_now(self, q, t):
+        """``sigma = psi(y^m) - psi(y^1)`` from the forward kinematics (needed only for a commanded span)."""
+        if self.span is None:
+            return 0
+        y = self.chain.centres(q)
+        return self._geometry(y[:, self.chain.m - 1], t)[3] - self._geometry(y[:, 0], t)[3]
+
     def tail(self) -> ca.Function:
         """``(carry_m, t) -> (s, p, longitudinal, longitudinal_pivot)`` after the last link.
 
@@ -181,13 +235,31 @@ class CoordinatingController:
         m = self.chain.m
         w_t = self.time_features()(t)
         fold = self.link_step().mapaccum("links", m - 1)
-        carries, outs = fold(self.first_carry()(q[0]), q[1:].T, ca.repmat(w_t, 1, m - 1))
+        qr = self.chain.revolute(q)
+        if self.chain.rail:
+            carry0, rail_rate, rail_margin, psi1 = self.rail_head()(q[0], qr[0], t, self._span_now(q, t))
+        else:
+            carry0 = self.first_carry()(qr[0])
+        carries, outs = fold(carry0, qr[1:].T, ca.repmat(w_t, 1, m - 1))
         psi, p, margin, pivot = self.tail()(carries[:, m - 2], t)
         a = ca.vertcat(0, outs[2, :].T)
         b = ca.vertcat(1, outs[3, :].T)
         w = a + b * p
         qdot = w - ca.vertcat(0, w[:-1])
-        return (self._u_from_rates(qdot), outs[0, :].T, psi, outs[1, :].T, margin, pivot)
+        u = self._u_from_rates(qdot)
+        if self.chain.rail:
+            return (ca.vertcat(rail_rate, u), outs[0, :].T, psi, outs[1, :].T, margin, pivot,
+                    psi - psi1, rail_margin)
+        return (u, outs[0, :].T, psi, outs[1, :].T, margin, pivot)
+
+    @property
+    def B_joints(self) -> np.ndarray:
+        """``B`` over all joints: ``diag(1, B)`` on a rail (``qdot_d = u_d``), else ``B``."""
+        if not self.chain.rail:
+            return self.chain.B
+        out = np.eye(self.chain.dof)
+        out[1:, 1:] = self.chain.B
+        return out
 
     def decoupling_matrix_expr(self, q, t):
         """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD."""
@@ -199,10 +271,14 @@ class CoordinatingController:
             if j == self.chain.m - 1 and not rows:
                 rows.append(ca.mtimes(h.T, Cj))
                 rhs.append(self.speed(t) - psit)
+                if self.chain.rail:        # the span row: sigma = psi(y^m) - psi(y^1)
+                    _, _, _, psi1, h1, psit1 = self._geometry(y[:, 0], t)
+                    rows.append(rows[0] - ca.mtimes(h1.T, ca.jacobian(y[:, 0], q)))
+                    rhs.append(self.span_rate(psi - psi1, t) - psit + psit1)
                 continue
             rows.append(ca.mtimes(g.T, Cj))
             rhs.append(-self.gain * phi - phit)
-        M = ca.mtimes(ca.vertcat(*rows), ca.DM(self.chain.B))
+        M = ca.mtimes(ca.vertcat(*rows), ca.DM(self.B_joints))
         return M, ca.vertcat(*rhs)
 
     # ------------------------------------------------------------ CasADi Functions
@@ -218,16 +294,16 @@ class CoordinatingController:
             raise ConfigError(f"law: expected one of {LAWS}, got {form!r}")
         key = ("law", form)
         if key not in self._cache:
-            q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
+            q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")
             outs = list(self._structured(q, t))
             if form == "dense":
-                qs, ts = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
+                qs, ts = ca.SX.sym("q", self.chain.dof), ca.SX.sym("t")
                 M, r = self.decoupling_matrix_expr(qs, ts)
                 Mr = ca.Function("decoupling", [qs, ts], [M, r])
                 Mq, rq = Mr(q, t)
                 outs[0] = ca.solve(Mq, rq, "qr")
             self._cache[key] = ca.Function(f"coordinating_law_{form}", [q, t], outs,
-                                           ["q", "t"], list(OUTPUTS))
+                                           ["q", "t"], list(self.outputs))
         return self._cache[key]
 
     def fast_law(self, form: str | None = None) -> ca.Function:
@@ -247,22 +323,23 @@ class CoordinatingController:
         key = ("rk4", form, float(h))
         if key not in self._cache:
             law = self.fast_law(form)
-            B = ca.DM(self.chain.B)
-            q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
+            B = ca.DM(self.B_joints)
+            q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")
             out1 = law(q, t)
             k1 = ca.mtimes(B, out1[0])
             k2 = ca.mtimes(B, law(q + h / 2 * k1, t + h / 2)[0])
             k3 = ca.mtimes(B, law(q + h / 2 * k2, t + h / 2)[0])
             k4 = ca.mtimes(B, law(q + h * k3, t + h)[0])
             q_next = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *out1[:5]],
-                                           ["q", "t"], ["q_next", *OUTPUTS[:5]])
+            diag = [i for i, name in enumerate(self.outputs) if name != "longitudinal_pivot"]
+            self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *(out1[i] for i in diag)],
+                                           ["q", "t"], ["q_next", *(self.outputs[i] for i in diag)])
         return self._cache[key]
 
     def decoupling_function(self) -> ca.Function:
         """``(q, t) -> (M, rhs)``: the dense decoupling matrix of eq. 26 and its right-hand side."""
         if "M" not in self._cache:
-            q, t = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
+            q, t = ca.SX.sym("q", self.chain.dof), ca.SX.sym("t")
             M, r = self.decoupling_matrix_expr(q, t)
             self._cache["M"] = ca.Function("decoupling", [q, t], [M, r], ["q", "t"], ["M", "rhs"])
         return self._cache["M"]
@@ -299,13 +376,13 @@ class CoordinatingController:
             raise ConfigError(f"t: must be finite, got {t!r}")
         res = self.fast_law(form)(q, t)
         out = {}
-        for name, v in zip(OUTPUTS, res):
+        for name, v in zip(self.outputs, res):
             v = np.asarray(v, dtype=float).ravel()
             out[name] = float(v[0]) if name in SCALAR_OUTPUTS else v
         return out
 
     def control(self, q, t: float = 0.0) -> np.ndarray:
-        """Control ``u(q, t)``, shape (m,)."""
+        """Control ``u(q, t)``, shape (dof,) (``d_dot`` first on a rail)."""
         return self.evaluate(q, t)["u"]
 
     def centre_geometry(self, Q, T) -> dict[str, np.ndarray]:
@@ -368,6 +445,11 @@ class CoordinatingController:
         rhs : (N, m) ndarray
             ``(v* - dpsi/dt, -K e^j - dphi/dt)``.
         """
+        if self.chain.rail:          # rows (s, sigma, e), columns (d, u): by AD, O(m^2) symbolic
+            Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
+            M, r = self._mapped("decoupling", self.decoupling_function, len(Q))(Q.T, T[None])
+            n = self.chain.dof
+            return (np.asarray(M).reshape(n, len(Q), n).transpose(1, 0, 2), np.asarray(r).T.reshape(len(Q), n))
         geo = geometry if geometry is not None else self.centre_geometry(Q, T)
         Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
         m, xi = self.chain.m, self.chain.xi
