@@ -49,8 +49,12 @@ class Run:
         Longitudinal margin (0 = end point cannot be pushed along the curve).
     v_star : (N+1,) array
         Commanded speed [m/s].
+    sigma, rail_margin : (N+1,) array or None
+        On a rail only: the span ``psi(y^m) - psi(y^1)`` [m] and the rail margin [-].
     info : dict
         Backend, wall time, stop reason.
+
+    On a rail ``q`` and ``u`` have m+1 columns, the rail position ``d`` [m] and its rate first.
     """
 
     t: np.ndarray
@@ -61,6 +65,8 @@ class Run:
     link_margins: np.ndarray
     longitudinal: np.ndarray
     v_star: np.ndarray
+    sigma: np.ndarray | None = None
+    rail_margin: np.ndarray | None = None
     info: dict = field(default_factory=dict)
 
     def s_reference(self) -> np.ndarray:
@@ -271,7 +277,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
     thr = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
     q0 = ctrl.chain.check_q(q0, "q0")
-    check_curve_reaches_base(ctrl, t0, t0 + duration)
+    if not ctrl.chain.rail:          # a rail carries the base along; its own margin guards it
+        check_curve_reaches_base(ctrl, t0, t0 + duration)
     start = ctrl.evaluate(q0, t0)
     bad = first_violation(start["link_margins"][None], np.array([start["longitudinal"]]), thr)
     if bad is not None:
@@ -303,14 +310,15 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
             if k < n_steps:
                 n = min(chunk, n_steps - k)
                 times = t0 + step * np.arange(k, k + n)
-                Q, U, E, S, LM, LG = _advance(ctrl, compiled, q, times, step)
-                part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG, ctrl.speeds(times))
+                Q, U, E, S, LM, LG, extra = _advance(ctrl, compiled, q, times, step)
+                part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG, ctrl.speeds(times), **extra)
             else:          # the final state
                 n, t_end = 1, t0 + step * n_steps
                 final = (compiled or ctrl).evaluate(q, t_end)
                 part = Run(np.array([t_end]), q[None], final["u"][None], final["e"][None],
                            np.array([final["s"]]), final["link_margins"][None], np.array([final["longitudinal"]]),
-                           np.array([ctrl.speed_at(t_end)]))
+                           np.array([ctrl.speed_at(t_end)]),
+                           **{a: np.array([final[a]]) for a in OPTIONAL if a in final})
             part.s = unwrap_s(ctrl.curve, part.t, part.s, prev)
             prev = (float(part.t[-1]), float(part.s[-1]))
             stop = _first_stop(part, k, n_steps, thr, physical, check_every, allow_contact, contacts, tube)
@@ -356,6 +364,11 @@ def _first_stop(part: Run, k: int, n_steps: int, thr: dict, physical: Any, check
     if bad is not None:
         row, kind, link, margin = bad
         stop = row, SingularityError(part.t[row], link, margin, kind, thr[kind])
+    if part.rail_margin is not None:
+        low = np.flatnonzero(~(part.rail_margin >= thr["link"]))
+        if len(low) and (stop is None or low[0] < stop[0]):
+            row = int(low[0])
+            stop = row, SingularityError(part.t[row], 1, float(part.rail_margin[row]), "rail", thr["link"])
     out = tube_exit(part.e, tube)
     if out is not None and (stop is None or out[0] <= stop[0]):
         row, link, dist = out
@@ -383,17 +396,23 @@ def _advance(ctrl, compiled, q, times, step):
     if compiled is not None:
         Q, D = compiled.chunk(q, times, step)
         d = split_outputs(D, ctrl.chain.m)
-        return Q, d["u"], d["e"], d["s"], d["link_margins"], d["longitudinal"]
-    Q, U, E, S, LM, LG = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
-    return Q.T, U.T, E.T, S.ravel(), LM.T, LG.ravel()
+        return Q, d["u"], d["e"], d["s"], d["link_margins"], d["longitudinal"], {}
+    Q, U, E, S, LM, LG, *rail = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
+    extra = {"sigma": rail[0].ravel(), "rail_margin": rail[1].ravel()} if rail else {}
+    return Q.T, U.T, E.T, S.ravel(), LM.T, LG.ravel(), extra
 
 
 ARRAYS = ("t", "q", "u", "e", "s", "link_margins", "longitudinal", "v_star")
+#: Arrays present only on some runs (a chain on a rail).
+OPTIONAL = ("sigma", "rail_margin")
 
 
 def _rows(run: Run, rows: slice) -> Run:
-    return Run(*(getattr(run, a)[rows] for a in ARRAYS), info=dict(run.info))
+    extra = {a: getattr(run, a)[rows] for a in OPTIONAL if getattr(run, a) is not None}
+    return Run(*(getattr(run, a)[rows] for a in ARRAYS), **extra, info=dict(run.info))
 
 
 def _concat(parts: list[Run], info: dict) -> Run:
-    return Run(*(np.concatenate([getattr(p, a) for p in parts]) for a in ARRAYS), info=info)
+    extra = {a: np.concatenate([getattr(p, a) for p in parts]) for a in OPTIONAL
+             if all(getattr(p, a) is not None for p in parts)}
+    return Run(*(np.concatenate([getattr(p, a) for p in parts]) for a in ARRAYS), **extra, info=info)

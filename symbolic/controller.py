@@ -390,8 +390,8 @@ class CoordinatingController:
 
         Parameters
         ----------
-        Q : (N, m) array_like
-            Joint coordinates [rad].
+        Q : (N, dof) array_like
+            Joint coordinates [rad] (``d`` [m] first on a rail).
         T : (N,) array_like
             Times [s].
 
@@ -402,9 +402,9 @@ class CoordinatingController:
             ``gpsi`` of shape (N, m, 2), from one mapped call of the geometry Function.
         """
         Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
-        m = self.chain.m
-        if Q.shape[1:] != (m,) or T.shape != (len(Q),):
-            raise ConfigError(f"Q, T: need shapes (N, {m}) and (N,), got {Q.shape} and {T.shape}")
+        m, n = self.chain.m, self.chain.dof
+        if Q.shape[1:] != (n,) or T.shape != (len(Q),):
+            raise ConfigError(f"Q, T: need shapes (N, {n}) and (N,), got {Q.shape} and {T.shape}")
         N = len(Q)
         Y = self.chain.centres_np(Q)                                      # (N, m, 2)
         geo = self._mapped("geometry", lambda: self._geometry, N * m)

@@ -121,7 +121,7 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
     return q_star
 
 
-def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, base=(0.0, 0.0),
+def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, d: float = 0.0,
                  tol: float = 1e-13) -> np.ndarray:
     """A zig-zag laid along the curve link by link: every central point ``y^2..y^m`` on it.
 
@@ -138,13 +138,13 @@ def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, bas
         Fold angle [rad], ``0 < |beta| < pi/2``.
     t0 : float
         Time at which to lay the chain on the curve [s].
-    base : (float, float)
-        Position of the first central point [m].
+    d : float
+        Rail position [m] (a chain on a rail only; the base is then ``d`` along the rail).
 
     Returns
     -------
-    (m,) ndarray
-        Joint angles ``q`` [rad] (revolute joints only).
+    (dof,) ndarray
+        Joint coordinates ``q`` (``d`` first on a rail) [m, rad].
 
     Raises
     ------
@@ -154,7 +154,7 @@ def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, bas
     if not 0 < abs(beta) < np.pi / 2:
         raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {beta}")
     geo, h = ctrl._geometry, 0.5 * ctrl.chain.xi
-    y = np.asarray(base, float)
+    y = ctrl.chain.base_point(np.array([float(d)]))
 
     def tangent(p):
         g = np.asarray(geo(p, t0)[4]).ravel()
@@ -166,9 +166,9 @@ def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, bas
         end = y + h * np.array([np.cos(alphas[-1]), np.sin(alphas[-1])])
         a = 2 * tangent(end) - alphas[-1]
         for _ in range(60):
-            d = np.array([np.cos(a), np.sin(a)])
-            phi, g = (np.asarray(v).ravel() for v in geo(end + h * d, t0)[:2])
-            slope = h * float(g @ np.array([-d[1], d[0]]))
+            dv = np.array([np.cos(a), np.sin(a)])
+            phi, g = (np.asarray(v).ravel() for v in geo(end + h * dv, t0)[:2])
+            slope = h * float(g @ np.array([-dv[1], dv[0]]))
             if slope == 0:
                 break
             step = float(phi[0]) / slope
@@ -182,4 +182,5 @@ def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, bas
                               f"(beta = {beta}); try another beta or a gentler curve")
         alphas.append(a)
         y, s_prev = y_new, s
-    return np.diff(np.r_[0.0, alphas])
+    q = np.diff(np.r_[0.0, alphas])
+    return np.r_[float(d), q] if ctrl.chain.rail else q
