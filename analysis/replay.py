@@ -94,7 +94,7 @@ class Replay:
     t, s, v_star, longitudinal : (N,) arrays
         Time [s], arc length of the end point [m], commanded speed [m/s], longitudinal margin.
     q, u : (N, m) arrays
-        Joint coordinates [rad] and control.
+        Joint coordinates [rad] and control (N, m+1 on a rail: ``d`` [m] and its rate first).
     e, link_margins : (N, m-1) arrays
         Deviations ``e^2..e^m`` [m] and link margins of links 2..m.
     cond_t, cond : (K,) arrays
@@ -114,6 +114,8 @@ class Replay:
         Messages read.
     problems : list of str
         What was dropped while reading (incomplete trailing samples, a damaged tail).
+    sigma, rail_margin : (N,) arrays or None
+        On a rail only: the span [m] and the rail margin.
     """
 
     path: Path
@@ -135,11 +137,13 @@ class Replay:
     recovered: bool
     messages: int
     problems: list = field(default_factory=list)
+    sigma: np.ndarray | None = None
+    rail_margin: np.ndarray | None = None
 
     def to_run(self) -> Run:
         """The samples as a :class:`simulation.run.Run` (for the figure functions)."""
         return Run(self.t, self.q, self.u, self.e, self.s, self.link_margins, self.longitudinal, self.v_star,
-                   info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
+                   sigma=self.sigma, rail_margin=self.rail_margin, info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
 
     def controller(self):
         """The controller that made the run, rebuilt from the scenario."""
@@ -237,7 +241,7 @@ def load(path: str | Path) -> Replay:
     except (KeyError, ValueError, ConfigError) as exc:
         raise LogError(f"{path}: the 'scenario' metadata is not a valid scenario: {exc}") from None
     m = int(spec["chain"]["links"])
-    specs = numeric_channels(m)
+    specs = numeric_channels(m, scenario.chain().rail)
     by_topic = {ch.topic: cid for cid, ch in channels.items()}
     per_channel: dict[str, np.ndarray] = {}
     grouped: dict[int, list[RawMessage]] = {}

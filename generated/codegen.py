@@ -71,10 +71,13 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     Raises
     ------
     BuildError
-        A non-diagonal B, or an unknown form.
+        A non-diagonal B, a chain on a rail, or an unknown form.
     """
     if form not in LAWS:
         raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
+    if ctrl.chain.rail:
+        raise BuildError("base: a chain on a rail (introduction axis) runs on the interpreted backend only "
+                         "for now; use backend 'interpreted' ('auto' falls back by itself)")
     b_macros = _b_macros(ctrl)
     funcs = _functions(ctrl, form)
     cg = ca.CodeGenerator("coordarm", dict(CODEGEN_OPTIONS))

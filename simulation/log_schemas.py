@@ -47,9 +47,13 @@ class NumericChannel:
         """Bytes of one encoded message (header included)."""
         return len(CDR_HEADER) + 8 * self.width
 
+    #: Comment lines heading the ``ros2msg`` definition (e.g. what ``q[0]`` is on a rail).
+    comment: str = ""
+
     def schema_text(self) -> str:
-        """The ``ros2msg`` definition, one field per line."""
-        return "".join(f"float64{f'[{n}]' if n else ''} {name}\n" for name, n in self.fields)
+        """The ``ros2msg`` definition, one field per line (after the comment lines, if any)."""
+        head = "".join(f"# {line}\n" for line in self.comment.splitlines())
+        return head + "".join(f"float64{f'[{n}]' if n else ''} {name}\n" for name, n in self.fields)
 
     def slices(self) -> dict[str, slice | int]:
         """Column of each field in the decoded ``(N, width)`` array (an int for scalars)."""
@@ -62,22 +66,28 @@ class NumericChannel:
 
 #: The :class:`~simulation.run.Run` array behind each field of the per-step channels.
 SOURCES = {"t": "t", "q": "q", "u": "u", "s": "s", "v_star": "v_star", "e": "e", "link": "link_margins",
-           "longitudinal": "longitudinal"}
+           "longitudinal": "longitudinal", "sigma": "sigma", "rail": "rail_margin"}
+
+#: The comment of ``/joint_state`` on a rail: ``q`` and ``u`` hold the rail joint first.
+RAIL_COMMENT = ("q[0]: rail position d [m] (introduction axis); q[1..m]: revolute joints q_1..q_m [rad]\n"
+                "u[0]: rail rate d_dot [m/s]; u[1..m]: revolute controls")
 
 
-def numeric_channels(links: int) -> dict[str, NumericChannel]:
+def numeric_channels(links: int, rail: bool = False) -> dict[str, NumericChannel]:
     """The per-step channels and the condition-number channel for a chain of ``links`` links.
 
-    Keys are short names (``joint_state``, ``task_state``, ``margins``, ``cond``).
+    Keys are short names (``joint_state``, ``task_state``, ``margins``, ``cond``). On a ``rail``
+    ``q``, ``u`` hold ``d`` first (m+1 entries, said in the schema's comment), ``/task_state``
+    adds the span ``sigma`` and ``/margins`` the ``rail`` margin.
     """
-    m = links
+    m, n = links, links + int(rail)
     return {
         "joint_state": NumericChannel("/joint_state", "coordarm_msgs/msg/JointState",
-                                      (("t", 0), ("q", m), ("u", m))),
+                                      (("t", 0), ("q", n), ("u", n)), RAIL_COMMENT if rail else ""),
         "task_state": NumericChannel("/task_state", "coordarm_msgs/msg/TaskState",
-                                     (("t", 0), ("s", 0), ("v_star", 0), ("e", m - 1))),
+                                     (("t", 0), ("s", 0), ("v_star", 0), ("e", m - 1)) + ((("sigma", 0),) if rail else ())),
         "margins": NumericChannel("/margins", "coordarm_msgs/msg/Margins",
-                                  (("t", 0), ("link", m - 1), ("longitudinal", 0))),
+                                  (("t", 0), ("link", m - 1), ("longitudinal", 0)) + ((("rail", 0),) if rail else ())),
         "cond": NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning",
                                (("t", 0), ("cond", 0))),
     }

@@ -172,7 +172,7 @@ class RunLogger:
             raise ConfigError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
         self.flush_interval = float(flush_interval)
         self.path = Path(path)
-        self.channels: dict[str, NumericChannel] = numeric_channels(m)
+        self.channels: dict[str, NumericChannel] = numeric_channels(m, self.ctrl.chain.rail)
         try:
             self.file = McapFile(self.path, profile="ros2", compression=compression, background=threaded)
         except OSError as exc:

@@ -44,7 +44,7 @@ from .run import DEFAULT_THRESHOLDS, check_number
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
             "obstacles", "figures"}
-KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance"}, "figures": {"stages", "panels"}, "control": {"gain", "speed", "law"},
+KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base"}, "figures": {"stages", "panels"}, "control": {"gain", "speed", "law", "span"},
         "start": {"kind", "beta", "heading", "curve"}, "run": {"duration", "step", "t0"},
         "thresholds": {"link", "longitudinal"}}
 START_KINDS = ("zigzag", "projected", "follow")
@@ -120,6 +120,11 @@ class Scenario:
                     PlanarChain(ch["links"], 1.0, **{k: ch[k]})
                 except ConfigError as exc:
                     raise ConfigError(f"chain.{exc}") from None
+        base = _base_args(ch.get("base", "fixed"))
+        if "span" in spec["control"]:
+            if base["base"] != "rail":
+                raise ConfigError("control.span: only a chain on a rail (chain.base.kind = 'rail') has a span")
+            motion_from_spec(spec["control"]["span"], "control.span")
         if "stages" in spec["figures"]:
             check_stages(spec["figures"]["stages"])
         panels = spec["figures"].get("panels", [])
@@ -202,7 +207,7 @@ class Scenario:
     def chain(self) -> PlanarChain:
         ch = self.spec["chain"]
         return PlanarChain(ch["links"], float(ch["link_length"]), joint_limit=ch.get("joint_limit"),
-                           clearance=float(ch.get("clearance", 0.0)))
+                           clearance=float(ch.get("clearance", 0.0)), **_base_args(ch.get("base", "fixed")))
 
     def physical(self, chain: PlanarChain | None = None) -> Physical:
         """What a run checks: the chain's joint limits and clearance, and the obstacles."""
@@ -211,9 +216,10 @@ class Scenario:
     def controller(self) -> CoordinatingController:
         """The coordinating controller this scenario describes."""
         c = self.spec["control"]
+        span = motion_from_spec(c["span"], "control.span") if "span" in c else None
         return CoordinatingController(self.chain(), curve_from_spec(self.spec["curve"]), float(c["gain"]),
                                       motion_from_spec(c.get("speed", 0.0), "control.speed"),
-                                      law=c["law"])
+                                      law=c["law"], span=span)
 
     def start(self, ctrl: CoordinatingController | None = None) -> np.ndarray:
         """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked).
@@ -226,9 +232,11 @@ class Scenario:
         """
         st = self.spec["start"]
         ctrl = ctrl or self.controller()
+        d0 = max(ctrl.chain.rail_limits[0], 0.0) if ctrl.chain.rail else 0.0
         if st["kind"] == "follow":
-            return follow_curve(ctrl, float(st["beta"]), self.t0)
-        q = ctrl.chain.zigzag(float(st["beta"]), float(st["heading"]))
+            q = follow_curve(ctrl, float(st["beta"]), self.t0, d=d0)
+        else:
+            q = ctrl.chain.zigzag(float(st["beta"]), float(st["heading"]), d=d0)
         if st["kind"] == "projected":
             target = ctrl
             if "curve" in st:
@@ -244,6 +252,24 @@ class Scenario:
     def to_json(self) -> str:
         """The whole scenario as JSON (what a log stores to rebuild the run)."""
         return json.dumps(self.spec, sort_keys=True)
+
+
+def _base_args(spec) -> dict:
+    """``[chain] base``: ``"fixed"`` or ``{kind = "rail", angle = 0.0, limits = [0.0, 5.0]}`` as PlanarChain arguments."""
+    if spec == "fixed":
+        return {"base": "fixed"}
+    if not isinstance(spec, dict) or spec.get("kind") != "rail":
+        raise ConfigError(f"chain.base: expected \"fixed\" or a table {{kind = \"rail\", angle, limits}}, got {spec!r}")
+    unknown = set(spec) - {"kind", "angle", "limits"}
+    if unknown:
+        raise ConfigError(f"chain.base: unknown key(s) {sorted(unknown)}; allowed: ['kind', 'angle', 'limits']")
+    angle = check_number(spec.get("angle", 0.0), "chain.base.angle", positive=False)
+    limits = spec.get("limits", [-math.inf, math.inf])
+    if (not isinstance(limits, list) or len(limits) != 2
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in limits)
+            or not limits[0] < limits[1]):
+        raise ConfigError(f"chain.base.limits: need [low, high] with low < high [m], got {limits!r}")
+    return {"base": "rail", "rail_angle": angle, "rail_limits": tuple(float(v) for v in limits)}
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:

@@ -73,12 +73,16 @@ def place_on_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0) -> np
 def check_start(ctrl: CoordinatingController, q: np.ndarray) -> None:
     """Raise a ConfigError naming the joint or links if ``q`` breaks a joint limit or self-intersects."""
     chain = ctrl.chain
+    q_all, q = q, chain.revolute(np.asarray(q, float))
+    if chain.rail and not chain.rail_limits[0] <= q_all[0] <= chain.rail_limits[1]:
+        raise ConfigError(f"start: the rail position d = {q_all[0]:+.4f} m is outside chain.base.limits "
+                          f"{list(chain.rail_limits)}")
     bad = np.flatnonzero(~(np.abs(q[1:]) <= chain.joint_limits))
     if len(bad):
         j = int(bad[0]) + 2
         raise ConfigError(f"start: joint {j} (between links {j - 1} and {j}) is at {q[j - 1]:+.3f} rad, beyond its "
                           f"limit ±{chain.joint_limits[j - 2]:.3f} rad; choose a smaller start.beta or another start")
-    s, la, lb, d = self_distances(chain.joints_np(q[None]), chain.xi + chain.clearance)
+    s, la, lb, d = self_distances(chain.joints_np(q_all[None]), chain.xi + chain.clearance)
     hit = np.flatnonzero(touching(d, chain.clearance))
     if len(hit):
         k = hit[np.argmin(la[hit])]
