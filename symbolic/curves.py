@@ -62,6 +62,10 @@ class Curve:
         """Points on the curve at time ``t`` for plotting, shape (n, 2)."""
         raise NotImplementedError
 
+    def point_at(self, s: float, t: float = 0.0) -> np.ndarray:
+        """The point of arc length ``s`` at time ``t`` [m] (for drawing the target ``s*(t)``)."""
+        raise NotImplementedError
+
     def to_spec(self) -> dict:
         """The curve as data (only for parameters built from motion primitives)."""
         raise NotImplementedError
@@ -110,6 +114,10 @@ class Line(Curve):
         s = np.linspace(-extent, extent, n)
         return p + s[:, None] * np.array([math.cos(th), math.sin(th)])
 
+    def point_at(self, s: float, t: float = 0.0) -> np.ndarray:
+        th = evaluate(self.angle, t)
+        return np.array([evaluate(c, t) for c in self.point]) + s * np.array([math.cos(th), math.sin(th)])
+
     def to_spec(self) -> dict:
         return {"kind": "line", "point": [motion_to_spec(c) for c in self.point],
                 "angle": motion_to_spec(self.angle)}
@@ -153,6 +161,11 @@ class Circle(Curve):
         c = np.array([evaluate(v, t) for v in self.center])
         a = np.linspace(0, 2 * math.pi, n)
         return c + evaluate(self.radius, t) * np.stack([np.cos(a), np.sin(a)], axis=1)
+
+    def point_at(self, s: float, t: float = 0.0) -> np.ndarray:
+        R, a = evaluate(self.radius, t), evaluate(self.reference, t)
+        ang = a + s / R
+        return np.array([evaluate(c, t) for c in self.center]) + R * np.array([math.cos(ang), math.sin(ang)])
 
     def to_spec(self) -> dict:
         return {"kind": "circle", "center": [motion_to_spec(c) for c in self.center],

@@ -259,3 +259,16 @@ def test_follow_curve_lays_a_zigzag_along_a_bent_path():
     assert np.max(np.abs(g["phi"][0, 1:])) < 1e-9 and np.all(np.diff(g["psi"][0]) > 0)
     assert g["psi"][0, -1] > 1.4                      # past the second junction
     np.testing.assert_allclose(chain.centres_np(q)[0], 0.0)
+
+
+@pytest.mark.parametrize("curve", [Path((0.3, -0.2), 0.4, ISSUE_PATH["segments"], rotation=Sinusoid(0.3, 1.0)),
+                                   curve_from_spec({"kind": "line", "point": [0.1, 0.2], "angle": 0.3}),
+                                   curve_from_spec({"kind": "circle", "center": [0.0, 1.0], "radius": 1.0}),
+                                   curve_from_spec({"kind": "arc", "point": [0.0, 0.0], "angle": 0.2, "radius": 1.5})],
+                         ids=["path", "line", "circle", "arc"])
+def test_point_at_inverts_psi_and_lies_on_the_curve(curve):
+    f = curve.functions()
+    for s in (-0.3, 0.2, 0.9, 1.6, 2.8):
+        p = curve.point_at(s, 0.7)
+        phi, psi = (float(v) for v in f(p, 0.7))
+        assert phi == pytest.approx(0.0, abs=1e-12) and psi == pytest.approx(s, abs=1e-12)
