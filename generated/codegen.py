@@ -39,9 +39,18 @@ class Source:
 
 
 def _functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
+    if form == "structured" and ctrl.chain.rail:
+        extra = [_psi_at(ctrl)] if ctrl.span is not None else []
+        return [ctrl.time_features(), ctrl.rail_head(), ctrl.link_step(), ctrl.tail()] + extra
     if form == "structured":
         return [ctrl.time_features(), ctrl.first_carry(), ctrl.link_step(), ctrl.tail()]
     return [ctrl.law("dense")]
+
+
+def _psi_at(ctrl: CoordinatingController) -> ca.Function:
+    """``(y, t) -> psi``: the arc length at a point, for the span of a commanded rail run."""
+    y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
+    return ca.Function("psi_at", [y, t], [ctrl._geometry(y, t)[3]], ["y", "t"], ["psi"])
 
 
 def _b_macros(ctrl: CoordinatingController) -> str:
@@ -51,6 +60,7 @@ def _b_macros(ctrl: CoordinatingController) -> str:
                          "use backend='interpreted' for a full B")
     if np.all(bd == 1):
         return templates.B_IDENTITY
+    bd = np.r_[1.0, bd] if ctrl.chain.rail else bd          # qdot_d = u_d on a rail
     return templates.B_DIAGONAL.format(values=", ".join(repr(float(v)) for v in bd))
 
 
@@ -71,13 +81,13 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     Raises
     ------
     BuildError
-        A non-diagonal B, a chain on a rail, or an unknown form.
+        A non-diagonal B, the dense law of a chain on a rail, or an unknown form.
     """
     if form not in LAWS:
         raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
-    if ctrl.chain.rail:
-        raise BuildError("base: a chain on a rail (introduction axis) runs on the interpreted backend only "
-                         "for now; use backend 'interpreted' ('auto' falls back by itself)")
+    if ctrl.chain.rail and form != "structured":
+        raise BuildError("law: a chain on a rail compiles the structured law only; use law 'structured' "
+                         "or backend 'interpreted'")
     b_macros = _b_macros(ctrl)
     funcs = _functions(ctrl, form)
     cg = ca.CodeGenerator("coordarm", dict(CODEGEN_OPTIONS))
@@ -85,12 +95,18 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
         cg.add(f)
     sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
              for k in ("arg", "res", "iw", "w")}
-    m = ctrl.chain.m
-    parts = [cg.dump(), templates.HEADER.format(m=m, b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
+    m, n = ctrl.chain.m, ctrl.chain.dof
+    n_out = n + 2 * m + (3 if ctrl.chain.rail else 1)
+    parts = [cg.dump(), templates.HEADER.format(m=m, n=n, n_out=n_out, b_diagonal=b_macros,
+                                                **{f"sz_{k}": v for k, v in sizes.items()})]
     if form == "structured":
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
                      f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
-        parts.append(templates.STRUCTURED_LAW)
+        if ctrl.chain.rail:
+            c, s_ = (float(v) for v in ctrl.chain.rail_direction)
+            parts.append(f"#define CA_RAIL_C {c!r}\n#define CA_RAIL_S {s_!r}\n#define CA_HALF_XI {0.5 * ctrl.chain.xi!r}\n"
+                         + ("#define CA_SPAN 1\n" if ctrl.span is not None else ""))
+        parts.append(templates.RAIL_LAW if ctrl.chain.rail else templates.STRUCTURED_LAW)
     else:
         parts.append(templates.DENSE_LAW.replace("{law_name}", funcs[0].name()))
     parts.append(templates.LOOP)

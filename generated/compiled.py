@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import OUTPUTS, SCALAR_OUTPUTS, BuildError, ConfigError, CoordinatingController
+from coordarm.symbolic import OUTPUTS, RAIL_OUTPUTS, SCALAR_OUTPUTS, BuildError, ConfigError, CoordinatingController
 
 from .build import Library, build
 from .codegen import generate_source
@@ -80,10 +80,10 @@ class CompiledController:
         m, self.n_out, n_iw, n_w = (int(v) for v in sizes)
         if m != self.chain.m:
             raise BuildError(f"generated library {self.library.path} is for {m} links, not {self.chain.m}")
-        self.m = m
-        self._q = np.zeros(m)
+        self.m, self.n = m, self.chain.dof
+        self._q = np.zeros(self.n)
         self._out = np.zeros(self.n_out)
-        self._qn = np.zeros(m)
+        self._qn = np.zeros(self.n)
         self._iw = np.zeros(n_iw, dtype=np.int64)
         self._w = np.zeros(n_w)
         self._ptr = (self._q.ctypes.data, self._out.ctypes.data, self._iw.ctypes.data, self._w.ctypes.data,
@@ -109,17 +109,17 @@ class CompiledController:
         raise BuildError(f"generated library {self.library.path}: a generated Function failed (code {rc})")
 
     def control(self, q, t: float = 0.0) -> np.ndarray:
-        """Control ``u(q, t)``, shape (m,)."""
+        """Control ``u(q, t)``, shape (dof,) (``d_dot`` first on a rail)."""
         self._load_q(q)
         rc = self._law_c(self._ptr[0], t, self._ptr[1], self._ptr[2], self._ptr[3])
         if rc:
             self._fail(rc, t)
-        return self._out[:self.m].copy()
+        return self._out[:self.n].copy()
 
     def evaluate(self, q, t: float = 0.0) -> dict[str, Any]:
         """All outputs of the law at ``(q, t)``, keyed like :meth:`CoordinatingController.evaluate`."""
         self.control(q, t)
-        return split_outputs(self._out, self.m)
+        return split_outputs(self._out, self.m, self.chain.rail)
 
     def step(self, q, t: float, h: float) -> np.ndarray:
         """One closed-loop RK4 step of length ``h`` from ``(q, t)``: the next state."""
@@ -143,7 +143,7 @@ class CompiledController:
         self._load_q(q0)
         times = np.ascontiguousarray(times, dtype=float)
         n = len(times)
-        Q, D = np.empty((n, self.m)), np.empty((n, self.n_out))
+        Q, D = np.empty((n, self.n)), np.empty((n, self.n_out))
         p = self._ptr
         rc = self._chunk_c(p[0], times.ctypes.data, h, n, Q.ctypes.data, D.ctypes.data, p[2], p[3])
         if rc:
@@ -155,15 +155,16 @@ class CompiledController:
                 f"cache_hit={self.cache_hit})")
 
 
-def split_outputs(out: np.ndarray, m: int) -> dict[str, Any]:
+def split_outputs(out: np.ndarray, m: int, rail: bool = False) -> dict[str, Any]:
     """Split a packed output row ``(u, e, s, link_margins, longitudinal, pivot)`` into a dict.
 
-    Works on one row (shape (3m+1,)) or a block of rows (shape (n, 3m+1)).
+    Works on one row (shape (3m+1,)) or a block of rows (shape (n, 3m+1)). On a ``rail``
+    ``u`` has m+1 entries and ``sigma``, ``rail_margin`` follow (shape (3m+4,)).
     """
-    cuts = np.cumsum([m, m - 1, 1, m - 1, 1, 1])[:-1]
-    parts = np.split(np.array(out, dtype=float), cuts, axis=-1)
+    sizes = [m + int(rail), m - 1, 1, m - 1, 1, 1] + ([1, 1] if rail else [])
+    parts = np.split(np.array(out, dtype=float), np.cumsum(sizes)[:-1], axis=-1)
     result: dict[str, Any] = {}
-    for name, v in zip(OUTPUTS, parts):
+    for name, v in zip(OUTPUTS + (RAIL_OUTPUTS if rail else ()), parts):
         if name in SCALAR_OUTPUTS:
             v = v[..., 0]
             result[name] = float(v) if v.ndim == 0 else v

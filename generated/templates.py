@@ -18,24 +18,25 @@ from __future__ import annotations
 HEADER = """
 /* ---- coordarm glue (generated/templates.py) ---- */
 #define CA_M {m}
-#define CA_NOUT (3 * CA_M + 1)
+#define CA_N {n}
+#define CA_NOUT {n_out}
 #define CA_SZ_ARG {sz_arg}
 #define CA_SZ_RES {sz_res}
 #define CA_SZ_IW {sz_iw}
 #define CA_SZ_W {sz_w}
-#define CA_SCRATCH (6 * CA_M + CA_NOUT)
+#define CA_SCRATCH (6 * CA_N + CA_NOUT)
 #define COORDARM_API __attribute__((visibility("default")))
 {b_diagonal}
 static int ca_finite(const casadi_real* q, casadi_real t) {{
   casadi_int j;
   casadi_real acc = t - t;
-  for (j = 0; j < CA_M; ++j) acc += q[j] - q[j];   /* NaN iff some entry is NaN or inf */
+  for (j = 0; j < CA_N; ++j) acc += q[j] - q[j];   /* NaN iff some entry is NaN or inf */
   return acc == 0;
 }}
 """
 
 #: ``u = qdot / diag(B)`` and ``k = diag(B) u`` when B is a non-unit diagonal.
-B_DIAGONAL = """static const casadi_real ca_bd[CA_M] = {{{values}}};
+B_DIAGONAL = """static const casadi_real ca_bd[CA_N] = {{{values}}};
 #define CA_U_FROM_QDOT(j, v) ((v) / ca_bd[j])
 #define CA_K_FROM_U(j, v) (ca_bd[j] * (v))"""
 #: The same for B = I.
@@ -79,6 +80,66 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
 }
 """
 
+#: ---- The introduction axis (rail), kept apart from the fixed-base glue above. ----
+#: ``q = (d, q_1..q_m)`` (``CA_N = CA_M + 1``); ``out = (u[CA_N], e[CA_M-1], s, links[CA_M-1],
+#: longitudinal, pivot, sigma, rail margin)``. ``rail_head`` gives the first carry and ``d_dot``
+#: from the span row; a commanded span (``CA_SPAN``) first needs ``sigma`` from a forward
+#: kinematics pass (one more sine/cosine pair per link) and the generated ``psi_at``.
+RAIL_LAW = """
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
+  casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[4], tl[4], hd[3], a[CA_M], b[CA_M];
+  casadi_real *cur = c0, *nxt = c1, *tmp, p, rate, prev, sigma = 0;
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  casadi_int j;
+  arg[0] = &t; res[0] = wt;
+  if (time_features(arg, res, iw, w, 0)) return 2;
+#ifdef CA_SPAN
+  {
+    casadi_real yb[2], ym[2], ps[2], al = q[1], c = cos(q[1]), s = sin(q[1]), cn, sn;
+    yb[0] = q[0] * CA_RAIL_C; yb[1] = q[0] * CA_RAIL_S; ym[0] = yb[0]; ym[1] = yb[1];
+    for (j = 1; j < CA_M; ++j) {
+      al += q[1 + j]; cn = cos(al); sn = sin(al);
+      ym[0] += CA_HALF_XI * (c + cn); ym[1] += CA_HALF_XI * (s + sn); c = cn; s = sn;
+    }
+    arg[0] = yb; arg[1] = &t; res[0] = ps;
+    if (psi_at(arg, res, iw, w, 0)) return 2;
+    arg[0] = ym; res[0] = ps + 1;
+    if (psi_at(arg, res, iw, w, 0)) return 2;
+    sigma = ps[1] - ps[0];
+  }
+#endif
+  arg[0] = q; arg[1] = q + 1; arg[2] = &t; arg[3] = &sigma;
+  res[0] = cur; res[1] = hd; res[2] = hd + 1; res[3] = hd + 2;
+  if (rail_head(arg, res, iw, w, 0)) return 2;
+  a[0] = 0; b[0] = 1;
+  for (j = 1; j < CA_M; ++j) {
+    arg[0] = cur; arg[1] = q + 1 + j; arg[2] = wt; res[0] = nxt; res[1] = o;
+    if (link_step(arg, res, iw, w, 0)) return 2;
+    out[CA_N + j - 1] = o[0];              /* e^j */
+    out[CA_N + CA_M - 1 + j] = o[1];       /* link margin */
+    a[j] = o[2]; b[j] = o[3];
+    tmp = cur; cur = nxt; nxt = tmp;
+  }
+  arg[0] = cur; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
+  if (tail(arg, res, iw, w, 0)) return 2;
+  out[CA_N + CA_M - 1] = tl[0];            /* s */
+  out[CA_N + 2 * CA_M - 1] = tl[2];        /* longitudinal margin */
+  out[CA_N + 2 * CA_M] = tl[3];            /* longitudinal pivot */
+  out[CA_N + 2 * CA_M + 1] = tl[0] - hd[2];  /* sigma = psi(y^m) - psi(y^1) */
+  out[CA_N + 2 * CA_M + 2] = hd[1];        /* rail margin */
+  out[0] = hd[0];                          /* d_dot */
+  p = tl[1];
+  prev = 0;
+  for (j = 0; j < CA_M; ++j) {
+    rate = a[j] + b[j] * p;
+    out[1 + j] = CA_U_FROM_QDOT(1 + j, rate - prev);
+    prev = rate;
+  }
+  return 0;
+}
+"""
+
 #: The dense law: one call of the generated eq. 27 Function.
 DENSE_LAW = """
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
@@ -102,19 +163,19 @@ COORDARM_API int coordarm_law(const casadi_real* q, casadi_real t, casadi_real* 
 /* Same operation order as CoordinatingController.rk4_step, so both agree to rounding. */
 static int ca_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_real* q_next,
                   casadi_real* out, casadi_int* iw, casadi_real* w) {
-  casadi_real *k1 = w + CA_SZ_W, *k2 = k1 + CA_M, *k3 = k2 + CA_M, *k4 = k3 + CA_M;
-  casadi_real *x = k4 + CA_M, *o = x + CA_M;
+  casadi_real *k1 = w + CA_SZ_W, *k2 = k1 + CA_N, *k3 = k2 + CA_N, *k4 = k3 + CA_N;
+  casadi_real *x = k4 + CA_N, *o = x + CA_N;
   casadi_real h2 = h / 2, h6 = h / 6;
   casadi_int j;
   int rc;
   if ((rc = ca_law(q, t, out, iw, w))) return rc;
-  for (j = 0; j < CA_M; ++j) { k1[j] = CA_K_FROM_U(j, out[j]); x[j] = q[j] + h2 * k1[j]; }
+  for (j = 0; j < CA_N; ++j) { k1[j] = CA_K_FROM_U(j, out[j]); x[j] = q[j] + h2 * k1[j]; }
   if ((rc = ca_law(x, t + h2, o, iw, w))) return rc;
-  for (j = 0; j < CA_M; ++j) { k2[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h2 * k2[j]; }
+  for (j = 0; j < CA_N; ++j) { k2[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h2 * k2[j]; }
   if ((rc = ca_law(x, t + h2, o, iw, w))) return rc;
-  for (j = 0; j < CA_M; ++j) { k3[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h * k3[j]; }
+  for (j = 0; j < CA_N; ++j) { k3[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h * k3[j]; }
   if ((rc = ca_law(x, t + h, o, iw, w))) return rc;
-  for (j = 0; j < CA_M; ++j) {
+  for (j = 0; j < CA_N; ++j) {
     k4[j] = CA_K_FROM_U(j, o[j]);
     q_next[j] = q[j] + h6 * (((k1[j] + 2 * k2[j]) + 2 * k3[j]) + k4[j]);
   }
@@ -135,8 +196,8 @@ COORDARM_API int coordarm_chunk(const casadi_real* q0, const casadi_real* times,
   int rc;
   if (!ca_finite(q0, h)) return 1;     /* afterwards NaN propagates, as in the interpreted loop */
   for (k = 0; k < n; ++k) {
-    if ((rc = ca_rk4(q, times[k], h, Q + k * CA_M, D + k * CA_NOUT, iw, w))) return rc;
-    q = Q + k * CA_M;
+    if ((rc = ca_rk4(q, times[k], h, Q + k * CA_N, D + k * CA_NOUT, iw, w))) return rc;
+    q = Q + k * CA_N;
   }
   return 0;
 }

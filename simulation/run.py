@@ -395,8 +395,9 @@ def _advance(ctrl, compiled, q, times, step):
     """RK4 steps from ``q`` at each of ``times``: states after each step and the law at each start (rows)."""
     if compiled is not None:
         Q, D = compiled.chunk(q, times, step)
-        d = split_outputs(D, ctrl.chain.m)
-        return Q, d["u"], d["e"], d["s"], d["link_margins"], d["longitudinal"], {}
+        d = split_outputs(D, ctrl.chain.m, ctrl.chain.rail)
+        extra = {a: d[a] for a in OPTIONAL if a in d}
+        return Q, d["u"], d["e"], d["s"], d["link_margins"], d["longitudinal"], extra
     Q, U, E, S, LM, LG, *rail = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
     extra = {"sigma": rail[0].ravel(), "rail_margin": rail[1].ravel()} if rail else {}
     return Q.T, U.T, E.T, S.ravel(), LM.T, LG.ravel(), extra
