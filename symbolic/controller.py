@@ -441,21 +441,18 @@ class CoordinatingController:
         Returns
         -------
         M : (N, m, m) ndarray
-            Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``.
+            Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``; on a rail (N, m+1, m+1),
+            rows ``(s, sigma, e^2..e^m)``, columns ``(u_d, u)``.
         rhs : (N, m) ndarray
-            ``(v* - dpsi/dt, -K e^j - dphi/dt)``.
+            ``(v* - dpsi/dt, -K e^j - dphi/dt)`` (on a rail with ``sigma_dot - dpsi/dt(y^m) +
+            dpsi/dt(y^1)`` second).
         """
-        if self.chain.rail:          # rows (s, sigma, e), columns (d, u): by AD, O(m^2) symbolic
-            Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
-            M, r = self._mapped("decoupling", self.decoupling_function, len(Q))(Q.T, T[None])
-            n = self.chain.dof
-            return (np.asarray(M).reshape(n, len(Q), n).transpose(1, 0, 2), np.asarray(r).T.reshape(len(Q), n))
         geo = geometry if geometry is not None else self.centre_geometry(Q, T)
         Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
         m, xi = self.chain.m, self.chain.xi
         # C^j[:, k] = xi/2 (S_{j-1} + S_j - P_k) for k <= j, with S the prefix sums of the
         # normals n_0..n_{m-1} and P_0 = n_0, P_k = 2 S_{k-1}  (0-based j, k; C^0 = 0).
-        S = np.cumsum(normal(np.cumsum(Q, axis=-1)), axis=-2)            # (N, m, 2)
+        S = np.cumsum(normal(np.cumsum(self.chain.revolute(Q), axis=-1)), axis=-2)   # (N, m, 2)
         P = np.concatenate([S[:, :1], 2 * S[:, :-1]], axis=1)
         rows = np.r_[m - 1, 1:m]                                           # target centre of each row
         W = np.concatenate([geo["gpsi"][:, m - 1:], geo["gphi"][:, 1:]], axis=1)  # (N, m, 2) its gradient
@@ -466,7 +463,26 @@ class CoordinatingController:
         M = M * b if b is not None else M @ self.chain.B
         rhs = np.concatenate([(self.speeds(T) - geo["psit"][:, m - 1])[:, None],
                               -self.gain * geo["phi"][:, 1:] - geo["phit"][:, 1:]], axis=1)
+        if not self.chain.rail:
+            return M, rhs
+        # the rail: C^j gains the column ``rail`` (every centre slides with the base); the span
+        # row sigma = psi(y^m) - psi(y^1) is the s row minus grad psi(y^1)^T C^1 = (h_1 . rail, 0, ...)
+        rail = self.chain.rail_direction
+        col = W @ rail                                                      # (N, m)
+        M = np.concatenate([col[:, :, None], M], axis=2)
+        span = M[:, :1].copy()
+        span[:, 0, 0] -= geo["gpsi"][:, 0] @ rail
+        M = np.concatenate([M[:, :1], span, M[:, 1:]], axis=1)
+        sigma = geo["psi"][:, m - 1] - geo["psi"][:, 0]
+        rate = np.asarray(self._mapped("span_rate", self._span_rate_function, len(T))(sigma[None], T[None])).ravel()
+        rhs = np.concatenate([rhs[:, :1], (rate - geo["psit"][:, m - 1] + geo["psit"][:, 0])[:, None], rhs[:, 1:]],
+                             axis=1)
         return M, rhs
+
+    def _span_rate_function(self) -> ca.Function:
+        """``(sigma, t) -> sigma_dot`` commanded (see :meth:`span_rate`)."""
+        sigma, t = ca.SX.sym("sigma"), ca.SX.sym("t")
+        return ca.Function("span_rate", [sigma, t], [ca.SX(self.span_rate(sigma, t))])
 
     def _mapped(self, name: str, make, n: int) -> ca.Function:
         """The Function ``make()`` evaluated at ``n`` points in one call (cached per name and ``n``)."""

@@ -117,3 +117,18 @@ def test_compiled_rail_law_and_chunk_agree_with_the_interpreted_ones(span, tmp_p
     np.testing.assert_allclose(run_c.q, run_i.q, rtol=0, atol=1e-12)
     np.testing.assert_allclose(run_c.sigma, run_i.sigma, rtol=0, atol=1e-12)
     np.testing.assert_allclose(run_c.rail_margin, run_i.rail_margin, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("span", [None, Ramp(0.4, 0.05)], ids=["held", "commanded"])
+def test_closed_form_rail_decoupling_matrices_equal_the_ad_ones(span):
+    chain = PlanarChain(9, 0.1, base="rail", rail_angle=0.3, B=np.linspace(0.7, 1.3, 9))
+    path = Path((-0.3, -0.1), 0.3, [{"line": 0.5}, {"arc": -0.8, "radius": 0.9}], offset=(Ramp(0.0, 0.03), 0.0))
+    ctrl = CoordinatingController(chain, path, 2.0, 0.1, span=span)
+    rng = np.random.default_rng(8)
+    Q = follow_curve(ctrl, 1.0, d=0.05)[None] + rng.normal(scale=0.02, size=(4, chain.dof))
+    T = np.array([0.0, 0.4, 1.1, 2.0])
+    M, rhs = ctrl.decoupling_matrices(Q, T)
+    for k in range(4):
+        Mk, rk = (np.asarray(v) for v in ctrl.decoupling_function()(Q[k], T[k]))
+        np.testing.assert_allclose(M[k], Mk, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(rhs[k], rk.ravel(), rtol=0, atol=1e-13)
