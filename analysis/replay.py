@@ -17,6 +17,7 @@ import json
 import struct
 import zlib
 from collections import namedtuple
+from typing import Any
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -33,7 +34,7 @@ from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, SOURCES, numeric_channels
 from coordarm.simulation.run import Run
-from coordarm.simulation.scenario import Scenario
+from coordarm.simulation.scenario import USER_DEFINED, Scenario
 from coordarm.symbolic import ConfigError, LogError
 
 #: Exceptions the mcap reader raises on damaged input (it has no single base class for them).
@@ -213,8 +214,11 @@ def _decode(channel_messages: list[RawMessage], width: int, topic: str, path: Pa
     return rec["d"].reshape(len(channel_messages), width).copy()
 
 
-def load(path: str | Path) -> Replay:
+def load(path: str | Path, curve: Any = None) -> Replay:
     """Read the log at ``path``.
+
+    ``curve``: the user-defined :class:`~coordarm.symbolic.Curve` the run used, needed (and only
+    used) when the log records ``[curve] kind = "user-defined"``.
 
     Returns
     -------
@@ -237,7 +241,8 @@ def load(path: str | Path) -> Replay:
                        f"before the break){detail}")
     try:
         spec = json.loads(meta["scenario"]["json"])
-        scenario = Scenario.from_dict(spec, f"{path} (scenario metadata)")
+        scenario = Scenario.from_dict(spec, f"{path} (scenario metadata)",
+                                      curve=curve if spec.get("curve", {}).get("kind") == USER_DEFINED else None)
     except (KeyError, ValueError, ConfigError) as exc:
         raise LogError(f"{path}: the 'scenario' metadata is not a valid scenario: {exc}") from None
     m = int(spec["chain"]["links"])

@@ -35,6 +35,7 @@ import casadi as ca
 import numpy as np
 
 from coordarm.symbolic import CollisionError, ConfigError, CoordinatingController, LogError, SingularityError
+from coordarm.symbolic.controller import BUILT_IN_CURVES
 from coordarm.symbolic.curves import Line
 
 from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, SOURCES, NumericChannel,
@@ -160,7 +161,10 @@ class RunLogger:
                  compression: str = "zstd", chunk_size: int = 256 * 1024, flush_interval: float = 1.0,
                  command: list[str] | None = None, backend: str = "interpreted", library_key: str | None = None,
                  threaded: bool = False) -> None:
-        self.scenario, self.ctrl = scenario, ctrl or scenario.controller()
+        self.ctrl = ctrl or scenario.controller()
+        if type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
+            scenario = scenario.with_curve(self.ctrl.curve)      # the log records a user-defined curve
+        self.scenario = scenario
         self.step = scenario.step
         self.every = self._decimation(log_rate, "log_rate") if log_rate is not None else 1
         m = self.ctrl.chain.m

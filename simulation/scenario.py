@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
+from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, Curve, PlanarChain, curve_from_spec,
                                follow_curve, motion_from_spec, project_onto_curve)
 from coordarm.symbolic.start import check_start
 
@@ -48,6 +48,8 @@ KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base"}, "
         "start": {"kind", "beta", "heading", "curve"}, "run": {"duration", "step", "t0"},
         "thresholds": {"link", "longitudinal"}}
 START_KINDS = ("zigzag", "projected", "follow")
+#: ``[curve] kind`` of a scenario whose curve is a Python object (recorded in logs by class name).
+USER_DEFINED = "user-defined"
 DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
             "run": {"duration": 20.0, "step": 0.001, "t0": 0.0},
             "control": {"law": "structured"}}
@@ -76,17 +78,31 @@ class Scenario:
     spec: dict
     source: str = "<dict>"
     obstacles: list[Obstacle] = field(default_factory=list)
+    #: A user-defined curve (Python object); ``spec["curve"]`` then only names its class.
+    curve: Curve | None = None
 
     @classmethod
-    def from_dict(cls, data: Any, source: str = "<dict>") -> "Scenario":
-        """Validate ``data`` (as read from TOML) and fill in defaults; errors name ``source`` and the field."""
+    def from_dict(cls, data: Any, source: str = "<dict>", curve: Curve | None = None) -> "Scenario":
+        """Validate ``data`` (as read from TOML) and fill in defaults; errors name ``source`` and the field.
+
+        ``curve`` is required when ``[curve] kind = "user-defined"`` (a log of a run with a
+        user-defined curve): the object itself, which data cannot describe.
+        """
         try:
-            return cls._from_dict(data, source)
+            scenario = cls._from_dict(data, source, curve)
         except ConfigError as exc:
             raise ConfigError(f"{source}: {exc}") from None
+        scenario.curve = curve
+        return scenario
+
+    def with_curve(self, curve: Curve) -> "Scenario":
+        """A copy that runs the user-defined ``curve``; its spec records only the class name."""
+        spec = copy.deepcopy(self.spec)
+        spec["curve"] = {"kind": USER_DEFINED, "class": f"{type(curve).__module__}.{type(curve).__qualname__}"}
+        return Scenario(spec, self.source, self.obstacles, curve)
 
     @classmethod
-    def _from_dict(cls, data: Any, source: str) -> "Scenario":
+    def _from_dict(cls, data: Any, source: str, curve: Curve | None = None) -> "Scenario":
         if not isinstance(data, dict):
             raise ConfigError("a scenario must be a table")
         unknown = set(data) - SECTIONS
@@ -139,7 +155,12 @@ class Scenario:
         motion_from_spec(spec["control"].get("speed", 0.0), "control.speed")
         if spec["control"]["law"] not in LAWS:
             raise ConfigError(f"control.law: expected one of {LAWS}, got {spec['control']['law']!r}")
-        curve_from_spec(spec["curve"], "curve")
+        if spec["curve"].get("kind") == USER_DEFINED:
+            if not isinstance(curve, Curve):
+                raise ConfigError(f"curve: the run used a user-defined curve ({spec['curve'].get('class', '?')}), "
+                                  f"which data cannot describe: pass the curve object in (curve=...)")
+        else:
+            curve_from_spec(spec["curve"], "curve")
         st = spec["start"]
         if st["kind"] not in START_KINDS:
             raise ConfigError(f"start.kind: expected one of {START_KINDS}, got {st['kind']!r}")
@@ -217,7 +238,8 @@ class Scenario:
         """The coordinating controller this scenario describes."""
         c = self.spec["control"]
         span = motion_from_spec(c["span"], "control.span") if "span" in c else None
-        return CoordinatingController(self.chain(), curve_from_spec(self.spec["curve"]), float(c["gain"]),
+        curve = self.curve if self.curve is not None else curve_from_spec(self.spec["curve"])
+        return CoordinatingController(self.chain(), curve, float(c["gain"]),
                                       motion_from_spec(c.get("speed", 0.0), "control.speed"),
                                       law=c["law"], span=span)
 

@@ -19,10 +19,32 @@ import casadi as ca
 import numpy as np
 
 from .chain import PlanarChain, direction, normal
-from .curves import Curve, _param, evaluate
+from .curves import Arc, Circle, Curve, Line, _param, evaluate
 from .errors import ConfigError
+from .paths import Path
 
 LAWS = ("structured", "dense")
+#: The curve classes of coordarm; any other Curve (a subclass too) is user-defined.
+BUILT_IN_CURVES = (Line, Circle, Arc, Path)
+
+
+def check_user_curve(curve: Curve, times=(0.0, 1.0)) -> None:
+    """Check a user-defined curve's description is orthonormalised on it (paper eqs. 10-11).
+
+    Raises
+    ------
+    ConfigError
+        ``sample`` is missing (the points to check come from it), or the ``(psi, phi)``
+        Jacobian is not a rotation at a sampled point (named).
+    """
+    from .orthonormal import check_orthonormal
+    try:
+        res = check_orthonormal(curve, times=times, warn=False)
+    except NotImplementedError:
+        raise ConfigError(f"curve: the user-defined {type(curve).__name__} must implement sample(t, n, extent) "
+                          f"(points on the curve) so that its description can be checked") from None
+    if not res.ok:
+        raise ConfigError(f"curve: user-defined {type(curve).__name__}: {res.message()}")
 #: Names of the outputs of :meth:`CoordinatingController.law`, in order.
 OUTPUTS = ("u", "e", "s", "link_margins", "longitudinal", "longitudinal_pivot")
 #: Extra outputs of a chain on a rail (introduction axis): the span ``sigma = psi(y^m) - psi(y^1)``
@@ -73,6 +95,8 @@ class CoordinatingController:
             raise ConfigError(f"law: expected one of {LAWS}, got {law!r}")
         self.chain, self.curve, self.gain, self.law_form = chain, curve, float(gain), law
         self.speed = _param(speed, "speed")
+        if type(curve) not in BUILT_IN_CURVES:
+            check_user_curve(curve)
         if span is not None and not chain.rail:
             raise ConfigError("span: only a chain on a rail (base = 'rail') has a span output")
         self.span = None if span is None else _param(span, "span")
