@@ -8,9 +8,12 @@ Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
     name = "line"
     description = "..."
     [chain]     links = 64, link_length = 0.1, joint_limit = 2.8 (or a list of m-1 [rad]),
-                clearance = 0.0 [m]
-    [curve]     kind = "line" | "circle" | "arc", with its parameters
-    [control]   gain = 2.0, speed = 0.1 (or a motion), law = "structured" | "dense"
+                clearance = 0.0 [m], base = "fixed" | {kind = "rail", angle = 0.0, limits = [0, 5]}
+    [curve]     kind = "line" | "circle" | "arc" | "path" | "waypoints", with its parameters
+                (path: start, heading, segments = [{line = L}, {arc = A, radius = R}, ...];
+                waypoints: points, radius; both: offset, rotation optional)
+    [control]   gain = 2.0, speed = 0.1 (or a motion), law = "structured" | "dense",
+                span = motion (rail only: the commanded span; default: held)
     [start]     kind = "zigzag" | "projected" | "follow", beta = 1.3, heading = 0.0,
                 curve = {...}  (projected: project onto this curve instead;
                 follow: a zig-zag laid link by link along the curve, for bent paths)
