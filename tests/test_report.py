@@ -55,12 +55,10 @@ def test_zoomed_first_crossings_equal_those_of_every_row_and_samples_scale_with_
     ctrl = sc.controller()
     run = simulate_scenario(sc)
     every = analyse_run(ctrl, run.t, run.q, run.u, samples=len(run.t))
-    zoomed = analyse_run(ctrl, run.t, run.q, run.u, samples=20)
-    assert every.crossings["longitudinal"] == zoomed.crossings["longitudinal"] == pytest.approx(1.731)
+    zoomed = analyse_run(ctrl, run.t, run.q, run.u, samples=40)
+    assert every.crossings["longitudinal"] == zoomed.crossings["longitudinal"] == pytest.approx(2.69)
     for name, first in every.crossings.items():  # samples can miss a crossing, never invent an earlier one
         assert zoomed.crossings[name] is None or zoomed.crossings[name] >= first
-    # after the blow-up sigma_min dips below 1e-3 at the single row t = 1.912: only every row sees it
-    assert every.crossings["sigma_min"] == pytest.approx(1.912) and zoomed.crossings["sigma_min"] is None
     assert len(zoomed.t) < 100 < len(every.t)
     assert default_samples(16) == default_samples(64) == 1200
     assert default_samples(128) == 300 and default_samples(1024) == 100
