@@ -56,8 +56,8 @@ class Contact:
                     f"{self.threshold:+.4f} m: the introduction axis cannot feed the body further")
         if self.kind == "joint_limit":
             j = self.links[1]
-            return (f"joint limit at {t}: joint {j} (between links {j - 1} and {j}) is at {self.value:+.3f} rad, "
-                    f"beyond its limit ±{self.threshold:.3f} rad: the two links fold too far onto each other")
+            return (f"joint limit at {t}: joint {j} (between links {j - 1} and {j}) is at {self.value:+.4f} rad, "
+                    f"beyond its limit ±{self.threshold:.4f} rad: the two links fold too far onto each other")
         if self.kind == "self":
             a, b = self.links
             what = "cross each other" if self.value <= 0 else f"come {self.value:.4f} m apart"

@@ -10,6 +10,7 @@ from mcap.stream_reader import StreamReader
 from coordarm.analysis.replay import load
 from coordarm.simulation.log_schemas import numeric_channels, scene_update_schema
 from coordarm.simulation.mcap_writer import COND_RATE, RunLogger, code_hash, default_cond_rate
+from coordarm.simulation.obstacles import outline
 from coordarm.simulation.run import Run, simulate
 from coordarm.simulation.scenario import Scenario, load_scenario
 from coordarm.symbolic import ConfigError, LogError, SingularityError
@@ -114,20 +115,22 @@ def test_scene_messages_follow_the_scene_update_schema_and_draw_the_chain(logged
     for log_time, scene in scenes[:3] + scenes[-1:]:
         _validate(scene, schema)
         k = int(np.flatnonzero(np.round(run.t * 1e9) == log_time)[0])
-        arm, curve, walls = scene["entities"][0]["lines"]
+        arm, curve, *walls = scene["entities"][0]["lines"]
         pts = np.array([[p["x"], p["y"]] for p in arm["points"]])
         np.testing.assert_allclose(pts, chain.joints_np(run.q[k]), atol=1e-6)  # 6 decimals in the JSON
         line = np.array([[p["x"], p["y"]] for p in curve["points"]])  # evaluated for many times at once
         expected = scenario.controller().curve.sample(run.t[k], n=2, extent=2.2 * LINKS * chain.xi)
         np.testing.assert_allclose(line, expected, atol=1e-6)
-        assert walls["type"] == 2 and len(walls["points"]) == 2 * len(scenario.obstacles)
+        assert len(walls) == len(scenario.obstacles)
+        for wall, ob in zip(walls, scenario.obstacles):   # one line strip per obstacle, its outline
+            np.testing.assert_allclose([[p["x"], p["y"]] for p in wall["points"]], outline(ob), atol=1e-6)
 
 
 def test_the_scenario_metadata_alone_rebuilds_the_controller(logged, scenario):
     path, run = logged
     rep = load(path)
     assert rep.scenario.spec == scenario.spec
-    np.testing.assert_array_equal(rep.scenario.obstacles, scenario.obstacles)
+    assert [o.to_spec() for o in rep.scenario.obstacles] == [o.to_spec() for o in scenario.obstacles]
     ctrl = rep.controller()
     k = len(run.t) // 3
     assert np.array_equal(ctrl.control(rep.q[k], float(rep.t[k])), run.u[k])
