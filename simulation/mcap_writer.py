@@ -253,6 +253,7 @@ class RunLogger:
         n = len(part.t)
         g = self._seen + np.arange(n)
         self._seen += n
+        self._s_target = self._targets(part)
         self._last = part
         rows = np.flatnonzero(g % self.every == 0)
         if len(rows):
@@ -355,20 +356,40 @@ class RunLogger:
                                   py[:, None] + ends * np.sin(th)[:, None]], -1))
         return [curve.sample(float(t), n=90, extent=reach) for t in times]
 
+    def _targets(self, part: Run) -> np.ndarray:
+        """The end point's target ``s*(t) = s(0) + integral of v*`` at the rows of ``part`` (carried across blocks)."""
+        if self._last is None:
+            start, t_prev, v_prev = float(part.s[0]), float(part.t[0]), float(part.v_star[0])
+        else:
+            start, t_prev, v_prev = float(self._s_target[-1]), float(self._last.t[-1]), float(self._last.v_star[-1])
+        t, v = np.r_[t_prev, part.t], np.r_[v_prev, part.v_star]
+        return start + np.cumsum(0.5 * np.diff(t) * (v[1:] + v[:-1]))
+
+    def _target_sphere(self, s: float, t: float) -> str:
+        """A ``foxglove.SpherePrimitive`` at the target point of arc length ``s`` ("" if the curve cannot map ``s``)."""
+        try:
+            x, y = self.ctrl.curve.point_at(s, t)
+        except NotImplementedError:
+            return ""
+        d = 1.5 * self.ctrl.chain.xi
+        return (f'{{"pose":{{"position":{{"x":{x:.6f},"y":{y:.6f},"z":0}},"orientation":{{"x":0,"y":0,"z":0,"w":1}}}},'
+                f'"size":{{"x":{d},"y":{d},"z":{d}}},"color":{{"r":0.85,"g":0.1,"b":0.1,"a":1.0}}}}')
+
     def _scenes(self, part: Run, ks: np.ndarray) -> list[tuple[int, bytes]]:
-        """``(log time, SceneUpdate JSON)`` at rows ``ks`` of ``part``."""
+        """``(log time, SceneUpdate JSON)`` at rows ``ks`` of ``part``: chain, whole curve, target, walls."""
         if not len(ks):
             return []
         joints = self.ctrl.chain.joints_np(part.q[ks])
         curves = self._curves(part.t[ks])
         out = []
-        for J, C, ns in zip(joints, curves, self._ns(part.t[ks]).tolist()):
+        for k, J, C, ns in zip(ks, joints, curves, self._ns(part.t[ks]).tolist()):
             lines = (_line(J, 0, 0.01, (0.15, 0.45, 0.9, 1.0)), _line(C, 0, 0.005, (0.9, 0.5, 0.1, 0.8)),
                      *self._wall_lines)
+            target = self._target_sphere(float(self._s_target[k]), float(part.t[k]))
             stamp = f'{{"sec":{ns // 10**9},"nsec":{ns % 10**9}}}'
             text = ('{"deletions":[],"entities":[{"timestamp":' + stamp + ',"frame_id":"world","id":"coordarm",'
                     '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],'
-                    '"spheres":[],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":['
+                    '"spheres":[' + target + '],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":['
                     + ",".join(lines) + "]}]}")
             out.append((ns, text.encode()))
         return out

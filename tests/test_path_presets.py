@@ -1,14 +1,10 @@
 """The presets `thread` and `pipe` (paths on a rail): real CLI runs, checked from their logs with
 independent geometry (plain numpy, written apart from coordarm's), and reported."""
-import json
-import subprocess
-import sys
-
 import numpy as np
 import pytest
-from mcap.reader import make_reader
 
 from coordarm.analysis.replay import load
+from coordarm.cli import main
 from coordarm.symbolic import curve_from_spec
 from test_outcomes import crossing_pairs
 from test_paths import dense_polyline
@@ -48,14 +44,10 @@ def inside_polygon(pts, P):
 @pytest.mark.parametrize("preset", ["thread", "pipe"])
 def test_path_preset_completes_physically_valid_and_reports(preset, tmp_path):
     out = tmp_path / f"{preset}.mcap"
-    res = subprocess.run([sys.executable, "-m", "coordarm", "run", preset, "--quiet", "--no-figures",
-                          "--log-rate", "20", "--out", str(out)], capture_output=True, text=True, timeout=900)
-    assert res.returncode == 0, res.stderr
-    with open(out, "rb") as f:
-        meta = {m.name: m.metadata for m in make_reader(f).iter_metadata()}
-    spec = json.loads(meta["scenario"]["json"])
-    assert json.loads(meta["outcome"]["status"]) == "completed"
-    rep = load(out)
+    assert main(["run", preset, "--quiet", "--no-figures", "--log-rate", "20", "--out", str(out)]) == 0
+    rep = load(out)                                  # everything below comes from the log alone
+    spec = rep.scenario_dict
+    assert rep.outcome["status"] == "completed" and not rep.problems
     ch = spec["chain"]
     m, xi, base = ch["links"], ch["link_length"], ch["base"]
     assert rep.q.shape[1] == m + 1 and rep.t[-1] == pytest.approx(spec["run"]["duration"])
@@ -93,7 +85,5 @@ def test_path_preset_completes_physically_valid_and_reports(preset, tmp_path):
     else:
         assert rep.s[-1] > 4.3                                              # 0.2 m from the far end (4.55 m)
     rep_out = tmp_path / "report"
-    res = subprocess.run([sys.executable, "-m", "coordarm", "report", str(out), "--out", str(rep_out)],
-                         capture_output=True, text=True, timeout=600)
-    assert res.returncode == 0, res.stderr
-    assert "rail" not in res.stderr and (rep_out / "report.md").read_text().count("|") > 10
+    assert main(["report", str(out), "--out", str(rep_out)]) == 0
+    assert (rep_out / "report.md").read_text().count("|") > 10

@@ -272,3 +272,32 @@ def test_point_at_inverts_psi_and_lies_on_the_curve(curve):
         p = curve.point_at(s, 0.7)
         phi, psi = (float(v) for v in f(p, 0.7))
         assert phi == pytest.approx(0.0, abs=1e-12) and psi == pytest.approx(s, abs=1e-12)
+
+
+def test_the_scene_draws_the_whole_path_and_the_end_points_target(tmp_path):
+    import json
+
+    from mcap.reader import make_reader
+
+    from coordarm import load_scenario, simulate
+    from coordarm.simulation.mcap_writer import RunLogger
+    scenario = load_scenario("line").with_overrides(links=10, duration=0.5, step=0.01)
+    chain = scenario.chain()
+    path = path_through_base()
+    ctrl = CoordinatingController(chain, path, 2.0, Ramp(0.05, 0.2))
+    from coordarm.symbolic import follow_curve
+    out = tmp_path / "p.mcap"
+    with RunLogger(out, scenario, ctrl, scene_rate=10) as log:
+        run = simulate(ctrl, follow_curve(ctrl, 1.1), 0.5, 0.01, on_chunk=log.on_chunk)
+    with open(out, "rb") as f:
+        scenes = [(m.log_time, json.loads(m.data)) for _, _, m in make_reader(f).iter_messages(topics=["/scene"])]
+    assert len(scenes) >= 5
+    for ns, sc in scenes:
+        t = ns / 1e9
+        ent = sc["entities"][0]
+        curve = np.array([[p["x"], p["y"]] for p in ent["lines"][1]["points"]])
+        assert np.linalg.norm(curve[0] - np.array([-0.6, 0.0])) <= 0.5 + 1e-6          # from the start (a ray)
+        assert np.linalg.norm(curve[-1] - path.point_at(path.length)) <= 0.5 + 1e-6     # to the end (a ray)
+        target = ent["spheres"][0]["pose"]["position"]
+        s_star = run.s[0] + 0.05 * t + 0.1 * t ** 2                                    # s(0) + integral of v*
+        np.testing.assert_allclose([target["x"], target["y"]], path.point_at(s_star), atol=2e-6)
