@@ -17,7 +17,7 @@ import json
 import struct
 import zlib
 from collections import namedtuple
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import lz4.frame
@@ -31,8 +31,8 @@ from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
-from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, SOURCES, numeric_channels
-from coordarm.simulation.run import Run
+from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels
+from coordarm.simulation.run import ARRAYS, Run
 from coordarm.simulation.scenario import Scenario
 from coordarm.symbolic import ConfigError, LogError
 
@@ -114,6 +114,8 @@ class Replay:
         Messages read.
     problems : list of str
         What was dropped while reading (incomplete trailing samples, a damaged tail).
+    extra : dict
+        Logged law outputs that are not fields above (see :attr:`coordarm.simulation.run.Run.extra`).
     """
 
     path: Path
@@ -135,11 +137,18 @@ class Replay:
     recovered: bool
     messages: int
     problems: list = field(default_factory=list)
+    extra: dict = field(default_factory=dict)
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        extra = self.__dict__.get("extra") or {}
+        if name in extra:
+            return extra[name]
+        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
 
     def to_run(self) -> Run:
         """The samples as a :class:`simulation.run.Run` (for the figure functions)."""
-        return Run(self.t, self.q, self.u, self.e, self.s, self.link_margins, self.longitudinal, self.v_star,
-                   info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
+        return Run.from_arrays({a: getattr(self, a) for a in ARRAYS},
+                               info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
 
     def controller(self):
         """The controller that made the run, rebuilt from the scenario."""
@@ -279,7 +288,9 @@ def load(path: str | Path) -> Replay:
             cols.setdefault(name, data[:, sl])
     cond = per_channel["cond"]
     outcome = {k: json.loads(v) for k, v in meta["outcome"].items()} if "outcome" in meta else {"status": "unknown"}
-    return Replay(path=path, **{SOURCES[name]: v for name, v in cols.items()}, cond_t=cond[:, 0].copy(),
+    named = {f.name for f in fields(Replay)}
+    return Replay(path=path, **{a: v for a, v in cols.items() if a in named}, cond_t=cond[:, 0].copy(),
                   cond=cond[:, 1].copy(), scenario=scenario, scenario_dict=spec,
                   build=meta.get("build", {}), run_info=meta.get("run", {}), outcome=outcome,
-                  recovered=not complete, messages=len(messages), problems=problems)
+                  recovered=not complete, messages=len(messages), problems=problems,
+                  extra={a: v for a, v in cols.items() if a not in named})

@@ -11,7 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import OUTPUTS, SCALAR_OUTPUTS, BuildError, ConfigError, CoordinatingController
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController
+from coordarm.symbolic.outputs import packed_width, split
 
 from .build import Library, build
 from .codegen import generate_source
@@ -78,8 +79,9 @@ class CompiledController:
         sizes = np.zeros(4, dtype=np.int64)
         self._lib.coordarm_sizes(sizes.ctypes.data)
         m, self.n_out, n_iw, n_w = (int(v) for v in sizes)
-        if m != self.chain.m:
-            raise BuildError(f"generated library {self.library.path} is for {m} links, not {self.chain.m}")
+        if m != self.chain.m or self.n_out != packed_width(m):
+            raise BuildError(f"generated library {self.library.path} is for {m} links and {self.n_out} outputs, "
+                             f"not {self.chain.m} and {packed_width(self.chain.m)}")
         self.m = m
         self._q = np.zeros(m)
         self._out = np.zeros(self.n_out)
@@ -119,7 +121,7 @@ class CompiledController:
     def evaluate(self, q, t: float = 0.0) -> dict[str, Any]:
         """All outputs of the law at ``(q, t)``, keyed like :meth:`CoordinatingController.evaluate`."""
         self.control(q, t)
-        return split_outputs(self._out, self.m)
+        return split(self._out.copy(), self.m)
 
     def step(self, q, t: float, h: float) -> np.ndarray:
         """One closed-loop RK4 step of length ``h`` from ``(q, t)``: the next state."""
@@ -137,8 +139,9 @@ class CompiledController:
         -------
         Q : (n, m) array
             State after each step.
-        D : (n, 3m+1) array
-            The law at each step's start (see :func:`split_outputs`).
+        D : (n, packed_width(m)) array
+            The law at each step's start, packed (split it with
+            :func:`coordarm.symbolic.outputs.split`).
         """
         self._load_q(q0)
         times = np.ascontiguousarray(times, dtype=float)
@@ -153,20 +156,3 @@ class CompiledController:
     def __repr__(self) -> str:
         return (f"CompiledController({self.ctrl!r}, form={self.form!r}, library={str(self.library.path)!r}, "
                 f"cache_hit={self.cache_hit})")
-
-
-def split_outputs(out: np.ndarray, m: int) -> dict[str, Any]:
-    """Split a packed output row ``(u, e, s, link_margins, longitudinal, pivot)`` into a dict.
-
-    Works on one row (shape (3m+1,)) or a block of rows (shape (n, 3m+1)).
-    """
-    cuts = np.cumsum([m, m - 1, 1, m - 1, 1, 1])[:-1]
-    parts = np.split(np.array(out, dtype=float), cuts, axis=-1)
-    result: dict[str, Any] = {}
-    for name, v in zip(OUTPUTS, parts):
-        if name in SCALAR_OUTPUTS:
-            v = v[..., 0]
-            result[name] = float(v) if v.ndim == 0 else v
-        else:
-            result[name] = v
-    return result

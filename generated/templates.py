@@ -2,8 +2,9 @@
 
 The glue defines the library's whole API (every other symbol is hidden):
 
-* ``coordarm_law(q, t, out, iw, w)``: the law at ``(q, t)``; ``out`` holds
-  ``u[m], e[m-1], s, link_margins[m-1], longitudinal, longitudinal_pivot``;
+* ``coordarm_law(q, t, out, iw, w)``: the law at ``(q, t)``; ``out`` is the packed output
+  vector of :data:`coordarm.symbolic.outputs.LAW_OUTPUTS` (``CA_NOUT`` doubles, each output
+  at its offset ``CA_OUT_<NAME>``, macros emitted by :mod:`.codegen` from that table);
 * ``coordarm_rk4(q, t, h, q_next, out, iw, w)``: one closed-loop RK4 step, ``out`` being
   the law at the step's start;
 * ``coordarm_chunk(q0, times, h, n, Q, D, iw, w)``: ``n`` RK4 steps in one call;
@@ -18,8 +19,7 @@ from __future__ import annotations
 HEADER = """
 /* ---- coordarm glue (generated/templates.py) ---- */
 #define CA_M {m}
-#define CA_NOUT (3 * CA_M + 1)
-#define CA_SZ_ARG {sz_arg}
+{layout}#define CA_SZ_ARG {sz_arg}
 #define CA_SZ_RES {sz_res}
 #define CA_SZ_IW {sz_iw}
 #define CA_SZ_W {sz_w}
@@ -58,35 +58,35 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
   for (j = 1; j < CA_M; ++j) {
     arg[0] = cur; arg[1] = q + j; arg[2] = wt; res[0] = nxt; res[1] = o;
     if (link_step(arg, res, iw, w, 0)) return 2;
-    out[CA_M + j - 1] = o[0];          /* e^j */
-    out[2 * CA_M + j - 1] = o[1];      /* link margin */
+    out[CA_OUT_E + j - 1] = o[0];               /* e^j */
+    out[CA_OUT_LINK_MARGINS + j - 1] = o[1];    /* link margin */
     a[j] = o[2]; b[j] = o[3];
     tmp = cur; cur = nxt; nxt = tmp;
   }
   arg[0] = cur; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
   if (tail(arg, res, iw, w, 0)) return 2;
-  out[2 * CA_M - 1] = tl[0];           /* s */
-  out[3 * CA_M - 1] = tl[2];           /* longitudinal margin */
-  out[3 * CA_M] = tl[3];               /* longitudinal pivot */
+  out[CA_OUT_S] = tl[0];
+  out[CA_OUT_LONGITUDINAL] = tl[2];
+  out[CA_OUT_LONGITUDINAL_PIVOT] = tl[3];
   p = tl[1];                           /* the free rate w_1 */
   prev = 0;
   for (j = 0; j < CA_M; ++j) {         /* w_j = a_j + b_j p, qdot_j = w_j - w_{j-1} */
     rate = a[j] + b[j] * p;
-    out[j] = CA_U_FROM_QDOT(j, rate - prev);
+    out[CA_OUT_U + j] = CA_U_FROM_QDOT(j, rate - prev);
     prev = rate;
   }
   return 0;
 }
 """
 
-#: The dense law: one call of the generated eq. 27 Function.
+#: The dense law: one call of the generated eq. 27 Function, whose outputs are written in place
+#: (``{results}``: one ``res[i] = out + CA_OUT_<NAME>;`` per output, from the table).
 DENSE_LAW = """
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   arg[0] = q; arg[1] = &t;
-  res[0] = out; res[1] = out + CA_M; res[2] = out + 2 * CA_M - 1; res[3] = out + 2 * CA_M;
-  res[4] = out + 3 * CA_M - 1; res[5] = out + 3 * CA_M;
+{results}
   return {law_name}(arg, res, iw, w, 0) ? 2 : 0;
 }
 """

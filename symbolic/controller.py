@@ -21,12 +21,8 @@ import numpy as np
 from .chain import PlanarChain, direction, normal
 from .curves import Curve, _param, evaluate
 from .errors import ConfigError
-
-LAWS = ("structured", "dense")
-#: Names of the outputs of :meth:`CoordinatingController.law`, in order.
-OUTPUTS = ("u", "e", "s", "link_margins", "longitudinal", "longitudinal_pivot")
-#: The outputs that are scalars (the others are vectors over links).
-SCALAR_OUTPUTS = ("s", "longitudinal", "longitudinal_pivot")
+from .laws import LAWS
+from .outputs import OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS
 
 
 class CoordinatingController:
@@ -177,7 +173,8 @@ class CoordinatingController:
             return qdot / ca.DM(bd) if not np.all(bd == 1) else qdot
         return ca.mtimes(ca.DM(np.linalg.inv(self.chain.B)), qdot)
 
-    def _structured(self, q, t):
+    def _structured(self, q, t) -> dict:
+        """The law's outputs (keyed by :data:`~coordarm.symbolic.outputs.OUTPUTS`) by the O(m) recursion."""
         m = self.chain.m
         w_t = self.time_features()(t)
         fold = self.link_step().mapaccum("links", m - 1)
@@ -187,7 +184,8 @@ class CoordinatingController:
         b = ca.vertcat(1, outs[3, :].T)
         w = a + b * p
         qdot = w - ca.vertcat(0, w[:-1])
-        return (self._u_from_rates(qdot), outs[0, :].T, psi, outs[1, :].T, margin, pivot)
+        return {"u": self._u_from_rates(qdot), "e": outs[0, :].T, "s": psi, "link_margins": outs[1, :].T,
+                "longitudinal": margin, "longitudinal_pivot": pivot}
 
     def decoupling_matrix_expr(self, q, t):
         """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD."""
@@ -207,7 +205,7 @@ class CoordinatingController:
 
     # ------------------------------------------------------------ CasADi Functions
     def law(self, form: str | None = None) -> ca.Function:
-        """The control law ``(q, t) -> (u, e, s, link_margins, longitudinal, longitudinal_pivot)``.
+        """The control law ``(q, t) -> outputs``, named and ordered as :data:`~coordarm.symbolic.outputs.OUTPUTS`.
 
         ``form="structured"`` is an MX Function with a loop over links (for code
         generation); ``form="dense"`` solves the dense eq. 27 and takes its margins
@@ -219,14 +217,14 @@ class CoordinatingController:
         key = ("law", form)
         if key not in self._cache:
             q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
-            outs = list(self._structured(q, t))
+            outs = self._structured(q, t)
             if form == "dense":
                 qs, ts = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
                 M, r = self.decoupling_matrix_expr(qs, ts)
                 Mr = ca.Function("decoupling", [qs, ts], [M, r])
                 Mq, rq = Mr(q, t)
-                outs[0] = ca.solve(Mq, rq, "qr")
-            self._cache[key] = ca.Function(f"coordinating_law_{form}", [q, t], outs,
+                outs["u"] = ca.solve(Mq, rq, "qr")
+            self._cache[key] = ca.Function(f"coordinating_law_{form}", [q, t], [outs[n] for n in OUTPUTS],
                                            ["q", "t"], list(OUTPUTS))
         return self._cache[key]
 
@@ -239,9 +237,10 @@ class CoordinatingController:
         return self._cache[key]
 
     def rk4_step(self, h: float, form: str | None = None) -> ca.Function:
-        """Closed-loop RK4 step of ``qdot = B u(q, t)``: ``(q, t) -> (q_next, u, e, s, links, long)``.
+        """Closed-loop RK4 step of ``qdot = B u(q, t)``: ``(q, t) -> (q_next, *RUN_OUTPUTS)``.
 
-        The diagnostics are those of the law at the step's start ``(q, t)``.
+        The diagnostics (:data:`~coordarm.symbolic.outputs.RUN_OUTPUTS`) are those of the law
+        at the step's start ``(q, t)``.
         """
         form = form or self.law_form
         key = ("rk4", form, float(h))
@@ -255,8 +254,9 @@ class CoordinatingController:
             k3 = ca.mtimes(B, law(q + h / 2 * k2, t + h / 2)[0])
             k4 = ca.mtimes(B, law(q + h * k3, t + h)[0])
             q_next = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *out1[:5]],
-                                           ["q", "t"], ["q_next", *OUTPUTS[:5]])
+            kept = [out1[OUTPUTS.index(name)] for name in RUN_OUTPUTS]
+            self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *kept],
+                                           ["q", "t"], ["q_next", *RUN_OUTPUTS])
         return self._cache[key]
 
     def decoupling_function(self) -> ca.Function:

@@ -1,0 +1,74 @@
+"""The one table of the law's packed outputs agrees with the CasADi law, the C library and the log."""
+import numpy as np
+import pytest
+
+from coordarm.generated.codegen import generate_source, layout_macros
+from coordarm.simulation import log_schemas
+from coordarm.simulation.run import ARRAYS, Run
+from coordarm.symbolic import CoordinatingController, Line, PlanarChain
+from coordarm.symbolic.outputs import LAW_OUTPUTS, OUTPUTS, RUN_OUTPUTS, Output, offsets, packed_width, split
+
+
+@pytest.mark.parametrize("m", [2, 3, 7])
+def test_table_widths_and_names_are_those_of_the_casadi_law(m):
+    ctrl = CoordinatingController(PlanarChain(m, 0.1), Line((0.0, 0.0), 0.0), 2.0, 0.05)
+    for form in ("structured", "dense"):
+        law = ctrl.law(form)
+        assert [law.name_out(i) for i in range(law.n_out())] == list(OUTPUTS)
+        assert [law.numel_out(i) for i in range(law.n_out())] == [o.width(m) for o in LAW_OUTPUTS]
+    assert packed_width(m) == sum(ctrl.law().numel_out(i) for i in range(len(OUTPUTS))) == 3 * m + 1
+    step = ctrl.rk4_step(0.01)
+    assert [step.name_out(i) for i in range(step.n_out())] == ["q_next", *RUN_OUTPUTS]
+
+
+def test_offsets_tile_the_packed_vector_and_split_inverts_packing():
+    m = 5
+    spans = list(offsets(m).values())
+    assert spans[0][0] == 0 and all(a[0] + a[1] == b[0] for a, b in zip(spans, spans[1:]))
+    assert spans[-1][0] + spans[-1][1] == packed_width(m)
+    rng = np.random.default_rng(3)
+    parts = {o.name: rng.standard_normal(o.width(m)) for o in LAW_OUTPUTS}
+    packed = np.concatenate([parts[n] for n in OUTPUTS])
+    back = split(packed, m)
+    for o in LAW_OUTPUTS:
+        assert np.array_equal(np.atleast_1d(back[o.name]), parts[o.name])
+        assert isinstance(back[o.name], float) == o.scalar
+    block = split(np.vstack([packed, 2 * packed]), m)
+    assert block["s"].shape == (2,) and block["e"].shape == (2, m - 1)
+    with pytest.raises(ValueError, match="expected"):
+        split(packed[:-1], m)
+
+
+def test_the_c_source_takes_its_offsets_from_the_table():
+    m = 4
+    macros = layout_macros(m)
+    for name, (start, _) in offsets(m).items():
+        assert f"#define CA_OUT_{name.upper()} {start}\n" in macros
+    ctrl = CoordinatingController(PlanarChain(m, 0.1), Line((0.0, 0.0), 0.0), 2.0, 0.05)
+    for form in ("structured", "dense"):
+        text = generate_source(ctrl, form).text
+        assert f"#define CA_NOUT {packed_width(m)}" in text and "3 * CA_M" not in text
+
+
+def test_log_fields_are_the_run_arrays_named_as_in_the_table():
+    chans = log_schemas.numeric_channels(6)
+    logged = {name for key in log_schemas.PER_STEP for name, _ in chans[key].fields}
+    assert logged == set(ARRAYS)
+    assert chans["margins"].fields == (("t", 0), ("link_margins", 5), ("longitudinal", 0))
+    for o in LAW_OUTPUTS:
+        if o.channel:
+            assert (o.name, 0 if o.scalar else o.width(6)) in chans[o.channel].fields
+
+
+def test_a_new_table_row_with_a_channel_is_appended_to_that_channel_and_kept_by_run(monkeypatch):
+    extra = Output("v_scale", 0, 1, "-", "task_state", "speed governor scale")
+    monkeypatch.setattr(log_schemas, "LAW_OUTPUTS", LAW_OUTPUTS + (extra,))
+    monkeypatch.setattr(log_schemas, "by_name", lambda n: extra if n == "v_scale" else
+                        {o.name: o for o in LAW_OUTPUTS}[n])
+    task = log_schemas.numeric_channels(4)["task_state"]
+    assert task.fields[-1] == ("v_scale", 0) and task.slices()["v_scale"] == task.width - 1
+    arrays = {a: np.zeros(3) for a in ARRAYS}
+    run = Run.from_arrays(dict(arrays, v_scale=np.ones(3)))
+    assert not hasattr(run, "v_scale")            # not a run output of the real table
+    run = Run(**{a: arrays[a] for a in ARRAYS}, extra={"v_scale": np.ones(3)})
+    assert np.array_equal(run.v_scale, np.ones(3))
