@@ -20,7 +20,6 @@ from collections import namedtuple
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-import lz4.frame
 import numpy as np
 import zstandard
 
@@ -31,6 +30,7 @@ from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
+from coordarm.simulation.choices import lz4_frame
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels
 from coordarm.simulation.run import ARRAYS, Run
 from coordarm.simulation.scenario import Scenario
@@ -59,7 +59,7 @@ def chunk_messages(chunk: Chunk) -> list[RawMessage]:
         data = zstandard.decompress(chunk.data, chunk.uncompressed_size)
     elif chunk.compression == "lz4":
         try:
-            data = lz4.frame.decompress(chunk.data)
+            data = lz4_frame().decompress(chunk.data)
         except RuntimeError as exc:  # what python-lz4 raises on a damaged frame
             raise ValueError(f"lz4: {exc}") from None
     elif chunk.compression == "":

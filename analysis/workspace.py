@@ -91,9 +91,6 @@ def workspace_map(links=(8, 16, 32, 64), betas=None, curvatures=None, xi: float 
 
 def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = None) -> Path:
     """Heat maps: one row per link count, one column per mapped quantity; threshold contours dashed."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from coordarm.simulation.figures import save_figure
@@ -129,6 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--betas", type=int, default=30, help="number of fold angles in [0.02, 1.56] rad")
     p.add_argument("--curvatures", type=int, default=13, help="number of curvatures in [0, 1.5] 1/m")
     args = p.parse_args(argv)
+    import matplotlib
+    matplotlib.use("Agg")   # a command line writing files: no window (library calls keep the user's backend)
     res = workspace_map(args.links, np.linspace(0.02, 1.56, args.betas), np.linspace(0.0, 1.5, args.curvatures))
     print(f"workspace map  {plot_workspace(res, args.out)}")
     return 0

@@ -15,13 +15,7 @@ Layers (imports flow one way): ``coordarm.symbolic`` <- ``coordarm.generated`` <
 from __future__ import annotations
 
 from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version
 from typing import Any
-
-try:
-    __version__ = version("coordarm")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree without an install
-    __version__ = "0+unknown"
 
 #: Public name -> module that defines it (loaded on first attribute access).
 _EXPORTS = {
@@ -56,8 +50,21 @@ _ALIASES = {"load_log": "load"}
 __all__ = sorted(_EXPORTS)
 
 
+def _version() -> str:
+    """The installed distribution's version (importlib.metadata is slow to import: done on demand)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("coordarm")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree without an install
+        return "0+unknown"
+
+
 def __getattr__(name: str) -> Any:
-    """Load a public name from its module on first use (PEP 562)."""
+    """Load a public name from its module on first use (PEP 562); also ``__version__``."""
+    if name == "__version__":
+        globals()[name] = value = _version()
+        return value
     try:
         module = _EXPORTS[name]
     except KeyError:

@@ -13,12 +13,12 @@ import numpy as np
 from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
 from coordarm.symbolic.outputs import RUN_OUTPUTS, by_name, split
 
+from .choices import BACKENDS
+
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
 #: Steps integrated per call of the closed-loop chunk Function.
 DEFAULT_CHUNK = 2000
-#: ``auto`` = compiled when a C compiler builds the library, else interpreted (with a warning).
-BACKENDS = ("auto", "compiled", "interpreted")
 
 
 class BackendFallbackWarning(UserWarning):

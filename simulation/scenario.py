@@ -32,6 +32,7 @@ import numpy as np
 from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
                       motion_from_spec, project_onto_curve)
 
+from .choices import presets
 from .run import DEFAULT_THRESHOLDS, check_number
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
@@ -42,12 +43,6 @@ KEYS = {"chain": {"links", "link_length"}, "control": {"gain", "speed", "law"},
 DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
             "run": {"duration": 20.0, "step": 0.001, "t0": 0.0},
             "control": {"law": "structured"}}
-
-
-def presets() -> list[str]:
-    """Names of the scenarios shipped with coordarm."""
-    return sorted(p.name[:-5] for p in (resources.files("coordarm.simulation") / "presets").iterdir()
-                  if p.name.endswith(".toml"))
 
 
 def _segment(spec: Any, field: str) -> np.ndarray:
