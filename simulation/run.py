@@ -10,6 +10,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from coordarm.generated import compile as compile_controller
 from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
 from coordarm.symbolic.outputs import RUN_OUTPUTS, by_name, split
 
@@ -171,10 +172,7 @@ def chunk_function(ctrl: CoordinatingController, step: float, n: int):
 
     Column k of ``Q`` is the state after step k; the diagnostics are at each step's start.
     """
-    key = ("chunk", float(step), n)
-    if key not in ctrl._cache:
-        ctrl._cache[key] = ctrl.rk4_step(step).expand().mapaccum("chunk", n)
-    return ctrl._cache[key]
+    return ctrl.memo(("chunk", float(step), n), lambda: ctrl.rk4_step(step).expand().mapaccum("chunk", n))
 
 
 def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
@@ -196,18 +194,14 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
     if backend == "interpreted":
         return "interpreted", None, {"backend": "interpreted"}
-    key = ("compiled", ctrl.law_form)
-    compiled = ctrl._cache.get(key)
-    if compiled is None:
-        try:
-            compiled = ctrl.compile()
-        except BuildError as exc:
-            if backend == "compiled":
-                raise
-            warnings.warn(f"compiled backend unavailable, running the interpreted CasADi backend "
-                          f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)
-            return "interpreted", None, {"backend": "interpreted", "fallback_reason": str(exc)}
-        ctrl._cache[key] = compiled
+    try:
+        compiled = ctrl.memo(("compiled", ctrl.law_form), lambda: compile_controller(ctrl))
+    except BuildError as exc:
+        if backend == "compiled":
+            raise
+        warnings.warn(f"compiled backend unavailable, running the interpreted CasADi backend "
+                      f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)
+        return "interpreted", None, {"backend": "interpreted", "fallback_reason": str(exc)}
     return "compiled", compiled, {"backend": "compiled", "cache_hit": compiled.cache_hit,
                                   "library": str(compiled.library.path)}
 

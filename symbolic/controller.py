@@ -13,7 +13,7 @@ sets ``u_s = v*(t) - dpsi/dt``, ``u_e^j = -K e^j - dphi/dt`` and solves
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Callable, Hashable
 
 import casadi as ca
 import numpy as np
@@ -267,6 +267,29 @@ class CoordinatingController:
             self._cache["M"] = ca.Function("decoupling", [q, t], [M, r], ["q", "t"], ["M", "rhs"])
         return self._cache["M"]
 
+    def memo(self, key: Hashable, make: Callable[[], Any]) -> Any:
+        """An object derived from this controller, built once by ``make()`` and kept under ``key``.
+
+        The one way for other layers (simulation loops, analysis Functions, compiled libraries)
+        to cache what they derive from this controller; the keys of this class are tuples
+        starting with ``"law"``, ``"fast"``, ``"rk4"``, ``"map"``, ``"M"``, ``"hoisted"``.
+
+        Parameters
+        ----------
+        key : hashable
+            Cache key; use a tuple starting with a name of your own.
+        make : callable
+            Builds the object (called only on the first request; nothing is kept if it raises).
+
+        Returns
+        -------
+        object
+            What ``make()`` returned for ``key``.
+        """
+        if key not in self._cache:
+            self._cache[key] = make()
+        return self._cache[key]
+
     def compile(self, form: str | None = None, **build_options: Any):
         """The law as generated C, compiled (or taken from the build cache) and loaded.
 
@@ -275,21 +298,27 @@ class CoordinatingController:
         form : {"structured", "dense"}, optional
             Law form (default: this controller's).
         **build_options
-            Passed to :class:`generated.compiled.CompiledController` (``cc``, ``flags``,
-            ``build_dir``).
+            Passed to :class:`coordarm.generated.compiled.CompiledController` (``cc``, ``flags``,
+            ``build_dir``, ``force``).
 
         Returns
         -------
-        generated.compiled.CompiledController
+        coordarm.generated.compiled.CompiledController
             Same ``control(q, t)`` and ``evaluate(q, t)`` as this object, backed by C.
 
         Raises
         ------
         BuildError
             No C compiler, or the generated code did not compile or load.
+
+        Notes
+        -----
+        A convenience for :func:`coordarm.generated.compile`, where compilation lives: the
+        import is done at call time, so the model never loads the code generator (the one
+        upward import allowed by the layer contract in ``pyproject.toml``).
         """
-        from coordarm.generated.compiled import CompiledController   # generated imports symbolic, not back
-        return CompiledController(self, form or self.law_form, **build_options)
+        from coordarm.generated import compile as compile_controller
+        return compile_controller(self, form, **build_options)
 
     # --------------------------------------------------------------- numeric API
     def evaluate(self, q, t: float = 0.0, form: str | None = None) -> dict[str, Any]:
