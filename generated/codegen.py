@@ -102,7 +102,7 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
              for k in ("arg", "res", "iw", "w")}
     m = ctrl.chain.m
-    parts = [cg.dump(), templates.HEADER.format(m=m, layout=layout_macros(m), b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
+    parts = [templates.CASADI_BEGIN, cg.dump(), templates.CASADI_END, templates.HEADER.format(m=m, layout=layout_macros(m), b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
     if form == "structured":
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
                      f"#define CA_NC {len(CoordinatingController.CARRY)}\n")

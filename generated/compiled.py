@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import BuildError, ConfigError, CoordinatingController
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError
 from coordarm.symbolic.outputs import packed_width, split
 
 from .build import Library, build
@@ -108,10 +108,21 @@ class CompiledController:
         if rc == 1:
             self.chain.check_q(self._q)
             raise ConfigError(f"t: must be finite, got {t!r}")
+        if rc == 3:
+            raise NonFiniteError(f"the compiled law produced a non-finite value at t = {t!r} "
+                                 f"(a singular configuration, or the curve undefined there)")
         raise BuildError(f"generated library {self.library.path}: a generated Function failed (code {rc})")
 
     def control(self, q, t: float = 0.0) -> np.ndarray:
-        """Control ``u(q, t)``, shape (m,)."""
+        """Control ``u(q, t)``, shape (m,), from joint coordinates ``q`` [rad] at time ``t`` [s].
+
+        Raises
+        ------
+        ConfigError
+            ``q`` of the wrong shape or not finite, or ``t`` not finite.
+        NonFiniteError
+            The law produced NaN or inf (a singular configuration, or the curve undefined at ``t``).
+        """
         self._load_q(q)
         rc = self._law_c(self._ptr[0], t, self._ptr[1], self._ptr[2], self._ptr[3])
         if rc:
@@ -119,12 +130,28 @@ class CompiledController:
         return self._out[:self.m].copy()
 
     def evaluate(self, q, t: float = 0.0) -> dict[str, Any]:
-        """All outputs of the law at ``(q, t)``, keyed like :meth:`CoordinatingController.evaluate`."""
+        """All outputs of the law at ``(q, t)``, keyed like :meth:`CoordinatingController.evaluate`.
+
+        Raises
+        ------
+        ConfigError
+            ``q`` of the wrong shape or not finite, or ``t`` not finite.
+        NonFiniteError
+            The law produced NaN or inf (a singular configuration, or the curve undefined at ``t``).
+        """
         self.control(q, t)
         return split(self._out.copy(), self.m)
 
     def step(self, q, t: float, h: float) -> np.ndarray:
-        """One closed-loop RK4 step of length ``h`` from ``(q, t)``: the next state."""
+        """One closed-loop RK4 step of length ``h`` [s] from ``(q, t)``: the next state [rad].
+
+        Raises
+        ------
+        ConfigError
+            ``q`` of the wrong shape or not finite, or ``t`` not finite.
+        NonFiniteError
+            The law produced NaN or inf (a singular configuration, or the curve undefined at ``t``).
+        """
         self._load_q(q)
         p = self._ptr
         rc = self._rk4_c(p[0], t, h, p[4], p[1], p[2], p[3])

@@ -10,10 +10,19 @@ The glue defines the library's whole API (every other symbol is hidden):
 * ``coordarm_chunk(q0, times, h, n, Q, D, iw, w)``: ``n`` RK4 steps in one call;
 * ``coordarm_sizes(sizes)``: ``m``, ``len(out)``, ``len(iw)``, ``len(w)``.
 
-A law call returns 1 when ``q`` or ``t`` is not finite (nothing is computed), 2 when a
-generated Function failed, 0 otherwise.
+A law or step call returns 1 when ``q`` or ``t`` is not finite (nothing is computed), 2 when
+a generated Function failed, 3 when it produced a non-finite output, 0 otherwise. All
+finiteness checks test the IEEE bits, so they hold under ``-ffast-math`` too.
 """
 from __future__ import annotations
+
+#: Around CasADi's generated code only: it declares every Function with the full signature
+#: ``(arg, res, iw, w, mem)`` whether it uses them or not. The glue below compiles with every warning.
+CASADI_BEGIN = """#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+"""
+CASADI_END = """#pragma GCC diagnostic pop
+"""
 
 #: Preamble: sizes and the exported-symbol marker; formatted with the layout numbers.
 HEADER = """
@@ -26,11 +35,32 @@ HEADER = """
 #define CA_SCRATCH (6 * CA_M + CA_NOUT)
 #define COORDARM_API __attribute__((visibility("default")))
 {b_diagonal}
-static int ca_finite(const casadi_real* q, casadi_real t) {{
+#include <stdint.h>
+#include <string.h>
+typedef char ca_real_is_an_ieee_double[sizeof(casadi_real) == sizeof(uint64_t) ? 1 : -1];
+#define CA_EXPONENT 0x7ff0000000000000ULL
+
+/* Finiteness by the IEEE-754 bits (all-ones exponent = inf or NaN), not by isfinite() or x != x,
+   which -ffast-math (-ffinite-math-only) lets the compiler fold to "always finite". */
+static int ca_all_finite(const casadi_real* x, casadi_int n) {{
   casadi_int j;
-  casadi_real acc = t - t;
-  for (j = 0; j < CA_M; ++j) acc += q[j] - q[j];   /* NaN iff some entry is NaN or inf */
-  return acc == 0;
+  uint64_t bits;
+  for (j = 0; j < n; ++j) {{
+    memcpy(&bits, x + j, sizeof bits);
+    if ((bits & CA_EXPONENT) == CA_EXPONENT) return 0;
+  }}
+  return 1;
+}}
+
+static int ca_finite(const casadi_real* q, casadi_real t) {{
+  return ca_all_finite(q, CA_M) && ca_all_finite(&t, 1);
+}}
+
+/* Quiet NaN written by its bits (under -ffast-math, arithmetic need not produce or keep NaN). */
+static void ca_fill_nan(casadi_real* x, casadi_int n) {{
+  const uint64_t bits = 0x7ff8000000000000ULL;
+  casadi_int j;
+  for (j = 0; j < n; ++j) memcpy(x + j, &bits, sizeof bits);
 }}
 """
 
@@ -95,8 +125,10 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
 LOOP = """
 COORDARM_API int coordarm_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw,
                               casadi_real* w) {
+  int rc;
   if (!ca_finite(q, t)) return 1;
-  return ca_law(q, t, out, iw, w);
+  if ((rc = ca_law(q, t, out, iw, w))) return rc;
+  return ca_all_finite(out, CA_NOUT) ? 0 : 3;
 }
 
 /* Same operation order as CoordinatingController.rk4_step, so both agree to rounding. */
@@ -123,19 +155,34 @@ static int ca_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_rea
 
 COORDARM_API int coordarm_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_real* q_next,
                               casadi_real* out, casadi_int* iw, casadi_real* w) {
+  int rc;
   if (!ca_finite(q, t)) return 1;
-  return ca_rk4(q, t, h, q_next, out, iw, w);
+  if ((rc = ca_rk4(q, t, h, q_next, out, iw, w))) return rc;
+  return ca_all_finite(out, CA_NOUT) && ca_all_finite(q_next, CA_M) ? 0 : 3;
 }
 
-/* n steps: Q[k] is the state after step k, D[k] the law at the start of step k (time times[k]). */
+/* n steps: Q[k] is the state after step k, D[k] the law at the start of step k (time times[k]).
+   From a non-finite q0, or after a non-finite value, every later value is NaN, as in the
+   interpreted loop (where NaN propagates), whatever the flags: the caller's margin check then
+   stops the run there. */
 COORDARM_API int coordarm_chunk(const casadi_real* q0, const casadi_real* times, casadi_real h, casadi_int n,
                                 casadi_real* Q, casadi_real* D, casadi_int* iw, casadi_real* w) {
   const casadi_real* q = q0;
   casadi_int k;
   int rc;
-  if (!ca_finite(q0, h)) return 1;     /* afterwards NaN propagates, as in the interpreted loop */
+  if (!ca_all_finite(&h, 1)) return 1;
+  if (!ca_all_finite(q0, CA_M)) {      /* e.g. the previous chunk ended in NaN */
+    ca_fill_nan(Q, n * CA_M);
+    ca_fill_nan(D, n * CA_NOUT);
+    return 0;
+  }
   for (k = 0; k < n; ++k) {
     if ((rc = ca_rk4(q, times[k], h, Q + k * CA_M, D + k * CA_NOUT, iw, w))) return rc;
+    if (!ca_all_finite(Q + k * CA_M, CA_M) || !ca_all_finite(D + k * CA_NOUT, CA_NOUT)) {
+      ca_fill_nan(Q + k * CA_M, (n - k) * CA_M);
+      ca_fill_nan(D + (k + 1) * CA_NOUT, (n - k - 1) * CA_NOUT);
+      return 0;
+    }
     q = Q + k * CA_M;
   }
   return 0;

@@ -18,7 +18,7 @@ _EXPORTS = {
     "Curve": "curves", "Line": "curves", "Circle": "curves", "Arc": "curves", "curve_from_spec": "curves",
     "Constant": "motions", "Ramp": "motions", "Sinusoid": "motions", "Smoothstep": "motions",
     "motion_from_spec": "motions", "motion_to_spec": "motions",
-    "CoordarmError": "errors", "ConfigError": "errors", "BuildError": "errors", "LogError": "errors",
+    "CoordarmError": "errors", "ConfigError": "errors", "BuildError": "errors", "LogError": "errors", "NonFiniteError": "errors",
     "SingularityError": "errors",
     "project_onto_curve": "start",
 }

@@ -115,8 +115,10 @@ class CoordinatingController:
         if "hoisted" not in self._cache:
             carry, qj, t, new, out = self._link_expressions()
             expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new, out), t)
-            wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 0)
-            wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX(0, 1)
+            # A static curve has no time-only terms: w is then one unused 0 rather than empty
+            # (an empty input makes CasADi emit a copy to a null pointer in mapped code).
+            wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 1)
+            wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX.zeros(1, 1)
             n_new = new.numel()
             tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
             step = ca.Function("link_step", [carry, qj, wsym], [expr[:n_new], expr[n_new:]],

@@ -21,6 +21,10 @@ class LogError(CoordarmError):
     """A run log cannot be written or read."""
 
 
+class NonFiniteError(CoordarmError, ArithmeticError):
+    """The compiled law produced a non-finite value (NaN or inf) from finite inputs."""
+
+
 class SingularityError(CoordarmError):
     """A singularity margin fell below its threshold during a run.
 
