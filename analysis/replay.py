@@ -146,12 +146,22 @@ class Replay:
         raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
 
     def to_run(self) -> Run:
-        """The samples as a :class:`simulation.run.Run` (for the figure functions)."""
+        """The samples as a :class:`coordarm.simulation.run.Run` (for the figure functions).
+
+        Returns
+        -------
+        Run
+        """
         return Run.from_arrays({a: getattr(self, a) for a in ARRAYS},
                                info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
 
     def controller(self):
-        """The controller that made the run, rebuilt from the scenario."""
+        """The controller that made the run, rebuilt from the scenario.
+
+        Returns
+        -------
+        CoordinatingController
+        """
         return self.scenario.controller()
 
 
@@ -220,6 +230,11 @@ def _decode(channel_messages: list[RawMessage], width: int, topic: str, path: Pa
 
 def load(path: str | Path) -> Replay:
     """Read the log at ``path``.
+
+    Parameters
+    ----------
+    path : str or Path
+        An MCAP log written by ``coordarm run`` (also one cut short by a killed run).
 
     Returns
     -------

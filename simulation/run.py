@@ -86,12 +86,26 @@ class Run:
                    extra={a: arrays[a] for a in ARRAYS if a not in named})
 
     def s_reference(self) -> np.ndarray:
-        """``s(0) + integral of v*`` on the sample grid (trapezoidal rule)."""
+        """``s(0) + integral of v*`` on the sample grid (trapezoidal rule).
+
+        Returns
+        -------
+        ndarray, shape (N+1,)
+            The arc length the end point should have [m].
+        """
         dt = np.diff(self.t)
         return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (self.v_star[1:] + self.v_star[:-1]))])
 
     def summary(self) -> dict[str, float]:
-        """Final ``max|e|``, worst ``s`` tracking error, smallest margins and where."""
+        """Final ``max|e|``, worst ``s`` tracking error, smallest margins and where.
+
+        Returns
+        -------
+        dict
+            ``duration`` [s], ``steps``, ``final_max_abs_e`` [m], ``max_s_tracking_error`` [m],
+            ``min_link_margin`` with its ``_link`` and ``_time``, ``min_longitudinal_margin`` with
+            its ``_time``, ``max_abs_u``.
+        """
         lm = self.link_margins
         k, j = np.unravel_index(np.argmin(lm), lm.shape)
         return {"duration": float(self.t[-1] - self.t[0]), "steps": len(self.t) - 1,

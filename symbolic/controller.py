@@ -76,7 +76,13 @@ class CoordinatingController:
                            ["y", "t"], ["phi", "gphi", "phit", "psi", "gpsi", "psit"])
 
     def speed_function(self) -> ca.Function:
-        """``t -> v*(t)``."""
+        """``t -> v*(t)``: the commanded speed [m/s] as a CasADi Function.
+
+        Returns
+        -------
+        casadi.Function
+            Input ``t`` [s], output ``v`` [m/s].
+        """
         t = ca.SX.sym("t")
         return ca.Function("speed", [t], [ca.SX(self.speed(t))], ["t"], ["v"])
 
@@ -127,7 +133,13 @@ class CoordinatingController:
         return self._cache["hoisted"]
 
     def time_features(self) -> ca.Function:
-        """``t -> w``: the terms of :meth:`link_step` that depend on time only, computed once per ``t``."""
+        """``t -> w``: the terms of :meth:`link_step` that depend on time only, computed once per ``t``.
+
+        Returns
+        -------
+        casadi.Function
+            Input ``t`` [s], output ``w`` (one 0 for a static curve).
+        """
         return self._hoisted_link()[0]
 
     def link_step(self) -> ca.Function:
@@ -139,11 +151,22 @@ class CoordinatingController:
         ``p = w_1``, and the running ``sum |b|``; ``w`` is :meth:`time_features` at the
         current time;
         ``out_j = (e^j, link margin, a_j, b_j)``.
+
+        Returns
+        -------
+        casadi.Function
+            ``(carry, q_j, w) -> (carry_next, out)``.
         """
         return self._hoisted_link()[1]
 
     def first_carry(self) -> ca.Function:
-        """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``)."""
+        """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``).
+
+        Returns
+        -------
+        casadi.Function
+            Input ``q_1`` [rad], output ``carry`` (layout :attr:`CARRY`).
+        """
         q1 = ca.SX.sym("q_1")
         c, s = ca.cos(q1), ca.sin(q1)
         h = 0.5 * self.chain.xi
@@ -156,6 +179,11 @@ class CoordinatingController:
         The ``s`` equation fixes the free rate ``p = w_1`` by dividing by the longitudinal
         pivot ``grad(psi)(y^m) . d ydot^m / dp`` [m/rad]; the longitudinal margin
         ``|pivot| / (xi sum |b|)`` is dimensionless (``(m-1)/m sin(beta)`` on a zig-zag of m links).
+
+        Returns
+        -------
+        casadi.Function
+            ``(carry, t) -> (s, p, longitudinal, longitudinal_pivot)``.
         """
         carry, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("t")
         y_m, n_m, nb = carry[0:2], ca.vertcat(-carry[4], carry[3]), carry[11]
@@ -190,7 +218,22 @@ class CoordinatingController:
                 "longitudinal": margin, "longitudinal_pivot": pivot}
 
     def decoupling_matrix_expr(self, q, t):
-        """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD."""
+        """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD.
+
+        Parameters
+        ----------
+        q : casadi.SX or casadi.MX, shape (m,)
+            Symbolic joint coordinates [rad].
+        t : casadi.SX or casadi.MX
+            Symbolic time [s].
+
+        Returns
+        -------
+        M : casadi expression, shape (m, m)
+            Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``.
+        rhs : casadi expression, shape (m,)
+            ``(v* - dpsi/dt, -K e^j - dphi/dt)``.
+        """
         y = self.chain.centres(q)
         rows, rhs = [], []
         for j in [self.chain.m - 1] + list(range(1, self.chain.m)):
@@ -212,6 +255,21 @@ class CoordinatingController:
         ``form="structured"`` is an MX Function with a loop over links (for code
         generation); ``form="dense"`` solves the dense eq. 27 and takes its margins
         from the structured recursion.
+
+        Parameters
+        ----------
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        casadi.Function
+            ``(q, t) -> outputs`` (cached per form).
+
+        Raises
+        ------
+        ConfigError
+            Unknown form.
         """
         form = form or self.law_form
         if form not in LAWS:
@@ -231,7 +289,18 @@ class CoordinatingController:
         return self._cache[key]
 
     def fast_law(self, form: str | None = None) -> ca.Function:
-        """:meth:`law` expanded to a flat SX Function: fastest in CasADi's interpreter."""
+        """:meth:`law` expanded to a flat SX Function: fastest in CasADi's interpreter.
+
+        Parameters
+        ----------
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        casadi.Function
+            Same inputs and outputs as :meth:`law`.
+        """
         form = form or self.law_form
         key = ("fast", form)
         if key not in self._cache:
@@ -243,6 +312,18 @@ class CoordinatingController:
 
         The diagnostics (:data:`~coordarm.symbolic.outputs.RUN_OUTPUTS`) are those of the law
         at the step's start ``(q, t)``.
+
+        Parameters
+        ----------
+        h : float
+            Step length [s].
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        casadi.Function
+            ``(q, t) -> (q_next, *RUN_OUTPUTS)`` (cached per form and ``h``).
         """
         form = form or self.law_form
         key = ("rk4", form, float(h))
@@ -262,7 +343,13 @@ class CoordinatingController:
         return self._cache[key]
 
     def decoupling_function(self) -> ca.Function:
-        """``(q, t) -> (M, rhs)``: the dense decoupling matrix of eq. 26 and its right-hand side."""
+        """``(q, t) -> (M, rhs)``: the dense decoupling matrix of eq. 26 and its right-hand side.
+
+        Returns
+        -------
+        casadi.Function
+            The AD form of :meth:`decoupling_matrix_expr` (O(m^2) graph).
+        """
         if "M" not in self._cache:
             q, t = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
             M, r = self.decoupling_matrix_expr(q, t)
@@ -324,7 +411,27 @@ class CoordinatingController:
 
     # --------------------------------------------------------------- numeric API
     def evaluate(self, q, t: float = 0.0, form: str | None = None) -> dict[str, Any]:
-        """All outputs of the law at ``(q, t)`` as numpy values, keyed by :data:`OUTPUTS`."""
+        """All outputs of the law at ``(q, t)`` as numpy values, keyed by :data:`OUTPUTS`.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        dict
+            Vectors as arrays, scalars as floats (see :data:`coordarm.symbolic.outputs.LAW_OUTPUTS`).
+
+        Raises
+        ------
+        ConfigError
+            ``q`` or ``t`` not finite, or ``q`` of the wrong shape.
+        """
         q = self.chain.check_q(q)
         if not math.isfinite(t):
             raise ConfigError(f"t: must be finite, got {t!r}")
@@ -336,7 +443,20 @@ class CoordinatingController:
         return out
 
     def control(self, q, t: float = 0.0) -> np.ndarray:
-        """Control ``u(q, t)``, shape (m,)."""
+        """Control ``u(q, t)``.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            The control [rad/s for B = I].
+        """
         return self.evaluate(q, t)["u"]
 
     def centre_geometry(self, Q, T) -> dict[str, np.ndarray]:
@@ -370,7 +490,18 @@ class CoordinatingController:
         return out
 
     def speeds(self, T) -> np.ndarray:
-        """``v*(t)`` at each of the times ``T`` (N,), in one call [m/s]."""
+        """``v*(t)`` at each of the times ``T``, in one call.
+
+        Parameters
+        ----------
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Commanded speeds [m/s].
+        """
         T = np.atleast_1d(np.asarray(T, float))
         return np.asarray(self._mapped("speed", self.speed_function, len(T))(T[None])).ravel()
 
@@ -426,25 +557,86 @@ class CoordinatingController:
         return self._cache[key]
 
     def decoupling_matrix(self, q, t: float = 0.0) -> np.ndarray:
-        """Numeric decoupling matrix (eq. 26), shape (m, m); see :meth:`decoupling_matrices`."""
+        """Numeric decoupling matrix (eq. 26); see :meth:`decoupling_matrices`.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (m, m)
+            Rows ``(s^m, e^2, ..., e^m)``, columns the controls.
+        """
         return self.decoupling_matrices(self.chain.check_q(q)[None], [t])[0][0]
 
     def cond(self, q, t: float = 0.0) -> float:
-        """2-norm condition number of the decoupling matrix (see DESIGN.md section 2)."""
+        """2-norm condition number of the decoupling matrix.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            ``sigma_max / sigma_min`` (inf when singular).
+        """
         return float(self.conds(self.chain.check_q(q)[None], [t])[0])
 
     def conds(self, Q, T) -> np.ndarray:
-        """2-norm condition numbers of the decoupling matrices at N states ``Q`` (N, m), ``T`` (N,)."""
+        """2-norm condition numbers of the decoupling matrices at N states.
+
+        Parameters
+        ----------
+        Q : array_like, shape (N, m)
+            Joint coordinates [rad].
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            ``sigma_max / sigma_min`` of each (inf when singular).
+        """
         sv = np.linalg.svd(self.decoupling_matrices(Q, T)[0], compute_uv=False)
         with np.errstate(divide="ignore"):
             return sv[:, 0] / sv[:, -1]
 
     def base_offset(self, t: float = 0.0) -> float:
-        """``|phi(0, t)|``: how far the curve passes from the pinned base [m]."""
+        """``|phi(0, t)|``: how far the curve passes from the pinned base.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            Distance [m].
+        """
         return abs(float(self._geometry([0, 0], t)[0]))
 
     def speed_at(self, t: float) -> float:
-        """``v*(t)`` [m/s]."""
+        """The commanded speed at one time.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            ``v*(t)`` [m/s].
+        """
         return evaluate(self.speed, t)
 
     def __repr__(self) -> str:
