@@ -32,7 +32,7 @@ from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
 from coordarm.simulation.choices import lz4_frame
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels
-from coordarm.simulation.run import ARRAYS, Run
+from coordarm.simulation.run import ARRAYS, ExtraOutputs, Run
 from coordarm.simulation.scenario import Scenario
 from coordarm.symbolic import ConfigError, LogError
 
@@ -84,7 +84,7 @@ def chunk_messages(chunk: Chunk) -> list[RawMessage]:
 
 
 @dataclass
-class Replay:
+class Replay(ExtraOutputs):
     """A run read back from its log; rows are samples in time order.
 
     Attributes
@@ -138,12 +138,6 @@ class Replay:
     messages: int
     problems: list = field(default_factory=list)
     extra: dict = field(default_factory=dict)
-
-    def __getattr__(self, name: str) -> np.ndarray:
-        extra = self.__dict__.get("extra") or {}
-        if name in extra:
-            return extra[name]
-        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
 
     def to_run(self) -> Run:
         """The samples as a :class:`coordarm.simulation.run.Run` (for the figure functions).

@@ -14,8 +14,9 @@ Layers (imports flow one way): ``coordarm.symbolic`` <- ``coordarm.generated`` <
 """
 from __future__ import annotations
 
-from importlib import import_module
 from typing import Any
+
+from coordarm.symbolic.lazy import lazy_exports
 
 #: Public name -> module that defines it (loaded on first attribute access).
 _EXPORTS = {
@@ -63,18 +64,15 @@ def _version() -> str:
         return "0+unknown"
 
 
+_lazy = lazy_exports(__name__, _EXPORTS, _ALIASES)
+
+
 def __getattr__(name: str) -> Any:
     """Load a public name from its module on first use (PEP 562); also ``__version__``."""
     if name == "__version__":
         globals()[name] = value = _version()
         return value
-    try:
-        module = _EXPORTS[name]
-    except KeyError:
-        raise AttributeError(f"module 'coordarm' has no attribute {name!r}") from None
-    value = getattr(import_module(module), _ALIASES.get(name, name))
-    globals()[name] = value
-    return value
+    return _lazy(name)
 
 
 def __dir__() -> list[str]:

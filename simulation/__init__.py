@@ -1,8 +1,7 @@
 """Scenarios, the simulation loop and the run logs of coordarm (names load on first use)."""
 from __future__ import annotations
 
-from importlib import import_module
-from typing import Any
+from coordarm.symbolic.lazy import lazy_exports
 
 _EXPORTS = {"simulate": "run", "Run": "run", "DEFAULT_THRESHOLDS": "run",
             "SingularityError": "coordarm.symbolic.errors", "ConfigError": "coordarm.symbolic.errors",
@@ -11,12 +10,4 @@ _EXPORTS = {"simulate": "run", "Run": "run", "DEFAULT_THRESHOLDS": "run",
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    """Load a public name from its module on first use."""
-    try:
-        module = _EXPORTS[name]
-    except KeyError:
-        raise AttributeError(f"module 'coordarm.simulation' has no attribute {name!r}") from None
-    value = getattr(import_module(module if "." in module else f"{__name__}.{module}"), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_exports(__name__, _EXPORTS)

@@ -26,8 +26,19 @@ class BackendFallbackWarning(UserWarning):
     """``backend="auto"`` could not build the compiled controller and runs interpreted CasADi."""
 
 
+class ExtraOutputs:
+    """Mixin of :class:`Run` and :class:`~coordarm.analysis.replay.Replay`: the arrays in their
+    ``extra`` dict (law outputs that have no field of their own) read as attributes."""
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        extra = self.__dict__.get("extra") or {}
+        if name in extra:
+            return extra[name]
+        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
+
+
 @dataclass
-class Run:
+class Run(ExtraOutputs):
     """A simulated run, sampled at every step (row k is time ``t[k]``).
 
     Attributes
@@ -65,12 +76,6 @@ class Run:
     v_star: np.ndarray
     info: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
-
-    def __getattr__(self, name: str) -> np.ndarray:
-        extra = self.__dict__.get("extra") or {}
-        if name in extra:
-            return extra[name]
-        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], info: dict | None = None) -> "Run":
