@@ -1,6 +1,10 @@
 """Generated C under strict and unsafe flags: warning-free with -Wall -Wextra -Werror for every variant,
 and its finiteness checks intact under -ffast-math."""
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -42,8 +46,30 @@ def expiring_controller() -> CoordinatingController:
     return CoordinatingController(PlanarChain(6, 0.1), Line((0.0, 0.0), 0.3), 2.0, lambda t: 0.05 * ca.sqrt(1 - t))
 
 
-def test_fast_math_keeps_the_finiteness_checks(monkeypatch, tmp_path):
-    monkeypatch.setenv("COORDARM_CFLAGS", "-O3 -ffast-math")
+def in_a_subprocess(check: str, tmp_path) -> None:
+    """Run ``check(tmp_path)`` of this module in a fresh interpreter with ``COORDARM_CFLAGS="-O3 -ffast-math"``.
+
+    A library linked with -ffast-math may switch the whole process to flush-to-zero
+    arithmetic when it is loaded (gcc's crtfastmath), which would change every later test.
+    """
+    code = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+            f"import test_c_flags; test_c_flags.{check}({str(tmp_path)!r})")
+    env = dict(os.environ, COORDARM_CFLAGS="-O3 -ffast-math", COORDARM_BUILD_DIR=str(tmp_path))
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+    assert res.returncode == 0, res.stderr
+
+
+def test_fast_math_keeps_the_finiteness_checks(tmp_path):
+    in_a_subprocess("fast_math_checks", tmp_path)
+
+
+def test_a_run_into_nan_stops_at_the_same_step_compiled_with_fast_math_and_interpreted(tmp_path):
+    in_a_subprocess("nan_run_checks", tmp_path)
+
+
+def fast_math_checks(tmp: str) -> None:
+    """Non-finite inputs and a NaN produced inside the law are errors of the -ffast-math library."""
+    tmp_path = Path(tmp)
     ctrl = expiring_controller()
     comp = ctrl.compile(build_dir=tmp_path)
     assert "-ffast-math" in (tmp_path / comp.library.key[:16] / "meta.json").read_text()
@@ -61,9 +87,8 @@ def test_fast_math_keeps_the_finiteness_checks(monkeypatch, tmp_path):
         comp.step(q, 0.999, 0.01)
 
 
-def test_a_run_into_nan_stops_at_the_same_step_compiled_with_fast_math_and_interpreted(monkeypatch, tmp_path):
-    monkeypatch.setenv("COORDARM_CFLAGS", "-O3 -ffast-math")
-    monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path))
+def nan_run_checks(tmp: str) -> None:
+    """A run into NaN stops at the same step compiled with -ffast-math and interpreted."""
     stops = {}
     for backend in ("compiled", "interpreted"):
         ctrl = expiring_controller()
