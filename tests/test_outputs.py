@@ -72,3 +72,22 @@ def test_a_new_table_row_with_a_channel_is_appended_to_that_channel_and_kept_by_
     assert not hasattr(run, "v_scale")            # not a run output of the real table
     run = Run(**{a: arrays[a] for a in ARRAYS}, extra={"v_scale": np.ones(3)})
     assert np.array_equal(run.v_scale, np.ones(3))
+
+
+def test_a_log_written_before_the_link_margins_rename_is_read_by_position():
+    """``tests/data/line_before_link_margins_rename.mcap``: 4 links, 0.01 s of the line preset, written by
+    coordarm 0.1.0 whose /margins field was called ``link``; its margins equal the law's at the logged states."""
+    from pathlib import Path
+
+    from coordarm.analysis.replay import load
+
+    path = Path(__file__).parent / "data" / "line_before_link_margins_rename.mcap"
+    with open(path, "rb") as f:
+        assert b"float64[3] link\n" in f.read()          # the old field name in the stored schema
+    rep = load(path)
+    assert rep.outcome["status"] == "completed" and not rep.problems and len(rep.t) == 11
+    ctrl = rep.controller()
+    for k in range(len(rep.t)):
+        out = ctrl.evaluate(rep.q[k], rep.t[k])
+        np.testing.assert_allclose(rep.link_margins[k], out["link_margins"], rtol=1e-12)
+        assert rep.longitudinal[k] == pytest.approx(out["longitudinal"], rel=1e-12)
