@@ -31,7 +31,7 @@ from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
 from coordarm.simulation.choices import lz4_frame
-from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels
+from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
 from coordarm.simulation.run import ARRAYS, ExtraOutputs, Run
 from coordarm.simulation.scenario import Scenario
 from coordarm.symbolic import ConfigError, LogError
@@ -263,6 +263,12 @@ def load(path: str | Path) -> Replay:
         grouped.setdefault(msg.channel_id, []).append(msg)
     for key, ch in specs.items():
         cid = by_topic.get(ch.topic)
+        stored = schemas.get(channels[cid].schema_id) if cid is not None else None
+        if stored is not None and stored.encoding == "ros2msg":   # the file's own layout (older logs differ)
+            try:
+                ch = specs[key] = NumericChannel(ch.topic, ch.schema_name, fields_from_schema(stored.data.decode()))
+            except (ValueError, UnicodeDecodeError) as exc:
+                raise LogError(f"{path}: {ch.topic}: unreadable schema: {exc}") from None
         msgs = grouped.get(cid, []) if cid is not None else []
         data = _decode(msgs, ch.width, ch.topic, path) if msgs else np.empty((0, ch.width))
         order = np.argsort(data[:, 0], kind="stable")
@@ -295,6 +301,13 @@ def load(path: str | Path) -> Replay:
         data = data[np.isin(data[:, 0], common)]
         for name, sl in specs[key].slices().items():
             cols.setdefault(name, data[:, sl])
+    current = numeric_channels(m)
+    for key in PER_STEP:      # fields added after the log was written: NaN, said in problems
+        for name, n in current[key].fields:
+            if name not in cols:
+                cols[name] = np.full((len(common), n) if n else len(common), np.nan)
+                problems.append(f"{current[key].topic}: no field {name!r} in this log (written before it "
+                                "existed); filled with NaN")
     cond = per_channel["cond"]
     outcome = {k: json.loads(v) for k, v in meta["outcome"].items()} if "outcome" in meta else {"status": "unknown"}
     named = {f.name for f in fields(Replay)}

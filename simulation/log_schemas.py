@@ -98,6 +98,43 @@ def numeric_channels(links: int) -> dict[str, NumericChannel]:
     return out
 
 
+#: Former field names, as found in older logs (old name -> name).
+LEGACY_FIELDS = {"link": "link_margins"}
+
+
+def fields_from_schema(text: str) -> tuple[tuple[str, int], ...]:
+    """The fields of a stored ``ros2msg`` schema of a numeric channel, former names renamed.
+
+    Parameters
+    ----------
+    text : str
+        The schema as :meth:`NumericChannel.schema_text` writes it (``float64[n] name`` lines).
+
+    Returns
+    -------
+    tuple of (str, int)
+        ``(name, length)`` per field, 0 for a scalar (see :class:`NumericChannel`).
+
+    Raises
+    ------
+    ValueError
+        A line that is not a ``float64`` field.
+    """
+    out = []
+    for line in text.splitlines():
+        if not line.strip():
+            continue
+        kind, _, name = line.strip().partition(" ")
+        if kind == "float64":
+            n = 0
+        elif kind.startswith("float64[") and kind.endswith("]") and kind[8:-1].isdigit():
+            n = int(kind[8:-1])
+        else:
+            raise ValueError(f"not a float64 field: {line!r}")
+        out.append((LEGACY_FIELDS.get(name.strip(), name.strip()), n))
+    return tuple(out)
+
+
 #: Channels written at every logged step; a sample is complete when all of them are present.
 PER_STEP = ("joint_state", "task_state", "margins")
 

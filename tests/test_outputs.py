@@ -91,3 +91,34 @@ def test_a_log_written_before_the_link_margins_rename_is_read_by_position():
         out = ctrl.evaluate(rep.q[k], rep.t[k])
         np.testing.assert_allclose(rep.link_margins[k], out["link_margins"], rtol=1e-12)
         assert rep.longitudinal[k] == pytest.approx(out["longitudinal"], rel=1e-12)
+
+
+def test_a_field_added_after_a_log_was_written_reads_as_nan_and_is_reported(monkeypatch):
+    """Replay decodes each channel by the schema stored in the file, so a log from before a new
+    output (here a made-up ``v_scale`` on /task_state) still loads, the new field NaN."""
+    from pathlib import Path
+
+    from coordarm.analysis import replay
+    from coordarm.simulation.log_schemas import NumericChannel
+
+    real = replay.numeric_channels
+
+    def with_v_scale(m):
+        chans = real(m)
+        ts = chans["task_state"]
+        chans["task_state"] = NumericChannel(ts.topic, ts.schema_name, ts.fields + (("v_scale", 0),))
+        return chans
+
+    monkeypatch.setattr(replay, "numeric_channels", with_v_scale)
+    rep = replay.load(Path(__file__).parent / "data" / "line_before_link_margins_rename.mcap")
+    assert rep.v_scale.shape == (11,) and np.isnan(rep.v_scale).all()
+    assert any("v_scale" in p and "NaN" in p for p in rep.problems)
+    assert np.isfinite(rep.e).all() and np.isfinite(rep.link_margins).all()
+
+
+def test_stored_schemas_parse_back_to_the_channel_fields():
+    for ch in log_schemas.numeric_channels(5).values():
+        assert log_schemas.fields_from_schema(ch.schema_text()) == ch.fields
+    assert log_schemas.fields_from_schema("float64 t\nfloat64[4] link\n") == (("t", 0), ("link_margins", 4))
+    with pytest.raises(ValueError, match="int32"):
+        log_schemas.fields_from_schema("float64 t\nint32 n\n")
