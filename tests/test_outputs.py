@@ -4,7 +4,7 @@ import pytest
 
 from coordarm.generated.codegen import generate_source, layout_macros
 from coordarm.simulation import log_schemas
-from coordarm.simulation.run import ARRAYS, Run
+from coordarm.simulation.run import ARRAYS, Run, simulate
 from coordarm.symbolic import CoordinatingController, Line, PlanarChain
 from coordarm.symbolic.outputs import LAW_OUTPUTS, OUTPUTS, RUN_OUTPUTS, Output, offsets, packed_width, split
 
@@ -122,3 +122,31 @@ def test_stored_schemas_parse_back_to_the_channel_fields():
     assert log_schemas.fields_from_schema("float64 t\nfloat64[4] link\n") == (("t", 0), ("link_margins", 4))
     with pytest.raises(ValueError, match="int32"):
         log_schemas.fields_from_schema("float64 t\nint32 n\n")
+
+
+def test_a_new_output_row_is_logged_and_read_back_with_no_other_change(monkeypatch, tmp_path):
+    """End to end through the real writer and reader: a made-up output row ``v_scale`` on /task_state
+    (its values carried by the Run) lands in the log's schema and messages and comes back from replay."""
+    from coordarm.analysis.replay import load
+    from coordarm.simulation.mcap_writer import RunLogger
+    from coordarm.simulation.scenario import load_scenario
+
+    extra = Output("v_scale", 0, 1, "-", "task_state", "speed governor scale")
+    table = {o.name: o for o in LAW_OUTPUTS + (extra,)}
+    monkeypatch.setattr(log_schemas, "LAW_OUTPUTS", LAW_OUTPUTS + (extra,))
+    monkeypatch.setattr(log_schemas, "by_name", table.__getitem__)
+    sc = load_scenario("line").with_overrides(links=5, duration=0.02)
+    ctrl = sc.controller()
+    run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted")
+    v_scale = np.linspace(1.0, 0.5, len(run.t))
+    run = Run.from_arrays({a: getattr(run, a) for a in ARRAYS}, run.info)
+    run.extra["v_scale"] = v_scale
+    path = tmp_path / "v.mcap"
+    with RunLogger(path, sc, ctrl) as log:
+        log.on_chunk(run)
+    with open(path, "rb") as f:
+        assert b"float64 v_scale\n" in f.read()
+    rep = load(path)
+    assert not rep.problems
+    np.testing.assert_array_equal(rep.v_scale, v_scale)
+    np.testing.assert_array_equal(rep.e, run.e)
