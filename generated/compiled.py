@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import ctypes
 import time
+import warnings
 from typing import Any
 
 import numpy as np
@@ -23,14 +24,41 @@ _SIGNATURES = {"coordarm_law": [_P, _D, _P, _P, _P],
                "coordarm_chunk": [_P, _P, _D, _I, _P, _P, _P, _P]}
 
 
+def flushes_subnormals() -> bool:
+    """True when this thread's floating point flushes subnormal numbers to zero (FTZ/DAZ).
+
+    Returns
+    -------
+    bool
+        Whether ``2.2250738585072014e-308 / 2`` (a subnormal) comes out as 0.
+    """
+    return float(np.float64(2.2250738585072014e-308) / np.float64(2.0)) == 0.0
+
+
 def load_library(path) -> ctypes.CDLL:
     """Load a generated library and declare its functions' argument types.
+
+    Parameters
+    ----------
+    path : str or Path
+        The shared library.
+
+    Returns
+    -------
+    ctypes.CDLL
 
     Raises
     ------
     BuildError
         The file is not a loadable library or lacks the coordarm API.
+
+    Warns
+    -----
+    RuntimeWarning
+        Loading it switched the process to flush-to-zero arithmetic (a library linked with
+        ``-ffast-math`` by gcc < 13 does so; numpy is affected too).
     """
+    ftz_before = flushes_subnormals()
     try:
         lib = ctypes.CDLL(str(path))
         for name, argtypes in _SIGNATURES.items():
@@ -39,6 +67,10 @@ def load_library(path) -> ctypes.CDLL:
         lib.coordarm_sizes.argtypes, lib.coordarm_sizes.restype = [_P], None
     except (OSError, AttributeError) as exc:
         raise BuildError(f"cannot load generated library {path}: {exc}") from None
+    if flushes_subnormals() and not ftz_before:
+        warnings.warn(f"loading {path} switched this process to flush-to-zero arithmetic (subnormal numbers "
+                      "now read as 0, in numpy too): it was linked with -ffast-math or similar; build without "
+                      "it, or add -mno-daz-ftz (gcc >= 13) to COORDARM_CFLAGS", RuntimeWarning, stacklevel=2)
     return lib
 
 
