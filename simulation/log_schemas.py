@@ -75,9 +75,10 @@ SOURCES = {"t": "t", "q": "q", "u": "u", "s": "s", "v_star": "v_star", "e": "e",
 def numeric_channels(links: int) -> dict[str, NumericChannel]:
     """The per-step channels and the condition-number channel for a chain of ``links`` links.
 
-    Keys are short names (``joint_state``, ``task_state``, ``margins``, ``cond``, ``target``).
-    ``/target`` (at the scene rate) holds the end point's arc length ``s``, its target
-    ``s_target = s(0) + integral of v*`` [m] and the target point ``x, y`` on the curve [m].
+    Keys are short names (``joint_state``, ``task_state``, ``margins``, ``cond``, ``tracking``).
+    ``/tracking`` (at the scene rate, for the Foxglove layout's plots) holds the end point's arc
+    length ``s``, its target ``s_target = s(0) + integral of v*`` [m], the target point on the
+    curve [m], ``max|e|`` [m], the smallest link margin and the Euclidean norm of ``u``.
     """
     m = links
     return {
@@ -89,8 +90,9 @@ def numeric_channels(links: int) -> dict[str, NumericChannel]:
                                   (("t", 0), ("link", m - 1), ("longitudinal", 0))),
         "cond": NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning",
                                (("t", 0), ("cond", 0))),
-        "target": NumericChannel("/target", "coordarm_msgs/msg/Target",
-                                 (("t", 0), ("s", 0), ("s_target", 0), ("x", 0), ("y", 0))),
+        "tracking": NumericChannel("/tracking", "coordarm_msgs/msg/Tracking",
+                                   (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0),
+                                    ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0))),
     }
 
 

@@ -7,7 +7,8 @@ Channels (timestamps: ns of simulated time)
 * ``/margins/cond``: condition number of the decoupling matrix, ~5 Hz (one SVD each);
 * ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, the end point's target, obstacles),
   ``/tf``: ``foxglove.FrameTransforms`` JSON (a frame per link, chained from ``world``) and
-  ``/target`` (``s``, its target, the target point), ~20 Hz (:mod:`.scene`).
+  ``/tracking`` (``s`` and its target, ``max|e|``, the smallest link margin, ``|u|``), ~20 Hz
+  (:mod:`.scene`).
 
 Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, versions),
 ``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
@@ -112,7 +113,7 @@ class RunLogger:
     log_rate : float, optional
         Samples per simulated second on the per-step channels (default: every step).
     scene_rate : float
-        Rate of ``/scene``, ``/tf`` and ``/target`` [Hz]; 0 switches them off.
+        Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off.
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz]; 0 switches it off. Default :func:`default_cond_rate`:
         5 Hz up to 64 links, then falling as ``1/m^2`` (an SVD costs O(m^3), a step O(m)).
@@ -167,7 +168,7 @@ class RunLogger:
             raise LogError(f"{self.path}: cannot create the log: {exc}") from None
         self.ids: dict[str, int] = {}
         for key, ch in self.channels.items():
-            if key == "target" and not self.scene_every:
+            if key == "tracking" and not self.scene_every:
                 continue
             sid = self.file.add_schema(ch.schema_name, "ros2msg", ch.schema_text().encode())
             self.ids[key] = self.file.add_channel(ch.topic, "cdr", sid)

@@ -1,5 +1,5 @@
 """What Foxglove draws: the ``/scene`` (``foxglove.SceneUpdate``), ``/tf`` (``foxglove.FrameTransforms``)
-and ``/target`` messages of a run, built from blocks of its steps.
+and ``/tracking`` messages of a run, built from blocks of its steps.
 
 The scene, in frame ``world``: the chain (its joints as a line strip), the whole curve at its
 current pose, the end point's target (a sphere at the point of the curve whose arc length is
@@ -128,7 +128,7 @@ def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.
 
 
 class SceneBuilder:
-    """Builds the ``/scene``, ``/tf`` and ``/target`` messages of a run, block by block.
+    """Builds the ``/scene``, ``/tf`` and ``/tracking`` messages of a run, block by block.
 
     Feed every block of steps to :meth:`advance` (it keeps the running integral of ``v*``),
     then ask :meth:`messages` for the rows to draw.
@@ -192,7 +192,7 @@ class SceneBuilder:
         return [curve.sample(float(t), n=90, extent=self.reach) for t in times]
 
     def messages(self, part: Run, ks: np.ndarray, ns: np.ndarray) -> list[tuple[str, int, bytes]]:
-        """``(channel key, log time, data)`` of the scene, frame transforms and target at rows ``ks``.
+        """``(channel key, log time, data)`` of the scene, frame transforms and tracking at rows ``ks``.
 
         ``part`` must be the block last given to :meth:`advance`; ``ns`` are the log times of
         the rows [ns].
@@ -213,6 +213,7 @@ class SceneBuilder:
                       '"texts":[],"models":[],"lines":[' + ",".join(lines) + "]}")
             out.append(("scene", n, ('{"deletions":[],"entities":[' + entity + "]}").encode()))
             out.append(("tf", n, frame_transforms_json(J, n).encode()))
-            record = np.array([part.t[k], s, s_target, target[0], target[1]], "<f8")
-            out.append(("target", n, CDR_HEADER + record.tobytes()))
+            record = np.array([part.t[k], s, s_target, target[0], target[1], np.max(np.abs(part.e[k])),
+                               np.min(part.link_margins[k]), np.linalg.norm(part.u[k])], "<f8")
+            out.append(("tracking", n, CDR_HEADER + record.tobytes()))
         return out

@@ -143,16 +143,18 @@ def test_every_scene_message_validates_and_draws_arm_curve_target_and_walls(hole
         assert abs(phi) < 1e-9 and psi == pytest.approx(s_ref[k], abs=1e-9)
 
 
-def test_target_channel_holds_s_its_reference_and_a_point_of_the_curve_there(arc):
+def test_tracking_channel_holds_s_its_target_a_point_of_the_curve_there_and_the_plotted_norms(arc):
     path, run, scenario = arc
     ctrl = scenario.controller()
     s_ref = run.s_reference()
-    rows = _messages(path, "/target")
+    rows = _messages(path, "/tracking")
     assert len(rows) == len(range(0, len(run.t), 50))
     for log_time, data in rows:
-        t, s, s_target, x, y = np.frombuffer(data[4:], "<f8")
+        t, s, s_target, x, y, max_e, min_link, norm_u = np.frombuffer(data[4:], "<f8")
         k = int(np.flatnonzero(run.t == t)[0])
         assert s == run.s[k] and s_target == s_ref[k]   # bit for bit: same sums in the same order
+        assert max_e == max(abs(v) for v in run.e[k]) and min_link == min(run.link_margins[k])
+        assert norm_u == pytest.approx(math.sqrt(sum(v * v for v in run.u[k])), rel=1e-15)
         phi, psi = (float(v) for v in ctrl.curve.functions()(np.array([x, y]), t))
         # the arc is drawn as a 90-point polyline: its chords sit within R(1 - cos(pi/89)) of the circle
         assert abs(phi) < 2e-3 and psi == pytest.approx(s_target, abs=2e-3)

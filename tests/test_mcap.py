@@ -48,7 +48,7 @@ def test_the_plain_mcap_reader_sees_schemas_channels_metadata_and_statistics(log
         reader = make_reader(f)
         summary = reader.get_summary()
         topics = {c.topic: c for c in summary.channels.values()}
-        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene", "/tf", "/target"}
+        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene", "/tf", "/tracking"}
         schemas = {s.id: s for s in summary.schemas.values()}
         scene = topics["/scene"]
         assert scene.message_encoding == "json"
@@ -60,7 +60,7 @@ def test_the_plain_mcap_reader_sees_schemas_channels_metadata_and_statistics(log
         n = len(run.t)
         counts = {c.topic: summary.statistics.channel_message_counts[c.id] for c in topics.values()}
         assert counts["/joint_state"] == counts["/task_state"] == counts["/margins"] == n
-        assert counts["/scene"] == counts["/tf"] == counts["/target"] == len(range(0, n, 50))
+        assert counts["/scene"] == counts["/tf"] == counts["/tracking"] == len(range(0, n, 50))
         assert counts["/margins/cond"] == len(range(0, n, 200))
         assert summary.statistics.message_end_time == round(DURATION * 1e9)
         meta = {m.name: m.metadata for m in reader.iter_metadata()}
@@ -122,7 +122,7 @@ def test_rate_zero_switches_the_scene_and_cond_channels_off(scenario, tmp_path):
         run = simulate(ctrl, scenario.start(ctrl), 0.1, scenario.step, on_chunk=log.on_chunk)
     with open(path, "rb") as f:
         topics = [ch.topic for _, ch, _ in make_reader(f).iter_messages()]
-    assert len(topics) == 3 * len(run.t) and not {"/scene", "/tf", "/target", "/margins/cond"} & set(topics)
+    assert len(topics) == 3 * len(run.t) and not {"/scene", "/tf", "/tracking", "/margins/cond"} & set(topics)
     assert len(load(path).cond) == 0
 
 
@@ -218,7 +218,7 @@ def test_lz4_and_zstd_logs_hold_the_same_messages_for_the_plain_reader_and_load(
             reader = make_reader(f)
             assert {c.compression for c in reader.get_summary().chunk_indexes} == {compression}
             seen[compression] = [(ch.topic, m.log_time, m.data) for _, ch, m in reader.iter_messages()]
-    assert len(seen["lz4"]) == 3 * 301 + 3 * 7 + 2 and seen["lz4"] == seen["zstd"]  # 3 per step, 7 x (scene, tf, target), 2 conds
+    assert len(seen["lz4"]) == 3 * 301 + 3 * 7 + 2 and seen["lz4"] == seen["zstd"]  # 3 per step, 7 x (scene, tf, tracking), 2 conds
     a, b = load(paths["zstd"]), load(paths["lz4"])
     assert np.array_equal(a.q, b.q) and np.array_equal(a.e, b.e) and np.array_equal(a.cond, b.cond)
     with pytest.raises(ConfigError, match="compression"):
