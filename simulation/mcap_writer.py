@@ -58,6 +58,24 @@ def default_cond_rate(links: int) -> float:
     return COND_RATE * min(1.0, (64.0 / links) ** 2)
 
 
+def steps_between(rate: Any, step: float, name: str) -> int:
+    """Steps between two samples at ``rate`` samples per simulated second (at least 1).
+
+    Raises
+    ------
+    ConfigError
+        ``rate`` (named ``name`` in the message) is not a positive number.
+    """
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0 or not np.isfinite(rate):
+        raise ConfigError(f"{name}: need a positive number of samples per second, got {rate!r}")
+    return max(1, int(round(1.0 / (rate * step))))
+
+
+def log_time_ns(t: float | np.ndarray, origin: float) -> np.ndarray:
+    """Log times [ns] of simulated times ``t`` [s]: nanoseconds since ``origin`` (<= every t)."""
+    return np.round((np.asarray(t) - origin) * 1e9).astype(np.uint64)
+
+
 def _version(dist: str) -> str:
     try:
         return _metadata.version(dist)
@@ -214,9 +232,7 @@ class RunLogger:
         return LogError(f"{self.path}: writing the log failed: {type(error).__name__}: {error}")
 
     def _decimation(self, rate: Any, name: str) -> int:
-        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0 or not np.isfinite(rate):
-            raise ConfigError(f"{name}: need a positive number of samples per second, got {rate!r}")
-        return max(1, int(round(1.0 / (rate * self.step))))
+        return steps_between(rate, self.step, name)
 
     # ---------------------------------------------------------------- writing
     def on_chunk(self, part: Run) -> None:
@@ -259,7 +275,7 @@ class RunLogger:
             self._flush_now()
 
     def _ns(self, t: float | np.ndarray):
-        return np.round((np.asarray(t) - self.origin) * 1e9).astype(np.uint64)
+        return log_time_ns(t, self.origin)
 
     def _add_samples(self, part: Run, rows: np.ndarray) -> None:
         n = len(rows)
