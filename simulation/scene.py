@@ -26,9 +26,11 @@ from .run import Run
 #: integers format about twice as fast as floats).
 _POINT = '{"x":%de-6,"y":%de-6,"z":0}'
 _POSE0 = '{"position":{"x":0,"y":0,"z":0},"orientation":{"x":0,"y":0,"z":0,"w":1}}'
-#: One frame transform; numbers in ``%r`` (shortest repr: exact round trip of the double).
-_TRANSFORM = ('{"timestamp":%s,"parent_frame_id":"%s","child_frame_id":"link%d",'
-              '"translation":{"x":%r,"y":%r,"z":0},"rotation":{"x":0,"y":0,"z":%r,"w":%r}}')
+#: One frame transform (parent and child filled in once per chain): translation as integer
+#: nanometres, rotation as integer multiples of 1e-15 (integers format fast; doubles near 1 are
+#: spaced 1.1e-16, so the quaternion is exact to about that).
+_TRANSFORM = ('{"timestamp":%%s,"parent_frame_id":"%s","child_frame_id":"link%d",'
+              '"translation":{"x":%%de-9,"y":%%de-9,"z":0},"rotation":{"x":0,"y":0,"z":%%de-15,"w":%%de-15}}')
 
 ARM_COLOR, CURVE_COLOR, WALL_COLOR, TARGET_COLOR = ((0.15, 0.45, 0.9, 1.0), (0.9, 0.5, 0.1, 0.8),
                                                     (0.2, 0.2, 0.2, 1.0), (0.85, 0.1, 0.1, 1.0))
@@ -93,16 +95,24 @@ def link_frames(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return trans, angle
 
 
-def frame_transforms_json(joints: np.ndarray, ns: int) -> str:
-    """The ``foxglove.FrameTransforms`` of one pose (``joints`` (m+1, 2)) stamped ``ns``."""
+def frame_transforms_json(joints: np.ndarray, ns: list[int] | np.ndarray) -> list[str]:
+    """The ``foxglove.FrameTransforms`` of poses ``joints`` (n, m+1, 2) stamped ``ns`` [ns], one JSON each.
+
+    Translations are exact to 1 nm, rotations (quaternions about z) to 1e-15.
+    """
     trans, angle = link_frames(joints)
-    stamp = stamp_json(ns)
-    m = len(angle)
-    parents = ["world"] + [f"link{j}" for j in range(1, m)]
-    qz, qw = np.sin(0.5 * angle), np.cos(0.5 * angle)
-    items = [_TRANSFORM % (stamp, parents[j], j + 1, float(trans[j, 0]), float(trans[j, 1]), float(qz[j]),
-                           float(qw[j])) for j in range(m)]
-    return '{"transforms":[' + ",".join(items) + "]}"
+    m = angle.shape[-1]
+    template = '{"transforms":[' + ",".join(_TRANSFORM % ("world" if j == 0 else f"link{j}", j + 1)
+                                            for j in range(m)) + "]}"
+    values = np.empty(angle.shape + (4,), np.int64)
+    values[..., :2] = np.round(trans * 1e9)
+    values[..., 2] = np.round(np.sin(0.5 * angle) * 1e15)
+    values[..., 3] = np.round(np.cos(0.5 * angle) * 1e15)
+    out = []
+    for n, v in zip(np.asarray(ns).tolist(), values.tolist()):
+        stamp = stamp_json(n)
+        out.append(template % tuple(x for row in v for x in (stamp, *row)))
+    return out
 
 
 def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.ndarray:
@@ -120,7 +130,7 @@ def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.
     k = int(np.argmin(np.hypot(*(foot - start).T)))
     cum = np.concatenate([[0.0], np.cumsum(length)])
     pos = cum[k] + tpar[k] * length[k] + distance
-    if np.allclose(p[0], p[-1], rtol=0, atol=1e-9) and cum[-1] > 0:
+    if abs(p[0, 0] - p[-1, 0]) <= 1e-9 and abs(p[0, 1] - p[-1, 1]) <= 1e-9 and cum[-1] > 0:
         pos %= cum[-1]
     pos = min(max(pos, 0.0), cum[-1])
     i = int(min(np.searchsorted(cum, pos, side="right") - 1, len(length) - 1))
@@ -201,8 +211,9 @@ class SceneBuilder:
             return []
         joints = self.ctrl.chain.joints_np(part.q[ks])
         curves = self.curves(part.t[ks])
+        frames = frame_transforms_json(joints, ns)
         out = []
-        for k, J, C, n in zip(ks.tolist(), joints, curves, np.asarray(ns).tolist()):
+        for k, J, C, n, tf in zip(ks.tolist(), joints, curves, np.asarray(ns).tolist(), frames):
             end = 0.5 * (J[-2] + J[-1])  # the central point of the last link
             s, s_target = float(part.s[k]), float(self.s_target[k])
             target = point_along(C, end, s_target - s)
@@ -212,7 +223,7 @@ class SceneBuilder:
                       '"spheres":[' + sphere_json(target, 0.04, TARGET_COLOR) + '],"cylinders":[],"triangles":[],'
                       '"texts":[],"models":[],"lines":[' + ",".join(lines) + "]}")
             out.append(("scene", n, ('{"deletions":[],"entities":[' + entity + "]}").encode()))
-            out.append(("tf", n, frame_transforms_json(J, n).encode()))
+            out.append(("tf", n, tf.encode()))
             record = np.array([part.t[k], s, s_target, target[0], target[1], np.max(np.abs(part.e[k])),
                                np.min(part.link_margins[k]), np.linalg.norm(part.u[k])], "<f8")
             out.append(("tracking", n, CDR_HEADER + record.tobytes()))

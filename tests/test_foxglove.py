@@ -199,7 +199,7 @@ def test_frame_transforms_validate_and_chain_every_link_from_world(hole):
             tr, rot = item["translation"], item["rotation"]
             pos = pos + np.array([[math.cos(ang), -math.sin(ang)], [math.sin(ang), math.cos(ang)]]) @ [tr["x"], tr["y"]]
             ang += 2 * math.atan2(rot["z"], rot["w"])
-            np.testing.assert_allclose(pos, centres[j], atol=1e-12)
+            np.testing.assert_allclose(pos, centres[j], atol=(j + 1) * 1e-9)  # translations are sent in whole nm
             assert math.remainder(ang - np.sum(q[:j + 1]), 2 * math.pi) == pytest.approx(0.0, abs=1e-12)
 
 
