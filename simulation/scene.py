@@ -29,7 +29,7 @@ _POSE0 = '{"position":{"x":0,"y":0,"z":0},"orientation":{"x":0,"y":0,"z":0,"w":1
 #: One frame transform (parent and child filled in once per chain): translation as integer
 #: nanometres, rotation as integer multiples of 1e-15 (integers format fast; doubles near 1 are
 #: spaced 1.1e-16, so the quaternion is exact to about that).
-_TRANSFORM = ('{"timestamp":%%s,"parent_frame_id":"%s","child_frame_id":"link%d",'
+_TRANSFORM = ('{"timestamp":@T,"parent_frame_id":"%s","child_frame_id":"link%d",'
               '"translation":{"x":%%de-9,"y":%%de-9,"z":0},"rotation":{"x":0,"y":0,"z":%%de-15,"w":%%de-15}}')
 
 ARM_COLOR, CURVE_COLOR, WALL_COLOR, TARGET_COLOR = ((0.15, 0.45, 0.9, 1.0), (0.9, 0.5, 0.1, 0.8),
@@ -108,11 +108,8 @@ def frame_transforms_json(joints: np.ndarray, ns: list[int] | np.ndarray) -> lis
     values[..., :2] = np.round(trans * 1e9)
     values[..., 2] = np.round(np.sin(0.5 * angle) * 1e15)
     values[..., 3] = np.round(np.cos(0.5 * angle) * 1e15)
-    out = []
-    for n, v in zip(np.asarray(ns).tolist(), values.tolist()):
-        stamp = stamp_json(n)
-        out.append(template % tuple(x for row in v for x in (stamp, *row)))
-    return out
+    return [(template % tuple(v)).replace("@T", stamp_json(n))
+            for n, v in zip(np.asarray(ns).tolist(), values.reshape(len(values), -1).tolist())]
 
 
 def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.ndarray:
