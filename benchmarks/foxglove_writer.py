@@ -203,6 +203,10 @@ def main() -> None:
         med = statistics.median(times[v])
         print(f"  {v[0]:9s} {'with scenes' if v[1] else 'per-step  '}  median {med:7.3f} s  {med / n * 1e6:6.2f} us/msg"
               f"  ({n} msgs, {path.stat().st_size / 2**20:6.2f} MiB)  runs {', '.join(f'{t:.3f}' for t in times[v])}")
+    for scenes in (False, True):
+        ratios = [f / c for c, f in zip(times[("coordarm", scenes)], times[("foxglove", scenes)])]
+        print(f"  foxglove / coordarm {'with scenes' if scenes else 'per-step'}: median of per-repeat ratios "
+              f"{statistics.median(ratios):.2f} (min {min(ratios):.2f}, max {max(ratios):.2f})")
     for kind in ("coordarm", "foxglove"):
         handed, recovered = crash(kind, tmp, args.links, args.kill_after)
         print(f"  SIGKILL {kind:9s} handed over {handed:.3f} s, recovered {recovered:.3f} s, lost {handed - recovered:.3f} s")
