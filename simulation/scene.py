@@ -134,6 +134,17 @@ def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.
     return a[i] + (pos - cum[i]) / max(length[i], 1e-300) * ab[i]
 
 
+def _targets(curves: list[np.ndarray], starts: np.ndarray, distances: np.ndarray) -> np.ndarray:
+    """:func:`point_along` for each polyline, in one pass when all are straight segments (a line)."""
+    if all(len(c) == 2 for c in curves):
+        a, b = np.array([c[0] for c in curves]), np.array([c[1] for c in curves])
+        length = np.hypot(*(b - a).T)
+        d = (b - a) / length[:, None]
+        pos = np.clip(np.clip(np.einsum("ij,ij->i", starts - a, d), 0.0, length) + distances, 0.0, length)
+        return a + pos[:, None] * d
+    return np.array([point_along(c, p, x) for c, p, x in zip(curves, starts, distances)])
+
+
 class SceneBuilder:
     """Builds the ``/scene``, ``/tf`` and ``/tracking`` messages of a run, block by block.
 
@@ -209,11 +220,14 @@ class SceneBuilder:
         joints = self.ctrl.chain.joints_np(part.q[ks])
         curves = self.curves(part.t[ks])
         frames = frame_transforms_json(joints, ns)
+        ends = 0.5 * (joints[:, -2] + joints[:, -1])  # the central point of the last link
+        s, s_target = part.s[ks], self.s_target[ks]
+        targets = _targets(curves, ends, s_target - s)
+        tracking = np.column_stack([part.t[ks], s, s_target, targets, np.max(np.abs(part.e[ks]), axis=1),
+                                    np.min(part.link_margins[ks], axis=1), np.linalg.norm(part.u[ks], axis=1)])
         out = []
-        for k, J, C, n, tf in zip(ks.tolist(), joints, curves, np.asarray(ns).tolist(), frames):
-            end = 0.5 * (J[-2] + J[-1])  # the central point of the last link
-            s, s_target = float(part.s[k]), float(self.s_target[k])
-            target = point_along(C, end, s_target - s)
+        for J, C, n, tf, target, record in zip(joints, curves, np.asarray(ns).tolist(), frames, targets,
+                                              tracking.astype("<f8")):
             lines = (line_json(J, 0.01, ARM_COLOR), line_json(C, 0.005, CURVE_COLOR), *self._obstacle_lines)
             entity = ('{"timestamp":' + stamp_json(n) + ',"frame_id":"world","id":"coordarm",'
                       '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],'
@@ -221,7 +235,5 @@ class SceneBuilder:
                       '"texts":[],"models":[],"lines":[' + ",".join(lines) + "]}")
             out.append(("scene", n, ('{"deletions":[],"entities":[' + entity + "]}").encode()))
             out.append(("tf", n, tf.encode()))
-            record = np.array([part.t[k], s, s_target, target[0], target[1], np.max(np.abs(part.e[k])),
-                               np.min(part.link_margins[k]), np.linalg.norm(part.u[k])], "<f8")
             out.append(("tracking", n, CDR_HEADER + record.tobytes()))
         return out

@@ -12,7 +12,7 @@ from coordarm.simulation.log_schemas import foxglove_schema
 from coordarm.simulation.mcap_writer import RunLogger
 from coordarm.simulation.run import simulate
 from coordarm.simulation.scenario import load_scenario
-from coordarm.simulation.scene import link_frames, obstacle_outlines, point_along
+from coordarm.simulation.scene import _targets, link_frames, obstacle_outlines, point_along
 
 LINKS, DURATION = 6, 0.6
 
@@ -168,6 +168,13 @@ def test_point_along_walks_a_closed_polyline_across_its_seam():
     open_line = np.array([[0.0, 0.0], [1.0, 0.0]])
     np.testing.assert_allclose(point_along(open_line, np.array([0.5, 0.2]), 0.25), [0.75, 0.0])
     np.testing.assert_allclose(point_along(open_line, np.array([0.5, 0.2]), 5.0), [1.0, 0.0])
+
+
+def test_targets_on_straight_segments_in_one_pass_equal_point_along_one_by_one(rng):
+    curves = [rng.normal(size=(2, 2)) * 3 for _ in range(100)]
+    starts, distances = rng.normal(size=(100, 2)), rng.normal(size=100) * 4   # many beyond the ends
+    one_by_one = np.array([point_along(c, p, x) for c, p, x in zip(curves, starts, distances)])
+    np.testing.assert_allclose(_targets(curves, starts, distances), one_by_one, rtol=0, atol=1e-13)
 
 
 def test_obstacle_outlines_draw_each_wall_segment():
