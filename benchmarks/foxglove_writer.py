@@ -40,8 +40,8 @@ from mcap.records import Channel, Message  # noqa: E402
 from mcap.stream_reader import StreamReader  # noqa: E402
 
 from coordarm.analysis.replay import load  # noqa: E402
-from coordarm.simulation.log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP,  # noqa: E402
-                                             foxglove_schema_bytes, numeric_channels)
+from coordarm.simulation.live import sdk_channels  # noqa: E402
+from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, numeric_channels  # noqa: E402
 from coordarm.simulation.mcap_writer import SCENE_RATE, RunLogger, log_time_ns, steps_between  # noqa: E402
 from coordarm.simulation.scenario import load_scenario  # noqa: E402
 from coordarm.simulation.scene import SceneBuilder  # noqa: E402
@@ -62,17 +62,7 @@ class FoxgloveLogger:
         self.writer = foxglove.open_mcap(path, allow_overwrite=True, context=self.context, writer_options=options)
         self.writer.write_metadata("scenario", {"json": scenario.to_json(), "source": scenario.source})
         self.numeric = numeric_channels(ctrl.chain.m)
-        self.channels = {}
-        for key, ch in self.numeric.items():
-            if key == "cond" or (key == "tracking" and not scene_rate):
-                continue
-            schema = foxglove.Schema(name=ch.schema_name, encoding="ros2msg", data=ch.schema_text().encode())
-            self.channels[key] = foxglove.Channel(ch.topic, schema=schema, message_encoding="cdr", context=self.context)
-        if scene_rate:
-            for key, (topic, name) in FOXGLOVE_CHANNELS.items():
-                schema = foxglove.Schema(name=name, encoding="jsonschema", data=foxglove_schema_bytes(name))
-                self.channels[key] = foxglove.Channel(topic, schema=schema, message_encoding="json",
-                                                      context=self.context)
+        self.channels = sdk_channels(self.context, ctrl.chain.m, scenes=bool(scene_rate))
         self.scene = SceneBuilder(ctrl, scenario.obstacles)
         self.scene_every = steps_between(scene_rate, scenario.step, "scene_rate") if scene_rate else 0
         self.origin = min(0.0, scenario.t0)

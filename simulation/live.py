@@ -28,6 +28,23 @@ from .scene import SceneBuilder
 LIVE_RATE = 50.0
 
 
+def sdk_channels(context: Any, links: int, scenes: bool = True) -> dict[str, Any]:
+    """foxglove-sdk channels on ``context`` for the log's topics: the per-step ones and, if ``scenes``,
+    ``/tracking``, ``/scene`` and ``/tf`` (same schemas and encodings as the log; keys as in the log)."""
+    import foxglove
+
+    numeric = numeric_channels(links)
+    out = {}
+    for key in (*PER_STEP, "tracking") if scenes else PER_STEP:
+        ch = numeric[key]
+        schema = foxglove.Schema(name=ch.schema_name, encoding="ros2msg", data=ch.schema_text().encode())
+        out[key] = foxglove.Channel(ch.topic, schema=schema, message_encoding="cdr", context=context)
+    for key, (topic, name) in FOXGLOVE_CHANNELS.items() if scenes else ():
+        schema = foxglove.Schema(name=name, encoding="jsonschema", data=foxglove_schema_bytes(name))
+        out[key] = foxglove.Channel(topic, schema=schema, message_encoding="json", context=context)
+    return out
+
+
 class _Subscribed:
     """A ``foxglove.websocket.ServerListener`` that sets an event at the first subscription."""
 
@@ -81,7 +98,7 @@ class LiveView:
         self.scene_every = steps_between(scene_rate, scenario.step, "scene_rate")
         self.origin = min(0.0, scenario.t0)
         self.scene = SceneBuilder(ctrl, scenario.obstacles)
-        self.numeric = {k: ch for k, ch in numeric_channels(ctrl.chain.m).items() if k in (*PER_STEP, "tracking")}
+        self.numeric = numeric_channels(ctrl.chain.m)
         self.context = foxglove.Context()
         self._listener = _Subscribed()
         try:
@@ -90,13 +107,7 @@ class LiveView:
                                                 capabilities=[Capability.Time])
         except Exception as exc:  # foxglove raises its own error types for a port in use, a bad host, ...
             raise ConfigError(f"--port {port}: cannot start the live server on {host}: {exc}") from None
-        self.channels = {}
-        for key, ch in self.numeric.items():
-            schema = foxglove.Schema(name=ch.schema_name, encoding="ros2msg", data=ch.schema_text().encode())
-            self.channels[key] = foxglove.Channel(ch.topic, schema=schema, message_encoding="cdr", context=self.context)
-        for key, (topic, name) in FOXGLOVE_CHANNELS.items():
-            schema = foxglove.Schema(name=name, encoding="jsonschema", data=foxglove_schema_bytes(name))
-            self.channels[key] = foxglove.Channel(topic, schema=schema, message_encoding="json", context=self.context)
+        self.channels = sdk_channels(self.context, ctrl.chain.m)
         self.host = host
         self._seen = 0
         self._clock: tuple[float, int] | None = None  # (wall time, log time) of the first message
