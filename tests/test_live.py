@@ -5,7 +5,6 @@ import subprocess
 import sys
 
 import jsonschema
-import pytest
 from mcap.reader import make_reader
 from websockets.sync.client import connect
 
