@@ -80,3 +80,16 @@ def test_every_schema_parses_with_its_declared_encoding(preset_log):
             expected = {"ros2msg": "cdr", "jsonschema": "json"}[summary.schemas[channel.schema_id].encoding]
             assert channel.message_encoding == expected, channel.topic
     assert encodings == {"ros2msg": 5, "jsonschema": 2}
+
+
+def test_every_json_message_of_each_preset_validates_against_its_channels_schema(preset_log):
+    with open(preset_log, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        validators = {cid: jsonschema.Draft202012Validator(json.loads(summary.schemas[ch.schema_id].data))
+                      for cid, ch in summary.channels.items() if ch.message_encoding == "json"}
+        seen = Counter()
+        for _, channel, message in reader.iter_messages(topics=[summary.channels[c].topic for c in validators]):
+            validators[channel.id].validate(json.loads(message.data))
+            seen[channel.topic] += 1
+    assert set(seen) == {"/scene", "/tf"} and seen["/scene"] == seen["/tf"] > 0
