@@ -14,6 +14,7 @@ COMMANDS = {
     "regen": "coordarm.commands.regen",
     "replay": "coordarm.commands.replay",
     "report": "coordarm.commands.report",
+    "layout": "coordarm.commands.layout",
 }
 
 
@@ -34,7 +35,8 @@ def build_parser() -> argparse.ArgumentParser:
     """The full ``coordarm`` argument parser."""
     parser = argparse.ArgumentParser(prog="coordarm", description=(
         "Coordinating control of hyper-redundant planar manipulators: run scenarios, "
-        "regenerate the compiled controller, replay logs, write singularity reports."))
+        "regenerate the compiled controller, replay logs, write singularity reports, "
+        "find the Foxglove layout."))
     parser.add_argument("--version", action=_Version, help="print the installed version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module in COMMANDS.items():
