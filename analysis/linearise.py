@@ -23,6 +23,7 @@ from coordarm.simulation.run import even_indices
 from coordarm.symbolic import CoordinatingController
 
 
+
 @dataclass
 class Linearisation:
     """The closed loop linearised at one point ``(q, t)``.
@@ -78,23 +79,24 @@ def linearisation_function(ctrl: CoordinatingController, form: str | None = None
         Form of the law (default: the controller's).
     """
     form = form or ctrl.law_form
-    key = ("linearise", form)
-    if key not in ctrl._cache:
-        m = ctrl.chain.dof
-        sym = ca.SX if form == "structured" else ca.MX      # the dense law's linear solve is MX only
-        q, t = sym.sym("q", m), sym.sym("t")
-        outs = ctrl.fast_law(form)(q, t)
-        u, e, s = outs[:3]
-        f = ca.mtimes(ca.DM(ctrl.B_joints), u)
-        z = ca.vertcat(s, outs[ctrl.outputs.index("sigma")], e) if ctrl.chain.rail else ca.vertcat(s, e)
-        H = ca.jacobian(z, q)
-        F = ca.jacobian(f, q)
-        # Hdot: one forward directional derivative of H along the flow (f, 1) in (q, t)
-        Hdot = ca.reshape(ca.jtimes(ca.vec(H), ca.vertcat(q, t), ca.vertcat(f, 1)), m, m)
-        rate = ca.mtimes(H, f) + ca.jacobian(z, t)
-        ctrl._cache[key] = ca.Function("linearised_loop", [q, t], [H, F, Hdot, rate],
-                                       ["q", "t"], ["H", "F", "Hdot", "task_rate"])
-    return ctrl._cache[key]
+    return ctrl.memo(("linearise", form), lambda: _linearisation_function(ctrl, form))
+
+
+def _linearisation_function(ctrl: CoordinatingController, form: str) -> ca.Function:
+    """The uncached body of :func:`linearisation_function` (on a rail: tasks ``(s, sigma, e)``)."""
+    m = ctrl.chain.dof
+    sym = ca.SX if form == "structured" else ca.MX      # the dense law's linear solve is MX only
+    q, t = sym.sym("q", m), sym.sym("t")
+    out = dict(zip(ctrl.outputs, ctrl.fast_law(form)(q, t)))
+    u, e, s = out["u"], out["e"], out["s"]
+    f = ca.mtimes(ca.DM(ctrl.B_joints), u)
+    z = ca.vertcat(s, out["sigma"], e) if ctrl.chain.rail else ca.vertcat(s, e)
+    H = ca.jacobian(z, q)
+    F = ca.jacobian(f, q)
+    # Hdot: one forward directional derivative of H along the flow (f, 1) in (q, t)
+    Hdot = ca.reshape(ca.jtimes(ca.vec(H), ca.vertcat(q, t), ca.vertcat(f, 1)), m, m)
+    rate = ca.mtimes(H, f) + ca.jacobian(z, t)
+    return ca.Function("linearised_loop", [q, t], [H, F, Hdot, rate], ["q", "t"], ["H", "F", "Hdot", "task_rate"])
 
 
 def linearise(ctrl: CoordinatingController, q, t: float = 0.0, form: str | None = None) -> Linearisation:

@@ -17,11 +17,10 @@ import json
 import struct
 import zlib
 from collections import namedtuple
+from dataclasses import dataclass, field, fields
 from typing import Any
-from dataclasses import dataclass, field
 from pathlib import Path
 
-import lz4.frame
 import numpy as np
 import zstandard
 
@@ -32,8 +31,9 @@ from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
-from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, SOURCES, numeric_channels
-from coordarm.simulation.run import Run
+from coordarm.simulation.choices import lz4_frame
+from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
+from coordarm.simulation.run import ARRAYS, OPTIONAL, ExtraOutputs, Run
 from coordarm.simulation.scenario import USER_DEFINED, Scenario
 from coordarm.symbolic import ConfigError, LogError
 
@@ -60,7 +60,7 @@ def chunk_messages(chunk: Chunk) -> list[RawMessage]:
         data = zstandard.decompress(chunk.data, chunk.uncompressed_size)
     elif chunk.compression == "lz4":
         try:
-            data = lz4.frame.decompress(chunk.data)
+            data = lz4_frame().decompress(chunk.data)
         except RuntimeError as exc:  # what python-lz4 raises on a damaged frame
             raise ValueError(f"lz4: {exc}") from None
     elif chunk.compression == "":
@@ -85,7 +85,7 @@ def chunk_messages(chunk: Chunk) -> list[RawMessage]:
 
 
 @dataclass
-class Replay:
+class Replay(ExtraOutputs):
     """A run read back from its log; rows are samples in time order.
 
     Attributes
@@ -115,8 +115,8 @@ class Replay:
         Messages read.
     problems : list of str
         What was dropped while reading (incomplete trailing samples, a damaged tail).
-    sigma, rail_margin : (N,) arrays or None
-        On a rail only: the span [m] and the rail margin.
+    extra : dict
+        Logged law outputs that are not fields above (see :attr:`coordarm.simulation.run.Run.extra`).
     """
 
     path: Path
@@ -138,16 +138,26 @@ class Replay:
     recovered: bool
     messages: int
     problems: list = field(default_factory=list)
-    sigma: np.ndarray | None = None
-    rail_margin: np.ndarray | None = None
+    extra: dict = field(default_factory=dict)
 
     def to_run(self) -> Run:
-        """The samples as a :class:`simulation.run.Run` (for the figure functions)."""
-        return Run(self.t, self.q, self.u, self.e, self.s, self.link_margins, self.longitudinal, self.v_star,
-                   sigma=self.sigma, rail_margin=self.rail_margin, info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
+        """The samples as a :class:`coordarm.simulation.run.Run` (for the figure functions).
+
+        Returns
+        -------
+        Run
+        """
+        keys = ARRAYS + tuple(a for a in OPTIONAL if a in self.extra)
+        return Run.from_arrays({a: getattr(self, a) for a in keys},
+                               info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
 
     def controller(self):
-        """The controller that made the run, rebuilt from the scenario."""
+        """The controller that made the run, rebuilt from the scenario.
+
+        Returns
+        -------
+        CoordinatingController
+        """
         return self.scenario.controller()
 
 
@@ -217,8 +227,13 @@ def _decode(channel_messages: list[RawMessage], width: int, topic: str, path: Pa
 def load(path: str | Path, curve: Any = None) -> Replay:
     """Read the log at ``path``.
 
-    ``curve``: the user-defined :class:`~coordarm.symbolic.Curve` the run used, needed (and only
-    used) when the log records ``[curve] kind = "user-defined"``.
+    Parameters
+    ----------
+    path : str or Path
+        An MCAP log written by ``coordarm run`` (also one cut short by a killed run).
+    curve : Curve, optional
+        The user-defined :class:`~coordarm.symbolic.Curve` the run used, needed (and only
+        used) when the log records ``[curve] kind = "user-defined"``.
 
     Returns
     -------
@@ -254,6 +269,12 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         grouped.setdefault(msg.channel_id, []).append(msg)
     for key, ch in specs.items():
         cid = by_topic.get(ch.topic)
+        stored = schemas.get(channels[cid].schema_id) if cid is not None else None
+        if stored is not None and stored.encoding == "ros2msg":   # the file's own layout (older logs differ)
+            try:
+                ch = specs[key] = NumericChannel(ch.topic, ch.schema_name, fields_from_schema(stored.data.decode()))
+            except (ValueError, UnicodeDecodeError) as exc:
+                raise LogError(f"{path}: {ch.topic}: unreadable schema: {exc}") from None
         msgs = grouped.get(cid, []) if cid is not None else []
         data = _decode(msgs, ch.width, ch.topic, path) if msgs else np.empty((0, ch.width))
         order = np.argsort(data[:, 0], kind="stable")
@@ -286,9 +307,18 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         data = data[np.isin(data[:, 0], common)]
         for name, sl in specs[key].slices().items():
             cols.setdefault(name, data[:, sl])
+    current = numeric_channels(m, scenario.chain().rail)
+    for key in PER_STEP:      # fields added after the log was written: NaN, said in problems
+        for name, n in current[key].fields:
+            if name not in cols:
+                cols[name] = np.full((len(common), n) if n else len(common), np.nan)
+                problems.append(f"{current[key].topic}: no field {name!r} in this log (written before it "
+                                "existed); filled with NaN")
     cond = per_channel["cond"]
     outcome = {k: json.loads(v) for k, v in meta["outcome"].items()} if "outcome" in meta else {"status": "unknown"}
-    return Replay(path=path, **{SOURCES[name]: v for name, v in cols.items()}, cond_t=cond[:, 0].copy(),
+    named = {f.name for f in fields(Replay)}
+    return Replay(path=path, **{a: v for a, v in cols.items() if a in named}, cond_t=cond[:, 0].copy(),
                   cond=cond[:, 1].copy(), scenario=scenario, scenario_dict=spec,
                   build=meta.get("build", {}), run_info=meta.get("run", {}), outcome=outcome,
-                  recovered=not complete, messages=len(messages), problems=problems)
+                  recovered=not complete, messages=len(messages), problems=problems,
+                  extra={a: v for a, v in cols.items() if a not in named})

@@ -12,6 +12,7 @@ import casadi as ca
 import numpy as np
 
 from coordarm.symbolic import LAWS, BuildError, CoordinatingController
+from coordarm.symbolic.outputs import OUTPUTS, offsets, packed_width
 
 from . import templates
 
@@ -64,6 +65,26 @@ def _b_macros(ctrl: CoordinatingController) -> str:
     return templates.B_DIAGONAL.format(values=", ".join(repr(float(v)) for v in bd))
 
 
+def layout_macros(m: int, rail: bool = False) -> str:
+    """C macros of the packed output vector for ``m`` links: ``CA_NOUT`` and ``CA_OUT_<NAME>`` offsets.
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+    rail : bool
+        A chain on a rail (``u`` one wider, ``sigma`` and ``rail_margin`` added).
+
+    Returns
+    -------
+    str
+        One ``#define`` per line, from :data:`coordarm.symbolic.outputs.LAW_OUTPUTS`.
+    """
+    lines = [f"#define CA_NOUT {packed_width(m, rail)}"]
+    lines += [f"#define CA_OUT_{name.upper()} {start}" for name, (start, _) in offsets(m, rail).items()]
+    return "\n".join(lines) + "\n"
+
+
 def generate_source(ctrl: CoordinatingController, form: str = "structured") -> Source:
     """The C source of ``ctrl``'s law (``form``), RK4 step and chunk loop.
 
@@ -96,9 +117,9 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
              for k in ("arg", "res", "iw", "w")}
     m, n = ctrl.chain.m, ctrl.chain.dof
-    n_out = n + 2 * m + (3 if ctrl.chain.rail else 1)
-    parts = [cg.dump(), templates.HEADER.format(m=m, n=n, n_out=n_out, b_diagonal=b_macros,
-                                                **{f"sz_{k}": v for k, v in sizes.items()})]
+    parts = [templates.CASADI_BEGIN, cg.dump(), templates.CASADI_END,
+             templates.HEADER.format(m=m, n=n, layout=layout_macros(m, ctrl.chain.rail), b_diagonal=b_macros,
+                                     **{f"sz_{k}": v for k, v in sizes.items()})]
     if form == "structured":
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
                      f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
@@ -108,6 +129,7 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
                          + ("#define CA_SPAN 1\n" if ctrl.span is not None else ""))
         parts.append(templates.RAIL_LAW if ctrl.chain.rail else templates.STRUCTURED_LAW)
     else:
-        parts.append(templates.DENSE_LAW.replace("{law_name}", funcs[0].name()))
+        results = "\n".join(f"  res[{i}] = out + CA_OUT_{name.upper()};" for i, name in enumerate(OUTPUTS))
+        parts.append(templates.DENSE_LAW.replace("{law_name}", funcs[0].name()).replace("{results}", results))
     parts.append(templates.LOOP)
     return Source("\n".join(parts), form, m)

@@ -4,17 +4,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Sequence
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
 from coordarm.symbolic import CoordinatingController
-from coordarm.symbolic.paths import Path as PathCurve  # noqa: E402
+from coordarm.symbolic.paths import Path as PathCurve
 
-from .obstacles import Obstacle, outline  # noqa: E402
-from .run import Run, even_indices  # noqa: E402
+from .obstacles import Obstacle, outline
+from .run import Run, even_indices
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:

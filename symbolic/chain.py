@@ -156,7 +156,18 @@ class PlanarChain:
 
     # ----------------------------------------------------------------- symbolic
     def centres(self, q: ca.SX) -> ca.SX:
-        """Central points ``c^j(q)`` (eq. 4) as a 2 x m CasADi expression (``q`` of all joints)."""
+        """Central points ``c^j(q)`` (eq. 4) as a 2 x m CasADi expression.
+
+        Parameters
+        ----------
+        q : casadi.SX or casadi.MX, shape (dof,)
+            Joint coordinates [rad] (on a rail ``d`` [m] first).
+
+        Returns
+        -------
+        casadi.SX or casadi.MX, shape (2, m)
+            Column j is the centre of link j+1 [m]; the first is the base.
+        """
         zero = ca.SX.zeros(2, 1) if isinstance(q, ca.SX) else ca.MX.zeros(2, 1)
         if self.rail:
             zero = q[0] * ca.DM(self.rail_direction)
@@ -169,7 +180,25 @@ class PlanarChain:
 
     # ------------------------------------------------------------------ numeric
     def check_q(self, q, field: str = "q") -> np.ndarray:
-        """Return ``q`` as a float array of shape (dof,), or raise a ConfigError naming ``field``."""
+        """Return ``q`` as a float array of shape (dof,), or raise a ConfigError naming ``field``.
+
+        Parameters
+        ----------
+        q : array_like, shape (dof,)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+        field : str
+            Name used in the error message.
+
+        Returns
+        -------
+        ndarray, shape (dof,)
+            ``q`` as floats.
+
+        Raises
+        ------
+        ConfigError
+            Wrong shape, NaN or inf.
+        """
         q = np.asarray(q, dtype=float)
         if q.shape != (self.dof,):
             what = " (d, then the m revolute joints)" if self.rail else ""
@@ -179,7 +208,18 @@ class PlanarChain:
         return q
 
     def centres_np(self, q) -> np.ndarray:
-        """Central points as an (..., m, 2) array, vectorised over leading axes of ``q``."""
+        """Central points, vectorised over leading axes of ``q``.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., dof)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+
+        Returns
+        -------
+        ndarray, shape (..., m, 2)
+            Link centres [m].
+        """
         q = np.asarray(q, float)
         alpha = np.cumsum(self.revolute(q), axis=-1)
         d = direction(alpha)
@@ -188,7 +228,18 @@ class PlanarChain:
         return np.concatenate([base, base + np.cumsum(steps, axis=-2)], axis=-2)
 
     def joints_np(self, q) -> np.ndarray:
-        """Link end points as an (..., m+1, 2) array: the chain drawn as a polyline."""
+        """Link end points: the chain drawn as a polyline.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., dof)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+
+        Returns
+        -------
+        ndarray, shape (..., m+1, 2)
+            Joint positions [m], from the first link's free end to the end point.
+        """
         q = np.asarray(q, float)
         alpha = np.cumsum(self.revolute(q), axis=-1)
         d = direction(alpha)
@@ -197,7 +248,18 @@ class PlanarChain:
         return np.concatenate([first, y + 0.5 * self.xi * d], axis=-2)
 
     def jacobians_closed_form(self, q) -> np.ndarray:
-        """``C^j(q)`` by the closed form of eq. 7, shape (m, 2, dof); ``C^1 = 0`` (the rail column on a rail)."""
+        """``C^j(q)`` by the closed form of eq. 7; ``C^1 = 0`` (on a rail: the rail column).
+
+        Parameters
+        ----------
+        q : array_like, shape (dof,)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+
+        Returns
+        -------
+        ndarray, shape (m, 2, dof)
+            ``C[j] = d c^{j+1} / dq`` [m/rad].
+        """
         q = self.check_q(q)
         alpha = np.cumsum(self.revolute(q))
         nrm = normal(alpha)
@@ -214,8 +276,26 @@ class PlanarChain:
     def zigzag(self, beta: float, heading: float = 0.0, d: float = 0.0) -> np.ndarray:
         """Uniform zig-zag: links at ``heading +- beta``, centres on a line at ``heading``.
 
-        Centres are spaced ``xi cos(beta)``; the body is ``xi sin(beta)`` wide. On a rail
-        ``d`` [m] is the rail position (prepended to ``q``).
+        Centres are spaced ``xi cos(beta)``; the body is ``xi sin(beta)`` wide.
+
+        Parameters
+        ----------
+        beta : float
+            Fold angle [rad], ``0 < |beta| < pi/2``.
+        heading : float
+            Direction of the line of centres [rad].
+        d : float
+            Rail position [m] (a chain on a rail only; prepended to ``q``).
+
+        Returns
+        -------
+        ndarray, shape (dof,)
+            Joint coordinates [rad].
+
+        Raises
+        ------
+        ConfigError
+            ``beta`` or ``heading`` not finite, or ``beta`` out of range.
         """
         for name, v in (("beta", beta), ("heading", heading)):
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):

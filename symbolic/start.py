@@ -22,6 +22,22 @@ def place_on_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0) -> np
     the one closest to ``q_guess[j]``, so a zig-zag guess gives a compact zig-zag along the
     curve (a straight line: exactly the guess).
 
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Chain and curve.
+    q_guess : array_like, shape (m,)
+        Start guess [rad].
+    t0 : float
+        Time [s] of the curve to project onto.
+    tol : float
+        Absolute tolerance of the Newton iteration [m].
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        Joint coordinates [rad] with every centre on the curve.
+
     Raises
     ------
     ConfigError

@@ -300,4 +300,5 @@ def test_the_scene_draws_the_whole_path_and_the_end_points_target(tmp_path):
         assert np.linalg.norm(curve[-1] - path.point_at(path.length)) <= 0.5 + 1e-6     # to the end (a ray)
         target = ent["spheres"][0]["pose"]["position"]
         s_star = run.s[0] + 0.05 * t + 0.1 * t ** 2                                    # s(0) + integral of v*
-        np.testing.assert_allclose([target["x"], target["y"]], path.point_at(s_star), atol=2e-6)
+        # the scene walks the drawn polyline (90 points) from the end point: a chord's accuracy
+        np.testing.assert_allclose([target["x"], target["y"]], path.point_at(s_star), atol=5e-3)
