@@ -96,8 +96,10 @@ class Scenario:
         The validated scenario with every default filled in (the TOML layout of this module).
     source : str
         Where it came from (preset name, file path or ``<dict>``), used in error messages.
-    obstacles : ndarray, shape (k, 2, 2)
-        Wall segments ``[[ax, ay], [bx, by]]`` [m].
+    obstacles : list of Obstacle
+        Walls, discs and polygons.
+    curve : Curve or None
+        A user-defined curve (``spec["curve"]`` then only names its class), or None.
     """
 
     spec: dict
@@ -121,7 +123,17 @@ class Scenario:
         return scenario
 
     def with_curve(self, curve: Curve) -> "Scenario":
-        """A copy that runs the user-defined ``curve``; its spec records only the class name."""
+        """A copy that runs the user-defined ``curve``; its spec records only the class name.
+
+        Parameters
+        ----------
+        curve : Curve
+            The user-defined curve.
+
+        Returns
+        -------
+        Scenario
+        """
         spec = copy.deepcopy(self.spec)
         spec["curve"] = {"kind": USER_DEFINED, "class": f"{type(curve).__module__}.{type(curve).__qualname__}"}
         return Scenario(spec, self.source, self.obstacles, curve)

@@ -144,11 +144,33 @@ class PlanarChain:
         return np.array([math.cos(self.rail_angle), math.sin(self.rail_angle)])
 
     def revolute(self, q):
-        """The revolute joint angles ``q_1..q_m`` of ``q`` (drops ``d`` on a rail), any leading axes."""
+        """The revolute joint angles ``q_1..q_m`` of ``q`` (drops ``d`` on a rail), any leading axes.
+
+        Parameters
+        ----------
+        q : ndarray or casadi expression, shape (..., dof)
+            Joint coordinates.
+
+        Returns
+        -------
+        same type, shape (..., m)
+            The revolute joint angles [rad].
+        """
         return q[..., 1:] if self.rail and isinstance(q, np.ndarray) else (q[1:] if self.rail else q)
 
     def base_point(self, q):
-        """The first central point ``y^1`` [m]: the origin, or ``d`` along the rail (numpy, any leading axes)."""
+        """The first central point ``y^1``: the origin, or ``d`` along the rail.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., dof) (or (..., 1): ``d`` alone)
+            Joint coordinates.
+
+        Returns
+        -------
+        ndarray, shape (..., 2)
+            The base [m].
+        """
         q = np.asarray(q, float)
         if not self.rail:
             return np.zeros(q.shape[:-1] + (2,))

@@ -225,7 +225,20 @@ class CoordinatingController:
                            ["q_1"], ["carry"])
 
     def span_rate(self, sigma, t):
-        """Commanded ``sigma_dot``: ``sigma*' - K (sigma - sigma*)``, or 0 when the span is held."""
+        """Commanded ``sigma_dot``: ``sigma*' - K (sigma - sigma*)``, or 0 when the span is held.
+
+        Parameters
+        ----------
+        sigma : casadi.SX
+            The span now [m].
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX
+            ``sigma_dot`` [m/s].
+        """
         if self.span is None:
             return 0 * t
         ts = ca.SX.sym("ts")
@@ -240,6 +253,10 @@ class CoordinatingController:
         The span row minus the ``s`` row leaves ``grad psi(y^1) . rail d_dot = v* - sigma_dot -
         dpsi/dt(y^1)``: the rail rate, dividing by the rail pivot ``grad psi(y^1) . rail``; the carry
         is :meth:`first_carry`'s with ``y^1 = d rail`` and ``ydot^1 = d_dot rail``.
+
+        Returns
+        -------
+        casadi.Function
         """
         d, q1, t, sigma = ca.SX.sym("d"), ca.SX.sym("q_1"), ca.SX.sym("t"), ca.SX.sym("sigma")
         rail = ca.DM(self.chain.rail_direction)

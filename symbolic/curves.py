@@ -104,7 +104,25 @@ class Curve:
         raise NotImplementedError
 
     def point_at(self, s: float, t: float = 0.0) -> np.ndarray:
-        """The point of arc length ``s`` at time ``t`` [m] (for drawing the target ``s*(t)``)."""
+        """The point of arc length ``s`` at time ``t`` (for drawing the target ``s*(t)``).
+
+        Parameters
+        ----------
+        s : float
+            Arc length [m].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            The point [m].
+
+        Raises
+        ------
+        NotImplementedError
+            The curve cannot map an arc length to a point (a user-defined curve without it).
+        """
         raise NotImplementedError
 
     def to_spec(self) -> dict:
@@ -126,6 +144,16 @@ class Curve:
         """Jump of ``psi`` across its branch cut at time ``t`` (a closed curve's length), or None.
 
         A run unwraps ``s`` by it (:func:`unwrap_s`) so that ``s`` stays continuous.
+
+        Parameters
+        ----------
+        t : casadi.SX or float
+            Time [s].
+
+        Returns
+        -------
+        casadi expression, float or None
+            The period [m], None for an open curve.
         """
         return None
 
@@ -305,7 +333,7 @@ def unwrap_s(curve: Curve, t: np.ndarray, s: np.ndarray, previous: tuple[float, 
     return out[1:] if previous else out
 
 for _cls in (Line, Circle, Arc):     # the subclasses' implementations carry the base class's documentation
-    for _name in ("phi", "psi", "sample", "point_at", "to_spec"):
+    for _name in ("phi", "psi", "sample", "point_at", "period", "to_spec"):
         _own = vars(_cls).get(_name)
         if _own is not None and not _own.__doc__:
             _own.__doc__ = getattr(Curve, _name).__doc__

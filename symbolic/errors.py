@@ -76,8 +76,24 @@ class SingularityError(CoordarmError):
 class TubeError(SingularityError):
     """A central point left a path's tube ``|phi| < smallest radius`` (the closest point is no longer unique).
 
-    Attributes as :class:`SingularityError`, with ``kind = "tube"``, ``margin`` the offending
-    ``|phi|`` [m] and ``threshold`` the tube radius [m].
+    Parameters
+    ----------
+    time : float
+        Simulated time [s].
+    link : int or None
+        1-based index of the link whose central point left the tube.
+    margin : float
+        Its ``|phi|`` [m].
+    kind : str
+        ``"tube"``.
+    threshold : float
+        The tube radius (the path's smallest arc radius) [m].
+    run : object, optional
+        The run up to (and including) that state.
+
+    Notes
+    -----
+    Attributes as :class:`SingularityError`.
     """
 
     def __init__(self, time: float, link: int | None, margin: float, kind: str = "tube",
@@ -93,6 +109,13 @@ class TubeError(SingularityError):
 
 class CollisionError(CoordarmError):
     """The chain hit an obstacle, itself or a joint limit during a run.
+
+    Parameters
+    ----------
+    contact : object
+        The first contact (:class:`coordarm.simulation.physical.Contact`).
+    run : object, optional
+        The run up to (and including) the offending state.
 
     Attributes
     ----------

@@ -269,29 +269,102 @@ class Path(Curve):
 
     # ------------------------------------------------------------------ symbolic
     def path_point(self, y, t):
-        """``p = start + R(-th(t)) (y - o(t) - start)``: ``y`` in the path's own frame."""
+        """``p = start + R(-th(t)) (y - o(t) - start)``: ``y`` in the path's own frame.
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX, shape (2,)
+            The point in the path's frame [m].
+        """
         st = ca.DM(self.start)
         w = ca.vertcat(y[0] - self.offset[0](t), y[1] - self.offset[1](t)) - st
         return st + _rot(-self.rotation(t), w)
 
     def phi_psi(self, y, t):
-        """``(phi, psi)`` at ``y``, time ``t``."""
+        """``(phi, psi)`` at ``y``, time ``t`` (one selection of the closest piece for both).
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        tuple of casadi.SX
+            Signed distance and arc length [m].
+        """
         return closest_piece_formulas(self.pieces, self.path_point(y, t))
 
     def phi(self, y, t):
+        """Signed distance to the closest point of the path, + to the left.
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX
+            ``phi`` [m].
+        """
         return self.phi_psi(y, t)[0]
 
     def psi(self, y, t):
+        """Arc length of the closest point of the path.
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX
+            ``psi`` [m].
+        """
         return self.phi_psi(y, t)[1]
 
     def functions(self) -> ca.Function:
+        """CasADi Function ``(y, t) -> (phi, psi)`` (one selection for both).
+
+        Returns
+        -------
+        casadi.Function
+        """
         y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
         phi, psi = self.phi_psi(y, t)
         return ca.Function("path_curve", [y, t], [phi, psi], ["y", "t"], ["phi", "psi"])
 
     # ------------------------------------------------------------------- numeric
     def frame_points(self, n: int = 400, ray: float = 0.0) -> np.ndarray:
-        """Points along the whole path in its own frame (plus rays of length ``ray``), shape (N, 2)."""
+        """Points along the whole path in its own frame (plus rays of length ``ray``).
+
+        Parameters
+        ----------
+        n : int
+            About how many points the arcs get in all (lines: their end points).
+        ray : float
+            Length of the rays drawn beyond both ends [m].
+
+        Returns
+        -------
+        ndarray, shape (N, 2)
+            The points [m].
+        """
         inner = [pc for pc in self.pieces if pc.length > 0 and math.isfinite(pc.length)]
         pts = []
         if ray > 0:
@@ -311,18 +384,59 @@ class Path(Curve):
         return np.array(pts)
 
     def to_world(self, pts: np.ndarray, t: float) -> np.ndarray:
-        """Map path-frame points to the world at time ``t`` (the inverse of :meth:`path_point`)."""
+        """Map path-frame points to the world at time ``t`` (the inverse of :meth:`path_point`).
+
+        Parameters
+        ----------
+        pts : ndarray, shape (N, 2)
+            Points in the path's frame [m].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (N, 2)
+            The points in the world [m].
+        """
         th = evaluate(self.rotation, t)
         o = np.array([evaluate(c, t) for c in self.offset])
         c, s = math.cos(th), math.sin(th)
         return self.start + o + (pts - self.start) @ np.array([[c, s], [-s, c]])
 
     def sample(self, t: float, n: int = 400, extent: float = 10.0) -> np.ndarray:
-        """The whole path at time ``t`` (with short rays at both ends), shape (N, 2)."""
+        """The whole path at time ``t`` (with short rays at both ends).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        n : int
+            About how many points the arcs get.
+        extent : float
+            The rays drawn are ``min(extent / 10, 0.5)`` long [m].
+
+        Returns
+        -------
+        ndarray, shape (N, 2)
+            Points [m].
+        """
         return self.to_world(self.frame_points(n, ray=min(extent * 0.1, 0.5)), t)
 
     def point_at(self, s: float, t: float = 0.0) -> np.ndarray:
-        """World point of arc length ``s`` at time ``t`` (rays beyond the ends) [m]."""
+        """World point of arc length ``s`` at time ``t`` (rays beyond the ends).
+
+        Parameters
+        ----------
+        s : float
+            Arc length [m].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            The point [m].
+        """
         for pc in self.pieces:
             if s <= pc.s0 + pc.length or pc is self.pieces[-1]:
                 x = s - pc.s0
@@ -336,6 +450,12 @@ class Path(Curve):
         raise AssertionError("unreachable")
 
     def to_spec(self) -> dict:
+        """The path as data (``kind = "path"``, or ``"waypoints"`` when built from waypoints).
+
+        Returns
+        -------
+        dict
+        """
         motion = {"offset": [motion_to_spec(c) for c in self.offset], "rotation": motion_to_spec(self.rotation)}
         if getattr(self, "waypoints", None):
             return {"kind": "waypoints", "points": self.waypoints[0], "radius": self.waypoints[1], **motion}

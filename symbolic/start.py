@@ -116,6 +116,22 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
     along the curve), then a Newton step polishes the residual to ``tol`` keeping the end
     point's arc length.
 
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Chain and curve.
+    q_guess : array_like, shape (m,)
+        Start guess (a zig-zag) [rad].
+    t0 : float
+        Time [s].
+    tol : float
+        Residual of the polish [m].
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        Joint angles [rad].
+
     Raises
     ------
     ConfigError
