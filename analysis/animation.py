@@ -9,8 +9,12 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.animation import FuncAnimation, PillowWriter
 
+from PIL import Image
+
+from coordarm.simulation.figures import draw_obstacles
+from coordarm.simulation.obstacles import outline
+from coordarm.simulation.run import Progress
 from coordarm.symbolic import CoordinatingController
 
 from .replay import Replay

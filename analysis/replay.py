@@ -261,7 +261,8 @@ def load(path: str | Path, curve: Any = None) -> Replay:
     except (KeyError, ValueError, ConfigError) as exc:
         raise LogError(f"{path}: the 'scenario' metadata is not a valid scenario: {exc}") from None
     m = int(spec["chain"]["links"])
-    specs = numeric_channels(m, scenario.chain().rail)
+    rail = scenario.chain().rail
+    specs = numeric_channels(m, True) if rail else numeric_channels(m)
     by_topic = {ch.topic: cid for cid, ch in channels.items()}
     per_channel: dict[str, np.ndarray] = {}
     grouped: dict[int, list[RawMessage]] = {}
@@ -307,7 +308,7 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         data = data[np.isin(data[:, 0], common)]
         for name, sl in specs[key].slices().items():
             cols.setdefault(name, data[:, sl])
-    current = numeric_channels(m, scenario.chain().rail)
+    current = numeric_channels(m, True) if rail else numeric_channels(m)
     for key in PER_STEP:      # fields added after the log was written: NaN, said in problems
         for name, n in current[key].fields:
             if name not in cols:

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from importlib import resources
 from typing import Any
 
-from coordarm.symbolic.outputs import outputs_of
+from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name, outputs_of
 
 #: CDR encapsulation header: representation identifier CDR_LE (0x0001), options 0.
 CDR_HEADER = b"\x00\x01\x00\x00"
@@ -95,7 +95,7 @@ def _field(name: str, m: int, rail: bool = False) -> tuple[str, int]:
         per_link, extra = RUN_FIELDS[name]
         extra += int(rail and name == "q")                  # d first on a rail
         return name, 0 if (per_link, extra) == (0, 1) else per_link * m + extra
-    out = next(o for o in outputs_of(rail) if o.name == name)
+    out = next(o for o in outputs_of(True) if o.name == name) if rail else by_name(name)
     return name, 0 if out.scalar else out.width(m)
 
 
@@ -113,7 +113,8 @@ def numeric_channels(links: int, rail: bool = False) -> dict[str, NumericChannel
     m = links
     out = {}
     for key, (topic, schema, lead) in CHANNEL_LAYOUT.items():
-        names = list(lead) + [o.name for o in outputs_of(rail) if o.channel == key and o.name not in lead]
+        rows = outputs_of(True) if rail else LAW_OUTPUTS
+        names = list(lead) + [o.name for o in rows if o.channel == key and o.name not in lead]
         comment = RAIL_COMMENT if rail and key == "joint_state" else ""
         out[key] = NumericChannel(topic, schema, tuple(_field(n, m, rail) for n in names), comment)
     out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", (("t", 0), ("cond", 0)))

@@ -372,7 +372,7 @@ def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
     if not isinstance(spec, dict):
         raise ConfigError(f"{field}: expected a table, got {spec!r}")
     kind = spec.get("kind")
-    if kind in PATH_KINDS:
+    if isinstance(kind, str) and kind in PATH_KINDS:
         from .paths import path_from_spec   # paths builds on this module
         return path_from_spec(spec, field)
     if not isinstance(kind, str) or kind not in CURVES:

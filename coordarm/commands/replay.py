@@ -5,6 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from coordarm.commands.run import stage_list
 from coordarm.symbolic.errors import ConfigError
 
 
