@@ -4,6 +4,8 @@ import math
 
 import jsonschema
 import numpy as np
+
+from coordarm.simulation.obstacles import outline
 import pytest
 from google.protobuf import descriptor_pb2
 from mcap.reader import make_reader
@@ -135,8 +137,8 @@ def test_every_scene_message_validates_and_draws_arm_curve_target_and_walls(hole
         line = np.array([[p["x"], p["y"]] for p in curve["points"]])  # evaluated for many times at once
         np.testing.assert_allclose(line, ctrl.curve.sample(run.t[k], n=2, extent=2.2 * LINKS * chain.xi), atol=1e-6)
         assert len(walls) == len(scenario.obstacles)
-        for wall, seg in zip(walls, scenario.obstacles):
-            np.testing.assert_allclose([[p["x"], p["y"]] for p in wall["points"]], seg, atol=1e-6)
+        for wall, ob in zip(walls, scenario.obstacles):
+            np.testing.assert_allclose([[p["x"], p["y"]] for p in wall["points"]], outline(ob), atol=1e-6)
         sphere, = entity["spheres"]
         target = np.array([sphere["pose"]["position"]["x"], sphere["pose"]["position"]["y"]])
         phi, psi = (float(v) for v in ctrl.curve.functions()(target, run.t[k]))
