@@ -148,7 +148,7 @@ def check_configuration(chain: PlanarChain, q, obstacles: Sequence[Obstacle] = (
     for k, j in zip(ks.tolist(), js.tolist()):
         found.append((k, 0, Contact("joint_limit", float(t[k]), (j + 1, j + 2), float(q[k, j + 1]), float(lim[j]))))
     joints = chain.joints_np(q)
-    s, la, lb, d = self_distances(joints, chain.xi + c)
+    s, la, lb, d = self_distances(joints, c)
     hit = touching(d, c)
     for k, a, b, dist in zip(s[hit].tolist(), la[hit].tolist(), lb[hit].tolist(), d[hit].tolist()):
         found.append((k, 1, Contact("self", float(t[k]), (a, b), dist, c)))

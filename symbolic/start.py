@@ -78,7 +78,7 @@ def check_start(ctrl: CoordinatingController, q: np.ndarray) -> None:
         j = int(bad[0]) + 2
         raise ConfigError(f"start: joint {j} (between links {j - 1} and {j}) is at {q[j - 1]:+.3f} rad, beyond its "
                           f"limit ±{chain.joint_limits[j - 2]:.3f} rad; choose a smaller start.beta or another start")
-    s, la, lb, d = self_distances(chain.joints_np(q[None]), chain.xi + chain.clearance)
+    s, la, lb, d = self_distances(chain.joints_np(q[None]), chain.clearance)
     hit = np.flatnonzero(touching(d, chain.clearance))
     if len(hit):
         k = hit[np.argmin(la[hit])]

@@ -16,7 +16,7 @@ from coordarm.simulation.figures import plot_panels, plot_stages, plot_tracking
 from coordarm.simulation.mcap_file import COMPRESSIONS
 from coordarm.simulation.mcap_writer import RunLogger
 from coordarm.simulation.outcome import EXIT_CODES, explain
-from coordarm.simulation.run import BACKENDS, BackendFallbackWarning, Run, even_indices, select_backend, simulate
+from coordarm.simulation.run import BACKENDS, CHECK_RATE, BackendFallbackWarning, Run, even_indices, select_backend, simulate
 from coordarm.simulation.scenario import Scenario, check_stages, load_scenario, presets
 
 
@@ -134,7 +134,8 @@ def main(args: argparse.Namespace) -> int:
                        threaded=(os.cpu_count() or 1) > 1) as log:
             run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
                            thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=log.on_chunk,
-                           physical=scenario.physical(ctrl.chain), check_every=log.every,
+                           physical=scenario.physical(ctrl.chain),
+                           check_every=max(log.every, round(1.0 / (CHECK_RATE * scenario.step))),
                            allow_contact=args.allow_contact)
             log.contacts = run.info["contacts"]
     except (SingularityError, CollisionError) as err:
