@@ -74,6 +74,32 @@ def main() -> None:
             ratio = np.median(np.array(brute) / np.array(sweep))
             print(f"| {m} | {name} | {1e6 * np.median(full):.0f} | {1e6 * np.median(sweep):.0f} | "
                   f"{1e6 * np.median(brute):.0f} | {ratio:.1f}x |")
+    print("\n| links | simulated | physical checks | wall time (median) | / no checks (median of ratios) |")
+    print("|---|---|---|---|---|")
+    run_overhead(64, 20.0 if not args.quick else 5.0)
+    run_overhead(1024, 2.0 if not args.quick else 0.5, repeats=3)
+
+
+def run_overhead(m: int, duration: float, repeats: int = 5) -> None:
+    """Wall time of a compiled run without and with the physical checks (every step, and at CHECK_RATE)."""
+    from coordarm.simulation.run import CHECK_RATE, simulate
+    from coordarm.simulation.scenario import load_scenario
+
+    sc = load_scenario("line").with_overrides(links=m)
+    ctrl = sc.controller()
+    q0 = sc.start(ctrl)
+    simulate(ctrl, q0, 0.01, 0.001)                   # build / load the library first
+    stride = round(1 / (CHECK_RATE * 0.001))
+    cases = {"no checks": {}, f"checks at {CHECK_RATE:g} Hz": {"physical": sc.physical(), "check_every": stride},
+             "checks every step": {"physical": sc.physical(), "check_every": 1}}
+    times = {k: [] for k in cases}
+    for _ in range(repeats):                          # interleaved
+        for name, kw in cases.items():
+            times[name].append(median_time(lambda: simulate(ctrl, q0, duration, 0.001, progress=False, **kw), 1))
+    base = np.array(times["no checks"])
+    for name in cases:
+        ratio = np.median(np.array(times[name]) / base)
+        print(f"| {m} | {duration:g} s | {name} | {np.median(times[name]):.2f} s | {ratio:.2f}x |")
 
 
 if __name__ == "__main__":
