@@ -139,7 +139,8 @@ class Replay:
     def to_run(self) -> Run:
         """The samples as a :class:`simulation.run.Run` (for the figure functions)."""
         return Run(self.t, self.q, self.u, self.e, self.s, self.link_margins, self.longitudinal, self.v_star,
-                   info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
+                   info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?"),
+                         "contacts": self.outcome.get("contacts", [])})
 
     def controller(self):
         """The controller that made the run, rebuilt from the scenario."""
