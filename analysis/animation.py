@@ -7,20 +7,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from PIL import Image
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from PIL import Image  # noqa: E402
+from coordarm.simulation.figures import draw_obstacles
+from coordarm.simulation.obstacles import outline
+from coordarm.simulation.run import Progress
+from coordarm.symbolic import CoordinatingController
 
-from coordarm.symbolic import CoordinatingController  # noqa: E402
-
-from coordarm.simulation.figures import draw_obstacles  # noqa: E402
-from coordarm.simulation.obstacles import outline  # noqa: E402
-from coordarm.simulation.run import Progress  # noqa: E402
-
-from .replay import Replay  # noqa: E402
+from .replay import Replay
 
 
 def frame_indices(t: np.ndarray, fps: float, max_frames: int) -> np.ndarray:

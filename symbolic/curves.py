@@ -51,30 +51,98 @@ class Curve:
     kind = "curve"
 
     def phi(self, y, t):
-        """Signed distance from the curve (zero on it); ``y`` is a 2-vector."""
+        """Signed distance from the curve (zero on it).
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX or float
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX
+            ``phi(y, t)`` [m].
+        """
         raise NotImplementedError
 
     def psi(self, y, t):
-        """Arc-length coordinate of the point ``y``."""
+        """Arc-length coordinate of the point ``y`` along the curve.
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX or float
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX
+            ``psi(y, t)`` [m].
+        """
         raise NotImplementedError
 
     def sample(self, t: float, n: int = 400, extent: float = 10.0) -> np.ndarray:
-        """Points on the curve at time ``t`` for plotting, shape (n, 2)."""
+        """Points on the curve at time ``t``, for plotting.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        n : int
+            Number of points.
+        extent : float
+            Half-length of the drawn piece of an unbounded curve [m].
+
+        Returns
+        -------
+        ndarray, shape (n, 2)
+            Points [m].
+        """
         raise NotImplementedError
 
     def to_spec(self) -> dict:
-        """The curve as data (only for parameters built from motion primitives)."""
+        """The curve as data (only for parameters built from motion primitives).
+
+        Returns
+        -------
+        dict
+            ``{"kind": ..., <parameters>}``, accepted by :func:`curve_from_spec`.
+
+        Raises
+        ------
+        ConfigError
+            A parameter is a Python callable, not a motion primitive.
+        """
         raise NotImplementedError
 
     def period(self, t):
         """Jump of ``psi`` across its branch cut at time ``t`` (a closed curve's length), or None.
 
         A run unwraps ``s`` by it (:func:`unwrap_s`) so that ``s`` stays continuous.
+
+        Parameters
+        ----------
+        t : casadi.SX or float
+            Time [s].
+
+        Returns
+        -------
+        expression or None
+            The period [m] (``2 pi R(t)`` for a circle), None for an open curve.
         """
         return None
 
     def functions(self) -> ca.Function:
-        """CasADi Function ``(y, t) -> (phi, psi)``."""
+        """CasADi Function ``(y, t) -> (phi, psi)``.
+
+        Returns
+        -------
+        casadi.Function
+            Inputs ``y`` [m] and ``t`` [s], outputs ``phi`` and ``psi`` [m].
+        """
         y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
         return ca.Function(f"{self.kind}_curve", [y, t], [self.phi(y, t), self.psi(y, t)],
                            ["y", "t"], ["phi", "psi"])
@@ -121,6 +189,20 @@ class Circle(Curve):
     ``phi = R - |y - c|`` (positive inside) and ``psi = R * angle(y - c)``, the angle
     measured from ``reference`` [rad] (default: the direction of the base seen from
     the centre at t = 0), so the branch cut of ``atan2`` lies opposite the reference.
+
+    Parameters
+    ----------
+    center : (float | callable, float | callable) or callable
+        Centre [m].
+    radius : float or callable
+        Radius [m], > 0.
+    reference : float or callable, optional
+        Angle [rad] where ``psi = 0``.
+
+    Raises
+    ------
+    ConfigError
+        A radius that is not positive at t = 0, or parameters that are not numbers or callables.
     """
 
     kind = "circle"
@@ -146,7 +228,7 @@ class Circle(Curve):
         dot = ca.cos(a0) * r[0] + ca.sin(a0) * r[1]
         return self.radius(t) * ca.atan2(cross, dot)
 
-    def period(self, t):
+    def period(self, t):  # the docstring is the base class's (set below)
         return 2 * math.pi * self.radius(t)
 
     def sample(self, t: float, n: int = 400, extent: float = 10.0) -> np.ndarray:
@@ -164,6 +246,15 @@ class Arc(Circle):
 
     The centre is ``point + R n(angle)`` (to the left of the tangent) and ``psi = 0`` at
     ``point``; ``point``, ``angle`` and ``radius`` may all move.
+
+    Parameters
+    ----------
+    point : (float | callable, float | callable) or callable
+        A point of the arc [m].
+    angle : float or callable
+        Tangent direction at ``point`` [rad].
+    radius : float or callable
+        Radius [m], > 0.
     """
 
     kind = "arc"
@@ -211,12 +302,36 @@ def unwrap_s(curve: Curve, t: np.ndarray, s: np.ndarray, previous: tuple[float, 
     return out[1:] if previous else out
 
 
+for _cls in (Line, Circle, Arc):     # the subclasses' implementations carry the base class's documentation
+    for _name in ("phi", "psi", "sample", "to_spec", "period"):
+        _own = vars(_cls).get(_name)
+        if _own is not None and not _own.__doc__:
+            _own.__doc__ = getattr(Curve, _name).__doc__
+
+
 CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "radius", "reference")),
           "arc": (Arc, ("point", "angle", "radius"))}
 
 
 def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
-    """Build a curve from data, e.g. ``{"kind": "line", "point": [0, 0], "angle": 0.3}``."""
+    """Build a curve from data, e.g. ``{"kind": "line", "point": [0, 0], "angle": 0.3}``.
+
+    Parameters
+    ----------
+    spec : dict
+        ``kind`` (``line``, ``circle``, ``arc``) and that curve's parameters (numbers or motions).
+    field : str
+        Name of the table in error messages.
+
+    Returns
+    -------
+    Curve
+
+    Raises
+    ------
+    ConfigError
+        Not a table, an unknown kind or key, a missing or bad parameter.
+    """
     if not isinstance(spec, dict):
         raise ConfigError(f"{field}: expected a table, got {spec!r}")
     kind = spec.get("kind")

@@ -22,6 +22,22 @@ def place_on_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0) -> np
     the one closest to ``q_guess[j]``, so a zig-zag guess gives a compact zig-zag along the
     curve (a straight line: exactly the guess).
 
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Chain and curve.
+    q_guess : array_like, shape (m,)
+        Start guess [rad].
+    t0 : float
+        Time [s] of the curve to project onto.
+    tol : float
+        Absolute tolerance of the Newton iteration [m].
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        Joint coordinates [rad] with every centre on the curve.
+
     Raises
     ------
     ConfigError
@@ -71,7 +87,20 @@ def place_on_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0) -> np
 
 
 def check_start(ctrl: CoordinatingController, q: np.ndarray) -> None:
-    """Raise a ConfigError naming the joint or links if ``q`` breaks a joint limit or self-intersects."""
+    """Raise a ConfigError naming the joint or links if ``q`` breaks a joint limit or self-intersects.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Its chain's joint limits and clearance.
+    q : ndarray, shape (m,)
+        Joint coordinates [rad].
+
+    Raises
+    ------
+    ConfigError
+        A joint beyond its limit or two non-adjacent links closer than the clearance.
+    """
     chain = ctrl.chain
     bad = np.flatnonzero(~(np.abs(q[1:]) <= chain.joint_limits))
     if len(bad):
@@ -95,6 +124,22 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
     within its limit closest to ``q_guess``'s, so a zig-zag guess stays a compact zig-zag
     along the curve), then a Newton step polishes the residual to ``tol`` keeping the end
     point's arc length.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Chain (with its joint limits and clearance) and curve.
+    q_guess : array_like, shape (m,)
+        Start guess [rad]: link 1's angle is kept, the other joint angles guide the choice.
+    t0 : float
+        Time [s] of the curve to project onto.
+    tol : float
+        Absolute tolerance of the Newton polish [m].
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        Joint coordinates [rad] with every centre on the curve.
 
     Raises
     ------

@@ -5,10 +5,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from coordarm.commands.run import print_summary, stage_list, write_figures
-from coordarm.symbolic import ConfigError
-
-from coordarm.analysis.replay import load
+from coordarm.commands.run import stage_list
+from coordarm.symbolic.errors import ConfigError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -35,6 +33,9 @@ def main(args: argparse.Namespace) -> int:
     ConfigError
         A non-positive ``--fps``.
     """
+    from coordarm.analysis.replay import load
+    from coordarm.commands.run import print_summary, write_figures
+
     if not args.fps > 0:
         raise ConfigError(f"--fps: need a positive number, got {args.fps}")
     replay = load(args.log)

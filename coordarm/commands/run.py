@@ -2,22 +2,20 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import warnings
 from pathlib import Path
-from typing import TextIO
+from contextlib import ExitStack
+from typing import TYPE_CHECKING, Callable, TextIO
 
-import numpy as np
+from coordarm.simulation.choices import BACKENDS, COMPRESSIONS, presets
+from coordarm.symbolic.laws import LAWS
 
-from coordarm.symbolic import LAWS, CollisionError, ConfigError, SingularityError
-
-from coordarm.simulation.figures import plot_panels, plot_stages, plot_tracking
-from coordarm.simulation.mcap_file import COMPRESSIONS
-from coordarm.simulation.mcap_writer import RunLogger
-from coordarm.simulation.outcome import EXIT_CODES, explain
-from coordarm.simulation.run import BACKENDS, CHECK_RATE, BackendFallbackWarning, Run, even_indices, select_backend, simulate
-from coordarm.simulation.scenario import Scenario, check_stages, load_scenario, presets
+if TYPE_CHECKING:   # the simulation modules load numpy, CasADi, matplotlib: only when the command runs
+    from coordarm.simulation.run import Run
+    from coordarm.simulation.scenario import Scenario
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,6 +39,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "then falling as 1/m^2; 0 = off)")
     p.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
                    help="chunk compression of the log: zstd (default, smaller) or lz4 (faster)")
+    p.add_argument("--live", action="store_true",
+                   help="serve the run over the Foxglove WebSocket protocol while it is simulated (paced to "
+                        "real time, see --live-speed), writing the log too; in Foxglove: Open connection, "
+                        "Foxglove WebSocket, ws://127.0.0.1:PORT")
+    p.add_argument("--port", type=int, default=8765, help="port of the live server (default 8765; 0 = any free port)")
+    p.add_argument("--live-speed", type=float, default=1.0, metavar="X",
+                   help="simulated seconds per wall-clock second on the live view (default 1)")
+    p.add_argument("--live-wait", action="store_true",
+                   help="with --live: start simulating only once a client has subscribed")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
     p.add_argument("--stages", type=stage_list, metavar="T1,T2,...",
                    help="times [s] of the stage figure, e.g. 0,4,8,12 (default: [figures] stages, else 5 evenly)")
@@ -51,11 +58,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def stage_list(text: str) -> list[float]:
-    """``"0,4,8,12"`` -> ``[0.0, 4.0, 8.0, 12.0]`` (argparse type of ``--stages``)."""
+    """``"0,4,8,12"`` -> ``[0.0, 4.0, 8.0, 12.0]`` (argparse type of ``--stages``: finite times >= 0, sorted)."""
     try:
-        return check_stages([float(v) for v in text.split(",")], "--stages")
-    except (ValueError, ConfigError) as exc:
-        raise argparse.ArgumentTypeError(f"expected times in seconds like 0,4,8,12: {exc}") from None
+        times = [float(v) for v in text.split(",")]
+    except ValueError:
+        times = []
+    if not times or not all(math.isfinite(t) and t >= 0 for t in times):
+        raise argparse.ArgumentTypeError(f"expected times in seconds >= 0 like 0,4,8,12, got {text!r}")
+    return sorted(times)
 
 
 def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> None:
@@ -78,6 +88,10 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
 
 def physical_lines(run: Run, scenario: Scenario) -> list[str]:
     """Summary lines: largest joint angle against its limit, contacts, clearance per obstacle."""
+    import numpy as np
+
+    from coordarm.simulation.run import even_indices
+
     chain = scenario.chain()
     rel = np.abs(run.q[:, 1:]) / chain.joint_limits
     k, j = np.unravel_index(int(np.argmax(rel)), rel.shape)
@@ -100,6 +114,8 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path, stages: list[f
     ``stages`` (times [s]) overrides the scenario's ``[figures] stages``; a scenario with
     ``[figures] panels`` draws one labelled panel per phase instead (paper Fig. 4).
     """
+    from coordarm.simulation.figures import plot_panels, plot_stages, plot_tracking
+
     title = f"{scenario.name}: {ctrl.chain.m} links" + (f" ({outcome})" if outcome else "")
     stages_png = stem.with_name(stem.name + "_stages.png")
     panels = scenario.spec["figures"].get("panels")
@@ -112,8 +128,23 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path, stages: list[f
                                  thresholds=scenario.thresholds, title=title)]
 
 
+def _both(first: Callable[[Run], None], second: Callable[[Run], None]) -> Callable[[Run], None]:
+    """One ``on_chunk`` that hands each block to ``first`` then ``second``."""
+    def on_chunk(part: Run) -> None:
+        first(part)
+        second(part)
+    return on_chunk
+
+
 def main(args: argparse.Namespace) -> int:
     """Run the scenario named in ``args``; return 0 (completed), 3 (singularity) or 4 (collision)."""
+    from coordarm.simulation.live import LiveView
+    from coordarm.simulation.mcap_writer import RunLogger
+    from coordarm.simulation.outcome import EXIT_CODES, explain
+    from coordarm.simulation.run import CHECK_RATE, BackendFallbackWarning, select_backend, simulate
+    from coordarm.simulation.scenario import load_scenario
+    from coordarm.symbolic.errors import CollisionError, SingularityError
+
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
     ctrl = scenario.controller()
     q0 = scenario.start(ctrl)
@@ -125,21 +156,29 @@ def main(args: argparse.Namespace) -> int:
     out = args.out or Path("logs") / f"{scenario.name}.mcap"
     out.parent.mkdir(parents=True, exist_ok=True)
     stopped: SingularityError | CollisionError | None = None
-    try:
-        # The log is closed with its outcome however the run ends (singularity, collision, error, Ctrl-C).
-        # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
-        with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, cond_rate=args.cond_rate,
-                       compression=args.compression, backend=backend,
-                       library_key=compiled.library.key if compiled else None,
-                       threaded=(os.cpu_count() or 1) > 1) as log:
-            run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
-                           thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=log.on_chunk,
-                           physical=scenario.physical(ctrl.chain),
-                           check_every=max(log.every, round(1.0 / (CHECK_RATE * scenario.step))),
-                           allow_contact=args.allow_contact)
-            log.contacts = run.info["contacts"]
-    except (SingularityError, CollisionError) as err:
-        run, stopped = err.run, err
+    with ExitStack() as stack:
+        live = None
+        if args.live:
+            live = stack.enter_context(LiveView(scenario, ctrl, port=args.port, speed=args.live_speed))
+            print(f"live          {live.url} (Foxglove: Open connection, Foxglove WebSocket)", flush=True)
+            if args.live_wait:
+                live.wait_for_client()
+        try:
+            # The log is closed with its outcome however the run ends (singularity, collision, error, Ctrl-C).
+            # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
+            with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, cond_rate=args.cond_rate,
+                           compression=args.compression, backend=backend,
+                           library_key=compiled.library.key if compiled else None,
+                           threaded=(os.cpu_count() or 1) > 1) as log:
+                on_chunk = log.on_chunk if live is None else _both(log.on_chunk, live.on_chunk)
+                run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
+                               thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=on_chunk,
+                               physical=scenario.physical(ctrl.chain),
+                               check_every=max(log.every, round(1.0 / (CHECK_RATE * scenario.step))),
+                               allow_contact=args.allow_contact)
+                log.contacts = run.info["contacts"]
+        except (SingularityError, CollisionError) as err:
+            run, stopped = err.run, err
     status = "completed" if stopped is None else ("collision" if isinstance(stopped, CollisionError) else "singularity")
     print_summary(run, scenario)
     if compiled:
