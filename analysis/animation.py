@@ -9,7 +9,6 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
-
 from PIL import Image
 
 from coordarm.simulation.figures import draw_obstacles

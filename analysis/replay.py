@@ -149,7 +149,8 @@ class Replay(ExtraOutputs):
         """
         keys = ARRAYS + tuple(a for a in OPTIONAL if a in self.extra)
         return Run.from_arrays({a: getattr(self, a) for a in keys},
-                               info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
+                               info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?"),
+                                     "contacts": self.outcome.get("contacts", [])})
 
     def controller(self):
         """The controller that made the run, rebuilt from the scenario.

@@ -22,7 +22,7 @@ def blowup_cases() -> dict[str, tuple[CoordinatingController, np.ndarray, float]
     from coordarm.simulation.scenario import load_scenario
 
     cases = {}
-    for preset, v, dur in (("arc", 0.15, 34.0), ("arc", 0.25, 21.0), ("line", 0.3, 17.0)):
+    for preset, v, dur in (("arc", 0.15, 34.0), ("arc", 0.25, 30.0), ("line", 0.3, 17.0)):
         sc = load_scenario(preset)
         c = sc.controller()
         cases[f"{preset} preset, v* = {v}"] = (CoordinatingController(c.chain, c.curve, c.gain, v), sc.start(c), dur)

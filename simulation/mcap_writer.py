@@ -42,7 +42,6 @@ from coordarm.symbolic.controller import BUILT_IN_CURVES
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
-from .obstacles import outline
 from .run import Run
 from .scenario import Scenario
 from .scene import SceneBuilder

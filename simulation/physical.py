@@ -157,7 +157,7 @@ def check_configuration(chain: PlanarChain, q, obstacles: Sequence[Obstacle] = (
             found.append((k, 0, Contact("rail_limit", float(t[k]), (1,), float(q[k, 0]),
                                         lo if q[k, 0] < lo else hi)))
     joints = chain.joints_np(q)
-    s, la, lb, d = self_distances(joints, chain.xi + c)
+    s, la, lb, d = self_distances(joints, c)
     hit = touching(d, c)
     for k, a, b, dist in zip(s[hit].tolist(), la[hit].tolist(), lb[hit].tolist(), d[hit].tolist()):
         found.append((k, 1, Contact("self", float(t[k]), (a, b), dist, c)))

@@ -20,6 +20,9 @@ from .choices import BACKENDS
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
+#: Most physical checks per simulated second in ``coordarm run`` (fewer when the log rate is lower);
+#: a contact found is located to the step (``simulate(check_every=...)``).
+CHECK_RATE = 200.0
 #: Steps integrated per call of the closed-loop chunk Function.
 DEFAULT_CHUNK = 2000
 
@@ -278,7 +281,9 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         Joint limits, self-collision and obstacles to check
         (:class:`coordarm.simulation.physical.Physical`, anything with ``check(t, q)``).
     check_every : int
-        Check every this many steps (e.g. the log's decimation); the last state is always checked.
+        Check every this many steps (and the first and last step of every chunk); when a
+        check finds a contact, the steps since the previous check are checked too, so the
+        run stops at the first step in contact (:data:`CHECK_RATE` sets the CLI's stride).
     allow_contact : bool
         Keep going after a contact; ``run.info["contacts"]`` then lists the first contact of
         every (kind, links, obstacle).
@@ -350,7 +355,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
                 Q, outs = _advance(ctrl, compiled, q, times, step)
                 part = Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times)))
             else:          # the final state
-                n, t_end = 1, t0 + step * n_steps
+                t_end = t0 + step * n_steps
                 final = (compiled or ctrl).evaluate(q, t_end)
                 part = Run.from_arrays({a: np.asarray(v)[None] for a, v in
                                         dict(final, t=t_end, q=q, v_star=ctrl.speed_at(t_end)).items()
@@ -410,14 +415,21 @@ def _first_stop(part: Run, k: int, n_steps: int, thr: dict, physical: Any, check
         row, link, dist = out
         stop = row, TubeError(part.t[row], link, dist, "tube", tube)
     if physical is not None:
-        g = k + np.arange(len(part.t))
-        rows = np.flatnonzero((g % check_every == 0) | (g == n_steps))
+        n = len(part.t)
+        rows = np.flatnonzero(((k + np.arange(n)) % check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
         if stop is not None:
-            rows = rows[rows <= stop[0]]
+            rows = np.union1d(rows[rows < stop[0]], [stop[0]])
         if len(rows):
             found = physical.check(part.t[rows], part.q[rows])
             if found and not allow_contact:
-                row = int(rows[np.searchsorted(part.t[rows], found[0].time)])
+                i = int(np.searchsorted(part.t[rows], found[0].time))
+                row = int(rows[i])
+                if i > 0 and rows[i - 1] + 1 < row:     # locate the first contact to the step
+                    between = np.arange(rows[i - 1] + 1, row)
+                    earlier = physical.check(part.t[between], part.q[between])
+                    if earlier:
+                        found = earlier
+                        row = int(between[np.searchsorted(part.t[between], found[0].time)])
                 return row, CollisionError(found[0])
             seen = {(c.kind, c.links, c.obstacle) for c in contacts}
             for c in found:

@@ -97,7 +97,7 @@ class Scenario:
     source : str
         Where it came from (preset name, file path or ``<dict>``), used in error messages.
     obstacles : list of Obstacle
-        Walls, discs and polygons.
+        Named wall segments, discs and polygons (:mod:`coordarm.simulation.obstacles`).
     curve : Curve or None
         A user-defined curve (``spec["curve"]`` then only names its class), or None.
     """
@@ -301,7 +301,7 @@ class Scenario:
         Parameters
         ----------
         chain : PlanarChain, optional
-            The scenario's chain, when the caller has it.
+            The scenario's chain, when the caller has it (built otherwise).
 
         Returns
         -------

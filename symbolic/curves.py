@@ -152,8 +152,8 @@ class Curve:
 
         Returns
         -------
-        casadi expression, float or None
-            The period [m], None for an open curve.
+        expression or None
+            The period [m] (``2 pi R(t)`` for a circle), None for an open curve.
         """
         return None
 
@@ -254,7 +254,7 @@ class Circle(Curve):
         dot = ca.cos(a0) * r[0] + ca.sin(a0) * r[1]
         return self.radius(t) * ca.atan2(cross, dot)
 
-    def period(self, t):
+    def period(self, t):  # the docstring is the base class's (set below)
         return 2 * math.pi * self.radius(t)
 
     def sample(self, t: float, n: int = 400, extent: float = 10.0) -> np.ndarray:
@@ -332,11 +332,13 @@ def unwrap_s(curve: Curve, t: np.ndarray, s: np.ndarray, previous: tuple[float, 
     out = angle * P / (2 * math.pi)
     return out[1:] if previous else out
 
+
 for _cls in (Line, Circle, Arc):     # the subclasses' implementations carry the base class's documentation
-    for _name in ("phi", "psi", "sample", "point_at", "period", "to_spec"):
+    for _name in ("phi", "psi", "sample", "point_at", "to_spec", "period"):
         _own = vars(_cls).get(_name)
         if _own is not None and not _own.__doc__:
             _own.__doc__ = getattr(Curve, _name).__doc__
+
 
 CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "radius", "reference")),
           "arc": (Arc, ("point", "angle", "radius"))}

@@ -124,6 +124,13 @@ class CollisionError(CoordarmError):
         ``time``, ``links``, ``value``, ``threshold``, ``obstacle``).
     run : object or None
         The run up to (and including) the offending state, if available.
+
+    Parameters
+    ----------
+    contact : object
+        The first contact (see Attributes).
+    run : object, optional
+        The run so far.
     """
 
     def __init__(self, contact: object, run: object | None = None) -> None:

@@ -46,26 +46,29 @@ def touching(distance: np.ndarray, clearance: float) -> np.ndarray:
     return (distance <= 0.0) | (distance < clearance)
 
 
-def self_distances(joints: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Distances between non-adjacent links whose centres are at most ``reach`` apart.
+def self_distances(joints: np.ndarray, clearance: float = 0.0
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Distances of the pairs of non-adjacent links that may be within ``clearance`` of each other.
 
     Sort and sweep: per sample the link centres are sorted along the principal axis of the
-    body, and only links within ``reach`` of each other along that axis are compared, so a
-    compact or stretched chain costs O(m log m) per sample (a chain piled onto itself up to
-    O(m^2)). Two links of length ``xi`` can only come within ``c`` of each other if their
-    centres are within ``xi + c``: pass that as ``reach``.
+    body and only links whose centres are within ``xi + clearance`` along that axis are
+    compared (two links of length ``xi`` closer than ``clearance`` have centres that close);
+    of those, pairs whose bounding boxes are more than ``clearance`` apart are dropped
+    before the exact distance. A compact or stretched chain costs O(m log m) per sample
+    (a chain piled onto itself up to O(m^2)).
 
     Parameters
     ----------
     joints : (N, m+1, 2) array
         Link end points (``PlanarChain.joints_np``); link j (1-based) joins rows j-1 and j.
-    reach : float
-        Largest centre distance compared [m].
+    clearance : float
+        Distance of interest [m] (>= 0).
 
     Returns
     -------
     sample, link_a, link_b : int arrays (K,)
-        0-based sample and 1-based links (``link_a < link_b - 1``) of each compared pair.
+        0-based sample and 1-based links (``link_a < link_b - 1``) of each compared pair;
+        every pair closer than or at ``clearance`` is among them.
     distance : float array (K,)
         Their distance [m] (0 when they cross or touch).
     """
@@ -73,25 +76,28 @@ def self_distances(joints: np.ndarray, reach: float) -> tuple[np.ndarray, np.nda
     a, b = joints[:, :-1], joints[:, 1:]
     c = 0.5 * (a + b)
     n, m = c.shape[:2]
+    if n == 0 or m < 3:
+        empty = np.zeros(0, dtype=int)
+        return empty, empty, empty, np.zeros(0)
+    reach = float(np.max(np.linalg.norm(b - a, axis=-1))) + clearance
     d = c - c.mean(axis=1, keepdims=True)
     sxx, syy, sxy = (d[..., 0] ** 2).sum(1), (d[..., 1] ** 2).sum(1), (d[..., 0] * d[..., 1]).sum(1)
     th = 0.5 * np.arctan2(2 * sxy, sxx - syy)
     x = d[..., 0] * np.cos(th)[:, None] + d[..., 1] * np.sin(th)[:, None]
     order = np.argsort(x, axis=1)
     xs = np.take_along_axis(x, order, axis=1)
+    lo = np.take_along_axis(np.minimum(a, b), order[..., None], axis=1)   # bounding boxes, in sorted order
+    hi = np.take_along_axis(np.maximum(a, b), order[..., None], axis=1)
     found: list[tuple[np.ndarray, ...]] = []
     for k in range(1, m):
         near = xs[:, k:] - xs[:, :-k] <= reach
         if not near.any():
             break
+        gap = np.maximum(lo[:, k:] - hi[:, :-k], lo[:, :-k] - hi[:, k:]).max(axis=-1)   # box separation
+        near &= (gap <= clearance) & (np.abs(order[:, k:] - order[:, :-k]) >= 2)
         s, i = np.nonzero(near)
         la, lb = order[s, i], order[s, i + k]
-        keep = (np.abs(la - lb) >= 2) & (np.linalg.norm(c[s, la] - c[s, lb], axis=-1) <= reach)
-        s, la, lb = s[keep], la[keep], lb[keep]
         found.append((s, np.minimum(la, lb), np.maximum(la, lb)))
-    if not found:
-        empty = np.zeros(0, dtype=int)
-        return empty, empty, empty, np.zeros(0)
-    s, la, lb = (np.concatenate(v) for v in zip(*found))
+    s, la, lb = (np.concatenate(v) for v in zip(*found)) if found else (np.zeros(0, dtype=int),) * 3
     dist = segment_distance(a[s, la], b[s, la], a[s, lb], b[s, lb])
     return s, la + 1, lb + 1, dist

@@ -87,7 +87,20 @@ def place_on_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0) -> np
 
 
 def check_start(ctrl: CoordinatingController, q: np.ndarray) -> None:
-    """Raise a ConfigError naming the joint or links if ``q`` breaks a joint limit or self-intersects."""
+    """Raise a ConfigError naming the joint or links if ``q`` breaks a joint limit or self-intersects.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Its chain's joint limits and clearance.
+    q : ndarray, shape (m,)
+        Joint coordinates [rad].
+
+    Raises
+    ------
+    ConfigError
+        A joint beyond its limit or two non-adjacent links closer than the clearance.
+    """
     chain = ctrl.chain
     q_all, q = q, chain.revolute(np.asarray(q, float))
     if chain.rail and not chain.rail_limits[0] <= q_all[0] <= chain.rail_limits[1]:
@@ -98,7 +111,7 @@ def check_start(ctrl: CoordinatingController, q: np.ndarray) -> None:
         j = int(bad[0]) + 2
         raise ConfigError(f"start: joint {j} (between links {j - 1} and {j}) is at {q[j - 1]:+.3f} rad, beyond its "
                           f"limit ±{chain.joint_limits[j - 2]:.3f} rad; choose a smaller start.beta or another start")
-    s, la, lb, d = self_distances(chain.joints_np(q_all[None]), chain.xi + chain.clearance)
+    s, la, lb, d = self_distances(chain.joints_np(q_all[None]), chain.clearance)
     hit = np.flatnonzero(touching(d, chain.clearance))
     if len(hit):
         k = hit[np.argmin(la[hit])]
@@ -119,18 +132,18 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
     Parameters
     ----------
     ctrl : CoordinatingController
-        Chain and curve.
+        Chain (with its joint limits and clearance) and curve.
     q_guess : array_like, shape (m,)
-        Start guess (a zig-zag) [rad].
+        Start guess [rad]: link 1's angle is kept, the other joint angles guide the choice.
     t0 : float
-        Time [s].
+        Time [s] of the curve to project onto.
     tol : float
-        Residual of the polish [m].
+        Absolute tolerance of the Newton polish [m].
 
     Returns
     -------
     ndarray, shape (m,)
-        Joint angles [rad].
+        Joint coordinates [rad] with every centre on the curve.
 
     Raises
     ------

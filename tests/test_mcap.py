@@ -10,7 +10,6 @@ from mcap.stream_reader import StreamReader
 from coordarm.analysis.replay import load
 from coordarm.simulation.log_schemas import numeric_channels
 from coordarm.simulation.mcap_writer import COND_RATE, RunLogger, code_hash, default_cond_rate
-from coordarm.simulation.obstacles import outline
 from coordarm.simulation.run import Run, simulate
 from coordarm.simulation.scenario import Scenario, load_scenario
 from coordarm.symbolic import ConfigError, LogError, SingularityError

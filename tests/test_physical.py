@@ -50,8 +50,7 @@ def test_sort_and_sweep_finds_every_close_pair_of_all_pairs(m, seed):
     q = rng.uniform(-2.8, 2.8, size=(3, m))
     chain = PlanarChain(m, 0.1)
     J = chain.joints_np(q)
-    reach = 0.1 + 0.02
-    s, la, lb, d = self_distances(J, reach)
+    s, la, lb, d = self_distances(J, 0.02)
     got = {(int(k), int(a), int(b)): float(x) for k, a, b, x in zip(s, la, lb, d) if x < 0.02}
     want = {}
     for k in range(3):                    # all pairs, O(m^2), independently
