@@ -110,13 +110,6 @@ class TubeError(SingularityError):
 class CollisionError(CoordarmError):
     """The chain hit an obstacle, itself or a joint limit during a run.
 
-    Parameters
-    ----------
-    contact : object
-        The first contact (:class:`coordarm.simulation.physical.Contact`).
-    run : object, optional
-        The run up to (and including) the offending state.
-
     Attributes
     ----------
     contact : object
