@@ -163,7 +163,7 @@ def apply_point(spec: dict, point: dict) -> Scenario:
         elif isinstance(value, np.integer):
             value = int(value)
         table[path[-1]] = value
-    return Scenario.from_dict(spec, f"sweep point {point}")
+    return Scenario.from_dict(spec, "sweep point")
 
 
 def check_names(spec: dict, names: list[str]) -> None:
