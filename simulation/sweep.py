@@ -65,8 +65,12 @@ def as_scenario(scenario: Scenario | str | os.PathLike | dict) -> Scenario:
     return load_scenario(scenario)
 
 
-def sweep_points(spec: dict, vary: dict[str, list], samples: int | None = None, seed: int = 0) -> list[dict]:
+def sweep_points(spec: dict, vary: dict[str, list], samples: int | None = None, seed: int = 0,
+                 check: bool = True) -> list[dict]:
     """The points of a sweep: the grid of ``vary``, or ``samples`` Latin-hypercube points.
+
+    ``check``: every name must be a field of the scenario (off for a custom ``point_fn``,
+    which may read names of its own).
 
     Raises
     ------
@@ -79,7 +83,8 @@ def sweep_points(spec: dict, vary: dict[str, list], samples: int | None = None, 
         if not isinstance(vals, (list, tuple, np.ndarray)) or len(vals) == 0:
             raise ConfigError(f"--vary {name}: need a non-empty list of values")
     vary = {n: [v.item() if isinstance(v, np.generic) else v for v in vals] for n, vals in vary.items()}
-    check_names(spec, list(vary))
+    if check:
+        check_names(spec, list(vary))
     return grid_points(vary) if samples is None else latin_hypercube_points(vary, samples, seed)
 
 
@@ -243,7 +248,7 @@ def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], 
     """
     sc = as_scenario(scenario)
     names = list(vary)
-    points = sweep_points(sc.spec, vary, samples, seed)
+    points = sweep_points(sc.spec, vary, samples, seed, check=point_fn is None)
     if point_fn is None:
         apply_point(sc.spec, points[0])     # a bad value type fails here, before any work
     if logs and out is None:
