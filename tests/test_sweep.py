@@ -165,3 +165,27 @@ def test_default_local_cluster_gives_the_serial_rows(tmp_path):
     cols = ["links", "gain", "outcome", "message"] + NUMERIC
     pd.testing.assert_frame_equal(local[cols], serial[cols], rtol=1e-12)
     assert all(w.startswith("tcp://") for w in local["worker"])
+
+
+def test_ctrl_c_on_the_command_line_exits_130_and_keeps_the_finished_rows(tmp_path):
+    """SIGINT to a real `coordarm sweep` on a LocalCluster once some points are done (seen on its progress bar)."""
+    import signal
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, "-m", "coordarm", "sweep", "line", "--vary", "gain=1:4:40", "--vary", "run.duration=10",
+           "--workers", "1", "--batch", "1", "--out", str(tmp_path), "--no-figures"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        for line in proc.stderr:          # off a terminal the bar prints at the first point, then every 10 %
+            if "points" in line:
+                break
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130, err
+    kept = pd.read_parquet(tmp_path / RESULTS)
+    assert 1 <= len(kept) < 40 and set(kept["outcome"]) == {"completed"}
