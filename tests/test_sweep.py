@@ -84,26 +84,11 @@ def test_rows_match_direct_runs_and_failures_are_rows(tmp_path):
     assert list(csv.columns) == list(df.columns) and csv["min_clearance"][0] == ""
 
 
-def test_a_link_crossing_a_wall_is_a_collision_row(tmp_path):
-    toml = tmp_path / "wall.toml"
-    toml.write_text("""
-[chain]
-links = 8
-link_length = 0.1
-[curve]
-kind = "line"
-point = [0.0, 0.0]
-angle = 0.0
-[control]
-gain = 2.0
-speed = 0.2
-[run]
-duration = 2.0
-[[obstacles]]
-a = [0.45, -1.0]
-b = [0.45, 1.0]
-""")
-    df = sweep(toml, {"speed": [0.01, 0.2]}, client="serial")
+def test_a_link_crossing_a_wall_is_a_collision_row():
+    wall = {"chain": {"links": 8, "link_length": 0.1}, "curve": {"kind": "line", "point": [0.0, 0.0], "angle": 0.0},
+            "control": {"gain": 2.0, "speed": 0.2}, "run": {"duration": 2.0},
+            "obstacles": [{"a": [0.45, -1.0], "b": [0.45, 1.0]}]}
+    df = sweep(wall, {"speed": [0.01, 0.2]}, client="serial")
     assert list(df["outcome"]) == ["completed", "collision"]
     assert "touches wall 0" in df["message"][1]
     assert df["min_clearance"][0] > 0.1 and df["min_clearance"][1] < df["min_clearance"][0]
