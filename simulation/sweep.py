@@ -38,6 +38,8 @@ RESULTS_CSV = "results.csv"
 SCENARIO_KEY = b"coordarm.scenario"
 #: Run in this process, without Dask (tests, debugging, tiny sweeps).
 SERIAL = "serial"
+#: Seconds to wait for a scheduler given by address.
+CONNECT_TIMEOUT = 20.0
 #: Seconds between rewrites of the results files while the sweep runs.
 WRITE_INTERVAL = 5.0
 
@@ -115,7 +117,7 @@ class ResultsTable:
     def __init__(self, out: Path | None, names: list[str], scenario_json: str) -> None:
         self.out, self.names, self.scenario_json = out, names, scenario_json
         self.rows: list[dict] = []
-        self.last_write = time.monotonic()
+        self.last_write, self.dirty = time.monotonic(), False
         if out is not None and (out / RESULTS).is_file():
             self._load()
 
@@ -137,6 +139,7 @@ class ResultsTable:
 
     def add(self, rows: list[dict]) -> None:
         self.rows.extend(rows)
+        self.dirty = True
         if self.out is not None and time.monotonic() - self.last_write > WRITE_INTERVAL:
             self.write()
 
@@ -152,8 +155,8 @@ class ResultsTable:
         return df
 
     def write(self) -> None:
-        """Rewrite both files atomically (temporary name, then rename)."""
-        if self.out is None:
+        """Rewrite both files atomically (temporary name, then rename), if rows came since the last write."""
+        if self.out is None or not self.dirty:
             return
         import pyarrow as pa
         import pyarrow.parquet as pq
@@ -169,7 +172,7 @@ class ResultsTable:
         tmp = self.out / (RESULTS_CSV + ".tmp")
         df.to_csv(tmp, index=False)
         os.replace(tmp, self.out / RESULTS_CSV)
-        self.last_write = time.monotonic()
+        self.last_write, self.dirty = time.monotonic(), False
 
 
 def _open_client(client: Any, workers: int | None):
@@ -182,7 +185,10 @@ def _open_client(client: Any, workers: int | None):
                                silence_logs=logging.ERROR)
         return Client(cluster), True
     if isinstance(client, str):
-        return Client(client, timeout=30), True
+        try:
+            return Client(client, timeout=CONNECT_TIMEOUT), True
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ConfigError(f"--scheduler {client}: cannot connect ({type(exc).__name__}: {exc})") from None
     return client, False
 
 
@@ -242,7 +248,8 @@ def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], 
     ------
     ConfigError
         Nothing to vary, a name that is not a field of the scenario, ``logs`` without ``out``,
-        or an ``out`` holding another sweep; all before any work.
+        an ``out`` holding another sweep, or a scheduler address that does not answer; all
+        before any work.
     KeyboardInterrupt
         Ctrl-C; every finished row is written first.
     """

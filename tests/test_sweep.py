@@ -174,3 +174,9 @@ def test_ctrl_c_on_the_command_line_exits_130_and_keeps_the_finished_rows(tmp_pa
     assert proc.returncode == 130, err
     kept = pd.read_parquet(tmp_path / RESULTS)
     assert 1 <= len(kept) < 40 and set(kept["outcome"]) == {"completed"}
+
+
+def test_a_bad_scheduler_address_is_a_config_error_and_writes_nothing(tmp_path):
+    with pytest.raises(ConfigError, match="--scheduler nonsense: cannot connect"):
+        sweep("line", {"gain": [1.0]}, client="nonsense", out=tmp_path / "out")
+    assert not (tmp_path / "out").exists()
