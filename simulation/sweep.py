@@ -112,10 +112,15 @@ def log_name(point: dict) -> str:
 
 
 class ResultsTable:
-    """The rows of a sweep and their files ``results.parquet`` / ``results.csv`` in ``out`` (if given)."""
+    """The rows of a sweep and their files ``results.parquet`` / ``results.csv`` in ``out`` (if given).
 
-    def __init__(self, out: Path | None, names: list[str], scenario_json: str) -> None:
+    Rows are kept in the order of ``points`` (rows of earlier sweeps into the same ``out`` that
+    are not among them come last), whatever order they finish in.
+    """
+
+    def __init__(self, out: Path | None, names: list[str], scenario_json: str, points: list[dict]) -> None:
         self.out, self.names, self.scenario_json = out, names, scenario_json
+        self.order = {point_key(p, names): i for i, p in enumerate(points)}
         self.rows: list[dict] = []
         self.last_write, self.dirty = time.monotonic(), False
         if out is not None and (out / RESULTS).is_file():
@@ -143,8 +148,11 @@ class ResultsTable:
         if self.out is not None and time.monotonic() - self.last_write > WRITE_INTERVAL:
             self.write()
 
-    def frame(self):
-        """All rows as a DataFrame with the varied names first, then :data:`RESULT_COLUMNS`."""
+    def frame(self, rank: bool = True):
+        """All rows as a DataFrame: the varied names, :data:`RESULT_COLUMNS`, extra columns, in point order.
+
+        ``rank``: add the column ``_rank`` (index of the point, ``len(points)`` for other rows).
+        """
         import pandas as pd
 
         cols = self.names + [c for c in RESULT_COLUMNS]
@@ -152,7 +160,9 @@ class ResultsTable:
         df = pd.DataFrame(self.rows, columns=cols + extra)
         for c in ("outcome", "message", "worker"):
             df[c] = df[c].fillna("").astype(str)
-        return df
+        order = [self.order.get(point_key(r, self.names), len(self.order)) for r in self.rows]
+        df = df.assign(_rank=order).sort_values("_rank", kind="stable").reset_index(drop=True)
+        return df if rank else df.drop(columns="_rank")
 
     def write(self) -> None:
         """Rewrite both files atomically (temporary name, then rename), if rows came since the last write."""
@@ -162,7 +172,7 @@ class ResultsTable:
         import pyarrow.parquet as pq
 
         self.out.mkdir(parents=True, exist_ok=True)
-        df = self.frame()
+        df = self.frame(rank=False)
         table = pa.Table.from_pandas(df, preserve_index=False)
         table = table.replace_schema_metadata({**(table.schema.metadata or {}),
                                                SCENARIO_KEY: self.scenario_json.encode()})
@@ -261,7 +271,7 @@ def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], 
     if logs and out is None:
         raise ConfigError("--logs needs --out (the logs go to OUT/logs/)")
     out = Path(out) if out is not None else None
-    table = ResultsTable(out, names, sc.to_json())
+    table = ResultsTable(out, names, sc.to_json(), points)
     done = table.done()
     todo = [p for p in points if point_key(p, names) not in done]
     bar = SweepProgress(len(points), len(points) - len(todo)) if progress and points else None
@@ -276,12 +286,8 @@ def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], 
         if owned is not None:
             _close(owned)
     df = table.frame()
-    order = {point_key(p, names): i for i, p in enumerate(points)}
-    keys = [point_key(r, names) for r in df.to_dict("records")]
-    rank = np.array([order.get(k, -1) for k in keys])
-    df = df[rank >= 0].iloc[np.argsort(rank[rank >= 0], kind="stable")].drop_duplicates(
+    return df[df["_rank"] < len(points)].drop(columns="_rank").drop_duplicates(
         subset=names, keep="last").reset_index(drop=True)
-    return df
 
 
 def _run(spec, todo, client, workers, batch, point_fn, log_dir, table, bar):
