@@ -11,15 +11,12 @@ import itertools
 import re
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import BoundaryNorm, ListedColormap
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
-
-from coordarm.simulation.figures import save_figure  # noqa: E402
-from coordarm.simulation.sweep_points import OUTCOMES  # noqa: E402
+from coordarm.simulation.figures import save_figure
+from coordarm.simulation.sweep_points import OUTCOMES
 
 #: Colour of each outcome (same order as OUTCOMES).
 OUTCOME_COLOURS = ("#2ca02c", "#ff7f0e", "#9467bd", "#d62728")

@@ -143,9 +143,6 @@ def workspace_map(links=(8, 16, 32, 64), betas=None, curvatures=None, xi: float 
 
 def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = None) -> Path:
     """Heat maps: one row per link count, one column per mapped quantity; threshold contours dashed."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from coordarm.simulation.figures import save_figure
@@ -174,8 +171,8 @@ def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = Non
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m analysis.workspace OUT.png [--links 8 16 ...]``: compute and draw the map."""
-    p = argparse.ArgumentParser(prog="python -m analysis.workspace", description=__doc__.splitlines()[0])
+    """``python -m coordarm.analysis.workspace OUT.png [--links 8 16 ...]``: compute and draw the map."""
+    p = argparse.ArgumentParser(prog="python -m coordarm.analysis.workspace", description=__doc__.splitlines()[0])
     p.add_argument("out", type=Path, help="PNG file to write")
     p.add_argument("--links", type=int, nargs="+", default=[8, 16, 32, 64], help="link counts")
     p.add_argument("--betas", type=int, default=30, help="number of fold angles in [0.02, 1.56] rad")
@@ -183,6 +180,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workers", type=int, help="run the sweep on a local Dask cluster of N workers (default: here)")
     p.add_argument("--scheduler", help="run the sweep on the Dask cluster of this scheduler address")
     args = p.parse_args(argv)
+    import matplotlib
+    matplotlib.use("Agg")   # a command line writing files: no window (library calls keep the user's backend)
     client = args.scheduler or (None if args.workers else "serial")
     res = workspace_map(args.links, np.linspace(0.02, 1.56, args.betas), np.linspace(0.0, 1.5, args.curvatures),
                         client=client, workers=args.workers)

@@ -15,6 +15,8 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 
+from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name
+
 #: CDR encapsulation header: representation identifier CDR_LE (0x0001), options 0.
 CDR_HEADER = b"\x00\x01\x00\x00"
 
@@ -60,27 +62,77 @@ class NumericChannel:
         return out
 
 
-#: The :class:`~simulation.run.Run` array behind each field of the per-step channels.
-SOURCES = {"t": "t", "q": "q", "u": "u", "s": "s", "v_star": "v_star", "e": "e", "link": "link_margins",
-           "longitudinal": "longitudinal"}
+#: Fields of the per-step channels that are not law outputs (time, state, commanded speed), with their
+#: width as ``(per_link, extra)``; channel -> leading fields in order. The law outputs that name a
+#: channel in :data:`coordarm.symbolic.outputs.LAW_OUTPUTS` follow, in the table's order, unless
+#: listed here (to keep the field order of existing logs). Each field is the Run array of that name.
+RUN_FIELDS = {"t": (0, 1), "q": (1, 0), "v_star": (0, 1)}
+CHANNEL_LAYOUT = {
+    "joint_state": ("/joint_state", "coordarm_msgs/msg/JointState", ("t", "q", "u")),
+    "task_state": ("/task_state", "coordarm_msgs/msg/TaskState", ("t", "s", "v_star", "e")),
+    "margins": ("/margins", "coordarm_msgs/msg/Margins", ("t", "link_margins", "longitudinal")),
+}
+
+
+def _field(name: str, m: int) -> tuple[str, int]:
+    """``(name, length)`` of a channel field for ``m`` links (length 0 = a scalar)."""
+    if name in RUN_FIELDS:
+        per_link, extra = RUN_FIELDS[name]
+        return name, 0 if (per_link, extra) == (0, 1) else per_link * m + extra
+    out = by_name(name)
+    return name, 0 if out.scalar else out.width(m)
 
 
 def numeric_channels(links: int) -> dict[str, NumericChannel]:
     """The per-step channels and the condition-number channel for a chain of ``links`` links.
 
-    Keys are short names (``joint_state``, ``task_state``, ``margins``, ``cond``).
+    Keys are short names (``joint_state``, ``task_state``, ``margins``, ``cond``); every
+    per-step field is named after its :class:`~coordarm.simulation.run.Run` array.
     """
     m = links
-    return {
-        "joint_state": NumericChannel("/joint_state", "coordarm_msgs/msg/JointState",
-                                      (("t", 0), ("q", m), ("u", m))),
-        "task_state": NumericChannel("/task_state", "coordarm_msgs/msg/TaskState",
-                                     (("t", 0), ("s", 0), ("v_star", 0), ("e", m - 1))),
-        "margins": NumericChannel("/margins", "coordarm_msgs/msg/Margins",
-                                  (("t", 0), ("link", m - 1), ("longitudinal", 0))),
-        "cond": NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning",
-                               (("t", 0), ("cond", 0))),
-    }
+    out = {}
+    for key, (topic, schema, lead) in CHANNEL_LAYOUT.items():
+        names = list(lead) + [o.name for o in LAW_OUTPUTS if o.channel == key and o.name not in lead]
+        out[key] = NumericChannel(topic, schema, tuple(_field(n, m) for n in names))
+    out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", (("t", 0), ("cond", 0)))
+    return out
+
+
+#: Former field names, as found in older logs (old name -> name).
+LEGACY_FIELDS = {"link": "link_margins"}
+
+
+def fields_from_schema(text: str) -> tuple[tuple[str, int], ...]:
+    """The fields of a stored ``ros2msg`` schema of a numeric channel, former names renamed.
+
+    Parameters
+    ----------
+    text : str
+        The schema as :meth:`NumericChannel.schema_text` writes it (``float64[n] name`` lines).
+
+    Returns
+    -------
+    tuple of (str, int)
+        ``(name, length)`` per field, 0 for a scalar (see :class:`NumericChannel`).
+
+    Raises
+    ------
+    ValueError
+        A line that is not a ``float64`` field.
+    """
+    out = []
+    for line in text.splitlines():
+        if not line.strip():
+            continue
+        kind, _, name = line.strip().partition(" ")
+        if kind == "float64":
+            n = 0
+        elif kind.startswith("float64[") and kind.endswith("]") and kind[8:-1].isdigit():
+            n = int(kind[8:-1])
+        else:
+            raise ValueError(f"not a float64 field: {line!r}")
+        out.append((LEGACY_FIELDS.get(name.strip(), name.strip()), n))
+    return tuple(out)
 
 
 #: Channels written at every logged step; a sample is complete when all of them are present.

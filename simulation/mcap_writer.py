@@ -3,7 +3,7 @@
 Channels (timestamps: ns of simulated time)
 
 * ``/joint_state`` (``t``, ``q``, ``u``), ``/task_state`` (``t``, ``s``, ``v_star``, ``e``),
-  ``/margins`` (``t``, ``link`` margins of links 2..m, ``longitudinal``): every logged step;
+  ``/margins`` (``t``, ``link_margins`` of links 2..m, ``longitudinal``): every logged step;
 * ``/margins/cond``: condition number of the decoupling matrix, ~5 Hz (one SVD each);
 * ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, walls), ~20 Hz.
 
@@ -37,7 +37,7 @@ import numpy as np
 from coordarm.symbolic import ConfigError, CoordinatingController, LogError, SingularityError
 from coordarm.symbolic.curves import Line
 
-from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, SOURCES, NumericChannel,
+from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, NumericChannel,
                           numeric_channels, scene_update_schema_bytes)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
@@ -273,7 +273,7 @@ class RunLogger:
             rec[key + "_cdr"] = np.frombuffer(CDR_HEADER, "V4")[0]
             data = rec[key]
             for name, cols in ch.slices().items():
-                data[:, cols] = getattr(part, SOURCES[name])[rows]
+                data[:, cols] = getattr(part, name)[rows]
         self._pending = np.concatenate([self._pending, rec]) if len(self._pending) else rec
 
     def _write_chunk(self, n: int) -> None:

@@ -6,16 +6,14 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
-from coordarm.symbolic import LAWS, SingularityError
+from coordarm.simulation.choices import BACKENDS, COMPRESSIONS, presets
+from coordarm.symbolic.laws import LAWS
 
-from coordarm.simulation.figures import plot_stages, plot_tracking
-from coordarm.simulation.mcap_file import COMPRESSIONS
-from coordarm.simulation.mcap_writer import RunLogger
-from coordarm.simulation.obstacles import clearance, wall_crossings
-from coordarm.simulation.run import BACKENDS, BackendFallbackWarning, Run, select_backend, simulate
-from coordarm.simulation.scenario import Scenario, load_scenario, presets
+if TYPE_CHECKING:   # the simulation modules load numpy, CasADi, matplotlib: only when the command runs
+    from coordarm.simulation.run import Run
+    from coordarm.simulation.scenario import Scenario
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -46,6 +44,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> None:
     """Human-readable summary of a run (to ``out``, standard output by default)."""
+    from coordarm.simulation.obstacles import clearance, wall_crossings
+
     out = sys.stdout if out is None else out
     s = run.summary()
     lines = [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1]} links",
@@ -73,6 +73,8 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
 
 def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
     """Stage and tracking figures as ``<stem>_stages.png`` and ``<stem>_tracking.png``."""
+    from coordarm.simulation.figures import plot_stages, plot_tracking
+
     title = f"{scenario.name}: {ctrl.chain.m} links"
     return [plot_stages(run, ctrl, stem.with_name(stem.name + "_stages.png"), walls=scenario.obstacles,
                         title=f"{title}, stages of the motion (dashed: the curve at that time)"),
@@ -82,6 +84,11 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
 
 def main(args: argparse.Namespace) -> int:
     """Run the scenario named in ``args``; return 0 (done), 3 (stopped ahead of a singularity)."""
+    from coordarm.simulation.mcap_writer import RunLogger
+    from coordarm.simulation.run import BackendFallbackWarning, select_backend, simulate
+    from coordarm.simulation.scenario import load_scenario
+    from coordarm.symbolic.errors import SingularityError
+
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
     ctrl = scenario.controller()
     q0 = scenario.start(ctrl)
