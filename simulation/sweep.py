@@ -238,6 +238,8 @@ def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], 
         Points already in its ``results.parquet`` are skipped (resuming a sweep).
     logs : bool
         Keep each point's MCAP log in ``out/logs/`` (needs ``out``).
+    workers : int, optional
+        Worker processes of the new LocalCluster when ``client`` is None (default: one per core).
     batch : int, optional
         Points per task (default :func:`batch_size`).
     progress : bool

@@ -23,14 +23,13 @@ import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordarmError, SingularityError, errors
 
+from .choices import SWEEP_ALIASES
 from .obstacles import clearance, wall_crossings
 from .run import simulate
 from .scenario import Scenario
 
 #: Short names accepted by ``--vary`` (the results column keeps the name as given).
-ALIASES = {"links": "chain.links", "link_length": "chain.link_length", "gain": "control.gain",
-           "speed": "control.speed", "beta": "start.beta", "heading": "start.heading",
-           "duration": "run.duration", "step": "run.step", "radius": "curve.radius", "angle": "curve.angle"}
+ALIASES = SWEEP_ALIASES
 #: How a point can end, from best to worst.
 OUTCOMES = ("completed", "singularity", "collision", "error")
 #: Result columns after the varied names, in order.

@@ -4,10 +4,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from coordarm.simulation.scenario import presets
-from coordarm.simulation.sweep import RESULTS, RESULTS_CSV, as_scenario, sweep
-from coordarm.simulation.sweep_points import ALIASES, OUTCOMES, parse_vary
-from coordarm.symbolic import ConfigError
+from coordarm.simulation.choices import SWEEP_ALIASES, presets
+from coordarm.symbolic.errors import ConfigError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -20,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scenario", metavar="SCENARIO_OR_TOML")
     p.add_argument("--vary", action="append", required=True, metavar="NAME=VALUES",
                    help="a scalar field by its dotted TOML name (control.gain, chain.links, curve.radius, ...; "
-                        f"aliases: {', '.join(sorted(ALIASES))}) and its values: a list v1,v2,... or a range "
+                        f"aliases: {', '.join(sorted(SWEEP_ALIASES))}) and its values: a list v1,v2,... or a range "
                         "start:stop:count; repeat for more names (grid = every combination)")
     p.add_argument("--samples", type=int, metavar="N",
                    help="N Latin-hypercube points over each name's range instead of the grid")
@@ -37,6 +35,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run the sweep; 0 when every point has a row (whatever its outcome), 130 on Ctrl-C (rows kept)."""
+    from coordarm.simulation.sweep import RESULTS, RESULTS_CSV, as_scenario, sweep
+    from coordarm.simulation.sweep_points import OUTCOMES, parse_vary
+
     vary = dict(parse_vary(v) for v in args.vary)
     if len(vary) != len(args.vary):
         raise ConfigError("--vary: a name is given twice")
