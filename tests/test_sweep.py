@@ -122,6 +122,15 @@ def test_logs_keeps_one_readable_log_per_point(tmp_path):
         sweep("line", {"gain": [1.0]}, client="serial", logs=True)
 
 
+def test_latin_hypercube_sweep_rows_lie_in_the_ranges_and_resume_with_the_same_seed(tmp_path):
+    vary = {"gain": [1.0, 4.0], "links": [6, 12], "run.duration": [0.5]}
+    df = sweep("line", vary, client="serial", samples=4, seed=3, out=tmp_path)
+    assert len(df) == 4 and df["gain"].between(1.0, 4.0).all() and df["links"].between(6, 12).all()
+    assert df["gain"].nunique() == 4 and set(df["outcome"]) == {"completed"}
+    again = sweep("line", vary, client="serial", samples=4, seed=3, out=tmp_path)
+    np.testing.assert_array_equal(again["wall_time"], df["wall_time"])    # read back, not run again
+
+
 def test_progress_shows_points_done_and_time_left():
     buf = io.StringIO()
     bar = SweepProgress(10, already=2, stream=buf)
