@@ -29,7 +29,7 @@ from coordarm.symbolic import ConfigError
 
 from .run import Progress
 from .scenario import Scenario, load_scenario
-from .sweep_points import (RESULT_COLUMNS, apply_point, check_names, grid_points, latin_hypercube_points,
+from .sweep_points import (RESULT_COLUMNS, check_names, grid_points, latin_hypercube_points,
                            run_batch)
 
 RESULTS = "results.parquet"
@@ -268,8 +268,6 @@ def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], 
     sc = as_scenario(scenario)
     names = list(vary)
     points = sweep_points(sc.spec, vary, samples, seed, check=point_fn is None)
-    if point_fn is None:
-        apply_point(sc.spec, points[0])     # a bad value type fails here, before any work
     if logs and out is None:
         raise ConfigError("--logs needs --out (the logs go to OUT/logs/)")
     out = Path(out) if out is not None else None
