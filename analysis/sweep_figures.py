@@ -87,11 +87,15 @@ def plot_pair(df, a: str, b: str, path: str | Path) -> Path:
 
 
 def plot_sweep(df, names: list[str], out: str | Path) -> list[Path]:
-    """All figures of a sweep into ``out``: ``sweep_<name>.png`` for one name, else ``sweep_<a>__<b>.png`` per pair."""
+    """All figures of a sweep into ``out``: ``sweep_<name>.png`` for one name, else ``sweep_<a>__<b>.png`` per pair.
+
+    Names held at a single value are left out (they add no axis).
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if len(df) == 0:
         return []
+    names = [n for n in names if df[n].nunique() > 1] or names[:1]   # a name held at one value adds no axis
     if len(names) == 1:
         return [plot_line(df, names[0], out / f"sweep_{_file(names[0])}.png")]
     return [plot_pair(df, a, b, out / f"sweep_{_file(a)}__{_file(b)}.png")

@@ -29,7 +29,7 @@ from coordarm.symbolic import ConfigError
 
 from .run import Progress
 from .scenario import Scenario, load_scenario
-from .sweep_points import (RESULT_COLUMNS, check_names, grid_points, latin_hypercube_points,
+from .sweep_points import (RESULT_COLUMNS, check_names, grid_points, integer_fields, latin_hypercube_points,
                            run_batch)
 
 RESULTS = "results.parquet"
@@ -87,7 +87,9 @@ def sweep_points(spec: dict, vary: dict[str, list], samples: int | None = None, 
     vary = {n: [v.item() if isinstance(v, np.generic) else v for v in vals] for n, vals in vary.items()}
     if check:
         check_names(spec, list(vary))
-    return grid_points(vary) if samples is None else latin_hypercube_points(vary, samples, seed)
+    if samples is None:
+        return grid_points(vary)
+    return latin_hypercube_points(vary, samples, seed, integer_fields(spec, list(vary)) if check else None)
 
 
 def point_key(point: dict, names: list[str]) -> tuple:

@@ -106,11 +106,12 @@ def grid_points(vary: dict[str, list]) -> list[dict]:
     return [dict(zip(names, combo)) for combo in itertools.product(*(vary[n] for n in names))]
 
 
-def latin_hypercube_points(vary: dict[str, list], samples: int, seed: int) -> list[dict]:
+def latin_hypercube_points(vary: dict[str, list], samples: int, seed: int,
+                           integers: set[str] | None = None) -> list[dict]:
     """``samples`` Latin-hypercube points over the range (smallest to largest value) of each name.
 
-    Names whose values are not numbers are drawn from their list (uniform, seeded). Integer
-    parameters (all values ints) are rounded.
+    Names whose values are not numbers are drawn from their list (uniform, seeded). The names
+    in ``integers`` (default: those whose values are all ints) are rounded.
 
     Raises
     ------
@@ -129,7 +130,8 @@ def latin_hypercube_points(vary: dict[str, list], samples: int, seed: int) -> li
         if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
             lo, hi = min(vals), max(vals)
             x = lo + u[:, i] * (hi - lo)
-            cols[n] = [int(round(v)) for v in x] if all(isinstance(v, int) for v in vals) else [float(v) for v in x]
+            whole = n in integers if integers is not None else all(isinstance(v, int) for v in vals)
+            cols[n] = [int(round(v)) for v in x] if whole else [float(v) for v in x]
         else:
             cols[n] = [vals[min(int(v * len(vals)), len(vals) - 1)] for v in u[:, i]]
     return [{n: cols[n][k] for n in names} for k in range(samples)]
@@ -181,6 +183,18 @@ def check_names(spec: dict, names: list[str]) -> None:
         ok = isinstance(table, dict) and (path[-1] in table or (len(path) == 2 and path[-1] in KEYS.get(path[0], ())))
         if not ok:
             raise ConfigError(f"--vary {name}: {'.'.join(path)} is not a field of the scenario")
+
+
+def integer_fields(spec: dict, names: list[str]) -> set[str]:
+    """The names whose field in the scenario holds an integer (e.g. ``chain.links``)."""
+    out = set()
+    for name in names:
+        value: Any = spec
+        for key in field_path(name):
+            value = value.get(key) if isinstance(value, dict) else None
+        if isinstance(value, int) and not isinstance(value, bool):
+            out.add(name)
+    return out
 
 
 def _controller(sc: Scenario):

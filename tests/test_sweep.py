@@ -123,10 +123,12 @@ def test_logs_keeps_one_readable_log_per_point(tmp_path):
 
 
 def test_latin_hypercube_sweep_rows_lie_in_the_ranges_and_resume_with_the_same_seed(tmp_path):
-    vary = {"gain": [1.0, 4.0], "links": [6, 12], "run.duration": [0.5]}
+    vary = {"gain": [1, 4], "links": [6, 12], "run.duration": [0.5]}
     df = sweep("line", vary, client="serial", samples=4, seed=3, out=tmp_path)
     assert len(df) == 4 and df["gain"].between(1.0, 4.0).all() and df["links"].between(6, 12).all()
-    assert df["gain"].nunique() == 4 and set(df["outcome"]) == {"completed"}
+    # control.gain is a float field (drawn as floats even from int bounds), chain.links an int field
+    assert df["gain"].nunique() == 4 and (df["gain"] % 1 != 0).all() and (df["links"] % 1 == 0).all()
+    assert set(df["outcome"]) == {"completed"}
     again = sweep("line", vary, client="serial", samples=4, seed=3, out=tmp_path)
     np.testing.assert_array_equal(again["wall_time"], df["wall_time"])    # read back, not run again
 
@@ -141,11 +143,11 @@ def test_progress_shows_points_done_and_time_left():
 def test_figures_one_line_plot_or_one_heat_map_per_pair(tmp_path):
     from coordarm.analysis.sweep_figures import plot_sweep, smallest_margin
 
-    df = pd.DataFrame({"a": [1, 1, 2, 2], "b": [0.1, 0.2, 0.1, 0.2], "c": ["x"] * 4,
+    df = pd.DataFrame({"a": [1, 1, 2, 2], "b": [0.1, 0.2, 0.1, 0.2], "c": ["x", "y"] * 2, "d": [5] * 4,
                        "outcome": ["completed", "singularity", "error", "completed"],
                        "min_link_margin": [0.5, 0.3, np.nan, 0.2], "min_longitudinal": [0.4, 0.1, np.nan, 0.6]})
     np.testing.assert_array_equal(smallest_margin(df), [0.4, 0.1, np.nan, 0.2])
-    paths = plot_sweep(df, ["a", "b", "c"], tmp_path)
+    paths = plot_sweep(df, ["a", "b", "c", "d"], tmp_path)     # d is held at one value: no axis
     assert [p.name for p in paths] == ["sweep_a__b.png", "sweep_a__c.png", "sweep_b__c.png"]
     assert all(p.stat().st_size > 10_000 for p in paths)
     (line,) = plot_sweep(df, ["b"], tmp_path)
