@@ -113,6 +113,22 @@ def latin_hypercube_points(vary: dict[str, list], samples: int, seed: int,
     Names whose values are not numbers are drawn from their list (uniform, seeded). The names
     in ``integers`` (default: those whose values are all ints) are rounded.
 
+    Parameters
+    ----------
+    vary : dict
+        Name -> values; a numeric name's range is its smallest to its largest value.
+    samples : int
+        Number of points.
+    seed : int
+        Seed of the generator (the same seed gives the same points).
+    integers : set of str, optional
+        Names to round to integers.
+
+    Returns
+    -------
+    list of dict
+        ``samples`` points, each name -> value.
+
     Raises
     ------
     ConfigError
@@ -291,8 +307,22 @@ def run_batch(spec: dict, points: list[dict], point_fn: Callable[..., dict] | No
               log_paths: list[str | None] | None = None) -> list[dict]:
     """Run ``points`` one after the other here (one Dask task): one row each, with ``wall_time`` and ``worker``.
 
-    ``point_fn(spec, point, log_path) -> dict`` (default :func:`run_point`) must be importable
-    on the workers; an exception it raises becomes a row with outcome ``error``.
+    Parameters
+    ----------
+    spec : dict
+        The base scenario (plain data: what a worker receives instead of a compiled controller).
+    points : list of dict
+        Varied name -> value, one dict per point.
+    point_fn : callable, optional
+        ``point_fn(spec, point, log_path) -> dict`` (default :func:`run_point`), importable on
+        the workers; an exception it raises becomes a row with outcome ``error``.
+    log_paths : list of str or None, optional
+        One MCAP log path per point (None: no logs).
+
+    Returns
+    -------
+    list of dict
+        One row per point, in order, with ``wall_time`` [s] and ``worker`` added.
     """
     fn = point_fn or run_point
     rows = []
