@@ -15,6 +15,7 @@ COMMANDS = {
     "replay": "coordarm.commands.replay",
     "report": "coordarm.commands.report",
     "sweep": "coordarm.commands.sweep",
+    "layout": "coordarm.commands.layout",
 }
 
 
@@ -35,7 +36,8 @@ def build_parser() -> argparse.ArgumentParser:
     """The full ``coordarm`` argument parser."""
     parser = argparse.ArgumentParser(prog="coordarm", description=(
         "Coordinating control of hyper-redundant planar manipulators: run scenarios, "
-        "regenerate the compiled controller, replay logs, write singularity reports."))
+        "regenerate the compiled controller, replay logs, write singularity reports, "
+        "find the Foxglove layout."))
     parser.add_argument("--version", action=_Version, help="print the installed version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module in COMMANDS.items():
