@@ -3,7 +3,9 @@
 1. A 32-point sweep (``control.gain`` 1..4 x ``control.speed`` 0.02..0.08) of 64-link, 10 s
    ``line`` runs on a LocalCluster of 1 worker and one of 2 workers (both started first and
    warmed up, so cluster start and compilation are not timed), ``--repeats`` times each,
-   interleaved; efficiency = median T1 / (2 x median T2).
+   interleaved; efficiency = median T1 / (2 x median T2). Also printed: how busy the workers
+   were (time inside points / elapsed) and how much CPU they got while inside a point
+   (process CPU time / wall time), which separates the sweep's own losses from other load.
 2. Per-task overhead: ``--tasks`` no-op tasks through ``client.submit`` on one worker, and the
    same number of no-op points through ``sweep`` with one point per task (our machinery too).
 3. Projection for 1,000 machines from the measured per-point cost (``wall_time`` column).
@@ -38,6 +40,15 @@ def noop_point(spec, point, log_path=None):
     return {**point, "outcome": "completed"}
 
 
+def timed_point(spec, point, log_path=None):
+    """:func:`run_point` plus the CPU time the worker process got for it (``cpu`` [s])."""
+    from coordarm.simulation.sweep_points import run_point
+
+    c = time.process_time()
+    row = run_point(spec, point, log_path)
+    return {**row, "cpu": time.process_time() - c}
+
+
 def noop(x):
     return x
 
@@ -62,12 +73,13 @@ def main() -> None:
                                          dashboard_address=None, silence_logs=logging.ERROR))
         sweep("line", VARY, client=clients[n])                   # warm up: compile, import, build controllers
         print(f"LocalCluster({n}) start + warm-up sweep: {time.perf_counter() - t:.1f} s")
-    times, busy = {1: [], 2: []}, {1: [], 2: []}
+    times, busy, cpu = {1: [], 2: []}, {1: [], 2: []}, {1: [], 2: []}
     per_point = []
     for r in range(args.repeats):
         for n in (1, 2):
             t = time.perf_counter()
-            df = sweep("line", VARY, client=clients[n])
+            df = sweep("line", VARY, client=clients[n], point_fn=timed_point)
+            cpu[n].append(df["cpu"].sum() / df["wall_time"].sum())
             times[n].append(time.perf_counter() - t)
             busy[n].append(df["wall_time"].sum() / (n * times[n][-1]))
             per_point.extend(df["wall_time"])
@@ -81,6 +93,9 @@ def main() -> None:
     print(f"efficiency of each interleaved pair: {', '.join(f'{100 * e:.0f} %' for e in pairs)}")
     print(f"workers busy (sum of point wall times / (workers x elapsed)), median: 1 worker "
           f"{100 * statistics.median(busy[1]):.0f} %, 2 workers {100 * statistics.median(busy[2]):.0f} %")
+    print(f"CPU the workers got while in a point (process CPU time / wall time), median: 1 worker "
+          f"{100 * statistics.median(cpu[1]):.0f} %, 2 workers {100 * statistics.median(cpu[2]):.0f} %; "
+          f"efficiency with the CPU each got: {100 * eff * statistics.median(cpu[1]) / statistics.median(cpu[2]):.0f} %")
     c = clients[1]
     c.gather(c.map(noop, range(50), pure=False))
     t = time.perf_counter()
