@@ -195,7 +195,11 @@ def _open_client(client: Any, workers: int | None):
         n = workers or os.cpu_count() or 1
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                                silence_logs=logging.ERROR)
-        return Client(cluster), True
+        local = Client(cluster)
+        from .sweep_plugin import IgnoreCtrlC
+
+        local.register_plugin(IgnoreCtrlC(), name="coordarm-ignore-ctrl-c")
+        return local, True
     if isinstance(client, str):
         try:
             return Client(client, timeout=CONNECT_TIMEOUT), True

@@ -164,25 +164,28 @@ def test_default_local_cluster_gives_the_serial_rows(tmp_path):
 
 
 def test_ctrl_c_on_the_command_line_exits_130_and_keeps_the_finished_rows(tmp_path):
-    """SIGINT to a real `coordarm sweep` on a LocalCluster once some points are done (seen on its progress bar)."""
+    """SIGINT to the process group of a real `coordarm sweep` on a LocalCluster (as a terminal's Ctrl-C does:
+    the workers get it too) once a point is done (seen on its progress bar)."""
+    import os
     import signal
     import subprocess
     import sys
 
     cmd = [sys.executable, "-m", "coordarm", "sweep", "line", "--vary", "gain=1:4:40", "--vary", "run.duration=10",
-           "--workers", "1", "--batch", "1", "--out", str(tmp_path), "--no-figures"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+           "--workers", "2", "--batch", "1", "--out", str(tmp_path), "--no-figures"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         for line in proc.stderr:          # off a terminal the bar prints at the first point, then every 10 %
             if "points" in line:
                 break
-        proc.send_signal(signal.SIGINT)
+        os.killpg(proc.pid, signal.SIGINT)
         out, err = proc.communicate(timeout=120)
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
     assert proc.returncode == 130, err
+    assert "Traceback" not in err and "interrupted" in err
     kept = pd.read_parquet(tmp_path / RESULTS)
     assert 1 <= len(kept) < 40 and set(kept["outcome"]) == {"completed"}
 
