@@ -9,7 +9,8 @@ README = Path(__file__).resolve().parent.parent / "README.md"
 
 def test_readme_api_compiled_and_analysis_examples_run():
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
-    examples = [b for b in blocks if "load(" not in b and not b.startswith("# example:")]   # tested below
+    examples = [b for b in blocks if "load(" not in b and "sweep(" not in b
+                and not b.startswith("# example:")]   # those: tested below
     assert len(examples) == 5
     ns: dict = {}
     exec(compile("\n".join(examples).replace("20.0", "0.05"), str(README), "exec"), ns)
@@ -46,3 +47,12 @@ def test_readme_path_rail_and_user_curve_examples_run():
     run = ns["run"]                  # the zig-zag starts on the tangent: e^j decays like exp(-K t)
     assert run.info["stopped"] == "completed" and np.max(np.abs(run.e[0])) > 1e-3
     np.testing.assert_allclose(run.e[-1], run.e[0] * np.exp(-2.0 * run.t[-1]), rtol=1e-6, atol=1e-12)
+def test_readme_sweep_example_runs_and_writes_its_results(tmp_path, monkeypatch):
+    block = next(b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S) if "sweep(" in b)
+    monkeypatch.chdir(tmp_path)
+    ns: dict = {}
+    exec(compile(block, str(README), "exec"), ns)
+    df = ns["df"]
+    assert list(df.columns[:3]) == ["control.gain", "links", "run.duration"] and len(df) == 6
+    assert set(df["outcome"]) == {"completed"}
+    assert (tmp_path / "logs" / "gain_sweep" / "results.parquet").is_file()
