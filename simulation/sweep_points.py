@@ -24,7 +24,7 @@ import numpy as np
 from coordarm.symbolic import ConfigError, CoordarmError, SingularityError, errors
 
 from .choices import SWEEP_ALIASES
-from .obstacles import clearance, wall_crossings
+from .obstacles import link_distances
 from .run import simulate
 from .scenario import Scenario
 
@@ -238,12 +238,12 @@ def _walls(sc: Scenario, ctrl, q: np.ndarray) -> tuple[float, str | None]:
     if not len(sc.obstacles) or not len(q):
         return math.nan, None
     joints = ctrl.chain.joints_np(q)
-    hits = wall_crossings(joints, sc.obstacles)
+    dist = np.stack([link_distances(joints, ob) for ob in sc.obstacles])     # (obstacles, samples, links)
     msg = None
-    if len(hits):
-        k, link, wall = hits[0]
-        msg = f"link {link} touches wall {wall} at sample {k}"
-    return float(clearance(joints, sc.obstacles).min()), msg
+    w, k, link = np.unravel_index(int(np.argmin(dist)), dist.shape)
+    if not dist[w, k, link] > 0:
+        msg = f"link {link + 1} touches {sc.obstacles[w].name!r} at sample {k}"
+    return float(dist.min()), msg
 
 
 def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
