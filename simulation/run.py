@@ -140,8 +140,8 @@ def check_number(value: Any, name: str, positive: bool = True) -> float:
 class Progress:
     """A one-line progress bar on stderr (redrawn in place on a terminal, every 10% otherwise)."""
 
-    def __init__(self, total: float, label: str = "run", stream=None, unit: str = "t = {done:.2f}/{total:.2f} s") -> None:
-        self.total, self.label, self.stream, self.unit = total, label, stream or sys.stderr, unit
+    def __init__(self, total: float, label: str = "run", stream=None) -> None:
+        self.total, self.label, self.stream = total, label, stream or sys.stderr
         self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
         self.start, self.last = _time.perf_counter(), -1
 
@@ -152,10 +152,13 @@ class Progress:
             return
         self.last = decile
         bar = "#" * int(frac * 30)
-        msg = (f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  {self.unit.format(done=done, total=self.total)}  "
-               f"{_time.perf_counter() - self.start:.1f} s wall")
+        msg = f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  {self.status(done, _time.perf_counter() - self.start)}"
         self.stream.write(("\r" + msg) if self.tty else msg + "\n")
         self.stream.flush()
+
+    def status(self, done: float, elapsed: float) -> str:
+        """The text after the bar: simulated time done and wall time spent."""
+        return f"t = {done:.2f}/{self.total:.2f} s  {elapsed:.1f} s wall"
 
     def close(self) -> None:
         if self.tty:
