@@ -1,7 +1,8 @@
 """Emit the C source of a controller: CasADi-generated Functions plus the glue of :mod:`.templates`.
 
 The structured law is emitted as four small Functions (time features, first carry, one
-link step, tail) and a C loop over links, so the code size and the compile time do not
+link step without trigonometry, tail) and C loops over links (angles, all cosines and sines
+in one vectorised loop, the recursion), so the code size and the compile time do not
 grow with the number of links. The dense law (eq. 27) is emitted as one Function.
 """
 from __future__ import annotations
@@ -40,7 +41,8 @@ class Source:
 
 def _functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
     if form == "structured":
-        return [ctrl.time_features(), ctrl.first_carry(), ctrl.link_step(), ctrl.tail()]
+        return [ctrl.time_features(True), ctrl.first_carry(), ctrl.link_step_trig(), ctrl.tail(),
+                ctrl.link_pivot()]
     return [ctrl.law("dense")]
 
 
@@ -75,8 +77,21 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     """
     if form not in LAWS:
         raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
-    b_macros = _b_macros(ctrl)
     funcs = _functions(ctrl, form)
+    if form == "structured":
+        law = templates.STRUCTURED_LAW
+    else:
+        law = templates.DENSE_LAW.replace("{law_name}", funcs[0].name())
+    return assemble_source(ctrl, funcs, law, form)
+
+
+def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law: str, form: str) -> Source:
+    """One translation unit: the generated ``funcs``, the glue header, the C ``law`` and the loops.
+
+    ``law`` defines ``ca_law`` and ``CA_LAW_SCRATCH`` (see :mod:`.templates`); for the
+    structured form, ``funcs[0]`` is the time-features Function (its size sets ``CA_NW``).
+    """
+    b_macros = _b_macros(ctrl)
     cg = ca.CodeGenerator("coordarm", dict(CODEGEN_OPTIONS))
     for f in funcs:
         cg.add(f)
@@ -87,8 +102,5 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     if form == "structured":
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
                      f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
-        parts.append(templates.STRUCTURED_LAW)
-    else:
-        parts.append(templates.DENSE_LAW.replace("{law_name}", funcs[0].name()))
-    parts.append(templates.LOOP)
+    parts += [law, templates.LOOP]
     return Source("\n".join(parts), form, m)

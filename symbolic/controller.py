@@ -87,50 +87,81 @@ class CoordinatingController:
     #: Layout of the carry of the link recursion (see :meth:`link_step`).
     CARRY = ("y1", "y2", "alpha", "cos_alpha", "sin_alpha", "P1", "P2", "Q1", "Q2", "a", "b", "sum_abs_b")
 
-    def _link_expressions(self):
+    def _link_expressions(self, trig_inputs: bool = False):
         """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd).
 
         The carried ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}`` is the part of
         ``ydot^j`` known before ``w_j``; the only division (by the link pivot) is turned into
         a reciprocal off the loop-carried dependency chain, which sets the speed of the
-        compiled loop (see benchmarks/RESULTS.md).
+        compiled loop (see benchmarks/RESULTS.md). With ``trig_inputs`` the cosine and sine
+        of ``alpha_j`` are two more inputs (computed beforehand for all links at once) and
+        the step has no trigonometry of its own.
         """
         xi, K = self.chain.xi, self.gain
         carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
         y, alpha_prev, d_prev, P, Q = carry[0:2], carry[2], carry[3:5], carry[5:7], carry[7:9]
         nb = carry[11]
         alpha = alpha_prev + qj
-        d_j = direction(alpha)   # the only sine/cosine pair of the link
+        trig = ca.SX.sym("cos_sin_alpha_j", 2) if trig_inputs else None
+        d_j = trig if trig_inputs else direction(alpha)   # the only sine/cosine pair of the link
         n_j = ca.vertcat(-d_j[1], d_j[0])
         y_j = y + 0.5 * xi * (d_prev + d_j)
         phi, g, phit, *_ = self._geometry(y_j, t)
         pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
-        inv = 1 / (0.5 * xi * pivot)
-        a_j = (-K * phi - phit - ca.dot(g, P)) * inv
-        b_j = -ca.dot(g, Q) * inv
+        inv_expr = 1 / (0.5 * xi * pivot)
+        # with trig inputs the reciprocal is an input too (computed by link_pivot): CasADi would
+        # fold ``x * (1/y)`` back into a division on the loop-carried chain of P and Q
+        inv = ca.SX.sym("inv_pivot") if trig_inputs else inv_expr
+        r, gP, gQ = -K * phi - phit, ca.dot(g, P), ca.dot(g, Q)
+        a_j = (r - gP) * inv
+        b_j = -gQ * inv
         step = xi * n_j                              # ydot^j = P + xi/2 n_j w_j; next P adds it again
-        new = ca.vertcat(y_j, alpha, d_j, P + step * a_j, Q + step * b_j, a_j, b_j, nb + ca.fabs(b_j))
+        if trig_inputs:
+            # the same P + step a_j, Q + step b_j, regrouped so that the loop-carried chain
+            # P -> P' is g.P, one product and one difference (12 instead of 18 cycles of latency)
+            u = (xi * inv) * n_j
+            P_next, Q_next = (P + u * r) - u * gP, Q - u * gQ
+        else:
+            P_next, Q_next = P + step * a_j, Q + step * b_j
+        new = ca.vertcat(y_j, alpha, d_j, P_next, Q_next, a_j, b_j, nb + ca.fabs(b_j))
         out = ca.vertcat(phi, ca.fabs(pivot) / ca.norm_2(g), a_j, b_j)
+        if trig_inputs:
+            out = ca.vertcat(out, inv_expr)
+            trig = (trig[0], trig[1], inv)
         both = ca.cse(ca.vertcat(new, out))          # one CSE over both, so a_j, b_j are shared
-        return carry, qj, t, both[:new.numel()], both[new.numel():]
+        return carry, qj, trig, t, both[:new.numel()], both[new.numel():]
 
-    def _hoisted_link(self):
+    def _hoisted_link(self, trig_inputs: bool = False):
         """The link step split into time-only terms ``w(t)`` and the per-link rest (cached)."""
-        if "hoisted" not in self._cache:
-            carry, qj, t, new, out = self._link_expressions()
+        key = ("hoisted", trig_inputs)
+        if key not in self._cache:
+            carry, qj, trig, t, new, out = self._link_expressions(trig_inputs)
             expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new, out), t)
             wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 0)
             wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX(0, 1)
             n_new = new.numel()
             tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
-            step = ca.Function("link_step", [carry, qj, wsym], [expr[:n_new], expr[n_new:]],
-                               ["carry", "q_j", "w"], ["carry_next", "out"])
-            self._cache["hoisted"] = (tf, step)
-        return self._cache["hoisted"]
+            if trig_inputs:
+                c, s, inv = trig
+                n_out = expr.numel() - 1
+                pivot = ca.Function("link_pivot", [carry, qj, c, s, wsym], [expr[n_out]],
+                                    ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w"], ["inv_pivot"])
+                step = ca.Function("link_step_trig", [carry, qj, c, s, wsym, inv],
+                                   [expr[:n_new], expr[n_new:n_out]],
+                                   ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w", "inv_pivot"],
+                                   ["carry_next", "out"])
+                self._cache[key] = (tf, step, pivot)
+                return self._cache[key]
+            else:
+                step = ca.Function("link_step", [carry, qj, wsym], [expr[:n_new], expr[n_new:]],
+                                   ["carry", "q_j", "w"], ["carry_next", "out"])
+            self._cache[key] = (tf, step)
+        return self._cache[key]
 
-    def time_features(self) -> ca.Function:
-        """``t -> w``: the terms of :meth:`link_step` that depend on time only, computed once per ``t``."""
-        return self._hoisted_link()[0]
+    def time_features(self, trig_inputs: bool = False) -> ca.Function:
+        """``t -> w``: the terms of :meth:`link_step` (:meth:`link_step_trig` if ``trig_inputs``)
+        that depend on time only, computed once per ``t``."""
+        return self._hoisted_link(trig_inputs)[0]
 
     def link_step(self) -> ca.Function:
         """One link of the O(m) recursion: ``(carry, q_j, w) -> (carry_next, out_j)``.
@@ -143,6 +174,21 @@ class CoordinatingController:
         ``out_j = (e^j, link margin, a_j, b_j)``.
         """
         return self._hoisted_link()[1]
+
+    def link_step_trig(self) -> ca.Function:
+        """:meth:`link_step` with ``cos(alpha_j)``, ``sin(alpha_j)`` and the reciprocal of the
+        scaled link pivot as inputs:
+        ``(carry, q_j, cos_alpha_j, sin_alpha_j, w, inv_pivot) -> (carry_next, out_j)``.
+
+        The generated C computes every link's cosine and sine in one loop the compiler
+        vectorises, then runs this step over the links (no trigonometry inside the recursion);
+        ``inv_pivot`` comes from :meth:`link_pivot`, so no division sits on the carried chain.
+        """
+        return self._hoisted_link(True)[1]
+
+    def link_pivot(self) -> ca.Function:
+        """``(carry, q_j, cos_alpha_j, sin_alpha_j, w) -> 1 / (xi/2 pivot_j)`` for :meth:`link_step_trig`."""
+        return self._hoisted_link(True)[2]
 
     def first_carry(self) -> ca.Function:
         """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``)."""
