@@ -248,7 +248,9 @@ class CoordinatingController:
                 continue
             rows.append(ca.mtimes(g.T, Cj))
             rhs.append(-self.gain * phi - phit)
-        M = ca.mtimes(ca.vertcat(*rows), ca.DM(self.chain.B))
+        M = ca.vertcat(*rows)
+        bd = self.chain.b_diagonal
+        M = M * ca.repmat(ca.DM(bd).T, M.size1(), 1) if bd is not None else ca.mtimes(M, ca.DM(self.chain.B))
         return M, ca.vertcat(*rhs)
 
     # ------------------------------------------------------------ CasADi Functions
@@ -293,13 +295,15 @@ class CoordinatingController:
         key = ("rk4", form, float(h))
         if key not in self._cache:
             law = self.fast_law(form)
-            B = ca.DM(self.chain.B)
+            bd = self.chain.b_diagonal
+            apply_B = ((lambda u: ca.DM(bd) * u) if bd is not None
+                       else (lambda u: ca.mtimes(ca.DM(self.chain.B), u)))
             q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
             out1 = law(q, t)
-            k1 = ca.mtimes(B, out1[0])
-            k2 = ca.mtimes(B, law(q + h / 2 * k1, t + h / 2)[0])
-            k3 = ca.mtimes(B, law(q + h / 2 * k2, t + h / 2)[0])
-            k4 = ca.mtimes(B, law(q + h * k3, t + h)[0])
+            k1 = apply_B(out1[0])
+            k2 = apply_B(law(q + h / 2 * k1, t + h / 2)[0])
+            k3 = apply_B(law(q + h / 2 * k2, t + h / 2)[0])
+            k4 = apply_B(law(q + h * k3, t + h)[0])
             q_next = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *out1[:5]],
                                            ["q", "t"], ["q_next", *OUTPUTS[:5]])

@@ -270,6 +270,7 @@ def test_lz4_and_zstd_logs_hold_the_same_messages_for_the_plain_reader_and_load(
 def test_cond_rate_defaults_to_5_hz_and_falls_as_one_over_m_squared_past_64_links(tmp_path):
     assert default_cond_rate(8) == default_cond_rate(64) == COND_RATE == 5.0
     assert default_cond_rate(128) == pytest.approx(1.25) and default_cond_rate(1024) == pytest.approx(5 / 256)
+    assert default_cond_rate(1025) == default_cond_rate(16384) == 0.0   # an O(m^3) SVD per sample: off
     sc = load_scenario("line").with_overrides(links=128)
     with RunLogger(tmp_path / "big.mcap", sc, command=["test"]) as log:
         assert log.cond_every == round(1 / (1.25 * sc.step))
