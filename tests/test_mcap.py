@@ -130,7 +130,9 @@ def test_the_scenario_metadata_alone_rebuilds_the_controller(logged, scenario):
     np.testing.assert_array_equal(rep.scenario.obstacles, scenario.obstacles)
     ctrl = rep.controller()
     k = len(run.t) // 3
-    assert np.array_equal(ctrl.control(rep.q[k], float(rep.t[k])), run.u[k])
+    assert run.info["backend"] == "compiled"   # the rebuilt controller compiles to the very same law
+    assert np.array_equal(ctrl.compile().control(rep.q[k], float(rep.t[k])), run.u[k])
+    np.testing.assert_allclose(ctrl.control(rep.q[k], float(rep.t[k])), run.u[k], rtol=1e-12, atol=1e-12)
 
 
 def test_cond_channel_is_the_condition_number_of_the_decoupling_matrix(logged, scenario):
