@@ -11,7 +11,7 @@ from coordarm.symbolic import CoordinatingController
 #: The pre-vectorisation structured law (verbatim from generated/templates.py at 35299a5).
 SCALAR_LAW = """
 #define CA_LAW_SCRATCH 0
-static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
+static int ca_law_packed(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
   casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[4], tl[4], a[CA_M], b[CA_M];
   casadi_real *cur = c0, *nxt = c1, *tmp, p, rate, prev;
   const casadi_real* arg[CA_SZ_ARG];
@@ -43,6 +43,13 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
     prev = rate;
   }
   return 0;
+}
+
+/* today's API: u and the rest in one packed row (the benchmarks only call it that way) */
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* rest, casadi_int* iw,
+                  casadi_real* w) {
+  (void)rest;
+  return ca_law_packed(q, t, u, iw, w);
 }
 """
 

@@ -4,6 +4,8 @@ The glue defines the library's whole API (every other symbol is hidden):
 
 * ``coordarm_law(q, t, out, iw, w)``: the law at ``(q, t)``; ``out`` holds
   ``u[m], e[m-1], s, link_margins[m-1], longitudinal, longitudinal_pivot``;
+* ``coordarm_control(q, t, u, rest, iw, w)``: the same with ``u`` in an array of its own and
+  the other ``2m+1`` outputs in ``rest`` (so a caller's arrays are written without copies);
 * ``coordarm_rk4(q, t, h, q_next, out, iw, w)``: one closed-loop RK4 step, ``out`` being
   the law at the step's start;
 * ``coordarm_chunk(q0, times, h, n, Q, D, iw, w)``: ``n`` RK4 steps in one call;
@@ -100,13 +102,13 @@ STRUCTURED_LAW = TRIG_PASSES + """
     if (link_pivot(arg, res, iw, w, 0)) return 2; \\
     arg[5] = &inv; res[0] = to; res[1] = o; \\
     if (link_step_trig(arg, res, iw, w, 0)) return 2; \\
-    out[CA_M + (j) - 1] = o[0]; out[2 * CA_M - 1 + (j)] = o[1]; a[j] = o[2]; b[j] = o[3]; \\
+    rest[(j) - 1] = o[0]; rest[CA_M - 1 + (j)] = o[1]; a[j] = o[2]; b[j] = o[3]; \\
   } while (0)
 
 /* The recursion over links 2..m; the carry is copied back (not pointer-swapped) and the step has
    a single call site and is inlined (flatten), so the compiler keeps the carry in registers. */
 CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, const casadi_real* s,
-                        const casadi_real* wt, casadi_real* carry, casadi_real* out,
+                        const casadi_real* wt, casadi_real* carry, casadi_real* rest,
                         casadi_real* a, casadi_real* b, casadi_int* iw, casadi_real* w) {
   casadi_real c0[CA_NC], c1[CA_NC], o[4], inv;
   const casadi_real* arg[CA_SZ_ARG];
@@ -122,7 +124,8 @@ CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, c
   return 0;
 }
 
-static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* rest, casadi_int* iw,
+                  casadi_real* w) {
   casadi_real wt[CA_NW + 1], carry[CA_NC], tl[4];
   casadi_real *alpha = w + CA_SZ_W + CA_RK4_SCRATCH, *c = alpha + CA_M, *s = c + CA_M;
   casadi_real *a = s + CA_M, *b = a + CA_M;
@@ -136,17 +139,17 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
   if (first_carry(arg, res, iw, w, 0)) return 2;
   ca_angles(q, alpha);
   ca_trig(alpha, c, s);
-  if (ca_recursion(q, c, s, wt, carry, out, a, b, iw, w)) return 2;
+  if (ca_recursion(q, c, s, wt, carry, rest, a, b, iw, w)) return 2;
   arg[0] = carry; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
   if (tail(arg, res, iw, w, 0)) return 2;
-  out[2 * CA_M - 1] = tl[0];           /* s */
-  out[3 * CA_M - 1] = tl[2];           /* longitudinal margin */
-  out[3 * CA_M] = tl[3];               /* longitudinal pivot */
+  rest[CA_M - 1] = tl[0];              /* s */
+  rest[2 * CA_M - 1] = tl[2];          /* longitudinal margin */
+  rest[2 * CA_M] = tl[3];              /* longitudinal pivot */
   p = tl[1];                           /* the free rate w_1 */
   prev = 0;
   for (j = 0; j < CA_M; ++j) {         /* w_j = a_j + b_j p, qdot_j = w_j - w_{j-1} */
     rate = a[j] + b[j] * p;
-    out[j] = CA_U_FROM_QDOT(j, rate - prev);
+    u[j] = CA_U_FROM_QDOT(j, rate - prev);
     prev = rate;
   }
   return 0;
@@ -156,12 +159,13 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
 #: The dense law: one call of the generated eq. 27 Function.
 DENSE_LAW = """
 #define CA_LAW_SCRATCH 0
-static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* rest, casadi_int* iw,
+                  casadi_real* w) {
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   arg[0] = q; arg[1] = &t;
-  res[0] = out; res[1] = out + CA_M; res[2] = out + 2 * CA_M - 1; res[3] = out + 2 * CA_M;
-  res[4] = out + 3 * CA_M - 1; res[5] = out + 3 * CA_M;
+  res[0] = u; res[1] = rest; res[2] = rest + CA_M - 1; res[3] = rest + CA_M;
+  res[4] = rest + 2 * CA_M - 1; res[5] = rest + 2 * CA_M;
   return {law_name}(arg, res, iw, w, 0) ? 2 : 0;
 }
 """
@@ -172,7 +176,14 @@ LOOP = """
 COORDARM_API int coordarm_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw,
                               casadi_real* w) {
   if (!ca_finite(q, t)) return 1;
-  return ca_law(q, t, out, iw, w);
+  return ca_law(q, t, out, out + CA_M, iw, w);
+}
+
+/* The law with u written to its own array: the rest of the outputs go to rest (2m+1 values). */
+COORDARM_API int coordarm_control(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* rest,
+                                  casadi_int* iw, casadi_real* w) {
+  if (!ca_finite(q, t)) return 1;
+  return ca_law(q, t, u, rest, iw, w);
 }
 
 /* Same operation order as CoordinatingController.rk4_step, so both agree to rounding. */
@@ -183,13 +194,13 @@ static int ca_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_rea
   casadi_real h2 = h / 2, h6 = h / 6;
   casadi_int j;
   int rc;
-  if ((rc = ca_law(q, t, out, iw, w))) return rc;
+  if ((rc = ca_law(q, t, out, out + CA_M, iw, w))) return rc;
   for (j = 0; j < CA_M; ++j) { k1[j] = CA_K_FROM_U(j, out[j]); x[j] = q[j] + h2 * k1[j]; }
-  if ((rc = ca_law(x, t + h2, o, iw, w))) return rc;
+  if ((rc = ca_law(x, t + h2, o, o + CA_M, iw, w))) return rc;
   for (j = 0; j < CA_M; ++j) { k2[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h2 * k2[j]; }
-  if ((rc = ca_law(x, t + h2, o, iw, w))) return rc;
+  if ((rc = ca_law(x, t + h2, o, o + CA_M, iw, w))) return rc;
   for (j = 0; j < CA_M; ++j) { k3[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h * k3[j]; }
-  if ((rc = ca_law(x, t + h, o, iw, w))) return rc;
+  if ((rc = ca_law(x, t + h, o, o + CA_M, iw, w))) return rc;
   for (j = 0; j < CA_M; ++j) {
     k4[j] = CA_K_FROM_U(j, o[j]);
     q_next[j] = q[j] + h6 * (((k1[j] + 2 * k2[j]) + 2 * k3[j]) + k4[j]);

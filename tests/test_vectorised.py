@@ -99,3 +99,42 @@ def test_non_finite_state_is_still_refused_with_the_default_flags():
         comp.control(q, 0.0)
     with pytest.raises(ConfigError, match="t: must be finite"):
         comp.control(ctrl.chain.zigzag(1.0), float("inf"))
+
+
+def test_control_and_evaluate_write_into_caller_arrays_in_place():
+    ctrl, comp = compiled(8)
+    q, t = next(curled_states(ctrl.chain, 1, seed=4))
+    u = np.full(8, np.nan)
+    assert comp.control(q, t, out=u) is u
+    np.testing.assert_array_equal(u, comp.control(q, t))
+    packed = np.full(3 * 8 + 1, np.nan)
+    res = comp.evaluate(q, t, out=packed)
+    assert np.shares_memory(res["u"], packed) and np.shares_memory(res["e"], packed)
+    for name, v in comp.evaluate(q, t).items():
+        np.testing.assert_array_equal(res[name], v, err_msg=name)
+    np.testing.assert_array_equal(packed[:8], u)
+    q2 = q + 0.01                      # the same arrays again, new contents: read and written afresh
+    q[:] = q2
+    comp.control(q, t + 1, out=u)
+    np.testing.assert_array_equal(u, comp.control(q2.tolist(), t + 1))
+
+
+def test_in_place_calls_check_their_arrays():
+    from coordarm.symbolic import ConfigError
+    ctrl, comp = compiled(8)
+    q = ctrl.chain.zigzag(1.0)
+    for bad in (np.zeros(7), np.zeros(8, dtype=np.float32), np.zeros(16)[::2], [0.0] * 8):
+        with pytest.raises(ConfigError, match="out: need"):
+            comp.control(q, 0.0, out=bad)
+    ro = np.zeros(8)
+    ro.flags.writeable = False
+    with pytest.raises(ConfigError, match="out: need"):
+        comp.control(q, 0.0, out=ro)
+    with pytest.raises(ConfigError, match="out: need"):
+        comp.evaluate(q, 0.0, out=np.zeros(8))
+    strided = np.repeat(q, 2)[::2]     # not contiguous: copied, still right
+    np.testing.assert_array_equal(comp.control(strided, 0.5, out=np.empty(8)), comp.control(q, 0.5))
+    q_nan = q.copy()
+    q_nan[5] = np.nan
+    with pytest.raises(ConfigError, match="index 5"):
+        comp.control(q_nan, 0.0, out=np.empty(8))
