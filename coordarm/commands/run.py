@@ -10,7 +10,6 @@ from typing import TextIO
 
 from coordarm.symbolic import LAWS, SingularityError
 
-from coordarm.simulation.figures import plot_stages, plot_tracking
 from coordarm.simulation.mcap_file import COMPRESSIONS
 from coordarm.simulation.mcap_writer import RunLogger
 from coordarm.simulation.obstacles import clearance, wall_crossings
@@ -73,6 +72,7 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
 
 def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
     """Stage and tracking figures as ``<stem>_stages.png`` and ``<stem>_tracking.png``."""
+    from coordarm.simulation.figures import plot_stages, plot_tracking   # matplotlib only when drawing
     title = f"{scenario.name}: {ctrl.chain.m} links"
     return [plot_stages(run, ctrl, stem.with_name(stem.name + "_stages.png"), walls=scenario.obstacles,
                         title=f"{title}, stages of the motion (dashed: the curve at that time)"),
