@@ -39,7 +39,8 @@ class Source:
     m: int
 
 
-def _functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
+def functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
+    """The CasADi Functions the C of ``form`` calls (the structured form's time features first)."""
     if form == "structured":
         return [ctrl.time_features(True), ctrl.first_carry(), ctrl.link_step_trig(), ctrl.tail(),
                 ctrl.link_pivot()]
@@ -77,7 +78,7 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     """
     if form not in LAWS:
         raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
-    funcs = _functions(ctrl, form)
+    funcs = functions(ctrl, form)
     if form == "structured":
         law = templates.STRUCTURED_LAW
     else:
@@ -85,22 +86,26 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     return assemble_source(ctrl, funcs, law, form)
 
 
-def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law: str, form: str) -> Source:
-    """One translation unit: the generated ``funcs``, the glue header, the C ``law`` and the loops.
+def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law: str, form: str, *,
+                    name: str = "coordarm", api: str = templates.LOOP, dump_prefix: str = "",
+                    dump_suffix: str = "") -> Source:
+    """One translation unit: the generated ``funcs``, the glue header, the C ``law`` and the ``api``.
 
     ``law`` defines ``ca_law`` and ``CA_LAW_SCRATCH`` (see :mod:`.templates`); for the
     structured form, ``funcs[0]`` is the time-features Function (its size sets ``CA_NW``).
+    ``name`` prefixes CasADi's helper symbols; ``dump_prefix``/``dump_suffix`` enclose its code.
     """
     b_macros = _b_macros(ctrl)
-    cg = ca.CodeGenerator("coordarm", dict(CODEGEN_OPTIONS))
+    cg = ca.CodeGenerator(name, dict(CODEGEN_OPTIONS))
     for f in funcs:
         cg.add(f)
     sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
              for k in ("arg", "res", "iw", "w")}
     m = ctrl.chain.m
-    parts = [cg.dump(), templates.HEADER.format(m=m, b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
+    parts = [dump_prefix + cg.dump() + dump_suffix,
+             templates.HEADER.format(m=m, b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
     if form == "structured":
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
                      f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
-    parts += [law, templates.LOOP]
+    parts += [law, api]
     return Source("\n".join(parts), form, m)
