@@ -208,7 +208,9 @@ class RunLogger:
         self._wall_lines = (_line(walls, 2, 0.02, (0.2, 0.2, 0.2, 1.0)),) if len(walls) else ()  # same in every scene
         self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
         self.outcome: dict[str, Any] | None = None
-        self._worker = Worker(self._process, "coordarm-log", 8) if threaded else None
+        # Unbounded: on_chunk never waits for the log, so the simulation never blocks on it. The
+        # queued parts are views of rows the run keeps anyway, so the queue adds no copies.
+        self._worker = Worker(self._process, "coordarm-log", 0) if threaded else None
 
     def _check(self) -> None:
         if self._worker is not None and self._worker.error is not None:

@@ -290,6 +290,26 @@ def test_threaded_and_unthreaded_loggers_write_the_same_log(scenario, tmp_path):
     assert np.array_equal(ra.q, rb.q) and np.array_equal(ra.cond, rb.cond) and ra.messages == rb.messages
 
 
+def test_the_threaded_logger_never_blocks_the_simulation_on_a_slow_log(scenario, tmp_path):
+    """A log thread held up (here: until released) does not hold up on_chunk; the log is complete after."""
+    import threading
+    ctrl = scenario.controller()
+    gate = threading.Event()
+    log = RunLogger(tmp_path / "slow.mcap", scenario, ctrl, threaded=True)
+    process = log._process
+    log._worker._handle = lambda part: (gate.wait(), process(part))
+    safety = threading.Timer(60.0, gate.set)   # a blocking on_chunk would wait for this: the test fails
+    safety.start()
+    parts = []
+    run = simulate(ctrl, scenario.start(ctrl), 0.3, scenario.step, chunk=8,
+                   on_chunk=lambda part: (log.on_chunk(part), parts.append(part)))
+    assert len(parts) > 30 and not gate.is_set()   # every part queued while the log thread waited
+    gate.set()
+    safety.cancel()
+    log.finish()
+    assert np.array_equal(load(tmp_path / "slow.mcap").q, run.q)
+
+
 def test_coordarm_run_writes_the_log_at_the_chosen_rate_with_a_singularity_outcome(tmp_path, capsys):
     from coordarm.cli import main
     toml = tmp_path / "fast.toml"
