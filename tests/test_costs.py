@@ -49,3 +49,16 @@ def test_b_given_as_a_diagonal_matrix_or_a_full_matrix():
     for bad in ([1.0, 0.0, 1.0], [1.0, 1e-13, 1.0], np.ones((3, 3))):
         with pytest.raises(ConfigError, match="singular"):
             PlanarChain(3, 0.1, B=bad)
+
+
+def test_envelope_indices_keep_every_extreme_of_every_line():
+    from coordarm.simulation.figures import envelope_indices
+    rng = np.random.default_rng(3)
+    Y = np.cumsum(rng.normal(size=(30001, 3)), axis=0)
+    Y[12345, 1] = 1e6                      # a one-sample spike
+    keep = envelope_indices(Y, points=2000)
+    assert len(keep) <= 3 * 2000 + 2 and keep[0] == 0 and keep[-1] == 30000
+    assert np.all(np.diff(keep) > 0) and 12345 in keep
+    for col in Y.T:                        # the kept samples reach the same extremes
+        assert col[keep].max() == col.max() and col[keep].min() == col.min()
+    np.testing.assert_array_equal(envelope_indices(Y[:500]), np.arange(500))
