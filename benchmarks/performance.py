@@ -69,7 +69,7 @@ def run_seconds(m: int) -> float:
     ctrl = line_controller(m)
     q0 = ctrl.chain.zigzag(1.0)
     start = time.perf_counter()
-    simulate(ctrl, q0, 1.0, 1e-3, backend="compiled")
+    simulate(ctrl, q0, 1.0, 1e-3, backend="compiled", progress=False)
     return time.perf_counter() - start
 
 
@@ -116,11 +116,11 @@ def command(rounds: int) -> list[str]:
     tmp = Path(tempfile.mkdtemp())
 
     def bare():
-        simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled")
+        simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled", progress=False)
 
     def logged():
         with RunLogger(tmp / "b.mcap", scenario, ctrl, backend="compiled", threaded=True) as log:
-            simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled",
+            simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled", progress=False,
                      on_chunk=log.on_chunk)
 
     def cmd(*extra):
