@@ -1,7 +1,8 @@
 """The compiled controller: the generated library loaded with ctypes, with a lean call path.
 
 Buffers (state, outputs, CasADi work arrays) are allocated once per object, so a call
-from Python is one ctypes call plus a copy of ``q`` in and of ``u`` out.
+from Python is one ctypes call plus a copy of ``u`` out, or, with ``out=``, no copy at all
+(a float64 C-contiguous ``q`` is read in place).
 """
 from __future__ import annotations
 
