@@ -225,13 +225,13 @@ def split_outputs(out: np.ndarray, m: int, copy: bool = True) -> dict[str, Any]:
     Works on one row (shape (3m+1,)) or a block of rows (shape (n, 3m+1)); with ``copy=False``
     the vectors are views of ``out``.
     """
-    cuts = np.cumsum([m, m - 1, 1, m - 1, 1, 1])[:-1]
-    parts = np.split(np.array(out, dtype=float) if copy else np.asarray(out, dtype=float), cuts, axis=-1)
+    a = np.array(out, dtype=float) if copy else np.asarray(out, dtype=float)
+    ends = [m, 2 * m - 1, 2 * m, 3 * m - 1, 3 * m, 3 * m + 1]
     result: dict[str, Any] = {}
-    for name, v in zip(OUTPUTS, parts):
+    for name, lo, hi in zip(OUTPUTS, [0] + ends[:-1], ends):
         if name in SCALAR_OUTPUTS:
-            v = v[..., 0]
+            v = a[..., lo]
             result[name] = float(v) if v.ndim == 0 else v
         else:
-            result[name] = v
+            result[name] = a[..., lo:hi]
     return result
