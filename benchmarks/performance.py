@@ -2,7 +2,9 @@
 
 Run: ``python benchmarks/performance.py [--quick] [--no-write]``. Every comparison is
 interleaved in rounds inside one process (each variant timed once per round, so all see the
-same machine load) and reported as the median of the per-round ratios with their min-max:
+same machine load; a round of the law and of the wrapper keeps each variant's fastest of 5
+interleaved batches, so a batch preempted by another process does not count) and reported as
+the median of the per-round ratios with their min-max:
 
 * the law from C (``bench_driver.c``) at m = 16 .. 16384: today's vectorised law vs the law
   as generated before it (``scalar_law.py``, default flags of then: ``-O3``) and vs the
@@ -57,7 +59,7 @@ def law_table(rounds: int) -> tuple[list[str], dict]:
         ctrl = line_controller(m)
         libs = [build(generate_source(ctrl)).path, build(scalar_source(ctrl), flags=("-O3",)).path,
                 floor_library(m)]
-        law, rk4 = c_interleaved(libs, ctrl.chain.zigzag(1.0), rounds=rounds, batch_ms=3.0)
+        law, rk4 = c_interleaved(libs, ctrl.chain.zigzag(1.0), rounds=rounds, batch_ms=2.0)
         med = np.median(law, axis=0) / 1e3
         law_us[m] = med[0]
         rows.append(f"| {m} | {med[0]:.3g} | {med[1]:.3g} | {med[2]:.3g} | {fmt_ratio(ratio(law, 1, 0))} | "
@@ -99,7 +101,7 @@ def wrapper(rounds: int) -> list[str]:
     comp = ctrl.compile()
     q, u, packed = ctrl.chain.zigzag(1.0), np.empty(8), np.empty(25)
     py = py_interleaved([lambda: comp.control(q, 1.0, out=u), lambda: comp.evaluate(q, 1.0, out=packed),
-                         lambda: comp.control(q, 1.0)], rounds=rounds)
+                         lambda: comp.control(q, 1.0)], rounds=rounds, sub=5)
     law, _ = c_interleaved([comp.library.path], q, rounds=rounds)
     c_us = float(np.median(law)) / 1e3
     med = np.median(py, axis=0) * 1e6
@@ -123,15 +125,22 @@ def command(rounds: int) -> list[str]:
             simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled", progress=False,
                      on_chunk=log.on_chunk)
 
+    def logged_lz4():
+        with RunLogger(tmp / "b4.mcap", scenario, ctrl, backend="compiled", threaded=True, compression="lz4") as log:
+            simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled", progress=False,
+                     on_chunk=log.on_chunk)
+
     def cmd(*extra):
         subprocess.run([sys.executable, "-m", "coordarm", "run", "line", "--links", "64", "--duration", "30",
                         "--quiet", "--out", str(tmp / "c.mcap"), *extra], check=True, capture_output=True)
 
-    T = py_interleaved([bare, logged, lambda: cmd("--no-figures"), lambda: cmd()], rounds=rounds, batch_s=0)
+    T = py_interleaved([bare, logged, lambda: cmd("--no-figures"), lambda: cmd(), logged_lz4], rounds=rounds,
+                       batch_s=0)
     med = np.median(T, axis=0)
     return ["| | seconds (median) | / bare simulation (median of rounds, min–max) |", "|---|---|---|",
             f"| bare simulation (64 links, 30 s, 30,000 RK4 steps, compiled) | {med[0]:.3f} | 1 |",
             f"| the same with the full-rate MCAP log (threaded writer) | {med[1]:.3f} | {fmt_ratio(ratio(T, 1, 0))} |",
+            f"| the same with `--compression lz4` | {med[4]:.3f} | {fmt_ratio(ratio(T, 4, 0))} |",
             f"| `coordarm run line --duration 30 --no-figures` (new process) | {med[2]:.3f} | "
             f"{fmt_ratio(ratio(T, 2, 0))} |",
             f"| `coordarm run line --duration 30` with figures (new process) | {med[3]:.3f} | "
@@ -151,7 +160,8 @@ def main() -> None:
              f"Run {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, default flags `{' '.join(DEFAULT_FLAGS)}`. "
              f"Machine:", *machine(), "",
              "Every comparison is interleaved in rounds in one process; ratios are medians of per-round "
-             f"ratios (min–max), {rounds} rounds.", "",
+             f"ratios (min–max), {rounds} rounds; a round of the law (and of the wrapper) keeps each "
+             "variant's fastest of 5 interleaved batches.", "",
              "### The law from C: vectorised trigonometry vs the law before it and vs the cos/sin floor", "",
              "*before*: the law as generated before the vectorised trigonometry (one scalar `sincos` per link "
              "inside the recursion, `-O3`); *floor*: only the prefix sum of the angles and their cosines and "

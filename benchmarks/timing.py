@@ -79,8 +79,9 @@ def c_interleaved(libs: list[Path], q: np.ndarray, rounds: int = 21, batch_ms: f
     return rows[:, :len(libs)], rows[:, len(libs):]
 
 
-def py_interleaved(fns: list, rounds: int = 21, batch_s: float = 0.002) -> np.ndarray:
-    """Seconds per call of each of ``fns`` per round, shape (rounds, len(fns))."""
+def py_interleaved(fns: list, rounds: int = 21, batch_s: float = 0.002, sub: int = 1) -> np.ndarray:
+    """Seconds per call of each of ``fns`` per round, shape (rounds, len(fns)); with ``sub > 1``
+    each round runs ``sub`` interleaved batches of each and keeps each one's fastest."""
     def once(fn, number):
         start = time.perf_counter()
         for _ in range(number):
@@ -90,7 +91,11 @@ def py_interleaved(fns: list, rounds: int = 21, batch_s: float = 0.002) -> np.nd
     for fn in fns:
         fn()
         numbers.append(max(1, int(batch_s / max(once(fn, 1), 1e-8))))
-    return np.array([[once(fn, n) for fn, n in zip(fns, numbers)] for _ in range(rounds)])
+    rows = []
+    for _ in range(rounds):
+        batches = [[once(fn, n) for fn, n in zip(fns, numbers)] for _ in range(sub)]
+        rows.append(np.min(batches, axis=0))
+    return np.array(rows)
 
 
 def ratio(times: np.ndarray, slow: int, fast: int) -> tuple[float, float, float]:
