@@ -292,7 +292,7 @@ def _advance(ctrl, compiled, q, times, step):
     """RK4 steps from ``q`` at each of ``times``: states after each step and the law at each start (rows)."""
     if compiled is not None:
         Q, D = compiled.chunk(q, times, step)
-        d = split_outputs(D, ctrl.chain.m)
+        d = split_outputs(D, ctrl.chain.m, copy=False)   # views of D, which is fresh per chunk
         return Q, d["u"], d["e"], d["s"], d["link_margins"], d["longitudinal"]
     Q, U, E, S, LM, LG = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
     return Q.T, U.T, E.T, S.ravel(), LM.T, LG.ravel()
