@@ -13,6 +13,7 @@ import casadi as ca
 import numpy as np
 
 from coordarm.symbolic import LAWS, BuildError, CoordinatingController
+from coordarm.symbolic.outputs import OUTPUTS, offsets, packed_width
 
 from . import templates
 
@@ -57,6 +58,24 @@ def _b_macros(ctrl: CoordinatingController) -> str:
     return templates.B_DIAGONAL.format(values=", ".join(repr(float(v)) for v in bd))
 
 
+def layout_macros(m: int) -> str:
+    """C macros of the packed output vector for ``m`` links: ``CA_NOUT`` and ``CA_OUT_<NAME>`` offsets.
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+
+    Returns
+    -------
+    str
+        One ``#define`` per line, from :data:`coordarm.symbolic.outputs.LAW_OUTPUTS`.
+    """
+    lines = [f"#define CA_NOUT {packed_width(m)}"]
+    lines += [f"#define CA_OUT_{name.upper()} {start}" for name, (start, _) in offsets(m).items()]
+    return "\n".join(lines) + "\n"
+
+
 def generate_source(ctrl: CoordinatingController, form: str = "structured") -> Source:
     """The C source of ``ctrl``'s law (``form``), RK4 step and chunk loop.
 
@@ -82,18 +101,19 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     if form == "structured":
         law = templates.STRUCTURED_LAW
     else:
-        law = templates.DENSE_LAW.replace("{law_name}", funcs[0].name())
+        results = "\n".join(f"  res[{i}] = {'u' if name == 'u' else 'out + CA_OUT_' + name.upper()};"
+                            for i, name in enumerate(OUTPUTS))
+        law = templates.DENSE_LAW.replace("{law_name}", funcs[0].name()).replace("{results}", results)
     return assemble_source(ctrl, funcs, law, form)
 
 
 def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law: str, form: str, *,
-                    name: str = "coordarm", api: str = templates.LOOP, dump_prefix: str = "",
-                    dump_suffix: str = "") -> Source:
+                    name: str = "coordarm", api: str = templates.LOOP) -> Source:
     """One translation unit: the generated ``funcs``, the glue header, the C ``law`` and the ``api``.
 
     ``law`` defines ``ca_law`` and ``CA_LAW_SCRATCH`` (see :mod:`.templates`); for the
     structured form, ``funcs[0]`` is the time-features Function (its size sets ``CA_NW``).
-    ``name`` prefixes CasADi's helper symbols; ``dump_prefix``/``dump_suffix`` enclose its code.
+    ``name`` prefixes CasADi's helper symbols.
     """
     b_macros = _b_macros(ctrl)
     cg = ca.CodeGenerator(name, dict(CODEGEN_OPTIONS))
@@ -102,8 +122,9 @@ def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law:
     sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
              for k in ("arg", "res", "iw", "w")}
     m = ctrl.chain.m
-    parts = [dump_prefix + cg.dump() + dump_suffix,
-             templates.HEADER.format(m=m, b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
+    parts = [templates.CASADI_BEGIN, cg.dump(), templates.CASADI_END,
+             templates.HEADER.format(m=m, layout=layout_macros(m), b_diagonal=b_macros,
+                                     **{f"sz_{k}": v for k, v in sizes.items()})]
     if form == "structured":
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
                      f"#define CA_NC {len(CoordinatingController.CARRY)}\n")

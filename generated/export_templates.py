@@ -2,19 +2,6 @@
 an example; formatted by :mod:`coordarm.generated.export`."""
 from __future__ import annotations
 
-#: Around CasADi's code in the export: its generated entry points keep the CasADi signature
-#: (``iw``, ``w``, ``mem``) whether they use it or not, which ``-Wextra`` would call unused.
-DUMP_PREFIX = """#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-parameter"
-#endif
-"""
-DUMP_SUFFIX = """
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
-"""
-
 #: Before the law: no RK4 scratch in the export (its work array holds the law's only).
 LAW_PREFIX = """
 #undef CA_RK4_SCRATCH
@@ -28,33 +15,31 @@ API = """
 #include <string.h>
 #include "{header}"
 
-/* finite by the exponent bits, so that the check survives -ffinite-math-only */
-static int ca_bits_finite(double x) {{
-  uint64_t b;
-  memcpy(&b, &x, sizeof b);
-  return ((b >> 52) & 0x7ff) != 0x7ff;
-}}
-
 int coordarm_law_sizes(long* n_q, long* n_u, long* n_outputs, long* n_work) {{
   if (!n_q || !n_u || !n_outputs || !n_work) return COORDARM_LAW_EINVAL;
   *n_q = CA_M;
   *n_u = CA_M;
-  *n_outputs = 2 * CA_M + 1;
-  *n_work = CA_SZ_W + CA_LAW_SCRATCH;
+  *n_outputs = CA_NOUT - CA_M;
+  *n_work = CA_SZ_W + CA_LAW_SCRATCH + CA_NOUT;
   return COORDARM_LAW_OK;
 }}
 
 int coordarm_law(const double* q, double t, double* u, double* outputs, double* work) {{
   casadi_int iw[CA_SZ_IW];
+  casadi_real* packed = work + CA_SZ_W + CA_LAW_SCRATCH;   /* the law's packed outputs (u unused) */
   long j;
   if (!q || !u || !outputs || !work) return COORDARM_LAW_EINVAL;
-  for (j = 0; j < CA_M; ++j) if (!ca_bits_finite(q[j])) return COORDARM_LAW_ENONFINITE_INPUT;
-  if (!ca_bits_finite(t) || !ca_finite(q, t)) return COORDARM_LAW_ENONFINITE_INPUT;
-  if (ca_law(q, t, u, outputs, iw, work)) return COORDARM_LAW_EFAILED;
-  for (j = 0; j < CA_M - 1; ++j) if (outputs[CA_M + j] == 0) return COORDARM_LAW_ESINGULAR;
-  if (outputs[2 * CA_M] == 0) return COORDARM_LAW_ESINGULAR;
-  for (j = 0; j < CA_M; ++j) if (!ca_bits_finite(u[j])) return COORDARM_LAW_ENONFINITE;
-  for (j = 0; j < 2 * CA_M + 1; ++j) if (!ca_bits_finite(outputs[j])) return COORDARM_LAW_ENONFINITE;
+  if (!ca_finite(q, t) || ca_law(q, t, u, packed, iw, work)) {{
+    ca_fill_nan(u, CA_M);                   /* nothing computed: NaN, never stale values */
+    ca_fill_nan(outputs, CA_NOUT - CA_M);
+    return ca_finite(q, t) ? COORDARM_LAW_EFAILED : COORDARM_LAW_ENONFINITE_INPUT;
+  }}
+  /* every output but u, in table order */
+  memcpy(outputs, packed, CA_OUT_U * sizeof *outputs);
+  memcpy(outputs + CA_OUT_U, packed + CA_OUT_U + CA_M, (CA_NOUT - CA_OUT_U - CA_M) * sizeof *outputs);
+  for (j = 0; j < CA_M - 1; ++j) if (packed[CA_OUT_LINK_MARGINS + j] == 0) return COORDARM_LAW_ESINGULAR;
+  if (packed[CA_OUT_LONGITUDINAL_PIVOT] == 0) return COORDARM_LAW_ESINGULAR;
+  if (!ca_all_finite(u, CA_M) || !ca_all_finite(outputs, CA_NOUT - CA_M)) return COORDARM_LAW_ENONFINITE;
   return COORDARM_LAW_OK;
 }}
 """
@@ -81,6 +66,7 @@ extern "C" {{
 #define COORDARM_LAW_N_Q {m}L
 #define COORDARM_LAW_N_U {m}L
 #define COORDARM_LAW_N_OUTPUTS {n_outputs}L
+{offsets}
 
 /* Return codes: 0, or negative on error. */
 #define COORDARM_LAW_OK 0
@@ -90,7 +76,7 @@ extern "C" {{
 #define COORDARM_LAW_ENONFINITE (-4)        /* some result is NaN or infinite (at or past a singularity) */
 #define COORDARM_LAW_EFAILED (-5)           /* a generated function failed (should not happen) */
 
-/* The sizes of the arrays of coordarm_law: n_q = n_u = m, n_outputs = 2m + 1, n_work (doubles).
+/* The sizes of the arrays of coordarm_law: n_q = n_u = m, n_outputs, n_work (doubles).
  * Returns COORDARM_LAW_OK, or COORDARM_LAW_EINVAL for a NULL pointer. */
 int coordarm_law_sizes(long *n_q, long *n_u, long *n_outputs, long *n_work);
 
@@ -99,15 +85,12 @@ int coordarm_law_sizes(long *n_q, long *n_u, long *n_outputs, long *n_work);
  * q        joint coordinates [rad], n_q values (q_1 is the base joint, alpha_j = q_1 + ... + q_j)
  * t        time [s]
  * u        out: the control, n_u values (qdot = B u)
- * outputs  out: n_outputs values, laid out as
- *            outputs[0 .. m-2]     the deviations e^2 .. e^m of the link centres from the curve [m]
- *            outputs[m-1]          s, the arc length of the last centre along the curve [m]
- *            outputs[m .. 2m-2]    the singularity margins of links 2..m (|pivot| / |grad phi|, in [0, 1])
- *            outputs[2m-1]         the longitudinal margin (dimensionless)
- *            outputs[2m]           the longitudinal pivot [m/rad]
+ * outputs  out: n_outputs values, laid out as (for these {m} links)
+{layout}
  * work     scratch of n_work doubles (contents need not be kept between calls)
  *
- * Returns COORDARM_LAW_OK or a negative COORDARM_LAW_E* code (u and outputs are then undefined). */
+ * Returns COORDARM_LAW_OK or a negative COORDARM_LAW_E* code: for a non-finite input u and
+ * outputs are all NaN; at a singularity they hold what the law computed (inf or NaN included). */
 int coordarm_law(const double *q, double t, double *u, double *outputs, double *work);
 
 #ifdef __cplusplus

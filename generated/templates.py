@@ -2,26 +2,36 @@
 
 The glue defines the library's whole API (every other symbol is hidden):
 
-* ``coordarm_law(q, t, out, iw, w)``: the law at ``(q, t)``; ``out`` holds
-  ``u[m], e[m-1], s, link_margins[m-1], longitudinal, longitudinal_pivot``;
-* ``coordarm_control(q, t, u, rest, iw, w)``: the same with ``u`` in an array of its own and
-  the other ``2m+1`` outputs in ``rest`` (so a caller's arrays are written without copies);
+* ``coordarm_law(q, t, out, iw, w)``: the law at ``(q, t)``; ``out`` is the packed output
+  vector of :data:`coordarm.symbolic.outputs.LAW_OUTPUTS` (``CA_NOUT`` doubles, each output
+  at its offset ``CA_OUT_<NAME>``, macros emitted by :mod:`.codegen` from that table);
+* ``coordarm_control(q, t, u, out, iw, w)``: the same with ``u`` written to an array of its own
+  (``out`` receives the other outputs at their offsets; its ``u`` part is left alone), so a
+  caller's arrays are written without copies;
 * ``coordarm_rk4(q, t, h, q_next, out, iw, w)``: one closed-loop RK4 step, ``out`` being
   the law at the step's start;
 * ``coordarm_chunk(q0, times, h, n, Q, D, iw, w)``: ``n`` RK4 steps in one call;
 * ``coordarm_sizes(sizes)``: ``m``, ``len(out)``, ``len(iw)``, ``len(w)``.
 
-A law call returns 1 when ``q`` or ``t`` is not finite (nothing is computed), 2 when a
-generated Function failed, 0 otherwise.
+A law or step call returns 1 when ``q`` or ``t`` is not finite (nothing is computed), 2 when
+a generated Function failed, 3 when it produced a non-finite output, 0 otherwise. All
+finiteness checks test the IEEE bits, so they hold under ``-ffast-math`` too.
 """
 from __future__ import annotations
+
+#: Around CasADi's generated code only: it declares every Function with the full signature
+#: ``(arg, res, iw, w, mem)`` whether it uses them or not. The glue below compiles with every warning.
+CASADI_BEGIN = """#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+"""
+CASADI_END = """#pragma GCC diagnostic pop
+"""
 
 #: Preamble: sizes and the exported-symbol marker; formatted with the layout numbers.
 HEADER = """
 /* ---- coordarm glue (generated/templates.py) ---- */
 #define CA_M {m}
-#define CA_NOUT (3 * CA_M + 1)
-#define CA_SZ_ARG {sz_arg}
+{layout}#define CA_SZ_ARG {sz_arg}
 #define CA_SZ_RES {sz_res}
 #define CA_SZ_IW {sz_iw}
 #define CA_SZ_W {sz_w}
@@ -33,11 +43,32 @@ HEADER = """
 #define CA_FLATTEN
 #endif
 {b_diagonal}
-static int ca_finite(const casadi_real* q, casadi_real t) {{
+#include <stdint.h>
+#include <string.h>
+typedef char ca_real_is_an_ieee_double[sizeof(casadi_real) == sizeof(uint64_t) ? 1 : -1];
+#define CA_EXPONENT 0x7ff0000000000000ULL
+
+/* Finiteness by the IEEE-754 bits (all-ones exponent = inf or NaN), not by isfinite() or x != x,
+   which -ffast-math (-ffinite-math-only) lets the compiler fold to "always finite". */
+static int ca_all_finite(const casadi_real* x, casadi_int n) {{
   casadi_int j;
-  casadi_real acc = t - t;
-  for (j = 0; j < CA_M; ++j) acc += q[j] - q[j];   /* NaN iff some entry is NaN or inf */
-  return acc == 0;
+  uint64_t bits;
+  for (j = 0; j < n; ++j) {{
+    memcpy(&bits, x + j, sizeof bits);
+    if ((bits & CA_EXPONENT) == CA_EXPONENT) return 0;
+  }}
+  return 1;
+}}
+
+static int ca_finite(const casadi_real* q, casadi_real t) {{
+  return ca_all_finite(q, CA_M) && ca_all_finite(&t, 1);
+}}
+
+/* Quiet NaN written by its bits (under -ffast-math, arithmetic need not produce or keep NaN). */
+static void ca_fill_nan(casadi_real* x, casadi_int n) {{
+  const uint64_t bits = 0x7ff8000000000000ULL;
+  casadi_int j;
+  for (j = 0; j < n; ++j) memcpy(x + j, &bits, sizeof bits);
 }}
 """
 
@@ -102,13 +133,14 @@ STRUCTURED_LAW = TRIG_PASSES + """
     if (link_pivot(arg, res, iw, w, 0)) return 2; \\
     arg[5] = &inv; res[0] = to; res[1] = o; \\
     if (link_step_trig(arg, res, iw, w, 0)) return 2; \\
-    rest[(j) - 1] = o[0]; rest[CA_M - 1 + (j)] = o[1]; a[j] = o[2]; b[j] = o[3]; \\
+    out[CA_OUT_E + (j) - 1] = o[0]; out[CA_OUT_LINK_MARGINS + (j) - 1] = o[1]; \\
+    a[j] = o[2]; b[j] = o[3]; \\
   } while (0)
 
 /* The recursion over links 2..m; the carry is copied back (not pointer-swapped) and the step has
    a single call site and is inlined (flatten), so the compiler keeps the carry in registers. */
 CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, const casadi_real* s,
-                        const casadi_real* wt, casadi_real* carry, casadi_real* rest,
+                        const casadi_real* wt, casadi_real* carry, casadi_real* out,
                         casadi_real* a, casadi_real* b, casadi_int* iw, casadi_real* w) {
   casadi_real c0[CA_NC], c1[CA_NC], o[4], inv;
   const casadi_real* arg[CA_SZ_ARG];
@@ -124,7 +156,7 @@ CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, c
   return 0;
 }
 
-static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* rest, casadi_int* iw,
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
                   casadi_real* w) {
   casadi_real wt[CA_NW + 1], carry[CA_NC], tl[4];
   casadi_real *alpha = w + CA_SZ_W + CA_RK4_SCRATCH, *c = alpha + CA_M, *s = c + CA_M;
@@ -139,12 +171,12 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   if (first_carry(arg, res, iw, w, 0)) return 2;
   ca_angles(q, alpha);
   ca_trig(alpha, c, s);
-  if (ca_recursion(q, c, s, wt, carry, rest, a, b, iw, w)) return 2;
+  if (ca_recursion(q, c, s, wt, carry, out, a, b, iw, w)) return 2;
   arg[0] = carry; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
   if (tail(arg, res, iw, w, 0)) return 2;
-  rest[CA_M - 1] = tl[0];              /* s */
-  rest[2 * CA_M - 1] = tl[2];          /* longitudinal margin */
-  rest[2 * CA_M] = tl[3];              /* longitudinal pivot */
+  out[CA_OUT_S] = tl[0];
+  out[CA_OUT_LONGITUDINAL] = tl[2];
+  out[CA_OUT_LONGITUDINAL_PIVOT] = tl[3];
   p = tl[1];                           /* the free rate w_1 */
   prev = 0;
   for (j = 0; j < CA_M; ++j) {         /* w_j = a_j + b_j p, qdot_j = w_j - w_{j-1} */
@@ -156,16 +188,16 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
 }
 """
 
-#: The dense law: one call of the generated eq. 27 Function.
+#: The dense law: one call of the generated eq. 27 Function, whose outputs are written in place
+#: (``{results}``: one ``res[i] = out + CA_OUT_<NAME>;`` per output, from the table; ``u`` to ``u``).
 DENSE_LAW = """
 #define CA_LAW_SCRATCH 0
-static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* rest, casadi_int* iw,
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
                   casadi_real* w) {
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   arg[0] = q; arg[1] = &t;
-  res[0] = u; res[1] = rest; res[2] = rest + CA_M - 1; res[3] = rest + CA_M;
-  res[4] = rest + 2 * CA_M - 1; res[5] = rest + 2 * CA_M;
+{results}
   return {law_name}(arg, res, iw, w, 0) ? 2 : 0;
 }
 """
@@ -173,17 +205,23 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
 #: RK4 step, chunk loop and sizes: shared by both law forms.
 LOOP = """
 #define CA_SCRATCH (CA_RK4_SCRATCH + CA_LAW_SCRATCH)
+
 COORDARM_API int coordarm_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw,
                               casadi_real* w) {
+  int rc;
   if (!ca_finite(q, t)) return 1;
-  return ca_law(q, t, out, out + CA_M, iw, w);
+  if ((rc = ca_law(q, t, out + CA_OUT_U, out, iw, w))) return rc;
+  return ca_all_finite(out, CA_NOUT) ? 0 : 3;
 }
 
-/* The law with u written to its own array: the rest of the outputs go to rest (2m+1 values). */
-COORDARM_API int coordarm_control(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* rest,
+/* The law with u in an array of its own; out gets every other output (its u part is not touched). */
+COORDARM_API int coordarm_control(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out,
                                   casadi_int* iw, casadi_real* w) {
+  int rc;
   if (!ca_finite(q, t)) return 1;
-  return ca_law(q, t, u, rest, iw, w);
+  if ((rc = ca_law(q, t, u, out, iw, w))) return rc;
+  return ca_all_finite(u, CA_M) && ca_all_finite(out, CA_OUT_U)
+         && ca_all_finite(out + CA_OUT_U + CA_M, CA_NOUT - CA_OUT_U - CA_M) ? 0 : 3;
 }
 
 /* Same operation order as CoordinatingController.rk4_step, so both agree to rounding. */
@@ -194,15 +232,16 @@ static int ca_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_rea
   casadi_real h2 = h / 2, h6 = h / 6;
   casadi_int j;
   int rc;
-  if ((rc = ca_law(q, t, out, out + CA_M, iw, w))) return rc;
-  for (j = 0; j < CA_M; ++j) { k1[j] = CA_K_FROM_U(j, out[j]); x[j] = q[j] + h2 * k1[j]; }
-  if ((rc = ca_law(x, t + h2, o, o + CA_M, iw, w))) return rc;
-  for (j = 0; j < CA_M; ++j) { k2[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h2 * k2[j]; }
-  if ((rc = ca_law(x, t + h2, o, o + CA_M, iw, w))) return rc;
-  for (j = 0; j < CA_M; ++j) { k3[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h * k3[j]; }
-  if ((rc = ca_law(x, t + h, o, o + CA_M, iw, w))) return rc;
+  casadi_real *u = out + CA_OUT_U, *v = o + CA_OUT_U;
+  if ((rc = ca_law(q, t, u, out, iw, w))) return rc;
+  for (j = 0; j < CA_M; ++j) { k1[j] = CA_K_FROM_U(j, u[j]); x[j] = q[j] + h2 * k1[j]; }
+  if ((rc = ca_law(x, t + h2, v, o, iw, w))) return rc;
+  for (j = 0; j < CA_M; ++j) { k2[j] = CA_K_FROM_U(j, v[j]); x[j] = q[j] + h2 * k2[j]; }
+  if ((rc = ca_law(x, t + h2, v, o, iw, w))) return rc;
+  for (j = 0; j < CA_M; ++j) { k3[j] = CA_K_FROM_U(j, v[j]); x[j] = q[j] + h * k3[j]; }
+  if ((rc = ca_law(x, t + h, v, o, iw, w))) return rc;
   for (j = 0; j < CA_M; ++j) {
-    k4[j] = CA_K_FROM_U(j, o[j]);
+    k4[j] = CA_K_FROM_U(j, v[j]);
     q_next[j] = q[j] + h6 * (((k1[j] + 2 * k2[j]) + 2 * k3[j]) + k4[j]);
   }
   return 0;
@@ -210,19 +249,34 @@ static int ca_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_rea
 
 COORDARM_API int coordarm_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_real* q_next,
                               casadi_real* out, casadi_int* iw, casadi_real* w) {
+  int rc;
   if (!ca_finite(q, t)) return 1;
-  return ca_rk4(q, t, h, q_next, out, iw, w);
+  if ((rc = ca_rk4(q, t, h, q_next, out, iw, w))) return rc;
+  return ca_all_finite(out, CA_NOUT) && ca_all_finite(q_next, CA_M) ? 0 : 3;
 }
 
-/* n steps: Q[k] is the state after step k, D[k] the law at the start of step k (time times[k]). */
+/* n steps: Q[k] is the state after step k, D[k] the law at the start of step k (time times[k]).
+   From a non-finite q0, or after a non-finite value, every later value is NaN, as in the
+   interpreted loop (where NaN propagates), whatever the flags: the caller's margin check then
+   stops the run there. */
 COORDARM_API int coordarm_chunk(const casadi_real* q0, const casadi_real* times, casadi_real h, casadi_int n,
                                 casadi_real* Q, casadi_real* D, casadi_int* iw, casadi_real* w) {
   const casadi_real* q = q0;
   casadi_int k;
   int rc;
-  if (!ca_finite(q0, h)) return 1;     /* afterwards NaN propagates, as in the interpreted loop */
+  if (!ca_all_finite(&h, 1)) return 1;
+  if (!ca_all_finite(q0, CA_M)) {      /* e.g. the previous chunk ended in NaN */
+    ca_fill_nan(Q, n * CA_M);
+    ca_fill_nan(D, n * CA_NOUT);
+    return 0;
+  }
   for (k = 0; k < n; ++k) {
     if ((rc = ca_rk4(q, times[k], h, Q + k * CA_M, D + k * CA_NOUT, iw, w))) return rc;
+    if (!ca_all_finite(Q + k * CA_M, CA_M) || !ca_all_finite(D + k * CA_NOUT, CA_NOUT)) {
+      ca_fill_nan(Q + k * CA_M, (n - k) * CA_M);
+      ca_fill_nan(D + (k + 1) * CA_NOUT, (n - k - 1) * CA_NOUT);
+      return 0;
+    }
     q = Q + k * CA_M;
   }
   return 0;

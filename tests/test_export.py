@@ -96,7 +96,8 @@ int main(void) {
   printf(" %d", coordarm_law(q, 0.0, NULL, out, w));
   printf(" %d", coordarm_law(q, INFINITY, u, out, w));
   q[3] = NAN;
-  printf(" %d\n", coordarm_law(q, 0.0, u, out, w));
+  printf(" %d", coordarm_law(q, 0.0, u, out, w));
+  printf(" %d\n", isnan(u[0]) && isnan(out[n_out - 1]));
   return 0;
 }
 """
@@ -107,7 +108,7 @@ def test_error_codes_of_the_exported_api(exported, example_rows, tmp_path):
     exe = tmp_path / "errors"
     subprocess.run([find_compiler(), *STRICT, f"-I{exported}", "-o", str(exe), str(tmp_path / "errors.c"),
                     str(exported / "libcoordarm_law.a"), "-lm"], check=True)
-    n_q, n_out, n_work, ok, null, inf_t, nan_q = subprocess.run([str(exe)], capture_output=True, text=True,
-                                                                check=True).stdout.split()
+    n_q, n_out, n_work, ok, null, inf_t, nan_q, nan_out = subprocess.run(
+        [str(exe)], capture_output=True, text=True, check=True).stdout.split()
     assert (int(n_q), int(n_out), int(n_work) > 0) == (M, 2 * M + 1, True)
-    assert (int(ok), int(null), int(inf_t), int(nan_q)) == (0, -1, -2, -2)
+    assert (int(ok), int(null), int(inf_t), int(nan_q), int(nan_out)) == (0, -1, -2, -2, 1)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from coordarm.simulation.scenario import load_scenario, presets
+from coordarm.simulation.choices import presets
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -25,6 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def main(args: argparse.Namespace) -> int:
     """Export the law of the scenario named in ``args``; return 0."""
     from coordarm.generated.export import export_law
+    from coordarm.simulation.scenario import load_scenario
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step)
     ctrl = scenario.controller()
     result = export_law(ctrl, scenario.start(ctrl), args.out, step=scenario.step, duration=scenario.duration,
