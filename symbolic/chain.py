@@ -68,7 +68,18 @@ class PlanarChain:
         return None if self._bd is None else self._bd.copy()
 
     def apply_B(self, u) -> np.ndarray:
-        """``B u`` for controls ``u`` of shape (..., m): a product by the diagonal when B is diagonal."""
+        """``B u``: a product by the diagonal when B is diagonal, O(m) per row.
+
+        Parameters
+        ----------
+        u : array_like, shape (..., m)
+            Controls (one per row).
+
+        Returns
+        -------
+        ndarray, shape (..., m)
+            Joint rates ``qdot = B u`` [rad/s].
+        """
         u = np.asarray(u, dtype=float)
         return self._bd * u if self._bd is not None else u @ self._B.T
 

@@ -166,6 +166,11 @@ class CoordinatingController:
         """``t -> w``: the terms of :meth:`link_step` (:meth:`link_step_trig` if ``trig_inputs``)
         that depend on time only, computed once per ``t``.
 
+        Parameters
+        ----------
+        trig_inputs : bool
+            The terms of :meth:`link_step_trig` (the generated C's step) instead.
+
         Returns
         -------
         casadi.Function
@@ -198,11 +203,24 @@ class CoordinatingController:
         The generated C computes every link's cosine and sine in one loop the compiler
         vectorises, then runs this step over the links (no trigonometry inside the recursion);
         ``inv_pivot`` comes from :meth:`link_pivot`, so no division sits on the carried chain.
+
+        Returns
+        -------
+        casadi.Function
+            Inputs ``carry`` (layout :attr:`CARRY`), ``q_j`` [rad], ``cos_alpha_j``, ``sin_alpha_j``,
+            ``w`` (:meth:`time_features` with ``trig_inputs=True``), ``inv_pivot`` [1/m]; outputs
+            ``carry_next`` and ``out`` as :meth:`link_step`'s.
         """
         return self._hoisted_link(True)[1]
 
     def link_pivot(self) -> ca.Function:
-        """``(carry, q_j, cos_alpha_j, sin_alpha_j, w) -> 1 / (xi/2 pivot_j)`` for :meth:`link_step_trig`."""
+        """``(carry, q_j, cos_alpha_j, sin_alpha_j, w) -> 1 / (xi/2 pivot_j)`` for :meth:`link_step_trig`.
+
+        Returns
+        -------
+        casadi.Function
+            Output ``inv_pivot`` [1/m], the reciprocal of half a link length times the link pivot.
+        """
         return self._hoisted_link(True)[2]
 
     def first_carry(self) -> ca.Function:
