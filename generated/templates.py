@@ -52,12 +52,12 @@ typedef char ca_real_is_an_ieee_double[sizeof(casadi_real) == sizeof(uint64_t) ?
    which -ffast-math (-ffinite-math-only) lets the compiler fold to "always finite". */
 static int ca_all_finite(const casadi_real* x, casadi_int n) {{
   casadi_int j;
-  uint64_t bits;
-  for (j = 0; j < n; ++j) {{
+  uint64_t bits, bad = 0;
+  for (j = 0; j < n; ++j) {{          /* no early exit: the loop vectorises (called per law call) */
     memcpy(&bits, x + j, sizeof bits);
-    if ((bits & CA_EXPONENT) == CA_EXPONENT) return 0;
+    bad |= (bits & CA_EXPONENT) == CA_EXPONENT;
   }}
-  return 1;
+  return !bad;
 }}
 
 static int ca_finite(const casadi_real* q, casadi_real t) {{
