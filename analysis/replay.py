@@ -91,8 +91,9 @@ class Replay:
     ----------
     path : Path
         The log file.
-    t, s, v_star, longitudinal : (N,) arrays
-        Time [s], arc length of the end point [m], commanded speed [m/s], longitudinal margin.
+    t, s, v_star, v_scale, longitudinal : (N,) arrays
+        Time [s], arc length of the end point [m], commanded speed [m/s], the governor's
+        factor on it, longitudinal margin.
     q, u : (N, m) arrays
         Joint coordinates [rad] and control.
     e, link_margins : (N, m-1) arrays
@@ -123,6 +124,7 @@ class Replay:
     e: np.ndarray
     s: np.ndarray
     v_star: np.ndarray
+    v_scale: np.ndarray
     link_margins: np.ndarray
     longitudinal: np.ndarray
     cond_t: np.ndarray
@@ -139,7 +141,7 @@ class Replay:
     def to_run(self) -> Run:
         """The samples as a :class:`simulation.run.Run` (for the figure functions)."""
         return Run(self.t, self.q, self.u, self.e, self.s, self.link_margins, self.longitudinal, self.v_star,
-                   info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
+                   self.v_scale, info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
 
     def controller(self):
         """The controller that made the run, rebuilt from the scenario."""

@@ -38,10 +38,15 @@ class Source:
     m: int
 
 
+def _split(ctrl: CoordinatingController, form: str) -> bool:
+    """Whether the law is emitted as per-link Functions and a C loop (structured, undamped)."""
+    return form == "structured" and not ctrl.damping
+
+
 def _functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
-    if form == "structured":
+    if _split(ctrl, form):
         return [ctrl.time_features(), ctrl.first_carry(), ctrl.link_step(), ctrl.tail()]
-    return [ctrl.law("dense")]
+    return [ctrl.law(form)]
 
 
 def _b_macros(ctrl: CoordinatingController) -> str:
@@ -84,7 +89,7 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
              for k in ("arg", "res", "iw", "w")}
     m = ctrl.chain.m
     parts = [cg.dump(), templates.HEADER.format(m=m, b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
-    if form == "structured":
+    if _split(ctrl, form):
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
                      f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
         parts.append(templates.STRUCTURED_LAW)

@@ -137,7 +137,7 @@ class CompiledController:
         -------
         Q : (n, m) array
             State after each step.
-        D : (n, 3m+1) array
+        D : (n, 3m+2) array
             The law at each step's start (see :func:`split_outputs`).
         """
         self._load_q(q0)
@@ -156,11 +156,11 @@ class CompiledController:
 
 
 def split_outputs(out: np.ndarray, m: int) -> dict[str, Any]:
-    """Split a packed output row ``(u, e, s, link_margins, longitudinal, pivot)`` into a dict.
+    """Split a packed output row ``(u, e, s, link_margins, longitudinal, pivot, v_scale)`` into a dict.
 
-    Works on one row (shape (3m+1,)) or a block of rows (shape (n, 3m+1)).
+    Works on one row (shape (3m+2,)) or a block of rows (shape (n, 3m+2)).
     """
-    cuts = np.cumsum([m, m - 1, 1, m - 1, 1, 1])[:-1]
+    cuts = np.cumsum([m, m - 1, 1, m - 1, 1, 1, 1])[:-1]
     parts = np.split(np.array(out, dtype=float), cuts, axis=-1)
     result: dict[str, Any] = {}
     for name, v in zip(OUTPUTS, parts):

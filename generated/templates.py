@@ -3,7 +3,7 @@
 The glue defines the library's whole API (every other symbol is hidden):
 
 * ``coordarm_law(q, t, out, iw, w)``: the law at ``(q, t)``; ``out`` holds
-  ``u[m], e[m-1], s, link_margins[m-1], longitudinal, longitudinal_pivot``;
+  ``u[m], e[m-1], s, link_margins[m-1], longitudinal, longitudinal_pivot, v_scale``;
 * ``coordarm_rk4(q, t, h, q_next, out, iw, w)``: one closed-loop RK4 step, ``out`` being
   the law at the step's start;
 * ``coordarm_chunk(q0, times, h, n, Q, D, iw, w)``: ``n`` RK4 steps in one call;
@@ -18,7 +18,7 @@ from __future__ import annotations
 HEADER = """
 /* ---- coordarm glue (generated/templates.py) ---- */
 #define CA_M {m}
-#define CA_NOUT (3 * CA_M + 1)
+#define CA_NOUT (3 * CA_M + 2)
 #define CA_SZ_ARG {sz_arg}
 #define CA_SZ_RES {sz_res}
 #define CA_SZ_IW {sz_iw}
@@ -42,11 +42,12 @@ B_DIAGONAL = """static const casadi_real ca_bd[CA_M] = {{{values}}};
 B_IDENTITY = """#define CA_U_FROM_QDOT(j, v) (v)
 #define CA_K_FROM_U(j, v) (v)"""
 
-#: The structured law: a loop over links calling the generated per-link step.
+#: The structured law: a loop over links calling the generated per-link step, then the
+#: back-substitution of the free rate through the links that were re-pivoted (c_j, d_j).
 STRUCTURED_LAW = """
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
-  casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[4], tl[4], a[CA_M], b[CA_M];
-  casadi_real *cur = c0, *nxt = c1, *tmp, p, rate, prev;
+  casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[6], tl[5], a[CA_M], b[CA_M], c[CA_M], d[CA_M];
+  casadi_real *cur = c0, *nxt = c1, *tmp, p, prev;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int j;
@@ -60,18 +61,25 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
     if (link_step(arg, res, iw, w, 0)) return 2;
     out[CA_M + j - 1] = o[0];          /* e^j */
     out[2 * CA_M + j - 1] = o[1];      /* link margin */
-    a[j] = o[2]; b[j] = o[3];
+    a[j] = o[2]; b[j] = o[3]; c[j] = o[4]; d[j] = o[5];
     tmp = cur; cur = nxt; nxt = tmp;
   }
-  arg[0] = cur; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
+  arg[0] = cur; arg[1] = &t;
+  res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3; res[4] = tl + 4;
   if (tail(arg, res, iw, w, 0)) return 2;
   out[2 * CA_M - 1] = tl[0];           /* s */
   out[3 * CA_M - 1] = tl[2];           /* longitudinal margin */
   out[3 * CA_M] = tl[3];               /* longitudinal pivot */
-  p = tl[1];                           /* the free rate w_1 */
+  out[3 * CA_M + 1] = tl[4];           /* v_scale */
+  p = tl[1];                           /* the free rate after the last link */
+  for (j = CA_M - 1; j > 0; --j) {     /* w_j = a_j + b_j p_j (kept in out), p_{j-1} = c_j + d_j p_j */
+    out[j] = a[j] + b[j] * p;
+    p = c[j] + d[j] * p;
+  }
+  out[0] = p;                          /* w_1 = p_1 */
   prev = 0;
-  for (j = 0; j < CA_M; ++j) {         /* w_j = a_j + b_j p, qdot_j = w_j - w_{j-1} */
-    rate = a[j] + b[j] * p;
+  for (j = 0; j < CA_M; ++j) {         /* qdot_j = w_j - w_{j-1} */
+    casadi_real rate = out[j];
     out[j] = CA_U_FROM_QDOT(j, rate - prev);
     prev = rate;
   }
@@ -79,14 +87,14 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
 }
 """
 
-#: The dense law: one call of the generated eq. 27 Function.
+#: The dense law (or any law with damping): one call of the generated whole-law Function.
 DENSE_LAW = """
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   arg[0] = q; arg[1] = &t;
   res[0] = out; res[1] = out + CA_M; res[2] = out + 2 * CA_M - 1; res[3] = out + 2 * CA_M;
-  res[4] = out + 3 * CA_M - 1; res[5] = out + 3 * CA_M;
+  res[4] = out + 3 * CA_M - 1; res[5] = out + 3 * CA_M; res[6] = out + 3 * CA_M + 1;
   return {law_name}(arg, res, iw, w, 0) ? 2 : 0;
 }
 """

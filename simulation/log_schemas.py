@@ -61,8 +61,8 @@ class NumericChannel:
 
 
 #: The :class:`~simulation.run.Run` array behind each field of the per-step channels.
-SOURCES = {"t": "t", "q": "q", "u": "u", "s": "s", "v_star": "v_star", "e": "e", "link": "link_margins",
-           "longitudinal": "longitudinal"}
+SOURCES = {"t": "t", "q": "q", "u": "u", "s": "s", "v_star": "v_star", "v_scale": "v_scale", "e": "e",
+           "link": "link_margins", "longitudinal": "longitudinal"}
 
 
 def numeric_channels(links: int) -> dict[str, NumericChannel]:
@@ -75,7 +75,7 @@ def numeric_channels(links: int) -> dict[str, NumericChannel]:
         "joint_state": NumericChannel("/joint_state", "coordarm_msgs/msg/JointState",
                                       (("t", 0), ("q", m), ("u", m))),
         "task_state": NumericChannel("/task_state", "coordarm_msgs/msg/TaskState",
-                                     (("t", 0), ("s", 0), ("v_star", 0), ("e", m - 1))),
+                                     (("t", 0), ("s", 0), ("v_star", 0), ("v_scale", 0), ("e", m - 1))),
         "margins": NumericChannel("/margins", "coordarm_msgs/msg/Margins",
                                   (("t", 0), ("link", m - 1), ("longitudinal", 0))),
         "cond": NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning",

@@ -2,7 +2,7 @@
 
 Channels (timestamps: ns of simulated time)
 
-* ``/joint_state`` (``t``, ``q``, ``u``), ``/task_state`` (``t``, ``s``, ``v_star``, ``e``),
+* ``/joint_state`` (``t``, ``q``, ``u``), ``/task_state`` (``t``, ``s``, ``v_star``, ``v_scale``, ``e``),
   ``/margins`` (``t``, ``link`` margins of links 2..m, ``longitudinal``): every logged step;
 * ``/margins/cond``: condition number of the decoupling matrix, ~5 Hz (one SVD each);
 * ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, walls), ~20 Hz.
@@ -83,15 +83,20 @@ def build_info(scenario: Scenario) -> dict[str, str]:
             "python": platform.python_version()}
 
 
-def outcome_of(error: BaseException | None, last_t: float | None) -> dict[str, Any]:
-    """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``."""
+def outcome_of(error: BaseException | None, last_t: float | None, governed: float = 0.0) -> dict[str, Any]:
+    """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``.
+
+    ``governed`` is the simulated time [s] during which the speed governor slowed ``v*``.
+    """
     if error is None:
-        return {"status": "completed", "t_end": last_t}
+        return {"status": "completed", "t_end": last_t, "governed": governed}
     if isinstance(error, SingularityError):
         return {"status": "singularity", "t_end": last_t, "time": error.time, "link": error.link,
-                "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
+                "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error),
+                "governed": governed}
     status = "interrupted" if isinstance(error, KeyboardInterrupt) else "error"
-    return {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
+    return {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error),
+            "governed": governed}
 
 
 class RunLogger:
@@ -195,6 +200,7 @@ class RunLogger:
         self._seen = 0          # steps received so far (the global index of the next one)
         self._last: Run | None = None
         self._last_logged = -1  # global index of the last sample logged
+        self._governed = 0.0    # simulated time with v_scale < 1 [s]
         self._flushed = time.monotonic()
         walls = np.asarray(scenario.obstacles, dtype=float).reshape(-1, 2)
         self._wall_lines = (_line(walls, 2, 0.02, (0.2, 0.2, 0.2, 1.0)),) if len(walls) else ()  # same in every scene
@@ -234,6 +240,8 @@ class RunLogger:
         n = len(part.t)
         g = self._seen + np.arange(n)
         self._seen += n
+        if n and np.any(part.v_scale < 1):   # each step lasts self.step (as Run.governed_time)
+            self._governed += self.step * int(np.count_nonzero(part.v_scale < 1))
         self._last = part
         rows = np.flatnonzero(g % self.every == 0)
         if len(rows):
@@ -373,7 +381,7 @@ class RunLogger:
                     self._add_samples(self._last, np.array([len(self._last.t) - 1]))
             if len(self._pending) or self._extras:
                 self._write_chunk(len(self._pending))
-            self.outcome = outcome_of(error, last_t)
+            self.outcome = outcome_of(error, last_t, self._governed)
             self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in self.outcome.items()})
             self.file.close()
         except Exception as exc:

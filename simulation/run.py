@@ -47,8 +47,10 @@ class Run:
         Longitudinal margin (0 = end point cannot be pushed along the curve).
     v_star : (N+1,) array
         Commanded speed [m/s].
+    v_scale : (N+1,) array
+        The governor's factor on ``v*`` (all ones without the governor; default ones).
     info : dict
-        Backend, wall time, stop reason.
+        Backend, wall time, stop reason, ``governed`` time [s] (steps with ``v_scale < 1``).
     """
 
     t: np.ndarray
@@ -59,12 +61,23 @@ class Run:
     link_margins: np.ndarray
     longitudinal: np.ndarray
     v_star: np.ndarray
+    v_scale: np.ndarray | None = None
     info: dict = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        if self.v_scale is None:
+            self.v_scale = np.ones(len(self.t))
+
     def s_reference(self) -> np.ndarray:
-        """``s(0) + integral of v*`` on the sample grid (trapezoidal rule)."""
+        """``s(0) + integral of v_scale v*`` on the sample grid (trapezoidal rule)."""
         dt = np.diff(self.t)
-        return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (self.v_star[1:] + self.v_star[:-1]))])
+        v = self.v_scale * self.v_star
+        return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))])
+
+    def governed_time(self) -> float:
+        """Time the governor slowed ``v*``: samples with ``v_scale < 1`` times the step [s]."""
+        step = float(self.t[1] - self.t[0]) if len(self.t) > 1 else 0.0
+        return step * int(np.count_nonzero(self.v_scale < 1))
 
     def summary(self) -> dict[str, float]:
         """Final ``max|e|``, worst ``s`` tracking error, smallest margins and where."""
@@ -144,7 +157,7 @@ def even_indices(n: int, k: int) -> np.ndarray:
 
 
 def chunk_function(ctrl: CoordinatingController, step: float, n: int):
-    """Interpreted closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, u, e, s, links, long)``.
+    """Interpreted closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, *STEP_OUTPUTS)``.
 
     Column k of ``Q`` is the state after step k; the diagnostics are at each step's start.
     """
@@ -258,8 +271,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         while k < n_steps:
             n = min(chunk, n_steps - k)
             times = t0 + step * np.arange(k, k + n)
-            Q, U, E, S, LM, LG = _advance(ctrl, compiled, q, times, step)
-            part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG, ctrl.speeds(times))
+            Q, U, E, S, LM, LG, VS = _advance(ctrl, compiled, q, times, step)
+            part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG, ctrl.speeds(times), VS)
             bad = first_violation(part.link_margins, part.longitudinal, thr)
             if bad is not None:
                 row, kind, link, margin = bad
@@ -268,7 +281,11 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
                 if on_chunk:
                     on_chunk(part)
                 run = _concat(parts, dict(info, stopped="singularity"))
-                raise SingularityError(part.t[-1], link, margin, kind, thr[kind], run=run)
+                run.info["governed"] = run.governed_time()
+                raise SingularityError(part.t[-1], link, margin, kind, thr[kind], run=run,
+                                       hint=None if ctrl.governor or kind != "longitudinal" else
+                                       "the speed governor ([control] governor = true, --governor) slows "
+                                       "v* instead of stopping")
             parts.append(part)
             if on_chunk:
                 on_chunk(part)
@@ -278,14 +295,16 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         final = (compiled or ctrl).evaluate(q, t0 + step * n_steps)
         last = Run(np.array([t0 + step * n_steps]), q[None], final["u"][None], final["e"][None],
                    np.array([final["s"]]), final["link_margins"][None], np.array([final["longitudinal"]]),
-                   np.array([ctrl.speed_at(t0 + step * n_steps)]))
+                   np.array([ctrl.speed_at(t0 + step * n_steps)]), np.array([final["v_scale"]]))
         parts.append(last)
         if on_chunk:
             on_chunk(last)
     finally:
         if bar:
             bar.close()
-    return _concat(parts, dict(info, stopped="completed", wall_time=_time.perf_counter() - wall))
+    run = _concat(parts, dict(info, stopped="completed", wall_time=_time.perf_counter() - wall))
+    run.info["governed"] = run.governed_time()
+    return run
 
 
 def _advance(ctrl, compiled, q, times, step):
@@ -293,12 +312,12 @@ def _advance(ctrl, compiled, q, times, step):
     if compiled is not None:
         Q, D = compiled.chunk(q, times, step)
         d = split_outputs(D, ctrl.chain.m)
-        return Q, d["u"], d["e"], d["s"], d["link_margins"], d["longitudinal"]
-    Q, U, E, S, LM, LG = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
-    return Q.T, U.T, E.T, S.ravel(), LM.T, LG.ravel()
+        return Q, d["u"], d["e"], d["s"], d["link_margins"], d["longitudinal"], d["v_scale"]
+    Q, U, E, S, LM, LG, VS = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
+    return Q.T, U.T, E.T, S.ravel(), LM.T, LG.ravel(), VS.ravel()
 
 
-ARRAYS = ("t", "q", "u", "e", "s", "link_margins", "longitudinal", "v_star")
+ARRAYS = ("t", "q", "u", "e", "s", "link_margins", "longitudinal", "v_star", "v_scale")
 
 
 def _rows(run: Run, rows: slice) -> Run:

@@ -9,6 +9,11 @@ sets ``u_s = v*(t) - dpsi/dt``, ``u_e^j = -K e^j - dphi/dt`` and solves
   ``mapaccum`` over links, which also yields the singularity margins;
 * ``"dense"``: the decoupling matrix from AD Jacobians ``C^j = dc^j/dq`` and a dense
   linear solve (the reference, O(m^3)).
+
+Near a singularity (see :mod:`.near_singular`): ``governor=True`` scales ``v*`` by a smooth
+factor of the longitudinal margin (output ``v_scale``); ``damping`` solves the damped
+least-squares system in a band of small margins. A link pivot that is small while the
+decoupling matrix is regular is re-pivoted inside the recursion (:data:`REPIVOT`).
 """
 from __future__ import annotations
 
@@ -21,12 +26,39 @@ import numpy as np
 from .chain import PlanarChain, direction, normal
 from .curves import Curve, _param, evaluate
 from .errors import ConfigError
+from .near_singular import damping_factor, speed_scale
 
 LAWS = ("structured", "dense")
 #: Names of the outputs of :meth:`CoordinatingController.law`, in order.
-OUTPUTS = ("u", "e", "s", "link_margins", "longitudinal", "longitudinal_pivot")
+OUTPUTS = ("u", "e", "s", "link_margins", "longitudinal", "longitudinal_pivot", "v_scale")
 #: The outputs that are scalars (the others are vectors over links).
-SCALAR_OUTPUTS = ("s", "longitudinal", "longitudinal_pivot")
+SCALAR_OUTPUTS = ("s", "longitudinal", "longitudinal_pivot", "v_scale")
+#: Outputs of :meth:`CoordinatingController.rk4_step` after ``q_next`` (the law at the step's start).
+STEP_OUTPUTS = tuple(o for o in OUTPUTS if o != "longitudinal_pivot")
+#: Below this ``|cos|`` between a link's normal and the curve normal the recursion re-pivots that
+#: link: it solves the link's ``e`` row for the free rate instead (when that is better conditioned).
+REPIVOT = 0.05
+#: Default zero point of the governor (the simulator's default longitudinal stop threshold).
+GOVERNOR_THRESHOLD = 0.15
+#: Damping kinds of ``damping = {"kind": ..., "lambda": ..., "band": ...}``.
+DAMPING_KINDS = ("dls",)
+
+
+def _check_damping(damping: Any) -> dict | None:
+    """``damping`` validated: None or ``{"kind": "dls", "lambda": > 0, "band": in (0, 1]}``."""
+    if damping is None:
+        return None
+    if not isinstance(damping, dict) or set(damping) - {"kind", "lambda", "band"} or "kind" not in damping:
+        raise ConfigError(f"damping: expected a table {{kind = \"dls\", lambda = 0.01, band = 0.1}}, got {damping!r}")
+    if damping["kind"] not in DAMPING_KINDS:
+        raise ConfigError(f"damping.kind: expected one of {DAMPING_KINDS}, got {damping['kind']!r}")
+    out = {"kind": damping["kind"]}
+    for key, default, upper in (("lambda", 0.01, math.inf), ("band", 0.1, 1.0)):
+        v = damping.get(key, default)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= upper:
+            raise ConfigError(f"damping.{key}: need a finite number in (0, {upper}], got {v!r}")
+        out[key] = float(v)
+    return out
 
 
 class CoordinatingController:
@@ -44,10 +76,20 @@ class CoordinatingController:
         Commanded end-point speed ``v*(t)`` along the curve [m/s].
     law : {"structured", "dense"}
         Form of the inverse control transformation used by :meth:`control`.
+    governor : bool
+        Scale ``v*`` by :func:`~.near_singular.speed_scale` of the longitudinal margin
+        (output ``v_scale``; 1 when off).
+    governor_threshold : float
+        Longitudinal margin at which the governed speed reaches 0 (dimensionless).
+    damping : dict, optional
+        ``{"kind": "dls", "lambda": 0.01, "band": 0.1}``: inside the band of the smallest
+        margin solve ``u = M^T (M M^T + lambda_v^2 I)^-1 r`` with the variable damping
+        :func:`~.near_singular.damping_factor` [lambda in m/rad]. Default: off.
     """
 
     def __init__(self, chain: PlanarChain, curve: Curve, gain: float, speed: Any,
-                 law: str = "structured") -> None:
+                 law: str = "structured", governor: bool = False,
+                 governor_threshold: float = GOVERNOR_THRESHOLD, damping: dict | None = None) -> None:
         if not isinstance(chain, PlanarChain):
             raise ConfigError(f"chain: expected a PlanarChain, got {type(chain).__name__}")
         if not isinstance(curve, Curve):
@@ -57,7 +99,14 @@ class CoordinatingController:
             raise ConfigError(f"gain: K must be a finite number > 0, got {gain!r}")
         if law not in LAWS:
             raise ConfigError(f"law: expected one of {LAWS}, got {law!r}")
+        if not isinstance(governor, bool):
+            raise ConfigError(f"governor: expected true or false, got {governor!r}")
+        if (isinstance(governor_threshold, bool) or not isinstance(governor_threshold, (int, float))
+                or not 0 < governor_threshold < 1):
+            raise ConfigError(f"governor_threshold: need a number in (0, 1), got {governor_threshold!r}")
         self.chain, self.curve, self.gain, self.law_form = chain, curve, float(gain), law
+        self.governor, self.governor_threshold = governor, float(governor_threshold)
+        self.damping = _check_damping(damping)
         self.speed = _param(speed, "speed")
         self._geometry = self._geometry_function()
         self._cache: dict = {}
@@ -91,9 +140,13 @@ class CoordinatingController:
         """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd).
 
         The carried ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}`` is the part of
-        ``ydot^j`` known before ``w_j``; the only division (by the link pivot) is turned into
-        a reciprocal off the loop-carried dependency chain, which sets the speed of the
-        compiled loop (see benchmarks/RESULTS.md).
+        ``ydot^j`` known before ``w_j``; the link's ``e`` row ``g.(P + Q p) + xi/2 (g.n_j) w_j = r``
+        is solved for ``w_j`` (dividing by the link pivot ``g.n_j``, turned into a reciprocal off
+        the loop-carried dependency chain, which sets the speed of the compiled loop, see
+        benchmarks/RESULTS.md). When the pivot is small (``|cos| < REPIVOT``) and ``g.Q`` is
+        better conditioned, the row is solved for the free rate instead (re-pivoting): the old
+        free rate becomes ``c + d w_j`` and ``w_j`` the new one, so a link standing across the
+        curve is no singularity unless the decoupling matrix itself is singular.
         """
         xi, K = self.chain.xi, self.gain
         carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
@@ -105,12 +158,22 @@ class CoordinatingController:
         y_j = y + 0.5 * xi * (d_prev + d_j)
         phi, g, phit, *_ = self._geometry(y_j, t)
         pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
+        gq = ca.dot(g, Q)
+        r = -K * phi - phit - ca.dot(g, P)
+        gn = ca.norm_2(g)
+        cos_n, cos_q = ca.fabs(pivot) / gn, ca.fabs(gq) / (gn * ca.norm_2(Q))
+        swap = ca.logic_and(cos_n < REPIVOT, cos_q > cos_n)
         inv = 1 / (0.5 * xi * pivot)
-        a_j = (-K * phi - phit - ca.dot(g, P)) * inv
-        b_j = -ca.dot(g, Q) * inv
+        a_j = ca.if_else(swap, 0, r * inv)
+        b_j = ca.if_else(swap, 1, -gq * inv)
+        c_j = ca.if_else(swap, r / gq, 0)            # old free rate = c_j + d_j * new free rate
+        d_j_ = ca.if_else(swap, -0.5 * xi * pivot / gq, 1)
+        P0 = P + Q * c_j                             # P + Q p in terms of the new free rate
+        Q0 = Q * d_j_
         step = xi * n_j                              # ydot^j = P + xi/2 n_j w_j; next P adds it again
-        new = ca.vertcat(y_j, alpha, d_j, P + step * a_j, Q + step * b_j, a_j, b_j, nb + ca.fabs(b_j))
-        out = ca.vertcat(phi, ca.fabs(pivot) / ca.norm_2(g), a_j, b_j)
+        new = ca.vertcat(y_j, alpha, d_j, P0 + step * a_j, Q0 + step * b_j, a_j, b_j,
+                         ca.fabs(d_j_) * nb + ca.fabs(b_j))
+        out = ca.vertcat(phi, ca.if_else(swap, cos_q, cos_n), a_j, b_j, c_j, d_j_)
         both = ca.cse(ca.vertcat(new, out))          # one CSE over both, so a_j, b_j are shared
         return carry, qj, t, both[:new.numel()], both[new.numel():]
 
@@ -138,9 +201,10 @@ class CoordinatingController:
         ``carry`` (layout :attr:`CARRY`) holds ``y^{j-1}``, ``alpha_{j-1}`` with its cosine
         and sine (so each link evaluates one sine/cosine pair), ``w_{j-1} = a + b p`` and
         ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}``, affine in the free rate
-        ``p = w_1``, and the running ``sum |b|``; ``w`` is :meth:`time_features` at the
-        current time;
-        ``out_j = (e^j, link margin, a_j, b_j)``.
+        ``p``, and the running ``sum |b|``; ``w`` is :meth:`time_features` at the current time;
+        ``out_j = (e^j, link margin, a_j, b_j, c_j, d_j)``: ``w_j = a_j + b_j p_j`` and
+        ``p_{j-1} = c_j + d_j p_j`` with ``p_j`` the free rate after link j (``p_1 = w_1``;
+        ``c_j = 0, d_j = 1`` unless the link was re-pivoted).
         """
         return self._hoisted_link()[1]
 
@@ -153,11 +217,12 @@ class CoordinatingController:
                            ["q_1"], ["carry"])
 
     def tail(self) -> ca.Function:
-        """``(carry_m, t) -> (s, p, longitudinal, longitudinal_pivot)`` after the last link.
+        """``(carry_m, t) -> (s, p, longitudinal, longitudinal_pivot, v_scale)`` after the last link.
 
-        The ``s`` equation fixes the free rate ``p = w_1`` by dividing by the longitudinal
+        The ``s`` equation fixes the free rate ``p`` by dividing by the longitudinal
         pivot ``grad(psi)(y^m) . d ydot^m / dp`` [m/rad]; the longitudinal margin
         ``|pivot| / (xi sum |b|)`` is dimensionless (``(m-1)/m sin(beta)`` on a zig-zag of m links).
+        With the governor the commanded speed is ``v_scale v*`` (``v_scale`` = 1 without).
         """
         carry, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("t")
         y_m, n_m, nb = carry[0:2], ca.vertcat(-carry[4], carry[3]), carry[11]
@@ -165,10 +230,11 @@ class CoordinatingController:
         A_m, B_m = carry[5:7] - half * carry[9], carry[7:9] - half * carry[10]   # ydot^m = A_m + B_m p
         _, _, _, psi, h, psit = self._geometry(y_m, t)
         pivot = ca.dot(h, B_m)
-        p = (self.speed(t) - psit - ca.dot(h, A_m)) / pivot
         margin = ca.fabs(pivot) / (self.chain.xi * nb)
-        return ca.Function("tail", [carry, t], [psi, p, margin, pivot], ["carry", "t"],
-                           ["s", "p", "longitudinal", "longitudinal_pivot"])
+        scale = speed_scale(margin, self.governor_threshold) if self.governor else ca.SX(1)
+        p = (scale * self.speed(t) - psit - ca.dot(h, A_m)) / pivot
+        return ca.Function("tail", [carry, t], [psi, p, margin, pivot, scale], ["carry", "t"],
+                           ["s", "p", "longitudinal", "longitudinal_pivot", "v_scale"])
 
     def _u_from_rates(self, qdot):
         """``u = B^{-1} qdot`` (a division when B is diagonal)."""
@@ -177,20 +243,32 @@ class CoordinatingController:
             return qdot / ca.DM(bd) if not np.all(bd == 1) else qdot
         return ca.mtimes(ca.DM(np.linalg.inv(self.chain.B)), qdot)
 
+    def back_step(self) -> ca.Function:
+        """``(p_j, (c_j, d_j)) -> p_{j-1} = c_j + d_j p_j``: the free rate before link j."""
+        p, cd = ca.SX.sym("p"), ca.SX.sym("cd", 2)
+        return ca.Function("back_step", [p, cd], [cd[0] + cd[1] * p], ["p", "cd"], ["p_prev"])
+
     def _structured(self, q, t):
         m = self.chain.m
         w_t = self.time_features()(t)
         fold = self.link_step().mapaccum("links", m - 1)
         carries, outs = fold(self.first_carry()(q[0]), q[1:].T, ca.repmat(w_t, 1, m - 1))
-        psi, p, margin, pivot = self.tail()(carries[:, m - 2], t)
+        psi, p, margin, pivot, scale = self.tail()(carries[:, m - 2], t)
+        back = self.back_step().mapaccum("back", m - 1)
+        rev = list(range(m - 2, -1, -1))
+        p_prev = back(p, outs[4:6, rev])                 # p_{m-1}, ..., p_1
+        p_all = ca.vertcat(p_prev[:, rev].T, p)          # p_1, ..., p_m
         a = ca.vertcat(0, outs[2, :].T)
         b = ca.vertcat(1, outs[3, :].T)
-        w = a + b * p
+        w = a + b * p_all                                # w_1 = p_1; w_j = a_j + b_j p_j
         qdot = w - ca.vertcat(0, w[:-1])
-        return (self._u_from_rates(qdot), outs[0, :].T, psi, outs[1, :].T, margin, pivot)
+        return [self._u_from_rates(qdot), outs[0, :].T, psi, outs[1, :].T, margin, pivot, scale]
 
-    def decoupling_matrix_expr(self, q, t):
-        """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD."""
+    def decoupling_matrix_expr(self, q, t, v_scale=1):
+        """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD.
+
+        ``v_scale`` multiplies ``v*`` in the ``s`` row (the governor's factor).
+        """
         y = self.chain.centres(q)
         rows, rhs = [], []
         for j in [self.chain.m - 1] + list(range(1, self.chain.m)):
@@ -198,7 +276,7 @@ class CoordinatingController:
             Cj = ca.jacobian(y[:, j], q)
             if j == self.chain.m - 1 and not rows:
                 rows.append(ca.mtimes(h.T, Cj))
-                rhs.append(self.speed(t) - psit)
+                rhs.append(v_scale * self.speed(t) - psit)
                 continue
             rows.append(ca.mtimes(g.T, Cj))
             rhs.append(-self.gain * phi - phit)
@@ -207,11 +285,12 @@ class CoordinatingController:
 
     # ------------------------------------------------------------ CasADi Functions
     def law(self, form: str | None = None) -> ca.Function:
-        """The control law ``(q, t) -> (u, e, s, link_margins, longitudinal, longitudinal_pivot)``.
+        """The control law ``(q, t) -> (u, e, s, link_margins, longitudinal, longitudinal_pivot, v_scale)``.
 
         ``form="structured"`` is an MX Function with a loop over links (for code
         generation); ``form="dense"`` solves the dense eq. 27 and takes its margins
-        from the structured recursion.
+        from the structured recursion. With ``damping``, ``u`` is the damped least-squares
+        solution wherever the smallest margin is inside the band.
         """
         form = form or self.law_form
         if form not in LAWS:
@@ -220,12 +299,18 @@ class CoordinatingController:
         if key not in self._cache:
             q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
             outs = list(self._structured(q, t))
-            if form == "dense":
-                qs, ts = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
-                M, r = self.decoupling_matrix_expr(qs, ts)
-                Mr = ca.Function("decoupling", [qs, ts], [M, r])
-                Mq, rq = Mr(q, t)
-                outs[0] = ca.solve(Mq, rq, "qr")
+            if form == "dense" or self.damping:
+                qs, ts, vs = ca.SX.sym("q", self.chain.m), ca.SX.sym("t"), ca.SX.sym("v_scale")
+                M, r = self.decoupling_matrix_expr(qs, ts, vs)
+                Mq, rq = ca.Function("decoupling", [qs, ts, vs], [M, r])(q, t, outs[6])
+                if form == "dense":
+                    outs[0] = ca.solve(Mq, rq, "qr")
+                if self.damping:
+                    d = self.damping
+                    lam2 = damping_factor(ca.fmin(ca.mmin(outs[3]), outs[4]), d["lambda"], d["band"])
+                    damped = ca.mtimes(Mq.T, ca.solve(ca.mtimes(Mq, Mq.T) + lam2 * ca.MX.eye(self.chain.m),
+                                                      rq, "qr"))
+                    outs[0] = ca.if_else(lam2 > 0, damped, outs[0])
             self._cache[key] = ca.Function(f"coordinating_law_{form}", [q, t], outs,
                                            ["q", "t"], list(OUTPUTS))
         return self._cache[key]
@@ -235,11 +320,12 @@ class CoordinatingController:
         form = form or self.law_form
         key = ("fast", form)
         if key not in self._cache:
-            self._cache[key] = self.law(form).expand() if form == "structured" else self.law(form)
+            self._cache[key] = (self.law(form).expand() if form == "structured" and not self.damping
+                               else self.law(form))
         return self._cache[key]
 
     def rk4_step(self, h: float, form: str | None = None) -> ca.Function:
-        """Closed-loop RK4 step of ``qdot = B u(q, t)``: ``(q, t) -> (q_next, u, e, s, links, long)``.
+        """Closed-loop RK4 step of ``qdot = B u(q, t)``: ``(q, t) -> (q_next, *STEP_OUTPUTS)``.
 
         The diagnostics are those of the law at the step's start ``(q, t)``.
         """
@@ -255,8 +341,9 @@ class CoordinatingController:
             k3 = ca.mtimes(B, law(q + h / 2 * k2, t + h / 2)[0])
             k4 = ca.mtimes(B, law(q + h * k3, t + h)[0])
             q_next = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *out1[:5]],
-                                           ["q", "t"], ["q_next", *OUTPUTS[:5]])
+            diag = [o for name, o in zip(OUTPUTS, out1) if name in STEP_OUTPUTS]
+            self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *diag],
+                                           ["q", "t"], ["q_next", *STEP_OUTPUTS])
         return self._cache[key]
 
     def decoupling_function(self) -> ca.Function:
@@ -417,5 +504,6 @@ class CoordinatingController:
         return evaluate(self.speed, t)
 
     def __repr__(self) -> str:
+        extra = (", governor=True" if self.governor else "") + (f", damping={self.damping!r}" if self.damping else "")
         return (f"CoordinatingController({self.chain!r}, {type(self.curve).__name__}, "
-                f"gain={self.gain}, law={self.law_form!r})")
+                f"gain={self.gain}, law={self.law_form!r}{extra})")
