@@ -9,7 +9,8 @@ Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
     description = "..."
     [chain]     links = 64, link_length = 0.1
     [curve]     kind = "line" | "circle" | "arc", with its parameters
-    [control]   gain = 2.0, speed = 0.1 (or a motion), law = "structured" | "dense"
+    [control]   gain = 2.0, speed = 0.1 (or a motion), law = "structured" | "dense",
+                governor = false, damping = { kind = "dls", lambda = 0.01, band = 0.1 }
     [start]     kind = "zigzag" | "projected", beta = 1.3, heading = 0.0,
                 curve = {...}  (projected: project onto this curve instead)
     [run]       duration = 20.0, step = 0.001, t0 = 0.0
@@ -29,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
                       motion_from_spec, project_onto_curve)
 
@@ -36,12 +38,12 @@ from .run import DEFAULT_THRESHOLDS, check_number
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
             "obstacles"}
-KEYS = {"chain": {"links", "link_length"}, "control": {"gain", "speed", "law"},
+KEYS = {"chain": {"links", "link_length"}, "control": {"gain", "speed", "law", "governor", "damping"},
         "start": {"kind", "beta", "heading", "curve"}, "run": {"duration", "step", "t0"},
         "thresholds": {"link", "longitudinal"}}
 DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
             "run": {"duration": 20.0, "step": 0.001, "t0": 0.0},
-            "control": {"law": "structured"}}
+            "control": {"law": "structured", "governor": False}}
 
 
 def presets() -> list[str]:
@@ -116,6 +118,12 @@ class Scenario:
         motion_from_spec(spec["control"].get("speed", 0.0), "control.speed")
         if spec["control"]["law"] not in LAWS:
             raise ConfigError(f"control.law: expected one of {LAWS}, got {spec['control']['law']!r}")
+        if not isinstance(spec["control"]["governor"], bool):
+            raise ConfigError(f"control.governor: expected true or false, got {spec['control']['governor']!r}")
+        try:
+            check_damping(spec["control"].get("damping"))
+        except ConfigError as exc:
+            raise ConfigError(f"control.{exc}") from None
         curve_from_spec(spec["curve"], "curve")
         st = spec["start"]
         if st["kind"] not in ("zigzag", "projected"):
@@ -164,9 +172,17 @@ class Scenario:
         return dict(self.spec["thresholds"])
 
     def with_overrides(self, links: int | None = None, duration: float | None = None,
-                       step: float | None = None, law: str | None = None) -> "Scenario":
-        """A copy with the chain length, duration, step or form of the law replaced (validated again)."""
+                       step: float | None = None, law: str | None = None, governor: bool | None = None,
+                       damping: dict | None = None) -> "Scenario":
+        """A copy with the chain length, duration, step, form of the law, governor or damping replaced.
+
+        The copy is validated again.
+        """
         spec = copy.deepcopy(self.spec)
+        if governor is not None:
+            spec["control"]["governor"] = governor
+        if damping is not None:
+            spec["control"]["damping"] = damping
         if law is not None:
             spec["control"]["law"] = law
         if links is not None:
@@ -185,7 +201,9 @@ class Scenario:
         c = self.spec["control"]
         return CoordinatingController(self.chain(), curve_from_spec(self.spec["curve"]), float(c["gain"]),
                                       motion_from_spec(c.get("speed", 0.0), "control.speed"),
-                                      law=c["law"])
+                                      law=c["law"], governor=c["governor"],
+                                      governor_threshold=float(self.spec["thresholds"]["longitudinal"]),
+                                      damping=c.get("damping"))
 
     def start(self, ctrl: CoordinatingController | None = None) -> np.ndarray:
         """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked)."""

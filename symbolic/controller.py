@@ -44,8 +44,14 @@ GOVERNOR_THRESHOLD = 0.15
 DAMPING_KINDS = ("dls",)
 
 
-def _check_damping(damping: Any) -> dict | None:
-    """``damping`` validated: None or ``{"kind": "dls", "lambda": > 0, "band": in (0, 1]}``."""
+def check_damping(damping: Any) -> dict | None:
+    """``damping`` validated, defaults filled in: None or ``{"kind": "dls", "lambda": > 0, "band": in (0, 1]}``.
+
+    Raises
+    ------
+    ConfigError
+        Not a table, an unknown key or kind, or a value out of range (named).
+    """
     if damping is None:
         return None
     if not isinstance(damping, dict) or set(damping) - {"kind", "lambda", "band"} or "kind" not in damping:
@@ -80,7 +86,8 @@ class CoordinatingController:
         Scale ``v*`` by :func:`~.near_singular.speed_scale` of the longitudinal margin
         (output ``v_scale``; 1 when off).
     governor_threshold : float
-        Longitudinal margin at which the governed speed reaches 0 (dimensionless).
+        Longitudinal margin at which the governed speed reaches 0 (dimensionless, in (0, 1);
+        used only with the governor).
     damping : dict, optional
         ``{"kind": "dls", "lambda": 0.01, "band": 0.1}``: inside the band of the smallest
         margin solve ``u = M^T (M M^T + lambda_v^2 I)^-1 r`` with the variable damping
@@ -101,12 +108,12 @@ class CoordinatingController:
             raise ConfigError(f"law: expected one of {LAWS}, got {law!r}")
         if not isinstance(governor, bool):
             raise ConfigError(f"governor: expected true or false, got {governor!r}")
-        if (isinstance(governor_threshold, bool) or not isinstance(governor_threshold, (int, float))
-                or not 0 < governor_threshold < 1):
+        if governor and (isinstance(governor_threshold, bool) or not isinstance(governor_threshold, (int, float))
+                         or not 0 < governor_threshold < 1):
             raise ConfigError(f"governor_threshold: need a number in (0, 1), got {governor_threshold!r}")
         self.chain, self.curve, self.gain, self.law_form = chain, curve, float(gain), law
         self.governor, self.governor_threshold = governor, float(governor_threshold)
-        self.damping = _check_damping(damping)
+        self.damping = check_damping(damping)
         self.speed = _param(speed, "speed")
         self._geometry = self._geometry_function()
         self._cache: dict = {}

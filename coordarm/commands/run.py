@@ -28,6 +28,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, help="override the simulated duration [s]")
     p.add_argument("--step", type=float, help="override the RK4 step [s]")
     p.add_argument("--law", choices=LAWS, help="form of the control law")
+    p.add_argument("--governor", action="store_true",
+                   help="slow the commanded speed smoothly near the longitudinal singularity instead of stopping "
+                        "(same as [control] governor = true)")
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="compiled C (built or taken from the cache), interpreted CasADi, or auto (default: "
                         "compiled when a C compiler is found, else interpreted with a warning)")
@@ -57,6 +60,8 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
              f"t = {s['min_link_margin_time']:.2f} s)",
              f"longitudinal  min {s['min_longitudinal_margin']:.4f} (t = {s['min_longitudinal_margin_time']:.2f} s)",
              f"max|u|        {s['max_abs_u']:.4g}"]
+    if scenario.spec["control"].get("governor"):
+        lines.append(f"governor      v* slowed during {run.governed_time():.3f} s (final v_scale {run.v_scale[-1]:.3g})")
     if len(scenario.obstacles):
         joints = scenario.chain().joints_np(run.q) if run.q.shape[1] == scenario.chain().m else None
         if joints is not None:
@@ -82,7 +87,8 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
 
 def main(args: argparse.Namespace) -> int:
     """Run the scenario named in ``args``; return 0 (done), 3 (stopped ahead of a singularity)."""
-    scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
+    scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law,
+                                                           governor=True if args.governor else None)
     ctrl = scenario.controller()
     q0 = scenario.start(ctrl)
     with warnings.catch_warnings(record=True) as caught:   # builds or loads before the log opens
