@@ -13,6 +13,7 @@ COMMANDS = {
     "regen": "coordarm.commands.regen",
     "replay": "coordarm.commands.replay",
     "report": "coordarm.commands.report",
+    "compare": "coordarm.commands.compare",
 }
 
 
