@@ -132,7 +132,7 @@ def to_json(scenario: Scenario, results: list[MethodRun]) -> dict[str, Any]:
     return {"scenario": scenario.name, "methods": {r.method: {k: r.scores[k] for k in SCORES} for r in results}}
 
 
-HEADERS = ("method", "outcome", "max dev [m]", "wall", "self", "peak |u|", "peak rate [rad/s]",
+HEADERS = ("method", "outcome", "max dev [m]", "wall", "self", "peak u [rad/s]", "peak rate [rad/s]",
            "final s err [m]", "step [µs]")
 
 
