@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+import coordarm.symbolic.controller as controller_module
 from coordarm.symbolic import LAWS, BuildError, CoordinatingController
 
 from . import templates
@@ -45,7 +46,7 @@ def _split(ctrl: CoordinatingController, form: str) -> bool:
 
 def _functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
     if _split(ctrl, form):
-        return [ctrl.time_features(), ctrl.first_carry(), ctrl.link_step(), ctrl.tail()]
+        return [ctrl.time_features(), ctrl.first_carry(), ctrl.link_step(), ctrl.link_step_repivot(), ctrl.tail()]
     return [ctrl.law(form)]
 
 
@@ -91,7 +92,8 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     parts = [cg.dump(), templates.HEADER.format(m=m, b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
     if _split(ctrl, form):
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
-                     f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
+                     f"#define CA_NC {len(CoordinatingController.CARRY)}\n"
+                     f"#define CA_REPIVOT {controller_module.REPIVOT!r}\n")
         parts.append(templates.STRUCTURED_LAW)
     else:
         parts.append(templates.DENSE_LAW.replace("{law_name}", funcs[0].name()))

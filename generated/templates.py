@@ -42,36 +42,56 @@ B_DIAGONAL = """static const casadi_real ca_bd[CA_M] = {{{values}}};
 B_IDENTITY = """#define CA_U_FROM_QDOT(j, v) (v)
 #define CA_K_FROM_U(j, v) (v)"""
 
-#: The structured law: a loop over links calling the generated per-link step, then the
-#: back-substitution of the free rate through the links that were re-pivoted (c_j, d_j).
+#: The structured law: a loop over links calling the generated per-link step. If some link's
+#: pivot is small (margin below CA_REPIVOT, or NaN), the whole law is evaluated again by a
+#: separate, out-of-line loop over the re-pivoting step, with the back-substitution of the free
+#: rate through the re-pivoted links (c_j, d_j). The common loop only ORs a flag, so it compiles
+#: as it did without re-pivoting (a call inside it costs 18 %: benchmarks/RESULTS.md).
 STRUCTURED_LAW = """
-static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
-  casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[6], tl[5], a[CA_M], b[CA_M], c[CA_M], d[CA_M];
-  casadi_real *cur = c0, *nxt = c1, *tmp, p, prev;
+static int ca_head(const casadi_real* q, casadi_real t, casadi_real* wt, casadi_real* carry, casadi_int* iw,
+                   casadi_real* w) {
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
-  casadi_int j;
   arg[0] = &t; res[0] = wt;
   if (time_features(arg, res, iw, w, 0)) return 2;
-  arg[0] = q; res[0] = cur;
-  if (first_carry(arg, res, iw, w, 0)) return 2;
-  a[0] = 0; b[0] = 1;
-  for (j = 1; j < CA_M; ++j) {
-    arg[0] = cur; arg[1] = q + j; arg[2] = wt; res[0] = nxt; res[1] = o;
-    if (link_step(arg, res, iw, w, 0)) return 2;
-    out[CA_M + j - 1] = o[0];          /* e^j */
-    out[2 * CA_M + j - 1] = o[1];      /* link margin */
-    a[j] = o[2]; b[j] = o[3]; c[j] = o[4]; d[j] = o[5];
-    tmp = cur; cur = nxt; nxt = tmp;
-  }
-  arg[0] = cur; arg[1] = &t;
+  arg[0] = q; res[0] = carry;
+  return first_carry(arg, res, iw, w, 0) ? 2 : 0;
+}
+
+/* The end-point equation: s, margins, v_scale into out; returns the free rate after the last link in *p. */
+static int ca_tail(const casadi_real* carry, casadi_real t, casadi_real* out, casadi_real* p, casadi_int* iw,
+                   casadi_real* w) {
+  casadi_real tl[5];
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  arg[0] = carry; arg[1] = &t;
   res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3; res[4] = tl + 4;
   if (tail(arg, res, iw, w, 0)) return 2;
   out[2 * CA_M - 1] = tl[0];           /* s */
   out[3 * CA_M - 1] = tl[2];           /* longitudinal margin */
   out[3 * CA_M] = tl[3];               /* longitudinal pivot */
   out[3 * CA_M + 1] = tl[4];           /* v_scale */
-  p = tl[1];                           /* the free rate after the last link */
+  *p = tl[1];
+  return 0;
+}
+
+static __attribute__((noinline, cold)) int ca_law_repivot(const casadi_real* q, casadi_real t, casadi_real* out,
+                                                          casadi_int* iw, casadi_real* w) {
+  casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[6], a[CA_M], b[CA_M], c[CA_M], d[CA_M];
+  casadi_real *cur = c0, *nxt = c1, *tmp, p, rate, prev;
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  casadi_int j;
+  if (ca_head(q, t, wt, cur, iw, w)) return 2;
+  for (j = 1; j < CA_M; ++j) {
+    arg[0] = cur; arg[1] = q + j; arg[2] = wt; res[0] = nxt; res[1] = o;
+    if (link_step_repivot(arg, res, iw, w, 0)) return 2;
+    out[CA_M + j - 1] = o[0];
+    out[2 * CA_M + j - 1] = o[1];
+    a[j] = o[2]; b[j] = o[3]; c[j] = o[4]; d[j] = o[5];
+    tmp = cur; cur = nxt; nxt = tmp;
+  }
+  if (ca_tail(cur, t, out, &p, iw, w)) return 2;
   for (j = CA_M - 1; j > 0; --j) {     /* w_j = a_j + b_j p_j (kept in out), p_{j-1} = c_j + d_j p_j */
     out[j] = a[j] + b[j] * p;
     p = c[j] + d[j] * p;
@@ -79,7 +99,36 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
   out[0] = p;                          /* w_1 = p_1 */
   prev = 0;
   for (j = 0; j < CA_M; ++j) {         /* qdot_j = w_j - w_{j-1} */
-    casadi_real rate = out[j];
+    rate = out[j];
+    out[j] = CA_U_FROM_QDOT(j, rate - prev);
+    prev = rate;
+  }
+  return 0;
+}
+
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
+  casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[4], a[CA_M], b[CA_M];
+  casadi_real *cur = c0, *nxt = c1, *tmp, p, rate, prev;
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  casadi_int j;
+  int repivot = 0;
+  if (ca_head(q, t, wt, cur, iw, w)) return 2;
+  a[0] = 0; b[0] = 1;
+  for (j = 1; j < CA_M; ++j) {
+    arg[0] = cur; arg[1] = q + j; arg[2] = wt; res[0] = nxt; res[1] = o;
+    if (link_step(arg, res, iw, w, 0)) return 2;
+    repivot |= !(o[1] >= CA_REPIVOT);  /* small (or NaN) link pivot */
+    out[CA_M + j - 1] = o[0];          /* e^j */
+    out[2 * CA_M + j - 1] = o[1];      /* link margin */
+    a[j] = o[2]; b[j] = o[3];
+    tmp = cur; cur = nxt; nxt = tmp;
+  }
+  if (repivot) return ca_law_repivot(q, t, out, iw, w);
+  if (ca_tail(cur, t, out, &p, iw, w)) return 2;
+  prev = 0;
+  for (j = 0; j < CA_M; ++j) {         /* w_j = a_j + b_j p, qdot_j = w_j - w_{j-1} */
+    rate = a[j] + b[j] * p;
     out[j] = CA_U_FROM_QDOT(j, rate - prev);
     prev = rate;
   }

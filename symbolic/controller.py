@@ -144,7 +144,9 @@ class CoordinatingController:
     CARRY = ("y1", "y2", "alpha", "cos_alpha", "sin_alpha", "P1", "P2", "Q1", "Q2", "a", "b", "sum_abs_b")
 
     def _link_expressions(self):
-        """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd).
+        """Symbolic carry, ``q_j``, ``t`` and two link steps, each a ``(carry_next, out)`` pair.
+
+        The plain step and the re-pivoting one (see :meth:`link_step_repivot`).
 
         The carried ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}`` is the part of
         ``ydot^j`` known before ``w_j``; the link's ``e`` row ``g.(P + Q p) + xi/2 (g.n_j) w_j = r``
@@ -167,36 +169,51 @@ class CoordinatingController:
         pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
         gq = ca.dot(g, Q)
         r = -K * phi - phit - ca.dot(g, P)
-        gn = ca.norm_2(g)
-        cos_n, cos_q = ca.fabs(pivot) / gn, ca.fabs(gq) / (gn * ca.norm_2(Q))
-        swap = ca.logic_and(cos_n < REPIVOT, cos_q > cos_n)
-        inv = 1 / (0.5 * xi * pivot)
-        a_j = ca.if_else(swap, 0, r * inv)
-        b_j = ca.if_else(swap, 1, -gq * inv)
-        c_j = ca.if_else(swap, r / gq, 0)            # old free rate = c_j + d_j * new free rate
-        d_j_ = ca.if_else(swap, -0.5 * xi * pivot / gq, 1)
-        P0 = P + Q * c_j                             # P + Q p in terms of the new free rate
-        Q0 = Q * d_j_
+        cos_n = ca.fabs(pivot) / ca.norm_2(g)
         step = xi * n_j                              # ydot^j = P + xi/2 n_j w_j; next P adds it again
-        new = ca.vertcat(y_j, alpha, d_j, P0 + step * a_j, Q0 + step * b_j, a_j, b_j,
-                         ca.fabs(d_j_) * nb + ca.fabs(b_j))
-        out = ca.vertcat(phi, ca.if_else(swap, cos_q, cos_n), a_j, b_j, c_j, d_j_)
-        both = ca.cse(ca.vertcat(new, out))          # one CSE over both, so a_j, b_j are shared
-        return carry, qj, t, both[:new.numel()], both[new.numel():]
+        head = ca.vertcat(y_j, alpha, d_j)
+        # the plain step: w_j = a_j + b_j p (no division on the loop-carried P, Q chain)
+        inv = 1 / (0.5 * xi * pivot)
+        a_j, b_j = r * inv, -gq * inv
+        plain = (ca.vertcat(head, P + step * a_j, Q + step * b_j, a_j, b_j, nb + ca.fabs(b_j)),
+                 ca.vertcat(phi, cos_n, a_j, b_j))
+        # the re-pivoting step: where it swaps, the old free rate is c_j + d_j w_j and w_j the new one
+        cos_q = ca.fabs(gq) / (ca.norm_2(g) * ca.norm_2(Q))
+        swap = ca.logic_and(cos_n < REPIVOT, cos_q > cos_n)
+        a_s, b_s = ca.if_else(swap, 0, a_j), ca.if_else(swap, 1, b_j)
+        c_s, d_s = ca.if_else(swap, r / gq, 0), ca.if_else(swap, -0.5 * xi * pivot / gq, 1)
+        P0, Q0 = P + Q * c_s, Q * d_s                # P + Q p in terms of the new free rate
+        repivoted = (ca.vertcat(head, P0 + step * a_s, Q0 + step * b_s, a_s, b_s, ca.fabs(d_s) * nb + ca.fabs(b_s)),
+                     ca.vertcat(phi, ca.if_else(swap, cos_q, cos_n), a_s, b_s, c_s, d_s))
+        return carry, qj, t, plain, repivoted
 
     def _hoisted_link(self):
-        """The link step split into time-only terms ``w(t)`` and the per-link rest (cached)."""
+        """The link steps split into time-only terms ``w(t)`` and the per-link rest (cached).
+
+        Returns ``(time_features, link_step, link_step_repivot)``, the two steps sharing ``w``.
+        """
         if "hoisted" not in self._cache:
-            carry, qj, t, new, out = self._link_expressions()
-            expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new, out), t)
+            carry, qj, t, plain, repivoted = self._link_expressions()
+            parts = [*plain, *repivoted]
+            sizes = np.cumsum([0] + [p.numel() for p in parts])
+            # one CSE and one extraction over both steps, so they share the time terms w(t)
+            expr, wsym, wexpr = ca.extract_parametric(ca.cse(ca.vertcat(*parts)), t)
             wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 0)
             wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX(0, 1)
-            n_new = new.numel()
+            e = [expr[sizes[i]:sizes[i + 1]] for i in range(4)]
             tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
-            step = ca.Function("link_step", [carry, qj, wsym], [expr[:n_new], expr[n_new:]],
+            step = ca.Function("link_step", [carry, qj, wsym], list(self._cse_pair(e[0], e[1])),
                                ["carry", "q_j", "w"], ["carry_next", "out"])
-            self._cache["hoisted"] = (tf, step)
+            rep = ca.Function("link_step_repivot", [carry, qj, wsym], list(self._cse_pair(e[2], e[3])),
+                              ["carry", "q_j", "w"], ["carry_next", "out"])
+            self._cache["hoisted"] = (tf, step, rep)
         return self._cache["hoisted"]
+
+    @staticmethod
+    def _cse_pair(new, out):
+        """``new`` and ``out`` after one CSE over both (so shared terms are computed once)."""
+        both = ca.cse(ca.vertcat(new, out))
+        return both[:new.numel()], both[new.numel():]
 
     def time_features(self) -> ca.Function:
         """``t -> w``: the terms of :meth:`link_step` that depend on time only, computed once per ``t``."""
@@ -209,11 +226,21 @@ class CoordinatingController:
         and sine (so each link evaluates one sine/cosine pair), ``w_{j-1} = a + b p`` and
         ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}``, affine in the free rate
         ``p``, and the running ``sum |b|``; ``w`` is :meth:`time_features` at the current time;
-        ``out_j = (e^j, link margin, a_j, b_j, c_j, d_j)``: ``w_j = a_j + b_j p_j`` and
-        ``p_{j-1} = c_j + d_j p_j`` with ``p_j`` the free rate after link j (``p_1 = w_1``;
-        ``c_j = 0, d_j = 1`` unless the link was re-pivoted).
+        ``out_j = (e^j, link margin, a_j, b_j)`` with ``w_j = a_j + b_j p``. It divides by the
+        link pivot: see :meth:`link_step_repivot` for links across the curve.
         """
         return self._hoisted_link()[1]
+
+    def link_step_repivot(self) -> ca.Function:
+        """:meth:`link_step` with re-pivoting: ``out_j = (e^j, link margin, a_j, b_j, c_j, d_j)``.
+
+        Where the link pivot is small (``|cos| < REPIVOT``) and ``g.Q`` is better conditioned
+        it solves the link's row for the free rate: then ``p_{j-1} = c_j + d_j p_j`` with
+        ``p_j = w_j`` the new free rate (``a_j = 0, b_j = 1``); elsewhere it equals
+        :meth:`link_step` with ``c_j = 0, d_j = 1``. The compiled loop calls it only for links
+        whose plain margin is below ``REPIVOT``; the interpreted law uses it for every link.
+        """
+        return self._hoisted_link()[2]
 
     def first_carry(self) -> ca.Function:
         """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``)."""
@@ -258,7 +285,7 @@ class CoordinatingController:
     def _structured(self, q, t):
         m = self.chain.m
         w_t = self.time_features()(t)
-        fold = self.link_step().mapaccum("links", m - 1)
+        fold = self.link_step_repivot().mapaccum("links", m - 1)
         carries, outs = fold(self.first_carry()(q[0]), q[1:].T, ca.repmat(w_t, 1, m - 1))
         psi, p, margin, pivot, scale = self.tail()(carries[:, m - 2], t)
         back = self.back_step().mapaccum("back", m - 1)
