@@ -145,3 +145,18 @@ def test_compare_hole_end_to_end_reproduces_the_readme_table(tmp_path, capsys):
     assert data["methods"]["coordinating"]["final_s_error"] == pytest.approx(
         abs(run.s[-1] - run.s_reference()[-1]), abs=1e-12)
     assert data["methods"]["coordinating"]["peak_u"] == pytest.approx(np.max(np.abs(run.u)), rel=1e-12)
+
+
+def test_a_method_that_stops_early_is_scored_up_to_its_stop_and_drawn(tmp_path):
+    sc = Scenario.from_dict({"name": "pushed", "chain": {"links": 10, "link_length": 0.1},
+                             "curve": {"kind": "line", "angle": 0.02}, "control": {"gain": K, "speed": 0.2},
+                             "start": {"beta": 1.2}, "run": {"duration": 4.0}})
+    results = compare(sc, ["coordinating", "pinv"])
+    coord, pinv = (r.scores for r in results)
+    assert coord["outcome"] == "singularity" and results[0].run.t[-1] == pytest.approx(2.807)
+    assert coord["final_s_error"] < 1e-9 and np.isfinite(coord["peak_u"])
+    assert pinv["outcome"] in ("completed", "singularity")
+    from coordarm.analysis.compare import write_outputs
+    paths = write_outputs(sc, results, tmp_path)
+    assert "| coordinating | singularity |" in paths["md"].read_text()
+    assert json.loads(paths["json"].read_text())["methods"]["coordinating"]["outcome"] == "singularity"

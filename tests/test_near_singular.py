@@ -66,6 +66,20 @@ def test_the_governor_brings_the_pushed_chain_to_rest_with_bounded_u_and_decayin
     assert np.all(np.diff(run.s) > -1e-12)
 
 
+@pytest.mark.parametrize("beta", [0.16, 0.2, 0.3, 1.2])     # margins 0.14 (below), 0.18, 0.27 (in the band), 0.84
+def test_governed_dense_and_structured_laws_agree_and_scale_only_the_speed(beta):
+    gov, plain = pushed_chain(True), pushed_chain(False)
+    q = gov.chain.zigzag(beta)
+    out = gov.evaluate(q, 0.3)
+    assert out["v_scale"] == pytest.approx(float(speed_scale(out["longitudinal"], 0.15)), abs=1e-15)
+    np.testing.assert_allclose(gov.evaluate(q, 0.3, form="dense")["u"], out["u"], rtol=1e-9, atol=1e-12)
+    M, r = (np.array(x) for x in plain.decoupling_function()(q, 0.3))
+    r = r.ravel()
+    r[0] -= (1 - out["v_scale"]) * 0.2                 # the s row asks for v_scale v* instead of v*
+    np.testing.assert_allclose(out["u"], np.linalg.solve(M, r), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(gov.compile().evaluate(q, 0.3)["u"], out["u"], rtol=1e-12, atol=1e-14)
+
+
 def test_governor_from_the_scenario_and_the_cli_logs_v_scale_and_governed_time(tmp_path, capsys):
     spec = {"name": "pushed", "chain": {"links": 10, "link_length": 0.1},
             "curve": {"kind": "line", "angle": 0.02}, "control": {"gain": K, "speed": 0.2},
