@@ -144,6 +144,8 @@ class Scenario:
             v = check_number(spec["thresholds"][k], f"thresholds.{k}", positive=False)
             if not 0 <= v < 1:
                 raise ConfigError(f"thresholds.{k}: need 0 <= value < 1, got {v}")
+        if spec["control"]["governor"] and not spec["thresholds"]["longitudinal"] > 0:
+            raise ConfigError("thresholds.longitudinal: the governor slows v* to 0 at this margin; need > 0")
         walls = spec.setdefault("obstacles", [])
         if not isinstance(walls, list):
             raise ConfigError("obstacles: expected an array of tables [[obstacles]]")

@@ -103,6 +103,9 @@ def test_governor_from_the_scenario_and_the_cli_logs_v_scale_and_governed_time(t
     spec["control"]["governor"] = "yes"
     with pytest.raises(ConfigError, match="control.governor"):
         Scenario.from_dict(spec)
+    spec["control"]["governor"], spec["thresholds"] = True, {"longitudinal": 0.0}
+    with pytest.raises(ConfigError, match="thresholds.longitudinal"):
+        Scenario.from_dict(spec)
 
 
 # ------------------------------------------------------------------ re-pivoting
