@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from coordarm.generated.build import build
+from coordarm.generated.codegen import CODEGEN_OPTIONS, Source
 from coordarm.simulation.run import Run
 from coordarm.symbolic import ConfigError, CoordinatingController
 from coordarm.symbolic.near_singular import damping_factor
@@ -30,6 +32,10 @@ from coordarm.symbolic.near_singular import damping_factor
 BASELINES = ("pinv", "dls")
 #: Gain of the joint-centering null-space term [1/s].
 CENTERING_GAIN = 1.0
+#: Backends of :func:`simulate_baseline`.
+BACKENDS = ("compiled", "interpreted")
+#: CasADi's generated functions are exported from the library (the build hides other symbols).
+_EXPORT = '#define CASADI_SYMBOL_EXPORT __attribute__((visibility("default")))\n'
 
 
 @dataclass
@@ -109,11 +115,30 @@ class EndPointRate:
         """``u = qdot`` (m,) [rad/s]."""
         return np.asarray(self.law()(self.ctrl.chain.check_q(q), t)).ravel()
 
-    def chunk(self, step: float, n: int) -> ca.Function:
-        """``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, U)``, column k the state after step k and ``u`` at its start."""
-        key = ("chunk", float(step), n)
+    def chunk(self, step: float, n: int, backend: str = "interpreted") -> ca.Function:
+        """``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, U)``, column k the state after step k and ``u`` at its start.
+
+        ``backend="compiled"``: the same Function as generated C, built (or taken from the
+        build cache, see :func:`generated.build.build`) and loaded with ``casadi.external``.
+
+        Raises
+        ------
+        BuildError
+            ``backend="compiled"`` and the C code cannot be built.
+        """
+        if backend not in BACKENDS:
+            raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+        key = ("chunk", float(step), n, backend)
         if key not in self._cache:
-            self._cache[key] = rk4_function(self.law(), step).mapaccum("chunk", n)
+            name = "baseline_chunk"
+            fn = rk4_function(self.law(), step).mapaccum(name, n)
+            if backend == "compiled":
+                cg = ca.CodeGenerator("baseline", dict(CODEGEN_OPTIONS))
+                cg.add(fn)
+                kind = "dls" if self.damping else "pinv"
+                lib = build(Source(_EXPORT + cg.dump(), kind, self.ctrl.chain.m))
+                fn = ca.external(name, str(lib.path))
+            self._cache[key] = fn
         return self._cache[key]
 
 
@@ -128,10 +153,10 @@ def rk4_function(law: ca.Function, h: float) -> ca.Function:
 
 
 def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: float = 0.0,
-                      chunk: int = 2000) -> Run:
-    """Fixed-step RK4 of ``qdot = law(q, t)`` in CasADi's virtual machine, chunk by chunk.
+                      chunk: int = 2000, backend: str = "interpreted") -> Run:
+    """Fixed-step RK4 of ``qdot = law(q, t)``, chunk by chunk (the same ``chunk`` steps each call).
 
-    The run stops (``info["stopped"] = "singularity"``) at the first non-finite state or
+    ``backend``: CasADi's virtual machine or generated C (see :meth:`EndPointRate.chunk`). The run stops (``info["stopped"] = "singularity"``) at the first non-finite state or
     control. ``e``, ``s`` and the margins of the returned :class:`~simulation.run.Run` are
     NaN (score runs from ``q`` with :mod:`analysis.compare`); ``info["wall_time"]`` is the
     time of the stepping loop [s] and ``info["steps"]`` its number of steps.
@@ -142,11 +167,13 @@ def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: f
     """
     n_steps = int(round(duration / step))
     q = law.ctrl.chain.check_q(q0, "q0")
+    chunk = min(chunk, n_steps)
+    fn = law.chunk(step, chunk, backend)             # built before the clock starts
     Qs, Us, k, stopped = [], [], 0, "completed"
     wall = time.perf_counter()
     while k < n_steps:
-        n = min(chunk, n_steps - k)
-        Qn, Un = (np.asarray(x).T for x in law.chunk(step, n)(q, t0 + step * np.arange(k, k + n)))
+        n = min(chunk, n_steps - k)                  # the last call runs past the end: its tail is dropped
+        Qn, Un = (np.asarray(x).T[:n] for x in fn(q, t0 + step * np.arange(k, k + chunk)))
         good = np.isfinite(Qn).all(axis=1) & np.isfinite(Un).all(axis=1)
         if not good.all():
             bad = int(np.argmin(good))
@@ -166,5 +193,5 @@ def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: f
     T = t0 + step * np.arange(len(Q))
     m, nan = Q.shape[1], np.full(len(Q), np.nan)
     return Run(T, Q, U, np.full((len(Q), m - 1), np.nan), nan, np.full((len(Q), m - 1), np.nan), nan.copy(),
-               law.ctrl.speeds(T), info={"backend": "interpreted", "stopped": stopped, "wall_time": wall,
+               law.ctrl.speeds(T), info={"backend": backend, "stopped": stopped, "wall_time": wall,
                                          "steps": max(k, 1)})

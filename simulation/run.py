@@ -280,7 +280,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
                 parts.append(part)
                 if on_chunk:
                     on_chunk(part)
-                run = _concat(parts, dict(info, stopped="singularity"))
+                run = _concat(parts, dict(info, stopped="singularity", wall_time=_time.perf_counter() - wall))
                 run.info["governed"] = run.governed_time()
                 raise SingularityError(part.t[-1], link, margin, kind, thr[kind], run=run,
                                        hint=None if ctrl.governor or kind != "longitudinal" else

@@ -160,3 +160,16 @@ def test_a_method_that_stops_early_is_scored_up_to_its_stop_and_drawn(tmp_path):
     paths = write_outputs(sc, results, tmp_path)
     assert "| coordinating | singularity |" in paths["md"].read_text()
     assert json.loads(paths["json"].read_text())["methods"]["coordinating"]["outcome"] == "singularity"
+
+
+@pytest.mark.parametrize("damping", [None, {"lambda": 0.05, "band": 1.0}])
+def test_compiled_baseline_steps_equal_the_interpreted_ones(damping):
+    ctrl = arc_ctrl(8)
+    q0 = ctrl.chain.zigzag(1.2)
+    law = EndPointRate(ctrl, q0, damping)
+    runs = [simulate_baseline(law, q0, 0.25, 0.001, chunk=100, backend=b) for b in ("compiled", "interpreted")]
+    assert runs[0].info["backend"] == "compiled" and len(runs[0].t) == 251
+    np.testing.assert_allclose(runs[0].q, runs[1].q, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(runs[0].u, runs[1].u, rtol=0, atol=1e-12)
+    with pytest.raises(ConfigError, match="backend"):
+        law.chunk(0.001, 10, "gpu")

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from coordarm.analysis.baselines import BACKENDS
 from coordarm.analysis.compare import METHODS, compare, parse_methods, text_table, write_outputs
 from coordarm.simulation.scenario import load_scenario, presets
 
@@ -21,6 +22,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help=f"comma-separated, from {','.join(METHODS)} (default: all that apply to the scenario)")
     p.add_argument("--out", type=Path, help="output directory (default: logs/<scenario>_compare)")
     p.add_argument("--duration", type=float, help="override the simulated duration [s]")
+    p.add_argument("--backend", choices=BACKENDS, default="compiled",
+                   help="every method as generated C (default; built or taken from the cache) or in CasADi's "
+                        "virtual machine")
     p.set_defaults(func=main)
 
 
@@ -28,11 +32,11 @@ def main(args: argparse.Namespace) -> int:
     """Compare the methods on ``args.scenario``; return 0."""
     scenario = load_scenario(args.scenario).with_overrides(duration=args.duration)
     methods = parse_methods(args.methods, scenario)
-    results = compare(scenario, methods)
+    results = compare(scenario, methods, args.backend)
     print(f"scenario {scenario.name} ({scenario.source}), {scenario.spec['chain']['links']} links, "
           f"{scenario.duration:g} s")
     print(text_table(results))
     out = args.out or Path("logs") / f"{scenario.name}_compare"
-    for kind, path in write_outputs(scenario, results, out).items():
+    for kind, path in write_outputs(scenario, results, out, args.backend).items():
         print(f"{kind:<5} {path}")
     return 0
