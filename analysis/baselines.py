@@ -130,8 +130,10 @@ class EndPointRate:
             raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
         key = ("chunk", float(step), n, backend)
         if key not in self._cache:
-            name = "baseline_chunk"
-            fn = rk4_function(self.law(), step).mapaccum(name, n)
+            name = "baseline_chunk"   # one named Function (mapaccum may nest and rename itself)
+            acc = rk4_function(self.law(), step).mapaccum("steps", n)
+            q0, times = ca.MX.sym("q0", self.ctrl.chain.m), ca.MX.sym("t", 1, n)
+            fn = ca.Function(name, [q0, times], acc(q0, times), ["q0", "t"], ["Q", "U"])
             if backend == "compiled":
                 cg = ca.CodeGenerator("baseline", dict(CODEGEN_OPTIONS))
                 cg.add(fn)
