@@ -131,7 +131,8 @@ class EndPointRate:
         key = ("chunk", float(step), n, backend)
         if key not in self._cache:
             name = "baseline_chunk"   # one named Function (mapaccum may nest and rename itself)
-            acc = rk4_function(self.law(), step).mapaccum("steps", n)
+            rk4 = rk4_function(self.law(), step)
+            acc = (rk4 if backend == "compiled" else rk4.expand()).mapaccum("steps", n)
             q0, times = ca.MX.sym("q0", self.ctrl.chain.m), ca.MX.sym("t", 1, n)
             fn = ca.Function(name, [q0, times], acc(q0, times), ["q0", "t"], ["Q", "U"])
             if backend == "compiled":
@@ -145,8 +146,12 @@ class EndPointRate:
 
 
 def rk4_function(law: ca.Function, h: float) -> ca.Function:
-    """``(q, t) -> (q_next, u)``: one RK4 step of length ``h`` of ``qdot = law(q, t)`` (expanded SX)."""
-    q, t = ca.SX.sym("q", law.size1_in(0)), ca.SX.sym("t")
+    """``(q, t) -> (q_next, u)``: one RK4 step of length ``h`` of ``qdot = law(q, t)``.
+
+    An MX Function calling ``law`` four times (generated C keeps one copy of the law);
+    ``.expand()`` it for CasADi's virtual machine.
+    """
+    q, t = ca.MX.sym("q", law.size1_in(0)), ca.MX.sym("t")
     k1 = law(q, t)
     k2 = law(q + h / 2 * k1, t + h / 2)
     k3 = law(q + h / 2 * k2, t + h / 2)
