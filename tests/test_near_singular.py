@@ -138,6 +138,16 @@ def test_a_link_exactly_across_the_curve_is_re_pivoted_structured_equals_dense(t
     np.testing.assert_allclose(compiled["u"], interp["u"], atol=1e-12)
 
 
+@pytest.mark.parametrize("backend", ["compiled", "interpreted"])
+def test_a_run_starting_with_a_link_across_the_curve_runs_and_every_deviation_decays(backend):
+    ctrl, q = perpendicular(Line(angle=lambda t: 0.3 * t))
+    run = simulate(ctrl, q, 0.3, 1e-4, backend=backend)          # it was a singular start before; |u| ~ 40
+    assert run.info["stopped"] == "completed"
+    ref = run.e[0] * np.exp(-K * (run.t - run.t[0]))[:, None]   # e^j(t) = e^j(0) exp(-K t), link by link
+    np.testing.assert_allclose(run.e, ref, rtol=0, atol=1e-9)
+    assert np.max(np.abs(run.s - run.s_reference())) < 1e-9
+
+
 def test_without_re_pivoting_the_structured_solve_fails_at_that_link(monkeypatch):
     monkeypatch.setattr(controller_module, "REPIVOT", 0.0)
     ctrl, q = perpendicular(Line(angle=lambda t: 0.3 * t))
