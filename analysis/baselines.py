@@ -24,6 +24,7 @@ import numpy as np
 
 from coordarm.generated.build import build
 from coordarm.generated.codegen import CODEGEN_OPTIONS, Source
+from coordarm.simulation.choices import COMPARE_BACKENDS
 from coordarm.simulation.run import Run
 from coordarm.symbolic import ConfigError, CoordinatingController
 from coordarm.symbolic.near_singular import damping_factor
@@ -33,7 +34,7 @@ BASELINES = ("pinv", "dls")
 #: Gain of the joint-centering null-space term [1/s].
 CENTERING_GAIN = 1.0
 #: Backends of :func:`simulate_baseline`.
-BACKENDS = ("compiled", "interpreted")
+BACKENDS = COMPARE_BACKENDS
 #: CasADi's generated functions are exported from the library (the build hides other symbols).
 _EXPORT = '#define CASADI_SYMBOL_EXPORT __attribute__((visibility("default")))\n'
 

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.simulation.obstacles import segments_intersect, wall_crossings
+from coordarm.simulation.choices import COMPARE_METHODS
 from coordarm.simulation.run import Run, even_indices, select_backend, simulate
 from coordarm.simulation.scenario import Scenario
 from coordarm.symbolic import ConfigError, SingularityError
@@ -27,7 +28,7 @@ from coordarm.symbolic import ConfigError, SingularityError
 from .baselines import BACKENDS, BASELINES, EndPointRate, simulate_baseline
 
 #: Methods of ``coordarm compare`` in table order.
-METHODS = ("coordinating", "pinv", "dls", "ftl")
+METHODS = COMPARE_METHODS
 #: Scores of one method, in table and JSON order.
 SCORES = ("outcome", "max_deviation", "wall_contacts", "self_collisions", "peak_u", "peak_joint_rate",
           "final_s_error", "step_time")

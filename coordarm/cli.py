@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from coordarm.symbolic.errors import CoordarmError
@@ -14,14 +15,30 @@ COMMANDS = {
     "replay": "coordarm.commands.replay",
     "report": "coordarm.commands.report",
     "compare": "coordarm.commands.compare",
+    "layout": "coordarm.commands.layout",
 }
+
+
+class _Version(argparse.Action):
+    """``--version``: the installed version, looked up only when asked (importlib.metadata is slow)."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        import coordarm
+
+        print(f"{parser.prog} {coordarm.__version__}")
+        parser.exit()
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The full ``coordarm`` argument parser."""
     parser = argparse.ArgumentParser(prog="coordarm", description=(
         "Coordinating control of hyper-redundant planar manipulators: run scenarios, "
-        "regenerate the compiled controller, replay logs, write singularity reports."))
+        "regenerate the compiled controller, replay logs, write singularity reports, "
+        "find the Foxglove layout."))
+    parser.add_argument("--version", action=_Version, help="print the installed version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module in COMMANDS.items():
         try:
@@ -33,8 +50,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``coordarm`` console script; returns the exit status."""
+    """Entry point of the ``coordarm`` console script; returns the exit status.
+
+    The sub-commands write figures to files, so matplotlib (imported later, if at all) gets the
+    non-interactive Agg backend; library users keep their own backend.
+    """
     args = build_parser().parse_args(argv)
+    if "matplotlib" not in sys.modules:
+        os.environ["MPLBACKEND"] = "Agg"
     try:
         return int(args.func(args) or 0)
     except CoordarmError as exc:

@@ -34,21 +34,25 @@ def test_singularity_exits_3_and_still_writes_figures(tmp_path):
     assert (tmp_path / "fast_stages.png").exists()
 
 
-def test_ctrl_c_during_a_run_exits_130_and_leaves_a_closed_log(tmp_path, capsys):
+def test_ctrl_c_during_a_run_exits_130_and_leaves_a_closed_log(tmp_path, capsys, monkeypatch):
     import os
     import signal
-    import threading
 
     from coordarm.analysis.replay import load
+    from coordarm.simulation.mcap_writer import RunLogger
 
     out = tmp_path / "line.mcap"
-    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
-    timer.start()
-    try:
-        status = main(["run", "line", "--duration", "100", "--backend", "interpreted",
-                       "--quiet", "--no-figures", "--out", str(out)])
-    finally:
-        timer.cancel()
+    logged, calls = RunLogger.on_chunk, []
+
+    def on_chunk(self, part):      # Ctrl-C once the run is under way (no timer racing the start-up)
+        logged(self, part)
+        calls.append(len(part.t))
+        if len(calls) == 3:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(RunLogger, "on_chunk", on_chunk)
+    status = main(["run", "line", "--duration", "100", "--backend", "interpreted",
+                   "--quiet", "--no-figures", "--out", str(out)])
     assert status == 130 and "interrupted" in capsys.readouterr().err
     rep = load(out)
     assert rep.outcome["status"] in ("interrupted", "error") and not rep.recovered and len(rep.t) > 0

@@ -4,9 +4,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from coordarm.analysis.baselines import BACKENDS
-from coordarm.analysis.compare import METHODS, compare, parse_methods, text_table, write_outputs
-from coordarm.simulation.scenario import load_scenario, presets
+from coordarm.simulation.choices import COMPARE_BACKENDS as BACKENDS
+from coordarm.simulation.choices import COMPARE_METHODS as METHODS
+from coordarm.simulation.choices import presets
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -30,6 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Compare the methods on ``args.scenario``; return 0."""
+    from coordarm.analysis.compare import compare, parse_methods, text_table, write_outputs
+    from coordarm.simulation.scenario import load_scenario
+
     scenario = load_scenario(args.scenario).with_overrides(duration=args.duration)
     methods = parse_methods(args.methods, scenario)
     results = compare(scenario, methods, args.backend)

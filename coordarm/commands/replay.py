@@ -5,10 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from coordarm.commands.run import print_summary, write_figures
-from coordarm.symbolic import ConfigError
-
-from coordarm.analysis.replay import load
+from coordarm.symbolic.errors import ConfigError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -33,6 +30,9 @@ def main(args: argparse.Namespace) -> int:
     ConfigError
         A non-positive ``--fps``.
     """
+    from coordarm.analysis.replay import load
+    from coordarm.commands.run import print_summary, write_figures
+
     if not args.fps > 0:
         raise ConfigError(f"--fps: need a positive number, got {args.fps}")
     replay = load(args.log)

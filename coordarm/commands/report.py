@@ -6,9 +6,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from coordarm.symbolic import ConfigError
+from coordarm.symbolic.errors import ConfigError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -37,6 +35,8 @@ def simulate_scenario(scenario: Any) -> Any:
 
 def main(args: argparse.Namespace) -> int:
     """Write the report for ``args.source``; print where it went; return 0."""
+    import numpy as np
+
     from coordarm.simulation.scenario import load_scenario
 
     from coordarm.analysis.report import default_samples, write_report

@@ -6,16 +6,15 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import TextIO
+from contextlib import ExitStack
+from typing import TYPE_CHECKING, Callable, TextIO
 
-from coordarm.symbolic import LAWS, SingularityError
+from coordarm.simulation.choices import BACKENDS, COMPRESSIONS, presets
+from coordarm.symbolic.laws import LAWS
 
-from coordarm.simulation.figures import plot_stages, plot_tracking
-from coordarm.simulation.mcap_file import COMPRESSIONS
-from coordarm.simulation.mcap_writer import RunLogger
-from coordarm.simulation.obstacles import clearance, wall_crossings
-from coordarm.simulation.run import BACKENDS, BackendFallbackWarning, Run, select_backend, simulate
-from coordarm.simulation.scenario import Scenario, load_scenario, presets
+if TYPE_CHECKING:   # the simulation modules load numpy, CasADi, matplotlib: only when the command runs
+    from coordarm.simulation.run import Run
+    from coordarm.simulation.scenario import Scenario
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -42,6 +41,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "then falling as 1/m^2; 0 = off)")
     p.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
                    help="chunk compression of the log: zstd (default, smaller) or lz4 (faster)")
+    p.add_argument("--live", action="store_true",
+                   help="serve the run over the Foxglove WebSocket protocol while it is simulated (paced to "
+                        "real time, see --live-speed), writing the log too; in Foxglove: Open connection, "
+                        "Foxglove WebSocket, ws://127.0.0.1:PORT")
+    p.add_argument("--port", type=int, default=8765, help="port of the live server (default 8765; 0 = any free port)")
+    p.add_argument("--live-speed", type=float, default=1.0, metavar="X",
+                   help="simulated seconds per wall-clock second on the live view (default 1)")
+    p.add_argument("--live-wait", action="store_true",
+                   help="with --live: start simulating only once a client has subscribed")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
@@ -49,6 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> None:
     """Human-readable summary of a run (to ``out``, standard output by default)."""
+    from coordarm.simulation.obstacles import clearance, wall_crossings
+
     out = sys.stdout if out is None else out
     s = run.summary()
     lines = [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1]} links",
@@ -61,7 +71,7 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
              f"longitudinal  min {s['min_longitudinal_margin']:.4f} (t = {s['min_longitudinal_margin_time']:.2f} s)",
              f"max|u|        {s['max_abs_u']:.4g}"]
     if scenario.spec["control"].get("governor"):
-        lines.append(f"governor      v* slowed during {run.governed_time():.3f} s (final v_scale {run.v_scale[-1]:.3g})")
+        lines.append(f"governor      v* slowed during {run.governed_time():.3f} s (final v_scale {run.speed_factor()[-1]:.3g})")
     if len(scenario.obstacles):
         joints = scenario.chain().joints_np(run.q) if run.q.shape[1] == scenario.chain().m else None
         if joints is not None:
@@ -78,6 +88,8 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
 
 def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
     """Stage and tracking figures as ``<stem>_stages.png`` and ``<stem>_tracking.png``."""
+    from coordarm.simulation.figures import plot_stages, plot_tracking
+
     title = f"{scenario.name}: {ctrl.chain.m} links"
     return [plot_stages(run, ctrl, stem.with_name(stem.name + "_stages.png"), walls=scenario.obstacles,
                         title=f"{title}, stages of the motion (dashed: the curve at that time)"),
@@ -85,8 +97,22 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
                           thresholds=scenario.thresholds, title=title)]
 
 
+def _both(first: Callable[[Run], None], second: Callable[[Run], None]) -> Callable[[Run], None]:
+    """One ``on_chunk`` that hands each block to ``first`` then ``second``."""
+    def on_chunk(part: Run) -> None:
+        first(part)
+        second(part)
+    return on_chunk
+
+
 def main(args: argparse.Namespace) -> int:
     """Run the scenario named in ``args``; return 0 (done), 3 (stopped ahead of a singularity)."""
+    from coordarm.simulation.live import LiveView
+    from coordarm.simulation.mcap_writer import RunLogger
+    from coordarm.simulation.run import BackendFallbackWarning, select_backend, simulate
+    from coordarm.simulation.scenario import load_scenario
+    from coordarm.symbolic.errors import SingularityError
+
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law,
                                                            governor=True if args.governor else None)
     ctrl = scenario.controller()
@@ -99,18 +125,26 @@ def main(args: argparse.Namespace) -> int:
     out = args.out or Path("logs") / f"{scenario.name}.mcap"
     out.parent.mkdir(parents=True, exist_ok=True)
     status = 0
-    try:
-        # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
-        # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
-        with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, cond_rate=args.cond_rate,
-                       compression=args.compression, backend=backend,
-                       library_key=compiled.library.key if compiled else None,
-                       threaded=(os.cpu_count() or 1) > 1) as log:
-            run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
-                           thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=log.on_chunk)
-    except SingularityError as err:
-        print(f"coordarm run: {err}", file=sys.stderr)
-        run, status = err.run, 3
+    with ExitStack() as stack:
+        live = None
+        if args.live:
+            live = stack.enter_context(LiveView(scenario, ctrl, port=args.port, speed=args.live_speed))
+            print(f"live          {live.url} (Foxglove: Open connection, Foxglove WebSocket)", flush=True)
+            if args.live_wait:
+                live.wait_for_client()
+        try:
+            # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
+            # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
+            with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, cond_rate=args.cond_rate,
+                           compression=args.compression, backend=backend,
+                           library_key=compiled.library.key if compiled else None,
+                           threaded=(os.cpu_count() or 1) > 1) as log:
+                on_chunk = log.on_chunk if live is None else _both(log.on_chunk, live.on_chunk)
+                run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
+                               thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=on_chunk)
+        except SingularityError as err:
+            print(f"coordarm run: {err}", file=sys.stderr)
+            run, status = err.run, 3
     print_summary(run, scenario)
     if compiled:
         print(f"library       {compiled.library.path} ({'cache hit' if compiled.cache_hit else 'built now'})")
