@@ -5,7 +5,8 @@ Every method's run is scored from its joint trajectory alone, by the same code:
 * ``max_deviation``: the largest ``|phi|`` of any central point ``y^2..y^m`` over the run [m]
   (body following; ``y^1`` is the pinned base);
 * ``wall_contacts``, ``self_collisions``: samples (at :data:`CONTACT_RATE`) in which some link
-  touches a wall, or two non-adjacent links touch each other;
+  touches an obstacle, or two non-adjacent links touch each other (within the chain's
+  clearance; :func:`coordarm.simulation.physical.check_configuration`);
 * ``peak_u``, ``peak_joint_rate``: largest ``|u|`` and ``|qdot| = |B u|`` [rad/s];
 * ``final_s_error``: ``|psi(y^m) - (s(0) + integral of v*)|`` at the run's last sample [m];
 * ``step_time``: wall time of the stepping loop per RK4 step [s].
@@ -19,11 +20,11 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.simulation.obstacles import segments_intersect, wall_crossings
+from coordarm.simulation.obstacles import outline
 from coordarm.simulation.choices import COMPARE_METHODS
 from coordarm.simulation.run import Run, even_indices, select_backend, simulate
 from coordarm.simulation.scenario import Scenario
-from coordarm.symbolic import ConfigError, SingularityError
+from coordarm.symbolic import CollisionError, ConfigError, SingularityError
 
 from .baselines import BACKENDS, BASELINES, EndPointRate, simulate_baseline
 
@@ -88,7 +89,7 @@ def run_method(method: str, scenario: Scenario, backend: str = "compiled") -> Ru
         try:   # the loop's own wall time (info["wall_time"]) excludes the build and the start checks
             run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
                            thresholds=scenario.thresholds, progress=False)
-        except SingularityError as err:
+        except (SingularityError, CollisionError) as err:   # no physical= here: contacts are scored
             run = err.run
         run.info["steps"] = max(len(run.t) - 1, 1)
         return run
@@ -99,14 +100,6 @@ def run_method(method: str, scenario: Scenario, backend: str = "compiled") -> Ru
     raise ConfigError(f"method: {method!r} is not available for scenario {scenario.name!r}")
 
 
-def self_contacts(joints: np.ndarray) -> np.ndarray:
-    """Per sample, whether two non-adjacent links touch: (N,) bool from joints (N, m+1, 2)."""
-    m = joints.shape[1] - 1
-    i, j = np.triu_indices(m, k=2)
-    hit = segments_intersect(joints[:, i], joints[:, i + 1], joints[:, j], joints[:, j + 1])
-    return hit.any(axis=1)
-
-
 def score(run: Run, scenario: Scenario) -> dict[str, Any]:
     """The scores of one run (keys :data:`SCORES`), computed from ``run.q`` and ``run.u`` only."""
     ctrl = scenario.controller()
@@ -115,13 +108,16 @@ def score(run: Run, scenario: Scenario) -> dict[str, Any]:
         [[0.0], np.cumsum(0.5 * np.diff(run.t) * (run.v_star[1:] + run.v_star[:-1]))])
     every = max(1, int(round(1.0 / (CONTACT_RATE * scenario.step))))
     rows = np.unique(np.r_[np.arange(0, len(run.t), every), len(run.t) - 1])
-    joints = ctrl.chain.joints_np(run.q[rows])
-    walls = wall_crossings(joints, scenario.obstacles)
+    contacts = scenario.physical(ctrl.chain).check(run.t[rows], run.q[rows])
     rates = run.u @ ctrl.chain.B.T
+
+    def samples(kind: str) -> int:
+        return len({c.time for c in contacts if c.kind == kind})
+
     return {"outcome": run.info.get("stopped", "?"),
             "max_deviation": float(np.max(np.abs(geo["phi"][:, 1:]))),
-            "wall_contacts": int(len(np.unique(walls[:, 0]))) if len(walls) else 0,
-            "self_collisions": int(np.count_nonzero(self_contacts(joints))),
+            "wall_contacts": samples("wall"),
+            "self_collisions": samples("self"),
             "peak_u": float(np.max(np.abs(run.u))),
             "peak_joint_rate": float(np.max(np.abs(rates))),
             "final_s_error": float(abs(geo["psi"][-1, -1] - s_ref[-1])),
@@ -196,15 +192,15 @@ def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, 
     colours = dict(zip(METHODS, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
     fig, axes = plt.subplots(1, len(times), figsize=(4.2 * len(times), 4.4), squeeze=False)
     pts = [ctrl.chain.joints_np(r.run.q[even_indices(len(r.run.t), 50)]).reshape(-1, 2) for r in results]
-    walls = np.asarray(scenario.obstacles).reshape(-1, 2, 2)
-    allp = np.concatenate(pts + [walls.reshape(-1, 2)]) if len(walls) else np.concatenate(pts)
+    walls = [outline(ob) for ob in scenario.obstacles]
+    allp = np.concatenate(pts + walls)
     lo, hi = allp.min(axis=0) - 0.2, allp.max(axis=0) + 0.2
     extent = float(np.linalg.norm(hi - lo))
     for ax, t in zip(axes[0], times):
         cur = ctrl.curve.sample(float(t), extent=extent)
         ax.plot(cur[:, 0], cur[:, 1], "k--", lw=0.8, alpha=0.6)
-        for a, b in walls:
-            ax.plot([a[0], b[0]], [a[1], b[1]], "k-", lw=3, solid_capstyle="butt")
+        for w in walls:
+            ax.plot(w[:, 0], w[:, 1], "k-", lw=3, solid_capstyle="butt")
         for r in results:
             k = int(np.argmin(np.abs(r.run.t - t)))
             late = r.run.t[-1] < t - 0.5 * scenario.step

@@ -36,6 +36,8 @@ _EXPORTS = {
     "CoordarmError": "coordarm.symbolic.errors",
     "ConfigError": "coordarm.symbolic.errors",
     "SingularityError": "coordarm.symbolic.errors",
+    "CollisionError": "coordarm.symbolic.errors",
+    "check_configuration": "coordarm.simulation.physical",
     "LogError": "coordarm.symbolic.errors",
     "BuildError": "coordarm.symbolic.errors",
     "NonFiniteError": "coordarm.symbolic.errors",

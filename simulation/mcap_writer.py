@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import ConfigError, CoordinatingController, LogError, SingularityError
+from coordarm.symbolic import CollisionError, ConfigError, CoordinatingController, LogError, SingularityError
 
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
@@ -103,20 +103,29 @@ def build_info(scenario: Scenario) -> dict[str, str]:
             "python": platform.python_version()}
 
 
-def outcome_of(error: BaseException | None, last_t: float | None, governed: float = 0.0) -> dict[str, Any]:
+def outcome_of(error: BaseException | None, last_t: float | None,
+               contacts: list[dict] | None = None, governed: float = 0.0) -> dict[str, Any]:
     """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``.
 
+    ``contacts`` (the records of an ``--allow-contact`` run) are added when there are any;
     ``governed`` is the simulated time [s] during which the speed governor slowed ``v*``.
     """
     if error is None:
-        return {"status": "completed", "t_end": last_t, "governed": governed}
-    if isinstance(error, SingularityError):
-        return {"status": "singularity", "t_end": last_t, "time": error.time, "link": error.link,
-                "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error),
-                "governed": governed}
-    status = "interrupted" if isinstance(error, KeyboardInterrupt) else "error"
-    return {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error),
-            "governed": governed}
+        out = {"status": "completed", "t_end": last_t}
+    elif isinstance(error, SingularityError):
+        out = {"status": "singularity", "t_end": last_t, "time": error.time, "link": error.link,
+               "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
+    elif isinstance(error, CollisionError):
+        c = error.contact
+        out = {"status": "collision", "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
+               "value": c.value, "threshold": c.threshold, "obstacle": c.obstacle, "message": str(error)}
+    else:
+        status = "interrupted" if isinstance(error, KeyboardInterrupt) else "error"
+        out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
+    if contacts:
+        out["contacts"] = contacts
+    out["governed"] = governed
+    return out
 
 
 class RunLogger:
@@ -228,6 +237,8 @@ class RunLogger:
         self._flushed = time.monotonic()
         self.scene = SceneBuilder(self.ctrl, scenario.obstacles)
         self.outcome: dict[str, Any] | None = None
+        #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
+        self.contacts: list[dict] = []
         self._worker = Worker(self._process, "coordarm-log", 8) if threaded else None
 
     def _check(self) -> None:
@@ -361,7 +372,7 @@ class RunLogger:
                     self._add_samples(self._last, np.array([len(self._last.t) - 1]))
             if len(self._pending) or self._extras:
                 self._write_chunk(len(self._pending))
-            self.outcome = outcome_of(error, last_t, self._governed)
+            self.outcome = outcome_of(error, last_t, self.contacts, self._governed)
             self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in self.outcome.items()})
             self.file.close()
         except Exception as exc:

@@ -11,13 +11,18 @@ from typing import Any, Callable
 import numpy as np
 
 from coordarm.generated import compile as compile_controller
-from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
+from coordarm.symbolic import (BuildError, CollisionError, ConfigError, CoordarmError, CoordinatingController,
+                               SingularityError)
+from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.outputs import RUN_OUTPUTS, by_name, split
 
 from .choices import BACKENDS
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
+#: Most physical checks per simulated second in ``coordarm run`` (fewer when the log rate is lower);
+#: a contact found is located to the step (``simulate(check_every=...)``).
+CHECK_RATE = 200.0
 #: Steps integrated per call of the closed-loop chunk Function.
 DEFAULT_CHUNK = 2000
 
@@ -165,8 +170,8 @@ def check_number(value: Any, name: str, positive: bool = True) -> float:
 class Progress:
     """A one-line progress bar on stderr (redrawn in place on a terminal, every 10% otherwise)."""
 
-    def __init__(self, total: float, label: str = "run", stream=None) -> None:
-        self.total, self.label, self.stream = total, label, stream or sys.stderr
+    def __init__(self, total: float, label: str = "run", stream=None, unit: str = "t = {done:.2f}/{total:.2f} s") -> None:
+        self.total, self.label, self.stream, self.unit = total, label, stream or sys.stderr, unit
         self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
         self.start, self.last = _time.perf_counter(), -1
 
@@ -177,7 +182,7 @@ class Progress:
             return
         self.last = decile
         bar = "#" * int(frac * 30)
-        msg = (f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  t = {done:.2f}/{self.total:.2f} s  "
+        msg = (f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  {self.unit.format(done=done, total=self.total)}  "
                f"{_time.perf_counter() - self.start:.1f} s wall")
         self.stream.write(("\r" + msg) if self.tty else msg + "\n")
         self.stream.flush()
@@ -258,7 +263,8 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
 def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.001,
              t0: float = 0.0, *, backend: str = "auto", chunk: int = DEFAULT_CHUNK,
              thresholds: dict[str, float] | None = None, progress: bool | None = None,
-             on_chunk: Callable[[Run], None] | None = None) -> Run:
+             on_chunk: Callable[[Run], None] | None = None, physical: Any = None,
+             check_every: int = 1, allow_contact: bool = False) -> Run:
     """Integrate the closed loop with fixed-step RK4 from ``q0`` at ``t0`` for ``duration``.
 
     Parameters
@@ -282,10 +288,21 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         Show a progress bar on stderr (default: for runs of more than 20,000 steps).
     on_chunk : callable, optional
         Called with each completed chunk (a :class:`Run` of its rows), e.g. a logger.
+    physical : Physical, optional
+        Joint limits, self-collision and obstacles to check
+        (:class:`coordarm.simulation.physical.Physical`, anything with ``check(t, q)``).
+    check_every : int
+        Check every this many steps (and the first and last step of every chunk); when a
+        check finds a contact, the steps since the previous check are checked too, so the
+        run stops at the first step in contact (:data:`CHECK_RATE` sets the CLI's stride).
+    allow_contact : bool
+        Keep going after a contact; ``run.info["contacts"]`` then lists the first contact of
+        every (kind, links, obstacle).
 
     Returns
     -------
     Run
+        ``s`` is continuous on closed curves (unwrapped past the branch cut, turns kept).
 
     Raises
     ------
@@ -295,6 +312,9 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         ``backend="compiled"`` and the generated library cannot be built.
     SingularityError
         A margin fell below its threshold; ``err.run`` holds the run up to there.
+    CollisionError
+        A contact (joint limit, self-collision, obstacle) and not ``allow_contact``;
+        ``err.contact`` is the first, ``err.run`` holds the run up to there.
     """
     duration, step = check_number(duration, "duration"), check_number(step, "step")
     t0 = check_number(t0, "t0", positive=False)
@@ -314,50 +334,108 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         where = f"link {link}" if link else "the end point"
         raise ConfigError(f"q0: start configuration is (near) singular: {kind} margin of {where} is "
                           f"{margin:.3g} < {thr[kind]}")
+    if isinstance(check_every, bool) or not isinstance(check_every, int) or check_every < 1:
+        raise ConfigError(f"check_every: need a positive integer, got {check_every!r}")
+    if physical is not None:
+        invalid = physical.check(np.array([t0]), q0[None])
+        if invalid:
+            raise ConfigError(f"q0: start configuration is not physically valid: {invalid[0].describe()}")
 
     backend, compiled, info = select_backend(ctrl, backend)
     n_steps = int(round(duration / step))
     bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
     parts: list[Run] = []
+    contacts: list = []
     q, k, wall = q0, 0, _time.perf_counter()
+    prev: tuple[float, float] | None = None
     try:
-        while k < n_steps:
-            n = min(chunk, n_steps - k)
-            times = t0 + step * np.arange(k, k + n)
-            Q, outs = _advance(ctrl, compiled, q, times, step)
-            part = Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times)))
-            bad = first_violation(part.link_margins, part.longitudinal, thr)
-            if bad is not None:
-                row, kind, link, margin = bad
+        while k <= n_steps:
+            if k < n_steps:
+                n = min(chunk, n_steps - k)
+                times = t0 + step * np.arange(k, k + n)
+                Q, outs = _advance(ctrl, compiled, q, times, step)
+                part = Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times)))
+            else:          # the final state
+                t_end = t0 + step * n_steps
+                final = (compiled or ctrl).evaluate(q, t_end)
+                part = Run.from_arrays({a: np.asarray(v)[None] for a, v in
+                                        dict(final, t=t_end, q=q, v_star=ctrl.speed_at(t_end)).items() if a in ARRAYS})
+            part.s = unwrap_s(ctrl.curve, part.t, part.s, prev)
+            prev = (float(part.t[-1]), float(part.s[-1]))
+            stop = _first_stop(part, k, n_steps, thr, physical, check_every, allow_contact, contacts)
+            if stop is not None:
+                row, error = stop
                 part = _rows(part, slice(0, row + 1))
                 parts.append(part)
                 if on_chunk:
                     on_chunk(part)
-                run = _concat(parts, dict(info, stopped="singularity", wall_time=_time.perf_counter() - wall))
-                run.info["governed"] = run.governed_time()
-                raise SingularityError(part.t[-1], link, margin, kind, thr[kind], run=run,
-                                       hint=None if ctrl.governor or kind != "longitudinal" else
-                                       "the speed governor ([control] governor = true, --governor) slows "
-                                       "v* instead of stopping")
+                if isinstance(error, SingularityError) and error.kind == "longitudinal" and not ctrl.governor:
+                    error = SingularityError(error.time, error.link, error.margin, error.kind, error.threshold,
+                                             hint="the speed governor ([control] governor = true, --governor) "
+                                                  "slows v* instead of stopping")
+                error.run = _concat(parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
+                                                wall_time=_time.perf_counter() - wall))
+                error.run.info["governed"] = error.run.governed_time()
+                raise error
             parts.append(part)
             if on_chunk:
                 on_chunk(part)
+            if k == n_steps:
+                break
             q, k = Q[-1], k + n
             if bar:
                 bar.update(step * k)
-        final = (compiled or ctrl).evaluate(q, t0 + step * n_steps)
-        last = Run.from_arrays({a: np.asarray(v)[None] for a, v in
-                                dict(final, t=t0 + step * n_steps, q=q, v_star=ctrl.speed_at(t0 + step * n_steps)).items()
-                                if a in ARRAYS})
-        parts.append(last)
-        if on_chunk:
-            on_chunk(last)
     finally:
         if bar:
             bar.close()
+    info = dict(info, contacts=_records(contacts))
     run = _concat(parts, dict(info, stopped="completed", wall_time=_time.perf_counter() - wall))
     run.info["governed"] = run.governed_time()
     return run
+
+
+_STOPS = {SingularityError: "singularity", CollisionError: "collision"}
+
+
+def _records(contacts: list) -> list[dict]:
+    return [c.to_dict() for c in contacts]
+
+
+def _first_stop(part: Run, k: int, n_steps: int, thr: dict, physical: Any, check_every: int,
+                allow_contact: bool, contacts: list) -> tuple[int, CoordarmError] | None:
+    """The first row of ``part`` (global step ``k`` at row 0) where the run must stop, and why.
+
+    A contact at or before the first singular row wins. With ``allow_contact`` the first
+    contact of every (kind, links, obstacle) is appended to ``contacts`` instead.
+    """
+    stop = None
+    bad = first_violation(part.link_margins, part.longitudinal, thr)
+    if bad is not None:
+        row, kind, link, margin = bad
+        stop = row, SingularityError(part.t[row], link, margin, kind, thr[kind])
+    if physical is not None:
+        n = len(part.t)
+        rows = np.flatnonzero(((k + np.arange(n)) % check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
+        if stop is not None:
+            rows = np.union1d(rows[rows < stop[0]], [stop[0]])
+        if len(rows):
+            found = physical.check(part.t[rows], part.q[rows])
+            if found and not allow_contact:
+                i = int(np.searchsorted(part.t[rows], found[0].time))
+                row = int(rows[i])
+                if i > 0 and rows[i - 1] + 1 < row:     # locate the first contact to the step
+                    between = np.arange(rows[i - 1] + 1, row)
+                    earlier = physical.check(part.t[between], part.q[between])
+                    if earlier:
+                        found = earlier
+                        row = int(between[np.searchsorted(part.t[between], found[0].time)])
+                return row, CollisionError(found[0])
+            seen = {(c.kind, c.links, c.obstacle) for c in contacts}
+            for c in found:
+                if (c.kind, c.links, c.obstacle) not in seen:
+                    seen.add((c.kind, c.links, c.obstacle))
+                    contacts.append(c)
+    return stop
 
 
 def _advance(ctrl, compiled, q, times, step):

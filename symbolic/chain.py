@@ -2,11 +2,34 @@
 from __future__ import annotations
 
 import math
+from typing import Sequence
 
 import casadi as ca
 import numpy as np
 
 from .errors import ConfigError
+
+#: Default limit of every relative joint angle [rad].
+DEFAULT_JOINT_LIMIT = 2.8
+
+
+def _joint_limits(links: int, joint_limit) -> np.ndarray:
+    """Limits of joints 2..m as an (m-1,) array in (0, pi], from one number or a list of m-1."""
+    if isinstance(joint_limit, (list, tuple, np.ndarray)):
+        lim = np.asarray(joint_limit, dtype=float) if all(
+            isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool)
+            for v in np.ravel(joint_limit)) else None
+        if lim is None or lim.shape != (links - 1,):
+            raise ConfigError(f"joint_limit: need one number or a list of {links - 1} numbers "
+                              f"(joints 2..{links}), got {joint_limit!r}")
+    elif isinstance(joint_limit, bool) or not isinstance(joint_limit, (int, float, np.floating, np.integer)):
+        raise ConfigError(f"joint_limit: need a number [rad] or a list of them, got {joint_limit!r}")
+    else:
+        lim = np.full(links - 1, float(joint_limit))
+    bad = np.flatnonzero(~((lim > 0) & (lim <= math.pi)))
+    if len(bad):
+        raise ConfigError(f"joint_limit: need 0 < limit <= pi [rad], joint {int(bad[0]) + 2} has {lim[bad[0]]!r}")
+    return lim
 
 
 def direction(a):
@@ -38,9 +61,16 @@ class PlanarChain:
         Link length xi [m].
     B : array_like, optional
         Input matrix, (m, m) or its diagonal (m,). Defaults to the identity.
+    joint_limit : float or sequence of float
+        Largest ``|q_j|`` of the relative joints j = 2..m [rad], one number for all or a list
+        of m-1 (default :data:`DEFAULT_JOINT_LIMIT`; the compact zig-zag at beta uses 2 beta).
+    clearance : float
+        Smallest allowed distance between non-adjacent links and from a link to an obstacle
+        [m] (default 0: touching counts as a collision).
     """
 
-    def __init__(self, links: int, link_length: float, B=None) -> None:
+    def __init__(self, links: int, link_length: float, B=None,
+                 joint_limit: float | Sequence[float] = None, clearance: float = 0.0) -> None:
         if isinstance(links, bool) or not isinstance(links, (int, np.integer)) or links < 2:
             raise ConfigError(f"links: need an integer of at least 2, got {links!r}")
         if (isinstance(link_length, bool) or not isinstance(link_length, (int, float))
@@ -59,6 +89,11 @@ class PlanarChain:
         if np.linalg.cond(B) > 1e12:
             raise ConfigError("B: matrix is singular (the paper's eq. 2 needs B invertible)")
         self.B = B
+        self.joint_limits = _joint_limits(self.m, DEFAULT_JOINT_LIMIT if joint_limit is None else joint_limit)
+        if (isinstance(clearance, bool) or not isinstance(clearance, (int, float))
+                or not math.isfinite(clearance) or clearance < 0):
+            raise ConfigError(f"clearance: need a finite number >= 0, got {clearance!r}")
+        self.clearance = float(clearance)
 
     @property
     def links(self) -> int:

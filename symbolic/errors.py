@@ -76,3 +76,31 @@ class SingularityError(CoordarmError):
     def __reduce__(self):
         return (SingularityError, (self.time, self.link, self.margin, self.kind,
                                    self.threshold, None, self.hint))
+
+
+class CollisionError(CoordarmError):
+    """The chain hit an obstacle, itself or a joint limit during a run.
+
+    Attributes
+    ----------
+    contact : object
+        The first contact (a :class:`coordarm.simulation.physical.Contact`: ``kind``,
+        ``time``, ``links``, ``value``, ``threshold``, ``obstacle``).
+    run : object or None
+        The run up to (and including) the offending state, if available.
+
+    Parameters
+    ----------
+    contact : object
+        The first contact (see Attributes).
+    run : object, optional
+        The run so far.
+    """
+
+    def __init__(self, contact: object, run: object | None = None) -> None:
+        self.contact, self.run = contact, run
+        self.time = float(contact.time)
+        super().__init__(f"{contact.describe()}; run stopped")
+
+    def __reduce__(self):
+        return (CollisionError, (self.contact, None))

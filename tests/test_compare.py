@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from coordarm.analysis.baselines import EndPointRate, simulate_baseline
-from coordarm.analysis.compare import SCORES, compare, markdown_table, parse_methods, score, self_contacts
+from coordarm.analysis.compare import SCORES, compare, markdown_table, parse_methods, score
 from coordarm.cli import main as cli_main
 from coordarm.simulation.scenario import Scenario, load_scenario
 from coordarm.symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain
@@ -94,11 +94,19 @@ def test_a_baseline_run_tracks_the_end_point_and_stops_at_a_singular_task():
     assert bad.info["stopped"] == "singularity" and len(bad.t) == 1
 
 
-def test_self_contacts_sees_a_folded_chain_and_not_a_zigzag():
-    chain = PlanarChain(6, 0.1)
-    folded = chain.joints_np(np.array([0, 2.8, 2.8, 2.8, 0, 0]))
-    zig = chain.joints_np(chain.zigzag(1.3))
-    assert self_contacts(np.stack([folded, zig])).tolist() == [True, False]
+def test_contacts_are_counted_per_sample_for_a_folded_chain_and_a_wall():
+    spec = {"chain": {"links": 6, "link_length": 0.1, "joint_limit": 3.14}, "curve": {"kind": "line"},
+            "control": {"gain": K, "speed": 0.1}, "start": {"beta": 1.2}, "run": {"duration": 0.02, "step": 0.01},
+            "obstacles": [{"a": [0.15, -1.0], "b": [0.15, 1.0]}]}
+    sc = Scenario.from_dict(spec)
+    chain = sc.chain()
+    run = simulate_baseline(EndPointRate(sc.controller(), chain.zigzag(1.2)), chain.zigzag(1.2), 0.02, 0.01)
+    folded = np.array([0, 2.8, 2.8, 2.8, 0, 0])        # links 1 and 4 cross, all left of x = 0.15 m
+    run.q[:] = np.stack([folded, folded, chain.zigzag(1.2)])  # the zig-zag reaches x = 0.2 m, past the wall
+    J = chain.joints_np(run.q)
+    assert J[:2, :, 0].max() < 0.15 < J[2, :, 0].max()
+    scores = score(run, sc)
+    assert scores["self_collisions"] == 2 and scores["wall_contacts"] == 1
 
 
 def test_methods_are_checked_and_ftl_needs_a_rail(capsys):

@@ -86,7 +86,7 @@ def test_the_scenario_metadata_alone_rebuilds_the_controller(logged, scenario):
     path, run = logged
     rep = load(path)
     assert rep.scenario.spec == scenario.spec
-    np.testing.assert_array_equal(rep.scenario.obstacles, scenario.obstacles)
+    assert [o.to_spec() for o in rep.scenario.obstacles] == [o.to_spec() for o in scenario.obstacles]
     ctrl = rep.controller()
     k = len(run.t) // 3
     assert np.array_equal(ctrl.control(rep.q[k], float(rep.t[k])), run.u[k])
