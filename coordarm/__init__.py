@@ -48,6 +48,7 @@ _EXPORTS = {
     "presets": "coordarm.simulation.scenario",
     "simulate": "coordarm.simulation.run",
     "Run": "coordarm.simulation.run",
+    "sweep": "coordarm.simulation.sweep",
     "Replay": "coordarm.analysis.replay",
     "load_log": "coordarm.analysis.replay",
 }

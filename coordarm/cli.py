@@ -15,6 +15,7 @@ COMMANDS = {
     "replay": "coordarm.commands.replay",
     "report": "coordarm.commands.report",
     "compare": "coordarm.commands.compare",
+    "sweep": "coordarm.commands.sweep",
     "layout": "coordarm.commands.layout",
 }
 

@@ -182,10 +182,13 @@ class Progress:
             return
         self.last = decile
         bar = "#" * int(frac * 30)
-        msg = (f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  {self.unit.format(done=done, total=self.total)}  "
-               f"{_time.perf_counter() - self.start:.1f} s wall")
+        msg = f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  {self.status(done, _time.perf_counter() - self.start)}"
         self.stream.write(("\r" + msg) if self.tty else msg + "\n")
         self.stream.flush()
+
+    def status(self, done: float, elapsed: float) -> str:
+        """The text after the bar: what is done (``unit``) and wall time spent."""
+        return f"{self.unit.format(done=done, total=self.total)}  {elapsed:.1f} s wall"
 
     def close(self) -> None:
         if self.tty:
