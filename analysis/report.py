@@ -33,12 +33,17 @@ from .stability import RK4_LIMIT, delay_margin, max_stable_delay, sampled_limit
 NO_STOP = {"link": 0.0, "longitudinal": 0.0}
 
 
-def simulate_through(ctrl: CoordinatingController, q0, duration: float, step: float, t0: float = 0.0) -> Any:
-    """Simulate without singularity stops; a run that ends in non-finite margins is kept up to there."""
+def simulate_through(ctrl: CoordinatingController, q0, duration: float, step: float, t0: float = 0.0,
+                     backend: str = "auto") -> Any:
+    """Simulate without singularity stops; a run that ends in non-finite margins is kept up to there.
+
+    ``backend`` is :func:`~coordarm.simulation.run.simulate`'s (past a blow-up the trajectory
+    depends on rounding, so the compiled and interpreted laws part there).
+    """
     from coordarm.simulation.run import simulate
 
     try:
-        return simulate(ctrl, q0, duration, step, t0, thresholds=NO_STOP, progress=False)
+        return simulate(ctrl, q0, duration, step, t0, thresholds=NO_STOP, progress=False, backend=backend)
     except SingularityError as err:        # only non-finite margins stop it: keep what was computed
         return err.run
 

@@ -43,6 +43,7 @@ _EXPORTS = {
     "NonFiniteError": "coordarm.symbolic.errors",
     "LAW_OUTPUTS": "coordarm.symbolic.outputs",
     "compile": "coordarm.generated",
+    "export_law": "coordarm.generated.export",
     "Scenario": "coordarm.simulation.scenario",
     "load_scenario": "coordarm.simulation.scenario",
     "presets": "coordarm.simulation.scenario",

@@ -17,6 +17,7 @@ COMMANDS = {
     "compare": "coordarm.commands.compare",
     "sweep": "coordarm.commands.sweep",
     "layout": "coordarm.commands.layout",
+    "export": "coordarm.commands.export",
 }
 
 

@@ -49,12 +49,20 @@ from .scene import SceneBuilder
 SCENE_RATE, COND_RATE = 20.0, 5.0
 
 
+#: Above this many links ``/margins/cond`` is off unless a rate is given (one SVD of a
+#: 4096 x 4096 decoupling matrix takes about a minute; at 16384 links the matrix is 2 GiB).
+COND_LINK_LIMIT = 1024
+
+
 def default_cond_rate(links: int) -> float:
-    """Default rate of ``/margins/cond`` [Hz]: :data:`COND_RATE` up to 64 links, then ``* (64/m)^2``.
+    """Default rate of ``/margins/cond`` [Hz]: :data:`COND_RATE` up to 64 links, then ``* (64/m)^2``,
+    and 0 (channel off) above :data:`COND_LINK_LIMIT` links.
 
     One ``cond`` is an SVD of the m x m decoupling matrix, O(m^3), against O(m) for a step
     of the law, so this keeps its share of a run's time about what it is at 64 links.
     """
+    if links > COND_LINK_LIMIT:
+        return 0.0
     return COND_RATE * min(1.0, (64.0 / links) ** 2)
 
 
@@ -239,7 +247,9 @@ class RunLogger:
         self.outcome: dict[str, Any] | None = None
         #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
         self.contacts: list[dict] = []
-        self._worker = Worker(self._process, "coordarm-log", 8) if threaded else None
+        # Unbounded: on_chunk never waits for the log, so the simulation never blocks on it. The
+        # queued parts are views of rows the run keeps anyway, so the queue adds no copies.
+        self._worker = Worker(self._process, "coordarm-log", 0) if threaded else None
 
     def _check(self) -> None:
         if self._worker is not None and self._worker.error is not None:

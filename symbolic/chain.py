@@ -77,18 +77,7 @@ class PlanarChain:
                 or not math.isfinite(link_length) or link_length <= 0):
             raise ConfigError(f"link_length: need a finite number > 0, got {link_length!r}")
         self.m, self.xi = int(links), float(link_length)
-        if B is None:
-            B = np.ones(self.m)
-        B = np.asarray(B, dtype=float)
-        if B.shape == (self.m,):
-            B = np.diag(B)
-        if B.shape != (self.m, self.m):
-            raise ConfigError(f"B: need shape ({self.m},) or ({self.m}, {self.m}), got {B.shape}")
-        if not np.all(np.isfinite(B)):
-            raise ConfigError("B: contains NaN or inf")
-        if np.linalg.cond(B) > 1e12:
-            raise ConfigError("B: matrix is singular (the paper's eq. 2 needs B invertible)")
-        self.B = B
+        self._bd, self._B = _input_matrix(B, self.m)
         self.joint_limits = _joint_limits(self.m, DEFAULT_JOINT_LIMIT if joint_limit is None else joint_limit)
         if (isinstance(clearance, bool) or not isinstance(clearance, (int, float))
                 or not math.isfinite(clearance) or clearance < 0):
@@ -104,9 +93,30 @@ class PlanarChain:
         return self.xi
 
     @property
+    def B(self) -> np.ndarray:
+        """The input matrix as a dense (m, m) array (built on each access when B is diagonal: O(m^2))."""
+        return self._B if self._B is not None else np.diag(self._bd)
+
+    @property
     def b_diagonal(self) -> np.ndarray | None:
-        """Diagonal of B if B is diagonal, else None."""
-        return np.diag(self.B).copy() if np.count_nonzero(self.B - np.diag(np.diag(self.B))) == 0 else None
+        """Diagonal of B if B is diagonal, else None (O(m): a diagonal B is stored as a vector)."""
+        return None if self._bd is None else self._bd.copy()
+
+    def apply_B(self, u) -> np.ndarray:
+        """``B u``: a product by the diagonal when B is diagonal, O(m) per row.
+
+        Parameters
+        ----------
+        u : array_like, shape (..., m)
+            Controls (one per row).
+
+        Returns
+        -------
+        ndarray, shape (..., m)
+            Joint rates ``qdot = B u`` [rad/s].
+        """
+        u = np.asarray(u, dtype=float)
+        return self._bd * u if self._bd is not None else u @ self._B.T
 
     def __repr__(self) -> str:
         return f"PlanarChain(links={self.m}, link_length={self.xi})"
@@ -251,3 +261,32 @@ class PlanarChain:
         q[0] = heading + beta
         q[1:] = 2 * beta * (-1.0) ** np.arange(1, self.m)
         return q
+
+
+def _input_matrix(B, m: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(diagonal, None)`` for a diagonal B (given as (m,) or (m, m)), ``(None, B)`` for a full one.
+
+    The checks cost O(m) for a diagonal; only a full B pays for its O(m^3) condition number.
+
+    Raises
+    ------
+    ConfigError
+        Wrong shape, NaN or inf, or (numerically) singular.
+    """
+    if B is None:
+        return np.ones(m), None
+    B = np.asarray(B, dtype=float)
+    if B.shape not in ((m,), (m, m)):
+        raise ConfigError(f"B: need shape ({m},) or ({m}, {m}), got {B.shape}")
+    if not np.all(np.isfinite(B)):
+        raise ConfigError("B: contains NaN or inf")
+    if B.ndim == 2 and np.count_nonzero(B - np.diag(np.diag(B))) == 0:
+        B = np.diag(B).copy()
+    if B.ndim == 1:
+        size = np.abs(B)
+        if size.min() == 0 or size.max() / size.min() > 1e12:
+            raise ConfigError("B: matrix is singular (the paper's eq. 2 needs B invertible)")
+        return B, None
+    if np.linalg.cond(B) > 1e12:
+        raise ConfigError("B: matrix is singular (the paper's eq. 2 needs B invertible)")
+    return None, B

@@ -39,7 +39,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per simulated second in the log (default: every step)")
     p.add_argument("--cond-rate", type=float, metavar="HZ",
                    help="samples per simulated second of cond (an SVD each; default 5 Hz up to 64 links, "
-                        "then falling as 1/m^2; 0 = off)")
+                        "then falling as 1/m^2, off above 1024 links; 0 = off)")
     p.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
                    help="chunk compression of the log: zstd (default, smaller) or lz4 (faster)")
     p.add_argument("--live", action="store_true",
