@@ -19,6 +19,14 @@ from coordarm.symbolic import CoordinatingController
 from .replay import Replay
 
 
+class FrameProgress(Progress):
+    """The progress bar of the rendering: frames done instead of simulated time."""
+
+    def status(self, done: float, elapsed: float) -> str:
+        """Frames done of all and wall time spent."""
+        return f"frame {done:.0f}/{self.total:.0f}  {elapsed:.1f} s wall"
+
+
 def frame_indices(t: np.ndarray, fps: float, max_frames: int) -> np.ndarray:
     """Sample rows for the frames: real time at ``fps`` if that fits in ``max_frames``, else sped up."""
     span = float(t[-1] - t[0]) if len(t) else 0.0
@@ -90,7 +98,7 @@ def animate(replay: Replay, path: str | Path, fps: float = 15.0, max_frames: int
     # moving artists on a copy of that background (the full redraw cost 0.2 s a frame).
     fig.canvas.draw()
     background = fig.canvas.copy_from_bbox(fig.bbox)
-    meter = Progress(len(idx), label="animation", unit="frame {done:.0f}/{total:.0f}") if progress else None
+    meter = FrameProgress(len(idx), label="animation") if progress else None
     def render(i: int) -> Image.Image:
         fig.canvas.restore_region(background)
         for artist in draw(i):

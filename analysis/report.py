@@ -323,7 +323,24 @@ def write_report(run: Any, scenario: Any, out_dir: str | Path, ctrl: Coordinatin
 
 
 def summary_json(a: RunAnalysis, run: Any, scenario: Any, ctrl: CoordinatingController) -> dict:
-    """Machine-readable results: smallest margins (time, link), blow-up, outcome, collisions."""
+    """Machine-readable results: smallest margins (time, link), blow-up, outcome, collisions, clearance.
+
+    Parameters
+    ----------
+    a : RunAnalysis
+        The analysis of the run.
+    run : object
+        The run or replayed log (``t``, ``q``; ``outcome`` or ``info["stopped"]``).
+    scenario : Scenario
+        Its scenario (obstacles).
+    ctrl : CoordinatingController
+        Its controller (chain with joint limits and clearance).
+
+    Returns
+    -------
+    dict
+        JSON-ready; ``clearance`` maps each obstacle's name to its smallest distance [m], time and link.
+    """
     from coordarm.simulation.physical import Physical, distinct
 
     worst = a.margins["worst_link"]
@@ -338,12 +355,15 @@ def summary_json(a: RunAnalysis, run: Any, scenario: Any, ctrl: CoordinatingCont
     q, t = np.asarray(run.q, float), np.asarray(run.t, float)
     rows = even_indices(len(t), 2000)
     rows = rows[np.all(np.isfinite(q[rows]), axis=1)]
-    found = distinct(Physical(ctrl.chain, list(scenario.obstacles)).check(t[rows], q[rows]))
+    physical = Physical(ctrl.chain, list(scenario.obstacles))
+    found = distinct(physical.check(t[rows], q[rows]))
+    clearance = {name: {"distance": d, "time": when, "link": link}
+                 for name, (d, when, link) in physical.clearances(q[rows], t[rows]).items()}
     blowup = None if a.blowup_time is None else {
         "time": a.blowup_time, "link": a.blowup_link, "nominal_u": a.nominal_u, "factor": BLOWUP_FACTOR}
     return {"scenario": scenario.name, "links": ctrl.chain.m, "t_start": float(t[0]), "t_end": float(t[-1]),
             "outcome": outcome, "margins": margins, "blowup": blowup, "nominal_u": a.nominal_u,
-            "collisions": [c.to_dict() for c in found]}
+            "collisions": [c.to_dict() for c in found], "clearance": clearance}
 
 
 def _num(x: float) -> float | None:

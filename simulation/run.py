@@ -170,8 +170,8 @@ def check_number(value: Any, name: str, positive: bool = True) -> float:
 class Progress:
     """A one-line progress bar on stderr (redrawn in place on a terminal, every 10% otherwise)."""
 
-    def __init__(self, total: float, label: str = "run", stream=None, unit: str = "t = {done:.2f}/{total:.2f} s") -> None:
-        self.total, self.label, self.stream, self.unit = total, label, stream or sys.stderr, unit
+    def __init__(self, total: float, label: str = "run", stream=None) -> None:
+        self.total, self.label, self.stream = total, label, stream or sys.stderr
         self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
         self.start, self.last = _time.perf_counter(), -1
 

@@ -73,8 +73,8 @@ class Scenario:
         The validated scenario with every default filled in (the TOML layout of this module).
     source : str
         Where it came from (preset name, file path or ``<dict>``), used in error messages.
-    obstacles : ndarray, shape (k, 2, 2)
-        Wall segments ``[[ax, ay], [bx, by]]`` [m].
+    obstacles : list of Obstacle
+        Named wall segments, discs and polygons (:mod:`coordarm.simulation.obstacles`).
     """
 
     spec: dict

@@ -141,3 +141,21 @@ def test_a_zigzag_start_beyond_the_joint_limit_is_a_config_error_naming_the_join
             "start": {"kind": "zigzag", "beta": 1.45}}
     with pytest.raises(ConfigError, match="joint 2 .*limit"):
         Scenario.from_dict(spec).start()
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(5, 40), st.floats(0.8, 5.0), st.floats(0.4, 1.35), st.floats(-3.0, 3.0), st.booleans())
+def test_projected_starts_are_on_the_curve_within_limits_or_refused_naming_a_link(m, radius, beta, angle, flip):
+    chain = PlanarChain(m, 0.1)
+    ctrl = CoordinatingController(chain, Arc(angle=angle, radius=radius), 2.0, 0.0)
+    try:
+        q = project_onto_curve(ctrl, chain.zigzag(-beta if flip else beta, angle))
+    except ConfigError as exc:
+        assert "link" in str(exc)
+        return
+    assert np.max(np.abs(ctrl.evaluate(q, 0.0)["e"])) < 1e-9
+    assert np.all(np.abs(q[1:]) <= 2.8)
+    J = chain.joints_np(q)                       # independent all-pairs check of the result
+    for a in range(m):
+        for b in range(a + 2, m):
+            assert segment_distance(J[a], J[a + 1], J[b], J[b + 1]) > 0

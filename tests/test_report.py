@@ -175,7 +175,7 @@ def test_report_json_records_margins_blowup_outcome_and_collisions(tmp_path):
     assert data["blowup"]["time"] == pytest.approx(2.738) and data["blowup"]["link"] >= 1
     assert data["margins"]["longitudinal"]["first_below"] < data["blowup"]["time"]
     assert data["margins"]["links"]["link"] >= 2 and data["outcome"]["status"] in ("completed", "singularity")
-    assert isinstance(data["collisions"], list)
+    assert isinstance(data["collisions"], list) and data["clearance"] == {}
     log = tmp_path / "line.mcap"
     assert main(["run", "line", "--links", "10", "--duration", "1.0", "--quiet", "--no-figures",
                  "--out", str(log)]) == 0
@@ -183,6 +183,11 @@ def test_report_json_records_margins_blowup_outcome_and_collisions(tmp_path):
     data = json.loads((tmp_path / "l" / "report.json").read_text())
     assert data["blowup"] is None and data["outcome"]["status"] == "completed" and data["collisions"] == []
     assert data["links"] == 10 and data["margins"]["longitudinal"]["value"] > 0.15
+    assert main(["report", "hole", "--links", "50", "--duration", "9", "--out", str(tmp_path / "h"),
+                 "--samples", "50"]) == 0
+    clear = json.loads((tmp_path / "h" / "report.json").read_text())["clearance"]
+    assert sorted(clear) == [f"wall {i}" for i in range(1, 6)]
+    assert 0 < clear["wall 1"]["distance"] < 0.03 and 1 <= clear["wall 1"]["link"] <= 50   # the hole: ~1 cm
 
 
 def test_threshold_study_is_a_sweep_whose_lead_is_the_stop_of_a_normal_run():
