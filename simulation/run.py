@@ -187,8 +187,8 @@ class Progress:
         self.stream.flush()
 
     def status(self, done: float, elapsed: float) -> str:
-        """The text after the bar: what is done (``unit``) and wall time spent."""
-        return f"{self.unit.format(done=done, total=self.total)}  {elapsed:.1f} s wall"
+        """The text after the bar: simulated time done and wall time spent."""
+        return f"t = {done:.2f}/{self.total:.2f} s  {elapsed:.1f} s wall"
 
     def close(self) -> None:
         if self.tty:
