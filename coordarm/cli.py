@@ -14,6 +14,7 @@ COMMANDS = {
     "regen": "coordarm.commands.regen",
     "replay": "coordarm.commands.replay",
     "report": "coordarm.commands.report",
+    "compare": "coordarm.commands.compare",
     "sweep": "coordarm.commands.sweep",
     "layout": "coordarm.commands.layout",
     "export": "coordarm.commands.export",

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+import coordarm.symbolic.controller as controller_module
 from coordarm.symbolic import LAWS, BuildError, CoordinatingController
 from coordarm.symbolic.outputs import OUTPUTS, offsets, packed_width
 
@@ -40,12 +41,39 @@ class Source:
     m: int
 
 
+def _split(ctrl: CoordinatingController, form: str) -> bool:
+    """Whether the law is emitted as per-link Functions and a C loop (structured, undamped)."""
+    return form == "structured" and not ctrl.damping
+
+
+def structured_law(ctrl: CoordinatingController) -> str:
+    """The C of the structured law (:data:`.templates.STRUCTURED_LAW`) with its re-pivoting macros.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller (its time terms of the re-pivoting step set ``CA_NW_REPIVOT``).
+
+    Returns
+    -------
+    str
+        ``CA_REPIVOT`` and ``CA_NW_REPIVOT`` definitions followed by the law's C.
+    """
+    return (f"#define CA_REPIVOT {controller_module.REPIVOT!r}\n"
+            f"#define CA_NW_REPIVOT {int(ctrl.time_features_repivot().numel_out(0))}\n"
+            + templates.STRUCTURED_LAW)
+
+
 def functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
-    """The CasADi Functions the C of ``form`` calls (the structured form's time features first)."""
-    if form == "structured":
+    """The CasADi Functions the C of ``form`` calls (the structured form's time features first).
+
+    The structured form adds the re-pivoting step and its time terms (called only at a state
+    with a small link pivot); with damping, the whole law is one Function.
+    """
+    if _split(ctrl, form):
         return [ctrl.time_features(True), ctrl.first_carry(), ctrl.link_step_trig(), ctrl.tail(),
-                ctrl.link_pivot()]
-    return [ctrl.law("dense")]
+                ctrl.link_pivot(), ctrl.time_features_repivot(), ctrl.link_step_repivot()]
+    return [ctrl.law(form)]
 
 
 def _b_macros(ctrl: CoordinatingController) -> str:
@@ -102,8 +130,8 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
                          "glue was written for the glue before issue 15's vectorisation and is not ported yet); "
                          "use backend 'interpreted' ('auto' falls back by itself)")
     funcs = functions(ctrl, form)
-    if form == "structured":
-        law = templates.STRUCTURED_LAW
+    if _split(ctrl, form):
+        law = structured_law(ctrl)
     else:
         results = "\n".join(f"  res[{i}] = {'u' if name == 'u' else 'out + CA_OUT_' + name.upper()};"
                             for i, name in enumerate(OUTPUTS))
@@ -129,7 +157,7 @@ def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law:
     parts = [templates.CASADI_BEGIN, cg.dump(), templates.CASADI_END,
              templates.HEADER.format(m=m, layout=layout_macros(m), b_diagonal=b_macros,
                                      **{f"sz_{k}": v for k, v in sizes.items()})]
-    if form == "structured":
+    if _split(ctrl, form):
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
                      f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
     parts += [law, api]

@@ -122,7 +122,9 @@ static void ca_trig(const casadi_real* restrict alpha, casadi_real* restrict c, 
 """
 
 #: The structured law: :data:`TRIG_PASSES`, then the O(m) recursion calling the generated
-#: per-link step (which has no trigonometry), then the tail and the rates.
+#: per-link step (which has no trigonometry), then the tail and the rates. If some link's pivot
+#: is small (margin below ``CA_REPIVOT`` or NaN) the recursion only raises a flag and the whole
+#: law is evaluated again, out of line, with the re-pivoting step (``ca_law_repivot``).
 STRUCTURED_LAW = TRIG_PASSES + """
 #define CA_LAW_SCRATCH (5 * CA_M)
 
@@ -135,9 +137,10 @@ STRUCTURED_LAW = TRIG_PASSES + """
     if (link_step_trig(arg, res, iw, w, 0)) return 2; \\
     out[CA_OUT_E + (j) - 1] = o[0]; out[CA_OUT_LINK_MARGINS + (j) - 1] = o[1]; \\
     a[j] = o[2]; b[j] = o[3]; \\
+    repivot |= !(o[1] >= CA_REPIVOT);  /* a small (or NaN) link pivot */ \\
   } while (0)
 
-/* The recursion over links 2..m; the carry is copied back (not pointer-swapped) and the step has
+/* The recursion over links 2..m (returns 1 if a link pivot is small: see ca_law_repivot); the carry is copied back (not pointer-swapped) and the step has
    a single call site and is inlined (flatten), so the compiler keeps the carry in registers. */
 CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, const casadi_real* s,
                         const casadi_real* wt, casadi_real* carry, casadi_real* out,
@@ -146,6 +149,7 @@ CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, c
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int j, k;
+  int repivot = 0;
   a[0] = 0; b[0] = 1;
   for (k = 0; k < CA_NC; ++k) c0[k] = carry[k];
   for (j = 1; j < CA_M; ++j) {
@@ -153,30 +157,79 @@ CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, c
     for (k = 0; k < CA_NC; ++k) c0[k] = c1[k];
   }
   for (k = 0; k < CA_NC; ++k) carry[k] = c0[k];
+  return repivot;                      /* 1: some link needs re-pivoting (2 is a failed call) */
+}
+
+/* Re-pivoting (rare, out of line): the whole law again with the step that, at a link whose pivot
+   is small, solves that link's row for the free rate instead; then the free rate is carried back
+   through the re-pivoted links (p_{j-1} = c_j + d_j p_j). */
+static __attribute__((noinline, cold)) int ca_law_repivot(const casadi_real* q, casadi_real t, casadi_real* u,
+                                                          casadi_real* out, casadi_int* iw, casadi_real* w) {
+  casadi_real wt[CA_NW_REPIVOT + 1], c0[CA_NC], c1[CA_NC], o[6], tl[5];
+  casadi_real a[CA_M], b[CA_M], cc[CA_M], dd[CA_M], rates[CA_M];
+  casadi_real *cur = c0, *nxt = c1, *tmp, p, prev;
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  casadi_int j;
+  arg[0] = &t; res[0] = wt;
+  if (time_features_repivot(arg, res, iw, w, 0)) return 2;
+  arg[0] = q; res[0] = cur;
+  if (first_carry(arg, res, iw, w, 0)) return 2;
+  for (j = 1; j < CA_M; ++j) {
+    arg[0] = cur; arg[1] = q + j; arg[2] = wt; res[0] = nxt; res[1] = o;
+    if (link_step_repivot(arg, res, iw, w, 0)) return 2;
+    out[CA_OUT_E + j - 1] = o[0];
+    out[CA_OUT_LINK_MARGINS + j - 1] = o[1];
+    a[j] = o[2]; b[j] = o[3]; cc[j] = o[4]; dd[j] = o[5];
+    tmp = cur; cur = nxt; nxt = tmp;
+  }
+  arg[0] = cur; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3; res[4] = tl + 4;
+  if (tail(arg, res, iw, w, 0)) return 2;
+  out[CA_OUT_S] = tl[0];
+  out[CA_OUT_LONGITUDINAL] = tl[2];
+  out[CA_OUT_LONGITUDINAL_PIVOT] = tl[3];
+  out[CA_OUT_V_SCALE] = tl[4];
+  p = tl[1];                           /* the free rate after the last link */
+  for (j = CA_M - 1; j > 0; --j) {     /* w_j = a_j + b_j p_j, p_{j-1} = c_j + d_j p_j */
+    rates[j] = a[j] + b[j] * p;
+    p = cc[j] + dd[j] * p;
+  }
+  rates[0] = p;                        /* w_1 = p_1 */
+  prev = 0;
+  for (j = 0; j < CA_M; ++j) {         /* qdot_j = w_j - w_{j-1} */
+    u[j] = CA_U_FROM_QDOT(j, rates[j] - prev);
+    prev = rates[j];
+  }
   return 0;
 }
 
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
                   casadi_real* w) {
-  casadi_real wt[CA_NW + 1], carry[CA_NC], tl[4];
+  casadi_real wt[CA_NW + 1], carry[CA_NC], tl[5];
   casadi_real *alpha = w + CA_SZ_W + CA_RK4_SCRATCH, *c = alpha + CA_M, *s = c + CA_M;
   casadi_real *a = s + CA_M, *b = a + CA_M;
   casadi_real p, rate, prev;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int j;
+  int rc;
   arg[0] = &t; res[0] = wt;
   if (time_features(arg, res, iw, w, 0)) return 2;
   arg[0] = q; res[0] = carry;
   if (first_carry(arg, res, iw, w, 0)) return 2;
   ca_angles(q, alpha);
   ca_trig(alpha, c, s);
-  if (ca_recursion(q, c, s, wt, carry, out, a, b, iw, w)) return 2;
+  if ((rc = ca_recursion(q, c, s, wt, carry, out, a, b, iw, w))) {
+    if (rc == 2) return 2;
+    return ca_law_repivot(q, t, u, out, iw, w);
+  }
   arg[0] = carry; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
+  res[4] = tl + 4;
   if (tail(arg, res, iw, w, 0)) return 2;
   out[CA_OUT_S] = tl[0];
   out[CA_OUT_LONGITUDINAL] = tl[2];
   out[CA_OUT_LONGITUDINAL_PIVOT] = tl[3];
+  out[CA_OUT_V_SCALE] = tl[4];
   p = tl[1];                           /* the free rate w_1 */
   prev = 0;
   for (j = 0; j < CA_M; ++j) {         /* w_j = a_j + b_j p, qdot_j = w_j - w_{j-1} */

@@ -15,6 +15,10 @@ BACKENDS = ("auto", "compiled", "interpreted")
 #: Chunk compressions of the run log (both are in the MCAP specification and read by Foxglove);
 #: ``lz4`` needs the optional ``lz4`` package (``pip install coordarm[lz4]``).
 COMPRESSIONS = ("lz4", "zstd")
+#: Methods of ``coordarm compare`` (:mod:`coordarm.analysis.compare`), in table order.
+COMPARE_METHODS = ("coordinating", "pinv", "dls", "ftl")
+#: Backends of ``coordarm compare``: every method as generated C, or in CasADi's virtual machine.
+COMPARE_BACKENDS = ("compiled", "interpreted")
 #: Short names accepted by ``coordarm sweep --vary`` (the results column keeps the name as given).
 SWEEP_ALIASES = {"links": "chain.links", "link_length": "chain.link_length", "gain": "control.gain",
                  "speed": "control.speed", "beta": "start.beta", "heading": "start.heading",

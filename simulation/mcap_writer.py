@@ -113,10 +113,11 @@ def build_info(scenario: Scenario) -> dict[str, str]:
 
 
 def outcome_of(error: BaseException | None, last_t: float | None,
-               contacts: list[dict] | None = None) -> dict[str, Any]:
+               contacts: list[dict] | None = None, governed: float = 0.0) -> dict[str, Any]:
     """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``.
 
-    ``contacts`` (the records of an ``--allow-contact`` run) are added when there are any.
+    ``contacts`` (the records of an ``--allow-contact`` run) are added when there are any;
+    ``governed`` is the simulated time [s] during which the speed governor slowed ``v*``.
     """
     if error is None:
         out = {"status": "completed", "t_end": last_t}
@@ -132,6 +133,7 @@ def outcome_of(error: BaseException | None, last_t: float | None,
         out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
     if contacts:
         out["contacts"] = contacts
+    out["governed"] = governed
     return out
 
 
@@ -243,6 +245,7 @@ class RunLogger:
         self._seen = 0          # steps received so far (the global index of the next one)
         self._last: Run | None = None
         self._last_logged = -1  # global index of the last sample logged
+        self._governed = 0.0    # simulated time with v_scale < 1 [s]
         self._flushed = time.monotonic()
         self.scene = SceneBuilder(self.ctrl, scenario.obstacles)
         self.outcome: dict[str, Any] | None = None
@@ -282,6 +285,8 @@ class RunLogger:
         n = len(part.t)
         g = self._seen + np.arange(n)
         self._seen += n
+        slowed = int(np.count_nonzero(part.speed_factor() < 1)) if n else 0
+        self._governed += self.step * slowed   # each step lasts self.step (as Run.governed_time)
         self._last = part
         rows = np.flatnonzero(g % self.every == 0)
         if len(rows):
@@ -381,7 +386,7 @@ class RunLogger:
                     self._add_samples(self._last, np.array([len(self._last.t) - 1]))
             if len(self._pending) or self._extras:
                 self._write_chunk(len(self._pending))
-            self.outcome = outcome_of(error, last_t, self.contacts)
+            self.outcome = outcome_of(error, last_t, self.contacts, self._governed)
             self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in self.outcome.items()})
             self.file.close()
         except Exception as exc:

@@ -16,7 +16,8 @@ def explain(error: SingularityError | CollisionError) -> list[str]:
         return [f"singularity ahead at {t}: the longitudinal margin fell to {v} (threshold {thr}): the body is "
                 f"stretched along the curve and the end point can hardly be pushed further (|u| would blow up)",
                 "advice: lower the speed v*, use more links, a shorter duration, or a more compact start "
-                "(larger start.beta)"]
+                "(larger start.beta)" + ("; or turn on the speed governor ([control] governor = true, "
+                                         "--governor), which slows v* down instead of stopping" if error.hint else "")]
     return [f"singularity ahead at {t}: the link margin of link {error.link} fell to {v} (threshold {thr}): "
             f"link {error.link} stands almost across the curve",
             "advice: move the curve more slowly (angle, radius), raise the gain K, or start with links more "

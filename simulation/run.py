@@ -66,8 +66,10 @@ class Run(ExtraOutputs):
         Commanded speed [m/s].
     sigma, rail_margin : (N+1,) array or None
         On a rail only: the span ``psi(y^m) - psi(y^1)`` [m] and the rail margin [-].
+    v_scale : (N+1,) array
+        The governor's factor on ``v*`` (all ones without the governor; default ones).
     info : dict
-        Backend, wall time, stop reason.
+        Backend, wall time, stop reason, ``governed`` time [s] (steps with ``v_scale < 1``).
     extra : dict
         Arrays of the law's other run outputs (rows of :data:`~coordarm.symbolic.outputs.LAW_OUTPUTS`
         with a log channel that are not fields above), also readable as attributes.
@@ -102,16 +104,44 @@ class Run(ExtraOutputs):
         return cls(**{a: arrays[a] for a in keys if a in named}, info=dict(info or {}),
                    extra={a: arrays[a] for a in keys if a not in named})
 
-    def s_reference(self) -> np.ndarray:
-        """``s(0) + integral of v*`` on the sample grid (trapezoidal rule).
+    def __post_init__(self) -> None:
+        # A run made without the governor's output (e.g. by a baseline) was not governed.
+        if "v_scale" not in self.extra:
+            self.extra["v_scale"] = np.ones(len(self.t))
+
+    def speed_factor(self) -> np.ndarray:
+        """The governor's factor on ``v*`` at each sample (1 where unknown, e.g. replayed from an older log).
 
         Returns
         -------
         ndarray, shape (N+1,)
-            The arc length the end point should have [m].
+            In [0, 1] (dimensionless).
+        """
+        scale = np.asarray(self.extra["v_scale"], dtype=float)
+        return np.where(np.isfinite(scale), scale, 1.0)
+
+    def s_reference(self) -> np.ndarray:
+        """``s(0) + integral of v_scale v*`` on the sample grid (trapezoidal rule).
+
+        Returns
+        -------
+        ndarray, shape (N+1,)
+            The arc length the end point should have [m] (the governed speed when governed).
         """
         dt = np.diff(self.t)
-        return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (self.v_star[1:] + self.v_star[:-1]))])
+        v = self.speed_factor() * self.v_star
+        return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))])
+
+    def governed_time(self) -> float:
+        """Time the governor slowed ``v*``: samples with ``v_scale < 1`` times the step.
+
+        Returns
+        -------
+        float
+            Simulated time [s].
+        """
+        step = float(self.t[1] - self.t[0]) if len(self.t) > 1 else 0.0
+        return step * int(np.count_nonzero(self.speed_factor() < 1))
 
     def summary(self) -> dict[str, float]:
         """Final ``max|e|``, worst ``s`` tracking error, smallest margins and where.
@@ -372,7 +402,13 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
                 parts.append(part)
                 if on_chunk:
                     on_chunk(part)
-                error.run = _concat(parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts)))
+                if isinstance(error, SingularityError) and error.kind == "longitudinal" and not ctrl.governor:
+                    error = SingularityError(error.time, error.link, error.margin, error.kind, error.threshold,
+                                             hint="the speed governor ([control] governor = true, --governor) "
+                                                  "slows v* instead of stopping")
+                error.run = _concat(parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
+                                                wall_time=_time.perf_counter() - wall))
+                error.run.info["governed"] = error.run.governed_time()
                 raise error
             parts.append(part)
             if on_chunk:
@@ -386,7 +422,9 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         if bar:
             bar.close()
     info = dict(info, contacts=_records(contacts))
-    return _concat(parts, dict(info, stopped="completed", wall_time=_time.perf_counter() - wall))
+    run = _concat(parts, dict(info, stopped="completed", wall_time=_time.perf_counter() - wall))
+    run.info["governed"] = run.governed_time()
+    return run
 
 
 _STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision"}

@@ -13,7 +13,8 @@ Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
                 (path: start, heading, segments = [{line = L}, {arc = A, radius = R}, ...];
                 waypoints: points, radius; both: offset, rotation optional)
     [control]   gain = 2.0, speed = 0.1 (or a motion), law = "structured" | "dense",
-                span = motion (rail only: the commanded span; default: held)
+                span = motion (rail only: the commanded span; default: held),
+                governor = false, damping = { kind = "dls", lambda = 0.01, band = 0.1 }
     [start]     kind = "zigzag" | "projected" | "follow", beta = 1.3, heading = 0.0,
                 curve = {...}  (projected: project onto this curve instead;
                 follow: a zig-zag laid link by link along the curve, for bent paths)
@@ -37,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, Curve, PlanarChain, curve_from_spec,
                                follow_curve, motion_from_spec, project_onto_curve)
 from coordarm.symbolic.start import check_start
@@ -48,7 +50,7 @@ from .run import DEFAULT_THRESHOLDS, check_number
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
             "obstacles", "figures"}
-KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base"}, "figures": {"stages", "panels"}, "control": {"gain", "speed", "law", "span"},
+KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base"}, "figures": {"stages", "panels"}, "control": {"gain", "speed", "law", "span", "governor", "damping"},
         "start": {"kind", "beta", "heading", "curve"}, "run": {"duration", "step", "t0"},
         "thresholds": {"link", "longitudinal"}}
 START_KINDS = ("zigzag", "projected", "follow")
@@ -56,7 +58,7 @@ START_KINDS = ("zigzag", "projected", "follow")
 USER_DEFINED = "user-defined"
 DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
             "run": {"duration": 20.0, "step": 0.001, "t0": 0.0},
-            "control": {"law": "structured"}}
+            "control": {"law": "structured", "governor": False}}
 
 
 def check_stages(stages: Any, field: str = "figures.stages") -> list[float]:
@@ -192,6 +194,12 @@ class Scenario:
         motion_from_spec(spec["control"].get("speed", 0.0), "control.speed")
         if spec["control"]["law"] not in LAWS:
             raise ConfigError(f"control.law: expected one of {LAWS}, got {spec['control']['law']!r}")
+        if not isinstance(spec["control"]["governor"], bool):
+            raise ConfigError(f"control.governor: expected true or false, got {spec['control']['governor']!r}")
+        try:
+            check_damping(spec["control"].get("damping"))
+        except ConfigError as exc:
+            raise ConfigError(f"control.{exc}") from None
         if spec["curve"].get("kind") == USER_DEFINED:
             if not isinstance(curve, Curve):
                 raise ConfigError(f"curve: the run used a user-defined curve ({spec['curve'].get('class', '?')}), "
@@ -217,6 +225,8 @@ class Scenario:
             v = check_number(spec["thresholds"][k], f"thresholds.{k}", positive=False)
             if not 0 <= v < 1:
                 raise ConfigError(f"thresholds.{k}: need 0 <= value < 1, got {v}")
+        if spec["control"]["governor"] and not spec["thresholds"]["longitudinal"] > 0:
+            raise ConfigError("thresholds.longitudinal: the governor slows v* to 0 at this margin; need > 0")
         obstacles = obstacles_from_spec(spec.setdefault("obstacles", []))
         spec["obstacles"] = [o.to_spec() for o in obstacles]
         return cls(spec, source, obstacles)
@@ -243,8 +253,11 @@ class Scenario:
         return dict(self.spec["thresholds"])
 
     def with_overrides(self, links: int | None = None, duration: float | None = None,
-                       step: float | None = None, law: str | None = None) -> "Scenario":
-        """A copy with the chain length, duration, step or form of the law replaced (validated again).
+                       step: float | None = None, law: str | None = None, governor: bool | None = None,
+                       damping: dict | None = None) -> "Scenario":
+        """A copy with the chain length, duration, step, form of the law, governor or damping replaced.
+
+        The copy is validated again.
 
         Parameters
         ----------
@@ -256,6 +269,10 @@ class Scenario:
             RK4 step [s].
         law : {"structured", "dense"}, optional
             Form of the law.
+        governor : bool, optional
+            ``[control] governor``.
+        damping : dict, optional
+            ``[control] damping`` (``{"kind": "dls", "lambda": .., "band": ..}``).
 
         Returns
         -------
@@ -268,6 +285,10 @@ class Scenario:
             An override that is not valid.
         """
         spec = copy.deepcopy(self.spec)
+        if governor is not None:
+            spec["control"]["governor"] = governor
+        if damping is not None:
+            spec["control"]["damping"] = damping
         if law is not None:
             spec["control"]["law"] = law
         if links is not None:
@@ -321,7 +342,9 @@ class Scenario:
         curve = self.curve if self.curve is not None else curve_from_spec(self.spec["curve"])
         return CoordinatingController(self.chain(), curve, float(c["gain"]),
                                       motion_from_spec(c.get("speed", 0.0), "control.speed"),
-                                      law=c["law"], span=span)
+                                      law=c["law"], span=span, governor=c["governor"],
+                                      governor_threshold=float(self.spec["thresholds"]["longitudinal"]),
+                                      damping=c.get("damping"))
 
     def start(self, ctrl: CoordinatingController | None = None) -> np.ndarray:
         """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked).

@@ -9,6 +9,11 @@ sets ``u_s = v*(t) - dpsi/dt``, ``u_e^j = -K e^j - dphi/dt`` and solves
   ``mapaccum`` over links, which also yields the singularity margins;
 * ``"dense"``: the decoupling matrix from AD Jacobians ``C^j = dc^j/dq`` and a dense
   linear solve (the reference, O(m^3)).
+
+Near a singularity (see :mod:`.near_singular`): ``governor=True`` scales ``v*`` by a smooth
+factor of the longitudinal margin (output ``v_scale``); ``damping`` solves the damped
+least-squares system in a band of small margins. A link pivot that is small while the
+decoupling matrix is regular is re-pivoted inside the recursion (:data:`REPIVOT`).
 """
 from __future__ import annotations
 
@@ -24,6 +29,16 @@ from .errors import ConfigError
 from .laws import LAWS
 from .outputs import OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS
 from .paths import Path
+from .near_singular import damping_factor, speed_scale
+
+#: Below this ``|cos|`` between a link's normal and the curve normal the recursion re-pivots that
+#: link: it solves the link's ``e`` row for the free rate instead (when that is better conditioned).
+REPIVOT = 0.05
+#: Default zero point of the governor (the simulator's default longitudinal stop threshold).
+GOVERNOR_THRESHOLD = 0.15
+#: Damping kinds of ``damping = {"kind": ..., "lambda": ..., "band": ...}``.
+DAMPING_KINDS = ("dls",)
+
 
 #: The curve classes of coordarm; any other Curve (a subclass too) is user-defined.
 BUILT_IN_CURVES = (Line, Circle, Arc, Path)
@@ -55,6 +70,28 @@ def check_user_curve(curve: Curve, times=(0.0, 1.0)) -> None:
         raise ConfigError(f"curve: user-defined {type(curve).__name__}: {res.message()}")
 
 
+def check_damping(damping: Any) -> dict | None:
+    """``damping`` validated, defaults filled in: None or ``{"kind": "dls", "lambda": > 0, "band": in (0, 1]}``.
+
+    Raises
+    ------
+    ConfigError
+        Not a table, an unknown key or kind, or a value out of range (named).
+    """
+    if damping is None:
+        return None
+    if not isinstance(damping, dict) or set(damping) - {"kind", "lambda", "band"} or "kind" not in damping:
+        raise ConfigError(f"damping: expected a table {{kind = \"dls\", lambda = 0.01, band = 0.1}}, got {damping!r}")
+    if damping["kind"] not in DAMPING_KINDS:
+        raise ConfigError(f"damping.kind: expected one of {DAMPING_KINDS}, got {damping['kind']!r}")
+    out = {"kind": damping["kind"]}
+    for key, default, upper in (("lambda", 0.01, math.inf), ("band", 0.1, 1.0)):
+        v = damping.get(key, default)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= upper:
+            raise ConfigError(f"damping.{key}: need a finite number in (0, {upper}], got {v!r}")
+        out[key] = float(v)
+    return out
+
 
 class CoordinatingController:
     """Coordinating controller of a planar chain along a time-varying curve.
@@ -75,6 +112,16 @@ class CoordinatingController:
         Only for a chain on a rail: the commanded span ``sigma*(t)`` [m], tracked by
         ``sigma_dot = sigma*' - K (sigma - sigma*)``. None (default): the span is held,
         ``sigma_dot = 0``.
+    governor : bool
+        Scale ``v*`` by :func:`~.near_singular.speed_scale` of the longitudinal margin
+        (output ``v_scale``; 1 when off).
+    governor_threshold : float
+        Longitudinal margin at which the governed speed reaches 0 (dimensionless, in (0, 1);
+        used only with the governor).
+    damping : dict, optional
+        ``{"kind": "dls", "lambda": 0.01, "band": 0.1}``: inside the band of the smallest
+        margin solve ``u = M^T (M M^T + lambda_v^2 I)^-1 r`` with the variable damping
+        :func:`~.near_singular.damping_factor` [lambda in m/rad]. Default: off.
 
     Notes
     -----
@@ -85,7 +132,8 @@ class CoordinatingController:
     """
 
     def __init__(self, chain: PlanarChain, curve: Curve, gain: float, speed: Any,
-                 law: str = "structured", span: Any = None) -> None:
+                 law: str = "structured", span: Any = None, governor: bool = False,
+                 governor_threshold: float = GOVERNOR_THRESHOLD, damping: dict | None = None) -> None:
         if not isinstance(chain, PlanarChain):
             raise ConfigError(f"chain: expected a PlanarChain, got {type(chain).__name__}")
         if not isinstance(curve, Curve):
@@ -95,13 +143,23 @@ class CoordinatingController:
             raise ConfigError(f"gain: K must be a finite number > 0, got {gain!r}")
         if law not in LAWS:
             raise ConfigError(f"law: expected one of {LAWS}, got {law!r}")
+        if not isinstance(governor, bool):
+            raise ConfigError(f"governor: expected true or false, got {governor!r}")
+        if governor and (isinstance(governor_threshold, bool) or not isinstance(governor_threshold, (int, float))
+                         or not 0 < governor_threshold < 1):
+            raise ConfigError(f"governor_threshold: need a number in (0, 1), got {governor_threshold!r}")
         self.chain, self.curve, self.gain, self.law_form = chain, curve, float(gain), law
+        self.governor, self.governor_threshold = governor, float(governor_threshold)
+        self.damping = check_damping(damping)
         self.speed = _param(speed, "speed")
         if type(curve) not in BUILT_IN_CURVES:
             check_user_curve(curve)
         if span is not None and not chain.rail:
             raise ConfigError("span: only a chain on a rail (base = 'rail') has a span output")
         self.span = None if span is None else _param(span, "span")
+        if governor and chain.rail:
+            raise ConfigError("governor: not available on a rail (the rail rate is fixed by the span row before "
+                              "the longitudinal margin is known); use a fixed base or lower the speed")
         #: Names of the outputs of :meth:`law`, in order (the rail adds :data:`RAIL_OUTPUTS`).
         self.outputs = OUTPUTS + (RAIL_OUTPUTS if chain.rail else ())
         #: The outputs kept at every sample of a run (the law's logged ones; the rail's too).
@@ -213,6 +271,65 @@ class CoordinatingController:
             self._cache[key] = (tf, step)
         return self._cache[key]
 
+    def _repivot_step(self):
+        """The re-pivoting link step (no trig inputs): carry, ``q_j``, ``t``, ``(carry_next, out)``.
+
+        Where the link pivot is small (``|cos| < REPIVOT``) and solving the link's ``e`` row
+        ``g.(P + Q p) + xi/2 (g.n_j) w_j = r`` for the free rate is better conditioned, it does
+        that: the old free rate becomes ``c + d w_j`` and ``w_j`` the new one, so a link standing
+        across the curve is no singularity unless the decoupling matrix itself is singular.
+        """
+        xi, K = self.chain.xi, self.gain
+        carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
+        y, alpha_prev, d_prev, P, Q = carry[0:2], carry[2], carry[3:5], carry[5:7], carry[7:9]
+        nb = carry[11]
+        alpha = alpha_prev + qj
+        d_j = direction(alpha)
+        n_j = ca.vertcat(-d_j[1], d_j[0])
+        y_j = y + 0.5 * xi * (d_prev + d_j)
+        phi, g, phit, *_ = self._geometry(y_j, t)
+        pivot = ca.dot(g, n_j)
+        gq = ca.dot(g, Q)
+        r = -K * phi - phit - ca.dot(g, P)
+        cos_n = ca.fabs(pivot) / ca.norm_2(g)
+        step = xi * n_j
+        inv = 1 / (0.5 * xi * pivot)
+        a_j, b_j = r * inv, -gq * inv
+        cos_q = ca.fabs(gq) / (ca.norm_2(g) * ca.norm_2(Q))
+        swap = ca.logic_and(cos_n < REPIVOT, cos_q > cos_n)
+        a_s, b_s = ca.if_else(swap, 0, a_j), ca.if_else(swap, 1, b_j)
+        c_s, d_s = ca.if_else(swap, r / gq, 0), ca.if_else(swap, -0.5 * xi * pivot / gq, 1)
+        P0, Q0 = P + Q * c_s, Q * d_s                # P + Q p in terms of the new free rate
+        new = ca.vertcat(y_j, alpha, d_j, P0 + step * a_s, Q0 + step * b_s, a_s, b_s,
+                         ca.fabs(d_s) * nb + ca.fabs(b_s))
+        out = ca.vertcat(phi, ca.if_else(swap, cos_q, cos_n), a_s, b_s, c_s, d_s)
+        both = ca.cse(ca.vertcat(new, out))
+        return carry, qj, t, both[:new.numel()], both[new.numel():]
+
+    def _hoisted_repivot(self):
+        """``(time_features_repivot, link_step_repivot)``: the re-pivoting step and its time terms (cached)."""
+        if "hoisted_repivot" not in self._cache:
+            carry, qj, t, new, out = self._repivot_step()
+            expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new, out), t)
+            wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 1)
+            wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX.zeros(1, 1)
+            n_new = new.numel()
+            tf = ca.Function("time_features_repivot", [t], [ca.cse(wexpr)], ["t"], ["w"])
+            step = ca.Function("link_step_repivot", [carry, qj, wsym], [expr[:n_new], expr[n_new:]],
+                               ["carry", "q_j", "w"], ["carry_next", "out"])
+            self._cache["hoisted_repivot"] = (tf, step)
+        return self._cache["hoisted_repivot"]
+
+    def time_features_repivot(self) -> ca.Function:
+        """``t -> w``: the time-only terms of :meth:`link_step_repivot`.
+
+        Returns
+        -------
+        casadi.Function
+            ``t -> w``.
+        """
+        return self._hoisted_repivot()[0]
+
     def time_features(self, trig_inputs: bool = False) -> ca.Function:
         """``t -> w``: the terms of :meth:`link_step` (:meth:`link_step_trig` if ``trig_inputs``)
         that depend on time only, computed once per ``t``.
@@ -235,9 +352,9 @@ class CoordinatingController:
         ``carry`` (layout :attr:`CARRY`) holds ``y^{j-1}``, ``alpha_{j-1}`` with its cosine
         and sine (so each link evaluates one sine/cosine pair), ``w_{j-1} = a + b p`` and
         ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}``, affine in the free rate
-        ``p = w_1``, and the running ``sum |b|``; ``w`` is :meth:`time_features` at the
-        current time;
-        ``out_j = (e^j, link margin, a_j, b_j)``.
+        ``p``, and the running ``sum |b|``; ``w`` is :meth:`time_features` at the current time;
+        ``out_j = (e^j, link margin, a_j, b_j)`` with ``w_j = a_j + b_j p``. It divides by the
+        link pivot: see :meth:`link_step_repivot` for links across the curve.
 
         Returns
         -------
@@ -245,6 +362,22 @@ class CoordinatingController:
             ``(carry, q_j, w) -> (carry_next, out)``.
         """
         return self._hoisted_link()[1]
+
+    def link_step_repivot(self) -> ca.Function:
+        """:meth:`link_step` with re-pivoting: ``out_j = (e^j, link margin, a_j, b_j, c_j, d_j)``.
+
+        Where the link pivot is small (``|cos| < REPIVOT``) and ``g.Q`` is better conditioned
+        it solves the link's row for the free rate: then ``p_{j-1} = c_j + d_j p_j`` with
+        ``p_j = w_j`` the new free rate (``a_j = 0, b_j = 1``); elsewhere it equals
+        :meth:`link_step` with ``c_j = 0, d_j = 1``. The compiled loop calls it only for links
+        whose plain margin is below ``REPIVOT``; the interpreted law uses it for every link.
+
+        Returns
+        -------
+        casadi.Function
+            ``(carry, q_j, w) -> (carry_next, out)``.
+        """
+        return self._hoisted_repivot()[1]
 
     def link_step_trig(self) -> ca.Function:
         """:meth:`link_step` with ``cos(alpha_j)``, ``sin(alpha_j)`` and the reciprocal of the
@@ -341,16 +474,17 @@ class CoordinatingController:
         return self._geometry(y[:, self.chain.m - 1], t)[3] - self._geometry(y[:, 0], t)[3]
 
     def tail(self) -> ca.Function:
-        """``(carry_m, t) -> (s, p, longitudinal, longitudinal_pivot)`` after the last link.
+        """``(carry_m, t) -> (s, p, longitudinal, longitudinal_pivot, v_scale)`` after the last link.
 
-        The ``s`` equation fixes the free rate ``p = w_1`` by dividing by the longitudinal
+        The ``s`` equation fixes the free rate ``p`` by dividing by the longitudinal
         pivot ``grad(psi)(y^m) . d ydot^m / dp`` [m/rad]; the longitudinal margin
         ``|pivot| / (xi sum |b|)`` is dimensionless (``(m-1)/m sin(beta)`` on a zig-zag of m links).
+        With the governor the commanded speed is ``v_scale v*`` (``v_scale`` = 1 without).
 
         Returns
         -------
         casadi.Function
-            ``(carry, t) -> (s, p, longitudinal, longitudinal_pivot)``.
+            ``(carry, t) -> (s, p, longitudinal, longitudinal_pivot, v_scale)``.
         """
         carry, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("t")
         y_m, n_m, nb = carry[0:2], ca.vertcat(-carry[4], carry[3]), carry[11]
@@ -358,10 +492,11 @@ class CoordinatingController:
         A_m, B_m = carry[5:7] - half * carry[9], carry[7:9] - half * carry[10]   # ydot^m = A_m + B_m p
         _, _, _, psi, h, psit = self._geometry(y_m, t)
         pivot = ca.dot(h, B_m)
-        p = (self.speed(t) - psit - ca.dot(h, A_m)) / pivot
         margin = ca.fabs(pivot) / (self.chain.xi * nb)
-        return ca.Function("tail", [carry, t], [psi, p, margin, pivot], ["carry", "t"],
-                           ["s", "p", "longitudinal", "longitudinal_pivot"])
+        scale = speed_scale(margin, self.governor_threshold) if self.governor else ca.SX(1)
+        p = (scale * self.speed(t) - psit - ca.dot(h, A_m)) / pivot
+        return ca.Function("tail", [carry, t], [psi, p, margin, pivot, scale], ["carry", "t"],
+                           ["s", "p", "longitudinal", "longitudinal_pivot", "v_scale"])
 
     def _u_from_rates(self, qdot):
         """``u = B^{-1} qdot`` (a division when B is diagonal)."""
@@ -370,24 +505,39 @@ class CoordinatingController:
             return qdot / ca.DM(bd) if not np.all(bd == 1) else qdot
         return ca.mtimes(ca.DM(np.linalg.inv(self.chain.B)), qdot)
 
+    def back_step(self) -> ca.Function:
+        """``(p_j, (c_j, d_j)) -> p_{j-1} = c_j + d_j p_j``: the free rate before link j.
+
+        Returns
+        -------
+        casadi.Function
+            ``(p, cd) -> p_prev`` [rad/s].
+        """
+        p, cd = ca.SX.sym("p"), ca.SX.sym("cd", 2)
+        return ca.Function("back_step", [p, cd], [cd[0] + cd[1] * p], ["p", "cd"], ["p_prev"])
+
     def _structured(self, q, t) -> dict:
         """The law's outputs (keyed by :data:`~coordarm.symbolic.outputs.OUTPUTS`) by the O(m) recursion."""
         m = self.chain.m
-        w_t = self.time_features()(t)
-        fold = self.link_step().mapaccum("links", m - 1)
+        w_t = self.time_features_repivot()(t)
+        fold = self.link_step_repivot().mapaccum("links", m - 1)
         qr = self.chain.revolute(q)
         if self.chain.rail:
             carry0, rail_rate, rail_margin, psi1 = self.rail_head()(q[0], qr[0], t, self._span_now(q, t))
         else:
             carry0 = self.first_carry()(qr[0])
         carries, outs = fold(carry0, qr[1:].T, ca.repmat(w_t, 1, m - 1))
-        psi, p, margin, pivot = self.tail()(carries[:, m - 2], t)
+        psi, p, margin, pivot, scale = self.tail()(carries[:, m - 2], t)
+        back = self.back_step().mapaccum("back", m - 1)
+        rev = list(range(m - 2, -1, -1))
+        p_prev = back(p, outs[4:6, rev])                 # p_{m-1}, ..., p_1
+        p_all = ca.vertcat(p_prev[:, rev].T, p)          # p_1, ..., p_m
         a = ca.vertcat(0, outs[2, :].T)
         b = ca.vertcat(1, outs[3, :].T)
-        w = a + b * p
+        w = a + b * p_all                                # w_1 = p_1; w_j = a_j + b_j p_j
         qdot = w - ca.vertcat(0, w[:-1])
         out = {"u": self._u_from_rates(qdot), "e": outs[0, :].T, "s": psi, "link_margins": outs[1, :].T,
-               "longitudinal": margin, "longitudinal_pivot": pivot}
+               "longitudinal": margin, "longitudinal_pivot": pivot, "v_scale": scale}
         if self.chain.rail:
             out.update(u=ca.vertcat(rail_rate, out["u"]), sigma=psi - psi1, rail_margin=rail_margin)
         return out
@@ -401,7 +551,7 @@ class CoordinatingController:
         out[1:, 1:] = self.chain.B
         return out
 
-    def decoupling_matrix_expr(self, q, t):
+    def decoupling_matrix_expr(self, q, t, v_scale=1):
         """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD.
 
         Parameters
@@ -410,13 +560,15 @@ class CoordinatingController:
             Symbolic joint coordinates [rad].
         t : casadi.SX or casadi.MX
             Symbolic time [s].
+        v_scale : float or casadi expression
+            Factor on ``v*`` in the ``s`` row (the governor's; default 1).
 
         Returns
         -------
         M : casadi expression, shape (m, m)
             Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``.
         rhs : casadi expression, shape (m,)
-            ``(v* - dpsi/dt, -K e^j - dphi/dt)``.
+            ``(v_scale v* - dpsi/dt, -K e^j - dphi/dt)``.
         """
         y = self.chain.centres(q)
         rows, rhs = [], []
@@ -425,7 +577,7 @@ class CoordinatingController:
             Cj = ca.jacobian(y[:, j], q)
             if j == self.chain.m - 1 and not rows:
                 rows.append(ca.mtimes(h.T, Cj))
-                rhs.append(self.speed(t) - psit)
+                rhs.append(v_scale * self.speed(t) - psit)
                 if self.chain.rail:        # the span row: sigma = psi(y^m) - psi(y^1)
                     _, _, _, psi1, h1, psit1 = self._geometry(y[:, 0], t)
                     rows.append(rows[0] - ca.mtimes(h1.T, ca.jacobian(y[:, 0], q)))
@@ -446,7 +598,8 @@ class CoordinatingController:
 
         ``form="structured"`` is an MX Function with a loop over links (for code
         generation); ``form="dense"`` solves the dense eq. 27 and takes its margins
-        from the structured recursion.
+        from the structured recursion. With ``damping``, ``u`` is the damped least-squares
+        solution wherever the smallest margin is inside the band.
 
         Parameters
         ----------
@@ -470,12 +623,19 @@ class CoordinatingController:
         if key not in self._cache:
             q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")
             outs = self._structured(q, t)
-            if form == "dense":
-                qs, ts = ca.SX.sym("q", self.chain.dof), ca.SX.sym("t")
-                M, r = self.decoupling_matrix_expr(qs, ts)
-                Mr = ca.Function("decoupling", [qs, ts], [M, r])
-                Mq, rq = Mr(q, t)
-                outs["u"] = ca.solve(Mq, rq, "qr")
+            if form == "dense" or self.damping:
+                qs, ts, vs = ca.SX.sym("q", self.chain.dof), ca.SX.sym("t"), ca.SX.sym("v_scale")
+                M, r = self.decoupling_matrix_expr(qs, ts, vs)
+                Mq, rq = ca.Function("decoupling", [qs, ts, vs], [M, r])(q, t, outs["v_scale"])
+                if form == "dense":
+                    outs["u"] = ca.solve(Mq, rq, "qr")
+                if self.damping:
+                    d = self.damping
+                    smallest = ca.fmin(ca.mmin(outs["link_margins"]), outs["longitudinal"])
+                    lam2 = damping_factor(smallest, d["lambda"], d["band"])
+                    damped = ca.mtimes(Mq.T, ca.solve(ca.mtimes(Mq, Mq.T) + lam2 * ca.MX.eye(self.chain.dof),
+                                                      rq, "qr"))
+                    outs["u"] = ca.if_else(lam2 > 0, damped, outs["u"])
             self._cache[key] = ca.Function(f"coordinating_law_{form}", [q, t], [outs[n] for n in self.outputs],
                                            ["q", "t"], list(self.outputs))
         return self._cache[key]
@@ -496,7 +656,8 @@ class CoordinatingController:
         form = form or self.law_form
         key = ("fast", form)
         if key not in self._cache:
-            self._cache[key] = self.law(form).expand() if form == "structured" else self.law(form)
+            self._cache[key] = (self.law(form).expand() if form == "structured" and not self.damping
+                               else self.law(form))
         return self._cache[key]
 
     def rk4_step(self, h: float, form: str | None = None) -> ca.Function:
@@ -857,5 +1018,6 @@ class CoordinatingController:
         return evaluate(self.speed, t)
 
     def __repr__(self) -> str:
+        extra = (", governor=True" if self.governor else "") + (f", damping={self.damping!r}" if self.damping else "")
         return (f"CoordinatingController({self.chain!r}, {type(self.curve).__name__}, "
-                f"gain={self.gain}, law={self.law_form!r})")
+                f"gain={self.gain}, law={self.law_form!r}{extra})")

@@ -42,6 +42,8 @@ class SingularityError(CoordarmError):
         The threshold it fell below.
     run : object, optional
         The run up to (and including) the offending state.
+    hint : str, optional
+        What the user can do about it (appended to the message).
 
     Attributes
     ----------
@@ -57,20 +59,23 @@ class SingularityError(CoordarmError):
         The threshold it fell below.
     run : object or None
         The run up to (and including) the offending state, if available.
+    hint : str or None
+        What the user can do about it (appended to the message).
     """
 
     def __init__(self, time: float, link: int | None, margin: float, kind: str,
-                 threshold: float, run: object | None = None) -> None:
+                 threshold: float, run: object | None = None, hint: str | None = None) -> None:
         self.time, self.link, self.margin = float(time), link, float(margin)
-        self.kind, self.threshold, self.run = kind, float(threshold), run
+        self.kind, self.threshold, self.run, self.hint = kind, float(threshold), run, hint
         where = f"link {link}" if link is not None else "the end point (longitudinal)"
         super().__init__(
             f"singularity ahead at t = {self.time:.4f} s: {kind} margin of {where} "
-            f"is {self.margin:.3g} < threshold {self.threshold:.3g}; run stopped")
+            f"is {self.margin:.3g} < threshold {self.threshold:.3g}; run stopped"
+            + (f" (hint: {hint})" if hint else ""))
 
     def __reduce__(self):
         return (SingularityError, (self.time, self.link, self.margin, self.kind,
-                                   self.threshold, None))
+                                   self.threshold, None, self.hint))
 
 
 class TubeError(SingularityError):

@@ -60,6 +60,8 @@ LAW_OUTPUTS: tuple[Output, ...] = (
     Output("longitudinal", 0, 1, "-", "margins",
            "longitudinal margin (0: the end point cannot be pushed along the curve)"),
     Output("longitudinal_pivot", 0, 1, "m/rad", None, "signed longitudinal pivot of the s equation"),
+    Output("v_scale", 0, 1, "-", "task_state",
+           "the speed governor's factor on v* (1 without the governor; 0 at the longitudinal threshold)"),
 )
 
 #: Extra outputs of a chain on a rail (introduction axis), after :data:`LAW_OUTPUTS`; there ``u``
@@ -116,7 +118,7 @@ def outputs_of(rail: bool = False) -> tuple[Output, ...]:
 
 
 def packed_width(m: int, rail: bool = False) -> int:
-    """Length of the packed output vector for ``m`` links (``3 m + 1``; ``3 m + 4`` on a rail)."""
+    """Length of the packed output vector for ``m`` links (``3 m + 2``; ``3 m + 5`` on a rail)."""
     return sum(o.width(m) for o in outputs_of(rail))
 
 

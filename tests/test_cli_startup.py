@@ -22,7 +22,7 @@ print("\\n" + json.dumps({{"code": code, "loaded": sorted(m for m in {heavy!r} i
 
 
 @pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["regen", "--help"], ["replay", "--help"],
-                                  ["report", "--help"], ["sweep", "--help"], ["--version"]])
+                                  ["report", "--help"], ["compare", "--help"], ["sweep", "--help"], ["--version"]])
 def test_help_and_version_load_no_heavy_module(argv):
     res = subprocess.run([sys.executable, "-c", PROBE.format(argv=argv, heavy=HEAVY)],
                          capture_output=True, text=True, timeout=60)

@@ -9,6 +9,7 @@ import pytest
 from coordarm.cli import main as cli_main
 from coordarm.generated.build import DEFAULT_FLAGS, find_compiler
 from coordarm.simulation.scenario import load_scenario
+from coordarm.symbolic.outputs import packed_width
 from tests.test_generated import ROUNDING_FACTOR, rounding_sensitivity
 
 M, STEPS = 12, 40
@@ -59,13 +60,13 @@ def test_example_loop_agrees_with_the_python_law(example_rows):
     ctrl = scenario.controller()
     comp = ctrl.compile()
     rows = example_rows
-    assert rows.shape == (STEPS + 1, 1 + M + M + 2 * M + 1)
+    assert rows.shape == (STEPS + 1, 1 + M + packed_width(M))
     T, Q, U, OUT = rows[:, 0], rows[:, 1:M + 1], rows[:, M + 1:2 * M + 1], rows[:, 2 * M + 1:]
     np.testing.assert_array_equal(Q[0], scenario.start(ctrl))
     np.testing.assert_allclose(T, scenario.t0 + scenario.step * np.arange(STEPS + 1), rtol=0, atol=1e-15)
     for k in range(0, STEPS + 1, 5):
         packed = np.concatenate([U[k], OUT[k]])
-        ref = np.empty(3 * M + 1)
+        ref = np.empty(packed_width(M))
         comp.evaluate(Q[k], T[k], out=ref)
         np.testing.assert_allclose(packed, ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
         interp = ctrl.evaluate(Q[k], T[k])
@@ -110,5 +111,5 @@ def test_error_codes_of_the_exported_api(exported, example_rows, tmp_path):
                     str(exported / "libcoordarm_law.a"), "-lm"], check=True)
     n_q, n_out, n_work, ok, null, inf_t, nan_q, nan_out = subprocess.run(
         [str(exe)], capture_output=True, text=True, check=True).stdout.split()
-    assert (int(n_q), int(n_out), int(n_work) > 0) == (M, 2 * M + 1, True)
+    assert (int(n_q), int(n_out), int(n_work) > 0) == (M, packed_width(M) - M, True)
     assert (int(ok), int(null), int(inf_t), int(nan_q), int(nan_out)) == (0, -1, -2, -2, 1)

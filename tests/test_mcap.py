@@ -36,10 +36,10 @@ def logged(scenario, tmp_path_factory):
 def test_load_returns_exactly_what_the_run_computed(logged):
     path, run = logged
     rep = load(path)
-    for name in ("t", "q", "u", "e", "s", "v_star", "link_margins", "longitudinal"):
+    for name in ("t", "q", "u", "e", "s", "v_star", "v_scale", "link_margins", "longitudinal"):
         assert np.array_equal(getattr(rep, name), getattr(run, name)), name
     assert rep.recovered is False and rep.problems == []
-    assert rep.outcome == {"status": "completed", "t_end": DURATION}
+    assert rep.outcome == {"status": "completed", "t_end": DURATION, "governed": 0.0}
 
 
 def test_the_plain_mcap_reader_sees_schemas_channels_metadata_and_statistics(logged):
@@ -192,9 +192,9 @@ def test_stream_reader_of_mcap_reads_the_whole_file_with_crc_checks(logged):
 
 def test_numeric_channel_layout_matches_its_schema_text():
     ch = numeric_channels(5)["task_state"]
-    assert ch.schema_text() == "float64 t\nfloat64 s\nfloat64 v_star\nfloat64[4] e\n"
-    assert ch.width == 7 and ch.size == 4 + 56
-    assert ch.slices() == {"t": 0, "s": 1, "v_star": 2, "e": slice(3, 7)}
+    assert ch.schema_text() == "float64 t\nfloat64 s\nfloat64 v_star\nfloat64[4] e\nfloat64 v_scale\n"
+    assert ch.width == 8 and ch.size == 4 + 64
+    assert ch.slices() == {"t": 0, "s": 1, "v_star": 2, "e": slice(3, 7), "v_scale": 7}
 
 
 def test_a_failure_on_the_writer_thread_surfaces_as_a_log_error_naming_the_file(scenario, tmp_path):

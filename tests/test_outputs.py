@@ -16,7 +16,7 @@ def test_table_widths_and_names_are_those_of_the_casadi_law(m):
         law = ctrl.law(form)
         assert [law.name_out(i) for i in range(law.n_out())] == list(OUTPUTS)
         assert [law.numel_out(i) for i in range(law.n_out())] == [o.width(m) for o in LAW_OUTPUTS]
-    assert packed_width(m) == sum(ctrl.law().numel_out(i) for i in range(len(OUTPUTS))) == 3 * m + 1
+    assert packed_width(m) == sum(ctrl.law().numel_out(i) for i in range(len(OUTPUTS))) == 3 * m + 2
     step = ctrl.rk4_step(0.01)
     assert [step.name_out(i) for i in range(step.n_out())] == ["q_next", *RUN_OUTPUTS]
 
@@ -61,17 +61,18 @@ def test_log_fields_are_the_run_arrays_named_as_in_the_table():
 
 
 def test_a_new_table_row_with_a_channel_is_appended_to_that_channel_and_kept_by_run(monkeypatch):
-    extra = Output("v_scale", 0, 1, "-", "task_state", "speed governor scale")
+    extra = Output("probe", 0, 1, "-", "task_state", "a made-up output")
     monkeypatch.setattr(log_schemas, "LAW_OUTPUTS", LAW_OUTPUTS + (extra,))
-    monkeypatch.setattr(log_schemas, "by_name", lambda n: extra if n == "v_scale" else
+    monkeypatch.setattr(log_schemas, "by_name", lambda n: extra if n == "probe" else
                         {o.name: o for o in LAW_OUTPUTS}[n])
     task = log_schemas.numeric_channels(4)["task_state"]
-    assert task.fields[-1] == ("v_scale", 0) and task.slices()["v_scale"] == task.width - 1
+    assert task.fields[-1] == ("probe", 0) and task.slices()["probe"] == task.width - 1
     arrays = {a: np.zeros(3) for a in ARRAYS}
-    run = Run.from_arrays(dict(arrays, v_scale=np.ones(3)))
-    assert not hasattr(run, "v_scale")            # not a run output of the real table
-    run = Run(**{a: arrays[a] for a in ARRAYS}, extra={"v_scale": np.ones(3)})
-    assert np.array_equal(run.v_scale, np.ones(3))
+    run = Run.from_arrays(dict(arrays, probe=np.ones(3)))
+    assert not hasattr(run, "probe")            # not a run output of the real table
+    run = Run.from_arrays(arrays)
+    run.extra["probe"] = np.ones(3)
+    assert np.array_equal(run.probe, np.ones(3))
 
 
 def test_a_log_written_before_the_link_margins_rename_is_read_by_position():
@@ -85,7 +86,8 @@ def test_a_log_written_before_the_link_margins_rename_is_read_by_position():
     with open(path, "rb") as f:
         assert b"float64[3] link\n" in f.read()          # the old field name in the stored schema
     rep = load(path)
-    assert rep.outcome["status"] == "completed" and not rep.problems and len(rep.t) == 11
+    assert rep.outcome["status"] == "completed" and len(rep.t) == 11
+    assert rep.problems == ["/task_state: no field 'v_scale' in this log (written before it existed); filled with NaN"]
     ctrl = rep.controller()
     for k in range(len(rep.t)):
         out = ctrl.evaluate(rep.q[k], rep.t[k])
@@ -95,7 +97,7 @@ def test_a_log_written_before_the_link_margins_rename_is_read_by_position():
 
 def test_a_field_added_after_a_log_was_written_reads_as_nan_and_is_reported(monkeypatch):
     """Replay decodes each channel by the schema stored in the file, so a log from before a new
-    output (here a made-up ``v_scale`` on /task_state) still loads, the new field NaN."""
+    output (here a made-up ``probe`` on /task_state) still loads, the new field NaN."""
     from pathlib import Path
 
     from coordarm.analysis import replay
@@ -103,16 +105,16 @@ def test_a_field_added_after_a_log_was_written_reads_as_nan_and_is_reported(monk
 
     real = replay.numeric_channels
 
-    def with_v_scale(m):
+    def with_probe(m):
         chans = real(m)
         ts = chans["task_state"]
-        chans["task_state"] = NumericChannel(ts.topic, ts.schema_name, ts.fields + (("v_scale", 0),))
+        chans["task_state"] = NumericChannel(ts.topic, ts.schema_name, ts.fields + (("probe", 0),))
         return chans
 
-    monkeypatch.setattr(replay, "numeric_channels", with_v_scale)
+    monkeypatch.setattr(replay, "numeric_channels", with_probe)
     rep = replay.load(Path(__file__).parent / "data" / "line_before_link_margins_rename.mcap")
-    assert rep.v_scale.shape == (11,) and np.isnan(rep.v_scale).all()
-    assert any("v_scale" in p and "NaN" in p for p in rep.problems)
+    assert rep.probe.shape == (11,) and np.isnan(rep.probe).all()
+    assert any("probe" in p and "NaN" in p for p in rep.problems)
     assert np.isfinite(rep.e).all() and np.isfinite(rep.link_margins).all()
 
 
@@ -125,28 +127,28 @@ def test_stored_schemas_parse_back_to_the_channel_fields():
 
 
 def test_a_new_output_row_is_logged_and_read_back_with_no_other_change(monkeypatch, tmp_path):
-    """End to end through the real writer and reader: a made-up output row ``v_scale`` on /task_state
+    """End to end through the real writer and reader: a made-up output row ``probe`` on /task_state
     (its values carried by the Run) lands in the log's schema and messages and comes back from replay."""
     from coordarm.analysis.replay import load
     from coordarm.simulation.mcap_writer import RunLogger
     from coordarm.simulation.scenario import load_scenario
 
-    extra = Output("v_scale", 0, 1, "-", "task_state", "speed governor scale")
+    extra = Output("probe", 0, 1, "-", "task_state", "a made-up output")
     table = {o.name: o for o in LAW_OUTPUTS + (extra,)}
     monkeypatch.setattr(log_schemas, "LAW_OUTPUTS", LAW_OUTPUTS + (extra,))
     monkeypatch.setattr(log_schemas, "by_name", table.__getitem__)
     sc = load_scenario("line").with_overrides(links=5, duration=0.02)
     ctrl = sc.controller()
     run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted")
-    v_scale = np.linspace(1.0, 0.5, len(run.t))
+    probe = np.linspace(1.0, 0.5, len(run.t))
     run = Run.from_arrays({a: getattr(run, a) for a in ARRAYS}, run.info)
-    run.extra["v_scale"] = v_scale
+    run.extra["probe"] = probe
     path = tmp_path / "v.mcap"
     with RunLogger(path, sc, ctrl) as log:
         log.on_chunk(run)
     with open(path, "rb") as f:
-        assert b"float64 v_scale\n" in f.read()
+        assert b"float64 probe\n" in f.read()
     rep = load(path)
     assert not rep.problems
-    np.testing.assert_array_equal(rep.v_scale, v_scale)
+    np.testing.assert_array_equal(rep.probe, probe)
     np.testing.assert_array_equal(rep.e, run.e)

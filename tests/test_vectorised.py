@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from coordarm.symbolic import OUTPUTS, CoordinatingController, Line, PlanarChain
+from coordarm.symbolic.outputs import packed_width
 from tests.test_generated import ROUNDING_FACTOR, assert_outputs_agree, rounding_sensitivity
 
 COMPILED = {}
@@ -107,7 +108,7 @@ def test_control_and_evaluate_write_into_caller_arrays_in_place():
     u = np.full(8, np.nan)
     assert comp.control(q, t, out=u) is u
     np.testing.assert_array_equal(u, comp.control(q, t))
-    packed = np.full(3 * 8 + 1, np.nan)
+    packed = np.full(packed_width(8), np.nan)
     res = comp.evaluate(q, t, out=packed)
     assert np.shares_memory(res["u"], packed) and np.shares_memory(res["e"], packed)
     for name, v in comp.evaluate(q, t).items():

@@ -28,6 +28,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, help="override the simulated duration [s]")
     p.add_argument("--step", type=float, help="override the RK4 step [s]")
     p.add_argument("--law", choices=LAWS, help="form of the control law")
+    p.add_argument("--governor", action="store_true",
+                   help="slow the commanded speed smoothly near the longitudinal singularity instead of stopping "
+                        "(same as [control] governor = true)")
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="compiled C (built or taken from the cache), interpreted CasADi, or auto (default: "
                         "compiled when a C compiler is found, else interpreted with a warning)")
@@ -84,6 +87,8 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
              f"t = {s['min_link_margin_time']:.2f} s)",
              f"longitudinal  min {s['min_longitudinal_margin']:.4f} (t = {s['min_longitudinal_margin_time']:.2f} s)",
              f"max|u|        {s['max_abs_u']:.4g}"]
+    if scenario.spec["control"].get("governor"):
+        lines.append(f"governor      v* slowed during {run.governed_time():.3f} s (final v_scale {run.speed_factor()[-1]:.3g})")
     if run.sigma is not None:
         lines.append(f"rail          d from {run.q[0, 0]:.4f} to {run.q[-1, 0]:.4f} m, span sigma {run.sigma[0]:.4f} -> "
                      f"{run.sigma[-1]:.4f} m, min rail margin {np.min(run.rail_margin):.4f}")
@@ -152,7 +157,8 @@ def main(args: argparse.Namespace) -> int:
     from coordarm.simulation.scenario import load_scenario
     from coordarm.symbolic.errors import CollisionError, SingularityError
 
-    scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
+    scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law,
+                                                           governor=True if args.governor else None)
     ctrl = scenario.controller()
     q0 = scenario.start(ctrl)
     with warnings.catch_warnings(record=True) as caught:   # builds or loads before the log opens

@@ -1,0 +1,205 @@
+"""Classic baselines on the same tasks as the coordinating law: end-point resolved-rate control.
+
+Both baselines control only the central point ``y^m`` of the last link, the point whose arc
+length ``s^m`` the coordinating law drives: its commanded velocity makes ``d psi / dt = v*``
+along the curve and ``d phi / dt = -K phi`` across it (the same ``v*`` and gain ``K``), i.e.
+``A qdot = r`` with the 2 x m task Jacobian ``A = [grad psi; grad phi] dy^m/dq`` and
+``r = (v* - psi_t, -K phi - phi_t)``. The rest of the body is left to a null-space term.
+
+* ``pinv``: ``qdot = A^+ r + (I - A^+ A) z`` with the Moore-Penrose pseudoinverse
+  ``A^+ = A^T (A A^T)^-1`` and ``z = -k (q - q_c)``, the joint-centering gradient that pulls
+  the joints towards the compact start configuration ``q_c`` (the zig-zag);
+* ``dls``: the same with the damped inverse ``A^T (A A^T + lambda_v^2 I)^-1`` (variable
+  damping of the ratio of singular values of ``A``, see :func:`symbolic.near_singular.damping_factor`).
+
+The chains of the scenarios have ``B = I``, so ``u = qdot``.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from coordarm.generated.build import build
+from coordarm.generated.codegen import CODEGEN_OPTIONS, Source
+from coordarm.simulation.choices import COMPARE_BACKENDS
+from coordarm.simulation.run import Run
+from coordarm.symbolic import ConfigError, CoordinatingController
+from coordarm.symbolic.near_singular import damping_factor
+
+#: Baselines implemented here.
+BASELINES = ("pinv", "dls")
+#: Gain of the joint-centering null-space term [1/s].
+CENTERING_GAIN = 1.0
+#: Backends of :func:`simulate_baseline`.
+BACKENDS = COMPARE_BACKENDS
+#: CasADi's generated functions are exported from the library (the build hides other symbols).
+_EXPORT = '#define CASADI_SYMBOL_EXPORT __attribute__((visibility("default")))\n'
+
+
+@dataclass
+class EndPointRate:
+    """End-point resolved-rate control of a chain (``pinv`` or ``dls``) as CasADi Functions.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Supplies the chain, the curve's geometry, the gain ``K`` [1/s] and ``v*(t)`` [m/s].
+    centre : (m,) ndarray
+        Joint configuration the null-space term pulls towards [rad] (the compact start).
+    damping : dict, optional
+        ``{"lambda": [m/rad], "band": [-]}`` for ``dls``; None for the pseudoinverse.
+    centering : float
+        Gain of the null-space joint-centering term [1/s].
+    """
+
+    ctrl: CoordinatingController
+    centre: np.ndarray
+    damping: dict | None = None
+    centering: float = CENTERING_GAIN
+
+    def __post_init__(self) -> None:
+        chain = self.ctrl.chain
+        if chain.b_diagonal is None or not np.all(chain.b_diagonal == 1):
+            raise ConfigError("baselines: need B = I (qdot = u)")
+        self.centre = np.asarray(self.centre, dtype=float)
+        if self.centre.shape != (chain.m,):
+            raise ConfigError(f"centre: need shape ({chain.m},), got {self.centre.shape}")
+        self._cache: dict = {}
+
+    def _expressions(self):
+        """``q``, ``t`` and ``(y^m, A, r, u)`` as SX expressions (O(m) operations)."""
+        chain, ctrl = self.ctrl.chain, self.ctrl
+        m = chain.m
+        q, t = ca.SX.sym("q", m), ca.SX.sym("t")
+        weights = np.full(m, chain.xi)
+        weights[[0, -1]] = 0.5 * chain.xi          # y^m = sum_j w_j d(alpha_j)
+        alpha = ca.cumsum(q)
+        c, s = ca.cos(alpha), ca.sin(alpha)
+        y = ca.vertcat(ca.dot(weights, c), ca.dot(weights, s))
+        # dy^m/dq_k = sum_{j >= k} w_j n(alpha_j): a reverse cumulative sum
+        rev = list(range(m - 1, -1, -1))
+        J = ca.horzcat(ca.cumsum((-weights * s)[rev])[rev], ca.cumsum((weights * c)[rev])[rev]).T
+        phi, g, phit, _, h, psit = ctrl._geometry(y, t)
+        A = ca.vertcat(ca.mtimes(h.T, J), ca.mtimes(g.T, J))
+        r = ca.vertcat(ctrl.speed(t) - psit, -ctrl.gain * phi - phit)
+        G = ca.mtimes(A, A.T)
+        if self.damping:
+            tr, det = G[0, 0] + G[1, 1], G[0, 0] * G[1, 1] - G[0, 1] * G[1, 0]
+            root = ca.sqrt(ca.fmax(tr * tr / 4 - det, 0))
+            ratio = ca.sqrt(ca.fmax(tr / 2 - root, 0) / (tr / 2 + root))   # sigma_min / sigma_max of A
+            G = G + damping_factor(ratio, self.damping["lambda"], self.damping["band"]) * ca.SX.eye(2)
+        det = G[0, 0] * G[1, 1] - G[0, 1] * G[1, 0]
+        Ginv = ca.vertcat(ca.horzcat(G[1, 1], -G[0, 1]), ca.horzcat(-G[1, 0], G[0, 0])) / det
+        z = -self.centering * (q - ca.DM(self.centre))
+        u = ca.mtimes(A.T, ca.mtimes(Ginv, r)) + z - ca.mtimes(A.T, ca.mtimes(Ginv, ca.mtimes(A, z)))
+        return q, t, y, A, r, u
+
+    def law(self) -> ca.Function:
+        """``(q, t) -> u`` (m,) [rad/s]; not finite where ``A A^T`` is singular (pinv)."""
+        if "law" not in self._cache:
+            q, t, _, _, _, u = self._expressions()
+            self._cache["law"] = ca.Function("baseline_law", [q, t], [u], ["q", "t"], ["u"])
+        return self._cache["law"]
+
+    def task(self, q, t: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``y^m`` (2,) [m], the task Jacobian ``A`` (2, m) [m/rad] and the commanded rates ``r`` (2,) [m/s]."""
+        if "task" not in self._cache:
+            qs, ts, y, A, r, _ = self._expressions()
+            self._cache["task"] = ca.Function("baseline_task", [qs, ts], [y, A, r])
+        y, A, r = self._cache["task"](self.ctrl.chain.check_q(q), t)
+        return np.asarray(y).ravel(), np.asarray(A), np.asarray(r).ravel()
+
+    def control(self, q, t: float = 0.0) -> np.ndarray:
+        """``u = qdot`` (m,) [rad/s]."""
+        return np.asarray(self.law()(self.ctrl.chain.check_q(q), t)).ravel()
+
+    def chunk(self, step: float, n: int, backend: str = "interpreted") -> ca.Function:
+        """``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, U)``, column k the state after step k and ``u`` at its start.
+
+        ``backend="compiled"``: the same Function as generated C, built (or taken from the
+        build cache, see :func:`generated.build.build`) and loaded with ``casadi.external``.
+
+        Raises
+        ------
+        BuildError
+            ``backend="compiled"`` and the C code cannot be built.
+        """
+        if backend not in BACKENDS:
+            raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+        key = ("chunk", float(step), n, backend)
+        if key not in self._cache:
+            name = "baseline_chunk"   # one named Function (mapaccum may nest and rename itself)
+            rk4 = rk4_function(self.law(), step)
+            acc = (rk4 if backend == "compiled" else rk4.expand()).mapaccum("steps", n)
+            q0, times = ca.MX.sym("q0", self.ctrl.chain.m), ca.MX.sym("t", 1, n)
+            fn = ca.Function(name, [q0, times], acc(q0, times), ["q0", "t"], ["Q", "U"])
+            if backend == "compiled":
+                cg = ca.CodeGenerator("baseline", dict(CODEGEN_OPTIONS))
+                cg.add(fn)
+                kind = "dls" if self.damping else "pinv"
+                lib = build(Source(_EXPORT + cg.dump(), kind, self.ctrl.chain.m))
+                fn = ca.external(name, str(lib.path))
+            self._cache[key] = fn
+        return self._cache[key]
+
+
+def rk4_function(law: ca.Function, h: float) -> ca.Function:
+    """``(q, t) -> (q_next, u)``: one RK4 step of length ``h`` of ``qdot = law(q, t)``.
+
+    An MX Function calling ``law`` four times (generated C keeps one copy of the law);
+    ``.expand()`` it for CasADi's virtual machine.
+    """
+    q, t = ca.MX.sym("q", law.size1_in(0)), ca.MX.sym("t")
+    k1 = law(q, t)
+    k2 = law(q + h / 2 * k1, t + h / 2)
+    k3 = law(q + h / 2 * k2, t + h / 2)
+    k4 = law(q + h * k3, t + h)
+    return ca.Function("rk4", [q, t], [q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4), k1], ["q", "t"], ["q_next", "u"])
+
+
+def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: float = 0.0,
+                      chunk: int = 2000, backend: str = "interpreted") -> Run:
+    """Fixed-step RK4 of ``qdot = law(q, t)``, chunk by chunk (the same ``chunk`` steps each call).
+
+    ``backend``: CasADi's virtual machine or generated C (see :meth:`EndPointRate.chunk`). The run stops (``info["stopped"] = "singularity"``) at the first non-finite state or
+    control. ``e``, ``s`` and the margins of the returned :class:`~simulation.run.Run` are
+    NaN (score runs from ``q`` with :mod:`analysis.compare`); ``info["wall_time"]`` is the
+    time of the stepping loop [s] and ``info["steps"]`` its number of steps.
+
+    Returns
+    -------
+    Run
+    """
+    n_steps = int(round(duration / step))
+    q = law.ctrl.chain.check_q(q0, "q0")
+    chunk = min(chunk, n_steps)
+    fn = law.chunk(step, chunk, backend)             # built before the clock starts
+    Qs, Us, k, stopped = [], [], 0, "completed"
+    wall = time.perf_counter()
+    while k < n_steps:
+        n = min(chunk, n_steps - k)                  # the last call runs past the end: its tail is dropped
+        Qn, Un = (np.asarray(x).T[:n] for x in fn(q, t0 + step * np.arange(k, k + chunk)))
+        good = np.isfinite(Qn).all(axis=1) & np.isfinite(Un).all(axis=1)
+        if not good.all():
+            bad = int(np.argmin(good))
+            Qs.append(np.vstack([q[None], Qn[:bad]])[:bad + 1])
+            Us.append(Un[:bad + 1])
+            k += bad
+            stopped = "singularity"
+            break
+        Qs.append(np.vstack([q[None], Qn[:-1]]))
+        Us.append(Un)
+        q, k = Qn[-1], k + n
+    else:
+        Qs.append(q[None])
+        Us.append(law.control(q, t0 + step * k)[None])
+    wall = time.perf_counter() - wall
+    Q, U = np.concatenate(Qs), np.concatenate(Us)
+    T = t0 + step * np.arange(len(Q))
+    m, nan = Q.shape[1], np.full(len(Q), np.nan)
+    return Run(T, Q, U, np.full((len(Q), m - 1), np.nan), nan, np.full((len(Q), m - 1), np.nan), nan.copy(),
+               law.ctrl.speeds(T), info={"backend": backend, "stopped": stopped, "wall_time": wall,
+                                         "steps": max(k, 1)})

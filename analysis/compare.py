@@ -1,0 +1,234 @@
+"""The same scenario under coordarm's law and the classic baselines, scored side by side.
+
+Every method's run is scored from its joint trajectory alone, by the same code:
+
+* ``max_deviation``: the largest ``|phi|`` of any central point ``y^2..y^m`` over the run [m]
+  (body following; ``y^1`` is the pinned base);
+* ``wall_contacts``, ``self_collisions``: samples (at :data:`CONTACT_RATE`) in which some link
+  touches an obstacle, or two non-adjacent links touch each other (within the chain's
+  clearance; :func:`coordarm.simulation.physical.check_configuration`);
+* ``peak_u``, ``peak_joint_rate``: largest ``|u|`` and ``|qdot| = |B u|`` [rad/s];
+* ``final_s_error``: ``|psi(y^m) - (s(0) + integral of v*)|`` at the run's last sample [m];
+* ``step_time``: wall time of the stepping loop per RK4 step [s].
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from coordarm.simulation.obstacles import outline
+from coordarm.simulation.choices import COMPARE_METHODS
+from coordarm.simulation.run import Run, even_indices, select_backend, simulate
+from coordarm.simulation.scenario import Scenario
+from coordarm.symbolic import CollisionError, ConfigError, SingularityError
+
+from .baselines import BACKENDS, BASELINES, EndPointRate, simulate_baseline
+
+#: Methods of ``coordarm compare`` in table order.
+METHODS = COMPARE_METHODS
+#: Scores of one method, in table and JSON order.
+SCORES = ("outcome", "max_deviation", "wall_contacts", "self_collisions", "peak_u", "peak_joint_rate",
+          "final_s_error", "step_time")
+#: Samples per simulated second at which contacts are counted [Hz].
+CONTACT_RATE = 100.0
+#: Damping of the ``dls`` baseline unless the scenario sets ``[control] damping``.
+DEFAULT_DLS = {"kind": "dls", "lambda": 0.01, "band": 0.1}
+
+
+@dataclass
+class MethodRun:
+    """One method's run of a scenario and its scores (keys :data:`SCORES`)."""
+
+    method: str
+    run: Run
+    scores: dict[str, Any] = field(default_factory=dict)
+
+
+def available_methods(scenario: Scenario) -> tuple[str, ...]:
+    """Methods that apply to ``scenario``: ``ftl`` needs a rail robot, which no scenario has yet."""
+    return tuple(m for m in METHODS if m != "ftl")
+
+
+def parse_methods(text: str | None, scenario: Scenario) -> list[str]:
+    """``"coordinating,pinv"`` as a list (default: all that apply); a ConfigError names a bad one."""
+    if text is None:
+        return list(available_methods(scenario))
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    for n in names:
+        if n not in METHODS:
+            raise ConfigError(f"--methods: unknown method {n!r}; choose from {', '.join(METHODS)}")
+        if n not in available_methods(scenario):
+            raise ConfigError(f"--methods: {n!r} needs a robot with an introduction axis (rail); "
+                              f"scenario {scenario.name!r} has none")
+    if not names:
+        raise ConfigError("--methods: empty list")
+    return list(dict.fromkeys(names))
+
+
+def run_method(method: str, scenario: Scenario, backend: str = "compiled") -> Run:
+    """Simulate ``scenario`` under ``method``; a run stopped early says why in ``info["stopped"]``.
+
+    ``backend``: ``"compiled"`` (generated C for every method; built before the clock starts)
+    or ``"interpreted"`` (CasADi's virtual machine for every method).
+
+    Raises
+    ------
+    BuildError
+        ``backend="compiled"`` and a library cannot be built.
+    """
+    if backend not in BACKENDS:
+        raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+    ctrl = scenario.controller()
+    q0 = scenario.start(ctrl)
+    if method == "coordinating":
+        backend, _, _ = select_backend(ctrl, backend)
+        try:   # the loop's own wall time (info["wall_time"]) excludes the build and the start checks
+            run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
+                           thresholds=scenario.thresholds, progress=False)
+        except (SingularityError, CollisionError) as err:   # no physical= here: contacts are scored
+            run = err.run
+        run.info["steps"] = max(len(run.t) - 1, 1)
+        return run
+    if method in BASELINES:
+        damping = (scenario.spec["control"].get("damping") or DEFAULT_DLS) if method == "dls" else None
+        law = EndPointRate(ctrl, q0, damping)
+        return simulate_baseline(law, q0, scenario.duration, scenario.step, scenario.t0, backend=backend)
+    raise ConfigError(f"method: {method!r} is not available for scenario {scenario.name!r}")
+
+
+def score(run: Run, scenario: Scenario) -> dict[str, Any]:
+    """The scores of one run (keys :data:`SCORES`), computed from ``run.q`` and ``run.u`` only."""
+    ctrl = scenario.controller()
+    geo = ctrl.centre_geometry(run.q, run.t)
+    s_ref = geo["psi"][0, -1] + np.concatenate(
+        [[0.0], np.cumsum(0.5 * np.diff(run.t) * (run.v_star[1:] + run.v_star[:-1]))])
+    every = max(1, int(round(1.0 / (CONTACT_RATE * scenario.step))))
+    rows = np.unique(np.r_[np.arange(0, len(run.t), every), len(run.t) - 1])
+    contacts = scenario.physical(ctrl.chain).check(run.t[rows], run.q[rows])
+    rates = run.u @ ctrl.chain.B.T
+
+    def samples(kind: str) -> int:
+        return len({c.time for c in contacts if c.kind == kind})
+
+    return {"outcome": run.info.get("stopped", "?"),
+            "max_deviation": float(np.max(np.abs(geo["phi"][:, 1:]))),
+            "wall_contacts": samples("wall"),
+            "self_collisions": samples("self"),
+            "peak_u": float(np.max(np.abs(run.u))),
+            "peak_joint_rate": float(np.max(np.abs(rates))),
+            "final_s_error": float(abs(geo["psi"][-1, -1] - s_ref[-1])),
+            "step_time": float(run.info["wall_time"] / run.info["steps"])}
+
+
+def compare(scenario: Scenario, methods: list[str] | None = None, backend: str = "compiled") -> list[MethodRun]:
+    """Run and score ``scenario`` under each of ``methods`` (default: all that apply) on ``backend``."""
+    out = []
+    for method in methods or available_methods(scenario):
+        run = run_method(method, scenario, backend)
+        out.append(MethodRun(method, run, score(run, scenario)))
+    return out
+
+
+def to_json(scenario: Scenario, results: list[MethodRun]) -> dict[str, Any]:
+    """``{"scenario": name, "methods": {method: {score: value}}}``."""
+    return {"scenario": scenario.name, "methods": {r.method: {k: r.scores[k] for k in SCORES} for r in results}}
+
+
+HEADERS = ("method", "outcome", "max dev [m]", "wall", "self", "peak u [rad/s]", "peak rate [rad/s]",
+           "final s err [m]", "step [µs]")
+
+
+#: How each backend runs the methods (for compare.md).
+ENGINES = {"compiled": "as generated C", "interpreted": "in CasADi's virtual machine"}
+#: Lengths below this are rounding noise in the table (the JSON keeps them) [m].
+LENGTH_FLOOR = 1e-9
+
+
+def _length(value: float) -> str:
+    return "< 1e-9" if value < LENGTH_FLOOR else f"{value:.3g}"
+
+
+def table_rows(results: list[MethodRun]) -> list[list[str]]:
+    """The table's cells, one row per method."""
+    rows = []
+    for r in results:
+        s = r.scores
+        rows.append([r.method, s["outcome"], _length(s["max_deviation"]), str(s["wall_contacts"]),
+                     str(s["self_collisions"]), f"{s['peak_u']:.3g}", f"{s['peak_joint_rate']:.3g}",
+                     _length(s["final_s_error"]), f"{1e6 * s['step_time']:.1f}"])
+    return rows
+
+
+def text_table(results: list[MethodRun]) -> str:
+    """The scores as an aligned plain-text table."""
+    rows = [list(HEADERS)] + table_rows(results)
+    widths = [max(len(row[i]) for row in rows) for i in range(len(HEADERS))]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def markdown_table(results: list[MethodRun]) -> str:
+    """The scores as a Markdown table."""
+    rows = [list(HEADERS), ["---"] * len(HEADERS)] + table_rows(results)
+    return "\n".join("| " + " | ".join(row) + " |" for row in rows)
+
+
+def stage_times(scenario: Scenario, stages: int = 4) -> np.ndarray:
+    """``stages`` times evenly spread over the scenario, start and end included [s]."""
+    return scenario.t0 + np.linspace(0.0, scenario.duration, stages)
+
+
+def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, stages: int = 4) -> Path:
+    """One panel per stage time with every method's body (and the curve, the walls) then; a PNG."""
+    from coordarm.simulation.figures import plt, save_figure
+
+    ctrl = scenario.controller()
+    times = stage_times(scenario, stages)
+    colours = dict(zip(METHODS, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
+    fig, axes = plt.subplots(1, len(times), figsize=(4.2 * len(times), 4.4), squeeze=False)
+    pts = [ctrl.chain.joints_np(r.run.q[even_indices(len(r.run.t), 50)]).reshape(-1, 2) for r in results]
+    walls = [outline(ob) for ob in scenario.obstacles]
+    allp = np.concatenate(pts + walls)
+    lo, hi = allp.min(axis=0) - 0.2, allp.max(axis=0) + 0.2
+    extent = float(np.linalg.norm(hi - lo))
+    for ax, t in zip(axes[0], times):
+        cur = ctrl.curve.sample(float(t), extent=extent)
+        ax.plot(cur[:, 0], cur[:, 1], "k--", lw=0.8, alpha=0.6)
+        for w in walls:
+            ax.plot(w[:, 0], w[:, 1], "k-", lw=3, solid_capstyle="butt")
+        for r in results:
+            k = int(np.argmin(np.abs(r.run.t - t)))
+            late = r.run.t[-1] < t - 0.5 * scenario.step
+            J = ctrl.chain.joints_np(r.run.q[k])
+            ax.plot(J[:, 0], J[:, 1], "-", color=colours[r.method], lw=1.4, alpha=0.35 if late else 1.0,
+                    label=r.method + (f" (stopped at {r.run.t[-1]:.2f} s)" if late else ""))
+        ax.plot(0, 0, "ks", ms=5)
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_aspect("equal")
+        ax.set_title(f"t = {t:.1f} s")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+    fig.suptitle(f"{scenario.name}: {ctrl.chain.m} links, the same task under each method (dashed: the curve)")
+    return save_figure(fig, path)
+
+
+def write_outputs(scenario: Scenario, results: list[MethodRun], out: Path, backend: str = "compiled"
+                  ) -> dict[str, Path]:
+    """``compare.json``, ``compare.md`` and ``compare.png`` in the directory ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"json": out / "compare.json", "md": out / "compare.md", "png": out / "compare.png"}
+    paths["json"].write_text(json.dumps(to_json(scenario, results), indent=2) + "\n")
+    plot_bodies(results, scenario, paths["png"])
+    paths["md"].write_text(
+        f"# {scenario.name}: coordinating control and the baselines\n\n{markdown_table(results)}\n\n"
+        f"Scores from each run's joint trajectory ({scenario.duration:g} s, RK4 step {scenario.step:g} s, "
+        f"every method {ENGINES[backend]}); "
+        f"contacts are samples at {CONTACT_RATE:g} Hz.\n\n"
+        f"![bodies at the same times](compare.png)\n")
+    return paths
