@@ -105,7 +105,9 @@ def test_compiled_law_with_a_diagonal_b_agrees(rng):
     ctrl, comp = compiled("circle", 9, B=B)
     for _ in range(10):
         q, t = random_state(ctrl.chain, rng), rng.uniform(0, 10)
-        assert_outputs_agree(comp.evaluate(q, t), ctrl.evaluate(q, t))
+        # the same bar as the random-state test: 1e-12 plus the state's own one-ulp sensitivity
+        assert_outputs_agree(comp.evaluate(q, t), ctrl.evaluate(q, t),
+                             rounding=rounding_sensitivity(ctrl.evaluate, q, t))
         h = 1e-3
         np.testing.assert_allclose(comp.step(q, t, h), np.asarray(ctrl.rk4_step(h)(q, t)[0]).ravel(),
                                    rtol=1e-12, atol=1e-12)
