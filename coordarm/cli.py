@@ -6,6 +6,7 @@ import importlib
 import sys
 
 from coordarm.symbolic.errors import CoordarmError
+from coordarm.symbolic.interrupts import Interrupted, handled
 
 #: Sub-command name -> module defining ``register(subparsers)``; the parser it adds sets ``func``.
 COMMANDS = {
@@ -32,21 +33,42 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``coordarm`` console script; returns the exit status."""
-    args = build_parser().parse_args(argv)
-    try:
-        return int(args.func(args) or 0)
-    except CoordarmError as exc:
-        print(f"coordarm {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, SystemError) as exc:
-        # CasADi's C++ calls can surface a Ctrl-C as "SystemError: ... returned a result with an
-        # exception set", chained from the KeyboardInterrupt.
-        if isinstance(exc, SystemError) and not isinstance(exc.__cause__, KeyboardInterrupt):
-            raise
-        print(f"coordarm {args.command}: interrupted", file=sys.stderr)
-        return 130
+    """Entry point of the ``coordarm`` console script; returns the exit status.
 
+    0 done, 2 bad input or an unwritable/unreadable file (one line on stderr, no traceback),
+    3 stopped ahead of a singularity, 130 interrupted (Ctrl-C or SIGTERM, at any moment).
+    """
+    command = "coordarm"
+    with handled():  # Ctrl-C and SIGTERM raise Interrupted, also when inherited as ignored
+        try:
+            args = build_parser().parse_args(argv)
+            command = f"coordarm {args.command}"
+            return int(args.func(args) or 0)
+        except CoordarmError as exc:
+            print(f"{command}: error: {exc}", file=sys.stderr)
+            return 2
+        except (OSError, MemoryError, RecursionError) as exc:  # a full disk, a file in the way, a huge input
+            print(f"{command}: error: {_describe(exc)}", file=sys.stderr)
+            return 2
+        except (KeyboardInterrupt, SystemError) as exc:
+            # CasADi's C++ calls can surface a Ctrl-C as "SystemError: ... returned a result with an
+            # exception set", chained from the KeyboardInterrupt.
+            if isinstance(exc, SystemError) and not isinstance(exc.__cause__, KeyboardInterrupt):
+                raise
+            why = f" ({exc})" if isinstance(exc, Interrupted) else ""
+            print(f"{command}: interrupted{why}", file=sys.stderr)
+            return 130
+
+
+def _describe(exc: BaseException) -> str:
+    """One line for an operating-system or resource error."""
+    if isinstance(exc, MemoryError):
+        return "out of memory (reduce --links, --duration or the log rate)"
+    if isinstance(exc, RecursionError):
+        return "input nested too deeply"
+    text = exc.strerror or str(exc) if isinstance(exc, OSError) else str(exc)
+    where = getattr(exc, "filename", None)
+    return f"{where}: {text}" if where else text
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -12,6 +12,7 @@ import numpy as np
 
 from coordarm.generated.compiled import split_outputs
 from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
+from coordarm.symbolic.interrupts import check as check_interrupt
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
@@ -185,6 +186,7 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
                           f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)
             return "interpreted", None, {"backend": "interpreted", "fallback_reason": str(exc)}
         ctrl._cache[key] = compiled
+    check_interrupt()  # a Ctrl-C swallowed by a CasADi call while generating the code
     return "compiled", compiled, {"backend": "compiled", "cache_hit": compiled.cache_hit,
                                   "library": str(compiled.library.path)}
 
@@ -250,6 +252,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
                           f"{margin:.3g} < {thr[kind]}")
 
     backend, compiled, info = select_backend(ctrl, backend)
+    check_interrupt()
     n_steps = int(round(duration / step))
     bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
     parts: list[Run] = []
@@ -273,6 +276,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
             if on_chunk:
                 on_chunk(part)
             q, k = Q[-1], k + n
+            check_interrupt()
             if bar:
                 bar.update(step * k)
         final = (compiled or ctrl).evaluate(q, t0 + step * n_steps)
@@ -282,6 +286,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         parts.append(last)
         if on_chunk:
             on_chunk(last)
+        check_interrupt()
     finally:
         if bar:
             bar.close()

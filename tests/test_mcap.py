@@ -215,8 +215,9 @@ def test_flush_makes_the_samples_so_far_readable_before_the_file_is_closed(scena
     log = RunLogger(path, scenario, ctrl, flush_interval=0.0, threaded=True)
     run = simulate(ctrl, scenario.start(ctrl), 0.2, scenario.step, chunk=50, on_chunk=log.on_chunk)
     log.flush()  # waits for the worker threads' queues
-    rep = load(path)  # the writer is still open: no summary, no footer
-    assert rep.recovered is True and rep.outcome == {"status": "unknown"}
+    rep = load(path)  # the writer is still open: no summary, no footer; the file is still the partial one
+    assert rep.recovered is True and rep.outcome == {"status": "unknown"} and rep.path == log.writing
+    assert log.writing.name == "open.partial.mcap" and not path.exists()
     np.testing.assert_array_equal(rep.q, run.q)
     log.finish()
     assert load(path).recovered is False
@@ -305,6 +306,8 @@ def test_coordarm_run_writes_the_log_at_the_chosen_rate_with_a_singularity_outco
 def test_ctrl_c_arriving_while_a_chunk_is_written_is_held_back_until_the_block_is_logged(scenario, tmp_path):
     import os
     import signal
+
+    from coordarm.symbolic import interrupts
     ctrl = scenario.controller()
     path = tmp_path / "sigint.mcap"
     log = RunLogger(path, scenario, ctrl, chunk_size=4096)
@@ -316,7 +319,7 @@ def test_ctrl_c_arriving_while_a_chunk_is_written_is_held_back_until_the_block_i
         write(records, index)
 
     log.file.write_chunk = write_then_ctrl_c
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(KeyboardInterrupt), interrupts.handled():  # also from a job with SIGINT ignored
         with log:
             simulate(ctrl, scenario.start(ctrl), 0.5, scenario.step, chunk=100, on_chunk=log.on_chunk)
     rep = load(path)

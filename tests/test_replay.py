@@ -128,19 +128,30 @@ def test_a_log_cut_before_its_first_sample_is_a_log_error_naming_the_file(full_l
 
 
 @pytest.mark.parametrize("log", ["full_log", "lz4_log"])
-def test_a_bit_flip_inside_a_chunk_is_a_log_error_saying_how_much_was_read(log, tmp_path, request):
+def test_a_bit_flip_inside_a_chunk_skips_that_chunk_only_and_reports_it(log, tmp_path, request, capsys):
     path, data = request.getfixturevalue(log)
+    full = load(path)
     with open(path, "rb") as f:
-        chunks = sorted(make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
+        reader = make_reader(f)
+        chunks = sorted(reader.get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
     for which in (0, 2):
         c = chunks[which]
         flipped = bytearray(data)
         flipped[c.chunk_start_offset + c.chunk_length - 50] ^= 0x10  # inside the compressed records
         bad = tmp_path / f"flip{which}.mcap"
         bad.write_bytes(bytes(flipped))
-        with pytest.raises(LogError, match="corrupted") as info:
-            load(bad)
-        assert str(bad) in str(info.value) and "messages read before the damage" in str(info.value)
+        rep = load(bad)
+        assert rep.damaged and not rep.recovered
+        assert len(rep.problems) >= 1 and f"chunk at byte {c.chunk_start_offset} skipped" in rep.problems[0]
+        # Exactly the samples of the other chunks remain, unchanged.
+        t0, t1 = c.message_start_time / 1e9, c.message_end_time / 1e9
+        keep = (full.t < t0 - 1e-12) | (full.t > t1 + 1e-12)
+        np.testing.assert_array_equal(rep.t, full.t[keep])
+        np.testing.assert_array_equal(rep.q, full.q[keep])
+        assert 0 < len(rep.t) < len(full.t)
+        # replay and report say so on stderr and still finish
+        assert main(["report", str(bad), "--out", str(tmp_path / f"r{which}"), "--samples", "50"]) == 0
+        assert "the log is damaged" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("content", [b"", b"\x89PNG\r\n\x1a\n" + bytes(200), b"just some text\n" * 20],

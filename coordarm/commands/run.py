@@ -8,7 +8,7 @@ import warnings
 from pathlib import Path
 from typing import TextIO
 
-from coordarm.symbolic import LAWS, SingularityError
+from coordarm.symbolic import LAWS, LogError, SingularityError
 
 from coordarm.simulation.figures import plot_stages, plot_tracking
 from coordarm.simulation.mcap_file import COMPRESSIONS
@@ -31,7 +31,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="compiled C (built or taken from the cache), interpreted CasADi, or auto (default: "
                         "compiled when a C compiler is found, else interpreted with a warning)")
-    p.add_argument("--out", type=Path, help="log file (default: logs/<scenario>.mcap); figures go beside it")
+    p.add_argument("--out", type=Path, help="log file (default: logs/<scenario>.mcap); figures go beside it; "
+                                            "an existing file is refused unless --overwrite")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out log")
     p.add_argument("--log-rate", type=float, metavar="HZ",
                    help="samples per simulated second in the log (default: every step)")
     p.add_argument("--cond-rate", type=float, metavar="HZ",
@@ -81,25 +83,35 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the scenario named in ``args``; return 0 (done), 3 (stopped ahead of a singularity)."""
+    """Run the scenario named in ``args``; return 0 (done), 3 (stopped ahead of a singularity).
+
+    The log is opened as soon as the controller exists, so that however the run ends (an
+    interrupt while compiling, a build error, a singularity) it is closed with its outcome.
+    """
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
-    ctrl = scenario.controller()
-    q0 = scenario.start(ctrl)
-    with warnings.catch_warnings(record=True) as caught:   # builds or loads before the log opens
-        warnings.simplefilter("always", BackendFallbackWarning)
-        backend, compiled, _ = select_backend(ctrl, args.backend)
-    for w in caught:
-        print(f"coordarm run: warning: {w.message}", file=sys.stderr)
     out = args.out or Path("logs") / f"{scenario.name}.mcap"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    status = 0
+    overwrite = args.overwrite or args.out is None   # the default log is a scratch file
+    if not overwrite and out.exists():
+        raise LogError(f"--out {out}: exists; choose another file or pass --overwrite")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise LogError(f"--out {out}: cannot create its directory: {exc.strerror or exc}") from None
+    ctrl = scenario.controller()
+    status, caught = 0, []
     try:
         # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
         # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
         with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, cond_rate=args.cond_rate,
-                       compression=args.compression, backend=backend,
-                       library_key=compiled.library.key if compiled else None,
+                       compression=args.compression, overwrite=overwrite,
                        threaded=(os.cpu_count() or 1) > 1) as log:
+            q0 = scenario.start(ctrl)
+            with warnings.catch_warnings(record=True) as caught:   # builds or loads the library
+                warnings.simplefilter("always", BackendFallbackWarning)
+                backend, compiled, _ = select_backend(ctrl, args.backend)
+            for w in caught:
+                print(f"coordarm run: warning: {w.message}", file=sys.stderr)
+            log.set_backend(backend, compiled.library.key if compiled else None)
             run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
                            thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=log.on_chunk)
     except SingularityError as err:
