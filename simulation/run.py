@@ -14,6 +14,8 @@ from coordarm.generated.compiled import split_outputs
 from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
 from coordarm.symbolic.interrupts import check as check_interrupt
 
+from .limits import KEEP_ROWS, check_gain_step
+
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
 #: Steps integrated per call of the closed-loop chunk Function.
@@ -194,7 +196,7 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
 def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.001,
              t0: float = 0.0, *, backend: str = "auto", chunk: int = DEFAULT_CHUNK,
              thresholds: dict[str, float] | None = None, progress: bool | None = None,
-             on_chunk: Callable[[Run], None] | None = None) -> Run:
+             on_chunk: Callable[[Run], None] | None = None, keep: int | None = None) -> Run:
     """Integrate the closed loop with fixed-step RK4 from ``q0`` at ``t0`` for ``duration``.
 
     Parameters
@@ -218,6 +220,12 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         Show a progress bar on stderr (default: for runs of more than 20,000 steps).
     on_chunk : callable, optional
         Called with each completed chunk (a :class:`Run` of its rows), e.g. a logger.
+    keep : int, optional
+        Rows to keep in memory (about): the returned run holds every ``ceil(steps / keep)``-th
+        step plus, in each chunk, the rows of the smallest margins and the largest ``|u|`` and
+        the chunk's last row, so its summary's extremes and final values are exact. Default:
+        :data:`~simulation.limits.KEEP_ROWS` when ``on_chunk`` is given (a logger streams the
+        rest to disk), else every row. ``run.info["kept_every"]`` records the thinning.
 
     Returns
     -------
@@ -241,6 +249,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     if backend not in BACKENDS:   # select_backend checks too, but only after the start checks below
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
     thr = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
+    check_gain_step(ctrl.gain, step, refuse=False)
     q0 = ctrl.chain.check_q(q0, "q0")
     check_curve_reaches_base(ctrl, t0, t0 + duration)
     start = ctrl.evaluate(q0, t0)
@@ -254,6 +263,10 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     backend, compiled, info = select_backend(ctrl, backend)
     check_interrupt()
     n_steps = int(round(duration / step))
+    if keep is None:
+        keep = KEEP_ROWS if on_chunk is not None else n_steps + 1
+    every = max(1, -(-n_steps // max(1, int(keep))))
+    info = dict(info, kept_every=every)
     bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
     parts: list[Run] = []
     q, k, wall = q0, 0, _time.perf_counter()
@@ -267,12 +280,12 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
             if bad is not None:
                 row, kind, link, margin = bad
                 part = _rows(part, slice(0, row + 1))
-                parts.append(part)
+                parts.append(_thin(part, k, every))
                 if on_chunk:
                     on_chunk(part)
                 run = _concat(parts, dict(info, stopped="singularity"))
                 raise SingularityError(part.t[-1], link, margin, kind, thr[kind], run=run)
-            parts.append(part)
+            parts.append(_thin(part, k, every))
             if on_chunk:
                 on_chunk(part)
             q, k = Q[-1], k + n
@@ -308,6 +321,17 @@ ARRAYS = ("t", "q", "u", "e", "s", "link_margins", "longitudinal", "v_star")
 
 def _rows(run: Run, rows: slice) -> Run:
     return Run(*(getattr(run, a)[rows] for a in ARRAYS), info=dict(run.info))
+
+
+def _thin(part: Run, k0: int, every: int) -> Run:
+    """Rows of ``part`` (steps ``k0, k0+1, ...``) kept in memory: every ``every``-th, the extremes, the last."""
+    n = len(part.t)
+    if every == 1 or n == 0:
+        return part
+    rows = np.concatenate([np.flatnonzero((k0 + np.arange(n)) % every == 0),
+                           [np.argmin(np.min(part.link_margins, axis=1)), np.argmin(part.longitudinal),
+                            np.argmax(np.max(np.abs(part.u), axis=1)), n - 1]])
+    return Run(*(getattr(part, a)[np.unique(rows)] for a in ARRAYS), info=dict(part.info))
 
 
 def _concat(parts: list[Run], info: dict) -> Run:

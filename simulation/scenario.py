@@ -32,6 +32,7 @@ import numpy as np
 from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
                       motion_from_spec, project_onto_curve)
 
+from .limits import check_bounds, check_gain_step
 from .run import DEFAULT_THRESHOLDS, check_number
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
@@ -132,6 +133,8 @@ class Scenario:
         check_number(r["t0"], "run.t0", positive=False)
         if r["step"] > r["duration"]:
             raise ConfigError(f"run.step: {r['step']} is longer than run.duration {r['duration']}")
+        check_bounds(ch["links"], ch["link_length"], r["step"], r["duration"], r["t0"], spec["control"]["gain"])
+        check_gain_step(spec["control"]["gain"], r["step"])
         for k in ("link", "longitudinal"):
             v = check_number(spec["thresholds"][k], f"thresholds.{k}", positive=False)
             if not 0 <= v < 1:

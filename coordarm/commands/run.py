@@ -8,9 +8,10 @@ import warnings
 from pathlib import Path
 from typing import TextIO
 
-from coordarm.symbolic import LAWS, LogError, SingularityError
+from coordarm.symbolic import LAWS, ConfigError, LogError, SingularityError
 
 from coordarm.simulation.figures import plot_stages, plot_tracking
+from coordarm.simulation.limits import DENSE_LINKS, GainStepWarning, check_cost, check_gain_step, estimate
 from coordarm.simulation.mcap_file import COMPRESSIONS
 from coordarm.simulation.mcap_writer import RunLogger
 from coordarm.simulation.obstacles import clearance, wall_crossings
@@ -34,6 +35,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, help="log file (default: logs/<scenario>.mcap); figures go beside it; "
                                             "an existing file is refused unless --overwrite")
     p.add_argument("--overwrite", action="store_true", help="replace an existing --out log")
+    p.add_argument("--yes", action="store_true",
+                   help="run even when the estimate (steps, log size, memory) is above the limits, or the dense "
+                        f"law has more than {DENSE_LINKS} links")
     p.add_argument("--log-rate", type=float, metavar="HZ",
                    help="samples per simulated second in the log (default: every step)")
     p.add_argument("--cond-rate", type=float, metavar="HZ",
@@ -89,6 +93,11 @@ def main(args: argparse.Namespace) -> int:
     interrupt while compiling, a build error, a singularity) it is closed with its outcome.
     """
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
+    check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, args.log_rate), args.yes)
+    m = scenario.spec["chain"]["links"]
+    if scenario.spec["control"]["law"] == "dense" and m > DENSE_LINKS and not args.yes:
+        raise ConfigError(f"--law dense with {m} links: generating and compiling it takes many minutes "
+                          f"(its size grows as m^2); use the structured law, or pass --yes")
     out = args.out or Path("logs") / f"{scenario.name}.mcap"
     overwrite = args.overwrite or args.out is None   # the default log is a scratch file
     if not overwrite and out.exists():
@@ -108,12 +117,15 @@ def main(args: argparse.Namespace) -> int:
             q0 = scenario.start(ctrl)
             with warnings.catch_warnings(record=True) as caught:   # builds or loads the library
                 warnings.simplefilter("always", BackendFallbackWarning)
+                check_gain_step(ctrl.gain, scenario.step)
                 backend, compiled, _ = select_backend(ctrl, args.backend)
             for w in caught:
                 print(f"coordarm run: warning: {w.message}", file=sys.stderr)
             log.set_backend(backend, compiled.library.key if compiled else None)
-            run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
-                           thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=log.on_chunk)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", GainStepWarning)   # said above already
+                run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
+                               thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=log.on_chunk)
     except SingularityError as err:
         print(f"coordarm run: {err}", file=sys.stderr)
         run, status = err.run, 3
