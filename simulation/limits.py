@@ -66,7 +66,7 @@ def sampled_limit(delay: int = 0) -> float:
     return 2.0 * math.sin(math.pi / (2 * (2 * delay + 1)))
 
 
-def check_gain_step(gain: float, step: float, refuse: bool = True) -> None:
+def check_gain_step(gain: float, step: float, refuse: bool = True, warn: bool = True) -> None:
     """Refuse (or, ``refuse=False``, warn about) a gain and step that RK4 cannot integrate stably;
     warn beyond the sampled-data limit.
 
@@ -78,6 +78,8 @@ def check_gain_step(gain: float, step: float, refuse: bool = True) -> None:
         RK4 step ``h`` [s].
     refuse : bool
         Raise (True) or warn (False) when RK4 diverges.
+    warn : bool
+        Warn beyond the sampled-data limit (else only the RK4 limit is checked).
 
     Raises
     ------
@@ -96,7 +98,7 @@ def check_gain_step(gain: float, step: float, refuse: bool = True) -> None:
         if refuse:
             raise ConfigError(text)
         warnings.warn(text, GainStepWarning, stacklevel=3)
-    elif kh >= sampled_limit(0):
+    elif warn and kh >= sampled_limit(0):
         warnings.warn(f"K h = {kh:.4g} >= 2: a digital controller sampling every {step:g} s would be unstable "
                       f"(K h < 2 sin(pi/(2(2n+1))) with an n-sample delay); the RK4 run is not", GainStepWarning,
                       stacklevel=3)

@@ -12,6 +12,7 @@ import numpy as np
 
 from coordarm.generated.compiled import split_outputs
 from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
+from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
 
 from .limits import KEEP_ROWS, check_gain_step
@@ -86,9 +87,9 @@ class Run:
 def check_number(value: Any, name: str, positive: bool = True) -> float:
     """``value`` as a float; a ConfigError naming ``name`` unless it is a finite real number (> 0 if ``positive``)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(f"{name}: need a finite number, got {value!r}")
+        raise ConfigError(f"{name}: need a finite number, got {shown(value)}")
     if positive and value <= 0:
-        raise ConfigError(f"{name}: must be > 0, got {value!r}")
+        raise ConfigError(f"{name}: must be > 0, got {shown(value)}")
     return float(value)
 
 
@@ -173,7 +174,7 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
         ``backend="compiled"`` and the library cannot be built or loaded.
     """
     if backend not in BACKENDS:
-        raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+        raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
     if backend == "interpreted":
         return "interpreted", None, {"backend": "interpreted"}
     key = ("compiled", ctrl.law_form)
@@ -245,9 +246,9 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     if step > duration:
         raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
     if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
-        raise ConfigError(f"chunk: need a positive integer, got {chunk!r}")
+        raise ConfigError(f"chunk: need a positive integer, got {shown(chunk)}")
     if backend not in BACKENDS:   # select_backend checks too, but only after the start checks below
-        raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+        raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
     thr = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
     check_gain_step(ctrl.gain, step, refuse=False)
     q0 = ctrl.chain.check_q(q0, "q0")

@@ -31,6 +31,7 @@ import numpy as np
 
 from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
                       motion_from_spec, project_onto_curve)
+from coordarm.symbolic.errors import shown
 
 from .limits import check_bounds, check_gain_step
 from .run import DEFAULT_THRESHOLDS, check_number
@@ -53,12 +54,12 @@ def presets() -> list[str]:
 
 def _segment(spec: Any, field: str) -> np.ndarray:
     if not isinstance(spec, dict) or set(spec) != {"a", "b"}:
-        raise ConfigError(f"{field}: expected a table with keys a = [x, y] and b = [x, y], got {spec!r}")
+        raise ConfigError(f"{field}: expected a table with keys a = [x, y] and b = [x, y], got {shown(spec)}")
     pts = []
     for k in ("a", "b"):
         p = spec[k]
         if not isinstance(p, list) or len(p) != 2:
-            raise ConfigError(f"{field}.{k}: expected [x, y], got {p!r}")
+            raise ConfigError(f"{field}.{k}: expected [x, y], got {shown(p)}")
         pts.append([check_number(v, f"{field}.{k}[{i}]", positive=False) for i, v in enumerate(p)])
     return np.array(pts)
 
@@ -109,18 +110,18 @@ class Scenario:
             if k not in ch:
                 raise ConfigError(f"chain.{k}: missing")
         if isinstance(ch["links"], bool) or not isinstance(ch["links"], int) or ch["links"] < 2:
-            raise ConfigError(f"chain.links: need an integer >= 2, got {ch['links']!r}")
+            raise ConfigError(f"chain.links: need an integer >= 2, got {shown(ch['links'])}")
         check_number(ch["link_length"], "chain.link_length")
         if "gain" not in spec["control"]:
             raise ConfigError("control.gain: missing")
         check_number(spec["control"]["gain"], "control.gain")
         motion_from_spec(spec["control"].get("speed", 0.0), "control.speed")
         if spec["control"]["law"] not in LAWS:
-            raise ConfigError(f"control.law: expected one of {LAWS}, got {spec['control']['law']!r}")
+            raise ConfigError(f"control.law: expected one of {LAWS}, got {shown(spec['control']['law'])}")
         curve_from_spec(spec["curve"], "curve")
         st = spec["start"]
         if st["kind"] not in ("zigzag", "projected"):
-            raise ConfigError(f"start.kind: expected 'zigzag' or 'projected', got {st['kind']!r}")
+            raise ConfigError(f"start.kind: expected 'zigzag' or 'projected', got {shown(st['kind'])}")
         b = check_number(st["beta"], "start.beta", positive=False)
         if not 0 < abs(b) < math.pi / 2:
             raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {b}")
@@ -134,7 +135,7 @@ class Scenario:
         if r["step"] > r["duration"]:
             raise ConfigError(f"run.step: {r['step']} is longer than run.duration {r['duration']}")
         check_bounds(ch["links"], ch["link_length"], r["step"], r["duration"], r["t0"], spec["control"]["gain"])
-        check_gain_step(spec["control"]["gain"], r["step"])
+        check_gain_step(spec["control"]["gain"], r["step"], warn=False)
         for k in ("link", "longitudinal"):
             v = check_number(spec["thresholds"][k], f"thresholds.{k}", positive=False)
             if not 0 <= v < 1:
@@ -233,4 +234,6 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         parsed = tomllib.loads(data)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{source}: not valid TOML: arrays or tables nested too deeply") from None
     return Scenario.from_dict(parsed, source)

@@ -100,6 +100,8 @@ def main(args: argparse.Namespace) -> int:
                           f"(its size grows as m^2); use the structured law, or pass --yes")
     out = args.out or Path("logs") / f"{scenario.name}.mcap"
     overwrite = args.overwrite or args.out is None   # the default log is a scratch file
+    if out.exists() and not out.is_file():
+        raise LogError(f"--out {out}: not a regular file; choose a log file name")
     if not overwrite and out.exists():
         raise LogError(f"--out {out}: exists; choose another file or pass --overwrite")
     try:
