@@ -18,8 +18,9 @@ from coordarm.symbolic import LogError
 from coordarm.symbolic.errors import shown
 
 SMALL = ["--links", "6", "--duration", "0.05", "--quiet", "--no-figures"]
-TOML = ('name = "t"\n[chain]\nlinks = 6\nlink_length = 0.1\n[curve]\nkind = "line"\n'
+TOML = ('name = "t"\n[chain]\nlinks = 6\nlink_length = {length}\n[curve]\nkind = "line"\n'
         '[control]\ngain = {gain}\nspeed = 0.0\n[run]\nduration = 0.05\nstep = {step}\nt0 = {t0}\n')
+VALID = {"gain": "2.0", "step": "0.001", "t0": "0.0", "length": "0.1"}
 
 
 @pytest.fixture(scope="module")
@@ -50,6 +51,7 @@ def one_line_error(capsys, *words):
     (["replay", "LOG", "--fps", "1e-9"], ["--fps"]),
     (["replay", "LOG", "--fps", "1e9"], ["--fps"]),
     (["report", "LOG", "--samples", "-5"], ["--samples"]),
+    (["report", "line", "--duration", "1e6"], ["--yes", "memory"]),
     (["replay", "LOG", "--out", "LOG"], ["--out", "is a file"]),
     (["report", "LOG", "--out", "LOG"], ["--out", "is a file"]),
     (["run", "line", *SMALL, "--out", "/dev/full"], ["/dev/full", "not a regular file"]),
@@ -70,10 +72,11 @@ def test_bad_arguments_give_one_line_naming_the_flag_or_field_and_exit_2(argv, w
     ({"t0": "1e6", "step": "1e-12"}, ["run.step"]),
     ({"gain": "2800.0"}, ["K h", "2.8", "RK4"]),
     ({"gain": "nan"}, ["control.gain"]),
+    ({"length": "1e-300"}, ["chain.link_length"]),
 ])
 def test_numbers_that_would_silently_go_wrong_are_refused(fields, words, tmp_path, capsys):
     toml = tmp_path / "bad.toml"
-    toml.write_text(TOML.format(**{"gain": "2.0", "step": "0.001", "t0": "0.0", **fields}))
+    toml.write_text(TOML.format(**{**VALID, **fields}))
     assert main(["run", str(toml), "--quiet", "--no-figures", "--out", str(tmp_path / "x.mcap")]) == 2
     one_line_error(capsys, str(toml), *words)
     assert not (tmp_path / "x.mcap").exists()
@@ -89,7 +92,7 @@ def test_gain_step_limits_agree_with_the_closed_forms():
 
 def test_a_gain_beyond_the_sampled_limit_but_within_rk4_warns_before_the_run(tmp_path, capsys):
     toml = tmp_path / "warn.toml"
-    toml.write_text(TOML.format(gain="2500.0", step="0.001", t0="0.0"))   # K h = 2.5
+    toml.write_text(TOML.format(**{**VALID, "gain": "2500.0"}))   # K h = 2.5
     main(["run", str(toml), "--quiet", "--no-figures", "--out", str(tmp_path / "w.mcap")])
     err = capsys.readouterr().err
     assert err.count("K h = 2.5 >= 2") == 1 and "Traceback" not in err
@@ -101,7 +104,7 @@ def test_deeply_nested_toml_and_huge_values_are_config_errors(tmp_path, capsys):
     assert main(["run", str(deep)]) == 2
     one_line_error(capsys, str(deep))
     long = tmp_path / "long.toml"
-    long.write_text(TOML.format(gain='"' + "x" * 10_000 + '"', step="0.001", t0="0.0"))
+    long.write_text(TOML.format(**{**VALID, "gain": '"' + "x" * 10_000 + '"'}))
     assert main(["run", str(long)]) == 2
     line = one_line_error(capsys, "control.gain")
     assert len(line) < 300   # the value echoed is cut to 80 characters
@@ -156,6 +159,11 @@ def test_outcome_metadata_that_is_not_json_is_a_log_error(small_log, tmp_path):
     f.close()
     with pytest.raises(LogError, match="'outcome' metadata holds a value that is not JSON"):
         load(tmp_path / "odd2.mcap")
+    deep = McapFile(tmp_path / "deep.mcap")   # scenario JSON nested far deeper than the recursion limit
+    deep.add_metadata("scenario", {"json": "[" * 100_000 + "]" * 100_000, "source": "x"})
+    deep.close()
+    with pytest.raises(LogError, match="'scenario' metadata is not a valid scenario"):
+        load(tmp_path / "deep.mcap")
     assert mcap_writer.partial_path(path).exists() is False
 
 

@@ -28,6 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--samples", type=int,
                    help="margin samples over the run (default 1200 up to 64 links, then 1200 (64/m)^2, "
                         f"at least 100: each costs O(m^3); {SAMPLES_RANGE[0]} to {SAMPLES_RANGE[1]})")
+    p.add_argument("--yes", action="store_true",
+                   help="scenario only: simulate even when the estimated steps or memory are above the limits")
     p.set_defaults(func=main)
 
 
@@ -41,6 +43,7 @@ def simulate_scenario(scenario: Any) -> Any:
 
 def main(args: argparse.Namespace) -> int:
     """Write the report for ``args.source``; print where it went; return 0."""
+    from coordarm.simulation.limits import check_cost, estimate
     from coordarm.simulation.scenario import load_scenario
 
     from coordarm.analysis.report import default_samples, write_report
@@ -61,6 +64,7 @@ def main(args: argparse.Namespace) -> int:
         scenario = run.scenario
     else:
         scenario = load_scenario(src).with_overrides(args.links, args.duration)
+        check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, logged=False), args.yes)
         run = simulate_scenario(scenario)
     out = output_directory(args.out or Path("logs") / f"{scenario.name}_report")
     m = np.shape(run.q)[1]
