@@ -68,11 +68,16 @@ def mutated_toml(draw) -> str:
     return text
 
 
+def _written(text: str, factory):
+    path = factory.mktemp("toml", numbered=True) / "s.toml"
+    path.write_bytes(text.encode("utf-8", "surrogatepass"))
+    return path
+
+
 @FUZZ
 @given(text=mutated_toml())
 def test_a_mutated_scenario_loads_or_is_one_config_error(text, tmp_path_factory):
-    path = tmp_path_factory.mktemp("toml", numbered=True) / "s.toml"
-    path.write_bytes(text.encode("utf-8", "surrogatepass"))
+    path = _written(text, tmp_path_factory)
     try:
         sc = load_scenario(path)
     except ConfigError as exc:
@@ -88,8 +93,7 @@ def test_a_mutated_scenario_loads_or_is_one_config_error(text, tmp_path_factory)
 @settings(FUZZ, max_examples=max(10, EXAMPLES // 8))
 @given(text=mutated_toml())
 def test_a_mutated_scenario_that_loads_runs_or_stops_clearly(text, tmp_path_factory):
-    path = tmp_path_factory.mktemp("toml", numbered=True) / "s.toml"
-    path.write_bytes(text.encode("utf-8", "surrogatepass"))
+    path = _written(text, tmp_path_factory)
     try:
         sc = load_scenario(path)
         if sc.spec["chain"]["links"] > 8:
