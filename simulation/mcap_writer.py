@@ -159,7 +159,17 @@ class RunLogger:
         The file cannot be created, exists (``overwrite=False``) or another run is writing it.
     """
 
-    def __init__(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        try:
+            self._open(*args, **kwargs)
+        except BaseException:  # a failure or Ctrl-C before the writer is complete: no half-made file left
+            file = getattr(self, "file", None)
+            if file is not None:
+                file.abandon()
+                file.path.unlink(missing_ok=True)
+            raise
+
+    def _open(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
                  log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float | None = None,
                  compression: str = "zstd", chunk_size: int = 256 * 1024, flush_interval: float = FLUSH_INTERVAL,
                  command: list[str] | None = None, backend: str = "interpreted", library_key: str | None = None,

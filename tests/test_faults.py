@@ -292,3 +292,16 @@ def test_a_replaced_library_with_stale_metadata_is_rebuilt_not_loaded(tmp_path):
     assert not cached(lib.path.parent, lib.key)
     again = build(generate_source(ctrl, "structured"), build_dir=tmp_path)
     assert again.cache_hit is False and again.path.name == LIBRARY and cached(again.path.parent, again.key)
+
+
+def test_ctrl_c_while_the_log_is_being_opened_leaves_no_half_made_file(tmp_path, monkeypatch):
+    from coordarm.simulation import mcap_writer
+
+    def interrupted(scenario):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(mcap_writer, "build_info", interrupted)
+    path = tmp_path / "half.mcap"
+    with pytest.raises(KeyboardInterrupt):
+        RunLogger(path, load_scenario("line").with_overrides(links=4))
+    assert not path.exists() and not partial_path(path).exists()
