@@ -232,8 +232,9 @@ if "--version" in sys.argv:
 tmp = os.environ["TMPDIR"]
 open(os.path.join(tmp, "cc-temp.s"), "w").write("x")
 child = subprocess.Popen(["sleep", "600"])
-with open({str(tmp_path / "cc.info")!r}, "w") as f:
+with open({str(tmp_path / "cc.info.tmp")!r}, "w") as f:
     f.write(f"{{os.getpid()}} {{child.pid}} {{os.getpgrp()}} {{tmp}}")
+os.replace({str(tmp_path / "cc.info.tmp")!r}, {str(tmp_path / "cc.info")!r})   # appears complete
 time.sleep(600)
 """)
     cc.chmod(cc.stat().st_mode | stat.S_IXUSR)
@@ -305,3 +306,35 @@ def test_ctrl_c_while_the_log_is_being_opened_leaves_no_half_made_file(tmp_path,
     with pytest.raises(KeyboardInterrupt):
         RunLogger(path, load_scenario("line").with_overrides(links=4))
     assert not path.exists() and not partial_path(path).exists()
+
+
+def test_ctrl_c_while_compiling_kills_the_compiler_and_removes_its_files(tmp_path):
+    import signal
+    import threading
+    import time
+
+    from coordarm.generated.build import build
+    from coordarm.generated.codegen import Source
+    from coordarm.symbolic import interrupts
+    cc = _hanging_compiler(tmp_path)
+    info = tmp_path / "cc.info"
+
+    def ctrl_c_once_compiling():   # waits for the event: the compiler has started and said so
+        deadline = time.monotonic() + 60
+        while not info.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    threading.Thread(target=ctrl_c_once_compiling, daemon=True).start()
+    with pytest.raises(KeyboardInterrupt), interrupts.handled():
+        build(Source(text="int y;\n", form="structured", m=2), cc=str(cc), build_dir=tmp_path / "build")
+    driver, child, group, tmpdir = info.read_text().split()
+    assert not _alive(int(driver)) and not _alive(int(child)) and not Path(tmpdir).exists()
+    assert not list((tmp_path / "build").rglob("*.tmp"))
+
+
+def test_figures_that_cannot_be_written_are_a_one_line_error(small_log, tmp_path, capsys):
+    out = tmp_path / "figs"
+    (out / "small_stages.png").mkdir(parents=True)   # a directory where the figure should go
+    assert main(["replay", str(small_log), "--out", str(out), "--no-animation"]) == 2
+    one_line_error(capsys, "small_stages.png")
