@@ -109,7 +109,7 @@ def main(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise LogError(f"--out {out}: cannot create its directory: {exc.strerror or exc}") from None
     ctrl = scenario.controller()
-    status, caught = 0, []
+    status = 0
     try:
         # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
         # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
