@@ -338,3 +338,30 @@ def test_figures_that_cannot_be_written_are_a_one_line_error(small_log, tmp_path
     (out / "small_stages.png").mkdir(parents=True)   # a directory where the figure should go
     assert main(["replay", str(small_log), "--out", str(out), "--no-animation"]) == 2
     one_line_error(capsys, "small_stages.png")
+
+
+def test_a_ctrl_c_swallowed_by_a_casadi_call_still_stops_the_run_before_its_first_step(monkeypatch):
+    """What CasADi does to 16 of 40 Ctrl-Cs in ``base_offset``: the exception is lost, the call returns."""
+    import signal
+
+    from coordarm.simulation.run import simulate
+    from coordarm.symbolic import interrupts
+    sc = load_scenario("line").with_overrides(links=4, duration=0.2)
+    ctrl = sc.controller()
+    original, steps = ctrl.base_offset, []
+
+    def swallowing(t):
+        try:
+            if not steps:
+                steps.append(t)
+                os.kill(os.getpid(), signal.SIGINT)
+        except KeyboardInterrupt:
+            pass   # swallowed, as inside a CasADi call
+        return original(t)
+
+    monkeypatch.setattr(ctrl, "base_offset", swallowing)
+    seen = []
+    with interrupts.handled():
+        with pytest.raises(interrupts.Interrupted, match="SIGINT"):
+            simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted", on_chunk=seen.append)
+    assert steps and not seen   # stopped before the first block
