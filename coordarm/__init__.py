@@ -43,11 +43,13 @@ _EXPORTS = {
     "SingularityError": "coordarm.symbolic.errors",
     "LogError": "coordarm.symbolic.errors",
     "BuildError": "coordarm.symbolic.errors",
+    "Interrupted": "coordarm.symbolic.interrupts",
     "Scenario": "coordarm.simulation.scenario",
     "load_scenario": "coordarm.simulation.scenario",
     "presets": "coordarm.simulation.scenario",
     "simulate": "coordarm.simulation.run",
     "Run": "coordarm.simulation.run",
+    "estimate": "coordarm.simulation.limits",
     "Replay": "coordarm.analysis.replay",
     "load_log": "coordarm.analysis.replay",
 }
