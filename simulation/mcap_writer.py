@@ -472,18 +472,23 @@ _POINT = '{"x":%de-6,"y":%de-6,"z":0}'
 
 @contextmanager
 def _sigint_deferred():
-    """Hold back SIGINT (Ctrl-C) until the block ends, then deliver it to the previous handler."""
+    """Hold back SIGINT (Ctrl-C), and SIGTERM when Python handles it, until the block ends; then
+    deliver the first one caught to its previous handler."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    caught = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(frame))
+    caught: list[tuple[int, Any]] = []
+    previous = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        if signum == signal.SIGINT or callable(signal.getsignal(signum)):
+            previous[signum] = signal.signal(signum, lambda n, frame: caught.append((n, frame)))
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
-        if caught and callable(previous):
-            previous(signal.SIGINT, caught[0])
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if caught and callable(previous[caught[0][0]]):
+            previous[caught[0][0]](*caught[0])
 
 
 def _line(points: np.ndarray, kind: int, thickness: float, color: tuple[float, ...]) -> str:

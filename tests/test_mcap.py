@@ -303,7 +303,9 @@ def test_coordarm_run_writes_the_log_at_the_chosen_rate_with_a_singularity_outco
     assert rep.scenario.spec["control"]["speed"] == 0.4 and rep.run_info["log_every_steps"] == "10"
 
 
-def test_ctrl_c_arriving_while_a_chunk_is_written_is_held_back_until_the_block_is_logged(scenario, tmp_path):
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_ctrl_c_arriving_while_a_chunk_is_written_is_held_back_until_the_block_is_logged(scenario, tmp_path,
+                                                                                         signame):
     import os
     import signal
 
@@ -315,7 +317,7 @@ def test_ctrl_c_arriving_while_a_chunk_is_written_is_held_back_until_the_block_i
 
     def write_then_ctrl_c(records, index):  # a real SIGINT to this process in the middle of on_chunk
         if len(log.file._chunk_indexes) == 2:
-            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), getattr(signal, signame))
         write(records, index)
 
     log.file.write_chunk = write_then_ctrl_c
