@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from coordarm.commands.run import print_summary, write_figures
+from coordarm.commands.run import print_summary, write_figures, writing
 from coordarm.symbolic import ConfigError, LogError
 from coordarm.symbolic.errors import shown
 
@@ -55,7 +55,9 @@ def main(args: argparse.Namespace) -> int:
         print(f"figure        {p}")
     if not args.no_animation:
         from coordarm.analysis.animation import animate
-        print(f"animation     {animate(replay, stem.with_name(stem.name + '.gif'), fps=args.fps, ctrl=ctrl)}")
+        gif = stem.with_name(stem.name + ".gif")
+        with writing(gif):
+            print(f"animation     {animate(replay, gif, fps=args.fps, ctrl=ctrl)}")
     return 0
 
 

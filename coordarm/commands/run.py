@@ -5,8 +5,9 @@ import argparse
 import os
 import sys
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
-from typing import TextIO
+from typing import Iterator, TextIO
 
 from coordarm.symbolic import LAWS, ConfigError, LogError, SingularityError
 
@@ -80,10 +81,22 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
 def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
     """Stage and tracking figures as ``<stem>_stages.png`` and ``<stem>_tracking.png``."""
     title = f"{scenario.name}: {ctrl.chain.m} links"
-    return [plot_stages(run, ctrl, stem.with_name(stem.name + "_stages.png"), walls=scenario.obstacles,
-                        title=f"{title}, stages of the motion (dashed: the curve at that time)"),
-            plot_tracking(run, ctrl.gain, stem.with_name(stem.name + "_tracking.png"),
-                          thresholds=scenario.thresholds, title=title)]
+    stages, tracking = stem.with_name(stem.name + "_stages.png"), stem.with_name(stem.name + "_tracking.png")
+    with writing(stages):
+        plot_stages(run, ctrl, stages, walls=scenario.obstacles,
+                    title=f"{title}, stages of the motion (dashed: the curve at that time)")
+    with writing(tracking):
+        plot_tracking(run, ctrl.gain, tracking, thresholds=scenario.thresholds, title=title)
+    return [stages, tracking]
+
+
+@contextmanager
+def writing(path: Path) -> Iterator[None]:
+    """Turn an OSError while writing ``path`` (a full disk, a read-only file system) into a LogError naming it."""
+    try:
+        yield
+    except OSError as exc:
+        raise LogError(f"{path}: cannot write it: {exc.strerror or exc}") from None
 
 
 def main(args: argparse.Namespace) -> int:
