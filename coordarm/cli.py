@@ -3,10 +3,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
-
-from coordarm.symbolic.errors import CoordarmError
-from coordarm.symbolic.interrupts import Interrupted, handled
+import threading
 
 #: Sub-command name -> module defining ``register(subparsers)``; the parser it adds sets ``func``.
 COMMANDS = {
@@ -36,28 +35,59 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``coordarm`` console script; returns the exit status.
 
     0 done, 2 bad input or an unwritable/unreadable file (one line on stderr, no traceback),
-    3 stopped ahead of a singularity, 130 interrupted (Ctrl-C or SIGTERM, at any moment).
+    3 stopped ahead of a singularity, 130 interrupted (Ctrl-C or SIGTERM, at any moment,
+    also while the first modules, which load CasADi, are imported).
     """
-    command = "coordarm"
-    with handled():  # Ctrl-C and SIGTERM raise Interrupted, also when inherited as ignored
+    previous = _early_handlers()
+    try:
         try:
-            args = build_parser().parse_args(argv)
-            command = f"coordarm {args.command}"
-            return int(args.func(args) or 0)
-        except CoordarmError as exc:
-            print(f"{command}: error: {exc}", file=sys.stderr)
-            return 2
-        except (OSError, MemoryError, RecursionError) as exc:  # a full disk, a file in the way, a huge input
-            print(f"{command}: error: {_describe(exc)}", file=sys.stderr)
-            return 2
-        except (KeyboardInterrupt, SystemError) as exc:
-            # CasADi's C++ calls can surface a Ctrl-C as "SystemError: ... returned a result with an
-            # exception set", chained from the KeyboardInterrupt.
-            if isinstance(exc, SystemError) and not isinstance(exc.__cause__, KeyboardInterrupt):
-                raise
-            why = f" ({exc})" if isinstance(exc, Interrupted) else ""
-            print(f"{command}: interrupted{why}", file=sys.stderr)
+            from coordarm.symbolic.errors import CoordarmError  # noqa: F401 (loads CasADi)
+            from coordarm.symbolic.interrupts import handled
+        except KeyboardInterrupt:
+            print("coordarm: interrupted", file=sys.stderr)
             return 130
+        with handled():  # Ctrl-C and SIGTERM raise Interrupted, also when inherited as ignored
+            return _main(argv)
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _early_handlers() -> dict:
+    """Until :func:`~coordarm.symbolic.interrupts.handled` takes over: SIGINT and SIGTERM raise
+    KeyboardInterrupt (stdlib only, installed before anything heavy is imported)."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    return {s: signal.signal(s, interrupt) for s in (signal.SIGINT, signal.SIGTERM)}
+
+
+def _main(argv: list[str] | None) -> int:
+    from coordarm.symbolic.errors import CoordarmError
+    from coordarm.symbolic.interrupts import Interrupted
+
+    command = "coordarm"
+    try:
+        args = build_parser().parse_args(argv)
+        command = f"coordarm {args.command}"
+        return int(args.func(args) or 0)
+    except CoordarmError as exc:
+        print(f"{command}: error: {exc}", file=sys.stderr)
+        return 2
+    except (OSError, MemoryError, RecursionError) as exc:  # a full disk, a file in the way, a huge input
+        print(f"{command}: error: {_describe(exc)}", file=sys.stderr)
+        return 2
+    except (KeyboardInterrupt, SystemError) as exc:
+        # CasADi's C++ calls can surface a Ctrl-C as "SystemError: ... returned a result with an
+        # exception set", chained from the KeyboardInterrupt.
+        if isinstance(exc, SystemError) and not isinstance(exc.__cause__, KeyboardInterrupt):
+            raise
+        why = f" ({exc})" if isinstance(exc, Interrupted) else ""
+        print(f"{command}: interrupted{why}", file=sys.stderr)
+        return 130
 
 
 def _describe(exc: BaseException) -> str:

@@ -168,3 +168,24 @@ def test_peak_memory_of_a_logged_200_s_run_is_within_1_3_times_that_of_a_20_s_ru
     short, long = _peak_rss_kib(tmp_path, 20.0), _peak_rss_kib(tmp_path, 200.0)
     assert long <= 1.3 * short, (short, long)
     assert len(load(tmp_path / "long200.mcap").t) == 200_001   # everything reached the log
+
+
+IMPORT_HOOK = textwrap.dedent("""
+    import os, signal, sys
+    class SignalOnCasadiImport:   # the event: the command line starts importing its heavy modules
+        def find_spec(self, name, path=None, target=None):
+            if name == "casadi":
+                os.kill(os.getpid(), getattr(signal, sys.argv[1]))
+            return None
+    sys.meta_path.insert(0, SignalOnCasadiImport())
+    from coordarm.cli import main
+    sys.exit(main(["run", "line", "--quiet", "--no-figures", "--out", sys.argv[2]]))
+""")
+
+
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_a_signal_while_the_command_line_imports_casadi_exits_130_without_a_traceback(tmp_path, signame):
+    res = subprocess.run([sys.executable, "-c", IMPORT_HOOK, signame, str(tmp_path / "x.mcap")],
+                         capture_output=True, text=True, timeout=120, preexec_fn=_ignore_sigint)
+    assert res.returncode == 130, res.stderr
+    assert res.stderr.strip() == "coordarm: interrupted" and not (tmp_path / "x.mcap").exists()
