@@ -74,7 +74,7 @@ class Run:
         """Final ``max|e|``, worst ``s`` tracking error, smallest margins and where."""
         lm = self.link_margins
         k, j = np.unravel_index(np.argmin(lm), lm.shape)
-        return {"duration": float(self.t[-1] - self.t[0]), "steps": len(self.t) - 1,
+        return {"duration": float(self.t[-1] - self.t[0]), "steps": int(self.info.get("steps", len(self.t) - 1)),
                 "final_max_abs_e": float(np.max(np.abs(self.e[-1]))),
                 "max_s_tracking_error": float(np.max(np.abs(self.s - self.s_reference()))),
                 "min_link_margin": float(lm[k, j]), "min_link_margin_link": int(j) + 2,
@@ -224,7 +224,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     keep : int, optional
         Rows to keep in memory (about): the returned run holds every ``ceil(steps / keep)``-th
         step plus, in each chunk, the rows of the smallest margins and the largest ``|u|`` and
-        the chunk's last row, so its summary's extremes and final values are exact. Default:
+        the chunk's last row, so its summary's extremes, final values and step count are exact. Default:
         :data:`~simulation.limits.KEEP_ROWS` when ``on_chunk`` is given (a logger streams the
         rest to disk), else every row. ``run.info["kept_every"]`` records the thinning.
 
@@ -284,7 +284,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
                 parts.append(_thin(part, k, every))
                 if on_chunk:
                     on_chunk(part)
-                run = _concat(parts, dict(info, stopped="singularity"))
+                run = _concat(parts, dict(info, stopped="singularity", steps=k + row))
                 raise SingularityError(part.t[-1], link, margin, kind, thr[kind], run=run)
             parts.append(_thin(part, k, every))
             if on_chunk:
@@ -304,7 +304,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     finally:
         if bar:
             bar.close()
-    return _concat(parts, dict(info, stopped="completed", wall_time=_time.perf_counter() - wall))
+    return _concat(parts, dict(info, stopped="completed", steps=n_steps, wall_time=_time.perf_counter() - wall))
 
 
 def _advance(ctrl, compiled, q, times, step):
