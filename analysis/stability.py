@@ -15,7 +15,6 @@ loop ``K e^{-s tau} / s`` has phase margin 90 deg at crossover ``K``: delay marg
 """
 from __future__ import annotations
 
-import math
 import warnings
 
 import control as ct

@@ -5,7 +5,6 @@ import stat
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from coordarm.analysis.replay import load
