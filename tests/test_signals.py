@@ -49,6 +49,22 @@ def _start(tmp_path: Path, *extra: str, links: int = 8, duration: float = 10000.
     return proc, out
 
 
+def _wait_for_handlers(proc, timeout: float = 60.0) -> None:
+    """Until ``proc`` catches SIGTERM (``SigCgt`` in /proc): the command line's handlers are installed."""
+    start = time.monotonic()
+    while time.monotonic() - start < timeout:
+        try:
+            with open(f"/proc/{proc.pid}/status") as f:
+                caught = next(int(ln.split()[1], 16) for ln in f if ln.startswith("SigCgt:"))
+        except (OSError, StopIteration):
+            caught = 0
+        if caught >> (signal.SIGTERM - 1) & 1:
+            return
+        assert proc.poll() is None, proc.stderr.read().decode()
+        time.sleep(0.002)
+    raise AssertionError("the signal handlers were not installed in time")
+
+
 def _wait_for_first_block(proc, out: Path, timeout: float = 120.0) -> None:
     """Until the partial log holds a chunk (the first logged block reached the file)."""
     writing, start = partial_path(out), time.monotonic()
@@ -83,8 +99,9 @@ def test_ctrl_c_at_random_moments_always_exits_130_with_a_readable_log_or_none(t
     rng = random.Random(17)
     for i in range(6):
         proc, out = _start(tmp_path, "--backend", "interpreted" if i % 2 else "auto", name=f"r{i}")
-        delay = rng.uniform(0.05, 3.0)
+        delay = rng.uniform(0.0, 3.0)
         try:
+            _wait_for_handlers(proc)   # the process can be interrupted at all (Python itself has started)
             deadline = time.monotonic() + delay
             while time.monotonic() < deadline and proc.poll() is None:
                 time.sleep(0.01)
