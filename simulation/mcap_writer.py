@@ -15,9 +15,9 @@ compressed with zstd (default) or lz4, and pushed to the operating system every 
 (also while the simulation is busy with a long block), with at most two blocks queued, so a
 killed run loses at most the last second. The log is written as ``<name>.partial.mcap``
 (locked against a second writer) and renamed to its name when it is closed; a killed run
-leaves the ``.partial.mcap`` file, which :func:`analysis.replay.load` reads. With ``threaded=True`` this runs on worker
-threads (compression and a compiled simulation release the GIL), which overlaps logging with
-the simulation when a core is free.
+leaves the ``.partial.mcap`` file, which :func:`analysis.replay.load` reads. With
+``threaded=True`` this runs on worker threads (compression and a compiled simulation release
+the GIL), which overlaps logging with the simulation when a core is free.
 """
 from __future__ import annotations
 
@@ -44,6 +44,8 @@ from coordarm.symbolic.curves import Line
 from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, SOURCES, NumericChannel,
                           numeric_channels, scene_update_schema_bytes)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
+from .run import Run
+from .scenario import Scenario
 
 #: Wall time between pushes of the log to the operating system [s] (a kill loses at most ~2x this).
 FLUSH_INTERVAL = 0.5
@@ -53,8 +55,7 @@ def partial_path(path: str | Path) -> Path:
     """Where the log of ``path`` is written until it is closed: ``<stem>.partial<suffix>`` beside it."""
     path = Path(path)
     return path.with_name(f"{path.stem}.partial{path.suffix}")
-from .run import Run
-from .scenario import Scenario
+
 
 #: Default rates of the reduced-rate channels [Hz].
 SCENE_RATE, COND_RATE = 20.0, 5.0
