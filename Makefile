@@ -1,4 +1,5 @@
-# coordarm: `make demo` and `make test` work on a fresh machine (Python 3.10+, gcc).
+# coordarm: `make demo` and `make test` work on a fresh machine (Python 3.11+, gcc).
+# make install pins every package to the tested versions of constraints.txt (pyproject.toml has ranges).
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 PYTHON ?= python3
@@ -7,9 +8,9 @@ PYTHON ?= python3
 
 install: $(VENV)/.installed
 
-$(VENV)/.installed: pyproject.toml
+$(VENV)/.installed: pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test]'
+	$(PY) -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[test]'
 	touch $@
 
 demo: install

@@ -3,16 +3,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.animation import FuncAnimation, PillowWriter
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
+from coordarm.symbolic import CoordinatingController
 
-from coordarm.symbolic import CoordinatingController  # noqa: E402
-
-from .replay import Replay  # noqa: E402
+from .replay import Replay
 
 
 def frame_indices(t: np.ndarray, fps: float, max_frames: int) -> np.ndarray:

@@ -21,6 +21,7 @@ import numpy as np
 
 from coordarm.simulation.run import even_indices
 from coordarm.symbolic import CoordinatingController
+from coordarm.symbolic.outputs import OUTPUTS
 
 
 @dataclass
@@ -72,22 +73,24 @@ def linearisation_function(ctrl: CoordinatingController, form: str | None = None
         Form of the law (default: the controller's).
     """
     form = form or ctrl.law_form
-    key = ("linearise", form)
-    if key not in ctrl._cache:
-        m = ctrl.chain.m
-        sym = ca.SX if form == "structured" else ca.MX      # the dense law's linear solve is MX only
-        q, t = sym.sym("q", m), sym.sym("t")
-        u, e, s, *_ = ctrl.fast_law(form)(q, t)
-        f = ca.mtimes(ca.DM(ctrl.chain.B), u)
-        z = ca.vertcat(s, e)
-        H = ca.jacobian(z, q)
-        F = ca.jacobian(f, q)
-        # Hdot: one forward directional derivative of H along the flow (f, 1) in (q, t)
-        Hdot = ca.reshape(ca.jtimes(ca.vec(H), ca.vertcat(q, t), ca.vertcat(f, 1)), m, m)
-        rate = ca.mtimes(H, f) + ca.jacobian(z, t)
-        ctrl._cache[key] = ca.Function("linearised_loop", [q, t], [H, F, Hdot, rate],
-                                       ["q", "t"], ["H", "F", "Hdot", "task_rate"])
-    return ctrl._cache[key]
+    return ctrl.memo(("linearise", form), lambda: _linearisation_function(ctrl, form))
+
+
+def _linearisation_function(ctrl: CoordinatingController, form: str) -> ca.Function:
+    """The uncached body of :func:`linearisation_function`."""
+    m = ctrl.chain.m
+    sym = ca.SX if form == "structured" else ca.MX      # the dense law's linear solve is MX only
+    q, t = sym.sym("q", m), sym.sym("t")
+    out = dict(zip(OUTPUTS, ctrl.fast_law(form)(q, t)))
+    u, e, s = out["u"], out["e"], out["s"]
+    f = ca.mtimes(ca.DM(ctrl.chain.B), u)
+    z = ca.vertcat(s, e)
+    H = ca.jacobian(z, q)
+    F = ca.jacobian(f, q)
+    # Hdot: one forward directional derivative of H along the flow (f, 1) in (q, t)
+    Hdot = ca.reshape(ca.jtimes(ca.vec(H), ca.vertcat(q, t), ca.vertcat(f, 1)), m, m)
+    rate = ca.mtimes(H, f) + ca.jacobian(z, t)
+    return ca.Function("linearised_loop", [q, t], [H, F, Hdot, rate], ["q", "t"], ["H", "F", "Hdot", "task_rate"])
 
 
 def linearise(ctrl: CoordinatingController, q, t: float = 0.0, form: str | None = None) -> Linearisation:

@@ -19,10 +19,9 @@ import json
 import struct
 import zlib
 from collections import namedtuple
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-import lz4.frame
 import numpy as np
 import zstandard
 
@@ -33,10 +32,11 @@ from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
-from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, SOURCES, numeric_channels
+from coordarm.simulation.choices import lz4_frame
+from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
 from coordarm.simulation.mcap_file import DIGEST_KEY, metadata_digest
 from coordarm.simulation.mcap_writer import partial_path
-from coordarm.simulation.run import Run
+from coordarm.simulation.run import ARRAYS, ExtraOutputs, Run
 from coordarm.simulation.scenario import Scenario
 from coordarm.symbolic import ConfigError, LogError
 
@@ -63,7 +63,7 @@ def chunk_messages(chunk: Chunk) -> list[RawMessage]:
         data = zstandard.decompress(chunk.data, chunk.uncompressed_size)
     elif chunk.compression == "lz4":
         try:
-            data = lz4.frame.decompress(chunk.data)
+            data = lz4_frame().decompress(chunk.data)
         except RuntimeError as exc:  # what python-lz4 raises on a damaged frame
             raise ValueError(f"lz4: {exc}") from None
     elif chunk.compression == "":
@@ -88,7 +88,7 @@ def chunk_messages(chunk: Chunk) -> list[RawMessage]:
 
 
 @dataclass
-class Replay:
+class Replay(ExtraOutputs):
     """A run read back from its log; rows are samples in time order.
 
     Attributes
@@ -120,6 +120,8 @@ class Replay:
         Messages read.
     problems : list of str
         What was dropped while reading (incomplete trailing samples, a damaged tail).
+    extra : dict
+        Logged law outputs that are not fields above (see :attr:`coordarm.simulation.run.Run.extra`).
     """
 
     path: Path
@@ -141,10 +143,18 @@ class Replay:
     recovered: bool
     messages: int
     problems: list = field(default_factory=list)
+    extra: dict = field(default_factory=dict)
     damaged: bool = False
 
     def condition(self) -> str | None:
-        """One line saying the log was cut off or damaged (what was kept), or None for an intact log."""
+        """Say whether the log was cut off or damaged, and what was kept.
+
+        Returns
+        -------
+        str or None
+            One line, e.g. ``"the log is damaged: 1200 samples kept (up to t = 1.199 s)"``, or
+            None for an intact log.
+        """
         what = [w for w, flag in (("cut off (the run was killed?)", self.recovered),
                                   ("damaged", self.damaged)) if flag]
         if not what:
@@ -153,12 +163,22 @@ class Replay:
         return f"the log is {' and '.join(what)}: {len(self.t)} samples kept ({span})"
 
     def to_run(self) -> Run:
-        """The samples as a :class:`simulation.run.Run` (for the figure functions)."""
-        return Run(self.t, self.q, self.u, self.e, self.s, self.link_margins, self.longitudinal, self.v_star,
-                   info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
+        """The samples as a :class:`coordarm.simulation.run.Run` (for the figure functions).
+
+        Returns
+        -------
+        Run
+        """
+        return Run.from_arrays({a: getattr(self, a) for a in ARRAYS},
+                               info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
 
     def controller(self):
-        """The controller that made the run, rebuilt from the scenario."""
+        """The controller that made the run, rebuilt from the scenario.
+
+        Returns
+        -------
+        CoordinatingController
+        """
         return self.scenario.controller()
 
 
@@ -247,6 +267,11 @@ def _decode(channel_messages: list[RawMessage], width: int, topic: str, path: Pa
 def load(path: str | Path) -> Replay:
     """Read the log at ``path`` (or, if it is missing, its unfinished :func:`partial_path`).
 
+    Parameters
+    ----------
+    path : str or Path
+        An MCAP log written by ``coordarm run`` (also one cut short by a killed run).
+
     Returns
     -------
     Replay
@@ -284,6 +309,12 @@ def load(path: str | Path) -> Replay:
         grouped.setdefault(msg.channel_id, []).append(msg)
     for key, ch in specs.items():
         cid = by_topic.get(ch.topic)
+        stored = schemas.get(channels[cid].schema_id) if cid is not None else None
+        if stored is not None and stored.encoding == "ros2msg":   # the file's own layout (older logs differ)
+            try:
+                ch = specs[key] = NumericChannel(ch.topic, ch.schema_name, fields_from_schema(stored.data.decode()))
+            except (ValueError, UnicodeDecodeError) as exc:
+                raise LogError(f"{path}: {ch.topic}: unreadable schema: {exc}") from None
         msgs = grouped.get(cid, []) if cid is not None else []
         data = _decode(msgs, ch.width, ch.topic, path) if msgs else np.empty((0, ch.width))
         order = np.argsort(data[:, 0], kind="stable")
@@ -316,13 +347,21 @@ def load(path: str | Path) -> Replay:
         data = data[np.isin(data[:, 0], common)]
         for name, sl in specs[key].slices().items():
             cols.setdefault(name, data[:, sl])
+    current = numeric_channels(m)
+    for key in PER_STEP:      # fields added after the log was written: NaN, said in problems
+        for name, n in current[key].fields:
+            if name not in cols:
+                cols[name] = np.full((len(common), n) if n else len(common), np.nan)
+                problems.append(f"{current[key].topic}: no field {name!r} in this log (written before it "
+                                "existed); filled with NaN")
     cond = per_channel["cond"]
     outcome = _json_values(meta["outcome"], "outcome", path) if "outcome" in meta else {"status": "unknown"}
-    return Replay(path=path, **{SOURCES[name]: v for name, v in cols.items()}, cond_t=cond[:, 0].copy(),
+    named = {f.name for f in fields(Replay)}
+    return Replay(path=path, **{a: v for a, v in cols.items() if a in named}, cond_t=cond[:, 0].copy(),
                   cond=cond[:, 1].copy(), scenario=scenario, scenario_dict=spec,
                   build=_strip(meta.get("build", {})), run_info=_strip(meta.get("run", {})), outcome=outcome,
                   recovered=not complete, messages=len(messages), problems=problems,
-                  damaged=bool(skipped))
+                  extra={a: v for a, v in cols.items() if a not in named}, damaged=bool(skipped))
 
 
 def _strip(record: dict[str, str]) -> dict[str, str]:

@@ -3,17 +3,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from coordarm.simulation.figures import save_figure
 
-from coordarm.simulation.figures import save_figure  # noqa: E402
-
-from .report import BLOWUP_FACTOR, LABELS, RunAnalysis  # noqa: E402
-from .singularity import MARGINS  # noqa: E402
-from .stability import sampled_limit, step_responses  # noqa: E402
+from .report import BLOWUP_FACTOR, LABELS, RunAnalysis
+from .singularity import MARGINS
+from .stability import sampled_limit, step_responses
 
 COLORS = dict(zip(MARGINS, ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:olive")))
 

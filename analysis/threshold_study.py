@@ -1,4 +1,4 @@
-"""Which margin, at which threshold, fires before ``|u|`` exceeds 10x nominal: ``python -m analysis.threshold_study``.
+"""Which margin, at which threshold, fires before ``|u|`` exceeds 10x nominal: ``python -m coordarm.analysis.threshold_study``.
 
 Simulates runs that are pushed into the longitudinal singularity with the stop thresholds
 disabled, then prints, per run, the blow-up time and the first time each margin crossed

@@ -5,7 +5,7 @@ tangent at the base, and every next centre the other intersection of the curve w
 circle of radius ``xi/2`` about the free joint, so that every centre lies exactly on the
 curve (for a line this is the uniform zig-zag of DESIGN.md section 2). The curves are arcs
 through the base, tangent to the x axis there, of curvature ``kappa`` (``kappa = 0``: the
-line). ``python -m analysis.workspace OUT.png`` draws the default map.
+line). ``python -m coordarm.analysis.workspace OUT.png`` draws the default map.
 """
 from __future__ import annotations
 
@@ -91,9 +91,6 @@ def workspace_map(links=(8, 16, 32, 64), betas=None, curvatures=None, xi: float 
 
 def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = None) -> Path:
     """Heat maps: one row per link count, one column per mapped quantity; threshold contours dashed."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from coordarm.simulation.figures import save_figure
@@ -122,13 +119,15 @@ def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = Non
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m analysis.workspace OUT.png [--links 8 16 ...]``: compute and draw the map."""
-    p = argparse.ArgumentParser(prog="python -m analysis.workspace", description=__doc__.splitlines()[0])
+    """``python -m coordarm.analysis.workspace OUT.png [--links 8 16 ...]``: compute and draw the map."""
+    p = argparse.ArgumentParser(prog="python -m coordarm.analysis.workspace", description=__doc__.splitlines()[0])
     p.add_argument("out", type=Path, help="PNG file to write")
     p.add_argument("--links", type=int, nargs="+", default=[8, 16, 32, 64], help="link counts")
     p.add_argument("--betas", type=int, default=30, help="number of fold angles in [0.02, 1.56] rad")
     p.add_argument("--curvatures", type=int, default=13, help="number of curvatures in [0, 1.5] 1/m")
     args = p.parse_args(argv)
+    import matplotlib
+    matplotlib.use("Agg")   # a command line writing files: no window (library calls keep the user's backend)
     res = workspace_map(args.links, np.linspace(0.02, 1.56, args.betas), np.linspace(0.0, 1.5, args.curvatures))
     print(f"workspace map  {plot_workspace(res, args.out)}")
     return 0

@@ -14,14 +14,9 @@ Layers (imports flow one way): ``coordarm.symbolic`` <- ``coordarm.generated`` <
 """
 from __future__ import annotations
 
-from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
-try:
-    __version__ = version("coordarm")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree without an install
-    __version__ = "0+unknown"
+from coordarm.symbolic.lazy import lazy_exports
 
 #: Public name -> module that defines it (loaded on first attribute access).
 _EXPORTS = {
@@ -43,7 +38,10 @@ _EXPORTS = {
     "SingularityError": "coordarm.symbolic.errors",
     "LogError": "coordarm.symbolic.errors",
     "BuildError": "coordarm.symbolic.errors",
+    "NonFiniteError": "coordarm.symbolic.errors",
     "Interrupted": "coordarm.symbolic.interrupts",
+    "LAW_OUTPUTS": "coordarm.symbolic.outputs",
+    "compile": "coordarm.generated",
     "Scenario": "coordarm.simulation.scenario",
     "load_scenario": "coordarm.simulation.scenario",
     "presets": "coordarm.simulation.scenario",
@@ -58,15 +56,25 @@ _ALIASES = {"load_log": "load"}
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    """Load a public name from its module on first use (PEP 562)."""
+def _version() -> str:
+    """The installed distribution's version (importlib.metadata is slow to import: done on demand)."""
+    from importlib.metadata import PackageNotFoundError, version
+
     try:
-        module = _EXPORTS[name]
-    except KeyError:
-        raise AttributeError(f"module 'coordarm' has no attribute {name!r}") from None
-    value = getattr(import_module(module), _ALIASES.get(name, name))
-    globals()[name] = value
-    return value
+        return version("coordarm")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree without an install
+        return "0+unknown"
+
+
+_lazy = lazy_exports(__name__, _EXPORTS, _ALIASES)
+
+
+def __getattr__(name: str) -> Any:
+    """Load a public name from its module on first use (PEP 562); also ``__version__``."""
+    if name == "__version__":
+        globals()[name] = value = _version()
+        return value
+    return _lazy(name)
 
 
 def __dir__() -> list[str]:

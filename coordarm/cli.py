@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import signal
 import sys
 import threading
@@ -13,14 +14,30 @@ COMMANDS = {
     "regen": "coordarm.commands.regen",
     "replay": "coordarm.commands.replay",
     "report": "coordarm.commands.report",
+    "layout": "coordarm.commands.layout",
 }
+
+
+class _Version(argparse.Action):
+    """``--version``: the installed version, looked up only when asked (importlib.metadata is slow)."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        import coordarm
+
+        print(f"{parser.prog} {coordarm.__version__}")
+        parser.exit()
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The full ``coordarm`` argument parser."""
     parser = argparse.ArgumentParser(prog="coordarm", description=(
         "Coordinating control of hyper-redundant planar manipulators: run scenarios, "
-        "regenerate the compiled controller, replay logs, write singularity reports."))
+        "regenerate the compiled controller, replay logs, write singularity reports, "
+        "find the Foxglove layout."))
+    parser.add_argument("--version", action=_Version, help="print the installed version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module in COMMANDS.items():
         try:
@@ -36,12 +53,14 @@ def main(argv: list[str] | None = None) -> int:
 
     0 done, 2 bad input or an unwritable/unreadable file (one line on stderr, no traceback),
     3 stopped ahead of a singularity, 130 interrupted (Ctrl-C or SIGTERM, at any moment,
-    also while the first modules, which load CasADi, are imported).
+    also while the first modules are imported). The sub-commands write
+    figures to files, so matplotlib (imported later, if at all) gets the non-interactive Agg
+    backend; library users keep their own backend.
     """
     previous = _early_handlers()
     try:
         try:
-            from coordarm.symbolic.errors import CoordarmError  # noqa: F401 (loads CasADi)
+            from coordarm.symbolic.errors import CoordarmError  # noqa: F401 (the first coordarm modules)
             from coordarm.symbolic.interrupts import handled
         except KeyboardInterrupt:
             print("coordarm: interrupted", file=sys.stderr)
@@ -73,6 +92,8 @@ def _main(argv: list[str] | None) -> int:
     try:
         args = build_parser().parse_args(argv)
         command = f"coordarm {args.command}"
+        if "matplotlib" not in sys.modules:
+            os.environ["MPLBACKEND"] = "Agg"
         return int(args.func(args) or 0)
     except CoordarmError as exc:
         print(f"{command}: error: {exc}", file=sys.stderr)

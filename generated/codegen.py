@@ -12,6 +12,7 @@ import casadi as ca
 import numpy as np
 
 from coordarm.symbolic import LAWS, BuildError, CoordinatingController
+from coordarm.symbolic.outputs import OUTPUTS, offsets, packed_width
 
 from . import templates
 
@@ -54,6 +55,24 @@ def _b_macros(ctrl: CoordinatingController) -> str:
     return templates.B_DIAGONAL.format(values=", ".join(repr(float(v)) for v in bd))
 
 
+def layout_macros(m: int) -> str:
+    """C macros of the packed output vector for ``m`` links: ``CA_NOUT`` and ``CA_OUT_<NAME>`` offsets.
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+
+    Returns
+    -------
+    str
+        One ``#define`` per line, from :data:`coordarm.symbolic.outputs.LAW_OUTPUTS`.
+    """
+    lines = [f"#define CA_NOUT {packed_width(m)}"]
+    lines += [f"#define CA_OUT_{name.upper()} {start}" for name, (start, _) in offsets(m).items()]
+    return "\n".join(lines) + "\n"
+
+
 def generate_source(ctrl: CoordinatingController, form: str = "structured") -> Source:
     """The C source of ``ctrl``'s law (``form``), RK4 step and chunk loop.
 
@@ -83,12 +102,13 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
              for k in ("arg", "res", "iw", "w")}
     m = ctrl.chain.m
-    parts = [cg.dump(), templates.HEADER.format(m=m, b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
+    parts = [templates.CASADI_BEGIN, cg.dump(), templates.CASADI_END, templates.HEADER.format(m=m, layout=layout_macros(m), b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
     if form == "structured":
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
                      f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
         parts.append(templates.STRUCTURED_LAW)
     else:
-        parts.append(templates.DENSE_LAW.replace("{law_name}", funcs[0].name()))
+        results = "\n".join(f"  res[{i}] = out + CA_OUT_{name.upper()};" for i, name in enumerate(OUTPUTS))
+        parts.append(templates.DENSE_LAW.replace("{law_name}", funcs[0].name()).replace("{results}", results))
     parts.append(templates.LOOP)
     return Source("\n".join(parts), form, m)

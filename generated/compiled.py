@@ -7,11 +7,13 @@ from __future__ import annotations
 
 import ctypes
 import time
+import warnings
 from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import OUTPUTS, SCALAR_OUTPUTS, BuildError, ConfigError, CoordinatingController
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError
+from coordarm.symbolic.outputs import packed_width, split
 
 from .build import Library, build
 from .codegen import generate_source
@@ -22,14 +24,41 @@ _SIGNATURES = {"coordarm_law": [_P, _D, _P, _P, _P],
                "coordarm_chunk": [_P, _P, _D, _I, _P, _P, _P, _P]}
 
 
+def flushes_subnormals() -> bool:
+    """True when this thread's floating point flushes subnormal numbers to zero (FTZ/DAZ).
+
+    Returns
+    -------
+    bool
+        Whether ``2.2250738585072014e-308 / 2`` (a subnormal) comes out as 0.
+    """
+    return float(np.float64(2.2250738585072014e-308) / np.float64(2.0)) == 0.0
+
+
 def load_library(path) -> ctypes.CDLL:
     """Load a generated library and declare its functions' argument types.
+
+    Parameters
+    ----------
+    path : str or Path
+        The shared library.
+
+    Returns
+    -------
+    ctypes.CDLL
 
     Raises
     ------
     BuildError
         The file is not a loadable library or lacks the coordarm API.
+
+    Warns
+    -----
+    RuntimeWarning
+        Loading it switched the process to flush-to-zero arithmetic (a library linked with
+        ``-ffast-math`` by gcc < 13 does so; numpy is affected too).
     """
+    ftz_before = flushes_subnormals()
     try:
         lib = ctypes.CDLL(str(path))
         for name, argtypes in _SIGNATURES.items():
@@ -38,6 +67,10 @@ def load_library(path) -> ctypes.CDLL:
         lib.coordarm_sizes.argtypes, lib.coordarm_sizes.restype = [_P], None
     except (OSError, AttributeError) as exc:
         raise BuildError(f"cannot load generated library {path}: {exc}") from None
+    if flushes_subnormals() and not ftz_before:
+        warnings.warn(f"loading {path} switched this process to flush-to-zero arithmetic (subnormal numbers "
+                      "now read as 0, in numpy too): it was linked with -ffast-math or similar; build without "
+                      "it, or add -mno-daz-ftz (gcc >= 13) to COORDARM_CFLAGS", RuntimeWarning, stacklevel=2)
     return lib
 
 
@@ -78,8 +111,9 @@ class CompiledController:
         sizes = np.zeros(4, dtype=np.int64)
         self._lib.coordarm_sizes(sizes.ctypes.data)
         m, self.n_out, n_iw, n_w = (int(v) for v in sizes)
-        if m != self.chain.m:
-            raise BuildError(f"generated library {self.library.path} is for {m} links, not {self.chain.m}")
+        if m != self.chain.m or self.n_out != packed_width(m):
+            raise BuildError(f"generated library {self.library.path} is for {m} links and {self.n_out} outputs, "
+                             f"not {self.chain.m} and {packed_width(self.chain.m)}")
         self.m = m
         self._q = np.zeros(m)
         self._out = np.zeros(self.n_out)
@@ -106,10 +140,21 @@ class CompiledController:
         if rc == 1:
             self.chain.check_q(self._q)
             raise ConfigError(f"t: must be finite, got {t!r}")
+        if rc == 3:
+            raise NonFiniteError(f"the compiled law produced a non-finite value at t = {t!r} "
+                                 f"(a singular configuration, or the curve undefined there)")
         raise BuildError(f"generated library {self.library.path}: a generated Function failed (code {rc})")
 
     def control(self, q, t: float = 0.0) -> np.ndarray:
-        """Control ``u(q, t)``, shape (m,)."""
+        """Control ``u(q, t)``, shape (m,), from joint coordinates ``q`` [rad] at time ``t`` [s].
+
+        Raises
+        ------
+        ConfigError
+            ``q`` of the wrong shape or not finite, or ``t`` not finite.
+        NonFiniteError
+            The law produced NaN or inf (a singular configuration, or the curve undefined at ``t``).
+        """
         self._load_q(q)
         rc = self._law_c(self._ptr[0], t, self._ptr[1], self._ptr[2], self._ptr[3])
         if rc:
@@ -117,12 +162,28 @@ class CompiledController:
         return self._out[:self.m].copy()
 
     def evaluate(self, q, t: float = 0.0) -> dict[str, Any]:
-        """All outputs of the law at ``(q, t)``, keyed like :meth:`CoordinatingController.evaluate`."""
+        """All outputs of the law at ``(q, t)``, keyed like :meth:`CoordinatingController.evaluate`.
+
+        Raises
+        ------
+        ConfigError
+            ``q`` of the wrong shape or not finite, or ``t`` not finite.
+        NonFiniteError
+            The law produced NaN or inf (a singular configuration, or the curve undefined at ``t``).
+        """
         self.control(q, t)
-        return split_outputs(self._out, self.m)
+        return split(self._out.copy(), self.m)
 
     def step(self, q, t: float, h: float) -> np.ndarray:
-        """One closed-loop RK4 step of length ``h`` from ``(q, t)``: the next state."""
+        """One closed-loop RK4 step of length ``h`` [s] from ``(q, t)``: the next state [rad].
+
+        Raises
+        ------
+        ConfigError
+            ``q`` of the wrong shape or not finite, or ``t`` not finite.
+        NonFiniteError
+            The law produced NaN or inf (a singular configuration, or the curve undefined at ``t``).
+        """
         self._load_q(q)
         p = self._ptr
         rc = self._rk4_c(p[0], t, h, p[4], p[1], p[2], p[3])
@@ -137,8 +198,9 @@ class CompiledController:
         -------
         Q : (n, m) array
             State after each step.
-        D : (n, 3m+1) array
-            The law at each step's start (see :func:`split_outputs`).
+        D : (n, packed_width(m)) array
+            The law at each step's start, packed (split it with
+            :func:`coordarm.symbolic.outputs.split`).
         """
         self._load_q(q0)
         times = np.ascontiguousarray(times, dtype=float)
@@ -153,20 +215,3 @@ class CompiledController:
     def __repr__(self) -> str:
         return (f"CompiledController({self.ctrl!r}, form={self.form!r}, library={str(self.library.path)!r}, "
                 f"cache_hit={self.cache_hit})")
-
-
-def split_outputs(out: np.ndarray, m: int) -> dict[str, Any]:
-    """Split a packed output row ``(u, e, s, link_margins, longitudinal, pivot)`` into a dict.
-
-    Works on one row (shape (3m+1,)) or a block of rows (shape (n, 3m+1)).
-    """
-    cuts = np.cumsum([m, m - 1, 1, m - 1, 1, 1])[:-1]
-    parts = np.split(np.array(out, dtype=float), cuts, axis=-1)
-    result: dict[str, Any] = {}
-    for name, v in zip(OUTPUTS, parts):
-        if name in SCALAR_OUTPUTS:
-            v = v[..., 0]
-            result[name] = float(v) if v.ndim == 0 else v
-        else:
-            result[name] = v
-    return result

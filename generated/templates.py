@@ -2,35 +2,65 @@
 
 The glue defines the library's whole API (every other symbol is hidden):
 
-* ``coordarm_law(q, t, out, iw, w)``: the law at ``(q, t)``; ``out`` holds
-  ``u[m], e[m-1], s, link_margins[m-1], longitudinal, longitudinal_pivot``;
+* ``coordarm_law(q, t, out, iw, w)``: the law at ``(q, t)``; ``out`` is the packed output
+  vector of :data:`coordarm.symbolic.outputs.LAW_OUTPUTS` (``CA_NOUT`` doubles, each output
+  at its offset ``CA_OUT_<NAME>``, macros emitted by :mod:`.codegen` from that table);
 * ``coordarm_rk4(q, t, h, q_next, out, iw, w)``: one closed-loop RK4 step, ``out`` being
   the law at the step's start;
 * ``coordarm_chunk(q0, times, h, n, Q, D, iw, w)``: ``n`` RK4 steps in one call;
 * ``coordarm_sizes(sizes)``: ``m``, ``len(out)``, ``len(iw)``, ``len(w)``.
 
-A law call returns 1 when ``q`` or ``t`` is not finite (nothing is computed), 2 when a
-generated Function failed, 0 otherwise.
+A law or step call returns 1 when ``q`` or ``t`` is not finite (nothing is computed), 2 when
+a generated Function failed, 3 when it produced a non-finite output, 0 otherwise. All
+finiteness checks test the IEEE bits, so they hold under ``-ffast-math`` too.
 """
 from __future__ import annotations
+
+#: Around CasADi's generated code only: it declares every Function with the full signature
+#: ``(arg, res, iw, w, mem)`` whether it uses them or not. The glue below compiles with every warning.
+CASADI_BEGIN = """#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+"""
+CASADI_END = """#pragma GCC diagnostic pop
+"""
 
 #: Preamble: sizes and the exported-symbol marker; formatted with the layout numbers.
 HEADER = """
 /* ---- coordarm glue (generated/templates.py) ---- */
 #define CA_M {m}
-#define CA_NOUT (3 * CA_M + 1)
-#define CA_SZ_ARG {sz_arg}
+{layout}#define CA_SZ_ARG {sz_arg}
 #define CA_SZ_RES {sz_res}
 #define CA_SZ_IW {sz_iw}
 #define CA_SZ_W {sz_w}
 #define CA_SCRATCH (6 * CA_M + CA_NOUT)
 #define COORDARM_API __attribute__((visibility("default")))
 {b_diagonal}
-static int ca_finite(const casadi_real* q, casadi_real t) {{
+#include <stdint.h>
+#include <string.h>
+typedef char ca_real_is_an_ieee_double[sizeof(casadi_real) == sizeof(uint64_t) ? 1 : -1];
+#define CA_EXPONENT 0x7ff0000000000000ULL
+
+/* Finiteness by the IEEE-754 bits (all-ones exponent = inf or NaN), not by isfinite() or x != x,
+   which -ffast-math (-ffinite-math-only) lets the compiler fold to "always finite". */
+static int ca_all_finite(const casadi_real* x, casadi_int n) {{
   casadi_int j;
-  casadi_real acc = t - t;
-  for (j = 0; j < CA_M; ++j) acc += q[j] - q[j];   /* NaN iff some entry is NaN or inf */
-  return acc == 0;
+  uint64_t bits;
+  for (j = 0; j < n; ++j) {{
+    memcpy(&bits, x + j, sizeof bits);
+    if ((bits & CA_EXPONENT) == CA_EXPONENT) return 0;
+  }}
+  return 1;
+}}
+
+static int ca_finite(const casadi_real* q, casadi_real t) {{
+  return ca_all_finite(q, CA_M) && ca_all_finite(&t, 1);
+}}
+
+/* Quiet NaN written by its bits (under -ffast-math, arithmetic need not produce or keep NaN). */
+static void ca_fill_nan(casadi_real* x, casadi_int n) {{
+  const uint64_t bits = 0x7ff8000000000000ULL;
+  casadi_int j;
+  for (j = 0; j < n; ++j) memcpy(x + j, &bits, sizeof bits);
 }}
 """
 
@@ -58,35 +88,35 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
   for (j = 1; j < CA_M; ++j) {
     arg[0] = cur; arg[1] = q + j; arg[2] = wt; res[0] = nxt; res[1] = o;
     if (link_step(arg, res, iw, w, 0)) return 2;
-    out[CA_M + j - 1] = o[0];          /* e^j */
-    out[2 * CA_M + j - 1] = o[1];      /* link margin */
+    out[CA_OUT_E + j - 1] = o[0];               /* e^j */
+    out[CA_OUT_LINK_MARGINS + j - 1] = o[1];    /* link margin */
     a[j] = o[2]; b[j] = o[3];
     tmp = cur; cur = nxt; nxt = tmp;
   }
   arg[0] = cur; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
   if (tail(arg, res, iw, w, 0)) return 2;
-  out[2 * CA_M - 1] = tl[0];           /* s */
-  out[3 * CA_M - 1] = tl[2];           /* longitudinal margin */
-  out[3 * CA_M] = tl[3];               /* longitudinal pivot */
+  out[CA_OUT_S] = tl[0];
+  out[CA_OUT_LONGITUDINAL] = tl[2];
+  out[CA_OUT_LONGITUDINAL_PIVOT] = tl[3];
   p = tl[1];                           /* the free rate w_1 */
   prev = 0;
   for (j = 0; j < CA_M; ++j) {         /* w_j = a_j + b_j p, qdot_j = w_j - w_{j-1} */
     rate = a[j] + b[j] * p;
-    out[j] = CA_U_FROM_QDOT(j, rate - prev);
+    out[CA_OUT_U + j] = CA_U_FROM_QDOT(j, rate - prev);
     prev = rate;
   }
   return 0;
 }
 """
 
-#: The dense law: one call of the generated eq. 27 Function.
+#: The dense law: one call of the generated eq. 27 Function, whose outputs are written in place
+#: (``{results}``: one ``res[i] = out + CA_OUT_<NAME>;`` per output, from the table).
 DENSE_LAW = """
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   arg[0] = q; arg[1] = &t;
-  res[0] = out; res[1] = out + CA_M; res[2] = out + 2 * CA_M - 1; res[3] = out + 2 * CA_M;
-  res[4] = out + 3 * CA_M - 1; res[5] = out + 3 * CA_M;
+{results}
   return {law_name}(arg, res, iw, w, 0) ? 2 : 0;
 }
 """
@@ -95,8 +125,10 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
 LOOP = """
 COORDARM_API int coordarm_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw,
                               casadi_real* w) {
+  int rc;
   if (!ca_finite(q, t)) return 1;
-  return ca_law(q, t, out, iw, w);
+  if ((rc = ca_law(q, t, out, iw, w))) return rc;
+  return ca_all_finite(out, CA_NOUT) ? 0 : 3;
 }
 
 /* Same operation order as CoordinatingController.rk4_step, so both agree to rounding. */
@@ -123,19 +155,34 @@ static int ca_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_rea
 
 COORDARM_API int coordarm_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_real* q_next,
                               casadi_real* out, casadi_int* iw, casadi_real* w) {
+  int rc;
   if (!ca_finite(q, t)) return 1;
-  return ca_rk4(q, t, h, q_next, out, iw, w);
+  if ((rc = ca_rk4(q, t, h, q_next, out, iw, w))) return rc;
+  return ca_all_finite(out, CA_NOUT) && ca_all_finite(q_next, CA_M) ? 0 : 3;
 }
 
-/* n steps: Q[k] is the state after step k, D[k] the law at the start of step k (time times[k]). */
+/* n steps: Q[k] is the state after step k, D[k] the law at the start of step k (time times[k]).
+   From a non-finite q0, or after a non-finite value, every later value is NaN, as in the
+   interpreted loop (where NaN propagates), whatever the flags: the caller's margin check then
+   stops the run there. */
 COORDARM_API int coordarm_chunk(const casadi_real* q0, const casadi_real* times, casadi_real h, casadi_int n,
                                 casadi_real* Q, casadi_real* D, casadi_int* iw, casadi_real* w) {
   const casadi_real* q = q0;
   casadi_int k;
   int rc;
-  if (!ca_finite(q0, h)) return 1;     /* afterwards NaN propagates, as in the interpreted loop */
+  if (!ca_all_finite(&h, 1)) return 1;
+  if (!ca_all_finite(q0, CA_M)) {      /* e.g. the previous chunk ended in NaN */
+    ca_fill_nan(Q, n * CA_M);
+    ca_fill_nan(D, n * CA_NOUT);
+    return 0;
+  }
   for (k = 0; k < n; ++k) {
     if ((rc = ca_rk4(q, times[k], h, Q + k * CA_M, D + k * CA_NOUT, iw, w))) return rc;
+    if (!ca_all_finite(Q + k * CA_M, CA_M) || !ca_all_finite(D + k * CA_NOUT, CA_NOUT)) {
+      ca_fill_nan(Q + k * CA_M, (n - k) * CA_M);
+      ca_fill_nan(D + (k + 1) * CA_NOUT, (n - k - 1) * CA_NOUT);
+      return 0;
+    }
     q = Q + k * CA_M;
   }
   return 0;

@@ -1,7 +1,13 @@
-"""Scenarios, the simulation loop, logs and the command line of coordarm."""
-from coordarm.symbolic.errors import ConfigError, CoordarmError, LogError, SingularityError
+"""Scenarios, the simulation loop and the run logs of coordarm (names load on first use)."""
+from __future__ import annotations
 
-from .run import DEFAULT_THRESHOLDS, Run, simulate
+from coordarm.symbolic.lazy import lazy_exports
 
-__all__ = ["simulate", "Run", "DEFAULT_THRESHOLDS", "SingularityError", "ConfigError",
-           "CoordarmError", "LogError"]
+_EXPORTS = {"simulate": "run", "Run": "run", "DEFAULT_THRESHOLDS": "run",
+            "SingularityError": "coordarm.symbolic.errors", "ConfigError": "coordarm.symbolic.errors",
+            "CoordarmError": "coordarm.symbolic.errors", "LogError": "coordarm.symbolic.errors"}
+
+__all__ = sorted(_EXPORTS)
+
+
+__getattr__ = lazy_exports(__name__, _EXPORTS)

@@ -3,15 +3,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from coordarm.symbolic import CoordinatingController
 
-from coordarm.symbolic import CoordinatingController  # noqa: E402
-
-from .run import Run, even_indices  # noqa: E402
+from .run import Run, even_indices
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:

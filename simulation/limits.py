@@ -24,6 +24,7 @@ import numpy as np
 
 from coordarm.symbolic import ConfigError
 
+from .choices import DENSE_LINKS  # noqa: F401 (re-exported)
 from .log_schemas import PER_STEP, numeric_channels
 
 #: Largest number of links of a chain.
@@ -40,8 +41,6 @@ MAX_GAIN = 1e6
 COST_LIMITS = {"steps": 20_000_000, "log_bytes": 4 * 2**30, "memory_bytes": 2 * 2**30}
 #: Rows of a logged run kept in memory for the figures (the rest is streamed to the log).
 KEEP_ROWS = 20_000
-#: Links above which the dense law's code generation and compilation take minutes.
-DENSE_LINKS = 128
 
 #: ``K h`` limit of classical RK4 on ``edot = -K e``: the real root of ``|R(-x)| = 1`` in (2.5, 3),
 #: ``R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24``; there ``R(-x) = 1``, i.e. ``x^3/24 - x^2/6 + x/2 - 1 = 0``.
@@ -158,8 +157,23 @@ def estimate(links: int, step: float, duration: float, log_rate: float | None = 
              block: int = 2000) -> Cost:
     """Cost of a run of ``links`` links for ``duration`` s at ``step`` (see :class:`Cost`).
 
-    ``log_rate`` [Hz] thins the per-step channels; ``logged`` False means no log, so every
-    row stays in memory.
+    Parameters
+    ----------
+    links : int
+        Links of the chain.
+    step, duration : float
+        RK4 step and simulated duration [s].
+    log_rate : float, optional
+        Samples per simulated second on the per-step channels [Hz] (default: every step).
+    logged : bool
+        Whether a log is written; without one every row stays in memory.
+    block : int
+        Steps per simulated block (one block is in flight at a time).
+
+    Returns
+    -------
+    Cost
+        Steps, uncompressed log bytes and bytes of run data in memory.
     """
     steps = int(math.ceil(duration / step))
     widths = numeric_channels(links)

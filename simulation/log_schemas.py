@@ -6,14 +6,18 @@ fixed-size ``float64[n]`` arrays, so a message is a 4-byte encapsulation header
 padding and no length prefixes. Foxglove plots every field; :mod:`analysis.replay` reads
 them back with numpy.
 
-The scene is a ``foxglove.SceneUpdate`` in JSON, whose schema (below) follows the official
-Foxglove JSON Schema for the parts we use (entities with line primitives) and declares the
-other primitive arrays, which we always leave empty.
+The scene (``foxglove.SceneUpdate``) and the link frames (``foxglove.FrameTransforms``) are
+JSON messages under the official Foxglove JSON Schemas, shipped unchanged in
+``foxglove_schemas/`` (taken from the published ``@foxglove/schemas`` package, never retyped).
 """
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from importlib import resources
+from typing import Any
+
+from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name
 
 #: CDR encapsulation header: representation identifier CDR_LE (0x0001), options 0.
 CDR_HEADER = b"\x00\x01\x00\x00"
@@ -51,6 +55,11 @@ class NumericChannel:
         """The ``ros2msg`` definition, one field per line."""
         return "".join(f"float64{f'[{n}]' if n else ''} {name}\n" for name, n in self.fields)
 
+    def fill(self, out: Any, run: Any, rows: Any) -> None:
+        """Write the fields of ``run`` (a :class:`~simulation.run.Run`) at ``rows`` into ``out``, shape (n, width)."""
+        for name, cols in self.slices().items():
+            out[:, cols] = getattr(run, name)[rows]
+
     def slices(self) -> dict[str, slice | int]:
         """Column of each field in the decoded ``(N, width)`` array (an int for scalars)."""
         out, col = {}, 0
@@ -60,122 +69,108 @@ class NumericChannel:
         return out
 
 
-#: The :class:`~simulation.run.Run` array behind each field of the per-step channels.
-SOURCES = {"t": "t", "q": "q", "u": "u", "s": "s", "v_star": "v_star", "e": "e", "link": "link_margins",
-           "longitudinal": "longitudinal"}
+#: Fields of the per-step channels that are not law outputs (time, state, commanded speed), with their
+#: width as ``(per_link, extra)``; channel -> leading fields in order. The law outputs that name a
+#: channel in :data:`coordarm.symbolic.outputs.LAW_OUTPUTS` follow, in the table's order, unless
+#: listed here (to keep the field order of existing logs). Each field is the Run array of that name.
+RUN_FIELDS = {"t": (0, 1), "q": (1, 0), "v_star": (0, 1)}
+CHANNEL_LAYOUT = {
+    "joint_state": ("/joint_state", "coordarm_msgs/msg/JointState", ("t", "q", "u")),
+    "task_state": ("/task_state", "coordarm_msgs/msg/TaskState", ("t", "s", "v_star", "e")),
+    "margins": ("/margins", "coordarm_msgs/msg/Margins", ("t", "link_margins", "longitudinal")),
+}
+
+
+def _field(name: str, m: int) -> tuple[str, int]:
+    """``(name, length)`` of a channel field for ``m`` links (length 0 = a scalar)."""
+    if name in RUN_FIELDS:
+        per_link, extra = RUN_FIELDS[name]
+        return name, 0 if (per_link, extra) == (0, 1) else per_link * m + extra
+    out = by_name(name)
+    return name, 0 if out.scalar else out.width(m)
 
 
 def numeric_channels(links: int) -> dict[str, NumericChannel]:
     """The per-step channels and the condition-number channel for a chain of ``links`` links.
 
-    Keys are short names (``joint_state``, ``task_state``, ``margins``, ``cond``).
+    Keys are short names (``joint_state``, ``task_state``, ``margins``, ``cond``, ``tracking``);
+    every per-step field is named after its :class:`~coordarm.simulation.run.Run` array.
+    ``/tracking`` (at the scene rate, for the Foxglove layout's plots) holds the end point's arc
+    length ``s``, its target ``s_target = s(0) + integral of v*`` [m], the target point on the
+    curve [m], ``max|e|`` [m], the smallest link margin and the Euclidean norm of ``u``.
     """
     m = links
-    return {
-        "joint_state": NumericChannel("/joint_state", "coordarm_msgs/msg/JointState",
-                                      (("t", 0), ("q", m), ("u", m))),
-        "task_state": NumericChannel("/task_state", "coordarm_msgs/msg/TaskState",
-                                     (("t", 0), ("s", 0), ("v_star", 0), ("e", m - 1))),
-        "margins": NumericChannel("/margins", "coordarm_msgs/msg/Margins",
-                                  (("t", 0), ("link", m - 1), ("longitudinal", 0))),
-        "cond": NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning",
-                               (("t", 0), ("cond", 0))),
-    }
+    out = {}
+    for key, (topic, schema, lead) in CHANNEL_LAYOUT.items():
+        names = list(lead) + [o.name for o in LAW_OUTPUTS if o.channel == key and o.name not in lead]
+        out[key] = NumericChannel(topic, schema, tuple(_field(n, m) for n in names))
+    out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", (("t", 0), ("cond", 0)))
+    out["tracking"] = NumericChannel("/tracking", "coordarm_msgs/msg/Tracking",
+                                     (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0),
+                                      ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0)))
+    return out
+
+
+#: Former field names, as found in older logs (old name -> name).
+LEGACY_FIELDS = {"link": "link_margins"}
+
+
+def fields_from_schema(text: str) -> tuple[tuple[str, int], ...]:
+    """The fields of a stored ``ros2msg`` schema of a numeric channel, former names renamed.
+
+    Parameters
+    ----------
+    text : str
+        The schema as :meth:`NumericChannel.schema_text` writes it (``float64[n] name`` lines).
+
+    Returns
+    -------
+    tuple of (str, int)
+        ``(name, length)`` per field, 0 for a scalar (see :class:`NumericChannel`).
+
+    Raises
+    ------
+    ValueError
+        A line that is not a ``float64`` field.
+    """
+    out = []
+    for line in text.splitlines():
+        if not line.strip():
+            continue
+        kind, _, name = line.strip().partition(" ")
+        if kind == "float64":
+            n = 0
+        elif kind.startswith("float64[") and kind.endswith("]") and kind[8:-1].isdigit():
+            n = int(kind[8:-1])
+        else:
+            raise ValueError(f"not a float64 field: {line!r}")
+        out.append((LEGACY_FIELDS.get(name.strip(), name.strip()), n))
+    return tuple(out)
 
 
 #: Channels written at every logged step; a sample is complete when all of them are present.
 PER_STEP = ("joint_state", "task_state", "margins")
 
-SCENE_TOPIC = "/scene"
-SCENE_SCHEMA_NAME = "foxglove.SceneUpdate"
+#: Foxglove channels: topic, official schema name (JSON Schema shipped in ``foxglove_schemas/``).
+SCENE_TOPIC, SCENE_SCHEMA_NAME = "/scene", "foxglove.SceneUpdate"
+TF_TOPIC, TF_SCHEMA_NAME = "/tf", "foxglove.FrameTransforms"
+FOXGLOVE_CHANNELS = {"scene": (SCENE_TOPIC, SCENE_SCHEMA_NAME), "tf": (TF_TOPIC, TF_SCHEMA_NAME)}
 
 
-def _obj(title: str, description: str, props: dict, required: list[str] | None = None) -> dict:
-    return {"title": title, "description": description, "type": "object", "properties": props,
-            "required": list(props) if required is None else required}
+def foxglove_schema_bytes(name: str) -> bytes:
+    """The official JSON Schema of the Foxglove message ``name`` (e.g. ``foxglove.SceneUpdate``), as stored.
+
+    The files are the ones the published ``@foxglove/schemas`` package defines (version in
+    ``foxglove_schemas/VERSION``), extracted verbatim by ``foxglove_schemas/update.sh``.
+
+    Raises
+    ------
+    FileNotFoundError
+        No schema of that name ships with coordarm.
+    """
+    return (resources.files(__package__) / "foxglove_schemas" / f"{name}.json").read_bytes()
 
 
-def _num(description: str) -> dict:
-    return {"type": "number", "description": description}
-
-
-def _xyz(title: str, description: str, what: str) -> dict:
-    return _obj(title, description, {a: _num(f"{a} coordinate {what}") for a in "xyz"})
-
-
-def _color(description: str) -> dict:
-    names = {"r": "Red", "g": "Green", "b": "Blue", "a": "Alpha"}
-    return _obj("foxglove.Color", description,
-                {k: _num(f"{v} value between 0 and 1") for k, v in names.items()})
-
-
-def _pose(description: str) -> dict:
-    quat = _obj("foxglove.Quaternion", "Quaternion denoting orientation in 3D space",
-                {k: _num(f"{k} value") for k in "xyzw"})
-    return _obj("foxglove.Pose", description,
-                {"position": _xyz("foxglove.Vector3", "Point denoting position in 3D space", "length"),
-                 "orientation": quat})
-
-
-def _time(title: str, description: str, signed: bool) -> dict:
-    sec = {"type": "integer"} if signed else {"type": "integer", "minimum": 0}
-    return {"type": "object", "title": title, "description": description,
-            "properties": {"sec": sec, "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999}}}
-
-
-def _line_primitive() -> dict:
-    line_type = {"title": "foxglove.LineType", "description": "Drawing primitive to use for lines",
-                 "oneOf": [{"title": "LINE_STRIP", "const": 0, "description": "Connected line segments"},
-                           {"title": "LINE_LOOP", "const": 1, "description": "Closed polygon"},
-                           {"title": "LINE_LIST", "const": 2, "description": "Individual line segments"}]}
-    return _obj("foxglove.LinePrimitive", "A primitive representing a series of points connected by lines", {
-        "type": line_type,
-        "pose": _pose("Origin of lines relative to reference frame"),
-        "thickness": _num("Line thickness"),
-        "scale_invariant": {"type": "boolean", "description": "Whether `thickness` is in screen pixels (true) "
-                                                              "or world coordinates (false)"},
-        "points": {"type": "array", "description": "Points along the line",
-                   "items": _xyz("foxglove.Point3", "A point representing a position in 3D space", "position")},
-        "color": _color("Solid color to use for the whole line. Ignored if `colors` is non-empty."),
-        "colors": {"type": "array", "items": _color("A color in RGBA format"), "description": "Per-point colors"},
-        "indices": {"type": "array", "items": {"type": "integer", "minimum": 0},
-                    "description": "Indices into the `points` and `colors` attribute arrays"},
-    })
-
-
-def scene_update_schema() -> dict:
-    """The ``foxglove.SceneUpdate`` JSON Schema (self-contained, after the official one)."""
-    other = {name: {"type": "array", "description": f"{title} primitives (official foxglove.{title}Primitive)",
-                    "items": {"type": "object"}}
-             for name, title in (("arrows", "Arrow"), ("cubes", "Cube"), ("spheres", "Sphere"),
-                                 ("cylinders", "Cylinder"), ("triangles", "TriangleList"),
-                                 ("texts", "Text"), ("models", "Model"))}
-    kv = _obj("foxglove.KeyValuePair", "A key with its associated value",
-              {"key": {"type": "string", "description": "Key"}, "value": {"type": "string", "description": "Value"}})
-    entity = _obj("foxglove.SceneEntity", "A visual element in a 3D scene", {
-        "timestamp": _time("time", "Timestamp of the entity", signed=False),
-        "frame_id": {"type": "string", "description": "Frame of reference"},
-        "id": {"type": "string", "description": "Identifier for the entity"},
-        "lifetime": _time("duration", "Time after which the entity is removed (0: never)", signed=True),
-        "frame_locked": {"type": "boolean", "description": "Whether the entity follows its frame"},
-        "metadata": {"type": "array", "items": kv, "description": "Additional user-provided metadata"},
-        "lines": {"type": "array", "items": _line_primitive(), "description": "Line primitives"},
-        **other,
-    })
-    deletion = _obj("foxglove.SceneEntityDeletion", "Command to remove previously published entities", {
-        "timestamp": _time("time", "Only matching entities earlier than this are deleted", signed=False),
-        "type": {"title": "foxglove.SceneEntityDeletionType", "description": "Type of deletion action",
-                 "oneOf": [{"title": "MATCHING_ID", "const": 0}, {"title": "ALL", "const": 1}]},
-        "id": {"type": "string", "description": "Identifier which must match if `type` is `MATCHING_ID`"},
-    })
-    return {"title": SCENE_SCHEMA_NAME, "description": "An update to the entities displayed in a 3D scene",
-            "type": "object",
-            "properties": {"deletions": {"type": "array", "items": deletion, "description": "Scene entities to delete"},
-                           "entities": {"type": "array", "items": entity,
-                                        "description": "Scene entities to add or replace"}},
-            "required": ["deletions", "entities"]}
-
-
-def scene_update_schema_bytes() -> bytes:
-    """:func:`scene_update_schema` as UTF-8 JSON (the bytes stored in the MCAP schema record)."""
-    return json.dumps(scene_update_schema(), separators=(",", ":")).encode()
+def foxglove_schema(name: str) -> dict:
+    """:func:`foxglove_schema_bytes` parsed."""
+    return json.loads(foxglove_schema_bytes(name))

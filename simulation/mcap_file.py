@@ -24,7 +24,6 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any, BinaryIO, Callable
 
-import lz4.frame
 import numpy as np
 import zstandard
 
@@ -34,8 +33,8 @@ from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, M
                           Statistics, SummaryOffset)
 from mcap.writer import LIBRARY_IDENTIFIER, MCAP0_MAGIC
 
-#: Chunk compressions written here (both are in the MCAP specification and read by Foxglove).
-COMPRESSIONS = ("lz4", "zstd")
+from .choices import COMPRESSIONS, lz4_frame
+
 
 #: Bytes of a Message record before its data: opcode, length, channel id, sequence, log and publish time.
 MESSAGE_HEADER_SIZE = 1 + 8 + 2 + 4 + 8 + 8
@@ -156,6 +155,13 @@ class McapFile:
         Compress and write chunks on a thread of their own (zstd, lz4 and zlib release the
         GIL), so that the caller can build the next chunk meanwhile; :meth:`flush` and
         :meth:`close` wait.
+
+    Raises
+    ------
+    ValueError
+        Unknown compression.
+    ConfigError
+        ``compression="lz4"`` without the lz4 package installed.
     """
 
     def __init__(self, path: str | Path, profile: str = "", compression: str = "zstd",
@@ -165,7 +171,7 @@ class McapFile:
         self.path = Path(path)
         self.compression = compression
         self._compress: Callable[[bytes], bytes] = (
-            zstandard.ZstdCompressor(level=1).compress if compression == "zstd" else lz4.frame.compress)
+            zstandard.ZstdCompressor(level=1).compress if compression == "zstd" else lz4_frame().compress)
         self._stream: BinaryIO = open_locked(self.path)
         self._schemas: list[Schema] = []
         self._channels: list[Channel] = []

@@ -3,9 +3,12 @@
 Channels (timestamps: ns of simulated time)
 
 * ``/joint_state`` (``t``, ``q``, ``u``), ``/task_state`` (``t``, ``s``, ``v_star``, ``e``),
-  ``/margins`` (``t``, ``link`` margins of links 2..m, ``longitudinal``): every logged step;
+  ``/margins`` (``t``, ``link_margins`` of links 2..m, ``longitudinal``): every logged step;
 * ``/margins/cond``: condition number of the decoupling matrix, ~5 Hz (one SVD each);
-* ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, walls), ~20 Hz.
+* ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, the end point's target, obstacles),
+  ``/tf``: ``foxglove.FrameTransforms`` JSON (a frame per link, chained from ``world``) and
+  ``/tracking`` (``s`` and its target, ``max|e|``, the smallest link margin, ``|u|``), ~20 Hz
+  (:mod:`.scene`).
 
 Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, versions),
 ``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
@@ -35,17 +38,16 @@ from importlib import metadata as _metadata
 from pathlib import Path
 from typing import Any
 
-import casadi as ca
 import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController, LogError, SingularityError
-from coordarm.symbolic.curves import Line
 
-from .log_schemas import (CDR_HEADER, PER_STEP, SCENE_SCHEMA_NAME, SCENE_TOPIC, SOURCES, NumericChannel,
-                          numeric_channels, scene_update_schema_bytes)
+from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
+                          numeric_channels)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
 from .scenario import Scenario
+from .scene import SceneBuilder
 
 #: Wall time between pushes of the log to the operating system [s] (a kill loses at most ~2x this).
 FLUSH_INTERVAL = 0.5
@@ -68,6 +70,24 @@ def default_cond_rate(links: int) -> float:
     of the law, so this keeps its share of a run's time about what it is at 64 links.
     """
     return COND_RATE * min(1.0, (64.0 / links) ** 2)
+
+
+def steps_between(rate: Any, step: float, name: str) -> int:
+    """Steps between two samples at ``rate`` samples per simulated second (at least 1).
+
+    Raises
+    ------
+    ConfigError
+        ``rate`` (named ``name`` in the message) is not a positive number.
+    """
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0 or not np.isfinite(rate):
+        raise ConfigError(f"{name}: need a positive number of samples per second, got {rate!r}")
+    return max(1, int(round(1.0 / (rate * step))))
+
+
+def log_time_ns(t: float | np.ndarray, origin: float) -> np.ndarray:
+    """Log times [ns] of simulated times ``t`` [s]: nanoseconds since ``origin`` (<= every t)."""
+    return np.round((np.asarray(t) - origin) * 1e9).astype(np.uint64)
 
 
 def _version(dist: str) -> str:
@@ -126,7 +146,7 @@ class RunLogger:
     log_rate : float, optional
         Samples per simulated second on the per-step channels (default: every step).
     scene_rate : float
-        Rate of ``/scene`` [Hz]; 0 switches the channel off.
+        Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off.
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz]; 0 switches it off. Default :func:`default_cond_rate`:
         5 Hz up to 64 links, then falling as ``1/m^2`` (an SVD costs O(m^3), a step O(m)).
@@ -197,10 +217,14 @@ class RunLogger:
             raise LogError(f"{self.path}: cannot create the log: {exc.strerror or exc}") from None
         self.ids: dict[str, int] = {}
         for key, ch in self.channels.items():
+            if key == "tracking" and not self.scene_every:
+                continue
             sid = self.file.add_schema(ch.schema_name, "ros2msg", ch.schema_text().encode())
             self.ids[key] = self.file.add_channel(ch.topic, "cdr", sid)
-        sid = self.file.add_schema(SCENE_SCHEMA_NAME, "jsonschema", scene_update_schema_bytes())
-        self.ids["scene"] = self.file.add_channel(SCENE_TOPIC, "json", sid)
+        if self.scene_every:
+            for key, (topic, schema) in FOXGLOVE_CHANNELS.items():
+                sid = self.file.add_schema(schema, "jsonschema", foxglove_schema_bytes(schema))
+                self.ids[key] = self.file.add_channel(topic, "json", sid)
         self.origin = min(0.0, scenario.t0)  # log times are ns since this simulated time (>= 0)
         self.file.add_metadata("scenario", {"json": scenario.to_json(), "source": scenario.source})
         self._build: dict[str, str] | None = None
@@ -228,9 +252,7 @@ class RunLogger:
         self._last_logged = -1  # global index of the last sample logged
         self._flushed = self._received = time.monotonic()
         self._gap = 0.0  # wall time between the last two blocks
-        walls = np.asarray(scenario.obstacles, dtype=float).reshape(-1, 2)
-        self._wall_lines = (_line(walls, 2, 0.02, (0.2, 0.2, 0.2, 1.0)),) if len(walls) else ()  # same in every scene
-        self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
+        self.scene = SceneBuilder(self.ctrl, scenario.obstacles)
         self.outcome: dict[str, Any] | None = None
         # At most two blocks wait; an idle worker still pushes the last block out in time.
         self._worker = Worker(self._process, "coordarm-log", 2, idle=self._flush_if_due,
@@ -268,9 +290,7 @@ class RunLogger:
         return LogError(f"{self.path}: writing the log failed: {type(error).__name__}: {error}")
 
     def _decimation(self, rate: Any, name: str) -> int:
-        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0 or not np.isfinite(rate):
-            raise ConfigError(f"{name}: need a positive number of samples per second, got {rate!r}")
-        return max(1, int(round(1.0 / (rate * self.step))))
+        return steps_between(rate, self.step, name)
 
     # ---------------------------------------------------------------- writing
     def on_chunk(self, part: Run) -> None:
@@ -305,8 +325,9 @@ class RunLogger:
             self._add_samples(part, rows)
             self._last_logged = int(g[rows[-1]])
         if self.scene_every:
+            self.scene.advance(part)
             ks = np.flatnonzero(g % self.scene_every == 0)
-            self._extras += [("scene", ns, data) for ns, data in self._scenes(part, ks)]
+            self._extras += self.scene.messages(part, ks, self._ns(part.t[ks]))
         if self.cond_every:
             ks = np.flatnonzero(g % self.cond_every == 0)
             if len(ks):
@@ -327,7 +348,7 @@ class RunLogger:
                 self._flush_now()
 
     def _ns(self, t: float | np.ndarray):
-        return np.round((np.asarray(t) - self.origin) * 1e9).astype(np.uint64)
+        return log_time_ns(t, self.origin)
 
     def _add_samples(self, part: Run, rows: np.ndarray) -> None:
         n = len(rows)
@@ -344,9 +365,7 @@ class RunLogger:
             hdr["publish_time"] = ns
             self._sequence[key] += n
             rec[key + "_cdr"] = np.frombuffer(CDR_HEADER, "V4")[0]
-            data = rec[key]
-            for name, cols in ch.slices().items():
-                data[:, cols] = getattr(part, SOURCES[name])[rows]
+            ch.fill(rec[key], part, rows)
         self._pending = np.concatenate([self._pending, rec]) if len(self._pending) else rec
 
     def _write_chunk(self, n: int) -> None:
@@ -389,45 +408,6 @@ class RunLogger:
         self.file.flush()
         self._flushed = time.monotonic()
 
-    # ------------------------------------------------------- reduced-rate channels
-    def _curves(self, times: np.ndarray) -> list[np.ndarray]:
-        """The curve at each of ``times`` as a polyline (a straight line: one CasADi call for all times)."""
-        reach = 2.2 * self.ctrl.chain.m * self.ctrl.chain.xi
-        curve = self.ctrl.curve
-        if self._line_params is None and isinstance(curve, Line) and len(times):
-            t = ca.SX.sym("t")
-            f = ca.Function("line_params", [t], [curve.angle(t), curve.point[0](t), curve.point[1](t)])
-            # Trusted only if it reproduces the curve's own sampling.
-            th, px, py = (float(v) for v in f(float(times[0])))
-            ends = np.array([-reach, reach])
-            first = np.column_stack([px + ends * np.cos(th), py + ends * np.sin(th)])
-            ok = np.allclose(first, curve.sample(float(times[0]), n=2, extent=reach), rtol=0, atol=1e-12)
-            self._line_params = f if ok else False
-        if self._line_params and len(times):
-            th, px, py = (np.asarray(v, float).ravel() for v in self._line_params(ca.DM(times).T))
-            ends = np.array([-reach, reach])
-            return list(np.stack([px[:, None] + ends * np.cos(th)[:, None],
-                                  py[:, None] + ends * np.sin(th)[:, None]], -1))
-        return [curve.sample(float(t), n=90, extent=reach) for t in times]
-
-    def _scenes(self, part: Run, ks: np.ndarray) -> list[tuple[int, bytes]]:
-        """``(log time, SceneUpdate JSON)`` at rows ``ks`` of ``part``."""
-        if not len(ks):
-            return []
-        joints = self.ctrl.chain.joints_np(part.q[ks])
-        curves = self._curves(part.t[ks])
-        out = []
-        for J, C, ns in zip(joints, curves, self._ns(part.t[ks]).tolist()):
-            lines = (_line(J, 0, 0.01, (0.15, 0.45, 0.9, 1.0)), _line(C, 0, 0.005, (0.9, 0.5, 0.1, 0.8)),
-                     *self._wall_lines)
-            stamp = f'{{"sec":{ns // 10**9},"nsec":{ns % 10**9}}}'
-            text = ('{"deletions":[],"entities":[{"timestamp":' + stamp + ',"frame_id":"world","id":"coordarm",'
-                    '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],'
-                    '"spheres":[],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":['
-                    + ",".join(lines) + "]}]}")
-            out.append((ns, text.encode()))
-        return out
-
     # ---------------------------------------------------------------- closing
     def finish(self, error: BaseException | None = None) -> None:
         """Log the last step if decimation skipped it, write ``outcome``, close the file."""
@@ -466,11 +446,6 @@ class RunLogger:
         return False
 
 
-#: A point in JSON, coordinates as integer micrometres with an exponent (exact to 1e-6 m, and
-#: integers format about twice as fast as floats).
-_POINT = '{"x":%de-6,"y":%de-6,"z":0}'
-
-
 @contextmanager
 def _sigint_deferred():
     """Hold back SIGINT (Ctrl-C), and SIGTERM when Python handles it, until the block ends; then
@@ -490,13 +465,3 @@ def _sigint_deferred():
             signal.signal(signum, handler)
         if caught and callable(previous[caught[0][0]]):
             previous[caught[0][0]](*caught[0])
-
-
-def _line(points: np.ndarray, kind: int, thickness: float, color: tuple[float, ...]) -> str:
-    """A ``foxglove.LinePrimitive`` in JSON (points formatted in one pass)."""
-    xy = np.round(np.asarray(points, float).reshape(-1, 2) * 1e6).astype(np.int64)
-    pts = ",".join([_POINT] * len(xy)) % tuple(xy.ravel().tolist())
-    r, g, b, a = color
-    return (f'{{"type":{kind},"pose":{{"position":{{"x":0,"y":0,"z":0}},"orientation":{{"x":0,"y":0,"z":0,"w":1}}}},'
-            f'"thickness":{thickness},"scale_invariant":false,"points":[{pts}],'
-            f'"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}},"colors":[],"indices":[]}}')

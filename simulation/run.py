@@ -5,32 +5,43 @@ import math
 import sys
 import time as _time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, Callable
 
 import numpy as np
 
-from coordarm.generated.compiled import split_outputs
+from coordarm.generated import compile as compile_controller
 from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
+from coordarm.symbolic.outputs import RUN_OUTPUTS, by_name, split
 
+from .choices import BACKENDS
 from .limits import KEEP_ROWS, check_gain_step
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
 #: Steps integrated per call of the closed-loop chunk Function.
 DEFAULT_CHUNK = 2000
-#: ``auto`` = compiled when a C compiler builds the library, else interpreted (with a warning).
-BACKENDS = ("auto", "compiled", "interpreted")
 
 
 class BackendFallbackWarning(UserWarning):
     """``backend="auto"`` could not build the compiled controller and runs interpreted CasADi."""
 
 
+class ExtraOutputs:
+    """Mixin of :class:`Run` and :class:`~coordarm.analysis.replay.Replay`: the arrays in their
+    ``extra`` dict (law outputs that have no field of their own) read as attributes."""
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        extra = self.__dict__.get("extra") or {}
+        if name in extra:
+            return extra[name]
+        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
+
+
 @dataclass
-class Run:
+class Run(ExtraOutputs):
     """A simulated run, sampled at every step (row k is time ``t[k]``).
 
     Attributes
@@ -53,6 +64,9 @@ class Run:
         Commanded speed [m/s].
     info : dict
         Backend, wall time, stop reason.
+    extra : dict
+        Arrays of the law's other run outputs (rows of :data:`~coordarm.symbolic.outputs.LAW_OUTPUTS`
+        with a log channel that are not fields above), also readable as attributes.
     """
 
     t: np.ndarray
@@ -64,14 +78,42 @@ class Run:
     longitudinal: np.ndarray
     v_star: np.ndarray
     info: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray], info: dict | None = None) -> "Run":
+        """A Run from arrays keyed by :data:`ARRAYS` (law outputs without a field go to ``extra``).
+
+        Raises
+        ------
+        KeyError
+            An array of :data:`ARRAYS` is missing.
+        """
+        named = {f.name for f in fields(cls)} - {"info", "extra"}
+        return cls(**{a: arrays[a] for a in ARRAYS if a in named}, info=dict(info or {}),
+                   extra={a: arrays[a] for a in ARRAYS if a not in named})
 
     def s_reference(self) -> np.ndarray:
-        """``s(0) + integral of v*`` on the sample grid (trapezoidal rule)."""
+        """``s(0) + integral of v*`` on the sample grid (trapezoidal rule).
+
+        Returns
+        -------
+        ndarray, shape (N+1,)
+            The arc length the end point should have [m].
+        """
         dt = np.diff(self.t)
         return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (self.v_star[1:] + self.v_star[:-1]))])
 
     def summary(self) -> dict[str, float]:
-        """Final ``max|e|``, worst ``s`` tracking error, smallest margins and where."""
+        """Final ``max|e|``, worst ``s`` tracking error, smallest margins and where.
+
+        Returns
+        -------
+        dict
+            ``duration`` [s], ``steps``, ``final_max_abs_e`` [m], ``max_s_tracking_error`` [m],
+            ``min_link_margin`` with its ``_link`` and ``_time``, ``min_longitudinal_margin`` with
+            its ``_time``, ``max_abs_u``.
+        """
         lm = self.link_margins
         k, j = np.unravel_index(np.argmin(lm), lm.shape)
         return {"duration": float(self.t[-1] - self.t[0]), "steps": int(self.info.get("steps", len(self.t) - 1)),
@@ -148,14 +190,11 @@ def even_indices(n: int, k: int) -> np.ndarray:
 
 
 def chunk_function(ctrl: CoordinatingController, step: float, n: int):
-    """Interpreted closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, u, e, s, links, long)``.
+    """Interpreted closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, *RUN_OUTPUTS)``.
 
     Column k of ``Q`` is the state after step k; the diagnostics are at each step's start.
     """
-    key = ("chunk", float(step), n)
-    if key not in ctrl._cache:
-        ctrl._cache[key] = ctrl.rk4_step(step).expand().mapaccum("chunk", n)
-    return ctrl._cache[key]
+    return ctrl.memo(("chunk", float(step), n), lambda: ctrl.rk4_step(step).expand().mapaccum("chunk", n))
 
 
 def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
@@ -177,18 +216,14 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
     if backend == "interpreted":
         return "interpreted", None, {"backend": "interpreted"}
-    key = ("compiled", ctrl.law_form)
-    compiled = ctrl._cache.get(key)
-    if compiled is None:
-        try:
-            compiled = ctrl.compile()
-        except BuildError as exc:
-            if backend == "compiled":
-                raise
-            warnings.warn(f"compiled backend unavailable, running the interpreted CasADi backend "
-                          f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)
-            return "interpreted", None, {"backend": "interpreted", "fallback_reason": str(exc)}
-        ctrl._cache[key] = compiled
+    try:
+        compiled = ctrl.memo(("compiled", ctrl.law_form), lambda: compile_controller(ctrl))
+    except BuildError as exc:
+        if backend == "compiled":
+            raise
+        warnings.warn(f"compiled backend unavailable, running the interpreted CasADi backend "
+                      f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)
+        return "interpreted", None, {"backend": "interpreted", "fallback_reason": str(exc)}
     check_interrupt()  # a Ctrl-C swallowed by a CasADi call while generating the code
     return "compiled", compiled, {"backend": "compiled", "cache_hit": compiled.cache_hit,
                                   "library": str(compiled.library.path)}
@@ -275,8 +310,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         while k < n_steps:
             n = min(chunk, n_steps - k)
             times = t0 + step * np.arange(k, k + n)
-            Q, U, E, S, LM, LG = _advance(ctrl, compiled, q, times, step)
-            part = Run(times, np.vstack([q[None], Q[:-1]]), U, E, S, LM, LG, ctrl.speeds(times))
+            Q, outs = _advance(ctrl, compiled, q, times, step)
+            part = Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times)))
             bad = first_violation(part.link_margins, part.longitudinal, thr)
             if bad is not None:
                 row, kind, link, margin = bad
@@ -294,9 +329,9 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
             if bar:
                 bar.update(step * k)
         final = (compiled or ctrl).evaluate(q, t0 + step * n_steps)
-        last = Run(np.array([t0 + step * n_steps]), q[None], final["u"][None], final["e"][None],
-                   np.array([final["s"]]), final["link_margins"][None], np.array([final["longitudinal"]]),
-                   np.array([ctrl.speed_at(t0 + step * n_steps)]))
+        last = Run.from_arrays({a: np.asarray(v)[None] for a, v in
+                                dict(final, t=t0 + step * n_steps, q=q, v_star=ctrl.speed_at(t0 + step * n_steps)).items()
+                                if a in ARRAYS})
         parts.append(last)
         if on_chunk:
             on_chunk(last)
@@ -308,20 +343,22 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
 
 
 def _advance(ctrl, compiled, q, times, step):
-    """RK4 steps from ``q`` at each of ``times``: states after each step and the law at each start (rows)."""
+    """RK4 steps from ``q`` at each of ``times``: states after each step (rows) and the law's
+    :data:`RUN_OUTPUTS` at each start (dict of row blocks)."""
     if compiled is not None:
         Q, D = compiled.chunk(q, times, step)
-        d = split_outputs(D, ctrl.chain.m)
-        return Q, d["u"], d["e"], d["s"], d["link_margins"], d["longitudinal"]
-    Q, U, E, S, LM, LG = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
-    return Q.T, U.T, E.T, S.ravel(), LM.T, LG.ravel()
+        d = split(D, ctrl.chain.m)
+        return Q, {a: d[a] for a in RUN_OUTPUTS}
+    Q, *outs = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
+    return Q.T, {a: (v.ravel() if by_name(a).scalar else v.T) for a, v in zip(RUN_OUTPUTS, outs)}
 
 
-ARRAYS = ("t", "q", "u", "e", "s", "link_margins", "longitudinal", "v_star")
+#: The per-sample arrays of a :class:`Run`: time, state, the law's run outputs, commanded speed.
+ARRAYS = ("t", "q", *RUN_OUTPUTS, "v_star")
 
 
 def _rows(run: Run, rows: slice) -> Run:
-    return Run(*(getattr(run, a)[rows] for a in ARRAYS), info=dict(run.info))
+    return Run.from_arrays({a: getattr(run, a)[rows] for a in ARRAYS}, run.info)
 
 
 def _thin(part: Run, k0: int, every: int) -> Run:
@@ -332,8 +369,8 @@ def _thin(part: Run, k0: int, every: int) -> Run:
     rows = np.concatenate([np.flatnonzero((k0 + np.arange(n)) % every == 0),
                            [np.argmin(np.min(part.link_margins, axis=1)), np.argmin(part.longitudinal),
                             np.argmax(np.max(np.abs(part.u), axis=1)), n - 1]])
-    return Run(*(getattr(part, a)[np.unique(rows)] for a in ARRAYS), info=dict(part.info))
+    return Run.from_arrays({a: getattr(part, a)[np.unique(rows)] for a in ARRAYS}, part.info)
 
 
 def _concat(parts: list[Run], info: dict) -> Run:
-    return Run(*(np.concatenate([getattr(p, a) for p in parts]) for a in ARRAYS), info=info)
+    return Run.from_arrays({a: np.concatenate([getattr(p, a) for p in parts]) for a in ARRAYS}, info)

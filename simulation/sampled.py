@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController
+from coordarm.symbolic.outputs import OUTPUTS
 
 from .run import check_number
 
@@ -97,7 +98,8 @@ def simulate_sampled(ctrl: CoordinatingController, q0, duration: float, period: 
     stopped = "completed"
     for k in range(n_steps + 1):
         t = t0 + k * period
-        u_now, e, s = (np.asarray(x, dtype=float).ravel() for x in law(q, t)[:3])
+        out = dict(zip(OUTPUTS, law(q, t)))
+        u_now, e, s = (np.asarray(out[name], dtype=float).ravel() for name in ("u", "e", "s"))
         if first is None:
             first = u_now
             pending.extend([first] * delay)

@@ -33,6 +33,7 @@ from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, Planar
                       motion_from_spec, project_onto_curve)
 from coordarm.symbolic.errors import shown
 
+from .choices import presets
 from .limits import check_bounds, check_gain_step
 from .run import DEFAULT_THRESHOLDS, check_number
 
@@ -44,12 +45,6 @@ KEYS = {"chain": {"links", "link_length"}, "control": {"gain", "speed", "law"},
 DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
             "run": {"duration": 20.0, "step": 0.001, "t0": 0.0},
             "control": {"law": "structured"}}
-
-
-def presets() -> list[str]:
-    """Names of the scenarios shipped with coordarm."""
-    return sorted(p.name[:-5] for p in (resources.files("coordarm.simulation") / "presets").iterdir()
-                  if p.name.endswith(".toml"))
 
 
 def _segment(spec: Any, field: str) -> np.ndarray:
@@ -69,6 +64,15 @@ class Scenario:
     """A validated scenario; build its parts with :meth:`controller` and :meth:`start`.
 
     Use :func:`load_scenario` (name or path) or :meth:`from_dict`.
+
+    Attributes
+    ----------
+    spec : dict
+        The validated scenario with every default filled in (the TOML layout of this module).
+    source : str
+        Where it came from (preset name, file path or ``<dict>``), used in error messages.
+    obstacles : ndarray, shape (k, 2, 2)
+        Wall segments ``[[ax, ay], [bx, by]]`` [m].
     """
 
     spec: dict
@@ -169,7 +173,29 @@ class Scenario:
 
     def with_overrides(self, links: int | None = None, duration: float | None = None,
                        step: float | None = None, law: str | None = None) -> "Scenario":
-        """A copy with the chain length, duration, step or form of the law replaced (validated again)."""
+        """A copy with the chain length, duration, step or form of the law replaced (validated again).
+
+        Parameters
+        ----------
+        links : int, optional
+            Number of links.
+        duration : float, optional
+            Simulated duration [s].
+        step : float, optional
+            RK4 step [s].
+        law : {"structured", "dense"}, optional
+            Form of the law.
+
+        Returns
+        -------
+        Scenario
+            The new scenario (``None`` arguments keep their value).
+
+        Raises
+        ------
+        ConfigError
+            An override that is not valid.
+        """
         spec = copy.deepcopy(self.spec)
         if law is not None:
             spec["control"]["law"] = law
@@ -182,17 +208,44 @@ class Scenario:
         return Scenario.from_dict(spec, self.source)
 
     def chain(self) -> PlanarChain:
+        """The manipulator this scenario describes.
+
+        Returns
+        -------
+        PlanarChain
+        """
         return PlanarChain(self.spec["chain"]["links"], float(self.spec["chain"]["link_length"]))
 
     def controller(self) -> CoordinatingController:
-        """The coordinating controller this scenario describes."""
+        """The coordinating controller this scenario describes.
+
+        Returns
+        -------
+        CoordinatingController
+        """
         c = self.spec["control"]
         return CoordinatingController(self.chain(), curve_from_spec(self.spec["curve"]), float(c["gain"]),
                                       motion_from_spec(c.get("speed", 0.0), "control.speed"),
                                       law=c["law"])
 
     def start(self, ctrl: CoordinatingController | None = None) -> np.ndarray:
-        """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked)."""
+        """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked).
+
+        Parameters
+        ----------
+        ctrl : CoordinatingController, optional
+            The scenario's controller, when the caller has it (built otherwise).
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            Joint coordinates [rad].
+
+        Raises
+        ------
+        ConfigError
+            The projection does not converge.
+        """
         st = self.spec["start"]
         ctrl = ctrl or self.controller()
         q = ctrl.chain.zigzag(float(st["beta"]), float(st["heading"]))
@@ -205,12 +258,27 @@ class Scenario:
         return q
 
     def to_json(self) -> str:
-        """The whole scenario as JSON (what a log stores to rebuild the run)."""
+        """The whole scenario as JSON (what a log stores to rebuild the run).
+
+        Returns
+        -------
+        str
+            :attr:`spec` as JSON, keys sorted.
+        """
         return json.dumps(self.spec, sort_keys=True)
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
     """Load a preset by name (``line``, ``arc``, ``hole``) or a TOML file by path.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A preset name (see :func:`coordarm.simulation.choices.presets`) or a ``.toml`` file.
+
+    Returns
+    -------
+    Scenario
 
     Raises
     ------

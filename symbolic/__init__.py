@@ -1,15 +1,32 @@
 """CasADi models of coordarm: chain kinematics, curves, and the coordinating law.
 
-Imports nothing else of coordarm.
+Imports nothing else of coordarm. Names load on first use (PEP 562), so importing a light
+module such as :mod:`coordarm.symbolic.errors` or :mod:`coordarm.symbolic.outputs` does not
+load CasADi.
 """
-from .chain import PlanarChain
-from .controller import LAWS, OUTPUTS, SCALAR_OUTPUTS, CoordinatingController
-from .curves import Arc, Circle, Curve, Line, curve_from_spec
-from .errors import BuildError, ConfigError, CoordarmError, LogError, SingularityError
-from .start import project_onto_curve
-from .motions import Constant, Ramp, Sinusoid, Smoothstep, motion_from_spec, motion_to_spec
+from __future__ import annotations
 
-__all__ = ["PlanarChain", "CoordinatingController", "LAWS", "OUTPUTS", "SCALAR_OUTPUTS", "Curve", "Line", "Circle", "Arc",
-           "curve_from_spec", "Constant", "Ramp", "Sinusoid", "Smoothstep", "motion_from_spec",
-           "motion_to_spec", "CoordarmError", "ConfigError", "BuildError", "LogError",
-           "SingularityError", "project_onto_curve"]
+from .lazy import lazy_exports
+
+#: Public name -> submodule that defines it.
+_EXPORTS = {
+    "PlanarChain": "chain",
+    "CoordinatingController": "controller",
+    "LAWS": "laws",
+    "OUTPUTS": "outputs", "SCALAR_OUTPUTS": "outputs", "RUN_OUTPUTS": "outputs", "LAW_OUTPUTS": "outputs",
+    "Curve": "curves", "Line": "curves", "Circle": "curves", "Arc": "curves", "curve_from_spec": "curves",
+    "Constant": "motions", "Ramp": "motions", "Sinusoid": "motions", "Smoothstep": "motions",
+    "motion_from_spec": "motions", "motion_to_spec": "motions",
+    "CoordarmError": "errors", "ConfigError": "errors", "BuildError": "errors", "LogError": "errors", "NonFiniteError": "errors",
+    "SingularityError": "errors",
+    "project_onto_curve": "start",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+__getattr__ = lazy_exports(__name__, _EXPORTS)
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

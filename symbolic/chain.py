@@ -78,7 +78,18 @@ class PlanarChain:
 
     # ----------------------------------------------------------------- symbolic
     def centres(self, q: ca.SX) -> ca.SX:
-        """Central points ``c^j(q)`` (eq. 4) as a 2 x m CasADi expression."""
+        """Central points ``c^j(q)`` (eq. 4) as a 2 x m CasADi expression.
+
+        Parameters
+        ----------
+        q : casadi.SX or casadi.MX, shape (m,)
+            Joint coordinates [rad].
+
+        Returns
+        -------
+        casadi.SX or casadi.MX, shape (2, m)
+            Column j is the centre of link j+1 [m]; the first is the base.
+        """
         alpha = ca.cumsum(q)
         cols = [ca.SX.zeros(2, 1) if isinstance(q, ca.SX) else ca.MX.zeros(2, 1)]
         for j in range(1, self.m):
@@ -87,7 +98,25 @@ class PlanarChain:
 
     # ------------------------------------------------------------------ numeric
     def check_q(self, q, field: str = "q") -> np.ndarray:
-        """Return ``q`` as a float array of shape (m,), or raise a ConfigError naming ``field``."""
+        """Return ``q`` as a float array of shape (m,), or raise a ConfigError naming ``field``.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        field : str
+            Name used in the error message.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            ``q`` as floats.
+
+        Raises
+        ------
+        ConfigError
+            Wrong shape, NaN or inf.
+        """
         q = np.asarray(q, dtype=float)
         if q.shape != (self.m,):
             raise ConfigError(f"{field}: need shape ({self.m},), got {q.shape}")
@@ -96,7 +125,18 @@ class PlanarChain:
         return q
 
     def centres_np(self, q) -> np.ndarray:
-        """Central points as an (..., m, 2) array, vectorised over leading axes of ``q``."""
+        """Central points, vectorised over leading axes of ``q``.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., m)
+            Joint coordinates [rad].
+
+        Returns
+        -------
+        ndarray, shape (..., m, 2)
+            Link centres [m].
+        """
         alpha = np.cumsum(q, axis=-1)
         d = direction(alpha)
         steps = 0.5 * self.xi * (d[..., :-1, :] + d[..., 1:, :])
@@ -104,7 +144,18 @@ class PlanarChain:
         return np.concatenate([zero, np.cumsum(steps, axis=-2)], axis=-2)
 
     def joints_np(self, q) -> np.ndarray:
-        """Link end points as an (..., m+1, 2) array: the chain drawn as a polyline."""
+        """Link end points: the chain drawn as a polyline.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., m)
+            Joint coordinates [rad].
+
+        Returns
+        -------
+        ndarray, shape (..., m+1, 2)
+            Joint positions [m], from the first link's free end to the end point.
+        """
         alpha = np.cumsum(q, axis=-1)
         d = direction(alpha)
         y = self.centres_np(q)
@@ -112,7 +163,18 @@ class PlanarChain:
         return np.concatenate([first, y + 0.5 * self.xi * d], axis=-2)
 
     def jacobians_closed_form(self, q) -> np.ndarray:
-        """``C^j(q)`` by the closed form of eq. 7, shape (m, 2, m); ``C^1 = 0``."""
+        """``C^j(q)`` by the closed form of eq. 7; ``C^1 = 0``.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+
+        Returns
+        -------
+        ndarray, shape (m, 2, m)
+            ``C[j] = d c^{j+1} / dq`` [m/rad].
+        """
         q = self.check_q(q)
         alpha = np.cumsum(q)
         nrm = normal(alpha)
@@ -127,6 +189,23 @@ class PlanarChain:
         """Uniform zig-zag: links at ``heading +- beta``, centres on a line at ``heading``.
 
         Centres are spaced ``xi cos(beta)``; the body is ``xi sin(beta)`` wide.
+
+        Parameters
+        ----------
+        beta : float
+            Fold angle [rad], ``0 < |beta| < pi/2``.
+        heading : float
+            Direction of the line of centres [rad].
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            Joint coordinates [rad].
+
+        Raises
+        ------
+        ConfigError
+            ``beta`` or ``heading`` not finite, or ``beta`` out of range.
         """
         for name, v in (("beta", beta), ("heading", heading)):
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):

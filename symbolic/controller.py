@@ -13,7 +13,7 @@ sets ``u_s = v*(t) - dpsi/dt``, ``u_e^j = -K e^j - dphi/dt`` and solves
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Callable, Hashable
 
 import casadi as ca
 import numpy as np
@@ -21,12 +21,8 @@ import numpy as np
 from .chain import PlanarChain, direction, normal
 from .curves import Curve, _param, evaluate
 from .errors import ConfigError
-
-LAWS = ("structured", "dense")
-#: Names of the outputs of :meth:`CoordinatingController.law`, in order.
-OUTPUTS = ("u", "e", "s", "link_margins", "longitudinal", "longitudinal_pivot")
-#: The outputs that are scalars (the others are vectors over links).
-SCALAR_OUTPUTS = ("s", "longitudinal", "longitudinal_pivot")
+from .laws import LAWS
+from .outputs import OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS
 
 
 class CoordinatingController:
@@ -80,7 +76,13 @@ class CoordinatingController:
                            ["y", "t"], ["phi", "gphi", "phit", "psi", "gpsi", "psit"])
 
     def speed_function(self) -> ca.Function:
-        """``t -> v*(t)``."""
+        """``t -> v*(t)``: the commanded speed [m/s] as a CasADi Function.
+
+        Returns
+        -------
+        casadi.Function
+            Input ``t`` [s], output ``v`` [m/s].
+        """
         t = ca.SX.sym("t")
         return ca.Function("speed", [t], [ca.SX(self.speed(t))], ["t"], ["v"])
 
@@ -119,8 +121,10 @@ class CoordinatingController:
         if "hoisted" not in self._cache:
             carry, qj, t, new, out = self._link_expressions()
             expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new, out), t)
-            wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 0)
-            wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX(0, 1)
+            # A static curve has no time-only terms: w is then one unused 0 rather than empty
+            # (an empty input makes CasADi emit a copy to a null pointer in mapped code).
+            wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 1)
+            wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX.zeros(1, 1)
             n_new = new.numel()
             tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
             step = ca.Function("link_step", [carry, qj, wsym], [expr[:n_new], expr[n_new:]],
@@ -129,7 +133,13 @@ class CoordinatingController:
         return self._cache["hoisted"]
 
     def time_features(self) -> ca.Function:
-        """``t -> w``: the terms of :meth:`link_step` that depend on time only, computed once per ``t``."""
+        """``t -> w``: the terms of :meth:`link_step` that depend on time only, computed once per ``t``.
+
+        Returns
+        -------
+        casadi.Function
+            Input ``t`` [s], output ``w`` (one 0 for a static curve).
+        """
         return self._hoisted_link()[0]
 
     def link_step(self) -> ca.Function:
@@ -141,11 +151,22 @@ class CoordinatingController:
         ``p = w_1``, and the running ``sum |b|``; ``w`` is :meth:`time_features` at the
         current time;
         ``out_j = (e^j, link margin, a_j, b_j)``.
+
+        Returns
+        -------
+        casadi.Function
+            ``(carry, q_j, w) -> (carry_next, out)``.
         """
         return self._hoisted_link()[1]
 
     def first_carry(self) -> ca.Function:
-        """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``)."""
+        """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``).
+
+        Returns
+        -------
+        casadi.Function
+            Input ``q_1`` [rad], output ``carry`` (layout :attr:`CARRY`).
+        """
         q1 = ca.SX.sym("q_1")
         c, s = ca.cos(q1), ca.sin(q1)
         h = 0.5 * self.chain.xi
@@ -158,6 +179,11 @@ class CoordinatingController:
         The ``s`` equation fixes the free rate ``p = w_1`` by dividing by the longitudinal
         pivot ``grad(psi)(y^m) . d ydot^m / dp`` [m/rad]; the longitudinal margin
         ``|pivot| / (xi sum |b|)`` is dimensionless (``(m-1)/m sin(beta)`` on a zig-zag of m links).
+
+        Returns
+        -------
+        casadi.Function
+            ``(carry, t) -> (s, p, longitudinal, longitudinal_pivot)``.
         """
         carry, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("t")
         y_m, n_m, nb = carry[0:2], ca.vertcat(-carry[4], carry[3]), carry[11]
@@ -177,7 +203,8 @@ class CoordinatingController:
             return qdot / ca.DM(bd) if not np.all(bd == 1) else qdot
         return ca.mtimes(ca.DM(np.linalg.inv(self.chain.B)), qdot)
 
-    def _structured(self, q, t):
+    def _structured(self, q, t) -> dict:
+        """The law's outputs (keyed by :data:`~coordarm.symbolic.outputs.OUTPUTS`) by the O(m) recursion."""
         m = self.chain.m
         w_t = self.time_features()(t)
         fold = self.link_step().mapaccum("links", m - 1)
@@ -187,10 +214,26 @@ class CoordinatingController:
         b = ca.vertcat(1, outs[3, :].T)
         w = a + b * p
         qdot = w - ca.vertcat(0, w[:-1])
-        return (self._u_from_rates(qdot), outs[0, :].T, psi, outs[1, :].T, margin, pivot)
+        return {"u": self._u_from_rates(qdot), "e": outs[0, :].T, "s": psi, "link_margins": outs[1, :].T,
+                "longitudinal": margin, "longitudinal_pivot": pivot}
 
     def decoupling_matrix_expr(self, q, t):
-        """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD."""
+        """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD.
+
+        Parameters
+        ----------
+        q : casadi.SX or casadi.MX, shape (m,)
+            Symbolic joint coordinates [rad].
+        t : casadi.SX or casadi.MX
+            Symbolic time [s].
+
+        Returns
+        -------
+        M : casadi expression, shape (m, m)
+            Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``.
+        rhs : casadi expression, shape (m,)
+            ``(v* - dpsi/dt, -K e^j - dphi/dt)``.
+        """
         y = self.chain.centres(q)
         rows, rhs = [], []
         for j in [self.chain.m - 1] + list(range(1, self.chain.m)):
@@ -207,11 +250,26 @@ class CoordinatingController:
 
     # ------------------------------------------------------------ CasADi Functions
     def law(self, form: str | None = None) -> ca.Function:
-        """The control law ``(q, t) -> (u, e, s, link_margins, longitudinal, longitudinal_pivot)``.
+        """The control law ``(q, t) -> outputs``, named and ordered as :data:`~coordarm.symbolic.outputs.OUTPUTS`.
 
         ``form="structured"`` is an MX Function with a loop over links (for code
         generation); ``form="dense"`` solves the dense eq. 27 and takes its margins
         from the structured recursion.
+
+        Parameters
+        ----------
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        casadi.Function
+            ``(q, t) -> outputs`` (cached per form).
+
+        Raises
+        ------
+        ConfigError
+            Unknown form.
         """
         form = form or self.law_form
         if form not in LAWS:
@@ -219,19 +277,30 @@ class CoordinatingController:
         key = ("law", form)
         if key not in self._cache:
             q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
-            outs = list(self._structured(q, t))
+            outs = self._structured(q, t)
             if form == "dense":
                 qs, ts = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
                 M, r = self.decoupling_matrix_expr(qs, ts)
                 Mr = ca.Function("decoupling", [qs, ts], [M, r])
                 Mq, rq = Mr(q, t)
-                outs[0] = ca.solve(Mq, rq, "qr")
-            self._cache[key] = ca.Function(f"coordinating_law_{form}", [q, t], outs,
+                outs["u"] = ca.solve(Mq, rq, "qr")
+            self._cache[key] = ca.Function(f"coordinating_law_{form}", [q, t], [outs[n] for n in OUTPUTS],
                                            ["q", "t"], list(OUTPUTS))
         return self._cache[key]
 
     def fast_law(self, form: str | None = None) -> ca.Function:
-        """:meth:`law` expanded to a flat SX Function: fastest in CasADi's interpreter."""
+        """:meth:`law` expanded to a flat SX Function: fastest in CasADi's interpreter.
+
+        Parameters
+        ----------
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        casadi.Function
+            Same inputs and outputs as :meth:`law`.
+        """
         form = form or self.law_form
         key = ("fast", form)
         if key not in self._cache:
@@ -239,9 +308,22 @@ class CoordinatingController:
         return self._cache[key]
 
     def rk4_step(self, h: float, form: str | None = None) -> ca.Function:
-        """Closed-loop RK4 step of ``qdot = B u(q, t)``: ``(q, t) -> (q_next, u, e, s, links, long)``.
+        """Closed-loop RK4 step of ``qdot = B u(q, t)``: ``(q, t) -> (q_next, *RUN_OUTPUTS)``.
 
-        The diagnostics are those of the law at the step's start ``(q, t)``.
+        The diagnostics (:data:`~coordarm.symbolic.outputs.RUN_OUTPUTS`) are those of the law
+        at the step's start ``(q, t)``.
+
+        Parameters
+        ----------
+        h : float
+            Step length [s].
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        casadi.Function
+            ``(q, t) -> (q_next, *RUN_OUTPUTS)`` (cached per form and ``h``).
         """
         form = form or self.law_form
         key = ("rk4", form, float(h))
@@ -255,17 +337,47 @@ class CoordinatingController:
             k3 = ca.mtimes(B, law(q + h / 2 * k2, t + h / 2)[0])
             k4 = ca.mtimes(B, law(q + h * k3, t + h)[0])
             q_next = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *out1[:5]],
-                                           ["q", "t"], ["q_next", *OUTPUTS[:5]])
+            kept = [out1[OUTPUTS.index(name)] for name in RUN_OUTPUTS]
+            self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *kept],
+                                           ["q", "t"], ["q_next", *RUN_OUTPUTS])
         return self._cache[key]
 
     def decoupling_function(self) -> ca.Function:
-        """``(q, t) -> (M, rhs)``: the dense decoupling matrix of eq. 26 and its right-hand side."""
+        """``(q, t) -> (M, rhs)``: the dense decoupling matrix of eq. 26 and its right-hand side.
+
+        Returns
+        -------
+        casadi.Function
+            The AD form of :meth:`decoupling_matrix_expr` (O(m^2) graph).
+        """
         if "M" not in self._cache:
             q, t = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
             M, r = self.decoupling_matrix_expr(q, t)
             self._cache["M"] = ca.Function("decoupling", [q, t], [M, r], ["q", "t"], ["M", "rhs"])
         return self._cache["M"]
+
+    def memo(self, key: Hashable, make: Callable[[], Any]) -> Any:
+        """An object derived from this controller, built once by ``make()`` and kept under ``key``.
+
+        The one way for other layers (simulation loops, analysis Functions, compiled libraries)
+        to cache what they derive from this controller; the keys of this class are tuples
+        starting with ``"law"``, ``"fast"``, ``"rk4"``, ``"map"``, ``"M"``, ``"hoisted"``.
+
+        Parameters
+        ----------
+        key : hashable
+            Cache key; use a tuple starting with a name of your own.
+        make : callable
+            Builds the object (called only on the first request; nothing is kept if it raises).
+
+        Returns
+        -------
+        object
+            What ``make()`` returned for ``key``.
+        """
+        if key not in self._cache:
+            self._cache[key] = make()
+        return self._cache[key]
 
     def compile(self, form: str | None = None, **build_options: Any):
         """The law as generated C, compiled (or taken from the build cache) and loaded.
@@ -275,25 +387,51 @@ class CoordinatingController:
         form : {"structured", "dense"}, optional
             Law form (default: this controller's).
         **build_options
-            Passed to :class:`generated.compiled.CompiledController` (``cc``, ``flags``,
-            ``build_dir``).
+            Passed to :class:`coordarm.generated.compiled.CompiledController` (``cc``, ``flags``,
+            ``build_dir``, ``force``).
 
         Returns
         -------
-        generated.compiled.CompiledController
+        coordarm.generated.compiled.CompiledController
             Same ``control(q, t)`` and ``evaluate(q, t)`` as this object, backed by C.
 
         Raises
         ------
         BuildError
             No C compiler, or the generated code did not compile or load.
+
+        Notes
+        -----
+        A convenience for :func:`coordarm.generated.compile`, where compilation lives: the
+        import is done at call time, so the model never loads the code generator (the one
+        upward import allowed by the layer contract in ``pyproject.toml``).
         """
-        from coordarm.generated.compiled import CompiledController   # generated imports symbolic, not back
-        return CompiledController(self, form or self.law_form, **build_options)
+        from coordarm.generated import compile as compile_controller
+        return compile_controller(self, form, **build_options)
 
     # --------------------------------------------------------------- numeric API
     def evaluate(self, q, t: float = 0.0, form: str | None = None) -> dict[str, Any]:
-        """All outputs of the law at ``(q, t)`` as numpy values, keyed by :data:`OUTPUTS`."""
+        """All outputs of the law at ``(q, t)`` as numpy values, keyed by :data:`OUTPUTS`.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        dict
+            Vectors as arrays, scalars as floats (see :data:`coordarm.symbolic.outputs.LAW_OUTPUTS`).
+
+        Raises
+        ------
+        ConfigError
+            ``q`` or ``t`` not finite, or ``q`` of the wrong shape.
+        """
         q = self.chain.check_q(q)
         if not math.isfinite(t):
             raise ConfigError(f"t: must be finite, got {t!r}")
@@ -305,7 +443,20 @@ class CoordinatingController:
         return out
 
     def control(self, q, t: float = 0.0) -> np.ndarray:
-        """Control ``u(q, t)``, shape (m,)."""
+        """Control ``u(q, t)``.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            The control [rad/s for B = I].
+        """
         return self.evaluate(q, t)["u"]
 
     def centre_geometry(self, Q, T) -> dict[str, np.ndarray]:
@@ -339,7 +490,18 @@ class CoordinatingController:
         return out
 
     def speeds(self, T) -> np.ndarray:
-        """``v*(t)`` at each of the times ``T`` (N,), in one call [m/s]."""
+        """``v*(t)`` at each of the times ``T``, in one call.
+
+        Parameters
+        ----------
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Commanded speeds [m/s].
+        """
         T = np.atleast_1d(np.asarray(T, float))
         return np.asarray(self._mapped("speed", self.speed_function, len(T))(T[None])).ravel()
 
@@ -395,25 +557,86 @@ class CoordinatingController:
         return self._cache[key]
 
     def decoupling_matrix(self, q, t: float = 0.0) -> np.ndarray:
-        """Numeric decoupling matrix (eq. 26), shape (m, m); see :meth:`decoupling_matrices`."""
+        """Numeric decoupling matrix (eq. 26); see :meth:`decoupling_matrices`.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (m, m)
+            Rows ``(s^m, e^2, ..., e^m)``, columns the controls.
+        """
         return self.decoupling_matrices(self.chain.check_q(q)[None], [t])[0][0]
 
     def cond(self, q, t: float = 0.0) -> float:
-        """2-norm condition number of the decoupling matrix (see DESIGN.md section 2)."""
+        """2-norm condition number of the decoupling matrix.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            ``sigma_max / sigma_min`` (inf when singular).
+        """
         return float(self.conds(self.chain.check_q(q)[None], [t])[0])
 
     def conds(self, Q, T) -> np.ndarray:
-        """2-norm condition numbers of the decoupling matrices at N states ``Q`` (N, m), ``T`` (N,)."""
+        """2-norm condition numbers of the decoupling matrices at N states.
+
+        Parameters
+        ----------
+        Q : array_like, shape (N, m)
+            Joint coordinates [rad].
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            ``sigma_max / sigma_min`` of each (inf when singular).
+        """
         sv = np.linalg.svd(self.decoupling_matrices(Q, T)[0], compute_uv=False)
         with np.errstate(divide="ignore"):
             return sv[:, 0] / sv[:, -1]
 
     def base_offset(self, t: float = 0.0) -> float:
-        """``|phi(0, t)|``: how far the curve passes from the pinned base [m]."""
+        """``|phi(0, t)|``: how far the curve passes from the pinned base.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            Distance [m].
+        """
         return abs(float(self._geometry([0, 0], t)[0]))
 
     def speed_at(self, t: float) -> float:
-        """``v*(t)`` [m/s]."""
+        """The commanded speed at one time.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            ``v*(t)`` [m/s].
+        """
         return evaluate(self.speed, t)
 
     def __repr__(self) -> str:

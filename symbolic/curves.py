@@ -51,23 +51,81 @@ class Curve:
     kind = "curve"
 
     def phi(self, y, t):
-        """Signed distance from the curve (zero on it); ``y`` is a 2-vector."""
+        """Signed distance from the curve (zero on it).
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX or float
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX
+            ``phi(y, t)`` [m].
+        """
         raise NotImplementedError
 
     def psi(self, y, t):
-        """Arc-length coordinate of the point ``y``."""
+        """Arc-length coordinate of the point ``y`` along the curve.
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX or float
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX
+            ``psi(y, t)`` [m].
+        """
         raise NotImplementedError
 
     def sample(self, t: float, n: int = 400, extent: float = 10.0) -> np.ndarray:
-        """Points on the curve at time ``t`` for plotting, shape (n, 2)."""
+        """Points on the curve at time ``t``, for plotting.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        n : int
+            Number of points.
+        extent : float
+            Half-length of the drawn piece of an unbounded curve [m].
+
+        Returns
+        -------
+        ndarray, shape (n, 2)
+            Points [m].
+        """
         raise NotImplementedError
 
     def to_spec(self) -> dict:
-        """The curve as data (only for parameters built from motion primitives)."""
+        """The curve as data (only for parameters built from motion primitives).
+
+        Returns
+        -------
+        dict
+            ``{"kind": ..., <parameters>}``, accepted by :func:`curve_from_spec`.
+
+        Raises
+        ------
+        ConfigError
+            A parameter is a Python callable, not a motion primitive.
+        """
         raise NotImplementedError
 
     def functions(self) -> ca.Function:
-        """CasADi Function ``(y, t) -> (phi, psi)``."""
+        """CasADi Function ``(y, t) -> (phi, psi)``.
+
+        Returns
+        -------
+        casadi.Function
+            Inputs ``y`` [m] and ``t`` [s], outputs ``phi`` and ``psi`` [m].
+        """
         y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
         return ca.Function(f"{self.kind}_curve", [y, t], [self.phi(y, t), self.psi(y, t)],
                            ["y", "t"], ["phi", "psi"])
@@ -114,6 +172,20 @@ class Circle(Curve):
     ``phi = R - |y - c|`` (positive inside) and ``psi = R * angle(y - c)``, the angle
     measured from ``reference`` [rad] (default: the direction of the base seen from
     the centre at t = 0), so the branch cut of ``atan2`` lies opposite the reference.
+
+    Parameters
+    ----------
+    center : (float | callable, float | callable) or callable
+        Centre [m].
+    radius : float or callable
+        Radius [m], > 0.
+    reference : float or callable, optional
+        Angle [rad] where ``psi = 0``.
+
+    Raises
+    ------
+    ConfigError
+        A radius that is not positive at t = 0, or parameters that are not numbers or callables.
     """
 
     kind = "circle"
@@ -154,6 +226,15 @@ class Arc(Circle):
 
     The centre is ``point + R n(angle)`` (to the left of the tangent) and ``psi = 0`` at
     ``point``; ``point``, ``angle`` and ``radius`` may all move.
+
+    Parameters
+    ----------
+    point : (float | callable, float | callable) or callable
+        A point of the arc [m].
+    angle : float or callable
+        Tangent direction at ``point`` [rad].
+    radius : float or callable
+        Radius [m], > 0.
     """
 
     kind = "arc"
@@ -170,12 +251,35 @@ class Arc(Circle):
                 "angle": motion_to_spec(self.angle), "radius": motion_to_spec(self.radius)}
 
 
+for _cls in (Line, Circle, Arc):     # the subclasses' implementations carry the base class's documentation
+    for _name in ("phi", "psi", "sample", "to_spec"):
+        _own = vars(_cls).get(_name)
+        if _own is not None and not _own.__doc__:
+            _own.__doc__ = getattr(Curve, _name).__doc__
+
 CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "radius", "reference")),
           "arc": (Arc, ("point", "angle", "radius"))}
 
 
 def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
-    """Build a curve from data, e.g. ``{"kind": "line", "point": [0, 0], "angle": 0.3}``."""
+    """Build a curve from data, e.g. ``{"kind": "line", "point": [0, 0], "angle": 0.3}``.
+
+    Parameters
+    ----------
+    spec : dict
+        ``kind`` (``line``, ``circle``, ``arc``) and that curve's parameters (numbers or motions).
+    field : str
+        Name of the table in error messages.
+
+    Returns
+    -------
+    Curve
+
+    Raises
+    ------
+    ConfigError
+        Not a table, an unknown kind or key, a missing or bad parameter.
+    """
     if not isinstance(spec, dict):
         raise ConfigError(f"{field}: expected a table, got {shown(spec)}")
     kind = spec.get("kind")

@@ -21,8 +21,27 @@ class LogError(CoordarmError):
     """A run log cannot be written or read."""
 
 
+class NonFiniteError(CoordarmError, ArithmeticError):
+    """The compiled law produced a non-finite value (NaN or inf) from finite inputs."""
+
+
 class SingularityError(CoordarmError):
     """A singularity margin fell below its threshold during a run.
+
+    Parameters
+    ----------
+    time : float
+        Simulated time [s] of the first state whose margin is below threshold.
+    link : int or None
+        1-based index of the offending link, or None for the longitudinal margin.
+    margin : float
+        The margin (dimensionless) at that time.
+    kind : str
+        ``"link"`` or ``"longitudinal"``.
+    threshold : float
+        The threshold it fell below.
+    run : object, optional
+        The run up to (and including) the offending state.
 
     Attributes
     ----------
@@ -34,6 +53,8 @@ class SingularityError(CoordarmError):
         The margin value (dimensionless) at that time.
     kind : str
         ``"link"`` or ``"longitudinal"``.
+    threshold : float
+        The threshold it fell below.
     run : object or None
         The run up to (and including) the offending state, if available.
     """

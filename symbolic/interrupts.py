@@ -23,6 +23,11 @@ _received: list[int] = []
 class Interrupted(KeyboardInterrupt):
     """The run was stopped by a signal (Ctrl-C = SIGINT, or SIGTERM).
 
+    Parameters
+    ----------
+    signum : int
+        The signal number (default SIGINT).
+
     Attributes
     ----------
     signum : int

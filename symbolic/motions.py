@@ -26,7 +26,13 @@ def _finite(value: Any, field: str) -> float:
 
 @dataclass(frozen=True)
 class Constant:
-    """``value``."""
+    """``value``.
+
+    Attributes
+    ----------
+    value : float
+        The constant (unit of the parameter it drives).
+    """
     value: float
 
     def __call__(self, t):
@@ -35,7 +41,15 @@ class Constant:
 
 @dataclass(frozen=True)
 class Ramp:
-    """``start + rate * t``."""
+    """``start + rate * t``.
+
+    Attributes
+    ----------
+    start : float
+        Value at t = 0.
+    rate : float
+        Change per second.
+    """
     start: float = 0.0
     rate: float = 0.0
 
@@ -45,7 +59,19 @@ class Ramp:
 
 @dataclass(frozen=True)
 class Sinusoid:
-    """``offset + amplitude * sin(omega * t + phase)``, ``omega`` in rad/s."""
+    """``offset + amplitude * sin(omega * t + phase)``.
+
+    Attributes
+    ----------
+    amplitude : float
+        Amplitude.
+    omega : float
+        Angular frequency [rad/s].
+    offset : float
+        Mean value.
+    phase : float
+        Phase at t = 0 [rad].
+    """
     amplitude: float
     omega: float
     offset: float = 0.0
@@ -57,7 +83,20 @@ class Sinusoid:
 
 @dataclass(frozen=True)
 class Smoothstep:
-    """Quintic (C2) transition from ``start`` at ``t0`` to ``end`` at ``t1``."""
+    """Quintic (C2) transition from ``start`` at ``t0`` to ``end`` at ``t1``.
+
+    Attributes
+    ----------
+    start, end : float
+        Values before ``t0`` and after ``t1``.
+    t0, t1 : float
+        Start and end of the transition [s], ``t1 > t0``.
+
+    Raises
+    ------
+    ConfigError
+        ``t1 <= t0``.
+    """
     start: float
     end: float
     t0: float

@@ -15,6 +15,22 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
     The end point keeps its arc length ``s^m(q_guess)``: the m equations
     ``(s^m - s_guess, e^2, ..., e^m) = 0`` have the decoupling matrix as Jacobian.
 
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Chain and curve.
+    q_guess : array_like, shape (m,)
+        Start guess [rad].
+    t0 : float
+        Time [s] of the curve to project onto.
+    tol : float
+        Absolute tolerance of the Newton iteration [m].
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        Joint coordinates [rad] with every centre on the curve.
+
     Raises
     ------
     ConfigError

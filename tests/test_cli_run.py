@@ -35,23 +35,24 @@ def test_singularity_exits_3_and_still_writes_figures(tmp_path):
 
 
 def test_ctrl_c_during_a_run_exits_130_and_leaves_a_closed_log(tmp_path, capsys, monkeypatch):
-    """A real SIGINT right after the first block was logged, with SIGINT inherited as ignored
-    (a background job): the CLI installs its own handler, so it still stops the run."""
+    """A real SIGINT once blocks are logged, with SIGINT inherited as ignored (a background job):
+    the CLI installs its own handler, so it still stops the run."""
     import os
     import signal
 
     from coordarm.analysis.replay import load
-    from coordarm.commands import run as run_command
+    from coordarm.simulation.mcap_writer import RunLogger
 
-    class FirstBlockThenCtrlC(run_command.RunLogger):
-        def on_chunk(self, part):
-            super().on_chunk(part)
-            if not getattr(self, "sent", False):
-                self.sent = True
-                os.kill(os.getpid(), signal.SIGINT)
-
-    monkeypatch.setattr(run_command, "RunLogger", FirstBlockThenCtrlC)
     out = tmp_path / "line.mcap"
+    logged, calls = RunLogger.on_chunk, []
+
+    def on_chunk(self, part):      # Ctrl-C once the run is under way (no timer racing the start-up)
+        logged(self, part)
+        calls.append(len(part.t))
+        if len(calls) == 3:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(RunLogger, "on_chunk", on_chunk)
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         status = main(["run", "line", "--duration", "100", "--backend", "interpreted",

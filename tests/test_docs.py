@@ -5,7 +5,8 @@ import pkgutil
 
 import pytest
 
-PACKAGES = ["symbolic", "generated", "simulation", "analysis"]
+PACKAGES = ["coordarm", "coordarm.commands", "coordarm.symbolic", "coordarm.generated", "coordarm.simulation",
+            "coordarm.analysis"]
 
 
 def public_objects():

@@ -16,7 +16,8 @@ from hypothesis import strategies as st
 
 from coordarm.generated.build import LIBRARY, META, build, cached
 from coordarm.generated.codegen import generate_source
-from coordarm.generated.compiled import CompiledController, split_outputs
+from coordarm.generated.compiled import CompiledController
+from coordarm.symbolic.outputs import split as split_outputs
 from coordarm.cli import main as cli_main
 from coordarm.simulation.run import BackendFallbackWarning, simulate
 from coordarm.simulation.scenario import load_scenario, presets

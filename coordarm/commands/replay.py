@@ -5,14 +5,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from coordarm.commands.run import print_summary, write_figures, writing
-from coordarm.symbolic import ConfigError, LogError
-from coordarm.symbolic.errors import shown
+from coordarm.symbolic.errors import ConfigError, LogError, shown
 
 #: Allowed frames per second of the animation.
 FPS_RANGE = (0.1, 60.0)
-
-from coordarm.analysis.replay import load
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,6 +34,9 @@ def main(args: argparse.Namespace) -> int:
     ConfigError
         ``--fps`` outside :data:`FPS_RANGE`, or ``--out`` is a file.
     """
+    from coordarm.analysis.replay import load
+    from coordarm.commands.run import print_summary, write_figures, writing
+
     if not FPS_RANGE[0] <= args.fps <= FPS_RANGE[1]:
         raise ConfigError(f"--fps: need {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} frames per second, got {shown(args.fps)}")
     replay = load(args.log)

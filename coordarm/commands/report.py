@@ -6,10 +6,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from coordarm.symbolic import ConfigError, LogError
-from coordarm.symbolic.errors import shown
+from coordarm.symbolic.errors import ConfigError, LogError, shown
 
 #: Allowed ``--samples``.
 SAMPLES_RANGE = (2, 100_000)
@@ -43,6 +40,8 @@ def simulate_scenario(scenario: Any) -> Any:
 
 def main(args: argparse.Namespace) -> int:
     """Write the report for ``args.source``; print where it went; return 0."""
+    import numpy as np
+
     from coordarm.simulation.limits import check_cost, estimate
     from coordarm.simulation.scenario import load_scenario
 

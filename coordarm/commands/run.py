@@ -5,19 +5,17 @@ import argparse
 import os
 import sys
 import warnings
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
-from typing import Iterator, TextIO
+from typing import TYPE_CHECKING, Callable, Iterator, TextIO
 
-from coordarm.symbolic import LAWS, ConfigError, LogError, SingularityError
+from coordarm.simulation.choices import BACKENDS, COMPRESSIONS, DENSE_LINKS, presets
+from coordarm.symbolic.errors import LogError
+from coordarm.symbolic.laws import LAWS
 
-from coordarm.simulation.figures import plot_stages, plot_tracking
-from coordarm.simulation.limits import DENSE_LINKS, GainStepWarning, check_cost, check_gain_step, estimate
-from coordarm.simulation.mcap_file import COMPRESSIONS
-from coordarm.simulation.mcap_writer import RunLogger
-from coordarm.simulation.obstacles import clearance, wall_crossings
-from coordarm.simulation.run import BACKENDS, BackendFallbackWarning, Run, select_backend, simulate
-from coordarm.simulation.scenario import Scenario, load_scenario, presets
+if TYPE_CHECKING:   # the simulation modules load numpy, CasADi, matplotlib: only when the command runs
+    from coordarm.simulation.run import Run
+    from coordarm.simulation.scenario import Scenario
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -46,6 +44,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "then falling as 1/m^2; 0 = off)")
     p.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
                    help="chunk compression of the log: zstd (default, smaller) or lz4 (faster)")
+    p.add_argument("--live", action="store_true",
+                   help="serve the run over the Foxglove WebSocket protocol while it is simulated (paced to "
+                        "real time, see --live-speed), writing the log too; in Foxglove: Open connection, "
+                        "Foxglove WebSocket, ws://127.0.0.1:PORT")
+    p.add_argument("--port", type=int, default=8765, help="port of the live server (default 8765; 0 = any free port)")
+    p.add_argument("--live-speed", type=float, default=1.0, metavar="X",
+                   help="simulated seconds per wall-clock second on the live view (default 1)")
+    p.add_argument("--live-wait", action="store_true",
+                   help="with --live: start simulating only once a client has subscribed")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
@@ -53,6 +60,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> None:
     """Human-readable summary of a run (to ``out``, standard output by default)."""
+    from coordarm.simulation.obstacles import clearance, wall_crossings
+
     out = sys.stdout if out is None else out
     s = run.summary()
     lines = [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1]} links",
@@ -80,6 +89,8 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
 
 def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
     """Stage and tracking figures as ``<stem>_stages.png`` and ``<stem>_tracking.png``."""
+    from coordarm.simulation.figures import plot_stages, plot_tracking
+
     title = f"{scenario.name}: {ctrl.chain.m} links"
     stages, tracking = stem.with_name(stem.name + "_stages.png"), stem.with_name(stem.name + "_tracking.png")
     with writing(stages):
@@ -99,12 +110,27 @@ def writing(path: Path) -> Iterator[None]:
         raise LogError(f"{path}: cannot write it: {exc.strerror or exc}") from None
 
 
+def _both(first: Callable[[Run], None], second: Callable[[Run], None]) -> Callable[[Run], None]:
+    """One ``on_chunk`` that hands each block to ``first`` then ``second``."""
+    def on_chunk(part: Run) -> None:
+        first(part)
+        second(part)
+    return on_chunk
+
+
 def main(args: argparse.Namespace) -> int:
     """Run the scenario named in ``args``; return 0 (done), 3 (stopped ahead of a singularity).
 
     The log is opened as soon as the controller exists, so that however the run ends (an
     interrupt while compiling, a build error, a singularity) it is closed with its outcome.
     """
+    from coordarm.simulation.limits import GainStepWarning, check_cost, check_gain_step, estimate
+    from coordarm.simulation.live import LiveView
+    from coordarm.simulation.mcap_writer import RunLogger
+    from coordarm.simulation.run import BackendFallbackWarning, select_backend, simulate
+    from coordarm.simulation.scenario import load_scenario
+    from coordarm.symbolic.errors import ConfigError, SingularityError
+
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, args.log_rate), args.yes)
     m = scenario.spec["chain"]["links"]
@@ -123,27 +149,35 @@ def main(args: argparse.Namespace) -> int:
         raise LogError(f"--out {out}: cannot create its directory: {exc.strerror or exc}") from None
     ctrl = scenario.controller()
     status = 0
-    try:
-        # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
-        # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
-        with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, cond_rate=args.cond_rate,
-                       compression=args.compression, overwrite=overwrite,
-                       threaded=(os.cpu_count() or 1) > 1) as log:
-            q0 = scenario.start(ctrl)
-            with warnings.catch_warnings(record=True) as caught:   # builds or loads the library
-                warnings.simplefilter("always", BackendFallbackWarning)
-                check_gain_step(ctrl.gain, scenario.step)
-                backend, compiled, _ = select_backend(ctrl, args.backend)
-            for w in caught:
-                print(f"coordarm run: warning: {w.message}", file=sys.stderr)
-            log.set_backend(backend, compiled.library.key if compiled else None)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", GainStepWarning)   # said above already
-                run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
-                               thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=log.on_chunk)
-    except SingularityError as err:
-        print(f"coordarm run: {err}", file=sys.stderr)
-        run, status = err.run, 3
+    with ExitStack() as stack:
+        live = None
+        if args.live:
+            live = stack.enter_context(LiveView(scenario, ctrl, port=args.port, speed=args.live_speed))
+            print(f"live          {live.url} (Foxglove: Open connection, Foxglove WebSocket)", flush=True)
+            if args.live_wait:
+                live.wait_for_client()
+        try:
+            # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
+            # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
+            with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, cond_rate=args.cond_rate,
+                           compression=args.compression, overwrite=overwrite,
+                           threaded=(os.cpu_count() or 1) > 1) as log:
+                q0 = scenario.start(ctrl)
+                with warnings.catch_warnings(record=True) as caught:   # builds or loads the library
+                    warnings.simplefilter("always", BackendFallbackWarning)
+                    check_gain_step(ctrl.gain, scenario.step)
+                    backend, compiled, _ = select_backend(ctrl, args.backend)
+                for w in caught:
+                    print(f"coordarm run: warning: {w.message}", file=sys.stderr)
+                log.set_backend(backend, compiled.library.key if compiled else None)
+                on_chunk = log.on_chunk if live is None else _both(log.on_chunk, live.on_chunk)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", GainStepWarning)   # said above already
+                    run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
+                                   thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=on_chunk)
+        except SingularityError as err:
+            print(f"coordarm run: {err}", file=sys.stderr)
+            run, status = err.run, 3
     print_summary(run, scenario)
     if compiled:
         print(f"library       {compiled.library.path} ({'cache hit' if compiled.cache_hit else 'built now'})")

@@ -1,0 +1,44 @@
+"""``coordarm layout``: where the shipped Foxglove layout is, or a copy of it."""
+from __future__ import annotations
+
+import argparse
+from importlib import resources
+from pathlib import Path
+
+from coordarm.symbolic import ConfigError
+
+
+def layout_path() -> Path:
+    """Path of the Foxglove layout shipped with coordarm (3D top view of ``/scene`` and four plots)."""
+    return Path(str(resources.files("coordarm") / "data" / "foxglove_layout.json"))
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``layout`` sub-command."""
+    p = sub.add_parser("layout", help="print the path of the Foxglove layout, or write a copy of it",
+                       description="The Foxglove layout for coordarm logs and the live view: a 3D panel (top "
+                                   "view of frame world with /scene) and plots of max|e|, s and its target, the "
+                                   "link and longitudinal margins and |u|. In Foxglove: open the log (Open local "
+                                   "file), then Layouts > Import layout and pick this file.")
+    p.add_argument("--out", type=Path, metavar="FILE", help="write a copy of the layout to FILE")
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    """Print the layout's path (or write it to ``args.out`` and print that); return 0.
+
+    Raises
+    ------
+    ConfigError
+        ``--out`` cannot be written.
+    """
+    source = layout_path()
+    if args.out is None:
+        print(source)
+        return 0
+    try:
+        args.out.write_bytes(source.read_bytes())
+    except OSError as exc:
+        raise ConfigError(f"--out {args.out}: cannot write the layout: {exc.strerror or exc}") from None
+    print(args.out)
+    return 0

@@ -1,0 +1,50 @@
+"""Choices the command line offers, kept free of heavy imports so that ``coordarm --help`` starts at once.
+
+The modules that act on them (:mod:`.run`, :mod:`.mcap_file`, :mod:`.scenario`) import them from here.
+"""
+from __future__ import annotations
+
+from importlib import import_module, resources
+from types import ModuleType
+
+from coordarm.symbolic.errors import ConfigError
+
+#: ``auto`` = compiled when a C compiler builds the library, else interpreted (with a warning).
+BACKENDS = ("auto", "compiled", "interpreted")
+#: Chunk compressions of the run log (both are in the MCAP specification and read by Foxglove);
+#: ``lz4`` needs the optional ``lz4`` package (``pip install coordarm[lz4]``).
+COMPRESSIONS = ("lz4", "zstd")
+#: Links above which the dense law's code generation and compilation take minutes (``coordarm run --yes``).
+DENSE_LINKS = 128
+
+
+def presets() -> list[str]:
+    """Names of the scenarios shipped with coordarm (the TOML files in ``coordarm.simulation.presets``).
+
+    Returns
+    -------
+    list of str
+        Sorted preset names, e.g. ``["arc", "hole", "line"]``.
+    """
+    return sorted(p.name[:-5] for p in (resources.files("coordarm.simulation") / "presets").iterdir()
+                  if p.name.endswith(".toml"))
+
+
+def lz4_frame() -> ModuleType:
+    """The ``lz4.frame`` module, imported on first need (lz4 is an optional dependency).
+
+    Returns
+    -------
+    module
+        ``lz4.frame``.
+
+    Raises
+    ------
+    ConfigError
+        lz4 is not installed (the message says how to install it).
+    """
+    try:
+        return import_module("lz4.frame")
+    except ImportError:
+        raise ConfigError("compression lz4: the lz4 package is not installed; "
+                          "install it with: pip install 'coordarm[lz4]' (or use zstd)") from None

@@ -1,0 +1,134 @@
+"""The packed output vector of the control law: one table, read by every layer.
+
+The law ``(q, t) -> outputs`` returns the rows of :data:`LAW_OUTPUTS` in table order; the
+generated C packs them into one ``double`` vector in the same order (its offsets are
+:func:`offsets`); the ctypes loader splits that vector with :func:`split`; the run log writes
+each row that names a ``channel`` into that channel, and replay reads it back by the same
+name. Adding an output to the law is adding a row here (and computing it in the law).
+
+Imports nothing (not even numpy), so the command line can read it without loading CasADi.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Output:
+    """One output of the control law.
+
+    Attributes
+    ----------
+    name : str
+        Its one name: the CasADi output name, the key of ``evaluate()``, the
+        :class:`~coordarm.simulation.run.Run` attribute and the log field.
+    per_link, extra : int
+        Width ``per_link * m + extra`` for a chain of ``m`` links (a scalar: ``(0, 1)``).
+    unit : str
+        Physical unit (``"-"`` for dimensionless, ``"rad/s"`` for controls with B = I).
+    channel : str or None
+        Key of the log channel (:func:`coordarm.simulation.log_schemas.numeric_channels`)
+        the output is written to at every logged step, or None if it is not logged.
+    description : str
+        What it is.
+    """
+
+    name: str
+    per_link: int
+    extra: int
+    unit: str
+    channel: str | None
+    description: str
+
+    @property
+    def scalar(self) -> bool:
+        """True for a scalar (width 1 whatever the number of links)."""
+        return self.per_link == 0 and self.extra == 1
+
+    def width(self, m: int) -> int:
+        """Number of doubles of this output for ``m`` links."""
+        return self.per_link * m + self.extra
+
+
+#: The law's outputs, in the order of the CasADi Function and of the packed C vector.
+LAW_OUTPUTS: tuple[Output, ...] = (
+    Output("u", 1, 0, "rad/s", "joint_state", "control u = B^-1 qdot (joint rates for B = I)"),
+    Output("e", 1, -1, "m", "task_state", "deviations e^2..e^m of the link centres from the curve"),
+    Output("s", 0, 1, "m", "task_state", "arc length s^m of the end point along the curve"),
+    Output("link_margins", 1, -1, "-", "margins", "link margins of links 2..m (0: link across the curve)"),
+    Output("longitudinal", 0, 1, "-", "margins",
+           "longitudinal margin (0: the end point cannot be pushed along the curve)"),
+    Output("longitudinal_pivot", 0, 1, "m/rad", None, "signed longitudinal pivot of the s equation"),
+)
+
+#: Names of the law's outputs, in order.
+OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS)
+#: The outputs that are scalars (the others are vectors over links).
+SCALAR_OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS if o.scalar)
+#: The outputs kept at every sample of a run and logged (those with a channel); the closed-loop RK4
+#: step returns them (the law at the step's start) after ``q_next``.
+RUN_OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS if o.channel is not None)
+
+
+def by_name(name: str) -> Output:
+    """The row of :data:`LAW_OUTPUTS` called ``name``.
+
+    Raises
+    ------
+    KeyError
+        No output has that name.
+    """
+    for o in LAW_OUTPUTS:
+        if o.name == name:
+            return o
+    raise KeyError(f"no law output named {name!r} (outputs: {', '.join(OUTPUTS)})")
+
+
+def packed_width(m: int) -> int:
+    """Length of the packed output vector for ``m`` links (``3 m + 1`` for the current table)."""
+    return sum(o.width(m) for o in LAW_OUTPUTS)
+
+
+def offsets(m: int) -> dict[str, tuple[int, int]]:
+    """``name -> (start, width)`` of each output in the packed vector for ``m`` links."""
+    out, start = {}, 0
+    for o in LAW_OUTPUTS:
+        out[o.name] = (start, o.width(m))
+        start += o.width(m)
+    return out
+
+
+def split(packed: Any, m: int) -> dict[str, Any]:
+    """Split packed output rows into a dict keyed by :data:`OUTPUTS`.
+
+    Parameters
+    ----------
+    packed : ndarray, shape (packed_width(m),) or (n, packed_width(m))
+        One packed row or a block of rows (a view is returned into it; copy if it is reused).
+    m : int
+        Number of links.
+
+    Returns
+    -------
+    dict
+        Vectors as ``(..., width)`` slices; scalars as a float (one row) or an ``(n,)`` array.
+
+    Raises
+    ------
+    ValueError
+        The last axis is not ``packed_width(m)`` long.
+    """
+    if packed.shape[-1] != packed_width(m):
+        raise ValueError(f"packed outputs: last axis of {packed.shape[-1]}, expected {packed_width(m)} "
+                         f"for {m} links")
+    result: dict[str, Any] = {}
+    offs = offsets(m)
+    for o in LAW_OUTPUTS:
+        start, width = offs[o.name]
+        if o.scalar:
+            v = packed[..., start]
+            result[o.name] = float(v) if v.ndim == 0 else v
+        else:
+            result[o.name] = packed[..., start:start + width]
+    return result
