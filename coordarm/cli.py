@@ -86,7 +86,7 @@ def _early_handlers() -> dict:
 
 def _main(argv: list[str] | None) -> int:
     from coordarm.symbolic.errors import CoordarmError
-    from coordarm.symbolic.interrupts import Interrupted
+    from coordarm.symbolic.interrupts import Interrupted, received
 
     command = "coordarm"
     try:
@@ -106,7 +106,9 @@ def _main(argv: list[str] | None) -> int:
         # exception set", chained from the KeyboardInterrupt.
         if isinstance(exc, SystemError) and not isinstance(exc.__cause__, KeyboardInterrupt):
             raise
-        why = f" ({exc})" if isinstance(exc, Interrupted) else ""
+        # CasADi may re-raise a Ctrl-C as a plain KeyboardInterrupt: the signal is still on record.
+        signum = exc.signum if isinstance(exc, Interrupted) else received()
+        why = f" (interrupted by {signal.Signals(signum).name})" if signum else ""
         print(f"{command}: interrupted{why}", file=sys.stderr)
         return 130
 
