@@ -3,7 +3,8 @@
 Simulates runs that are pushed into the longitudinal singularity with the stop thresholds
 disabled, then prints, per run, the blow-up time and the first time each margin crossed
 its threshold, plus the longitudinal margin at the blow-up and the lead time of several
-candidate longitudinal thresholds. The evidence behind ``DEFAULT_THRESHOLDS``.
+candidate longitudinal thresholds. The evidence behind ``DEFAULT_THRESHOLDS``. Each case is
+one point of a :func:`coordarm.simulation.sweep.sweep` (``--workers N``: on a local Dask cluster).
 """
 from __future__ import annotations
 
@@ -35,32 +36,63 @@ def blowup_cases() -> dict[str, tuple[CoordinatingController, np.ndarray, float]
     return cases
 
 
-def study(samples: int = 600) -> list[dict]:
-    """Run every case of :func:`blowup_cases` without stops and analyse it."""
-    rows = []
-    for name, (ctrl, q0, dur) in blowup_cases().items():
-        run = simulate_through(ctrl, q0, dur, 0.001)
-        a = analyse_run(ctrl, run.t, run.q, run.u, samples=samples)
-        k = min(np.searchsorted(run.t, a.blowup_time), len(run.t) - 1) if a.blowup_time is not None else -1
-        lead = {}
-        for thr in CANDIDATES:
-            hit = np.flatnonzero(~(run.longitudinal >= thr))
-            lead[thr] = (a.blowup_time - run.t[hit[0]]) if (len(hit) and a.blowup_time is not None) else None
-        rows.append({"name": name, "blowup": a.blowup_time, "crossings": a.crossings, "predicted": a.predicted(),
-                     "longitudinal_at_blowup": float(run.longitudinal[k]), "lead": lead})
-    return rows
+def threshold_point(spec: dict, point: dict, log_path=None) -> dict:
+    """One sweep point: the case ``point["case"]`` of :func:`blowup_cases` run without stops and analysed.
+
+    Returns
+    -------
+    dict
+        ``outcome`` (``singularity`` when ``|u|`` blew up), ``blowup`` [s], ``longitudinal_at_blowup``,
+        ``lead_<threshold>`` [s] for each of :data:`CANDIDATES` (NaN when never crossed), ``fires_<margin>``
+        (whether that margin crossed its threshold before the blow-up) and the sweep's margin columns.
+    """
+    ctrl, q0, dur = blowup_cases()[point["case"]]
+    run = simulate_through(ctrl, q0, dur, 0.001)
+    a = analyse_run(ctrl, run.t, run.q, run.u, samples=600)
+    blowup = a.blowup_time
+    k = min(np.searchsorted(run.t, blowup), len(run.t) - 1) if blowup is not None else -1
+    row = {**point, "outcome": "singularity" if blowup is not None else "completed", "message": "",
+           "stop_time": float(run.t[-1]), "min_link_margin": float(np.min(run.link_margins)),
+           "min_longitudinal": float(np.min(run.longitudinal)), "final_max_e": float(np.max(np.abs(run.e[-1]))),
+           "peak_u": float(np.max(np.abs(run.u))), "blowup": np.nan if blowup is None else float(blowup),
+           "longitudinal_at_blowup": float(run.longitudinal[k])}
+    for thr in CANDIDATES:
+        hit = np.flatnonzero(~(run.longitudinal >= thr))
+        row[f"lead_{thr}"] = float(blowup - run.t[hit[0]]) if (len(hit) and blowup is not None) else np.nan
+    row.update({f"fires_{name}": bool(v) for name, v in a.predicted().items()})
+    return row
 
 
-def main() -> None:
-    """Print the study as a Markdown table."""
-    rows = study()
+def study(client="serial", workers: int | None = None):
+    """Every case of :func:`blowup_cases` as one point of a sweep (see :func:`threshold_point`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per case (column ``case``).
+    """
+    from coordarm.simulation.scenario import load_scenario
+    from coordarm.simulation.sweep import sweep
+
+    return sweep(load_scenario("line"), {"case": list(blowup_cases())}, client=client, workers=workers,
+                 batch=1, point_fn=threshold_point)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Print the study as a Markdown table (``--workers N``: on a local Dask cluster)."""
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python -m coordarm.analysis.threshold_study", description=__doc__.splitlines()[0])
+    p.add_argument("--workers", type=int, help="run the cases on a local Dask cluster of N workers (default: here)")
+    args = p.parse_args(argv)
+    df = study(client=None if args.workers else "serial", workers=args.workers)
     print("| run | blow-up [s] | longitudinal at blow-up | " +
           " | ".join(f"lead of {t} [s]" for t in CANDIDATES) + " | sigma_min / 1/cond fire first? |")
     print("|---|---|---|" + "---|" * (len(CANDIDATES) + 1))
-    for r in rows:
-        fired = ["yes" if r["predicted"][n] else "no" for n in ("sigma_min", "inverse_cond", "inverse_cond_scaled")]
-        leads = " | ".join("—" if v is None else f"{v:+.3f}" for v in r["lead"].values())
-        print(f"| {r['name']} | {r['blowup']:.3f} | {r['longitudinal_at_blowup']:.4f} | {leads} | "
+    for r in df.to_dict("records"):
+        fired = ["yes" if r[f"fires_{n}"] else "no" for n in ("sigma_min", "inverse_cond", "inverse_cond_scaled")]
+        leads = " | ".join("—" if np.isnan(r[f"lead_{t}"]) else f"{r[f'lead_{t}']:+.3f}" for t in CANDIDATES)
+        print(f"| {r['case']} | {r['blowup']:.3f} | {r['longitudinal_at_blowup']:.4f} | {leads} | "
               f"{' / '.join(fired)} |")
 
 

@@ -5,7 +5,10 @@ tangent at the base, and every next centre the other intersection of the curve w
 circle of radius ``xi/2`` about the free joint, so that every centre lies exactly on the
 curve (for a line this is the uniform zig-zag of DESIGN.md section 2). The curves are arcs
 through the base, tangent to the x axis there, of curvature ``kappa`` (``kappa = 0``: the
-line). ``python -m coordarm.analysis.workspace OUT.png`` draws the default map.
+line). Each (link count, curvature, fold angle) is one point of a :func:`coordarm.simulation.sweep.sweep`
+(in this process, on a local Dask cluster with ``--workers N`` or a cluster with ``--scheduler``),
+and the maps are drawn from its results table. ``python -m coordarm.analysis.workspace OUT.png``
+draws the default map.
 """
 from __future__ import annotations
 
@@ -58,35 +61,84 @@ def curve_zigzag(m: int, xi: float, beta: float, curvature: float) -> np.ndarray
     return np.diff(np.concatenate([[0.0], alphas]))
 
 
-def workspace_map(links=(8, 16, 32, 64), betas=None, curvatures=None, xi: float = 0.1) -> dict:
-    """Margins of on-curve zig-zags over ``betas`` x ``curvatures`` for each link count.
+#: The scenario a workspace sweep starts from (its chain and curve are replaced point by point).
+BASE = {"chain": {"links": 8, "link_length": 0.1}, "curve": {"kind": "line", "point": [0.0, 0.0], "angle": 0.0},
+        "control": {"gain": 1.0, "speed": 0.1}}
+#: Varied names of a workspace sweep (the results table's first columns).
+NAMES = ("chain.links", "curvature", "start.beta")
+#: Mapped quantity -> column of the results table.
+COLUMNS = {"longitudinal": "min_longitudinal", "smallest_link": "min_link_margin", "log10_cond": "log10_cond"}
+_CONTROLLERS: dict[tuple, CoordinatingController] = {}
+
+
+def workspace_point(spec: dict, point: dict, log_path=None) -> dict:
+    """One sweep point of the map: margins of the on-curve zig-zag ``(chain.links, curvature, start.beta)``.
 
     Returns
     -------
     dict
-        ``link_counts``, ``betas`` [rad], ``curvatures`` [1/m], and for each key of :data:`MAPPED`
-        an array of shape (len(links), len(curvatures), len(betas)) (NaN where no zig-zag fits).
+        ``outcome`` completed (``error`` when no zig-zag fits), ``min_link_margin`` (smallest link
+        margin), ``min_longitudinal`` and ``log10_cond`` of the decoupling matrix [-].
     """
+    m, kappa, beta = int(point["chain.links"]), float(point["curvature"]), float(point["start.beta"])
+    xi = float(spec["chain"]["link_length"])
+    if kappa < 0 or not np.isfinite(kappa):
+        raise ConfigError(f"curvature: need a finite value >= 0, got {kappa}")
+    q = curve_zigzag(m, xi, beta, kappa)
+    if q is None:
+        return {**point, "outcome": "error", "message": "no zig-zag fits this curve"}
+    key = (m, xi, kappa)
+    if key not in _CONTROLLERS:
+        _CONTROLLERS[key] = CoordinatingController(PlanarChain(m, xi), Line() if kappa == 0 else Arc(radius=1.0 / kappa),
+                                                   1.0, 0.1)
+    mg = run_margins(_CONTROLLERS[key], np.zeros(1), q[None])
+    return {**point, "outcome": "completed", "message": "", "min_longitudinal": float(mg["longitudinal"][0]),
+            "min_link_margin": float(np.min(mg["links"])), "log10_cond": float(np.log10(mg["cond"][0]))}
+
+
+def workspace_map(links=(8, 16, 32, 64), betas=None, curvatures=None, xi: float = 0.1, client="serial",
+                  workers: int | None = None) -> dict:
+    """Margins of on-curve zig-zags over ``betas`` x ``curvatures`` for each link count, as a sweep.
+
+    Parameters
+    ----------
+    links : sequence of int
+        Link counts.
+    betas : array_like, optional
+        Fold angles [rad] (default 30 in [0.02, 1.56]).
+    curvatures : array_like, optional
+        Curvatures [1/m] (default 13 in [0, 1.5]).
+    xi : float
+        Link length [m].
+    client : None, str or distributed.Client
+        Where the sweep runs (see :func:`coordarm.simulation.sweep.sweep`; default here: this process).
+    workers : int, optional
+        Worker processes of the local cluster when ``client`` is None.
+
+    Returns
+    -------
+    dict
+        ``link_counts``, ``betas`` [rad], ``curvatures`` [1/m], ``table`` (the sweep's results
+        DataFrame) and for each key of :data:`MAPPED` an array of shape
+        (len(links), len(curvatures), len(betas)) (NaN where no zig-zag fits).
+
+    Raises
+    ------
+    ConfigError
+        A negative or non-finite curvature.
+    """
+    from coordarm.simulation.sweep import sweep
+
     betas = np.linspace(0.02, 1.56, 30) if betas is None else np.asarray(betas, dtype=float)
     curvatures = np.linspace(0.0, 1.5, 13) if curvatures is None else np.asarray(curvatures, dtype=float)
     if np.any(curvatures < 0) or not np.all(np.isfinite(curvatures)):
         raise ConfigError("curvatures: need finite values >= 0")
+    base = dict(BASE, chain={"links": 8, "link_length": xi})
+    table = sweep(base, dict(zip(NAMES, (list(links), list(curvatures), list(betas)))), client=client,
+                  workers=workers, point_fn=workspace_point)
     shape = (len(links), len(curvatures), len(betas))
-    out = {k: np.full(shape, np.nan) for k in MAPPED}
-    for i, m in enumerate(links):
-        chain = PlanarChain(int(m), xi)
-        for j, kappa in enumerate(curvatures):
-            curve = Line() if kappa == 0 else Arc(radius=1.0 / kappa)
-            ctrl = CoordinatingController(chain, curve, 1.0, 0.1)
-            qs = [curve_zigzag(chain.m, xi, b, kappa) for b in betas]
-            ok = [k for k, q in enumerate(qs) if q is not None]
-            if not ok:
-                continue
-            mg = run_margins(ctrl, np.zeros(len(ok)), np.array([qs[k] for k in ok]))
-            out["longitudinal"][i, j, ok] = mg["longitudinal"]
-            out["smallest_link"][i, j, ok] = np.min(mg["links"], axis=1)
-            out["log10_cond"][i, j, ok] = np.log10(mg["cond"])
-    return {"link_counts": list(links), "betas": betas, "curvatures": curvatures, **out}
+    out = {k: table[col].to_numpy(float).reshape(shape) for k, col in COLUMNS.items()}
+    return {"link_counts": list(links), "betas": betas, "curvatures": curvatures, "table": table, **out}
 
 
 def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = None) -> Path:
@@ -125,10 +177,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--links", type=int, nargs="+", default=[8, 16, 32, 64], help="link counts")
     p.add_argument("--betas", type=int, default=30, help="number of fold angles in [0.02, 1.56] rad")
     p.add_argument("--curvatures", type=int, default=13, help="number of curvatures in [0, 1.5] 1/m")
+    p.add_argument("--workers", type=int, help="run the sweep on a local Dask cluster of N workers (default: here)")
+    p.add_argument("--scheduler", help="run the sweep on the Dask cluster of this scheduler address")
     args = p.parse_args(argv)
     import matplotlib
     matplotlib.use("Agg")   # a command line writing files: no window (library calls keep the user's backend)
-    res = workspace_map(args.links, np.linspace(0.02, 1.56, args.betas), np.linspace(0.0, 1.5, args.curvatures))
+    client = args.scheduler or (None if args.workers else "serial")
+    res = workspace_map(args.links, np.linspace(0.02, 1.56, args.betas), np.linspace(0.0, 1.5, args.curvatures),
+                        client=client, workers=args.workers)
     print(f"workspace map  {plot_workspace(res, args.out)}")
     return 0
 

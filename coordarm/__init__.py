@@ -48,6 +48,7 @@ _EXPORTS = {
     "simulate": "coordarm.simulation.run",
     "Run": "coordarm.simulation.run",
     "estimate": "coordarm.simulation.limits",
+    "sweep": "coordarm.simulation.sweep",
     "Replay": "coordarm.analysis.replay",
     "load_log": "coordarm.analysis.replay",
 }

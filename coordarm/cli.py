@@ -14,6 +14,7 @@ COMMANDS = {
     "regen": "coordarm.commands.regen",
     "replay": "coordarm.commands.replay",
     "report": "coordarm.commands.report",
+    "sweep": "coordarm.commands.sweep",
     "layout": "coordarm.commands.layout",
 }
 

@@ -1,6 +1,7 @@
 """Choices the command line offers, kept free of heavy imports so that ``coordarm --help`` starts at once.
 
-The modules that act on them (:mod:`.run`, :mod:`.mcap_file`, :mod:`.scenario`) import them from here.
+The modules that act on them (:mod:`.run`, :mod:`.mcap_file`, :mod:`.scenario`, :mod:`.sweep_points`) import
+them from here.
 """
 from __future__ import annotations
 
@@ -16,6 +17,10 @@ BACKENDS = ("auto", "compiled", "interpreted")
 COMPRESSIONS = ("lz4", "zstd")
 #: Links above which the dense law's code generation and compilation take minutes (``coordarm run --yes``).
 DENSE_LINKS = 128
+#: Short names accepted by ``coordarm sweep --vary`` (the results column keeps the name as given).
+SWEEP_ALIASES = {"links": "chain.links", "link_length": "chain.link_length", "gain": "control.gain",
+                 "speed": "control.speed", "beta": "start.beta", "heading": "start.heading",
+                 "duration": "run.duration", "step": "run.step", "radius": "curve.radius", "angle": "curve.angle"}
 
 
 def presets() -> list[str]:

@@ -150,10 +150,13 @@ class Progress:
             return
         self.last = decile
         bar = "#" * int(frac * 30)
-        msg = (f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  t = {done:.2f}/{self.total:.2f} s  "
-               f"{_time.perf_counter() - self.start:.1f} s wall")
+        msg = f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  {self.status(done, _time.perf_counter() - self.start)}"
         self.stream.write(("\r" + msg) if self.tty else msg + "\n")
         self.stream.flush()
+
+    def status(self, done: float, elapsed: float) -> str:
+        """The text after the bar: simulated time done and wall time spent."""
+        return f"t = {done:.2f}/{self.total:.2f} s  {elapsed:.1f} s wall"
 
     def close(self) -> None:
         if self.tty:

@@ -7,7 +7,8 @@ import pytest
 
 import coordarm
 
-HEAVY = ("casadi", "matplotlib", "control", "numpy", "scipy", "mcap", "zstandard")
+HEAVY = ("casadi", "matplotlib", "control", "numpy", "scipy", "mcap", "zstandard", "dask", "distributed", "pandas",
+         "pyarrow")
 
 PROBE = """
 import json, sys
@@ -21,7 +22,7 @@ print("\\n" + json.dumps({{"code": code, "loaded": sorted(m for m in {heavy!r} i
 
 
 @pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["regen", "--help"], ["replay", "--help"],
-                                  ["report", "--help"], ["--version"]])
+                                  ["report", "--help"], ["sweep", "--help"], ["--version"]])
 def test_help_and_version_load_no_heavy_module(argv):
     res = subprocess.run([sys.executable, "-c", PROBE.format(argv=argv, heavy=HEAVY)],
                          capture_output=True, text=True, timeout=60)
@@ -48,7 +49,8 @@ def test_help_lists_the_choices_of_their_single_sources():
 
 def test_importing_the_figure_modules_keeps_the_users_matplotlib_backend():
     code = ("import matplotlib; matplotlib.use('svg'); import coordarm.simulation.figures, "
-            "coordarm.analysis.report_figures, coordarm.analysis.animation, coordarm.analysis.workspace; "
+            "coordarm.analysis.report_figures, coordarm.analysis.animation, coordarm.analysis.workspace, "
+            "coordarm.analysis.sweep_figures; "
             "print(matplotlib.get_backend())")
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr

@@ -9,7 +9,7 @@ README = Path(__file__).resolve().parent.parent / "README.md"
 
 def test_readme_api_compiled_and_analysis_examples_run():
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
-    examples = [b for b in blocks if "load(" not in b]   # the replay example needs a log: tested below
+    examples = [b for b in blocks if "load(" not in b and "sweep(" not in b]   # those two: tested below
     assert len(examples) == 4
     ns: dict = {}
     exec(compile("\n".join(examples).replace("20.0", "0.05"), str(README), "exec"), ns)
@@ -28,3 +28,14 @@ def test_readme_replay_example_runs_on_a_real_log(tmp_path, monkeypatch):
     ns: dict = {}
     exec(compile(block, str(README), "exec"), ns)
     assert ns["rep"].outcome["status"] == "completed" and ns["ctrl"].chain.m == 8
+
+
+def test_readme_sweep_example_runs_and_writes_its_results(tmp_path, monkeypatch):
+    block = next(b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S) if "sweep(" in b)
+    monkeypatch.chdir(tmp_path)
+    ns: dict = {}
+    exec(compile(block, str(README), "exec"), ns)
+    df = ns["df"]
+    assert list(df.columns[:3]) == ["control.gain", "links", "run.duration"] and len(df) == 6
+    assert set(df["outcome"]) == {"completed"}
+    assert (tmp_path / "logs" / "gain_sweep" / "results.parquet").is_file()

@@ -151,3 +151,19 @@ def test_threshold_study_cases_stop_before_the_blow_up(case):
         simulate(ctrl, q0, duration, 0.001)
     assert info.value.kind == "longitudinal" and info.value.time < a.blowup_time - 0.05
     assert np.max(np.abs(info.value.run.u), axis=1).max() < 10 * a.nominal_u
+
+
+def test_threshold_study_is_a_sweep_whose_lead_is_the_stop_of_a_normal_run():
+    """The study's row (a sweep point run without stops) against the stop of the same case run with stops."""
+    from coordarm.analysis.threshold_study import blowup_cases, threshold_point
+    from coordarm.simulation.scenario import load_scenario
+    from coordarm.simulation.sweep import sweep
+    from coordarm.symbolic import SingularityError
+
+    case = "32 links, arc R = 1.0, v* = 0.4"
+    (row,) = sweep(load_scenario("line"), {"case": [case]}, client="serial", point_fn=threshold_point).to_dict("records")
+    ctrl, q0, duration = blowup_cases()[case]
+    with pytest.raises(SingularityError) as info:
+        simulate(ctrl, q0, duration, 0.001)
+    assert row["outcome"] == "singularity" and row["fires_longitudinal"]
+    assert row["blowup"] - row["lead_0.15"] == pytest.approx(info.value.time, abs=1e-9)

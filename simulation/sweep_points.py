@@ -1,0 +1,340 @@
+"""The points of a parameter sweep and the run of one point (one row of the results table).
+
+A point is a mapping ``{name: value}`` over the varied names exactly as the user gave them
+(``"control.gain"``, ``"links"``, ...). A name is a dotted path into the scenario's TOML
+tables (``chain.links``, ``control.gain``, ``curve.radius``, ``start.beta``, ``run.duration``)
+or one of the short :data:`ALIASES`. Nothing here imports Dask: :mod:`.sweep` ships these
+functions to the workers, which run them on plain data (a scenario as a dict and the point),
+so the compiled controller is never pickled: each worker builds or loads it from its own
+content-addressed cache (:func:`coordarm.generated.build.build_root`).
+"""
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+import os
+import socket
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from coordarm.symbolic import ConfigError, CoordarmError, SingularityError, errors
+
+from .choices import SWEEP_ALIASES
+from .obstacles import clearance, wall_crossings
+from .run import simulate
+from .scenario import Scenario
+
+#: Short names accepted by ``--vary`` (the results column keeps the name as given).
+ALIASES = SWEEP_ALIASES
+#: How a point can end, from best to worst.
+OUTCOMES = ("completed", "singularity", "collision", "error")
+#: Result columns after the varied names, in order.
+RESULT_COLUMNS = ("outcome", "message", "stop_time", "min_link_margin", "min_longitudinal", "final_max_e",
+                  "peak_u", "min_clearance", "wall_time", "worker")
+#: A collision stop, once the simulation raises one (``coordarm.symbolic.errors.CollisionError``).
+_COLLISION = getattr(errors, "CollisionError", ())
+
+#: Controllers built in this process, by their (chain, curve, control) spec: a sweep over the start,
+#: the duration or the thresholds builds each controller (and loads its library) once per worker.
+_CONTROLLERS: dict[str, Any] = {}
+_MAX_CONTROLLERS = 8
+
+
+def field_path(name: str) -> tuple[str, ...]:
+    """The TOML path of a varied ``name`` (an alias or a dotted name), as a tuple of keys.
+
+    Raises
+    ------
+    ConfigError
+        An empty name or an empty path component.
+    """
+    path = tuple(ALIASES.get(name, name).split("."))
+    if not name or any(not p for p in path):
+        raise ConfigError(f"--vary: bad parameter name {name!r} (expected a dotted TOML name like control.gain)")
+    return path
+
+
+def _number(text: str, name: str) -> Any:
+    text = text.strip()
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    if not text:
+        raise ConfigError(f"--vary {name}: empty value")
+    return text
+
+
+def parse_vary(text: str) -> tuple[str, list]:
+    """Parse ``NAME=v1,v2,...`` (a list) or ``NAME=a:b:n`` (``n`` values from ``a`` to ``b``).
+
+    Returns
+    -------
+    (str, list)
+        The name as given and its values (int, float or str).
+
+    Raises
+    ------
+    ConfigError
+        No ``=``, a malformed range, or ``n < 1``.
+    """
+    name, sep, rest = text.partition("=")
+    name = name.strip()
+    if not sep or not name or not rest.strip():
+        raise ConfigError(f"--vary {text!r}: expected NAME=v1,v2,... or NAME=start:stop:count")
+    field_path(name)
+    if ":" in rest:
+        parts = rest.split(":")
+        vals = [_number(p, name) for p in parts]
+        if len(parts) != 3 or isinstance(vals[2], str) or isinstance(vals[2], float) or \
+                any(isinstance(v, str) for v in vals[:2]):
+            raise ConfigError(f"--vary {text!r}: a range is start:stop:count with an integer count")
+        if vals[2] < 1:
+            raise ConfigError(f"--vary {text!r}: count must be >= 1")
+        return name, [float(v) for v in np.linspace(vals[0], vals[1], vals[2])]
+    return name, [_number(p, name) for p in rest.split(",")]
+
+
+def grid_points(vary: dict[str, list]) -> list[dict]:
+    """Every combination of the varied values (cartesian product, last name fastest)."""
+    names = list(vary)
+    return [dict(zip(names, combo)) for combo in itertools.product(*(vary[n] for n in names))]
+
+
+def latin_hypercube_points(vary: dict[str, list], samples: int, seed: int,
+                           integers: set[str] | None = None) -> list[dict]:
+    """``samples`` Latin-hypercube points over the range (smallest to largest value) of each name.
+
+    Names whose values are not numbers are drawn from their list (uniform, seeded). The names
+    in ``integers`` (default: those whose values are all ints) are rounded.
+
+    Parameters
+    ----------
+    vary : dict
+        Name -> values; a numeric name's range is its smallest to its largest value.
+    samples : int
+        Number of points.
+    seed : int
+        Seed of the generator (the same seed gives the same points).
+    integers : set of str, optional
+        Names to round to integers.
+
+    Returns
+    -------
+    list of dict
+        ``samples`` points, each name -> value.
+
+    Raises
+    ------
+    ConfigError
+        ``samples < 1``.
+    """
+    from scipy.stats import qmc
+
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise ConfigError(f"--samples: need a positive integer, got {samples!r}")
+    names = list(vary)
+    u = qmc.LatinHypercube(d=len(names), seed=np.random.default_rng(seed)).random(samples)
+    cols = {}
+    for i, n in enumerate(names):
+        vals = vary[n]
+        if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+            lo, hi = min(vals), max(vals)
+            x = lo + u[:, i] * (hi - lo)
+            whole = n in integers if integers is not None else all(isinstance(v, int) for v in vals)
+            cols[n] = [int(round(v)) for v in x] if whole else [float(v) for v in x]
+        else:
+            cols[n] = [vals[min(int(v * len(vals)), len(vals) - 1)] for v in u[:, i]]
+    return [{n: cols[n][k] for n in names} for k in range(samples)]
+
+
+def apply_point(spec: dict, point: dict) -> Scenario:
+    """The scenario ``spec`` with every varied field of ``point`` set (validated again).
+
+    A value replaces the field whole (a motion table becomes a constant); an integer field
+    (``chain.links``) takes integral floats as ints.
+
+    Raises
+    ------
+    ConfigError
+        A name that is not a field of the scenario, or an invalid value (named).
+    """
+    spec = copy.deepcopy(spec)
+    for name, value in point.items():
+        path = field_path(name)
+        table = spec
+        for key in path[:-1]:
+            if not isinstance(table.get(key), dict):
+                raise ConfigError(f"--vary {name}: the scenario has no table {'.'.join(path[:-1])!r}")
+            table = table[key]
+        if isinstance(value, (float, np.floating)):
+            value = float(value)
+            if isinstance(table.get(path[-1]), int) and not isinstance(table.get(path[-1]), bool) \
+                    and value.is_integer():
+                value = int(value)
+        elif isinstance(value, np.integer):
+            value = int(value)
+        table[path[-1]] = value
+    return Scenario.from_dict(spec, "sweep point")
+
+
+def check_names(spec: dict, names: list[str]) -> None:
+    """Raise a ConfigError unless each name is an existing field of the scenario or of its section.
+
+    Fields of the fixed sections (``[chain]``, ``[control]``, ``[start]``, ``[run]``,
+    ``[thresholds]``) may be absent (their default is used); curve fields must be present.
+    """
+    from .scenario import KEYS
+
+    for name in names:
+        path = field_path(name)
+        table = spec
+        for key in path[:-1]:
+            table = table.get(key) if isinstance(table, dict) else None
+        ok = isinstance(table, dict) and (path[-1] in table or (len(path) == 2 and path[-1] in KEYS.get(path[0], ())))
+        if not ok:
+            raise ConfigError(f"--vary {name}: {'.'.join(path)} is not a field of the scenario")
+
+
+def integer_fields(spec: dict, names: list[str]) -> set[str]:
+    """The names whose field in the scenario holds an integer (e.g. ``chain.links``)."""
+    out = set()
+    for name in names:
+        value: Any = spec
+        for key in field_path(name):
+            value = value.get(key) if isinstance(value, dict) else None
+        if isinstance(value, int) and not isinstance(value, bool):
+            out.add(name)
+    return out
+
+
+def _controller(sc: Scenario):
+    key = repr([sc.spec["chain"], sc.spec["curve"], sc.spec["control"]])
+    ctrl = _CONTROLLERS.get(key)
+    if ctrl is None:
+        if len(_CONTROLLERS) >= _MAX_CONTROLLERS:
+            _CONTROLLERS.pop(next(iter(_CONTROLLERS)))
+        ctrl = _CONTROLLERS[key] = sc.controller()
+    return ctrl
+
+
+def worker_name() -> str:
+    """The Dask worker's address when called on one, else ``host:pid``."""
+    try:
+        from distributed import get_worker
+
+        return get_worker().address
+    except (ImportError, ValueError):
+        return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def _walls(sc: Scenario, ctrl, q: np.ndarray) -> tuple[float, str | None]:
+    """Smallest wall clearance over the run [m] (NaN without walls) and a collision message, if any."""
+    if not len(sc.obstacles) or not len(q):
+        return math.nan, None
+    joints = ctrl.chain.joints_np(q)
+    hits = wall_crossings(joints, sc.obstacles)
+    msg = None
+    if len(hits):
+        k, link, wall = hits[0]
+        msg = f"link {link} touches wall {wall} at sample {k}"
+    return float(clearance(joints, sc.obstacles).min()), msg
+
+
+def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
+    """Simulate one sweep point and summarise it as a row (never raises on a failed point).
+
+    Parameters
+    ----------
+    spec : dict
+        The base scenario (:attr:`Scenario.spec`).
+    point : dict
+        Varied name -> value.
+    log_path : str, optional
+        Write the point's MCAP log there.
+
+    Returns
+    -------
+    dict
+        The point's values and :data:`RESULT_COLUMNS`: ``outcome`` (one of :data:`OUTCOMES`),
+        ``message``, ``stop_time`` [s] (simulated time at which the run ended), the smallest
+        link and longitudinal margins [-], ``final_max_e`` [m], ``peak_u`` [rad/s],
+        ``min_clearance`` [m] (NaN without walls); :func:`run_batch` adds ``wall_time`` and ``worker``.
+    """
+    row = {**point, "outcome": "error", "message": "", "stop_time": math.nan, "min_link_margin": math.nan,
+           "min_longitudinal": math.nan, "final_max_e": math.nan, "peak_u": math.nan,
+           "min_clearance": math.nan}
+    run = None
+    try:
+        sc = apply_point(spec, point)
+        ctrl = _controller(sc)
+        q0 = sc.start(ctrl)
+        kw = dict(backend="auto", thresholds=sc.thresholds, progress=False)
+        try:
+            if log_path:
+                from .mcap_writer import RunLogger
+
+                Path(log_path).parent.mkdir(parents=True, exist_ok=True)
+                with RunLogger(log_path, sc, ctrl, command=["coordarm", "sweep", repr(point)]) as log:
+                    # every row kept (not thinned as with a log by default): the wall check below needs them
+                    run = simulate(ctrl, q0, sc.duration, sc.step, sc.t0, on_chunk=log.on_chunk,
+                                   keep=int(round(sc.duration / sc.step)) + 1, **kw)
+            else:
+                run = simulate(ctrl, q0, sc.duration, sc.step, sc.t0, **kw)
+            row["outcome"] = "completed"
+        except SingularityError as err:
+            run, row["outcome"], row["message"] = err.run, "singularity", str(err)
+        except _COLLISION as err:   # pragma: no cover - until the simulation raises collisions
+            run, row["outcome"], row["message"] = getattr(err, "run", None), "collision", str(err)
+        if run is not None:
+            row.update(stop_time=float(run.t[-1]), min_link_margin=float(np.min(run.link_margins)),
+                       min_longitudinal=float(np.min(run.longitudinal)),
+                       final_max_e=float(np.max(np.abs(run.e[-1]))), peak_u=float(np.max(np.abs(run.u))))
+            row["min_clearance"], hit = _walls(sc, ctrl, run.q)
+            if hit and row["outcome"] == "completed":
+                row["outcome"], row["message"] = "collision", hit
+    except CoordarmError as exc:
+        row["message"] = f"{type(exc).__name__}: {exc}"
+    except Exception as exc:   # noqa: BLE001 - a failing point is a row, the sweep goes on
+        row["message"] = f"{type(exc).__name__}: {exc}"
+    return row
+
+
+def run_batch(spec: dict, points: list[dict], point_fn: Callable[..., dict] | None = None,
+              log_paths: list[str | None] | None = None) -> list[dict]:
+    """Run ``points`` one after the other here (one Dask task): one row each, with ``wall_time`` and ``worker``.
+
+    Parameters
+    ----------
+    spec : dict
+        The base scenario (plain data: what a worker receives instead of a compiled controller).
+    points : list of dict
+        Varied name -> value, one dict per point.
+    point_fn : callable, optional
+        ``point_fn(spec, point, log_path) -> dict`` (default :func:`run_point`), importable on
+        the workers; an exception it raises becomes a row with outcome ``error``.
+    log_paths : list of str or None, optional
+        One MCAP log path per point (None: no logs).
+
+    Returns
+    -------
+    list of dict
+        One row per point, in order, with ``wall_time`` [s] and ``worker`` added.
+    """
+    fn = point_fn or run_point
+    rows = []
+    for p, lp in zip(points, log_paths or [None] * len(points)):
+        t0 = time.perf_counter()
+        try:
+            row = fn(spec, p, lp)
+        except Exception as exc:   # noqa: BLE001 - a failing point is a row, the sweep goes on
+            row = {**p, "outcome": "error", "message": f"{type(exc).__name__}: {exc}"}
+        row["wall_time"] = time.perf_counter() - t0
+        row["worker"] = worker_name()
+        rows.append(row)
+    return rows
