@@ -19,7 +19,6 @@ import shutil
 import signal
 import stat
 import subprocess
-import sys
 import tempfile
 import time
 import warnings
@@ -256,22 +255,24 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
         raise BuildError(f"build directory {entry}: {exc}") from None
     cmd = [cc_path, *REQUIRED_FLAGS, *flags, "-o", tmp, str(src), "-lm"]   # later flags win
     start = time.perf_counter()
+    placed = False
     try:
-        res = _run_compiler(cmd, timeout)
-    except subprocess.TimeoutExpired:
-        raise BuildError(f"compiling {src} took longer than {timeout:g} s; stopped "
-                         "(COORDARM_COMPILE_TIMEOUT sets the limit)") from None
-    except OSError as exc:
-        raise BuildError(f"C compiler {cc_path} did not run: {exc}") from None
+        try:
+            res = _run_compiler(cmd, timeout)
+        except subprocess.TimeoutExpired:
+            raise BuildError(f"compiling {src} took longer than {timeout:g} s; stopped "
+                             "(COORDARM_COMPILE_TIMEOUT sets the limit)") from None
+        except OSError as exc:
+            raise BuildError(f"C compiler {cc_path} did not run: {exc}") from None
+        seconds = time.perf_counter() - start
+        if res.returncode != 0:
+            raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
+        digest = _sha256(Path(tmp))
+        os.replace(tmp, entry / LIBRARY)
+        placed = True
     finally:
-        if sys.exc_info()[0] is not None:   # any failure or an interrupt: no half-written library left
+        if not placed:   # any failure or an interrupt: no half-written library left
             Path(tmp).unlink(missing_ok=True)
-    seconds = time.perf_counter() - start
-    if res.returncode != 0:
-        Path(tmp).unlink(missing_ok=True)
-        raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
-    digest = _sha256(Path(tmp))
-    os.replace(tmp, entry / LIBRARY)
     meta = {"key": key, "sha256": digest, "compiler": cc_path, "compiler_version": _compiler_version(cc_path),
             "flags": list(flags), "casadi": ca.__version__, "codegen_options": CODEGEN_OPTIONS,
             "form": source.form, "links": source.m, "compile_seconds": seconds}

@@ -364,3 +364,16 @@ def test_a_ctrl_c_swallowed_by_a_casadi_call_still_stops_the_run_before_its_firs
         with pytest.raises(interrupts.Interrupted, match="SIGINT"):
             simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted", on_chunk=seen.append)
     assert steps and not seen   # stopped before the first block
+
+
+def test_a_build_started_while_an_exception_is_handled_keeps_its_library(tmp_path):
+    """(A sweep worker compiles inside an ``except`` block of Dask's: the library must survive.)"""
+    from coordarm.generated.build import build, cached
+    from coordarm.generated.codegen import generate_source
+    ctrl = load_scenario("line").with_overrides(links=3).controller()
+    try:
+        raise RuntimeError("being handled")
+    except RuntimeError:
+        lib = build(generate_source(ctrl, "structured"), build_dir=tmp_path, force=True)
+    assert lib.path.is_file() and cached(lib.path.parent, lib.key)
+    assert not list(tmp_path.rglob("*.tmp"))
