@@ -20,7 +20,7 @@ test: install
 	$(PY) -m pytest -q
 
 bench: install
-	$(PY) benchmarks/run_benchmarks.py
+	$(PY) benchmarks/performance.py
 
 clean:
 	rm -rf $(VENV) logs/*.mcap logs/*.png logs/*.gif

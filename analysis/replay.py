@@ -170,7 +170,8 @@ class Replay(ExtraOutputs):
         Run
         """
         return Run.from_arrays({a: getattr(self, a) for a in ARRAYS},
-                               info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?")})
+                               info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?"),
+                                     "contacts": self.outcome.get("contacts", [])})
 
     def controller(self):
         """The controller that made the run, rebuilt from the scenario.

@@ -6,11 +6,15 @@ Margins are recomputed from ``q`` (:func:`analysis.singularity.run_margins`) on 
 subsample of the run, refined to full resolution around every threshold crossing.
 
 A *blow-up* is the first sample where ``|u|_inf`` exceeds ``BLOWUP_FACTOR`` (10) times its
-nominal value, the median of ``|u|_inf`` over the first second. A margin *predicts* it when
-it falls below its threshold strictly before that time.
+nominal value (:func:`nominal_u`: the median of ``|u|_inf`` over the whole run, but never
+less than the rate the commanded motion itself asks for, ``(max v* + K max|e(0)|) / xi``,
+so a run that starts at rest does not get a vanishing nominal). A margin *predicts* it when
+it falls below its threshold strictly before that time. :func:`write_report` also writes
+``report.json`` (smallest margins with time and link, the blow-up, the outcome, collisions).
 """
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -29,12 +33,17 @@ from .stability import RK4_LIMIT, delay_margin, max_stable_delay, sampled_limit
 NO_STOP = {"link": 0.0, "longitudinal": 0.0}
 
 
-def simulate_through(ctrl: CoordinatingController, q0, duration: float, step: float, t0: float = 0.0) -> Any:
-    """Simulate without singularity stops; a run that ends in non-finite margins is kept up to there."""
+def simulate_through(ctrl: CoordinatingController, q0, duration: float, step: float, t0: float = 0.0,
+                     backend: str = "auto") -> Any:
+    """Simulate without singularity stops; a run that ends in non-finite margins is kept up to there.
+
+    ``backend`` is :func:`~coordarm.simulation.run.simulate`'s (past a blow-up the trajectory
+    depends on rounding, so the compiled and interpreted laws part there).
+    """
     from coordarm.simulation.run import simulate
 
     try:
-        return simulate(ctrl, q0, duration, step, t0, thresholds=NO_STOP, progress=False)
+        return simulate(ctrl, q0, duration, step, t0, thresholds=NO_STOP, progress=False, backend=backend)
     except SingularityError as err:        # only non-finite margins stop it: keep what was computed
         return err.run
 
@@ -59,9 +68,11 @@ class RunAnalysis:
     t_all, u_norm : (N,) arrays
         All sample times [s] and ``|u|_inf`` there [rad/s].
     nominal_u : float
-        Median ``|u|_inf`` over the first second [rad/s].
+        Nominal ``|u|_inf`` (:func:`nominal_u`) [rad/s].
     blowup_time : float or None
         First time ``|u|_inf > BLOWUP_FACTOR * nominal_u`` [s].
+    blowup_link : int or None
+        1-based joint with the largest ``|u_j|`` at the blow-up.
     thresholds : dict
         Threshold of each margin.
     crossings : dict
@@ -76,6 +87,7 @@ class RunAnalysis:
     u_norm: np.ndarray
     nominal_u: float
     blowup_time: float | None
+    blowup_link: int | None
     thresholds: dict
     crossings: dict
     minima: dict
@@ -152,10 +164,10 @@ def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, flo
     for k, v in (thresholds or {}).items():
         thr["links" if k == "link" else k] = float(v)
     u_norm = np.max(np.abs(u), axis=1)
-    first_second = t - t[0] <= 1.0
-    nominal = float(np.median(u_norm[first_second]))
+    nominal = nominal_u(ctrl, t, q, u_norm)
     over = np.flatnonzero(~(u_norm <= BLOWUP_FACTOR * nominal))
     blowup = float(t[over[0]]) if len(over) else None
+    blowup_link = int(np.nanargmax(np.abs(u[over[0]]))) + 1 if len(over) and np.isfinite(u[over[0]]).any() else None
 
     idx = even_indices(len(t), samples or default_samples(ctrl.chain.m))
     mg = run_margins(ctrl, t[idx], q[idx])
@@ -177,7 +189,20 @@ def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, flo
         crossings[name] = float(ts[hit[0]]) if len(hit) else None
         k = int(np.nanargmin(v)) if np.isfinite(v).any() else 0
         minima[name] = (float(v[k]), float(ts[k]))
-    return RunAnalysis(ts, mg, t, u_norm, nominal, blowup, thr, crossings, minima)
+    return RunAnalysis(ts, mg, t, u_norm, nominal, blowup, blowup_link, thr, crossings, minima)
+
+
+def nominal_u(ctrl: CoordinatingController, t: np.ndarray, q: np.ndarray, u_norm: np.ndarray) -> float:
+    """Nominal ``|u|_inf`` of a run [rad/s]: robust, and not vanishing when the robot starts at rest.
+
+    The larger of the median of ``|u|_inf`` over the whole run and ``(max v* + K max|e(0)|) / xi``,
+    the joint rate the commanded motion asks of a link (end point speed and the decay of the
+    initial deviations, over one link length).
+    """
+    e0 = float(np.max(np.abs(ctrl.evaluate(q[0], float(t[0]))["e"])))
+    commanded = (float(np.max(np.abs(ctrl.speeds(t)))) + ctrl.gain * e0) / ctrl.chain.xi
+    finite = u_norm[np.isfinite(u_norm)]
+    return max(float(np.median(finite)) if len(finite) else 0.0, commanded)
 
 
 def _fmt(x: float | None, unit: str = " s") -> str:
@@ -212,7 +237,7 @@ def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController,
     lines += ["", f"Worst link over the run: link {int(worst[k])} at t = {a.t[k]:.3f} s; "
               f"links that were ever the worst: {sorted(set(int(w) for w in worst))[:20]}.", "",
               "## Blow-up", "",
-              f"* nominal |u|_inf (median over the first second): {a.nominal_u:.4g} rad/s",
+              f"* nominal |u|_inf (median over the run, at least (max v* + K max|e(0)|)/xi): {a.nominal_u:.4g} rad/s",
               f"* first |u|_inf > {BLOWUP_FACTOR:g} x nominal: {_fmt(a.blowup_time)}",
               f"* largest |u|_inf: {np.nanmax(a.u_norm):.4g} rad/s; largest cond(M): "
               f"{np.nanmax(a.margins['cond']):.4g}; largest amplification xi|u|/|v*|: {amp}"]
@@ -292,4 +317,54 @@ def write_report(run: Any, scenario: Any, out_dir: str | Path, ctrl: Coordinatin
             plot_step_responses(ctrl.gain, step or 0.001, out / "step_responses.png", title)]
     path = out / "report.md"
     path.write_text(markdown(a, scenario, ctrl, step, figs, checks), encoding="utf-8")
+    (out / "report.json").write_text(json.dumps(summary_json(a, run, scenario, ctrl), indent=2) + "\n",
+                                     encoding="utf-8")
     return path
+
+
+def summary_json(a: RunAnalysis, run: Any, scenario: Any, ctrl: CoordinatingController) -> dict:
+    """Machine-readable results: smallest margins (time, link), blow-up, outcome, collisions, clearance.
+
+    Parameters
+    ----------
+    a : RunAnalysis
+        The analysis of the run.
+    run : object
+        The run or replayed log (``t``, ``q``; ``outcome`` or ``info["stopped"]``).
+    scenario : Scenario
+        Its scenario (obstacles).
+    ctrl : CoordinatingController
+        Its controller (chain with joint limits and clearance).
+
+    Returns
+    -------
+    dict
+        JSON-ready; ``clearance`` maps each obstacle's name to its smallest distance [m], time and link.
+    """
+    from coordarm.simulation.physical import Physical, distinct
+
+    worst = a.margins["worst_link"]
+    margins = {}
+    for name in MARGINS:
+        value, when = a.minima[name]
+        k = int(np.argmin(np.abs(a.t - when)))
+        margins[name] = {"value": _num(value), "time": when, "threshold": a.thresholds[name],
+                         "first_below": a.crossings[name],
+                         "link": int(worst[k]) if name == "links" else None}
+    outcome = getattr(run, "outcome", None) or {"status": getattr(run, "info", {}).get("stopped", "unknown")}
+    q, t = np.asarray(run.q, float), np.asarray(run.t, float)
+    rows = even_indices(len(t), 2000)
+    rows = rows[np.all(np.isfinite(q[rows]), axis=1)]
+    physical = Physical(ctrl.chain, list(scenario.obstacles))
+    found = distinct(physical.check(t[rows], q[rows]))
+    clearance = {name: {"distance": d, "time": when, "link": link}
+                 for name, (d, when, link) in physical.clearances(q[rows], t[rows]).items()}
+    blowup = None if a.blowup_time is None else {
+        "time": a.blowup_time, "link": a.blowup_link, "nominal_u": a.nominal_u, "factor": BLOWUP_FACTOR}
+    return {"scenario": scenario.name, "links": ctrl.chain.m, "t_start": float(t[0]), "t_end": float(t[-1]),
+            "outcome": outcome, "margins": margins, "blowup": blowup, "nominal_u": a.nominal_u,
+            "collisions": [c.to_dict() for c in found], "clearance": clearance}
+
+
+def _num(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None

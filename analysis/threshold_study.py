@@ -23,11 +23,11 @@ def blowup_cases() -> dict[str, tuple[CoordinatingController, np.ndarray, float]
     from coordarm.simulation.scenario import load_scenario
 
     cases = {}
-    for preset, v, dur in (("arc", 0.15, 16.0), ("arc", 0.25, 10.0), ("line", 0.3, 17.0)):
+    for preset, v, dur in (("arc", 0.15, 34.0), ("arc", 0.25, 30.0), ("line", 0.3, 17.0)):
         sc = load_scenario(preset)
         c = sc.controller()
         cases[f"{preset} preset, v* = {v}"] = (CoordinatingController(c.chain, c.curve, c.gain, v), sc.start(c), dur)
-    for m, R, v, dur in ((64, 2.0, 0.2, 11.0), (32, 1.0, 0.4, 3.0)):
+    for m, R, v, dur in ((64, 2.0, 0.2, 26.0), (32, 1.0, 0.4, 7.0)):
         c = CoordinatingController(PlanarChain(m, 0.1), Arc(radius=R), 2.0, v)
         cases[f"{m} links, arc R = {R}, v* = {v}"] = (c, project_onto_curve(c, c.chain.zigzag(1.3)), dur)
     chain = PlanarChain(16, 0.1)

@@ -41,6 +41,7 @@ sys.path.insert(0, str(HERE))
 from coordarm.generated.build import build, find_compiler  # noqa: E402
 from coordarm.generated.codegen import generate_source  # noqa: E402
 from numpy_dense import dense_law_line  # noqa: E402
+from timing import c_driver, c_interleaved  # noqa: E402
 from coordarm.simulation.run import DEFAULT_CHUNK, chunk_function, simulate  # noqa: E402
 from coordarm.simulation.scenario import load_scenario  # noqa: E402
 from coordarm.symbolic import BuildError, CoordinatingController, Line, PlanarChain  # noqa: E402
@@ -49,26 +50,10 @@ SIZES = (8, 64, 256, 1024)
 DENSE_LIMIT_SECONDS = 60.0
 
 
-def c_driver() -> Path:
-    """Compile ``bench_driver.c`` (once per source version) and return the executable."""
-    src = HERE / "bench_driver.c"
-    exe = Path(tempfile.gettempdir()) / f"coordarm_bench_driver_{os.getuid()}_{int(src.stat().st_mtime)}"
-    if not exe.exists():
-        subprocess.run([find_compiler(), "-O2", "-o", str(exe), str(src), "-ldl"], check=True)
-    return exe
-
-
 def time_from_c(driver: Path, comp, q: np.ndarray, reps: int, t: float = 1.0) -> tuple[float, float]:
-    """Median ns per ``coordarm_law`` and per ``coordarm_rk4`` call, timed in C (batches of about 1 ms)."""
-    calls = max(40, 60_000 // comp.m)
-    with tempfile.NamedTemporaryFile(suffix=".bin", delete=False) as f:
-        np.ascontiguousarray(q, dtype=float).tofile(f)
-    try:
-        out = subprocess.run([str(driver), str(comp.library.path), f.name, repr(t), str(calls), str(reps)],
-                             capture_output=True, text=True, check=True).stdout.split()
-    finally:
-        os.unlink(f.name)
-    return float(out[0]), float(out[1])
+    """Median ns per ``coordarm_law`` and per ``coordarm_rk4`` call, timed in C (``reps`` rounds)."""
+    law, rk4 = c_interleaved([comp.library.path], q, rounds=max(3, reps), batch_ms=2.0, t=t)
+    return float(np.median(law)), float(np.median(rk4))
 
 
 def median_time(fn, target: float = 0.001, repeat: int = 61) -> float:

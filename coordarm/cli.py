@@ -16,6 +16,7 @@ COMMANDS = {
     "report": "coordarm.commands.report",
     "sweep": "coordarm.commands.sweep",
     "layout": "coordarm.commands.layout",
+    "export": "coordarm.commands.export",
 }
 
 

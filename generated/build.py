@@ -14,6 +14,7 @@ import functools
 import hashlib
 import json
 import os
+import platform
 import shlex
 import shutil
 import signal
@@ -32,8 +33,10 @@ from coordarm.symbolic.errors import shown
 
 from .codegen import CODEGEN_OPTIONS, Source
 
-#: Optimisation flags (see benchmarks/RESULTS.md for -O2 vs -O3); override with COORDARM_CFLAGS.
-DEFAULT_FLAGS = ("-O3",)
+#: Optimisation flags (see benchmarks/RESULTS.md); override with COORDARM_CFLAGS. ``-fno-math-errno``
+#: lets the link angles' cosines and sines vectorise (glibc libmvec), ``-march=native`` uses the
+#: widest vectors of this CPU (and FMA). No ``-ffast-math``: the non-finite checks need IEEE NaN.
+DEFAULT_FLAGS = ("-O3", "-fno-math-errno", "-march=native")
 #: Flags every build needs: position-independent shared object, only the glue API exported.
 REQUIRED_FLAGS = ("-fPIC", "-shared", "-fvisibility=hidden")   # before the user flags
 LIBRARY, SOURCE, META = "libcoordarm.so", "coordarm.c", "meta.json"
@@ -180,11 +183,29 @@ def compile_flags(flags: tuple[str, ...] | list[str] | str | None = None) -> tup
         raise BuildError(f"{name}: cannot split {shown(flags)} into flags: {exc}") from None
 
 
+@functools.lru_cache(maxsize=None)
+def cpu_identity() -> str:
+    """This machine's CPU model and feature flags (part of the key of ``-march=native`` builds)."""
+    keep = ("model name", "flags", "Features", "CPU part")
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        return platform.machine() + " " + platform.processor()
+    seen: dict[str, str] = {}
+    for line in lines:
+        name, _, value = line.partition(":")
+        if name.strip() in keep:
+            seen.setdefault(name.strip(), value.strip())
+    return platform.machine() + " " + json.dumps(seen, sort_keys=True)
+
+
 def cache_key(source: Source, cc: str, flags: tuple[str, ...]) -> str:
-    """SHA-256 over source, compiler path and version, flags, CasADi version, codegen options."""
+    """SHA-256 over source, compiler path and version, flags, CasADi version, codegen options,
+    and the CPU when a flag asks for ``native`` code (a shared cache then never serves another CPU)."""
     h = hashlib.sha256()
+    cpu = cpu_identity() if any("native" in f for f in flags) else ""
     for part in (source.text, cc, _compiler_version(cc), json.dumps(list(flags)), ca.__version__,
-                 json.dumps(CODEGEN_OPTIONS, sort_keys=True), json.dumps(list(REQUIRED_FLAGS))):
+                 json.dumps(CODEGEN_OPTIONS, sort_keys=True), json.dumps(list(REQUIRED_FLAGS)), cpu):
         h.update(part.encode())
         h.update(b"\0")
     return h.hexdigest()

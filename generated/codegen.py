@@ -1,7 +1,8 @@
 """Emit the C source of a controller: CasADi-generated Functions plus the glue of :mod:`.templates`.
 
 The structured law is emitted as four small Functions (time features, first carry, one
-link step, tail) and a C loop over links, so the code size and the compile time do not
+link step without trigonometry, tail) and C loops over links (angles, all cosines and sines
+in one vectorised loop, the recursion), so the code size and the compile time do not
 grow with the number of links. The dense law (eq. 27) is emitted as one Function.
 """
 from __future__ import annotations
@@ -39,9 +40,11 @@ class Source:
     m: int
 
 
-def _functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
+def functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
+    """The CasADi Functions the C of ``form`` calls (the structured form's time features first)."""
     if form == "structured":
-        return [ctrl.time_features(), ctrl.first_carry(), ctrl.link_step(), ctrl.tail()]
+        return [ctrl.time_features(True), ctrl.first_carry(), ctrl.link_step_trig(), ctrl.tail(),
+                ctrl.link_pivot()]
     return [ctrl.law("dense")]
 
 
@@ -94,21 +97,36 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     """
     if form not in LAWS:
         raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
+    funcs = functions(ctrl, form)
+    if form == "structured":
+        law = templates.STRUCTURED_LAW
+    else:
+        results = "\n".join(f"  res[{i}] = {'u' if name == 'u' else 'out + CA_OUT_' + name.upper()};"
+                            for i, name in enumerate(OUTPUTS))
+        law = templates.DENSE_LAW.replace("{law_name}", funcs[0].name()).replace("{results}", results)
+    return assemble_source(ctrl, funcs, law, form)
+
+
+def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law: str, form: str, *,
+                    name: str = "coordarm", api: str = templates.LOOP) -> Source:
+    """One translation unit: the generated ``funcs``, the glue header, the C ``law`` and the ``api``.
+
+    ``law`` defines ``ca_law`` and ``CA_LAW_SCRATCH`` (see :mod:`.templates`); for the
+    structured form, ``funcs[0]`` is the time-features Function (its size sets ``CA_NW``).
+    ``name`` prefixes CasADi's helper symbols.
+    """
     b_macros = _b_macros(ctrl)
-    funcs = _functions(ctrl, form)
-    cg = ca.CodeGenerator("coordarm", dict(CODEGEN_OPTIONS))
+    cg = ca.CodeGenerator(name, dict(CODEGEN_OPTIONS))
     for f in funcs:
         cg.add(f)
     sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
              for k in ("arg", "res", "iw", "w")}
     m = ctrl.chain.m
-    parts = [templates.CASADI_BEGIN, cg.dump(), templates.CASADI_END, templates.HEADER.format(m=m, layout=layout_macros(m), b_diagonal=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
+    parts = [templates.CASADI_BEGIN, cg.dump(), templates.CASADI_END,
+             templates.HEADER.format(m=m, layout=layout_macros(m), b_diagonal=b_macros,
+                                     **{f"sz_{k}": v for k, v in sizes.items()})]
     if form == "structured":
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
                      f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
-        parts.append(templates.STRUCTURED_LAW)
-    else:
-        results = "\n".join(f"  res[{i}] = out + CA_OUT_{name.upper()};" for i, name in enumerate(OUTPUTS))
-        parts.append(templates.DENSE_LAW.replace("{law_name}", funcs[0].name()).replace("{results}", results))
-    parts.append(templates.LOOP)
+    parts += [law, api]
     return Source("\n".join(parts), form, m)

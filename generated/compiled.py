@@ -1,7 +1,8 @@
 """The compiled controller: the generated library loaded with ctypes, with a lean call path.
 
 Buffers (state, outputs, CasADi work arrays) are allocated once per object, so a call
-from Python is one ctypes call plus a copy of ``q`` in and of ``u`` out.
+from Python is one ctypes call plus a copy of ``u`` out, or, with ``out=``, no copy at all
+(a float64 C-contiguous ``q`` is read in place).
 """
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from .codegen import generate_source
 
 _P, _D, _I = ctypes.c_void_p, ctypes.c_double, ctypes.c_longlong
 _SIGNATURES = {"coordarm_law": [_P, _D, _P, _P, _P],
+               "coordarm_control": [_P, _D, _P, _P, _P, _P],
                "coordarm_rk4": [_P, _D, _D, _P, _P, _P, _P],
                "coordarm_chunk": [_P, _P, _D, _I, _P, _P, _P, _P]}
 
@@ -124,6 +126,10 @@ class CompiledController:
                      self._qn.ctypes.data)
         self._law_c, self._rk4_c, self._chunk_c = (self._lib.coordarm_law, self._lib.coordarm_rk4,
                                                    self._lib.coordarm_chunk)
+        self._control_c = self._lib.coordarm_control
+        # one-slot caches of caller arrays used in place: (array, its data pointer); holding the
+        # array keeps its buffer alive and fixed (numpy refuses to resize a referenced array)
+        self._seen = {"q": (None, 0), "u": (None, 0), "out": (None, 0)}
 
     @property
     def cache_hit(self) -> bool:
@@ -136,43 +142,94 @@ class CompiledController:
         else:
             self._q[:] = self.chain.check_q(q)
 
-    def _fail(self, rc: int, t: float) -> None:
+    def _in_place(self, role: str, a, size: int) -> int:
+        """Data pointer of ``a`` if C can use it in place (float64, C-contiguous, ``size`` values), else 0."""
+        seen, ptr = self._seen[role]
+        if a is seen:
+            return ptr
+        if (type(a) is np.ndarray and a.dtype == np.float64 and a.shape == (size,) and a.flags.c_contiguous
+                and (role == "q" or a.flags.writeable)):
+            ptr = a.ctypes.data
+            self._seen[role] = (a, ptr)
+            return ptr
+        return 0
+
+    def _q_pointer(self, q) -> int:
+        """``q``'s own buffer when it is a float64 C-contiguous (m,) array, else a checked copy's."""
+        ptr = self._in_place("q", q, self.m)
+        if ptr:
+            return ptr
+        self._load_q(q)
+        return self._ptr[0]
+
+    def _out_pointer(self, out, size: int, role: str) -> int:
+        ptr = self._in_place(role, out, size)
+        if not ptr:
+            raise ConfigError(f"out: need a writeable C-contiguous float64 array of shape ({size},), "
+                              f"got {type(out).__name__} {getattr(out, 'shape', '')}")
+        return ptr
+
+    def _fail(self, rc: int, t: float, q=None) -> None:
         if rc == 1:
-            self.chain.check_q(self._q)
+            self.chain.check_q(self._q if q is None else q)
             raise ConfigError(f"t: must be finite, got {t!r}")
         if rc == 3:
             raise NonFiniteError(f"the compiled law produced a non-finite value at t = {t!r} "
                                  f"(a singular configuration, or the curve undefined there)")
         raise BuildError(f"generated library {self.library.path}: a generated Function failed (code {rc})")
 
-    def control(self, q, t: float = 0.0) -> np.ndarray:
-        """Control ``u(q, t)``, shape (m,), from joint coordinates ``q`` [rad] at time ``t`` [s].
+    def control(self, q, t: float = 0.0, out: np.ndarray | None = None) -> np.ndarray:
+        """Control ``u(q, t)``, shape (m,).
+
+        Parameters
+        ----------
+        q : (m,) array_like
+            Joint coordinates [rad]; a float64 C-contiguous array is read in place.
+        t : float
+            Time [s].
+        out : (m,) float64 ndarray, optional
+            Write ``u`` [rad/s per unit of B] here, in place, and return it (no copies).
 
         Raises
         ------
         ConfigError
-            ``q`` of the wrong shape or not finite, or ``t`` not finite.
+            ``q`` or ``t`` not finite, wrong shapes, or an unusable ``out``.
         NonFiniteError
             The law produced NaN or inf (a singular configuration, or the curve undefined at ``t``).
         """
-        self._load_q(q)
-        rc = self._law_c(self._ptr[0], t, self._ptr[1], self._ptr[2], self._ptr[3])
+        qp = self._q_pointer(q)
+        if out is None:
+            rc = self._law_c(qp, t, self._ptr[1], self._ptr[2], self._ptr[3])
+            if rc:
+                self._fail(rc, t, q)
+            return self._out[:self.m].copy()
+        up = self._out_pointer(out, self.m, "u")
+        rc = self._control_c(qp, t, up, self._ptr[1], self._ptr[2], self._ptr[3])
         if rc:
-            self._fail(rc, t)
-        return self._out[:self.m].copy()
+            self._fail(rc, t, q)
+        return out
 
-    def evaluate(self, q, t: float = 0.0) -> dict[str, Any]:
+    def evaluate(self, q, t: float = 0.0, out: np.ndarray | None = None) -> dict[str, Any]:
         """All outputs of the law at ``(q, t)``, keyed like :meth:`CoordinatingController.evaluate`.
 
+        With ``out`` (a float64 array of the packed width, see :mod:`coordarm.symbolic.outputs`),
+        the packed outputs are written there in place and the dict holds views of it.
+
         Raises
         ------
         ConfigError
-            ``q`` of the wrong shape or not finite, or ``t`` not finite.
+            ``q`` or ``t`` not finite, wrong shapes, or an unusable ``out``.
         NonFiniteError
             The law produced NaN or inf (a singular configuration, or the curve undefined at ``t``).
         """
-        self.control(q, t)
-        return split(self._out.copy(), self.m)
+        if out is None:
+            self.control(q, t)
+            return split(self._out.copy(), self.m)
+        qp = self._q_pointer(q)
+        rc = self._law_c(qp, t, self._out_pointer(out, self.n_out, "out"), self._ptr[2], self._ptr[3])
+        if rc:
+            self._fail(rc, t, q)
+        return split(out, self.m)
 
     def step(self, q, t: float, h: float) -> np.ndarray:
         """One closed-loop RK4 step of length ``h`` [s] from ``(q, t)``: the next state [rad].

@@ -5,6 +5,9 @@ The glue defines the library's whole API (every other symbol is hidden):
 * ``coordarm_law(q, t, out, iw, w)``: the law at ``(q, t)``; ``out`` is the packed output
   vector of :data:`coordarm.symbolic.outputs.LAW_OUTPUTS` (``CA_NOUT`` doubles, each output
   at its offset ``CA_OUT_<NAME>``, macros emitted by :mod:`.codegen` from that table);
+* ``coordarm_control(q, t, u, out, iw, w)``: the same with ``u`` written to an array of its own
+  (``out`` receives the other outputs at their offsets; its ``u`` part is left alone), so a
+  caller's arrays are written without copies;
 * ``coordarm_rk4(q, t, h, q_next, out, iw, w)``: one closed-loop RK4 step, ``out`` being
   the law at the step's start;
 * ``coordarm_chunk(q0, times, h, n, Q, D, iw, w)``: ``n`` RK4 steps in one call;
@@ -32,8 +35,13 @@ HEADER = """
 #define CA_SZ_RES {sz_res}
 #define CA_SZ_IW {sz_iw}
 #define CA_SZ_W {sz_w}
-#define CA_SCRATCH (6 * CA_M + CA_NOUT)
+#define CA_RK4_SCRATCH (5 * CA_M + CA_NOUT)
 #define COORDARM_API __attribute__((visibility("default")))
+#if defined(__GNUC__)
+#define CA_FLATTEN __attribute__((flatten))
+#else
+#define CA_FLATTEN
+#endif
 {b_diagonal}
 #include <stdint.h>
 #include <string.h>
@@ -44,12 +52,12 @@ typedef char ca_real_is_an_ieee_double[sizeof(casadi_real) == sizeof(uint64_t) ?
    which -ffast-math (-ffinite-math-only) lets the compiler fold to "always finite". */
 static int ca_all_finite(const casadi_real* x, casadi_int n) {{
   casadi_int j;
-  uint64_t bits;
-  for (j = 0; j < n; ++j) {{
+  uint64_t bits, bad = 0;
+  for (j = 0; j < n; ++j) {{          /* no early exit: the loop vectorises (called per law call) */
     memcpy(&bits, x + j, sizeof bits);
-    if ((bits & CA_EXPONENT) == CA_EXPONENT) return 0;
+    bad |= (bits & CA_EXPONENT) == CA_EXPONENT;
   }}
-  return 1;
+  return !bad;
 }}
 
 static int ca_finite(const casadi_real* q, casadi_real t) {{
@@ -72,28 +80,99 @@ B_DIAGONAL = """static const casadi_real ca_bd[CA_M] = {{{values}}};
 B_IDENTITY = """#define CA_U_FROM_QDOT(j, v) (v)
 #define CA_K_FROM_U(j, v) (v)"""
 
-#: The structured law: a loop over links calling the generated per-link step.
-STRUCTURED_LAW = """
-static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
-  casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[4], tl[4], a[CA_M], b[CA_M];
-  casadi_real *cur = c0, *nxt = c1, *tmp, p, rate, prev;
+#: Vector cosine and sine: glibc's libmvec on x86-64, declared here so that the trig loop
+#: vectorises under ``-O3 -fno-math-errno`` without ``-ffast-math`` (which glibc's own
+#: declarations need, and which would break the non-finite checks). Elsewhere (another C
+#: library or architecture, clang, or ``-DCOORDARM_SCALAR_TRIG``) the loop stays scalar.
+VECTOR_TRIG = """
+#if defined(__x86_64__) && defined(__GLIBC__) && defined(__GNUC__) && !defined(__clang__) \\
+    && __GNUC__ >= 6 && !defined(__FAST_MATH__) && !defined(COORDARM_SCALAR_TRIG)
+#if __GLIBC_PREREQ(2, 22)
+#define COORDARM_VECTOR_TRIG 1
+__attribute__((simd("notinbranch"))) double cos(double);
+__attribute__((simd("notinbranch"))) double sin(double);
+#endif
+#endif
+"""
+
+#: The first two passes of the structured law: link angles (prefix sum, in the order of the
+#: symbolic law), then all cosines and sines in loops without loop-carried dependence.
+TRIG_PASSES = VECTOR_TRIG + """
+/* alpha_j = q_1 + ... + q_j, summed left to right like alpha_prev + q_j in the recursion */
+static void ca_angles(const casadi_real* q, casadi_real* alpha) {
+  casadi_int j;
+  alpha[0] = q[0];
+  for (j = 1; j < CA_M; ++j) alpha[j] = alpha[j - 1] + q[j];
+}
+
+/* cos and sin of every link angle: independent iterations. Vectorised (libmvec) as two
+   loops, since gcc would fuse one loop's cos and sin into a scalar sincos; else one loop. */
+static void ca_trig(const casadi_real* restrict alpha, casadi_real* restrict c, casadi_real* restrict s) {
+  casadi_int j;
+#ifdef COORDARM_VECTOR_TRIG
+  for (j = 0; j < CA_M; ++j) c[j] = cos(alpha[j]);
+  for (j = 0; j < CA_M; ++j) s[j] = sin(alpha[j]);
+#else
+  for (j = 0; j < CA_M; ++j) {
+    c[j] = cos(alpha[j]);
+    s[j] = sin(alpha[j]);
+  }
+#endif
+}
+"""
+
+#: The structured law: :data:`TRIG_PASSES`, then the O(m) recursion calling the generated
+#: per-link step (which has no trigonometry), then the tail and the rates.
+STRUCTURED_LAW = TRIG_PASSES + """
+#define CA_LAW_SCRATCH (5 * CA_M)
+
+/* One link j: carry `from` -> carry `to`; writes e^j, the link margin and a_j, b_j. */
+#define CA_LINK(j, from, to) do { \\
+    arg[0] = from; arg[1] = q + (j); arg[2] = c + (j); arg[3] = s + (j); arg[4] = wt; \\
+    res[0] = &inv; \\
+    if (link_pivot(arg, res, iw, w, 0)) return 2; \\
+    arg[5] = &inv; res[0] = to; res[1] = o; \\
+    if (link_step_trig(arg, res, iw, w, 0)) return 2; \\
+    out[CA_OUT_E + (j) - 1] = o[0]; out[CA_OUT_LINK_MARGINS + (j) - 1] = o[1]; \\
+    a[j] = o[2]; b[j] = o[3]; \\
+  } while (0)
+
+/* The recursion over links 2..m; the carry is copied back (not pointer-swapped) and the step has
+   a single call site and is inlined (flatten), so the compiler keeps the carry in registers. */
+CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, const casadi_real* s,
+                        const casadi_real* wt, casadi_real* carry, casadi_real* out,
+                        casadi_real* a, casadi_real* b, casadi_int* iw, casadi_real* w) {
+  casadi_real c0[CA_NC], c1[CA_NC], o[4], inv;
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  casadi_int j, k;
+  a[0] = 0; b[0] = 1;
+  for (k = 0; k < CA_NC; ++k) c0[k] = carry[k];
+  for (j = 1; j < CA_M; ++j) {
+    CA_LINK(j, c0, c1);
+    for (k = 0; k < CA_NC; ++k) c0[k] = c1[k];
+  }
+  for (k = 0; k < CA_NC; ++k) carry[k] = c0[k];
+  return 0;
+}
+
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
+                  casadi_real* w) {
+  casadi_real wt[CA_NW + 1], carry[CA_NC], tl[4];
+  casadi_real *alpha = w + CA_SZ_W + CA_RK4_SCRATCH, *c = alpha + CA_M, *s = c + CA_M;
+  casadi_real *a = s + CA_M, *b = a + CA_M;
+  casadi_real p, rate, prev;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int j;
   arg[0] = &t; res[0] = wt;
   if (time_features(arg, res, iw, w, 0)) return 2;
-  arg[0] = q; res[0] = cur;
+  arg[0] = q; res[0] = carry;
   if (first_carry(arg, res, iw, w, 0)) return 2;
-  a[0] = 0; b[0] = 1;
-  for (j = 1; j < CA_M; ++j) {
-    arg[0] = cur; arg[1] = q + j; arg[2] = wt; res[0] = nxt; res[1] = o;
-    if (link_step(arg, res, iw, w, 0)) return 2;
-    out[CA_OUT_E + j - 1] = o[0];               /* e^j */
-    out[CA_OUT_LINK_MARGINS + j - 1] = o[1];    /* link margin */
-    a[j] = o[2]; b[j] = o[3];
-    tmp = cur; cur = nxt; nxt = tmp;
-  }
-  arg[0] = cur; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
+  ca_angles(q, alpha);
+  ca_trig(alpha, c, s);
+  if (ca_recursion(q, c, s, wt, carry, out, a, b, iw, w)) return 2;
+  arg[0] = carry; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
   if (tail(arg, res, iw, w, 0)) return 2;
   out[CA_OUT_S] = tl[0];
   out[CA_OUT_LONGITUDINAL] = tl[2];
@@ -102,7 +181,7 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
   prev = 0;
   for (j = 0; j < CA_M; ++j) {         /* w_j = a_j + b_j p, qdot_j = w_j - w_{j-1} */
     rate = a[j] + b[j] * p;
-    out[CA_OUT_U + j] = CA_U_FROM_QDOT(j, rate - prev);
+    u[j] = CA_U_FROM_QDOT(j, rate - prev);
     prev = rate;
   }
   return 0;
@@ -110,9 +189,11 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
 """
 
 #: The dense law: one call of the generated eq. 27 Function, whose outputs are written in place
-#: (``{results}``: one ``res[i] = out + CA_OUT_<NAME>;`` per output, from the table).
+#: (``{results}``: one ``res[i] = out + CA_OUT_<NAME>;`` per output, from the table; ``u`` to ``u``).
 DENSE_LAW = """
-static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
+#define CA_LAW_SCRATCH 0
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
+                  casadi_real* w) {
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   arg[0] = q; arg[1] = &t;
@@ -123,12 +204,24 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_
 
 #: RK4 step, chunk loop and sizes: shared by both law forms.
 LOOP = """
+#define CA_SCRATCH (CA_RK4_SCRATCH + CA_LAW_SCRATCH)
+
 COORDARM_API int coordarm_law(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw,
                               casadi_real* w) {
   int rc;
   if (!ca_finite(q, t)) return 1;
-  if ((rc = ca_law(q, t, out, iw, w))) return rc;
+  if ((rc = ca_law(q, t, out + CA_OUT_U, out, iw, w))) return rc;
   return ca_all_finite(out, CA_NOUT) ? 0 : 3;
+}
+
+/* The law with u in an array of its own; out gets every other output (its u part is not touched). */
+COORDARM_API int coordarm_control(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out,
+                                  casadi_int* iw, casadi_real* w) {
+  int rc;
+  if (!ca_finite(q, t)) return 1;
+  if ((rc = ca_law(q, t, u, out, iw, w))) return rc;
+  return ca_all_finite(u, CA_M) && ca_all_finite(out, CA_OUT_U)
+         && ca_all_finite(out + CA_OUT_U + CA_M, CA_NOUT - CA_OUT_U - CA_M) ? 0 : 3;
 }
 
 /* Same operation order as CoordinatingController.rk4_step, so both agree to rounding. */
@@ -139,15 +232,16 @@ static int ca_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_rea
   casadi_real h2 = h / 2, h6 = h / 6;
   casadi_int j;
   int rc;
-  if ((rc = ca_law(q, t, out, iw, w))) return rc;
-  for (j = 0; j < CA_M; ++j) { k1[j] = CA_K_FROM_U(j, out[j]); x[j] = q[j] + h2 * k1[j]; }
-  if ((rc = ca_law(x, t + h2, o, iw, w))) return rc;
-  for (j = 0; j < CA_M; ++j) { k2[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h2 * k2[j]; }
-  if ((rc = ca_law(x, t + h2, o, iw, w))) return rc;
-  for (j = 0; j < CA_M; ++j) { k3[j] = CA_K_FROM_U(j, o[j]); x[j] = q[j] + h * k3[j]; }
-  if ((rc = ca_law(x, t + h, o, iw, w))) return rc;
+  casadi_real *u = out + CA_OUT_U, *v = o + CA_OUT_U;
+  if ((rc = ca_law(q, t, u, out, iw, w))) return rc;
+  for (j = 0; j < CA_M; ++j) { k1[j] = CA_K_FROM_U(j, u[j]); x[j] = q[j] + h2 * k1[j]; }
+  if ((rc = ca_law(x, t + h2, v, o, iw, w))) return rc;
+  for (j = 0; j < CA_M; ++j) { k2[j] = CA_K_FROM_U(j, v[j]); x[j] = q[j] + h2 * k2[j]; }
+  if ((rc = ca_law(x, t + h2, v, o, iw, w))) return rc;
+  for (j = 0; j < CA_M; ++j) { k3[j] = CA_K_FROM_U(j, v[j]); x[j] = q[j] + h * k3[j]; }
+  if ((rc = ca_law(x, t + h, v, o, iw, w))) return rc;
   for (j = 0; j < CA_M; ++j) {
-    k4[j] = CA_K_FROM_U(j, o[j]);
+    k4[j] = CA_K_FROM_U(j, v[j]);
     q_next[j] = q[j] + h6 * (((k1[j] + 2 * k2[j]) + 2 * k3[j]) + k4[j]);
   }
   return 0;

@@ -2,12 +2,14 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
 
 from coordarm.symbolic import CoordinatingController
 
+from .obstacles import Obstacle, outline
 from .run import Run, even_indices
 
 
@@ -21,28 +23,37 @@ def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
     return path
 
 
-def stage_indices(run: Run, stages: int = 5) -> np.ndarray:
-    """Indices of ``stages`` samples evenly spread over the run (first and last included)."""
-    return even_indices(len(run.t), stages)
+def stage_indices(run: Run, stages: int = 5, times: Sequence[float] | None = None) -> np.ndarray:
+    """Indices of the samples nearest to ``times`` [s] (within the run), else ``stages`` evenly spread ones."""
+    if times is None:
+        return even_indices(len(run.t), stages)
+    inside = [t for t in times if run.t[0] - 1e-9 <= t <= run.t[-1] + 1e-9] or [run.t[-1]]
+    return np.unique([int(np.argmin(np.abs(run.t - t))) for t in inside])
 
 
-def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages: int = 5,
-                walls: np.ndarray | None = None, title: str = "") -> Path:
-    """Draw the chain at several times with the curve at those times; save a PNG.
+def draw_obstacles(ax, obstacles: Sequence[Obstacle], labels: bool = True) -> None:
+    """Draw every obstacle from its :func:`~coordarm.simulation.obstacles.outline` (discs and polygons filled)."""
+    for ob in obstacles:
+        pts = outline(ob)
+        if ob.kind == "segment":
+            ax.plot(pts[:, 0], pts[:, 1], "k-", lw=3, solid_capstyle="butt")
+        else:
+            ax.fill(pts[:, 0], pts[:, 1], color="0.35", alpha=0.8, lw=1.5, edgecolor="k")
+        if labels:
+            c = pts.mean(axis=0)
+            ax.annotate(ob.name, c, fontsize=7, color="0.2", ha="center", va="center",
+                        xytext=(0, 8), textcoords="offset points")
 
-    Returns
-    -------
-    Path
-        The written file.
-    """
-    idx = stage_indices(run, stages)
+
+def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, obstacles: Sequence[Obstacle],
+                 frame: np.ndarray | None = None) -> None:
+    """The chain at rows ``idx`` with the curve at those times, the obstacles and the base, on ``ax``."""
     joints = ctrl.chain.joints_np(run.q[idx])
-    fig, ax = plt.subplots(figsize=(7, 6.5))
     colors = plt.cm.viridis(np.linspace(0, 0.9, len(idx)))
-    pts = joints.reshape(-1, 2)
+    pts = joints.reshape(-1, 2) if frame is None else frame
     lo, hi = pts.min(axis=0), pts.max(axis=0)
-    if walls is not None and len(walls):
-        w = np.asarray(walls).reshape(-1, 2)
+    if obstacles and frame is None:
+        w = np.concatenate([outline(ob) for ob in obstacles])
         lo, hi = np.minimum(lo, w.min(axis=0)), np.maximum(hi, w.max(axis=0))
     pad = 0.1 * max(hi - lo) + ctrl.chain.xi
     lo, hi = lo - pad, hi + pad
@@ -52,37 +63,112 @@ def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages
         ax.plot(cur[:, 0], cur[:, 1], "--", color=c, lw=0.8, alpha=0.7)
         ax.plot(J[:, 0], J[:, 1], "-", color=c, lw=1.4, label=f"t = {run.t[k]:.1f} s")
         ax.plot(J[-1, 0], J[-1, 1], "o", color=c, ms=4)
-    if walls is not None:
-        for a, b in np.asarray(walls).reshape(-1, 2, 2):
-            ax.plot([a[0], b[0]], [a[1], b[1]], "k-", lw=3, solid_capstyle="butt")
+    draw_obstacles(ax, obstacles)
     ax.plot(0, 0, "ks", ms=6, label="base")
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
     ax.set_xlabel("y$_1$ [m]")
     ax.set_ylabel("y$_2$ [m]")
-    ax.set_title(title or f"{ctrl.chain.m}-link robot: stages of the motion (dashed: the curve then)")
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
+
+
+def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages: int = 5,
+                obstacles: Sequence[Obstacle] = (), title: str = "",
+                times: Sequence[float] | None = None) -> Path:
+    """Draw the chain at several times with the curve at those times; save a PNG.
+
+    Parameters
+    ----------
+    run : Run
+    ctrl : CoordinatingController
+    path : str or Path
+        PNG to write.
+    stages : int
+        Number of evenly spread stages when ``times`` is not given.
+    obstacles : sequence of Obstacle
+    title : str
+    times : sequence of float, optional
+        Stage times [s] (the nearest samples are drawn; times outside the run are skipped).
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    fig, ax = plt.subplots(figsize=(7, 6.5))
+    _draw_stages(ax, run, ctrl, stage_indices(run, stages, times), list(obstacles))
+    ax.set_title(title or f"{ctrl.chain.m}-link robot: stages of the motion (dashed: the curve then)")
     return save_figure(fig, path)
+
+
+def plot_panels(run: Run, ctrl: CoordinatingController, path: str | Path, panels: Sequence[dict],
+                obstacles: Sequence[Obstacle] = (), title: str = "") -> Path:
+    """One labelled panel per phase (paper Fig. 4): ``panels`` = ``[{"title": "(a) ...", "stages": [t, ...]}]``.
+
+    All panels share the view of the whole run so that the phases line up.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    frame = ctrl.chain.joints_np(run.q[even_indices(len(run.t), 50)]).reshape(-1, 2)
+    if obstacles:
+        frame = np.concatenate([frame] + [outline(ob) for ob in obstacles])
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 5.4), squeeze=False)
+    for ax, panel in zip(axes[0], panels):
+        _draw_stages(ax, run, ctrl, stage_indices(run, times=panel["stages"]), list(obstacles), frame=frame)
+        ax.set_title(panel["title"], fontsize=10)
+    fig.suptitle(title or f"{ctrl.chain.m}-link robot: phases of the motion")
+    return save_figure(fig, path)
+
+
+def envelope_indices(Y: np.ndarray, points: int = 2000) -> np.ndarray:
+    """Sample indices that draw every column of ``Y`` (n, k) as its full line would look.
+
+    The samples are cut into about ``points / 2`` buckets and each column's smallest and largest
+    sample in each bucket is kept (with the first and last sample): every extreme survives, and
+    a figure a few hundred pixels wide is drawn from a few thousand vertices instead of n.
+    """
+    Y = np.asarray(Y, dtype=float).reshape(len(Y), -1)
+    n = len(Y)
+    if n <= points:
+        return np.arange(n)
+    size = -(-n // max(1, points // 2))
+    nb = -(-n // size)
+    base = np.arange(nb) * size
+    padded = np.concatenate([Y, np.repeat(Y[-1:], nb * size - n, axis=0)])
+    picks = [np.array([0, n - 1])]
+    for col in padded.T:
+        col = np.where(np.isfinite(col), col, 0.0).reshape(nb, size)
+        picks += [base + col.argmin(axis=1), base + col.argmax(axis=1)]
+    return np.unique(np.minimum(np.concatenate(picks), n - 1))
 
 
 def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str, float] | None = None,
                   title: str = "") -> Path:
-    """Three panels over time: ``max|e|`` vs ``e(0) exp(-K t)``, ``s`` tracking error, margins."""
-    t = run.t
-    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    """Three panels over time: ``max|e|`` vs ``e(0) exp(-K t)``, ``s`` tracking error, margins.
+
+    Each line is drawn from its :func:`envelope_indices` (a few thousand samples), not every step.
+    """
     emax = np.max(np.abs(run.e), axis=1)
-    axes[0].semilogy(t, np.maximum(emax, 1e-17), label="max$_j$ |e$^j$|")
+    s_err = run.s - run.s_reference()
+    link, longitudinal = np.min(run.link_margins, axis=1), run.longitudinal
+    keep = envelope_indices(np.column_stack([np.log10(np.maximum(emax, 1e-17)), s_err, link, longitudinal]))
+    t = run.t[keep]
+    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    axes[0].semilogy(t, np.maximum(emax[keep], 1e-17), label="max$_j$ |e$^j$|")
     if emax[0] > 0:
         axes[0].semilogy(t, emax[0] * np.exp(-gain * (t - t[0])), "--", label=f"e(0) exp(-{gain:g} t)")
     axes[0].set_ylabel("deviation [m]")
     axes[0].legend(fontsize=8)
-    axes[1].plot(t, run.s - run.s_reference(), label="s - (s(0) + ∫v*)")
+    axes[1].plot(t, s_err[keep], label="s - (s(0) + ∫v*)")
     axes[1].set_ylabel("s tracking error [m]")
     axes[1].legend(fontsize=8)
-    axes[2].plot(t, np.min(run.link_margins, axis=1), label="smallest link margin")
-    axes[2].plot(t, run.longitudinal, label="longitudinal margin")
+    axes[2].plot(t, link[keep], label="smallest link margin")
+    axes[2].plot(t, longitudinal[keep], label="longitudinal margin")
     for name, thr in (thresholds or {}).items():
         axes[2].axhline(thr, ls=":", color="red" if name == "longitudinal" else "gray",
                         label=f"{name} threshold")

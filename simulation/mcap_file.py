@@ -126,7 +126,7 @@ class Worker:
                 self._queue.task_done()
 
     def put(self, job: Any) -> None:
-        """Queue ``job`` (blocks while the queue is full)."""
+        """Queue ``job`` (blocks while the queue is full; never with ``maxsize=0``)."""
         self._queue.put(job)
 
     def join(self) -> None:

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import ConfigError, CoordinatingController, LogError, SingularityError
+from coordarm.symbolic import CollisionError, ConfigError, CoordinatingController, LogError, SingularityError
 
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
@@ -63,12 +63,20 @@ def partial_path(path: str | Path) -> Path:
 SCENE_RATE, COND_RATE = 20.0, 5.0
 
 
+#: Above this many links ``/margins/cond`` is off unless a rate is given (one SVD of a
+#: 4096 x 4096 decoupling matrix takes about a minute; at 16384 links the matrix is 2 GiB).
+COND_LINK_LIMIT = 1024
+
+
 def default_cond_rate(links: int) -> float:
-    """Default rate of ``/margins/cond`` [Hz]: :data:`COND_RATE` up to 64 links, then ``* (64/m)^2``.
+    """Default rate of ``/margins/cond`` [Hz]: :data:`COND_RATE` up to 64 links, then ``* (64/m)^2``,
+    and 0 (channel off) above :data:`COND_LINK_LIMIT` links.
 
     One ``cond`` is an SVD of the m x m decoupling matrix, O(m^3), against O(m) for a step
     of the law, so this keeps its share of a run's time about what it is at 64 links.
     """
+    if links > COND_LINK_LIMIT:
+        return 0.0
     return COND_RATE * min(1.0, (64.0 / links) ** 2)
 
 
@@ -117,16 +125,28 @@ def build_info(scenario: Scenario) -> dict[str, str]:
             "python": platform.python_version()}
 
 
-def outcome_of(error: BaseException | None, last_t: float | None) -> dict[str, Any]:
-    """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``."""
+def outcome_of(error: BaseException | None, last_t: float | None,
+               contacts: list[dict] | None = None) -> dict[str, Any]:
+    """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``.
+
+    ``contacts`` (the records of an ``--allow-contact`` run) are added when there are any.
+    """
     if error is None:
-        return {"status": "completed", "t_end": last_t}
-    if isinstance(error, SingularityError):
-        return {"status": "singularity", "t_end": last_t, "time": error.time, "link": error.link,
-                "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
-    interrupted = isinstance(error, KeyboardInterrupt) or isinstance(error.__cause__, KeyboardInterrupt)
-    status = "interrupted" if interrupted else "error"
-    return {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
+        out = {"status": "completed", "t_end": last_t}
+    elif isinstance(error, SingularityError):
+        out = {"status": "singularity", "t_end": last_t, "time": error.time, "link": error.link,
+               "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
+    elif isinstance(error, CollisionError):
+        c = error.contact
+        out = {"status": "collision", "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
+               "value": c.value, "threshold": c.threshold, "obstacle": c.obstacle, "message": str(error)}
+    else:
+        interrupted = isinstance(error, KeyboardInterrupt) or isinstance(error.__cause__, KeyboardInterrupt)
+        status = "interrupted" if interrupted else "error"
+        out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
+    if contacts:
+        out["contacts"] = contacts
+    return out
 
 
 class RunLogger:
@@ -254,7 +274,11 @@ class RunLogger:
         self._gap = 0.0  # wall time between the last two blocks
         self.scene = SceneBuilder(self.ctrl, scenario.obstacles)
         self.outcome: dict[str, Any] | None = None
-        # At most two blocks wait; an idle worker still pushes the last block out in time.
+        #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
+        self.contacts: list[dict] = []
+        # At most two blocks wait (so a kill loses at most ~1 s, and the queue holds at most two
+        # blocks: the run itself keeps only thinned rows); an idle worker still pushes the last
+        # block out in time.
         self._worker = Worker(self._process, "coordarm-log", 2, idle=self._flush_if_due,
                               idle_interval=self.flush_interval / 2) if threaded else None
 
@@ -265,6 +289,13 @@ class RunLogger:
 
     def set_backend(self, backend: str, library_key: str | None = None) -> None:
         """Record the simulation backend (and compiled library) in the ``build`` metadata.
+
+        Parameters
+        ----------
+        backend : str
+            ``"compiled"`` or ``"interpreted"``.
+        library_key : str, optional
+            Cache key of the compiled library.
 
         Raises
         ------
@@ -428,7 +459,7 @@ class RunLogger:
             if len(self._pending) or self._extras:
                 self._write_chunk(len(self._pending))
             self._write_build()
-            self.outcome = outcome_of(error, last_t)
+            self.outcome = outcome_of(error, last_t, self.contacts)
             self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in self.outcome.items()})
             self.file.close(rename_to=self.path)
         except Exception as exc:

@@ -1,61 +1,172 @@
-"""Wall segments and the check that no link crosses one."""
+"""Obstacles: wall segments, circles (solid discs) and closed polygons (solid), with names.
+
+In a scenario file (``[[obstacles]]``, one table each, ``name`` optional: default
+``wall 1``, ``wall 2``, ... counted from 1 in file order)::
+
+    [[obstacles]]                      # a wall segment
+    a = [1.2, 1.3]
+    b = [0.2, 2.3]
+    name = "left wall"
+    [[obstacles]]                      # a disc
+    center = [1.0, -0.5]
+    radius = 0.2
+    [[obstacles]]                      # a closed polygon (the last point joins the first)
+    points = [[2, 0], [2.5, 0], [2.5, 0.5]]
+
+:func:`outline` is the one drawing of an obstacle (figures, animation and the Foxglove
+scene use it); :func:`link_distances` is the one distance (the clearance check).
+"""
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from coordarm.symbolic import ConfigError
+from coordarm.symbolic.geometry import point_segment_distance, segment_distance
 
-def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """z-component of ``(a - o) x (b - o)``, broadcast over leading axes."""
-    return (a[..., 0] - o[..., 0]) * (b[..., 1] - o[..., 1]) - (a[..., 1] - o[..., 1]) * (b[..., 0] - o[..., 0])
+from .run import check_number
 
-
-def segments_intersect(p1, p2, q1, q2) -> np.ndarray:
-    """Whether segments ``p1p2`` and ``q1q2`` intersect (touching counts), broadcast."""
-    d1, d2 = _cross(q1, q2, p1), _cross(q1, q2, p2)
-    d3, d4 = _cross(p1, p2, q1), _cross(p1, p2, q2)
-    proper = (d1 * d2 < 0) & (d3 * d4 < 0)
-
-    def on(o, a, b, d):  # b collinear with o-a and inside its bounding box
-        return (d == 0) & (np.minimum(o[..., 0], a[..., 0]) <= b[..., 0]) & (b[..., 0] <= np.maximum(o[..., 0], a[..., 0])) \
-            & (np.minimum(o[..., 1], a[..., 1]) <= b[..., 1]) & (b[..., 1] <= np.maximum(o[..., 1], a[..., 1]))
-    return proper | on(q1, q2, p1, d1) | on(q1, q2, p2, d2) | on(p1, p2, q1, d3) | on(p1, p2, q2, d4)
+#: Obstacle kinds and the keys (besides ``name``) that define them.
+KINDS = {"segment": ("a", "b"), "circle": ("center", "radius"), "polygon": ("points",)}
 
 
-def wall_crossings(joints: np.ndarray, walls: np.ndarray) -> np.ndarray:
-    """Indices ``(sample, link, wall)`` where a link touches or crosses a wall.
+@dataclass(frozen=True, eq=False)
+class Obstacle:
+    """One obstacle.
+
+    Attributes
+    ----------
+    kind : str
+        ``"segment"``, ``"circle"`` or ``"polygon"``.
+    name : str
+        Shown in messages, figures and the outcome (``wall 1`` ... by default).
+    points : (k, 2) array
+        The segment's two ends, the circle's centre (k = 1) or the polygon's corners [m].
+    radius : float
+        Circle radius [m] (0 for the other kinds).
+    """
+
+    kind: str
+    name: str
+    points: np.ndarray
+    radius: float = 0.0
+
+    def to_spec(self) -> dict:
+        """The obstacle as scenario data."""
+        p = self.points.tolist()
+        if self.kind == "segment":
+            return {"name": self.name, "a": p[0], "b": p[1]}
+        if self.kind == "circle":
+            return {"name": self.name, "center": p[0], "radius": self.radius}
+        return {"name": self.name, "points": p}
+
+
+def _pair(value: Any, field: str) -> list[float]:
+    if not isinstance(value, list) or len(value) != 2:
+        raise ConfigError(f"{field}: expected [x, y], got {value!r}")
+    return [check_number(v, f"{field}[{i}]", positive=False) for i, v in enumerate(value)]
+
+
+def obstacle_from_spec(spec: Any, index: int, field: str | None = None) -> Obstacle:
+    """Validate one ``[[obstacles]]`` table (``index`` is 0-based; the default name counts from 1)."""
+    field = field or f"obstacles[{index}]"
+    if not isinstance(spec, dict):
+        raise ConfigError(f"{field}: expected a table, got {spec!r}")
+    name = spec.get("name", f"wall {index + 1}")
+    if not isinstance(name, str) or not name:
+        raise ConfigError(f"{field}.name: expected a non-empty string, got {name!r}")
+    keys = set(spec) - {"name"}
+    kind = next((k for k, ks in KINDS.items() if keys == set(ks)), None)
+    if kind is None:
+        raise ConfigError(f"{field}: expected a = [x, y], b = [x, y] (segment), center = [x, y], radius = r "
+                          f"(circle) or points = [[x, y], ...] (polygon), got keys {sorted(keys)}")
+    if kind == "segment":
+        pts = np.array([_pair(spec["a"], f"{field}.a"), _pair(spec["b"], f"{field}.b")])
+        if not np.any(pts[0] != pts[1]):
+            raise ConfigError(f"{field}: a and b are the same point")
+        return Obstacle("segment", name, pts)
+    if kind == "circle":
+        return Obstacle("circle", name, np.array([_pair(spec["center"], f"{field}.center")]),
+                        check_number(spec["radius"], f"{field}.radius"))
+    pts = spec["points"]
+    if not isinstance(pts, list) or len(pts) < 3:
+        raise ConfigError(f"{field}.points: need at least 3 points [[x, y], ...], got {pts!r}")
+    pts = np.array([_pair(p, f"{field}.points[{i}]") for i, p in enumerate(pts)])
+    if abs(_area(pts)) == 0:
+        raise ConfigError(f"{field}.points: the polygon has zero area")
+    return Obstacle("polygon", name, pts)
+
+
+def obstacles_from_spec(specs: Any) -> list[Obstacle]:
+    """Validate the ``[[obstacles]]`` array; names must be unique."""
+    if not isinstance(specs, list):
+        raise ConfigError("obstacles: expected an array of tables [[obstacles]]")
+    obs = [obstacle_from_spec(s, i) for i, s in enumerate(specs)]
+    names = [o.name for o in obs]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ConfigError(f"obstacles: names must be unique, repeated: {dup}")
+    return obs
+
+
+def _area(pts: np.ndarray) -> float:
+    x, y = pts[:, 0], pts[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def outline(obstacle: Obstacle, n: int = 64) -> np.ndarray:
+    """The obstacle as a polyline [m], shape (k, 2): a segment's two ends, a closed circle or polygon."""
+    if obstacle.kind == "segment":
+        return obstacle.points.copy()
+    if obstacle.kind == "circle":
+        a = np.linspace(0.0, 2 * math.pi, n + 1)
+        return obstacle.points[0] + obstacle.radius * np.column_stack([np.cos(a), np.sin(a)])
+    return np.vstack([obstacle.points, obstacle.points[:1]])
+
+
+def edges(obstacle: Obstacle) -> np.ndarray:
+    """Segments ``(a, b)`` of a segment or polygon obstacle, shape (k, 2, 2)."""
+    pts = outline(obstacle)
+    return np.stack([pts[:-1], pts[1:]], axis=1)
+
+
+def inside_polygon(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Whether points ``p`` (..., 2) lie strictly inside the closed polygon ``poly`` (k, 2) (ray casting)."""
+    inside = np.zeros(p.shape[:-1], dtype=bool)
+    x, y = p[..., 0], p[..., 1]
+    for (x1, y1), (x2, y2) in zip(poly, np.roll(poly, -1, axis=0)):
+        if y1 == y2:
+            continue
+        crosses = (y1 > y) != (y2 > y)
+        xint = x1 + (y - y1) * (x2 - x1) / (y2 - y1)
+        inside ^= crosses & (x < xint)
+    return inside
+
+
+def link_distances(joints: np.ndarray, obstacle: Obstacle) -> np.ndarray:
+    """Distance [m] from every link to ``obstacle`` (0 when it touches, crosses or lies inside).
 
     Parameters
     ----------
     joints : (N, m+1, 2) array
-        Link end points over time (``PlanarChain.joints_np``); link j (1-based) joins
-        ``joints[:, j-1]`` and ``joints[:, j]``.
-    walls : (W, 2, 2) array
-        Wall segments ``(a, b)``.
+        Link end points (``PlanarChain.joints_np``).
+    obstacle : Obstacle
 
     Returns
     -------
-    (K, 3) int array
-        One row per contact, with 0-based sample and wall and 1-based link.
+    (N, m) array
+        Column j-1 is link j.
     """
     joints = np.asarray(joints, dtype=float)
-    walls = np.asarray(walls, dtype=float).reshape(-1, 2, 2)
-    if walls.shape[0] == 0:
-        return np.zeros((0, 3), dtype=int)
-    p1, p2 = joints[:, :-1, None, :], joints[:, 1:, None, :]
-    hit = segments_intersect(p1, p2, walls[None, None, :, 0, :], walls[None, None, :, 1, :])
-    idx = np.argwhere(hit)
-    idx[:, 1] += 1
-    return idx
-
-
-def clearance(joints: np.ndarray, walls: np.ndarray) -> np.ndarray:
-    """Smallest distance from any link end point to any wall, per sample [m], shape (N,)."""
-    walls = np.asarray(walls, dtype=float).reshape(-1, 2, 2)
-    if walls.shape[0] == 0:
-        return np.full(len(joints), np.inf)
-    a, b = walls[:, 0], walls[:, 1]
-    ab = b - a
-    p = np.asarray(joints, dtype=float)[:, :, None, :]
-    tpar = np.clip(np.sum((p - a) * ab, axis=-1) / np.sum(ab * ab, axis=-1), 0.0, 1.0)
-    d = np.linalg.norm(p - (a + tpar[..., None] * ab), axis=-1)
-    return d.min(axis=(1, 2))
+    a, b = joints[:, :-1], joints[:, 1:]
+    if obstacle.kind == "circle":
+        return np.maximum(point_segment_distance(obstacle.points[0], a, b) - obstacle.radius, 0.0)
+    d = np.full(a.shape[:-1], np.inf)
+    for e0, e1 in edges(obstacle):
+        d = np.minimum(d, segment_distance(a, b, e0, e1))
+    if obstacle.kind == "polygon":
+        d = np.where(inside_polygon(a, obstacle.points), 0.0, d)
+    return d

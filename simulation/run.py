@@ -11,7 +11,9 @@ from typing import Any, Callable
 import numpy as np
 
 from coordarm.generated import compile as compile_controller
-from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, SingularityError
+from coordarm.symbolic import (BuildError, CollisionError, ConfigError, CoordarmError, CoordinatingController,
+                               SingularityError)
+from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import RUN_OUTPUTS, by_name, split
@@ -21,6 +23,9 @@ from .limits import KEEP_ROWS, check_gain_step
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
+#: Most physical checks per simulated second in ``coordarm run`` (fewer when the log rate is lower);
+#: a contact found is located to the step (``simulate(check_every=...)``).
+CHECK_RATE = 200.0
 #: Steps integrated per call of the closed-loop chunk Function.
 DEFAULT_CHUNK = 2000
 
@@ -235,7 +240,8 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
 def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.001,
              t0: float = 0.0, *, backend: str = "auto", chunk: int = DEFAULT_CHUNK,
              thresholds: dict[str, float] | None = None, progress: bool | None = None,
-             on_chunk: Callable[[Run], None] | None = None, keep: int | None = None) -> Run:
+             on_chunk: Callable[[Run], None] | None = None, physical: Any = None,
+             check_every: int = 1, allow_contact: bool = False, keep: int | None = None) -> Run:
     """Integrate the closed loop with fixed-step RK4 from ``q0`` at ``t0`` for ``duration``.
 
     Parameters
@@ -259,6 +265,16 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         Show a progress bar on stderr (default: for runs of more than 20,000 steps).
     on_chunk : callable, optional
         Called with each completed chunk (a :class:`Run` of its rows), e.g. a logger.
+    physical : Physical, optional
+        Joint limits, self-collision and obstacles to check
+        (:class:`coordarm.simulation.physical.Physical`, anything with ``check(t, q)``).
+    check_every : int
+        Check every this many steps (and the first and last step of every chunk); when a
+        check finds a contact, the steps since the previous check are checked too, so the
+        run stops at the first step in contact (:data:`CHECK_RATE` sets the CLI's stride).
+    allow_contact : bool
+        Keep going after a contact; ``run.info["contacts"]`` then lists the first contact of
+        every (kind, links, obstacle).
     keep : int, optional
         Rows to keep in memory (about): the returned run holds every ``ceil(steps / keep)``-th
         step plus, in each chunk, the rows of the smallest margins and the largest ``|u|`` and
@@ -269,6 +285,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     Returns
     -------
     Run
+        ``s`` is continuous on closed curves (unwrapped past the branch cut, turns kept).
 
     Raises
     ------
@@ -278,6 +295,9 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         ``backend="compiled"`` and the generated library cannot be built.
     SingularityError
         A margin fell below its threshold; ``err.run`` holds the run up to there.
+    CollisionError
+        A contact (joint limit, self-collision, obstacle) and not ``allow_contact``;
+        ``err.contact`` is the first, ``err.run`` holds the run up to there.
     """
     duration, step = check_number(duration, "duration"), check_number(step, "step")
     t0 = check_number(t0, "t0", positive=False)
@@ -298,6 +318,12 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         where = f"link {link}" if link else "the end point"
         raise ConfigError(f"q0: start configuration is (near) singular: {kind} margin of {where} is "
                           f"{margin:.3g} < {thr[kind]}")
+    if isinstance(check_every, bool) or not isinstance(check_every, int) or check_every < 1:
+        raise ConfigError(f"check_every: need a positive integer, got {check_every!r}")
+    if physical is not None:
+        invalid = physical.check(np.array([t0]), q0[None])
+        if invalid:
+            raise ConfigError(f"q0: start configuration is not physically valid: {invalid[0].describe()}")
 
     backend, compiled, info = select_backend(ctrl, backend)
     check_interrupt()
@@ -308,41 +334,91 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     info = dict(info, kept_every=every)
     bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
     parts: list[Run] = []
+    contacts: list = []
     q, k, wall = q0, 0, _time.perf_counter()
+    prev: tuple[float, float] | None = None
     try:
-        while k < n_steps:
-            n = min(chunk, n_steps - k)
-            times = t0 + step * np.arange(k, k + n)
-            Q, outs = _advance(ctrl, compiled, q, times, step)
-            part = Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times)))
-            bad = first_violation(part.link_margins, part.longitudinal, thr)
-            if bad is not None:
-                row, kind, link, margin = bad
+        while k <= n_steps:
+            if k < n_steps:
+                n = min(chunk, n_steps - k)
+                times = t0 + step * np.arange(k, k + n)
+                Q, outs = _advance(ctrl, compiled, q, times, step)
+                part = Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times)))
+            else:          # the final state
+                t_end = t0 + step * n_steps
+                final = (compiled or ctrl).evaluate(q, t_end)
+                part = Run.from_arrays({a: np.asarray(v)[None] for a, v in
+                                        dict(final, t=t_end, q=q, v_star=ctrl.speed_at(t_end)).items() if a in ARRAYS})
+            part.s = unwrap_s(ctrl.curve, part.t, part.s, prev)
+            prev = (float(part.t[-1]), float(part.s[-1]))
+            stop = _first_stop(part, k, n_steps, thr, physical, check_every, allow_contact, contacts)
+            if stop is not None:
+                row, error = stop
                 part = _rows(part, slice(0, row + 1))
                 parts.append(_thin(part, k, every))
                 if on_chunk:
                     on_chunk(part)
-                run = _concat(parts, dict(info, stopped="singularity", steps=k + row))
-                raise SingularityError(part.t[-1], link, margin, kind, thr[kind], run=run)
+                error.run = _concat(parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
+                                                steps=k + row))
+                raise error
             parts.append(_thin(part, k, every))
             if on_chunk:
                 on_chunk(part)
-            q, k = Q[-1], k + n
             check_interrupt()
+            if k == n_steps:
+                break
+            q, k = Q[-1], k + n
             if bar:
                 bar.update(step * k)
-        final = (compiled or ctrl).evaluate(q, t0 + step * n_steps)
-        last = Run.from_arrays({a: np.asarray(v)[None] for a, v in
-                                dict(final, t=t0 + step * n_steps, q=q, v_star=ctrl.speed_at(t0 + step * n_steps)).items()
-                                if a in ARRAYS})
-        parts.append(last)
-        if on_chunk:
-            on_chunk(last)
-        check_interrupt()
     finally:
         if bar:
             bar.close()
+    info = dict(info, contacts=_records(contacts))
     return _concat(parts, dict(info, stopped="completed", steps=n_steps, wall_time=_time.perf_counter() - wall))
+
+
+_STOPS = {SingularityError: "singularity", CollisionError: "collision"}
+
+
+def _records(contacts: list) -> list[dict]:
+    return [c.to_dict() for c in contacts]
+
+
+def _first_stop(part: Run, k: int, n_steps: int, thr: dict, physical: Any, check_every: int,
+                allow_contact: bool, contacts: list) -> tuple[int, CoordarmError] | None:
+    """The first row of ``part`` (global step ``k`` at row 0) where the run must stop, and why.
+
+    A contact at or before the first singular row wins. With ``allow_contact`` the first
+    contact of every (kind, links, obstacle) is appended to ``contacts`` instead.
+    """
+    stop = None
+    bad = first_violation(part.link_margins, part.longitudinal, thr)
+    if bad is not None:
+        row, kind, link, margin = bad
+        stop = row, SingularityError(part.t[row], link, margin, kind, thr[kind])
+    if physical is not None:
+        n = len(part.t)
+        rows = np.flatnonzero(((k + np.arange(n)) % check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
+        if stop is not None:
+            rows = np.union1d(rows[rows < stop[0]], [stop[0]])
+        if len(rows):
+            found = physical.check(part.t[rows], part.q[rows])
+            if found and not allow_contact:
+                i = int(np.searchsorted(part.t[rows], found[0].time))
+                row = int(rows[i])
+                if i > 0 and rows[i - 1] + 1 < row:     # locate the first contact to the step
+                    between = np.arange(rows[i - 1] + 1, row)
+                    earlier = physical.check(part.t[between], part.q[between])
+                    if earlier:
+                        found = earlier
+                        row = int(between[np.searchsorted(part.t[between], found[0].time)])
+                return row, CollisionError(found[0])
+            seen = {(c.kind, c.links, c.obstacle) for c in contacts}
+            for c in found:
+                if (c.kind, c.links, c.obstacle) not in seen:
+                    seen.add((c.kind, c.links, c.obstacle))
+                    contacts.append(c)
+    return stop
 
 
 def _advance(ctrl, compiled, q, times, step):

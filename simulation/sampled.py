@@ -90,7 +90,7 @@ def simulate_sampled(ctrl: CoordinatingController, q0, duration: float, period: 
     if period > duration:
         raise ConfigError(f"period: {period} s is longer than the duration {duration} s")
     q = ctrl.chain.check_q(q0, "q0")
-    law, B = ctrl.fast_law(), ctrl.chain.B
+    law, chain = ctrl.fast_law(), ctrl.chain
     n_steps = int(round(duration / period))
     rows = {k: [] for k in ("t", "q", "u", "e", "s")}
     first = None
@@ -111,6 +111,6 @@ def simulate_sampled(ctrl: CoordinatingController, q0, duration: float, period: 
             stopped = "diverged"
             break
         if k < n_steps:
-            q = q + period * (B @ u)
+            q = q + period * chain.apply_B(u)
     arrays = {k: np.array(v) for k, v in rows.items()}
     return SampledRun(**arrays, info={"period": float(period), "delay": int(delay), "stopped": stopped})

@@ -7,14 +7,18 @@ Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
 
     name = "line"
     description = "..."
-    [chain]     links = 64, link_length = 0.1
+    [chain]     links = 64, link_length = 0.1, joint_limit = 2.8 (or a list of m-1 [rad]),
+                clearance = 0.0 [m]
     [curve]     kind = "line" | "circle" | "arc", with its parameters
     [control]   gain = 2.0, speed = 0.1 (or a motion), law = "structured" | "dense"
     [start]     kind = "zigzag" | "projected", beta = 1.3, heading = 0.0,
                 curve = {...}  (projected: project onto this curve instead)
     [run]       duration = 20.0, step = 0.001, t0 = 0.0
     [thresholds] link = 0.02, longitudinal = 0.05
-    [[obstacles]] a = [x, y], b = [x, y]      (wall segments)
+    [[obstacles]] a = [x, y], b = [x, y]      (wall segment), or center = [x, y], radius = r
+                (disc), or points = [[x, y], ...] (closed polygon); name = "..." optional
+    [figures]   stages = [0, 4, 8, 12]         (times of the stage figure [s]), or
+                panels = [{title = "(a) ...", stages = [0, 2.5, 5]}, ...]  (one labelled panel each)
 """
 from __future__ import annotations
 
@@ -32,14 +36,17 @@ import numpy as np
 from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
                       motion_from_spec, project_onto_curve)
 from coordarm.symbolic.errors import shown
+from coordarm.symbolic.start import check_start
 
 from .choices import presets
 from .limits import check_bounds, check_gain_step
+from .obstacles import Obstacle, obstacles_from_spec
+from .physical import Physical
 from .run import DEFAULT_THRESHOLDS, check_number
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
-            "obstacles"}
-KEYS = {"chain": {"links", "link_length"}, "control": {"gain", "speed", "law"},
+            "obstacles", "figures"}
+KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance"}, "figures": {"stages", "panels"}, "control": {"gain", "speed", "law"},
         "start": {"kind", "beta", "heading", "curve"}, "run": {"duration", "step", "t0"},
         "thresholds": {"link", "longitudinal"}}
 DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
@@ -47,16 +54,11 @@ DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
             "control": {"law": "structured"}}
 
 
-def _segment(spec: Any, field: str) -> np.ndarray:
-    if not isinstance(spec, dict) or set(spec) != {"a", "b"}:
-        raise ConfigError(f"{field}: expected a table with keys a = [x, y] and b = [x, y], got {shown(spec)}")
-    pts = []
-    for k in ("a", "b"):
-        p = spec[k]
-        if not isinstance(p, list) or len(p) != 2:
-            raise ConfigError(f"{field}.{k}: expected [x, y], got {shown(p)}")
-        pts.append([check_number(v, f"{field}.{k}[{i}]", positive=False) for i, v in enumerate(p)])
-    return np.array(pts)
+def check_stages(stages: Any, field: str = "figures.stages") -> list[float]:
+    """Stage times [s] as a sorted list of finite numbers >= 0 (at least one)."""
+    if not isinstance(stages, list) or not stages:
+        raise ConfigError(f"{field}: expected a non-empty list of times [s], got {shown(stages)}")
+    return sorted(check_number(v, f"{field}[{i}]", positive=False) for i, v in enumerate(stages))
 
 
 @dataclass
@@ -71,13 +73,13 @@ class Scenario:
         The validated scenario with every default filled in (the TOML layout of this module).
     source : str
         Where it came from (preset name, file path or ``<dict>``), used in error messages.
-    obstacles : ndarray, shape (k, 2, 2)
-        Wall segments ``[[ax, ay], [bx, by]]`` [m].
+    obstacles : list of Obstacle
+        Named wall segments, discs and polygons (:mod:`coordarm.simulation.obstacles`).
     """
 
     spec: dict
     source: str = "<dict>"
-    obstacles: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    obstacles: list[Obstacle] = field(default_factory=list)
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "<dict>") -> "Scenario":
@@ -116,6 +118,20 @@ class Scenario:
         if isinstance(ch["links"], bool) or not isinstance(ch["links"], int) or ch["links"] < 2:
             raise ConfigError(f"chain.links: need an integer >= 2, got {shown(ch['links'])}")
         check_number(ch["link_length"], "chain.link_length")
+        for k in ("joint_limit", "clearance"):
+            if k in ch:
+                try:
+                    PlanarChain(ch["links"], 1.0, **{k: ch[k]})
+                except ConfigError as exc:
+                    raise ConfigError(f"chain.{exc}") from None
+        if "stages" in spec["figures"]:
+            check_stages(spec["figures"]["stages"])
+        panels = spec["figures"].get("panels", [])
+        if not isinstance(panels, list) or not all(isinstance(p, dict) and set(p) == {"title", "stages"}
+                                                    and isinstance(p["title"], str) for p in panels):
+            raise ConfigError(f"figures.panels: expected [{{title = \"(a) ...\", stages = [t, ...]}}, ...], got {panels!r}")
+        for i, p in enumerate(panels):
+            check_stages(p["stages"], f"figures.panels[{i}].stages")
         if "gain" not in spec["control"]:
             raise ConfigError("control.gain: missing")
         check_number(spec["control"]["gain"], "control.gain")
@@ -144,11 +160,9 @@ class Scenario:
             v = check_number(spec["thresholds"][k], f"thresholds.{k}", positive=False)
             if not 0 <= v < 1:
                 raise ConfigError(f"thresholds.{k}: need 0 <= value < 1, got {v}")
-        walls = spec.setdefault("obstacles", [])
-        if not isinstance(walls, list):
-            raise ConfigError("obstacles: expected an array of tables [[obstacles]]")
-        segs = [_segment(w, f"obstacles[{i}]") for i, w in enumerate(walls)]
-        return cls(spec, source, np.array(segs).reshape(-1, 2, 2))
+        obstacles = obstacles_from_spec(spec.setdefault("obstacles", []))
+        spec["obstacles"] = [o.to_spec() for o in obstacles]
+        return cls(spec, source, obstacles)
 
     # -------------------------------------------------------------- accessors
     @property
@@ -207,14 +221,36 @@ class Scenario:
             spec["run"]["step"] = step
         return Scenario.from_dict(spec, self.source)
 
+    @property
+    def stages(self) -> list[float] | None:
+        """Times of the stage figure [s] (``[figures] stages``), or None for evenly spread ones."""
+        st = self.spec["figures"].get("stages")
+        return None if st is None else check_stages(st)
+
     def chain(self) -> PlanarChain:
-        """The manipulator this scenario describes.
+        """The manipulator this scenario describes (with its joint limits and clearance).
 
         Returns
         -------
         PlanarChain
         """
-        return PlanarChain(self.spec["chain"]["links"], float(self.spec["chain"]["link_length"]))
+        ch = self.spec["chain"]
+        return PlanarChain(ch["links"], float(ch["link_length"]), joint_limit=ch.get("joint_limit"),
+                           clearance=float(ch.get("clearance", 0.0)))
+
+    def physical(self, chain: PlanarChain | None = None) -> Physical:
+        """What a run checks: the chain's joint limits and clearance, and the obstacles.
+
+        Parameters
+        ----------
+        chain : PlanarChain, optional
+            The scenario's chain, when the caller has it (built otherwise).
+
+        Returns
+        -------
+        Physical
+        """
+        return Physical(chain or self.chain(), self.obstacles)
 
     def controller(self) -> CoordinatingController:
         """The coordinating controller this scenario describes.
@@ -244,7 +280,8 @@ class Scenario:
         Raises
         ------
         ConfigError
-            The projection does not converge.
+            The start breaks a joint limit, folds onto itself or touches an obstacle (the
+            joint, links or obstacle are named), or cannot be placed on the curve.
         """
         st = self.spec["start"]
         ctrl = ctrl or self.controller()
@@ -255,6 +292,10 @@ class Scenario:
                 target = CoordinatingController(ctrl.chain, curve_from_spec(st["curve"], "start.curve"),
                                                 ctrl.gain, 0.0)
             q = project_onto_curve(target, q, self.t0)
+        check_start(ctrl, q)
+        hits = [c for c in self.physical(ctrl.chain).check(np.array([self.t0]), q[None]) if c.kind == "wall"]
+        if hits:
+            raise ConfigError(f"start: {hits[0].describe().split(': ', 1)[1]}; move the obstacle or the start")
         return q
 
     def to_json(self) -> str:

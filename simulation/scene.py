@@ -20,6 +20,7 @@ from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
 
 from .log_schemas import CDR_HEADER
+from .obstacles import outline
 from .run import Run
 
 #: A point in JSON, coordinates as integer micrometres with an exponent (exact to 1e-6 m, and
@@ -39,10 +40,11 @@ ARM_COLOR, CURVE_COLOR, WALL_COLOR, TARGET_COLOR = ((0.15, 0.45, 0.9, 1.0), (0.9
 def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
     """Each obstacle as the polyline drawn for it [m], a list of (k, 2) arrays.
 
-    This is the one place the scene turns obstacle geometry into lines: a wall segment is
-    its two ends (closed shapes repeat their first point).
+    The scene draws what :func:`coordarm.simulation.obstacles.outline` gives (as do the
+    figures and the animation): a wall segment is its two ends, a disc and a polygon are
+    closed (they repeat their first point).
     """
-    return [np.asarray(w, float) for w in np.asarray(obstacles, dtype=float).reshape(-1, 2, 2)]
+    return [outline(ob) for ob in obstacles]
 
 
 def line_json(points: np.ndarray, thickness: float, color: tuple[float, ...], kind: int = 0) -> str:

@@ -21,11 +21,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from coordarm.symbolic import ConfigError, CoordarmError, SingularityError, errors
+from coordarm.symbolic import CollisionError, ConfigError, CoordarmError, SingularityError
 
 from .choices import SWEEP_ALIASES
-from .obstacles import clearance, wall_crossings
-from .run import simulate
+from .run import CHECK_RATE, even_indices, simulate
 from .scenario import Scenario
 
 #: Short names accepted by ``--vary`` (the results column keeps the name as given).
@@ -35,8 +34,6 @@ OUTCOMES = ("completed", "singularity", "collision", "error")
 #: Result columns after the varied names, in order.
 RESULT_COLUMNS = ("outcome", "message", "stop_time", "min_link_margin", "min_longitudinal", "final_max_e",
                   "peak_u", "min_clearance", "wall_time", "worker")
-#: A collision stop, once the simulation raises one (``coordarm.symbolic.errors.CollisionError``).
-_COLLISION = getattr(errors, "CollisionError", ())
 
 #: Controllers built in this process, by their (chain, curve, control) spec: a sweep over the start,
 #: the duration or the thresholds builds each controller (and loads its library) once per worker.
@@ -233,17 +230,12 @@ def worker_name() -> str:
         return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def _walls(sc: Scenario, ctrl, q: np.ndarray) -> tuple[float, str | None]:
-    """Smallest wall clearance over the run [m] (NaN without walls) and a collision message, if any."""
+def _walls(sc: Scenario, ctrl, t: np.ndarray, q: np.ndarray) -> float:
+    """Smallest clearance between the chain and any obstacle over the run [m] (NaN without obstacles)."""
     if not len(sc.obstacles) or not len(q):
-        return math.nan, None
-    joints = ctrl.chain.joints_np(q)
-    hits = wall_crossings(joints, sc.obstacles)
-    msg = None
-    if len(hits):
-        k, link, wall = hits[0]
-        msg = f"link {link} touches wall {wall} at sample {k}"
-    return float(clearance(joints, sc.obstacles).min()), msg
+        return math.nan
+    rows = np.union1d(even_indices(len(t), 2000), [len(t) - 1])     # the stop row included
+    return min(d for d, _, _ in sc.physical(ctrl.chain).clearances(q[rows], t[rows]).values())
 
 
 def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
@@ -274,7 +266,8 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
         sc = apply_point(spec, point)
         ctrl = _controller(sc)
         q0 = sc.start(ctrl)
-        kw = dict(backend="auto", thresholds=sc.thresholds, progress=False)
+        kw = dict(backend="auto", thresholds=sc.thresholds, progress=False, physical=sc.physical(ctrl.chain),
+                  check_every=max(1, round(1.0 / (CHECK_RATE * sc.step))))
         try:
             if log_path:
                 from .mcap_writer import RunLogger
@@ -289,15 +282,13 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
             row["outcome"] = "completed"
         except SingularityError as err:
             run, row["outcome"], row["message"] = err.run, "singularity", str(err)
-        except _COLLISION as err:   # pragma: no cover - until the simulation raises collisions
-            run, row["outcome"], row["message"] = getattr(err, "run", None), "collision", str(err)
+        except CollisionError as err:
+            run, row["outcome"], row["message"] = err.run, "collision", str(err)
         if run is not None:
             row.update(stop_time=float(run.t[-1]), min_link_margin=float(np.min(run.link_margins)),
                        min_longitudinal=float(np.min(run.longitudinal)),
                        final_max_e=float(np.max(np.abs(run.e[-1]))), peak_u=float(np.max(np.abs(run.u))))
-            row["min_clearance"], hit = _walls(sc, ctrl, run.q)
-            if hit and row["outcome"] == "completed":
-                row["outcome"], row["message"] = "collision", hit
+            row["min_clearance"] = _walls(sc, ctrl, run.t, run.q)
     except CoordarmError as exc:
         row["message"] = f"{type(exc).__name__}: {exc}"
     except Exception as exc:   # noqa: BLE001 - a failing point is a row, the sweep goes on

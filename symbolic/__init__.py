@@ -18,7 +18,7 @@ _EXPORTS = {
     "Constant": "motions", "Ramp": "motions", "Sinusoid": "motions", "Smoothstep": "motions",
     "motion_from_spec": "motions", "motion_to_spec": "motions",
     "CoordarmError": "errors", "ConfigError": "errors", "BuildError": "errors", "LogError": "errors", "NonFiniteError": "errors",
-    "SingularityError": "errors",
+    "SingularityError": "errors", "CollisionError": "errors",
     "project_onto_curve": "start",
 }
 

@@ -2,11 +2,34 @@
 from __future__ import annotations
 
 import math
+from typing import Sequence
 
 import casadi as ca
 import numpy as np
 
 from .errors import ConfigError
+
+#: Default limit of every relative joint angle [rad].
+DEFAULT_JOINT_LIMIT = 2.8
+
+
+def _joint_limits(links: int, joint_limit) -> np.ndarray:
+    """Limits of joints 2..m as an (m-1,) array in (0, pi], from one number or a list of m-1."""
+    if isinstance(joint_limit, (list, tuple, np.ndarray)):
+        lim = np.asarray(joint_limit, dtype=float) if all(
+            isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool)
+            for v in np.ravel(joint_limit)) else None
+        if lim is None or lim.shape != (links - 1,):
+            raise ConfigError(f"joint_limit: need one number or a list of {links - 1} numbers "
+                              f"(joints 2..{links}), got {joint_limit!r}")
+    elif isinstance(joint_limit, bool) or not isinstance(joint_limit, (int, float, np.floating, np.integer)):
+        raise ConfigError(f"joint_limit: need a number [rad] or a list of them, got {joint_limit!r}")
+    else:
+        lim = np.full(links - 1, float(joint_limit))
+    bad = np.flatnonzero(~((lim > 0) & (lim <= math.pi)))
+    if len(bad):
+        raise ConfigError(f"joint_limit: need 0 < limit <= pi [rad], joint {int(bad[0]) + 2} has {lim[bad[0]]!r}")
+    return lim
 
 
 def direction(a):
@@ -38,27 +61,28 @@ class PlanarChain:
         Link length xi [m].
     B : array_like, optional
         Input matrix, (m, m) or its diagonal (m,). Defaults to the identity.
+    joint_limit : float or sequence of float
+        Largest ``|q_j|`` of the relative joints j = 2..m [rad], one number for all or a list
+        of m-1 (default :data:`DEFAULT_JOINT_LIMIT`; the compact zig-zag at beta uses 2 beta).
+    clearance : float
+        Smallest allowed distance between non-adjacent links and from a link to an obstacle
+        [m] (default 0: touching counts as a collision).
     """
 
-    def __init__(self, links: int, link_length: float, B=None) -> None:
+    def __init__(self, links: int, link_length: float, B=None,
+                 joint_limit: float | Sequence[float] = None, clearance: float = 0.0) -> None:
         if isinstance(links, bool) or not isinstance(links, (int, np.integer)) or links < 2:
             raise ConfigError(f"links: need an integer of at least 2, got {links!r}")
         if (isinstance(link_length, bool) or not isinstance(link_length, (int, float))
                 or not math.isfinite(link_length) or link_length <= 0):
             raise ConfigError(f"link_length: need a finite number > 0, got {link_length!r}")
         self.m, self.xi = int(links), float(link_length)
-        if B is None:
-            B = np.ones(self.m)
-        B = np.asarray(B, dtype=float)
-        if B.shape == (self.m,):
-            B = np.diag(B)
-        if B.shape != (self.m, self.m):
-            raise ConfigError(f"B: need shape ({self.m},) or ({self.m}, {self.m}), got {B.shape}")
-        if not np.all(np.isfinite(B)):
-            raise ConfigError("B: contains NaN or inf")
-        if np.linalg.cond(B) > 1e12:
-            raise ConfigError("B: matrix is singular (the paper's eq. 2 needs B invertible)")
-        self.B = B
+        self._bd, self._B = _input_matrix(B, self.m)
+        self.joint_limits = _joint_limits(self.m, DEFAULT_JOINT_LIMIT if joint_limit is None else joint_limit)
+        if (isinstance(clearance, bool) or not isinstance(clearance, (int, float))
+                or not math.isfinite(clearance) or clearance < 0):
+            raise ConfigError(f"clearance: need a finite number >= 0, got {clearance!r}")
+        self.clearance = float(clearance)
 
     @property
     def links(self) -> int:
@@ -69,9 +93,30 @@ class PlanarChain:
         return self.xi
 
     @property
+    def B(self) -> np.ndarray:
+        """The input matrix as a dense (m, m) array (built on each access when B is diagonal: O(m^2))."""
+        return self._B if self._B is not None else np.diag(self._bd)
+
+    @property
     def b_diagonal(self) -> np.ndarray | None:
-        """Diagonal of B if B is diagonal, else None."""
-        return np.diag(self.B).copy() if np.count_nonzero(self.B - np.diag(np.diag(self.B))) == 0 else None
+        """Diagonal of B if B is diagonal, else None (O(m): a diagonal B is stored as a vector)."""
+        return None if self._bd is None else self._bd.copy()
+
+    def apply_B(self, u) -> np.ndarray:
+        """``B u``: a product by the diagonal when B is diagonal, O(m) per row.
+
+        Parameters
+        ----------
+        u : array_like, shape (..., m)
+            Controls (one per row).
+
+        Returns
+        -------
+        ndarray, shape (..., m)
+            Joint rates ``qdot = B u`` [rad/s].
+        """
+        u = np.asarray(u, dtype=float)
+        return self._bd * u if self._bd is not None else u @ self._B.T
 
     def __repr__(self) -> str:
         return f"PlanarChain(links={self.m}, link_length={self.xi})"
@@ -216,3 +261,32 @@ class PlanarChain:
         q[0] = heading + beta
         q[1:] = 2 * beta * (-1.0) ** np.arange(1, self.m)
         return q
+
+
+def _input_matrix(B, m: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(diagonal, None)`` for a diagonal B (given as (m,) or (m, m)), ``(None, B)`` for a full one.
+
+    The checks cost O(m) for a diagonal; only a full B pays for its O(m^3) condition number.
+
+    Raises
+    ------
+    ConfigError
+        Wrong shape, NaN or inf, or (numerically) singular.
+    """
+    if B is None:
+        return np.ones(m), None
+    B = np.asarray(B, dtype=float)
+    if B.shape not in ((m,), (m, m)):
+        raise ConfigError(f"B: need shape ({m},) or ({m}, {m}), got {B.shape}")
+    if not np.all(np.isfinite(B)):
+        raise ConfigError("B: contains NaN or inf")
+    if B.ndim == 2 and np.count_nonzero(B - np.diag(np.diag(B))) == 0:
+        B = np.diag(B).copy()
+    if B.ndim == 1:
+        size = np.abs(B)
+        if size.min() == 0 or size.max() / size.min() > 1e12:
+            raise ConfigError("B: matrix is singular (the paper's eq. 2 needs B invertible)")
+        return B, None
+    if np.linalg.cond(B) > 1e12:
+        raise ConfigError("B: matrix is singular (the paper's eq. 2 needs B invertible)")
+    return None, B

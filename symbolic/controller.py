@@ -89,37 +89,55 @@ class CoordinatingController:
     #: Layout of the carry of the link recursion (see :meth:`link_step`).
     CARRY = ("y1", "y2", "alpha", "cos_alpha", "sin_alpha", "P1", "P2", "Q1", "Q2", "a", "b", "sum_abs_b")
 
-    def _link_expressions(self):
+    def _link_expressions(self, trig_inputs: bool = False):
         """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd).
 
         The carried ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}`` is the part of
         ``ydot^j`` known before ``w_j``; the only division (by the link pivot) is turned into
         a reciprocal off the loop-carried dependency chain, which sets the speed of the
-        compiled loop (see benchmarks/RESULTS.md).
+        compiled loop (see benchmarks/RESULTS.md). With ``trig_inputs`` the cosine and sine
+        of ``alpha_j`` are two more inputs (computed beforehand for all links at once) and
+        the step has no trigonometry of its own.
         """
         xi, K = self.chain.xi, self.gain
         carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
         y, alpha_prev, d_prev, P, Q = carry[0:2], carry[2], carry[3:5], carry[5:7], carry[7:9]
         nb = carry[11]
         alpha = alpha_prev + qj
-        d_j = direction(alpha)   # the only sine/cosine pair of the link
+        trig = ca.SX.sym("cos_sin_alpha_j", 2) if trig_inputs else None
+        d_j = trig if trig_inputs else direction(alpha)   # the only sine/cosine pair of the link
         n_j = ca.vertcat(-d_j[1], d_j[0])
         y_j = y + 0.5 * xi * (d_prev + d_j)
         phi, g, phit, *_ = self._geometry(y_j, t)
         pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
-        inv = 1 / (0.5 * xi * pivot)
-        a_j = (-K * phi - phit - ca.dot(g, P)) * inv
-        b_j = -ca.dot(g, Q) * inv
+        inv_expr = 1 / (0.5 * xi * pivot)
+        # with trig inputs the reciprocal is an input too (computed by link_pivot): CasADi would
+        # fold ``x * (1/y)`` back into a division on the loop-carried chain of P and Q
+        inv = ca.SX.sym("inv_pivot") if trig_inputs else inv_expr
+        r, gP, gQ = -K * phi - phit, ca.dot(g, P), ca.dot(g, Q)
+        a_j = (r - gP) * inv
+        b_j = -gQ * inv
         step = xi * n_j                              # ydot^j = P + xi/2 n_j w_j; next P adds it again
-        new = ca.vertcat(y_j, alpha, d_j, P + step * a_j, Q + step * b_j, a_j, b_j, nb + ca.fabs(b_j))
+        if trig_inputs:
+            # the same P + step a_j, Q + step b_j, regrouped so that the loop-carried chain
+            # P -> P' is g.P, one product and one difference (12 instead of 18 cycles of latency)
+            u = (xi * inv) * n_j
+            P_next, Q_next = (P + u * r) - u * gP, Q - u * gQ
+        else:
+            P_next, Q_next = P + step * a_j, Q + step * b_j
+        new = ca.vertcat(y_j, alpha, d_j, P_next, Q_next, a_j, b_j, nb + ca.fabs(b_j))
         out = ca.vertcat(phi, ca.fabs(pivot) / ca.norm_2(g), a_j, b_j)
+        if trig_inputs:
+            out = ca.vertcat(out, inv_expr)
+            trig = (trig[0], trig[1], inv)
         both = ca.cse(ca.vertcat(new, out))          # one CSE over both, so a_j, b_j are shared
-        return carry, qj, t, both[:new.numel()], both[new.numel():]
+        return carry, qj, trig, t, both[:new.numel()], both[new.numel():]
 
-    def _hoisted_link(self):
+    def _hoisted_link(self, trig_inputs: bool = False):
         """The link step split into time-only terms ``w(t)`` and the per-link rest (cached)."""
-        if "hoisted" not in self._cache:
-            carry, qj, t, new, out = self._link_expressions()
+        key = ("hoisted", trig_inputs)
+        if key not in self._cache:
+            carry, qj, trig, t, new, out = self._link_expressions(trig_inputs)
             expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new, out), t)
             # A static curve has no time-only terms: w is then one unused 0 rather than empty
             # (an empty input makes CasADi emit a copy to a null pointer in mapped code).
@@ -127,20 +145,38 @@ class CoordinatingController:
             wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX.zeros(1, 1)
             n_new = new.numel()
             tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
-            step = ca.Function("link_step", [carry, qj, wsym], [expr[:n_new], expr[n_new:]],
-                               ["carry", "q_j", "w"], ["carry_next", "out"])
-            self._cache["hoisted"] = (tf, step)
-        return self._cache["hoisted"]
+            if trig_inputs:
+                c, s, inv = trig
+                n_out = expr.numel() - 1
+                pivot = ca.Function("link_pivot", [carry, qj, c, s, wsym], [expr[n_out]],
+                                    ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w"], ["inv_pivot"])
+                step = ca.Function("link_step_trig", [carry, qj, c, s, wsym, inv],
+                                   [expr[:n_new], expr[n_new:n_out]],
+                                   ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w", "inv_pivot"],
+                                   ["carry_next", "out"])
+                self._cache[key] = (tf, step, pivot)
+                return self._cache[key]
+            else:
+                step = ca.Function("link_step", [carry, qj, wsym], [expr[:n_new], expr[n_new:]],
+                                   ["carry", "q_j", "w"], ["carry_next", "out"])
+            self._cache[key] = (tf, step)
+        return self._cache[key]
 
-    def time_features(self) -> ca.Function:
-        """``t -> w``: the terms of :meth:`link_step` that depend on time only, computed once per ``t``.
+    def time_features(self, trig_inputs: bool = False) -> ca.Function:
+        """``t -> w``: the terms of :meth:`link_step` (:meth:`link_step_trig` if ``trig_inputs``)
+        that depend on time only, computed once per ``t``.
+
+        Parameters
+        ----------
+        trig_inputs : bool
+            The terms of :meth:`link_step_trig` (the generated C's step) instead.
 
         Returns
         -------
         casadi.Function
             Input ``t`` [s], output ``w`` (one 0 for a static curve).
         """
-        return self._hoisted_link()[0]
+        return self._hoisted_link(trig_inputs)[0]
 
     def link_step(self) -> ca.Function:
         """One link of the O(m) recursion: ``(carry, q_j, w) -> (carry_next, out_j)``.
@@ -158,6 +194,34 @@ class CoordinatingController:
             ``(carry, q_j, w) -> (carry_next, out)``.
         """
         return self._hoisted_link()[1]
+
+    def link_step_trig(self) -> ca.Function:
+        """:meth:`link_step` with ``cos(alpha_j)``, ``sin(alpha_j)`` and the reciprocal of the
+        scaled link pivot as inputs:
+        ``(carry, q_j, cos_alpha_j, sin_alpha_j, w, inv_pivot) -> (carry_next, out_j)``.
+
+        The generated C computes every link's cosine and sine in one loop the compiler
+        vectorises, then runs this step over the links (no trigonometry inside the recursion);
+        ``inv_pivot`` comes from :meth:`link_pivot`, so no division sits on the carried chain.
+
+        Returns
+        -------
+        casadi.Function
+            Inputs ``carry`` (layout :attr:`CARRY`), ``q_j`` [rad], ``cos_alpha_j``, ``sin_alpha_j``,
+            ``w`` (:meth:`time_features` with ``trig_inputs=True``), ``inv_pivot`` [1/m]; outputs
+            ``carry_next`` and ``out`` as :meth:`link_step`'s.
+        """
+        return self._hoisted_link(True)[1]
+
+    def link_pivot(self) -> ca.Function:
+        """``(carry, q_j, cos_alpha_j, sin_alpha_j, w) -> 1 / (xi/2 pivot_j)`` for :meth:`link_step_trig`.
+
+        Returns
+        -------
+        casadi.Function
+            Output ``inv_pivot`` [1/m], the reciprocal of half a link length times the link pivot.
+        """
+        return self._hoisted_link(True)[2]
 
     def first_carry(self) -> ca.Function:
         """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``).
@@ -245,7 +309,9 @@ class CoordinatingController:
                 continue
             rows.append(ca.mtimes(g.T, Cj))
             rhs.append(-self.gain * phi - phit)
-        M = ca.mtimes(ca.vertcat(*rows), ca.DM(self.chain.B))
+        M = ca.vertcat(*rows)
+        bd = self.chain.b_diagonal
+        M = M * ca.repmat(ca.DM(bd).T, M.size1(), 1) if bd is not None else ca.mtimes(M, ca.DM(self.chain.B))
         return M, ca.vertcat(*rhs)
 
     # ------------------------------------------------------------ CasADi Functions
@@ -329,13 +395,15 @@ class CoordinatingController:
         key = ("rk4", form, float(h))
         if key not in self._cache:
             law = self.fast_law(form)
-            B = ca.DM(self.chain.B)
+            bd = self.chain.b_diagonal
+            apply_B = ((lambda u: ca.DM(bd) * u) if bd is not None
+                       else (lambda u: ca.mtimes(ca.DM(self.chain.B), u)))
             q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
             out1 = law(q, t)
-            k1 = ca.mtimes(B, out1[0])
-            k2 = ca.mtimes(B, law(q + h / 2 * k1, t + h / 2)[0])
-            k3 = ca.mtimes(B, law(q + h / 2 * k2, t + h / 2)[0])
-            k4 = ca.mtimes(B, law(q + h * k3, t + h)[0])
+            k1 = apply_B(out1[0])
+            k2 = apply_B(law(q + h / 2 * k1, t + h / 2)[0])
+            k3 = apply_B(law(q + h / 2 * k2, t + h / 2)[0])
+            k4 = apply_B(law(q + h * k3, t + h)[0])
             q_next = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             kept = [out1[OUTPUTS.index(name)] for name in RUN_OUTPUTS]
             self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *kept],

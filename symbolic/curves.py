@@ -118,6 +118,23 @@ class Curve:
         """
         raise NotImplementedError
 
+    def period(self, t):
+        """Jump of ``psi`` across its branch cut at time ``t`` (a closed curve's length), or None.
+
+        A run unwraps ``s`` by it (:func:`unwrap_s`) so that ``s`` stays continuous.
+
+        Parameters
+        ----------
+        t : casadi.SX or float
+            Time [s].
+
+        Returns
+        -------
+        expression or None
+            The period [m] (``2 pi R(t)`` for a circle), None for an open curve.
+        """
+        return None
+
     def functions(self) -> ca.Function:
         """CasADi Function ``(y, t) -> (phi, psi)``.
 
@@ -211,6 +228,9 @@ class Circle(Curve):
         dot = ca.cos(a0) * r[0] + ca.sin(a0) * r[1]
         return self.radius(t) * ca.atan2(cross, dot)
 
+    def period(self, t):  # the docstring is the base class's (set below)
+        return 2 * math.pi * self.radius(t)
+
     def sample(self, t: float, n: int = 400, extent: float = 10.0) -> np.ndarray:
         c = np.array([evaluate(v, t) for v in self.center])
         a = np.linspace(0, 2 * math.pi, n)
@@ -251,11 +271,43 @@ class Arc(Circle):
                 "angle": motion_to_spec(self.angle), "radius": motion_to_spec(self.radius)}
 
 
+def unwrap_s(curve: Curve, t: np.ndarray, s: np.ndarray, previous: tuple[float, float] | None = None
+             ) -> np.ndarray:
+    """``s`` made continuous across the branch cut of a closed curve's ``psi``, keeping the turns.
+
+    Parameters
+    ----------
+    curve : Curve
+        Its :meth:`Curve.period` (None: ``s`` is returned unchanged).
+    t, s : (N,) arrays
+        Times [s] and ``psi`` as computed (jumping by a period at the cut) [m].
+    previous : (t, s), optional
+        The last unwrapped sample before these (to continue a run chunk by chunk).
+
+    Returns
+    -------
+    (N,) array
+        ``s`` plus the whole number of periods that keeps it continuous [m].
+    """
+    s = np.asarray(s, dtype=float)
+    if curve.period(ca.SX.sym("t")) is None or not len(s):
+        return s
+    tt = ca.SX.sym("t")
+    f = ca.Function("period", [tt], [curve.period(tt)])
+    ts = np.concatenate([[previous[0]], t]) if previous else np.asarray(t, float)
+    ss = np.concatenate([[previous[1]], s]) if previous else s
+    P = np.asarray(f.map(len(ts))(ts[None])).ravel()
+    angle = np.unwrap(2 * math.pi * ss / P)
+    out = angle * P / (2 * math.pi)
+    return out[1:] if previous else out
+
+
 for _cls in (Line, Circle, Arc):     # the subclasses' implementations carry the base class's documentation
-    for _name in ("phi", "psi", "sample", "to_spec"):
+    for _name in ("phi", "psi", "sample", "to_spec", "period"):
         _own = vars(_cls).get(_name)
         if _own is not None and not _own.__doc__:
             _own.__doc__ = getattr(Curve, _name).__doc__
+
 
 CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "radius", "reference")),
           "arc": (Arc, ("point", "angle", "radius"))}

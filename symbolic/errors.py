@@ -73,6 +73,34 @@ class SingularityError(CoordarmError):
                                    self.threshold, None))
 
 
+class CollisionError(CoordarmError):
+    """The chain hit an obstacle, itself or a joint limit during a run.
+
+    Attributes
+    ----------
+    contact : object
+        The first contact (a :class:`coordarm.simulation.physical.Contact`: ``kind``,
+        ``time``, ``links``, ``value``, ``threshold``, ``obstacle``).
+    run : object or None
+        The run up to (and including) the offending state, if available.
+
+    Parameters
+    ----------
+    contact : object
+        The first contact (see Attributes).
+    run : object, optional
+        The run so far.
+    """
+
+    def __init__(self, contact: object, run: object | None = None) -> None:
+        self.contact, self.run = contact, run
+        self.time = float(contact.time)
+        super().__init__(f"{contact.describe()}; run stopped")
+
+    def __reduce__(self):
+        return (CollisionError, (self.contact, None))
+
+
 #: Longest echo of an input value in a message [characters].
 SHOWN_LENGTH = 80
 

@@ -1,19 +1,26 @@
-"""Start configurations: put every central point exactly on the curve."""
+"""Start configurations: put every central point exactly on the curve, compactly and validly."""
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
 
+from .chain import direction
 from .controller import CoordinatingController
 from .errors import ConfigError
+from .geometry import self_distances, touching
+
+#: Candidate joint angles sampled per link when looking for the curve (then bisected).
+GRID = 721
 
 
-def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
-                       tol: float = 1e-12) -> np.ndarray:
-    """Newton-project ``q_guess`` so that ``e^j(q, t0) = 0`` for j = 2..m.
+def place_on_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0) -> np.ndarray:
+    """Place the links one after the other with every central point on the curve at ``t0``.
 
-    The end point keeps its arc length ``s^m(q_guess)``: the m equations
-    ``(s^m - s_guess, e^2, ..., e^m) = 0`` have the decoupling matrix as Jacobian.
+    Link 1 keeps its angle ``q_guess[0]`` (its centre is the pinned base). For link j the
+    centre ``y^j`` lies on a circle of radius ``xi/2`` about the end of link j-1; among the
+    joint angles within the joint limit that put ``y^j`` on the curve (``phi = 0``) it takes
+    the one closest to ``q_guess[j]``, so a zig-zag guess gives a compact zig-zag along the
+    curve (a straight line: exactly the guess).
 
     Parameters
     ----------
@@ -34,21 +41,126 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
     Raises
     ------
     ConfigError
-        If the rootfinder does not converge (e.g. a singular start or a curve out of reach).
+        No joint angle within the limit puts link j's centre on the curve (named).
     """
     chain = ctrl.chain
     q_guess = chain.check_q(q_guess, "q_guess")
+    xi, lim = chain.xi, chain.joint_limits
+    mapped: dict[int, ca.Function] = {}
+
+    def phi_at(pts: np.ndarray) -> np.ndarray:
+        n = len(pts)
+        if n not in mapped:
+            mapped[n] = ctrl._geometry.map(n)
+        return np.asarray(mapped[n](pts.T, t0)[0]).ravel()
+
+    q = np.empty(chain.m)
+    q[0] = q_guess[0]
+    alpha, y = q[0], np.zeros(2)
+    for j in range(1, chain.m):
+        end = y + 0.5 * xi * direction(alpha)
+
+        def phi(dq: np.ndarray) -> np.ndarray:
+            return phi_at(end + 0.5 * xi * direction(alpha + dq))
+
+        grid = np.linspace(-lim[j - 1], lim[j - 1], GRID)
+        f = phi(grid)
+        sign = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) <= 0)
+        if not len(sign):
+            gap = float(np.min(np.abs(f)))
+            raise ConfigError(
+                f"start: link {j + 1} cannot be placed: no joint angle within its limit ±{lim[j - 1]:.3f} rad puts "
+                f"its centre on the curve at t0 = {t0} (closest {gap:.3g} m away); choose another start "
+                f"(heading, beta) or curve, or raise chain.joint_limit")
+        lo, hi = grid[sign], grid[sign + 1]
+        flo = f[sign]
+        for _ in range(50):
+            mid = 0.5 * (lo + hi)
+            fm = phi(mid)
+            left = np.sign(fm) * np.sign(flo) <= 0
+            hi, lo, flo = np.where(left, mid, hi), np.where(left, lo, mid), np.where(left, flo, fm)
+        roots = 0.5 * (lo + hi)
+        q[j] = roots[np.argmin(np.abs(roots - q_guess[j]))]
+        alpha += q[j]
+        y = end + 0.5 * xi * direction(alpha)
+    return q
+
+
+def check_start(ctrl: CoordinatingController, q: np.ndarray) -> None:
+    """Raise a ConfigError naming the joint or links if ``q`` breaks a joint limit or self-intersects.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Its chain's joint limits and clearance.
+    q : ndarray, shape (m,)
+        Joint coordinates [rad].
+
+    Raises
+    ------
+    ConfigError
+        A joint beyond its limit or two non-adjacent links closer than the clearance.
+    """
+    chain = ctrl.chain
+    bad = np.flatnonzero(~(np.abs(q[1:]) <= chain.joint_limits))
+    if len(bad):
+        j = int(bad[0]) + 2
+        raise ConfigError(f"start: joint {j} (between links {j - 1} and {j}) is at {q[j - 1]:+.3f} rad, beyond its "
+                          f"limit ±{chain.joint_limits[j - 2]:.3f} rad; choose a smaller start.beta or another start")
+    s, la, lb, d = self_distances(chain.joints_np(q[None]), chain.clearance)
+    hit = np.flatnonzero(touching(d, chain.clearance))
+    if len(hit):
+        k = hit[np.argmin(la[hit])]
+        raise ConfigError(f"start: links {la[k]} and {lb[k]} intersect or come closer than the clearance "
+                          f"{chain.clearance:g} m ({d[k]:.4f} m): the start folds the body onto itself; choose "
+                          f"another start (beta, heading) or curve")
+
+
+def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
+                       tol: float = 1e-12) -> np.ndarray:
+    """A start with ``e^j(q, t0) = 0`` for j = 2..m, inside the joint limits and without self-contact.
+
+    The links are placed one by one (:func:`place_on_curve`: each joint angle is the one
+    within its limit closest to ``q_guess``'s, so a zig-zag guess stays a compact zig-zag
+    along the curve), then a Newton step polishes the residual to ``tol`` keeping the end
+    point's arc length.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Chain (with its joint limits and clearance) and curve.
+    q_guess : array_like, shape (m,)
+        Start guess [rad]: link 1's angle is kept, the other joint angles guide the choice.
+    t0 : float
+        Time [s] of the curve to project onto.
+    tol : float
+        Absolute tolerance of the Newton polish [m].
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        Joint coordinates [rad] with every centre on the curve.
+
+    Raises
+    ------
+    ConfigError
+        A link cannot be placed within its joint limit, the result self-intersects (the
+        links are named), or the polish does not converge.
+    """
+    chain = ctrl.chain
+    q_place = place_on_curve(ctrl, q_guess, t0)
     q = ca.SX.sym("q", chain.m)
     y = chain.centres(q)
     geo = ctrl._geometry
-    s_target = float(geo(chain.centres_np(q_guess)[-1], t0)[3])
+    s_target = float(geo(chain.centres_np(q_place)[-1], t0)[3])
     res = [geo(y[:, chain.m - 1], t0)[3] - s_target] + [geo(y[:, j], t0)[0] for j in range(1, chain.m)]
     g = ca.Function("project_residual", [q], [ca.vertcat(*res)])
     solver = ca.rootfinder("project", "newton", g, {"abstol": tol, "max_iter": 50,
                                                     "error_on_fail": False})
-    q_star = np.asarray(solver(q_guess)).ravel()
+    q_star = np.asarray(solver(q_place)).ravel()
     residual = float(np.max(np.abs(np.asarray(g(q_star))))) if np.all(np.isfinite(q_star)) else np.inf
-    if not residual <= 1e-9:
+    if not residual <= 1e-9 or not np.max(np.abs(q_star - q_place)) < 1e-3:
         raise ConfigError(f"start: could not project the chain onto the curve at t0 = {t0} "
                           f"(residual {residual:.3g} m); choose another start guess or curve")
+    check_start(ctrl, q_star)
     return q_star

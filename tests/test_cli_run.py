@@ -31,6 +31,7 @@ def test_singularity_exits_3_and_still_writes_figures(tmp_path):
                           "--out", str(tmp_path / "fast.mcap")], capture_output=True, text=True)
     assert res.returncode == 3, res.stderr
     assert "singularity ahead at t = " in res.stderr and "longitudinal margin" in res.stderr
+    assert "advice: lower the speed" in res.stderr and f"log: {tmp_path / 'fast.mcap'}" in res.stderr
     assert (tmp_path / "fast_stages.png").exists()
 
 

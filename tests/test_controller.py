@@ -132,7 +132,7 @@ def test_projection_puts_every_centre_on_the_curve():
 
 def test_projection_onto_an_unreachable_curve_is_a_config_error():
     ctrl = CoordinatingController(PlanarChain(10, 0.1), Circle(center=(5.0, 5.0), radius=0.01), 2.0, 0.1)
-    with pytest.raises(ConfigError, match="could not project"):
+    with pytest.raises(ConfigError, match="link 2 cannot be placed"):
         project_onto_curve(ctrl, ctrl.chain.zigzag(1.2))
 
 

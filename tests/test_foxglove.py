@@ -135,8 +135,8 @@ def test_every_scene_message_validates_and_draws_arm_curve_target_and_walls(hole
         line = np.array([[p["x"], p["y"]] for p in curve["points"]])  # evaluated for many times at once
         np.testing.assert_allclose(line, ctrl.curve.sample(run.t[k], n=2, extent=2.2 * LINKS * chain.xi), atol=1e-6)
         assert len(walls) == len(scenario.obstacles)
-        for wall, seg in zip(walls, scenario.obstacles):
-            np.testing.assert_allclose([[p["x"], p["y"]] for p in wall["points"]], seg, atol=1e-6)
+        for wall, ob in zip(walls, scenario.obstacles):
+            np.testing.assert_allclose([[p["x"], p["y"]] for p in wall["points"]], ob.points, atol=1e-6)
         sphere, = entity["spheres"]
         target = np.array([sphere["pose"]["position"]["x"], sphere["pose"]["position"]["y"]])
         phi, psi = (float(v) for v in ctrl.curve.functions()(target, run.t[k]))
@@ -177,10 +177,15 @@ def test_targets_on_straight_segments_in_one_pass_equal_point_along_one_by_one(r
     np.testing.assert_allclose(_targets(curves, starts, distances), one_by_one, rtol=0, atol=1e-13)
 
 
-def test_obstacle_outlines_draw_each_wall_segment():
+def test_obstacle_outlines_draw_each_wall_segment_disc_and_polygon():
+    from coordarm.simulation.obstacles import obstacles_from_spec
     walls = np.array([[[0, 0], [1, 0]], [[2, 2], [3, 1]]], float)
-    outlines = obstacle_outlines(walls)
-    assert len(outlines) == 2 and all(np.array_equal(o, w) for o, w in zip(outlines, walls))
+    obs = obstacles_from_spec([{"a": list(w[0]), "b": list(w[1])} for w in walls]
+                              + [{"center": [1.0, 1.0], "radius": 0.5}, {"points": [[0, 0], [1, 0], [0, 1]]}])
+    outlines = obstacle_outlines(obs)
+    assert len(outlines) == 4 and all(np.array_equal(o, w) for o, w in zip(outlines, walls))
+    np.testing.assert_allclose(np.linalg.norm(outlines[2] - [1, 1], axis=1), 0.5)     # a closed circle
+    np.testing.assert_array_equal(outlines[3], [[0, 0], [1, 0], [0, 1], [0, 0]])       # a closed polygon
 
 
 # ------------------------------------------------------------------------------ the link frames

@@ -86,10 +86,12 @@ def test_the_scenario_metadata_alone_rebuilds_the_controller(logged, scenario):
     path, run = logged
     rep = load(path)
     assert rep.scenario.spec == scenario.spec
-    np.testing.assert_array_equal(rep.scenario.obstacles, scenario.obstacles)
+    assert [o.to_spec() for o in rep.scenario.obstacles] == [o.to_spec() for o in scenario.obstacles]
     ctrl = rep.controller()
     k = len(run.t) // 3
-    assert np.array_equal(ctrl.control(rep.q[k], float(rep.t[k])), run.u[k])
+    assert run.info["backend"] == "compiled"   # the rebuilt controller compiles to the very same law
+    assert np.array_equal(ctrl.compile().control(rep.q[k], float(rep.t[k])), run.u[k])
+    np.testing.assert_allclose(ctrl.control(rep.q[k], float(rep.t[k])), run.u[k], rtol=1e-12, atol=1e-12)
 
 
 def test_cond_channel_is_the_condition_number_of_the_decoupling_matrix(logged, scenario):
@@ -230,6 +232,7 @@ def test_lz4_and_zstd_logs_hold_the_same_messages_for_the_plain_reader_and_load(
 def test_cond_rate_defaults_to_5_hz_and_falls_as_one_over_m_squared_past_64_links(tmp_path):
     assert default_cond_rate(8) == default_cond_rate(64) == COND_RATE == 5.0
     assert default_cond_rate(128) == pytest.approx(1.25) and default_cond_rate(1024) == pytest.approx(5 / 256)
+    assert default_cond_rate(1025) == default_cond_rate(16384) == 0.0   # an O(m^3) SVD per sample: off
     sc = load_scenario("line").with_overrides(links=128)
     with RunLogger(tmp_path / "big.mcap", sc, command=["test"]) as log:
         assert log.cond_every == round(1 / (1.25 * sc.step))
@@ -245,6 +248,26 @@ def test_threaded_and_unthreaded_loggers_write_the_same_log(scenario, tmp_path):
             simulate(ctrl, scenario.start(ctrl), 0.3, scenario.step, chunk=64, on_chunk=log.on_chunk)
     ra, rb = load(a), load(b)
     assert np.array_equal(ra.q, rb.q) and np.array_equal(ra.cond, rb.cond) and ra.messages == rb.messages
+
+
+def test_the_threaded_logger_never_blocks_the_simulation_on_a_slow_log(scenario, tmp_path):
+    """A log thread held up (here: until released) does not hold up on_chunk; the log is complete after."""
+    import threading
+    ctrl = scenario.controller()
+    gate = threading.Event()
+    log = RunLogger(tmp_path / "slow.mcap", scenario, ctrl, threaded=True)
+    process = log._process
+    log._worker._handle = lambda part: (gate.wait(), process(part))
+    safety = threading.Timer(60.0, gate.set)   # a blocking on_chunk would wait for this: the test fails
+    safety.start()
+    parts = []
+    run = simulate(ctrl, scenario.start(ctrl), 0.3, scenario.step, chunk=8,
+                   on_chunk=lambda part: (log.on_chunk(part), parts.append(part)))
+    assert len(parts) > 30 and not gate.is_set()   # every part queued while the log thread waited
+    gate.set()
+    safety.cancel()
+    log.finish()
+    assert np.array_equal(load(tmp_path / "slow.mcap").q, run.q)
 
 
 def test_coordarm_run_writes_the_log_at_the_chosen_rate_with_a_singularity_outcome(tmp_path, capsys):

@@ -10,13 +10,14 @@ README = Path(__file__).resolve().parent.parent / "README.md"
 def test_readme_api_compiled_and_analysis_examples_run():
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
     examples = [b for b in blocks if "load(" not in b and "sweep(" not in b]   # those two: tested below
-    assert len(examples) == 4
+    assert len(examples) == 5
     ns: dict = {}
     exec(compile("\n".join(examples).replace("20.0", "0.05"), str(README), "exec"), ns)
     np.testing.assert_allclose(ns["fast"].control(ns["q"], 0.0), ns["u"], rtol=1e-12, atol=1e-15)
     eig = np.sort(ns["lin"].eigenvalues().real)
     np.testing.assert_allclose(eig, [-2.0] * 63 + [0.0], atol=1e-8)
     assert abs(ns["sampled_limit"](delay=1) - 1.0) < 1e-15
+    assert [(c.kind, c.links) for c in ns["contacts"]] == [("self", (1, 3)), ("self", (1, 4)), ("self", (2, 4))]
 
 
 def test_readme_replay_example_runs_on_a_real_log(tmp_path, monkeypatch):

@@ -200,6 +200,45 @@ def test_replay_cli_redraws_figures_and_writes_an_animation_from_the_log_alone(f
     assert gif[:6] == b"GIF89a"
 
 
+def test_animation_frames_show_time_and_progress_and_a_bar_on_stderr(full_log, tmp_path, capsys):
+    from PIL import Image
+
+    from coordarm.analysis.animation import animate, frame_indices
+    path, _ = full_log
+    rep = load(path)
+    gif = animate(rep, tmp_path / "a.gif", fps=4)
+    err = capsys.readouterr().err
+    assert "animation [" in err and "100.0%" in err and "frame" in err
+    frames = len(frame_indices(rep.t, 4, 200))
+    with Image.open(gif) as im:
+        assert im.n_frames == frames
+        im.seek(0)
+        first = np.asarray(im.convert("RGB")).astype(int)
+        im.seek(frames - 1)
+        last = np.asarray(im.convert("RGB")).astype(int)
+    green = lambda a: np.sum((a[..., 1] > 120) & (a[..., 0] < 90) & (a[..., 2] < 90))  # noqa: E731
+    assert green(last) > green(first) + 100          # the progress bar grows along the run
+
+
+def test_replay_stages_option_draws_the_chosen_times(full_log, tmp_path, capsys):
+    path, _ = full_log
+    out = tmp_path / "st"
+    assert main(["replay", str(path), "--out", str(out), "--no-animation", "--stages", "0,0.5"]) == 0
+    assert (out / "line_stages.png").stat().st_size > 10_000
+    with pytest.raises(SystemExit) as info:
+        main(["replay", str(path), "--stages", "0,x"])
+    assert info.value.code == 2 and "--stages" in capsys.readouterr().err
+
+
+def test_stage_indices_pick_the_samples_nearest_to_the_times():
+    from coordarm.simulation.figures import stage_indices
+    from coordarm.simulation.run import Run
+    t = np.linspace(0, 2, 201)
+    z = np.zeros((201, 2))
+    run = Run(t, z, z, z[:, :1], t, z[:, :1], t, t)
+    np.testing.assert_array_equal(stage_indices(run, times=[0.0, 0.504, 1.5, 7.0]), [0, 50, 150])
+
+
 def test_replay_cli_reads_a_cut_log_and_says_so(full_log, tmp_path, capsys):
     _, data = full_log
     cut = tmp_path / "cut.mcap"

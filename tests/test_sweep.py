@@ -90,8 +90,8 @@ def test_a_link_crossing_a_wall_is_a_collision_row():
             "obstacles": [{"a": [0.45, -1.0], "b": [0.45, 1.0]}]}
     df = sweep(wall, {"speed": [0.01, 0.2]}, client="serial")
     assert list(df["outcome"]) == ["completed", "collision"]
-    assert "touches wall 0" in df["message"][1]
-    assert df["min_clearance"][0] > 0.1 and df["min_clearance"][1] < df["min_clearance"][0]
+    assert "link 8 touches or crosses 'wall 1'" in df["message"][1]
+    assert df["min_clearance"][0] > 0.1 and df["min_clearance"][1] == 0.0     # the run stopped at the contact
 
 
 def test_rerun_skips_done_points_and_ctrl_c_keeps_finished_rows(tmp_path):

@@ -5,6 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from coordarm.commands.run import stage_list
 from coordarm.symbolic.errors import ConfigError, LogError, shown
 
 #: Allowed frames per second of the animation.
@@ -21,6 +22,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-animation", action="store_true", help="do not write the GIF")
     p.add_argument("--fps", type=float, default=15.0,
                    help=f"frames per second of the GIF, {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} (default 15)")
+    p.add_argument("--stages", type=stage_list, metavar="T1,T2,...",
+                   help="times [s] of the stage figure, e.g. 0,4,8,12 (default: the scenario's)")
     p.set_defaults(func=main)
 
 
@@ -50,7 +53,7 @@ def main(args: argparse.Namespace) -> int:
     print_summary(run, replay.scenario)
     print(f"outcome       {replay.outcome.get('status')}"
           + (f": {replay.outcome['message']}" if "message" in replay.outcome else ""))
-    for p in write_figures(run, replay.scenario, ctrl, stem):
+    for p in write_figures(run, replay.scenario, ctrl, stem, args.stages, outcome=replay.outcome.get("status", "")):
         print(f"figure        {p}")
     if not args.no_animation:
         from coordarm.analysis.animation import animate

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import warnings
@@ -41,7 +42,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per simulated second in the log (default: every step)")
     p.add_argument("--cond-rate", type=float, metavar="HZ",
                    help="samples per simulated second of cond (an SVD each; default 5 Hz up to 64 links, "
-                        "then falling as 1/m^2; 0 = off)")
+                        "then falling as 1/m^2, off above 1024 links; 0 = off)")
     p.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
                    help="chunk compression of the log: zstd (default, smaller) or lz4 (faster)")
     p.add_argument("--live", action="store_true",
@@ -54,14 +55,27 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--live-wait", action="store_true",
                    help="with --live: start simulating only once a client has subscribed")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
+    p.add_argument("--stages", type=stage_list, metavar="T1,T2,...",
+                   help="times [s] of the stage figure, e.g. 0,4,8,12 (default: [figures] stages, else 5 evenly)")
+    p.add_argument("--allow-contact", action="store_true",
+                   help="keep going after a collision, self-collision or joint limit and record every contact")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
 
 
+def stage_list(text: str) -> list[float]:
+    """``"0,4,8,12"`` -> ``[0.0, 4.0, 8.0, 12.0]`` (argparse type of ``--stages``: finite times >= 0, sorted)."""
+    try:
+        times = [float(v) for v in text.split(",")]
+    except ValueError:
+        times = []
+    if not times or not all(math.isfinite(t) and t >= 0 for t in times):
+        raise argparse.ArgumentTypeError(f"expected times in seconds >= 0 like 0,4,8,12, got {text!r}")
+    return sorted(times)
+
+
 def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> None:
     """Human-readable summary of a run (to ``out``, standard output by default)."""
-    from coordarm.simulation.obstacles import clearance, wall_crossings
-
     out = sys.stdout if out is None else out
     s = run.summary()
     lines = [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1]} links",
@@ -73,32 +87,53 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
              f"t = {s['min_link_margin_time']:.2f} s)",
              f"longitudinal  min {s['min_longitudinal_margin']:.4f} (t = {s['min_longitudinal_margin_time']:.2f} s)",
              f"max|u|        {s['max_abs_u']:.4g}"]
-    if len(scenario.obstacles):
-        joints = scenario.chain().joints_np(run.q) if run.q.shape[1] == scenario.chain().m else None
-        if joints is not None:
-            hits = wall_crossings(joints, scenario.obstacles)
-            if len(hits):
-                k, link, wall = hits[0]
-                lines.append(f"walls         COLLISION: link {link} touches wall {wall} at t = {run.t[k]:.3f} s "
-                             f"({len(hits)} contacts)")
-            else:
-                lines.append(f"walls         no link touches a wall (min clearance "
-                             f"{clearance(joints, scenario.obstacles).min():.4f} m)")
+    if run.q.shape[1] == scenario.chain().m:
+        lines += physical_lines(run, scenario)
     print("\n".join(lines), file=out)
 
 
-def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path) -> list[Path]:
-    """Stage and tracking figures as ``<stem>_stages.png`` and ``<stem>_tracking.png``."""
-    from coordarm.simulation.figures import plot_stages, plot_tracking
+def physical_lines(run: Run, scenario: Scenario) -> list[str]:
+    """Summary lines: largest joint angle against its limit, contacts, clearance per obstacle."""
+    import numpy as np
 
-    title = f"{scenario.name}: {ctrl.chain.m} links"
-    stages, tracking = stem.with_name(stem.name + "_stages.png"), stem.with_name(stem.name + "_tracking.png")
-    with writing(stages):
-        plot_stages(run, ctrl, stages, walls=scenario.obstacles,
-                    title=f"{title}, stages of the motion (dashed: the curve at that time)")
-    with writing(tracking):
-        plot_tracking(run, ctrl.gain, tracking, thresholds=scenario.thresholds, title=title)
-    return [stages, tracking]
+    from coordarm.simulation.run import even_indices
+
+    chain = scenario.chain()
+    rel = np.abs(run.q[:, 1:]) / chain.joint_limits
+    k, j = np.unravel_index(int(np.argmax(rel)), rel.shape)
+    lines = [f"joints        max |q_j|/limit = {rel[k, j]:.3f} (joint {j + 2}: {run.q[k, j + 1]:+.3f} rad of "
+             f"±{chain.joint_limits[j]:.3f}, t = {run.t[k]:.2f} s)"]
+    contacts = run.info.get("contacts") or []
+    if contacts:
+        lines.append(f"contacts      {len(contacts)} distinct (allowed), first: {contacts[0]['kind']} at "
+                     f"t = {contacts[0]['time']:.3f} s, links {contacts[0]['links']}")
+    rows = even_indices(len(run.t), 2000)
+    for name, (d, t, link) in scenario.physical(chain).clearances(run.q[rows], run.t[rows]).items():
+        lines.append(f"clearance     {name!r}: min {d:.4f} m (link {link}, t = {t:.2f} s)")
+    return lines
+
+
+def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path, stages: list[float] | None = None,
+                  outcome: str = "") -> list[Path]:
+    """Stage and tracking figures as ``<stem>_stages.png`` and ``<stem>_tracking.png``.
+
+    ``stages`` (times [s]) overrides the scenario's ``[figures] stages``; a scenario with
+    ``[figures] panels`` draws one labelled panel per phase instead (paper Fig. 4).
+    """
+    from coordarm.simulation.figures import plot_panels, plot_stages, plot_tracking
+
+    title = f"{scenario.name}: {ctrl.chain.m} links" + (f" ({outcome})" if outcome else "")
+    stages_png = stem.with_name(stem.name + "_stages.png")
+    panels = scenario.spec["figures"].get("panels")
+    tracking_png = stem.with_name(stem.name + "_tracking.png")
+    with writing(stages_png):
+        if panels and stages is None:
+            first = plot_panels(run, ctrl, stages_png, panels, obstacles=scenario.obstacles, title=title)
+        else:
+            first = plot_stages(run, ctrl, stages_png, obstacles=scenario.obstacles, times=stages or scenario.stages,
+                                title=f"{title}, stages of the motion (dashed: the curve at that time)")
+    with writing(tracking_png):
+        return [first, plot_tracking(run, ctrl.gain, tracking_png, thresholds=scenario.thresholds, title=title)]
 
 
 @contextmanager
@@ -119,17 +154,18 @@ def _both(first: Callable[[Run], None], second: Callable[[Run], None]) -> Callab
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the scenario named in ``args``; return 0 (done), 3 (stopped ahead of a singularity).
+    """Run the scenario named in ``args``; return 0 (completed), 3 (singularity) or 4 (collision).
 
     The log is opened as soon as the controller exists, so that however the run ends (an
-    interrupt while compiling, a build error, a singularity) it is closed with its outcome.
+    interrupt while compiling, a build error, a singularity, a collision) it is closed with its outcome.
     """
     from coordarm.simulation.limits import GainStepWarning, check_cost, check_gain_step, estimate
     from coordarm.simulation.live import LiveView
     from coordarm.simulation.mcap_writer import RunLogger
-    from coordarm.simulation.run import BackendFallbackWarning, select_backend, simulate
+    from coordarm.simulation.outcome import EXIT_CODES, explain
+    from coordarm.simulation.run import CHECK_RATE, BackendFallbackWarning, select_backend, simulate
     from coordarm.simulation.scenario import load_scenario
-    from coordarm.symbolic.errors import ConfigError, SingularityError
+    from coordarm.symbolic.errors import CollisionError, ConfigError, SingularityError
 
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law)
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, args.log_rate), args.yes)
@@ -148,7 +184,7 @@ def main(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise LogError(f"--out {out}: cannot create its directory: {exc.strerror or exc}") from None
     ctrl = scenario.controller()
-    status = 0
+    stopped: SingularityError | CollisionError | None = None
     with ExitStack() as stack:
         live = None
         if args.live:
@@ -157,7 +193,7 @@ def main(args: argparse.Namespace) -> int:
             if args.live_wait:
                 live.wait_for_client()
         try:
-            # The log is closed with its outcome however the run ends (singularity, error, Ctrl-C).
+            # The log is closed with its outcome however the run ends (singularity, collision, error, Ctrl-C).
             # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
             with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, cond_rate=args.cond_rate,
                            compression=args.compression, overwrite=overwrite,
@@ -174,15 +210,24 @@ def main(args: argparse.Namespace) -> int:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", GainStepWarning)   # said above already
                     run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
-                                   thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=on_chunk)
-        except SingularityError as err:
-            print(f"coordarm run: {err}", file=sys.stderr)
-            run, status = err.run, 3
+                                   thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=on_chunk,
+                                   physical=scenario.physical(ctrl.chain),
+                                   check_every=max(log.every, round(1.0 / (CHECK_RATE * scenario.step))),
+                                   allow_contact=args.allow_contact)
+                log.contacts = run.info["contacts"]
+        except (SingularityError, CollisionError) as err:
+            run, stopped = err.run, err
+    status = "completed" if stopped is None else ("collision" if isinstance(stopped, CollisionError) else "singularity")
     print_summary(run, scenario)
     if compiled:
         print(f"library       {compiled.library.path} ({'cache hit' if compiled.cache_hit else 'built now'})")
     print(f"log           {out}")
-    if not args.no_figures:
-        for p in write_figures(run, scenario, ctrl, out.with_suffix("")):
-            print(f"figure        {p}")
-    return status
+    figures = [] if args.no_figures else write_figures(run, scenario, ctrl, out.with_suffix(""), args.stages,
+                                                       outcome=status)
+    for p in figures:
+        print(f"figure        {p}")
+    if stopped is not None:
+        what, advice = explain(stopped)
+        print(f"coordarm run: {status}: {what}; run stopped\n{advice}\nlog: {out}"
+              + "".join(f"\nfigure: {p}" for p in figures), file=sys.stderr)
+    return EXIT_CODES[status]

@@ -1,0 +1,23 @@
+"""How a run ended, in words a user can act on, and the exit status of ``coordarm run``."""
+from __future__ import annotations
+
+from coordarm.symbolic import CollisionError, SingularityError
+
+#: Exit status of ``coordarm run`` per outcome (bad input is 2, Ctrl-C 130: see ``coordarm.cli``).
+EXIT_CODES = {"completed": 0, "singularity": 3, "collision": 4}
+
+
+def explain(error: SingularityError | CollisionError) -> list[str]:
+    """What happened (margin or contact, link, time, value against threshold, geometric meaning) and one line of advice."""
+    if isinstance(error, CollisionError):
+        return [error.contact.describe(), error.contact.advice()]
+    t, v, thr = f"t = {error.time:.3f} s", f"{error.margin:.3g}", f"{error.threshold:.3g}"
+    if error.kind == "longitudinal":
+        return [f"singularity ahead at {t}: the longitudinal margin fell to {v} (threshold {thr}): the body is "
+                f"stretched along the curve and the end point can hardly be pushed further (|u| would blow up)",
+                "advice: lower the speed v*, use more links, a shorter duration, or a more compact start "
+                "(larger start.beta)"]
+    return [f"singularity ahead at {t}: the link margin of link {error.link} fell to {v} (threshold {thr}): "
+            f"link {error.link} stands almost across the curve",
+            "advice: move the curve more slowly (angle, radius), raise the gain K, or start with links more "
+            "aligned with the curve (smaller start.beta)"]

@@ -1,0 +1,171 @@
+"""Physical validity of the chain: joint limits, self-collision and obstacles, vectorised over samples.
+
+:func:`check_configuration` returns every contact of a block of configurations;
+:class:`Physical` holds what a run checks (limits, clearance, obstacles) and is what
+:func:`coordarm.simulation.run.simulate` takes as ``physical=``.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from coordarm.symbolic import PlanarChain
+from coordarm.symbolic.geometry import self_distances, touching
+
+from .obstacles import Obstacle, link_distances
+
+#: Contact kinds, in the order they are reported within one sample.
+KINDS = ("joint_limit", "self", "wall")
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One violation at one sample.
+
+    Attributes
+    ----------
+    kind : str
+        ``"joint_limit"`` (``links`` = the two links the joint joins), ``"self"`` (two
+        non-adjacent links) or ``"wall"`` (one link and ``obstacle``).
+    time : float
+        Simulated time [s].
+    links : tuple of int
+        1-based links.
+    value : float
+        The joint angle [rad] or the distance [m].
+    threshold : float
+        The joint limit [rad] or the clearance [m].
+    obstacle : str or None
+        Name of the obstacle (``"wall"`` only).
+    """
+
+    kind: str
+    time: float
+    links: tuple[int, ...]
+    value: float
+    threshold: float
+    obstacle: str | None = None
+
+    def describe(self) -> str:
+        """What happened, in words (time, links, value against threshold, geometric meaning)."""
+        t = f"t = {self.time:.3f} s"
+        if self.kind == "joint_limit":
+            j = self.links[1]
+            return (f"joint limit at {t}: joint {j} (between links {j - 1} and {j}) is at {self.value:+.4f} rad, "
+                    f"beyond its limit ±{self.threshold:.4f} rad: the two links fold too far onto each other")
+        if self.kind == "self":
+            a, b = self.links
+            what = "cross each other" if self.value <= 0 else f"come {self.value:.4f} m apart"
+            return (f"self-collision at {t}: links {a} and {b} {what} (clearance {self.threshold:g} m): "
+                    f"the body runs into itself")
+        what = "touches or crosses" if self.value <= 0 else f"comes {self.value:.4f} m close to"
+        return f"collision at {t}: link {self.links[0]} {what} {self.obstacle!r} (clearance {self.threshold:g} m)"
+
+    def advice(self) -> str:
+        """One line of advice."""
+        if self.kind == "joint_limit":
+            return ("advice: start more compact only up to the limit (smaller start.beta), lower the curve's "
+                    "curvature or speed, or raise chain.joint_limit if the hardware allows")
+        if self.kind == "self":
+            return ("advice: a shorter duration or lower speed (the body is pushed back onto itself), a larger "
+                    "curve radius, or fewer links")
+        return ("advice: move the obstacle or the curve away from the body, narrow the body (smaller start.beta) "
+                "to pass an opening, or add --allow-contact to record contacts and keep going")
+
+    def to_dict(self) -> dict:
+        """JSON-ready record (the MCAP ``outcome`` and ``report.json``)."""
+        d = asdict(self)
+        d["links"] = list(self.links)
+        return d
+
+
+def joint_limits(links: int, joint_limit: float | Sequence[float]) -> np.ndarray:
+    """Limits [rad] of the relative joints 2..m, shape (m-1,), from one number or a list of m-1."""
+    lim = np.asarray(joint_limit, dtype=float)
+    if lim.ndim == 0:
+        lim = np.full(links - 1, float(lim))
+    return lim
+
+
+@dataclass
+class Physical:
+    """What a run checks at every logged sample.
+
+    Attributes
+    ----------
+    chain : PlanarChain
+        The chain (its ``joint_limits`` and ``clearance``).
+    obstacles : list of Obstacle
+        Walls, discs and polygons.
+    """
+
+    chain: PlanarChain
+    obstacles: list[Obstacle] = field(default_factory=list)
+
+    def check(self, t: np.ndarray, q: np.ndarray) -> list[Contact]:
+        """Every contact at the samples ``(t[k], q[k])``, sorted by time (then kind, links)."""
+        return check_configuration(self.chain, q, self.obstacles, t)
+
+    def clearances(self, q: np.ndarray, t: np.ndarray) -> dict[str, tuple[float, float, int]]:
+        """Per obstacle: (smallest distance [m], its time [s], its 1-based link) over the samples."""
+        joints = self.chain.joints_np(np.asarray(q, float))
+        out = {}
+        for ob in self.obstacles:
+            d = link_distances(joints, ob)
+            k, j = np.unravel_index(int(np.argmin(d)), d.shape)
+            out[ob.name] = (float(d[k, j]), float(t[k]), int(j) + 1)
+        return out
+
+
+def check_configuration(chain: PlanarChain, q, obstacles: Sequence[Obstacle] = (),
+                        t=None) -> list[Contact]:
+    """Joint limits, self-collision and obstacle contacts of configurations ``q``.
+
+    Parameters
+    ----------
+    chain : PlanarChain
+        Its ``joint_limits`` (m-1,) [rad] bound ``|q_j|``, j = 2..m; its ``clearance`` [m]
+        is the smallest allowed distance between non-adjacent links and from a link to an
+        obstacle (0: touching counts as contact).
+    q : (N, m) or (m,) array
+        Configurations [rad].
+    obstacles : sequence of Obstacle
+    t : (N,) array, optional
+        Times of the samples [s] (default: the sample index).
+
+    Returns
+    -------
+    list of Contact
+        Sorted by time; empty when every sample is valid.
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    t = np.arange(len(q), dtype=float) if t is None else np.atleast_1d(np.asarray(t, dtype=float))
+    lim, c = chain.joint_limits, chain.clearance
+    found: list[tuple[int, int, Contact]] = []
+    ks, js = np.nonzero(~(np.abs(q[:, 1:]) <= lim))        # NaN counts as beyond
+    for k, j in zip(ks.tolist(), js.tolist()):
+        found.append((k, 0, Contact("joint_limit", float(t[k]), (j + 1, j + 2), float(q[k, j + 1]), float(lim[j]))))
+    joints = chain.joints_np(q)
+    s, la, lb, d = self_distances(joints, c)
+    hit = touching(d, c)
+    for k, a, b, dist in zip(s[hit].tolist(), la[hit].tolist(), lb[hit].tolist(), d[hit].tolist()):
+        found.append((k, 1, Contact("self", float(t[k]), (a, b), dist, c)))
+    for ob in obstacles:
+        dist = link_distances(joints, ob)
+        for k, j in zip(*np.nonzero(touching(dist, c))):
+            found.append((int(k), 2, Contact("wall", float(t[k]), (int(j) + 1,), float(dist[k, j]), c, ob.name)))
+    found.sort(key=lambda x: (x[0], x[1], x[2].links))
+    return [x[2] for x in found]
+
+
+def distinct(contacts: Sequence[Contact]) -> list[Contact]:
+    """The first contact of every (kind, links, obstacle), in time order (for ``--allow-contact`` records)."""
+    seen, out = set(), []
+    for c in contacts:
+        key = (c.kind, c.links, c.obstacle)
+        if key not in seen:
+            seen.add(key)
+            out.append(c)
+    return out
