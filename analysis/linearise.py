@@ -21,7 +21,7 @@ import numpy as np
 
 from coordarm.simulation.run import even_indices
 from coordarm.symbolic import CoordinatingController
-from coordarm.symbolic.outputs import OUTPUTS
+
 
 
 @dataclass
@@ -42,6 +42,11 @@ class Linearisation:
         ``F = df/dq`` in joint coordinates [1/s].
     task_rate : (m,) array
         ``H f + dh/dt``: the task velocity ``(sdot, edot)`` at the point.
+    free : int
+        Leading task coordinates with eigenvalue 0 by design: 1 (``s``), 2 on a rail with a
+        held span (``s``, ``sigma``; a commanded span decays like ``-K``).
+
+    On a rail the task coordinates are ``(s, sigma, e^2..e^m)`` and ``q`` has m+1 entries.
     """
 
     t: float
@@ -50,6 +55,7 @@ class Linearisation:
     frozen_task_matrix: np.ndarray
     joint_matrix: np.ndarray
     task_rate: np.ndarray
+    free: int = 1
 
     def eigenvalues(self) -> np.ndarray:
         """Eigenvalues of :attr:`task_matrix`, sorted by real part (descending) [1/s]."""
@@ -58,7 +64,7 @@ class Linearisation:
 
     def deviation_from_design(self, gain: float, frozen: bool = False) -> float:
         """``max |A - diag(0, -K, ..., -K)|`` [1/s] of :attr:`task_matrix` (or :attr:`frozen_task_matrix`)."""
-        target = np.diag([0.0] + [-gain] * (len(self.q) - 1))
+        target = np.diag([0.0] * self.free + [-gain] * (len(self.q) - self.free))
         return float(np.max(np.abs((self.frozen_task_matrix if frozen else self.task_matrix) - target)))
 
 
@@ -77,14 +83,14 @@ def linearisation_function(ctrl: CoordinatingController, form: str | None = None
 
 
 def _linearisation_function(ctrl: CoordinatingController, form: str) -> ca.Function:
-    """The uncached body of :func:`linearisation_function`."""
-    m = ctrl.chain.m
+    """The uncached body of :func:`linearisation_function` (on a rail: tasks ``(s, sigma, e)``)."""
+    m = ctrl.chain.dof
     sym = ca.SX if form == "structured" else ca.MX      # the dense law's linear solve is MX only
     q, t = sym.sym("q", m), sym.sym("t")
-    out = dict(zip(OUTPUTS, ctrl.fast_law(form)(q, t)))
+    out = dict(zip(ctrl.outputs, ctrl.fast_law(form)(q, t)))
     u, e, s = out["u"], out["e"], out["s"]
-    f = ca.mtimes(ca.DM(ctrl.chain.B), u)
-    z = ca.vertcat(s, e)
+    f = ca.mtimes(ca.DM(ctrl.B_joints), u)
+    z = ca.vertcat(s, out["sigma"], e) if ctrl.chain.rail else ca.vertcat(s, e)
     H = ca.jacobian(z, q)
     F = ca.jacobian(f, q)
     # Hdot: one forward directional derivative of H along the flow (f, 1) in (q, t)
@@ -114,7 +120,8 @@ def linearise(ctrl: CoordinatingController, q, t: float = 0.0, form: str | None 
     q = ctrl.chain.check_q(q)
     H, F, Hdot, rate = (np.asarray(x) for x in linearisation_function(ctrl, form)(q, float(t)))
     Hinv = np.linalg.inv(H)
-    return Linearisation(float(t), q, (H @ F + Hdot) @ Hinv, H @ F @ Hinv, F, rate.ravel())
+    free = 2 if ctrl.chain.rail and ctrl.span is None else 1
+    return Linearisation(float(t), q, (H @ F + Hdot) @ Hinv, H @ F @ Hinv, F, rate.ravel(), free)
 
 
 def linearise_run(ctrl: CoordinatingController, t, q, points: int = 5,

@@ -20,6 +20,7 @@ import struct
 import zlib
 from collections import namedtuple
 from dataclasses import dataclass, field, fields
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -36,8 +37,8 @@ from coordarm.simulation.choices import lz4_frame
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
 from coordarm.simulation.mcap_file import DIGEST_KEY, metadata_digest
 from coordarm.simulation.mcap_writer import partial_path
-from coordarm.simulation.run import ARRAYS, ExtraOutputs, Run
-from coordarm.simulation.scenario import Scenario
+from coordarm.simulation.run import ARRAYS, OPTIONAL, ExtraOutputs, Run
+from coordarm.simulation.scenario import USER_DEFINED, Scenario
 from coordarm.symbolic import ConfigError, LogError
 
 #: Exceptions the mcap reader raises on damaged input (it has no single base class for them).
@@ -98,7 +99,7 @@ class Replay(ExtraOutputs):
     t, s, v_star, longitudinal : (N,) arrays
         Time [s], arc length of the end point [m], commanded speed [m/s], longitudinal margin.
     q, u : (N, m) arrays
-        Joint coordinates [rad] and control.
+        Joint coordinates [rad] and control (N, m+1 on a rail: ``d`` [m] and its rate first).
     e, link_margins : (N, m-1) arrays
         Deviations ``e^2..e^m`` [m] and link margins of links 2..m.
     cond_t, cond : (K,) arrays
@@ -169,7 +170,8 @@ class Replay(ExtraOutputs):
         -------
         Run
         """
-        return Run.from_arrays({a: getattr(self, a) for a in ARRAYS},
+        keys = ARRAYS + tuple(a for a in OPTIONAL if a in self.extra)
+        return Run.from_arrays({a: getattr(self, a) for a in keys},
                                info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?"),
                                      "contacts": self.outcome.get("contacts", [])})
 
@@ -265,13 +267,16 @@ def _decode(channel_messages: list[RawMessage], width: int, topic: str, path: Pa
     return rec["d"].reshape(len(channel_messages), width).copy()
 
 
-def load(path: str | Path) -> Replay:
+def load(path: str | Path, curve: Any = None) -> Replay:
     """Read the log at ``path`` (or, if it is missing, its unfinished :func:`partial_path`).
 
     Parameters
     ----------
     path : str or Path
         An MCAP log written by ``coordarm run`` (also one cut short by a killed run).
+    curve : Curve, optional
+        The user-defined :class:`~coordarm.symbolic.Curve` the run used, needed (and only
+        used) when the log records ``[curve] kind = "user-defined"``.
 
     Returns
     -------
@@ -298,11 +303,13 @@ def load(path: str | Path) -> Replay:
                        f"before the break){detail}")
     try:
         spec = json.loads(meta["scenario"]["json"])
-        scenario = Scenario.from_dict(spec, f"{path} (scenario metadata)")
+        scenario = Scenario.from_dict(spec, f"{path} (scenario metadata)",
+                                      curve=curve if spec.get("curve", {}).get("kind") == USER_DEFINED else None)
     except (KeyError, TypeError, ValueError, RecursionError, ConfigError) as exc:
         raise LogError(f"{path}: the 'scenario' metadata is not a valid scenario: {exc}") from None
     m = int(spec["chain"]["links"])
-    specs = numeric_channels(m)
+    rail = scenario.chain().rail
+    specs = numeric_channels(m, True) if rail else numeric_channels(m)
     by_topic = {ch.topic: cid for cid, ch in channels.items()}
     per_channel: dict[str, np.ndarray] = {}
     grouped: dict[int, list[RawMessage]] = {}
@@ -348,7 +355,7 @@ def load(path: str | Path) -> Replay:
         data = data[np.isin(data[:, 0], common)]
         for name, sl in specs[key].slices().items():
             cols.setdefault(name, data[:, sl])
-    current = numeric_channels(m)
+    current = numeric_channels(m, True) if rail else numeric_channels(m)
     for key in PER_STEP:      # fields added after the log was written: NaN, said in problems
         for name, n in current[key].fields:
             if name not in cols:

@@ -252,7 +252,7 @@ def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController,
               "|---|---|---|---|"]
     for L in checks["linearisations"]:
         ev = L.eigenvalues()
-        target = np.array([0.0] + [-K] * (m - 1))
+        target = np.array([0.0] * L.free + [-K] * (len(L.q) - L.free))
         far = ev[np.argmax(np.abs(ev - target))]
         frozen = L.deviation_from_design(K, frozen=True)
         lines.append(f"| {L.t:.3f} | {L.deviation_from_design(K):.2e} | {far.real:.6g}{far.imag:+.2g}j | {frozen:.3g} |")
@@ -294,7 +294,9 @@ def write_report(run: Any, scenario: Any, out_dir: str | Path, ctrl: Coordinatin
 
     q = np.asarray(run.q, dtype=float)
     if ctrl is None:
-        sc = scenario if scenario.chain().m == q.shape[1] else scenario.with_overrides(links=q.shape[1])
+        chain = scenario.chain()
+        links = q.shape[1] - int(chain.rail)
+        sc = scenario if chain.m == links else scenario.with_overrides(links=links)
         ctrl = sc.controller()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -78,14 +78,16 @@ def _margins_batch(ctrl: CoordinatingController, Q: np.ndarray, T: np.ndarray) -
 
     # link margins from the geometry: grad phi at the centres, normals of the links
     g = geo["gphi"][:, 1:]                                    # (N, m-1, 2)
-    nrm = normal(np.cumsum(Q, axis=-1))[:, 1:, :]
+    nrm = normal(np.cumsum(chain.revolute(Q), axis=-1))[:, 1:, :]
     links = np.abs(np.sum(g * nrm, axis=-1)) / np.linalg.norm(g, axis=-1)
 
-    # longitudinal margin from the null vector of the e rows (in joint-rate space)
-    Mq = M @ np.linalg.inv(chain.B)                           # rows d(task)/dq
-    Qf, _ = np.linalg.qr(np.swapaxes(Mq[:, 1:, :], 1, 2), mode="complete")
+    # longitudinal margin from the null vector of the e rows (in joint-rate space); on a rail
+    # the span row fixes d_dot first, so the e rows and the s row act on the revolute joints
+    Mq = M @ np.linalg.inv(ctrl.B_joints)                     # rows d(task)/dq
+    r0 = int(chain.rail)
+    Qf, _ = np.linalg.qr(np.swapaxes(Mq[:, 1 + r0:, r0:], 1, 2), mode="complete")
     n = Qf[:, :, -1]                                          # (N, m) null direction of the e rows
-    pivot = np.einsum("ni,ni->n", Mq[:, 0, :], n)
+    pivot = np.einsum("ni,ni->n", Mq[:, 0, r0:], n)
     longitudinal = np.abs(pivot) / (xi * np.sum(np.abs(np.cumsum(n, axis=-1)), axis=-1))
 
     sv = np.linalg.svd(M, compute_uv=False)
@@ -149,8 +151,8 @@ def run_margins(controller: CoordinatingController, t, q, batch: int | None = No
     """
     t = np.asarray(t, dtype=float).ravel()
     q = np.asarray(q, dtype=float)
-    if q.shape != (len(t), controller.chain.m):
-        raise ConfigError(f"q: need shape ({len(t)}, {controller.chain.m}), got {q.shape}")
+    if q.shape != (len(t), controller.chain.dof):
+        raise ConfigError(f"q: need shape ({len(t)}, {controller.chain.dof}), got {q.shape}")
     m = controller.chain.m
     batch = batch or max(1, min(500, 2**24 // (m * m)))
     parts = [_margins_batch(controller, q[i:i + batch], t[i:i + batch]) for i in range(0, len(t), batch)]

@@ -8,6 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from coordarm.symbolic import CoordinatingController
+from coordarm.symbolic.paths import Path as PathCurve
 
 from .obstacles import Obstacle, outline
 from .run import Run, even_indices
@@ -45,6 +46,27 @@ def draw_obstacles(ax, obstacles: Sequence[Obstacle], labels: bool = True) -> No
                         xytext=(0, 8), textcoords="offset points")
 
 
+def target_points(run: Run, ctrl: CoordinatingController, idx: np.ndarray) -> np.ndarray | None:
+    """The end point's target ``s*(t) = s(0) + integral of v*`` on the curve at rows ``idx``, (len(idx), 2) [m].
+
+    None when the curve cannot map an arc length to a point (a user curve without ``point_at``).
+    """
+    s_ref = run.s_reference()
+    try:
+        return np.array([ctrl.curve.point_at(float(s_ref[k]), float(run.t[k])) for k in idx])
+    except NotImplementedError:
+        return None
+
+
+def draw_rail(ax, chain, lo: np.ndarray, hi: np.ndarray) -> None:
+    """The introduction axis: its travel ``[low, high]`` along its direction, clipped to the view."""
+    reach = float(np.linalg.norm(hi - lo)) + float(np.linalg.norm(lo)) + float(np.linalg.norm(hi))
+    a, b = (min(max(v, -reach), reach) for v in chain.rail_limits)
+    ends = np.outer([a, b], chain.rail_direction)
+    ax.plot(ends[:, 0], ends[:, 1], "-", color="0.55", lw=5, alpha=0.5, solid_capstyle="butt",
+            label="rail", zorder=0)
+
+
 def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, obstacles: Sequence[Obstacle],
                  frame: np.ndarray | None = None) -> None:
     """The chain at rows ``idx`` with the curve at those times, the obstacles and the base, on ``ax``."""
@@ -55,16 +77,27 @@ def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, ob
     if obstacles and frame is None:
         w = np.concatenate([outline(ob) for ob in obstacles])
         lo, hi = np.minimum(lo, w.min(axis=0)), np.maximum(hi, w.max(axis=0))
+    if isinstance(ctrl.curve, PathCurve) and frame is None:     # a bounded path is shown whole
+        w = ctrl.curve.sample(float(run.t[idx[0]]), extent=1.0)
+        lo, hi = np.minimum(lo, w.min(axis=0)), np.maximum(hi, w.max(axis=0))
     pad = 0.1 * max(hi - lo) + ctrl.chain.xi
     lo, hi = lo - pad, hi + pad
     extent = float(np.linalg.norm(hi - lo))
-    for k, c, J in zip(idx, colors, joints):
+    targets = target_points(run, ctrl, idx)
+    for i, (k, c, J) in enumerate(zip(idx, colors, joints)):
         cur = ctrl.curve.sample(float(run.t[k]), extent=extent)
         ax.plot(cur[:, 0], cur[:, 1], "--", color=c, lw=0.8, alpha=0.7)
         ax.plot(J[:, 0], J[:, 1], "-", color=c, lw=1.4, label=f"t = {run.t[k]:.1f} s")
         ax.plot(J[-1, 0], J[-1, 1], "o", color=c, ms=4)
+        if targets is not None:
+            ax.plot(*targets[i], "x", color=c, ms=7, mew=1.5, label="target s*(t)" if i == len(idx) - 1 else None)
     draw_obstacles(ax, obstacles)
-    ax.plot(0, 0, "ks", ms=6, label="base")
+    if ctrl.chain.rail:
+        draw_rail(ax, ctrl.chain, lo, hi)
+        base = ctrl.chain.base_point(run.q[idx])
+        ax.plot(base[:, 0], base[:, 1], "ks", ms=5, label="base (on the rail)")
+    else:
+        ax.plot(0, 0, "ks", ms=6, label="base")
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")

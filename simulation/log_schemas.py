@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from importlib import resources
 from typing import Any
 
-from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name
+from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name, outputs_of
 
 #: CDR encapsulation header: representation identifier CDR_LE (0x0001), options 0.
 CDR_HEADER = b"\x00\x01\x00\x00"
@@ -51,9 +51,13 @@ class NumericChannel:
         """Bytes of one encoded message (header included)."""
         return len(CDR_HEADER) + 8 * self.width
 
+    #: Comment lines heading the ``ros2msg`` definition (e.g. what ``q[0]`` is on a rail).
+    comment: str = ""
+
     def schema_text(self) -> str:
-        """The ``ros2msg`` definition, one field per line."""
-        return "".join(f"float64{f'[{n}]' if n else ''} {name}\n" for name, n in self.fields)
+        """The ``ros2msg`` definition, one field per line (after the comment lines, if any)."""
+        head = "".join(f"# {line}\n" for line in self.comment.splitlines())
+        return head + "".join(f"float64{f'[{n}]' if n else ''} {name}\n" for name, n in self.fields)
 
     def fill(self, out: Any, run: Any, rows: Any) -> None:
         """Write the fields of ``run`` (a :class:`~simulation.run.Run`) at ``rows`` into ``out``, shape (n, width)."""
@@ -80,30 +84,39 @@ CHANNEL_LAYOUT = {
     "margins": ("/margins", "coordarm_msgs/msg/Margins", ("t", "link_margins", "longitudinal")),
 }
 
+#: The comment of ``/joint_state`` on a rail: ``q`` and ``u`` hold the rail joint first.
+RAIL_COMMENT = ("q[0]: rail position d [m] (introduction axis); q[1..m]: revolute joints q_1..q_m [rad]\n"
+                "u[0]: rail rate d_dot [m/s]; u[1..m]: revolute controls")
 
-def _field(name: str, m: int) -> tuple[str, int]:
+
+def _field(name: str, m: int, rail: bool = False) -> tuple[str, int]:
     """``(name, length)`` of a channel field for ``m`` links (length 0 = a scalar)."""
     if name in RUN_FIELDS:
         per_link, extra = RUN_FIELDS[name]
+        extra += int(rail and name == "q")                  # d first on a rail
         return name, 0 if (per_link, extra) == (0, 1) else per_link * m + extra
-    out = by_name(name)
+    out = next(o for o in outputs_of(True) if o.name == name) if rail else by_name(name)
     return name, 0 if out.scalar else out.width(m)
 
 
-def numeric_channels(links: int) -> dict[str, NumericChannel]:
+def numeric_channels(links: int, rail: bool = False) -> dict[str, NumericChannel]:
     """The per-step channels and the condition-number channel for a chain of ``links`` links.
 
     Keys are short names (``joint_state``, ``task_state``, ``margins``, ``cond``, ``tracking``);
     every per-step field is named after its :class:`~coordarm.simulation.run.Run` array.
     ``/tracking`` (at the scene rate, for the Foxglove layout's plots) holds the end point's arc
     length ``s``, its target ``s_target = s(0) + integral of v*`` [m], the target point on the
-    curve [m], ``max|e|`` [m], the smallest link margin and the Euclidean norm of ``u``.
+    curve [m], ``max|e|`` [m], the smallest link margin and the Euclidean norm of ``u``. On a
+    ``rail`` ``q``, ``u`` hold ``d``, ``d_dot`` first (m+1 entries, said in the schema's comment),
+    ``/task_state`` adds the span ``sigma`` and ``/margins`` the ``rail_margin``.
     """
     m = links
     out = {}
     for key, (topic, schema, lead) in CHANNEL_LAYOUT.items():
-        names = list(lead) + [o.name for o in LAW_OUTPUTS if o.channel == key and o.name not in lead]
-        out[key] = NumericChannel(topic, schema, tuple(_field(n, m) for n in names))
+        rows = outputs_of(True) if rail else LAW_OUTPUTS
+        names = list(lead) + [o.name for o in rows if o.channel == key and o.name not in lead]
+        comment = RAIL_COMMENT if rail and key == "joint_state" else ""
+        out[key] = NumericChannel(topic, schema, tuple(_field(n, m, rail) for n in names), comment)
     out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", (("t", 0), ("cond", 0)))
     out["tracking"] = NumericChannel("/tracking", "coordarm_msgs/msg/Tracking",
                                      (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0),
@@ -121,7 +134,8 @@ def fields_from_schema(text: str) -> tuple[tuple[str, int], ...]:
     Parameters
     ----------
     text : str
-        The schema as :meth:`NumericChannel.schema_text` writes it (``float64[n] name`` lines).
+        The schema as :meth:`NumericChannel.schema_text` writes it (``float64[n] name`` lines,
+        ``#`` comment lines skipped).
 
     Returns
     -------
@@ -135,7 +149,7 @@ def fields_from_schema(text: str) -> tuple[tuple[str, int], ...]:
     """
     out = []
     for line in text.splitlines():
-        if not line.strip():
+        if not line.strip() or line.lstrip().startswith("#"):
             continue
         kind, _, name = line.strip().partition(" ")
         if kind == "float64":

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import CollisionError, ConfigError, CoordinatingController, LogError, SingularityError
+from coordarm.symbolic.controller import BUILT_IN_CURVES
 
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
@@ -215,7 +216,10 @@ class RunLogger:
                  compression: str = "zstd", chunk_size: int = 256 * 1024, flush_interval: float = FLUSH_INTERVAL,
                  command: list[str] | None = None, backend: str = "interpreted", library_key: str | None = None,
                  threaded: bool = False, overwrite: bool = True) -> None:
-        self.scenario, self.ctrl = scenario, ctrl or scenario.controller()
+        self.ctrl = ctrl or scenario.controller()
+        if type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
+            scenario = scenario.with_curve(self.ctrl.curve)      # the log records a user-defined curve
+        self.scenario = scenario
         self.step = scenario.step
         self.every = self._decimation(log_rate, "log_rate") if log_rate is not None else 1
         m = self.ctrl.chain.m
@@ -227,7 +231,7 @@ class RunLogger:
             raise ConfigError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
         self.flush_interval = float(flush_interval)
         self.path = Path(path)
-        self.channels: dict[str, NumericChannel] = numeric_channels(m)
+        self.channels: dict[str, NumericChannel] = numeric_channels(m, self.ctrl.chain.rail)
         if not overwrite and self.path.exists():
             raise LogError(f"{self.path}: exists; choose another --out or pass --overwrite")
         try:

@@ -17,7 +17,7 @@ from coordarm.symbolic.geometry import self_distances, touching
 from .obstacles import Obstacle, link_distances
 
 #: Contact kinds, in the order they are reported within one sample.
-KINDS = ("joint_limit", "self", "wall")
+KINDS = ("joint_limit", "self", "wall", "rail_limit")
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,9 @@ class Contact:
     def describe(self) -> str:
         """What happened, in words (time, links, value against threshold, geometric meaning)."""
         t = f"t = {self.time:.3f} s"
+        if self.kind == "rail_limit":
+            return (f"rail limit at {t}: the rail position d = {self.value:+.4f} m is beyond its limit "
+                    f"{self.threshold:+.4f} m: the introduction axis cannot feed the body further")
         if self.kind == "joint_limit":
             j = self.links[1]
             return (f"joint limit at {t}: joint {j} (between links {j - 1} and {j}) is at {self.value:+.4f} rad, "
@@ -129,8 +132,8 @@ def check_configuration(chain: PlanarChain, q, obstacles: Sequence[Obstacle] = (
         Its ``joint_limits`` (m-1,) [rad] bound ``|q_j|``, j = 2..m; its ``clearance`` [m]
         is the smallest allowed distance between non-adjacent links and from a link to an
         obstacle (0: touching counts as contact).
-    q : (N, m) or (m,) array
-        Configurations [rad].
+    q : (N, dof) or (dof,) array
+        Configurations [rad] (on a rail ``d`` [m] first, checked against ``chain.rail_limits``).
     obstacles : sequence of Obstacle
     t : (N,) array, optional
         Times of the samples [s] (default: the sample index).
@@ -144,9 +147,15 @@ def check_configuration(chain: PlanarChain, q, obstacles: Sequence[Obstacle] = (
     t = np.arange(len(q), dtype=float) if t is None else np.atleast_1d(np.asarray(t, dtype=float))
     lim, c = chain.joint_limits, chain.clearance
     found: list[tuple[int, int, Contact]] = []
-    ks, js = np.nonzero(~(np.abs(q[:, 1:]) <= lim))        # NaN counts as beyond
+    rev = chain.revolute(q)                                # the rail position d is checked apart
+    ks, js = np.nonzero(~(np.abs(rev[:, 1:]) <= lim))      # NaN counts as beyond
     for k, j in zip(ks.tolist(), js.tolist()):
-        found.append((k, 0, Contact("joint_limit", float(t[k]), (j + 1, j + 2), float(q[k, j + 1]), float(lim[j]))))
+        found.append((k, 0, Contact("joint_limit", float(t[k]), (j + 1, j + 2), float(rev[k, j + 1]), float(lim[j]))))
+    if chain.rail:
+        lo, hi = chain.rail_limits
+        for k in np.flatnonzero(~((q[:, 0] >= lo) & (q[:, 0] <= hi))).tolist():
+            found.append((k, 0, Contact("rail_limit", float(t[k]), (1,), float(q[k, 0]),
+                                        lo if q[k, 0] < lo else hi)))
     joints = chain.joints_np(q)
     s, la, lb, d = self_distances(joints, c)
     hit = touching(d, c)

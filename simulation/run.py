@@ -12,11 +12,11 @@ import numpy as np
 
 from coordarm.generated import compile as compile_controller
 from coordarm.symbolic import (BuildError, CollisionError, ConfigError, CoordarmError, CoordinatingController,
-                               SingularityError)
+                               SingularityError, TubeError)
 from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
-from coordarm.symbolic.outputs import RUN_OUTPUTS, by_name, split
+from coordarm.symbolic.outputs import RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS, split
 
 from .choices import BACKENDS
 from .limits import KEEP_ROWS, check_gain_step
@@ -67,11 +67,15 @@ class Run(ExtraOutputs):
         Longitudinal margin (0 = end point cannot be pushed along the curve).
     v_star : (N+1,) array
         Commanded speed [m/s].
+    sigma, rail_margin : (N+1,) array or None
+        On a rail only: the span ``psi(y^m) - psi(y^1)`` [m] and the rail margin [-].
     info : dict
         Backend, wall time, stop reason.
     extra : dict
         Arrays of the law's other run outputs (rows of :data:`~coordarm.symbolic.outputs.LAW_OUTPUTS`
         with a log channel that are not fields above), also readable as attributes.
+
+    On a rail ``q`` and ``u`` have m+1 columns, the rail position ``d`` [m] and its rate first.
     """
 
     t: np.ndarray
@@ -82,6 +86,8 @@ class Run(ExtraOutputs):
     link_margins: np.ndarray
     longitudinal: np.ndarray
     v_star: np.ndarray
+    sigma: np.ndarray | None = None
+    rail_margin: np.ndarray | None = None
     info: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
 
@@ -95,8 +101,9 @@ class Run(ExtraOutputs):
             An array of :data:`ARRAYS` is missing.
         """
         named = {f.name for f in fields(cls)} - {"info", "extra"}
-        return cls(**{a: arrays[a] for a in ARRAYS if a in named}, info=dict(info or {}),
-                   extra={a: arrays[a] for a in ARRAYS if a not in named})
+        keys = ARRAYS + tuple(a for a in OPTIONAL if a in arrays)
+        return cls(**{a: arrays[a] for a in keys if a in named}, info=dict(info or {}),
+                   extra={a: arrays[a] for a in keys if a not in named})
 
     def s_reference(self) -> np.ndarray:
         """``s(0) + integral of v*`` on the sample grid (trapezoidal rule).
@@ -143,8 +150,8 @@ def check_number(value: Any, name: str, positive: bool = True) -> float:
 class Progress:
     """A one-line progress bar on stderr (redrawn in place on a terminal, every 10% otherwise)."""
 
-    def __init__(self, total: float, label: str = "run", stream=None) -> None:
-        self.total, self.label, self.stream = total, label, stream or sys.stderr
+    def __init__(self, total: float, label: str = "run", stream=None, unit: str = "t = {done:.2f}/{total:.2f} s") -> None:
+        self.total, self.label, self.stream, self.unit = total, label, stream or sys.stderr, unit
         self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
         self.start, self.last = _time.perf_counter(), -1
 
@@ -160,8 +167,8 @@ class Progress:
         self.stream.flush()
 
     def status(self, done: float, elapsed: float) -> str:
-        """The text after the bar: simulated time done and wall time spent."""
-        return f"t = {done:.2f}/{self.total:.2f} s  {elapsed:.1f} s wall"
+        """The text after the bar: the progress in ``unit`` (simulated time by default) and wall time spent."""
+        return f"{self.unit.format(done=done, total=self.total)}  {elapsed:.1f} s wall"
 
     def close(self) -> None:
         if self.tty:
@@ -190,6 +197,18 @@ def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
         j = int(np.nanargmin(link_margins[k])) if np.isfinite(link_margins[k]).any() else 0
         return k, "link", j + 2, float(link_margins[k, j])
     return k, "longitudinal", None, float(longitudinal[k])
+
+
+def tube_exit(e: np.ndarray, radius: float) -> tuple[int, int, float] | None:
+    """First row where a deviation ``|e^j|`` reaches the tube radius: ``(row, link, |e|)``, else None."""
+    if not np.isfinite(radius):
+        return None
+    bad = ~(np.abs(e) < radius)
+    if not bad.any():
+        return None
+    k = int(np.argmax(bad.any(axis=1)))
+    j = int(np.argmax(bad[k]))
+    return k, j + 2, float(abs(e[k, j]))
 
 
 def even_indices(n: int, k: int) -> np.ndarray:
@@ -295,6 +314,10 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         ``backend="compiled"`` and the generated library cannot be built.
     SingularityError
         A margin fell below its threshold; ``err.run`` holds the run up to there.
+    TubeError
+        (a SingularityError, ``kind = "tube"``) a central point reached the tube radius of a
+        :class:`~symbolic.paths.Path` (its smallest arc radius), where ``phi``, ``psi`` stop being
+        smooth; ``err.run`` holds the run up to there.
     CollisionError
         A contact (joint limit, self-collision, obstacle) and not ``allow_contact``;
         ``err.contact`` is the first, ``err.run`` holds the run up to there.
@@ -310,7 +333,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     thr = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
     check_gain_step(ctrl.gain, step, refuse=False)
     q0 = ctrl.chain.check_q(q0, "q0")
-    check_curve_reaches_base(ctrl, t0, t0 + duration)
+    if not ctrl.chain.rail:          # a rail carries the base along; its own margin guards it
+        check_curve_reaches_base(ctrl, t0, t0 + duration)
     start = ctrl.evaluate(q0, t0)
     bad = first_violation(start["link_margins"][None], np.array([start["longitudinal"]]), thr)
     if bad is not None:
@@ -325,6 +349,11 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         if invalid:
             raise ConfigError(f"q0: start configuration is not physically valid: {invalid[0].describe()}")
 
+    tube = float(getattr(ctrl.curve, "tube_radius", math.inf))
+    start_out = tube_exit(start["e"][None], tube)
+    if start_out is not None:
+        raise ConfigError(f"q0: the central point of link {start_out[1]} is {start_out[2]:.4g} m from the path, "
+                          f"not inside its tube (|phi| < {tube:.4g} m, the smallest radius)")
     backend, compiled, info = select_backend(ctrl, backend)
     check_interrupt()
     n_steps = int(round(duration / step))
@@ -348,10 +377,11 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
                 t_end = t0 + step * n_steps
                 final = (compiled or ctrl).evaluate(q, t_end)
                 part = Run.from_arrays({a: np.asarray(v)[None] for a, v in
-                                        dict(final, t=t_end, q=q, v_star=ctrl.speed_at(t_end)).items() if a in ARRAYS})
+                                        dict(final, t=t_end, q=q, v_star=ctrl.speed_at(t_end)).items()
+                                        if a in ARRAYS + OPTIONAL})
             part.s = unwrap_s(ctrl.curve, part.t, part.s, prev)
             prev = (float(part.t[-1]), float(part.s[-1]))
-            stop = _first_stop(part, k, n_steps, thr, physical, check_every, allow_contact, contacts)
+            stop = _first_stop(part, k, n_steps, thr, physical, check_every, allow_contact, contacts, tube)
             if stop is not None:
                 row, error = stop
                 part = _rows(part, slice(0, row + 1))
@@ -377,7 +407,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     return _concat(parts, dict(info, stopped="completed", steps=n_steps, wall_time=_time.perf_counter() - wall))
 
 
-_STOPS = {SingularityError: "singularity", CollisionError: "collision"}
+_STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision"}
 
 
 def _records(contacts: list) -> list[dict]:
@@ -385,7 +415,7 @@ def _records(contacts: list) -> list[dict]:
 
 
 def _first_stop(part: Run, k: int, n_steps: int, thr: dict, physical: Any, check_every: int,
-                allow_contact: bool, contacts: list) -> tuple[int, CoordarmError] | None:
+                allow_contact: bool, contacts: list, tube: float = math.inf) -> tuple[int, CoordarmError] | None:
     """The first row of ``part`` (global step ``k`` at row 0) where the run must stop, and why.
 
     A contact at or before the first singular row wins. With ``allow_contact`` the first
@@ -396,6 +426,15 @@ def _first_stop(part: Run, k: int, n_steps: int, thr: dict, physical: Any, check
     if bad is not None:
         row, kind, link, margin = bad
         stop = row, SingularityError(part.t[row], link, margin, kind, thr[kind])
+    if part.rail_margin is not None:
+        low = np.flatnonzero(~(part.rail_margin >= thr["link"]))
+        if len(low) and (stop is None or low[0] < stop[0]):
+            row = int(low[0])
+            stop = row, SingularityError(part.t[row], 1, float(part.rail_margin[row]), "rail", thr["link"])
+    out = tube_exit(part.e, tube)
+    if out is not None and (stop is None or out[0] <= stop[0]):
+        row, link, dist = out
+        stop = row, TubeError(part.t[row], link, dist, "tube", tube)
     if physical is not None:
         n = len(part.t)
         rows = np.flatnonzero(((k + np.arange(n)) % check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
@@ -426,18 +465,24 @@ def _advance(ctrl, compiled, q, times, step):
     :data:`RUN_OUTPUTS` at each start (dict of row blocks)."""
     if compiled is not None:
         Q, D = compiled.chunk(q, times, step)
-        d = split(D, ctrl.chain.m)
-        return Q, {a: d[a] for a in RUN_OUTPUTS}
+        d = split(D, ctrl.chain.m, ctrl.chain.rail)
+        return Q, {a: d[a] for a in ctrl.run_outputs}
     Q, *outs = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
-    return Q.T, {a: (v.ravel() if by_name(a).scalar else v.T) for a, v in zip(RUN_OUTPUTS, outs)}
+    return Q.T, {a: (v.ravel() if a in SCALAR_OUTPUTS else v.T) for a, v in zip(ctrl.run_outputs, outs)}
 
 
 #: The per-sample arrays of a :class:`Run`: time, state, the law's run outputs, commanded speed.
 ARRAYS = ("t", "q", *RUN_OUTPUTS, "v_star")
+#: Arrays present only on some runs (a chain on a rail).
+OPTIONAL = RAIL_OUTPUTS
+
+
+def _arrays(run: Run) -> tuple[str, ...]:
+    return ARRAYS + tuple(a for a in OPTIONAL if getattr(run, a, None) is not None)
 
 
 def _rows(run: Run, rows: slice) -> Run:
-    return Run.from_arrays({a: getattr(run, a)[rows] for a in ARRAYS}, run.info)
+    return Run.from_arrays({a: getattr(run, a)[rows] for a in _arrays(run)}, run.info)
 
 
 def _thin(part: Run, k0: int, every: int) -> Run:
@@ -448,8 +493,8 @@ def _thin(part: Run, k0: int, every: int) -> Run:
     rows = np.concatenate([np.flatnonzero((k0 + np.arange(n)) % every == 0),
                            [np.argmin(np.min(part.link_margins, axis=1)), np.argmin(part.longitudinal),
                             np.argmax(np.max(np.abs(part.u), axis=1)), n - 1]])
-    return Run.from_arrays({a: getattr(part, a)[np.unique(rows)] for a in ARRAYS}, part.info)
+    return Run.from_arrays({a: getattr(part, a)[np.unique(rows)] for a in _arrays(part)}, part.info)
 
 
 def _concat(parts: list[Run], info: dict) -> Run:
-    return Run.from_arrays({a: np.concatenate([getattr(p, a) for p in parts]) for a in ARRAYS}, info)
+    return Run.from_arrays({a: np.concatenate([getattr(p, a) for p in parts]) for a in _arrays(parts[0])}, info)

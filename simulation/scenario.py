@@ -8,11 +8,15 @@ Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
     name = "line"
     description = "..."
     [chain]     links = 64, link_length = 0.1, joint_limit = 2.8 (or a list of m-1 [rad]),
-                clearance = 0.0 [m]
-    [curve]     kind = "line" | "circle" | "arc", with its parameters
-    [control]   gain = 2.0, speed = 0.1 (or a motion), law = "structured" | "dense"
-    [start]     kind = "zigzag" | "projected", beta = 1.3, heading = 0.0,
-                curve = {...}  (projected: project onto this curve instead)
+                clearance = 0.0 [m], base = "fixed" | {kind = "rail", angle = 0.0, limits = [0, 5]}
+    [curve]     kind = "line" | "circle" | "arc" | "path" | "waypoints", with its parameters
+                (path: start, heading, segments = [{line = L}, {arc = A, radius = R}, ...];
+                waypoints: points, radius; both: offset, rotation optional)
+    [control]   gain = 2.0, speed = 0.1 (or a motion), law = "structured" | "dense",
+                span = motion (rail only: the commanded span; default: held)
+    [start]     kind = "zigzag" | "projected" | "follow", beta = 1.3, heading = 0.0,
+                curve = {...}  (projected: project onto this curve instead;
+                follow: a zig-zag laid link by link along the curve, for bent paths)
     [run]       duration = 20.0, step = 0.001, t0 = 0.0
     [thresholds] link = 0.02, longitudinal = 0.05
     [[obstacles]] a = [x, y], b = [x, y]      (wall segment), or center = [x, y], radius = r
@@ -33,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, PlanarChain, curve_from_spec,
-                      motion_from_spec, project_onto_curve)
+from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, Curve, PlanarChain, curve_from_spec,
+                               follow_curve, motion_from_spec, project_onto_curve)
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.start import check_start
 
@@ -46,16 +50,37 @@ from .run import DEFAULT_THRESHOLDS, check_number
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
             "obstacles", "figures"}
-KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance"}, "figures": {"stages", "panels"}, "control": {"gain", "speed", "law"},
+KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base"}, "figures": {"stages", "panels"}, "control": {"gain", "speed", "law", "span"},
         "start": {"kind", "beta", "heading", "curve"}, "run": {"duration", "step", "t0"},
         "thresholds": {"link", "longitudinal"}}
+START_KINDS = ("zigzag", "projected", "follow")
+#: ``[curve] kind`` of a scenario whose curve is a Python object (recorded in logs by class name).
+USER_DEFINED = "user-defined"
 DEFAULTS = {"start": {"kind": "zigzag", "beta": 1.3, "heading": 0.0},
             "run": {"duration": 20.0, "step": 0.001, "t0": 0.0},
             "control": {"law": "structured"}}
 
 
 def check_stages(stages: Any, field: str = "figures.stages") -> list[float]:
-    """Stage times [s] as a sorted list of finite numbers >= 0 (at least one)."""
+    """Stage times [s] as a sorted list of finite numbers >= 0 (at least one).
+
+    Parameters
+    ----------
+    stages : list of float
+        The times, as read from the file.
+    field : str
+        Name used in error messages.
+
+    Returns
+    -------
+    list of float
+        Sorted times [s].
+
+    Raises
+    ------
+    ConfigError
+        Not a non-empty list of finite numbers >= 0.
+    """
     if not isinstance(stages, list) or not stages:
         raise ConfigError(f"{field}: expected a non-empty list of times [s], got {shown(stages)}")
     return sorted(check_number(v, f"{field}[{i}]", positive=False) for i, v in enumerate(stages))
@@ -75,22 +100,48 @@ class Scenario:
         Where it came from (preset name, file path or ``<dict>``), used in error messages.
     obstacles : list of Obstacle
         Named wall segments, discs and polygons (:mod:`coordarm.simulation.obstacles`).
+    curve : Curve or None
+        A user-defined curve (``spec["curve"]`` then only names its class), or None.
     """
 
     spec: dict
     source: str = "<dict>"
     obstacles: list[Obstacle] = field(default_factory=list)
+    #: A user-defined curve (Python object); ``spec["curve"]`` then only names its class.
+    curve: Curve | None = None
 
     @classmethod
-    def from_dict(cls, data: Any, source: str = "<dict>") -> "Scenario":
-        """Validate ``data`` (as read from TOML) and fill in defaults; errors name ``source`` and the field."""
+    def from_dict(cls, data: Any, source: str = "<dict>", curve: Curve | None = None) -> "Scenario":
+        """Validate ``data`` (as read from TOML) and fill in defaults; errors name ``source`` and the field.
+
+        ``curve`` is required when ``[curve] kind = "user-defined"`` (a log of a run with a
+        user-defined curve): the object itself, which data cannot describe.
+        """
         try:
-            return cls._from_dict(data, source)
+            scenario = cls._from_dict(data, source, curve)
         except ConfigError as exc:
             raise ConfigError(f"{source}: {exc}") from None
+        scenario.curve = curve
+        return scenario
+
+    def with_curve(self, curve: Curve) -> "Scenario":
+        """A copy that runs the user-defined ``curve``; its spec records only the class name.
+
+        Parameters
+        ----------
+        curve : Curve
+            The user-defined curve.
+
+        Returns
+        -------
+        Scenario
+        """
+        spec = copy.deepcopy(self.spec)
+        spec["curve"] = {"kind": USER_DEFINED, "class": f"{type(curve).__module__}.{type(curve).__qualname__}"}
+        return Scenario(spec, self.source, self.obstacles, curve)
 
     @classmethod
-    def _from_dict(cls, data: Any, source: str) -> "Scenario":
+    def _from_dict(cls, data: Any, source: str, curve: Curve | None = None) -> "Scenario":
         if not isinstance(data, dict):
             raise ConfigError("a scenario must be a table")
         unknown = set(data) - SECTIONS
@@ -124,6 +175,11 @@ class Scenario:
                     PlanarChain(ch["links"], 1.0, **{k: ch[k]})
                 except ConfigError as exc:
                     raise ConfigError(f"chain.{exc}") from None
+        base = _base_args(ch.get("base", "fixed"))
+        if "span" in spec["control"]:
+            if base["base"] != "rail":
+                raise ConfigError("control.span: only a chain on a rail (chain.base.kind = 'rail') has a span")
+            motion_from_spec(spec["control"]["span"], "control.span")
         if "stages" in spec["figures"]:
             check_stages(spec["figures"]["stages"])
         panels = spec["figures"].get("panels", [])
@@ -138,10 +194,15 @@ class Scenario:
         motion_from_spec(spec["control"].get("speed", 0.0), "control.speed")
         if spec["control"]["law"] not in LAWS:
             raise ConfigError(f"control.law: expected one of {LAWS}, got {shown(spec['control']['law'])}")
-        curve_from_spec(spec["curve"], "curve")
+        if spec["curve"].get("kind") == USER_DEFINED:
+            if not isinstance(curve, Curve):
+                raise ConfigError(f"curve: the run used a user-defined curve ({spec['curve'].get('class', '?')}), "
+                                  f"which data cannot describe: pass the curve object in (curve=...)")
+        else:
+            curve_from_spec(spec["curve"], "curve")
         st = spec["start"]
-        if st["kind"] not in ("zigzag", "projected"):
-            raise ConfigError(f"start.kind: expected 'zigzag' or 'projected', got {shown(st['kind'])}")
+        if st["kind"] not in START_KINDS:
+            raise ConfigError(f"start.kind: expected one of {START_KINDS}, got {shown(st['kind'])}")
         b = check_number(st["beta"], "start.beta", positive=False)
         if not 0 < abs(b) < math.pi / 2:
             raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {b}")
@@ -228,7 +289,7 @@ class Scenario:
         return None if st is None else check_stages(st)
 
     def chain(self) -> PlanarChain:
-        """The manipulator this scenario describes (with its joint limits and clearance).
+        """The manipulator this scenario describes (joint limits, clearance, base: fixed or rail).
 
         Returns
         -------
@@ -236,7 +297,7 @@ class Scenario:
         """
         ch = self.spec["chain"]
         return PlanarChain(ch["links"], float(ch["link_length"]), joint_limit=ch.get("joint_limit"),
-                           clearance=float(ch.get("clearance", 0.0)))
+                           clearance=float(ch.get("clearance", 0.0)), **_base_args(ch.get("base", "fixed")))
 
     def physical(self, chain: PlanarChain | None = None) -> Physical:
         """What a run checks: the chain's joint limits and clearance, and the obstacles.
@@ -260,9 +321,11 @@ class Scenario:
         CoordinatingController
         """
         c = self.spec["control"]
-        return CoordinatingController(self.chain(), curve_from_spec(self.spec["curve"]), float(c["gain"]),
+        span = motion_from_spec(c["span"], "control.span") if "span" in c else None
+        curve = self.curve if self.curve is not None else curve_from_spec(self.spec["curve"])
+        return CoordinatingController(self.chain(), curve, float(c["gain"]),
                                       motion_from_spec(c.get("speed", 0.0), "control.speed"),
-                                      law=c["law"])
+                                      law=c["law"], span=span)
 
     def start(self, ctrl: CoordinatingController | None = None) -> np.ndarray:
         """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked).
@@ -274,8 +337,8 @@ class Scenario:
 
         Returns
         -------
-        ndarray, shape (m,)
-            Joint coordinates [rad].
+        ndarray, shape (dof,)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
 
         Raises
         ------
@@ -285,7 +348,11 @@ class Scenario:
         """
         st = self.spec["start"]
         ctrl = ctrl or self.controller()
-        q = ctrl.chain.zigzag(float(st["beta"]), float(st["heading"]))
+        d0 = max(ctrl.chain.rail_limits[0], 0.0) if ctrl.chain.rail else 0.0
+        if st["kind"] == "follow":
+            q = follow_curve(ctrl, float(st["beta"]), self.t0, d=d0)
+        else:
+            q = ctrl.chain.zigzag(float(st["beta"]), float(st["heading"]), d=d0)
         if st["kind"] == "projected":
             target = ctrl
             if "curve" in st:
@@ -307,6 +374,24 @@ class Scenario:
             :attr:`spec` as JSON, keys sorted.
         """
         return json.dumps(self.spec, sort_keys=True)
+
+
+def _base_args(spec) -> dict:
+    """``[chain] base``: ``"fixed"`` or ``{kind = "rail", angle = 0.0, limits = [0.0, 5.0]}`` as PlanarChain arguments."""
+    if spec == "fixed":
+        return {"base": "fixed"}
+    if not isinstance(spec, dict) or spec.get("kind") != "rail":
+        raise ConfigError(f"chain.base: expected \"fixed\" or a table {{kind = \"rail\", angle, limits}}, got {spec!r}")
+    unknown = set(spec) - {"kind", "angle", "limits"}
+    if unknown:
+        raise ConfigError(f"chain.base: unknown key(s) {sorted(unknown)}; allowed: ['kind', 'angle', 'limits']")
+    angle = check_number(spec.get("angle", 0.0), "chain.base.angle", positive=False)
+    limits = spec.get("limits", [-math.inf, math.inf])
+    if (not isinstance(limits, list) or len(limits) != 2
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in limits)
+            or not limits[0] < limits[1]):
+        raise ConfigError(f"chain.base.limits: need [low, high] with low < high [m], got {limits!r}")
+    return {"base": "rail", "rail_angle": angle, "rail_limits": tuple(float(v) for v in limits)}
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:

@@ -14,12 +14,14 @@ _EXPORTS = {
     "CoordinatingController": "controller",
     "LAWS": "laws",
     "OUTPUTS": "outputs", "SCALAR_OUTPUTS": "outputs", "RUN_OUTPUTS": "outputs", "LAW_OUTPUTS": "outputs",
+    "RAIL_OUTPUTS": "outputs",
     "Curve": "curves", "Line": "curves", "Circle": "curves", "Arc": "curves", "curve_from_spec": "curves",
+    "Path": "paths",
     "Constant": "motions", "Ramp": "motions", "Sinusoid": "motions", "Smoothstep": "motions",
     "motion_from_spec": "motions", "motion_to_spec": "motions",
     "CoordarmError": "errors", "ConfigError": "errors", "BuildError": "errors", "LogError": "errors", "NonFiniteError": "errors",
-    "SingularityError": "errors", "CollisionError": "errors",
-    "project_onto_curve": "start",
+    "SingularityError": "errors", "TubeError": "errors", "CollisionError": "errors",
+    "project_onto_curve": "start", "follow_curve": "start",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -9,6 +9,8 @@ import numpy as np
 
 from .errors import ConfigError
 
+#: Kinds of base: pinned at the origin, or on a rail (introduction axis).
+BASES = ("fixed", "rail")
 #: Default limit of every relative joint angle [rad].
 DEFAULT_JOINT_LIMIT = 2.8
 
@@ -67,10 +69,21 @@ class PlanarChain:
     clearance : float
         Smallest allowed distance between non-adjacent links and from a link to an obstacle
         [m] (default 0: touching counts as a collision).
+    base : {"fixed", "rail"}
+        ``"fixed"``: the first central point is pinned at the origin. ``"rail"``: an
+        introduction axis, a prismatic joint ``d`` [m] before the first revolute joint slides
+        it to ``y^1 = d (cos, sin)(rail_angle)``; ``q`` then holds ``d`` first (m+1 joints)
+        and ``qdot_d = u_d`` (``B`` acts on the revolute joints).
+    rail_angle : float
+        Direction of the rail [rad].
+    rail_limits : (float, float)
+        Allowed range of ``d`` [m] (a run leaving it stops like a collision).
     """
 
     def __init__(self, links: int, link_length: float, B=None,
-                 joint_limit: float | Sequence[float] = None, clearance: float = 0.0) -> None:
+                 joint_limit: float | Sequence[float] = None, clearance: float = 0.0,
+                 base: str = "fixed", rail_angle: float = 0.0,
+                 rail_limits: Sequence[float] = (-math.inf, math.inf)) -> None:
         if isinstance(links, bool) or not isinstance(links, (int, np.integer)) or links < 2:
             raise ConfigError(f"links: need an integer of at least 2, got {links!r}")
         if (isinstance(link_length, bool) or not isinstance(link_length, (int, float))
@@ -83,6 +96,19 @@ class PlanarChain:
                 or not math.isfinite(clearance) or clearance < 0):
             raise ConfigError(f"clearance: need a finite number >= 0, got {clearance!r}")
         self.clearance = float(clearance)
+        if base not in BASES:
+            raise ConfigError(f"base: expected one of {BASES}, got {base!r}")
+        self.rail = base == "rail"
+        if isinstance(rail_angle, bool) or not isinstance(rail_angle, (int, float)) or not math.isfinite(rail_angle):
+            raise ConfigError(f"rail_angle: need a finite number [rad], got {rail_angle!r}")
+        self.rail_angle = float(rail_angle)
+        lim = tuple(rail_limits) if isinstance(rail_limits, (list, tuple)) else ()
+        if (len(lim) != 2 or any(isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v) for v in lim)
+                or not lim[0] < lim[1]):
+            raise ConfigError(f"rail_limits: need [low, high] with low < high [m], got {rail_limits!r}")
+        self.rail_limits = (float(lim[0]), float(lim[1]))
+        #: Number of joints: m revolute joints, plus the rail's prismatic joint first.
+        self.dof = self.m + int(self.rail)
 
     @property
     def links(self) -> int:
@@ -119,7 +145,46 @@ class PlanarChain:
         return self._bd * u if self._bd is not None else u @ self._B.T
 
     def __repr__(self) -> str:
-        return f"PlanarChain(links={self.m}, link_length={self.xi})"
+        rail = f", base='rail', rail_angle={self.rail_angle}" if self.rail else ""
+        return f"PlanarChain(links={self.m}, link_length={self.xi}{rail})"
+
+    @property
+    def rail_direction(self) -> np.ndarray:
+        """Unit vector of the rail (the direction in which ``d`` slides the base)."""
+        return np.array([math.cos(self.rail_angle), math.sin(self.rail_angle)])
+
+    def revolute(self, q):
+        """The revolute joint angles ``q_1..q_m`` of ``q`` (drops ``d`` on a rail), any leading axes.
+
+        Parameters
+        ----------
+        q : ndarray or casadi expression, shape (..., dof)
+            Joint coordinates.
+
+        Returns
+        -------
+        same type, shape (..., m)
+            The revolute joint angles [rad].
+        """
+        return q[..., 1:] if self.rail and isinstance(q, np.ndarray) else (q[1:] if self.rail else q)
+
+    def base_point(self, q):
+        """The first central point ``y^1``: the origin, or ``d`` along the rail.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., dof) (or (..., 1): ``d`` alone)
+            Joint coordinates.
+
+        Returns
+        -------
+        ndarray, shape (..., 2)
+            The base [m].
+        """
+        q = np.asarray(q, float)
+        if not self.rail:
+            return np.zeros(q.shape[:-1] + (2,))
+        return q[..., :1] * self.rail_direction
 
     # ----------------------------------------------------------------- symbolic
     def centres(self, q: ca.SX) -> ca.SX:
@@ -127,34 +192,38 @@ class PlanarChain:
 
         Parameters
         ----------
-        q : casadi.SX or casadi.MX, shape (m,)
-            Joint coordinates [rad].
+        q : casadi.SX or casadi.MX, shape (dof,)
+            Joint coordinates [rad] (on a rail ``d`` [m] first).
 
         Returns
         -------
         casadi.SX or casadi.MX, shape (2, m)
             Column j is the centre of link j+1 [m]; the first is the base.
         """
+        zero = ca.SX.zeros(2, 1) if isinstance(q, ca.SX) else ca.MX.zeros(2, 1)
+        if self.rail:
+            zero = q[0] * ca.DM(self.rail_direction)
+            q = q[1:]
         alpha = ca.cumsum(q)
-        cols = [ca.SX.zeros(2, 1) if isinstance(q, ca.SX) else ca.MX.zeros(2, 1)]
+        cols = [zero]
         for j in range(1, self.m):
             cols.append(cols[-1] + 0.5 * self.xi * (direction(alpha[j - 1]) + direction(alpha[j])))
         return ca.horzcat(*cols)
 
     # ------------------------------------------------------------------ numeric
     def check_q(self, q, field: str = "q") -> np.ndarray:
-        """Return ``q`` as a float array of shape (m,), or raise a ConfigError naming ``field``.
+        """Return ``q`` as a float array of shape (dof,), or raise a ConfigError naming ``field``.
 
         Parameters
         ----------
-        q : array_like, shape (m,)
-            Joint coordinates [rad].
+        q : array_like, shape (dof,)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
         field : str
             Name used in the error message.
 
         Returns
         -------
-        ndarray, shape (m,)
+        ndarray, shape (dof,)
             ``q`` as floats.
 
         Raises
@@ -163,8 +232,9 @@ class PlanarChain:
             Wrong shape, NaN or inf.
         """
         q = np.asarray(q, dtype=float)
-        if q.shape != (self.m,):
-            raise ConfigError(f"{field}: need shape ({self.m},), got {q.shape}")
+        if q.shape != (self.dof,):
+            what = " (d, then the m revolute joints)" if self.rail else ""
+            raise ConfigError(f"{field}: need shape ({self.dof},){what}, got {q.shape}")
         if not np.all(np.isfinite(q)):
             raise ConfigError(f"{field}: contains NaN or inf at index {int(np.flatnonzero(~np.isfinite(q))[0])}")
         return q
@@ -174,63 +244,68 @@ class PlanarChain:
 
         Parameters
         ----------
-        q : array_like, shape (..., m)
-            Joint coordinates [rad].
+        q : array_like, shape (..., dof)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
 
         Returns
         -------
         ndarray, shape (..., m, 2)
             Link centres [m].
         """
-        alpha = np.cumsum(q, axis=-1)
+        q = np.asarray(q, float)
+        alpha = np.cumsum(self.revolute(q), axis=-1)
         d = direction(alpha)
         steps = 0.5 * self.xi * (d[..., :-1, :] + d[..., 1:, :])
-        zero = np.zeros(steps.shape[:-2] + (1, 2))
-        return np.concatenate([zero, np.cumsum(steps, axis=-2)], axis=-2)
+        base = self.base_point(q)[..., None, :]
+        return np.concatenate([base, base + np.cumsum(steps, axis=-2)], axis=-2)
 
     def joints_np(self, q) -> np.ndarray:
         """Link end points: the chain drawn as a polyline.
 
         Parameters
         ----------
-        q : array_like, shape (..., m)
-            Joint coordinates [rad].
+        q : array_like, shape (..., dof)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
 
         Returns
         -------
         ndarray, shape (..., m+1, 2)
             Joint positions [m], from the first link's free end to the end point.
         """
-        alpha = np.cumsum(q, axis=-1)
+        q = np.asarray(q, float)
+        alpha = np.cumsum(self.revolute(q), axis=-1)
         d = direction(alpha)
         y = self.centres_np(q)
         first = y[..., :1, :] - 0.5 * self.xi * d[..., :1, :]
         return np.concatenate([first, y + 0.5 * self.xi * d], axis=-2)
 
     def jacobians_closed_form(self, q) -> np.ndarray:
-        """``C^j(q)`` by the closed form of eq. 7; ``C^1 = 0``.
+        """``C^j(q)`` by the closed form of eq. 7; ``C^1 = 0`` (on a rail: the rail column).
 
         Parameters
         ----------
-        q : array_like, shape (m,)
-            Joint coordinates [rad].
+        q : array_like, shape (dof,)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
 
         Returns
         -------
-        ndarray, shape (m, 2, m)
+        ndarray, shape (m, 2, dof)
             ``C[j] = d c^{j+1} / dq`` [m/rad].
         """
         q = self.check_q(q)
-        alpha = np.cumsum(q)
+        alpha = np.cumsum(self.revolute(q))
         nrm = normal(alpha)
-        C = np.zeros((self.m, 2, self.m))
+        r = int(self.rail)
+        C = np.zeros((self.m, 2, self.dof))
+        if self.rail:
+            C[:, :, 0] = self.rail_direction
         for j in range(1, self.m):          # 0-based j is the paper's j+1
-            C[j] = C[j - 1]
-            C[j][:, :j] += 0.5 * self.xi * nrm[j - 1][:, None]
-            C[j][:, :j + 1] += 0.5 * self.xi * nrm[j][:, None]
+            C[j, :, r:] = C[j - 1, :, r:]
+            C[j][:, r:r + j] += 0.5 * self.xi * nrm[j - 1][:, None]
+            C[j][:, r:r + j + 1] += 0.5 * self.xi * nrm[j][:, None]
         return C
 
-    def zigzag(self, beta: float, heading: float = 0.0) -> np.ndarray:
+    def zigzag(self, beta: float, heading: float = 0.0, d: float = 0.0) -> np.ndarray:
         """Uniform zig-zag: links at ``heading +- beta``, centres on a line at ``heading``.
 
         Centres are spaced ``xi cos(beta)``; the body is ``xi sin(beta)`` wide.
@@ -241,10 +316,12 @@ class PlanarChain:
             Fold angle [rad], ``0 < |beta| < pi/2``.
         heading : float
             Direction of the line of centres [rad].
+        d : float
+            Rail position [m] (a chain on a rail only; prepended to ``q``).
 
         Returns
         -------
-        ndarray, shape (m,)
+        ndarray, shape (dof,)
             Joint coordinates [rad].
 
         Raises
@@ -260,7 +337,7 @@ class PlanarChain:
         q = np.empty(self.m)
         q[0] = heading + beta
         q[1:] = 2 * beta * (-1.0) ** np.arange(1, self.m)
-        return q
+        return np.r_[float(d), q] if self.rail else q
 
 
 def _input_matrix(B, m: int) -> tuple[np.ndarray | None, np.ndarray | None]:

@@ -19,10 +19,41 @@ import casadi as ca
 import numpy as np
 
 from .chain import PlanarChain, direction, normal
-from .curves import Curve, _param, evaluate
+from .curves import Arc, Circle, Curve, Line, _param, evaluate
 from .errors import ConfigError
 from .laws import LAWS
-from .outputs import OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS
+from .outputs import OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS
+from .paths import Path
+
+#: The curve classes of coordarm; any other Curve (a subclass too) is user-defined.
+BUILT_IN_CURVES = (Line, Circle, Arc, Path)
+
+
+def check_user_curve(curve: Curve, times=(0.0, 1.0)) -> None:
+    """Check a user-defined curve's description is orthonormalised on it (paper eqs. 10-11).
+
+    Parameters
+    ----------
+    curve : Curve
+        A user-defined curve (with ``sample``).
+    times : sequence of float
+        Times at which to check [s].
+
+    Raises
+    ------
+    ConfigError
+        ``sample`` is missing (the points to check come from it), or the ``(psi, phi)``
+        Jacobian is not a rotation at a sampled point (named).
+    """
+    from .orthonormal import check_orthonormal
+    try:
+        res = check_orthonormal(curve, times=times, warn=False)
+    except NotImplementedError:
+        raise ConfigError(f"curve: the user-defined {type(curve).__name__} must implement sample(t, n, extent) "
+                          f"(points on the curve) so that its description can be checked") from None
+    if not res.ok:
+        raise ConfigError(f"curve: user-defined {type(curve).__name__}: {res.message()}")
+
 
 
 class CoordinatingController:
@@ -40,10 +71,21 @@ class CoordinatingController:
         Commanded end-point speed ``v*(t)`` along the curve [m/s].
     law : {"structured", "dense"}
         Form of the inverse control transformation used by :meth:`control`.
+    span : float or callable, optional
+        Only for a chain on a rail: the commanded span ``sigma*(t)`` [m], tracked by
+        ``sigma_dot = sigma*' - K (sigma - sigma*)``. None (default): the span is held,
+        ``sigma_dot = 0``.
+
+    Notes
+    -----
+    On a rail (``chain.rail``) ``q = (d, q_1..q_m)`` and the outputs are ``(s, sigma, e^2..e^m)``:
+    the rail rate follows from the span row alone, ``d_dot = (v* - sigma_dot - dpsi/dt(y^1)) /
+    (grad psi(y^1) . rail)`` (the rail pivot), then the revolute joints from the usual O(m)
+    recursion with ``ydot^1 = d_dot rail``.
     """
 
     def __init__(self, chain: PlanarChain, curve: Curve, gain: float, speed: Any,
-                 law: str = "structured") -> None:
+                 law: str = "structured", span: Any = None) -> None:
         if not isinstance(chain, PlanarChain):
             raise ConfigError(f"chain: expected a PlanarChain, got {type(chain).__name__}")
         if not isinstance(curve, Curve):
@@ -55,6 +97,15 @@ class CoordinatingController:
             raise ConfigError(f"law: expected one of {LAWS}, got {law!r}")
         self.chain, self.curve, self.gain, self.law_form = chain, curve, float(gain), law
         self.speed = _param(speed, "speed")
+        if type(curve) not in BUILT_IN_CURVES:
+            check_user_curve(curve)
+        if span is not None and not chain.rail:
+            raise ConfigError("span: only a chain on a rail (base = 'rail') has a span output")
+        self.span = None if span is None else _param(span, "span")
+        #: Names of the outputs of :meth:`law`, in order (the rail adds :data:`RAIL_OUTPUTS`).
+        self.outputs = OUTPUTS + (RAIL_OUTPUTS if chain.rail else ())
+        #: The outputs kept at every sample of a run (the law's logged ones; the rail's too).
+        self.run_outputs = RUN_OUTPUTS + (RAIL_OUTPUTS if chain.rail else ())
         self._geometry = self._geometry_function()
         self._cache: dict = {}
 
@@ -237,6 +288,58 @@ class CoordinatingController:
         return ca.Function("first_carry", [q1], [ca.vertcat(0, 0, q1, c, s, 0, 0, -h * s, h * c, 0, 1, 1)],
                            ["q_1"], ["carry"])
 
+    def span_rate(self, sigma, t):
+        """Commanded ``sigma_dot``: ``sigma*' - K (sigma - sigma*)``, or 0 when the span is held.
+
+        Parameters
+        ----------
+        sigma : casadi.SX
+            The span now [m].
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX
+            ``sigma_dot`` [m/s].
+        """
+        if self.span is None:
+            return 0 * t
+        ts = ca.SX.sym("ts")
+        target = ca.SX(self.span(ts))
+        rate = ca.Function("span", [ts], [target, ca.jacobian(target, ts)])
+        sig_t, sig_dot = rate(t)
+        return sig_dot - self.gain * (sigma - sig_t)
+
+    def rail_head(self) -> ca.Function:
+        """``(d, q_1, t, sigma) -> (carry, d_dot, rail_margin, psi_1)`` of a chain on a rail.
+
+        The span row minus the ``s`` row leaves ``grad psi(y^1) . rail d_dot = v* - sigma_dot -
+        dpsi/dt(y^1)``: the rail rate, dividing by the rail pivot ``grad psi(y^1) . rail``; the carry
+        is :meth:`first_carry`'s with ``y^1 = d rail`` and ``ydot^1 = d_dot rail``.
+
+        Returns
+        -------
+        casadi.Function
+        """
+        d, q1, t, sigma = ca.SX.sym("d"), ca.SX.sym("q_1"), ca.SX.sym("t"), ca.SX.sym("sigma")
+        rail = ca.DM(self.chain.rail_direction)
+        y1 = d * rail
+        _, _, _, psi1, h1, psit1 = self._geometry(y1, t)
+        pivot = ca.dot(h1, rail)
+        rate = (ca.SX(self.speed(t)) - self.span_rate(sigma, t) - psit1) / pivot
+        carry = self.first_carry()(q1)
+        carry = ca.vertcat(y1, carry[2:5], rate * rail, carry[7:])
+        return ca.Function("rail_head", [d, q1, t, sigma], [carry, rate, ca.fabs(pivot) / ca.norm_2(h1), psi1],
+                           ["d", "q_1", "t", "sigma"], ["carry", "d_dot", "rail_margin", "psi_1"])
+
+    def _span_now(self, q, t):
+        """``sigma = psi(y^m) - psi(y^1)`` from the forward kinematics (needed only for a commanded span)."""
+        if self.span is None:
+            return 0
+        y = self.chain.centres(q)
+        return self._geometry(y[:, self.chain.m - 1], t)[3] - self._geometry(y[:, 0], t)[3]
+
     def tail(self) -> ca.Function:
         """``(carry_m, t) -> (s, p, longitudinal, longitudinal_pivot)`` after the last link.
 
@@ -272,14 +375,31 @@ class CoordinatingController:
         m = self.chain.m
         w_t = self.time_features()(t)
         fold = self.link_step().mapaccum("links", m - 1)
-        carries, outs = fold(self.first_carry()(q[0]), q[1:].T, ca.repmat(w_t, 1, m - 1))
+        qr = self.chain.revolute(q)
+        if self.chain.rail:
+            carry0, rail_rate, rail_margin, psi1 = self.rail_head()(q[0], qr[0], t, self._span_now(q, t))
+        else:
+            carry0 = self.first_carry()(qr[0])
+        carries, outs = fold(carry0, qr[1:].T, ca.repmat(w_t, 1, m - 1))
         psi, p, margin, pivot = self.tail()(carries[:, m - 2], t)
         a = ca.vertcat(0, outs[2, :].T)
         b = ca.vertcat(1, outs[3, :].T)
         w = a + b * p
         qdot = w - ca.vertcat(0, w[:-1])
-        return {"u": self._u_from_rates(qdot), "e": outs[0, :].T, "s": psi, "link_margins": outs[1, :].T,
-                "longitudinal": margin, "longitudinal_pivot": pivot}
+        out = {"u": self._u_from_rates(qdot), "e": outs[0, :].T, "s": psi, "link_margins": outs[1, :].T,
+               "longitudinal": margin, "longitudinal_pivot": pivot}
+        if self.chain.rail:
+            out.update(u=ca.vertcat(rail_rate, out["u"]), sigma=psi - psi1, rail_margin=rail_margin)
+        return out
+
+    @property
+    def B_joints(self) -> np.ndarray:
+        """``B`` over all joints: ``diag(1, B)`` on a rail (``qdot_d = u_d``), else ``B``."""
+        if not self.chain.rail:
+            return self.chain.B
+        out = np.eye(self.chain.dof)
+        out[1:, 1:] = self.chain.B
+        return out
 
     def decoupling_matrix_expr(self, q, t):
         """Decoupling matrix (eq. 26, rows ``s^m, e^2..e^m``) and right-hand side, by AD.
@@ -306,12 +426,18 @@ class CoordinatingController:
             if j == self.chain.m - 1 and not rows:
                 rows.append(ca.mtimes(h.T, Cj))
                 rhs.append(self.speed(t) - psit)
+                if self.chain.rail:        # the span row: sigma = psi(y^m) - psi(y^1)
+                    _, _, _, psi1, h1, psit1 = self._geometry(y[:, 0], t)
+                    rows.append(rows[0] - ca.mtimes(h1.T, ca.jacobian(y[:, 0], q)))
+                    rhs.append(self.span_rate(psi - psi1, t) - psit + psit1)
                 continue
             rows.append(ca.mtimes(g.T, Cj))
             rhs.append(-self.gain * phi - phit)
         M = ca.vertcat(*rows)
         bd = self.chain.b_diagonal
-        M = M * ca.repmat(ca.DM(bd).T, M.size1(), 1) if bd is not None else ca.mtimes(M, ca.DM(self.chain.B))
+        if bd is not None and self.chain.rail:
+            bd = np.r_[1.0, bd]                           # qdot_d = u_d on a rail
+        M = M * ca.repmat(ca.DM(bd).T, M.size1(), 1) if bd is not None else ca.mtimes(M, ca.DM(self.B_joints))
         return M, ca.vertcat(*rhs)
 
     # ------------------------------------------------------------ CasADi Functions
@@ -342,16 +468,16 @@ class CoordinatingController:
             raise ConfigError(f"law: expected one of {LAWS}, got {form!r}")
         key = ("law", form)
         if key not in self._cache:
-            q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
+            q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")
             outs = self._structured(q, t)
             if form == "dense":
-                qs, ts = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
+                qs, ts = ca.SX.sym("q", self.chain.dof), ca.SX.sym("t")
                 M, r = self.decoupling_matrix_expr(qs, ts)
                 Mr = ca.Function("decoupling", [qs, ts], [M, r])
                 Mq, rq = Mr(q, t)
                 outs["u"] = ca.solve(Mq, rq, "qr")
-            self._cache[key] = ca.Function(f"coordinating_law_{form}", [q, t], [outs[n] for n in OUTPUTS],
-                                           ["q", "t"], list(OUTPUTS))
+            self._cache[key] = ca.Function(f"coordinating_law_{form}", [q, t], [outs[n] for n in self.outputs],
+                                           ["q", "t"], list(self.outputs))
         return self._cache[key]
 
     def fast_law(self, form: str | None = None) -> ca.Function:
@@ -396,18 +522,20 @@ class CoordinatingController:
         if key not in self._cache:
             law = self.fast_law(form)
             bd = self.chain.b_diagonal
+            if bd is not None and self.chain.rail:
+                bd = np.r_[1.0, bd]                       # qdot_d = u_d on a rail
             apply_B = ((lambda u: ca.DM(bd) * u) if bd is not None
-                       else (lambda u: ca.mtimes(ca.DM(self.chain.B), u)))
-            q, t = ca.MX.sym("q", self.chain.m), ca.MX.sym("t")
+                       else (lambda u: ca.mtimes(ca.DM(self.B_joints), u)))
+            q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")
             out1 = law(q, t)
             k1 = apply_B(out1[0])
             k2 = apply_B(law(q + h / 2 * k1, t + h / 2)[0])
             k3 = apply_B(law(q + h / 2 * k2, t + h / 2)[0])
             k4 = apply_B(law(q + h * k3, t + h)[0])
             q_next = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            kept = [out1[OUTPUTS.index(name)] for name in RUN_OUTPUTS]
+            kept = [out1[self.outputs.index(name)] for name in self.run_outputs]
             self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *kept],
-                                           ["q", "t"], ["q_next", *RUN_OUTPUTS])
+                                           ["q", "t"], ["q_next", *self.run_outputs])
         return self._cache[key]
 
     def decoupling_function(self) -> ca.Function:
@@ -419,7 +547,7 @@ class CoordinatingController:
             The AD form of :meth:`decoupling_matrix_expr` (O(m^2) graph).
         """
         if "M" not in self._cache:
-            q, t = ca.SX.sym("q", self.chain.m), ca.SX.sym("t")
+            q, t = ca.SX.sym("q", self.chain.dof), ca.SX.sym("t")
             M, r = self.decoupling_matrix_expr(q, t)
             self._cache["M"] = ca.Function("decoupling", [q, t], [M, r], ["q", "t"], ["M", "rhs"])
         return self._cache["M"]
@@ -505,7 +633,7 @@ class CoordinatingController:
             raise ConfigError(f"t: must be finite, got {t!r}")
         res = self.fast_law(form)(q, t)
         out = {}
-        for name, v in zip(OUTPUTS, res):
+        for name, v in zip(self.outputs, res):
             v = np.asarray(v, dtype=float).ravel()
             out[name] = float(v[0]) if name in SCALAR_OUTPUTS else v
         return out
@@ -515,15 +643,15 @@ class CoordinatingController:
 
         Parameters
         ----------
-        q : array_like, shape (m,)
-            Joint coordinates [rad].
+        q : array_like, shape (dof,)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
         t : float
             Time [s].
 
         Returns
         -------
-        ndarray, shape (m,)
-            The control [rad/s for B = I].
+        ndarray, shape (dof,)
+            The control [rad/s for B = I] (``d_dot`` [m/s] first on a rail).
         """
         return self.evaluate(q, t)["u"]
 
@@ -532,8 +660,8 @@ class CoordinatingController:
 
         Parameters
         ----------
-        Q : (N, m) array_like
-            Joint coordinates [rad].
+        Q : (N, dof) array_like
+            Joint coordinates [rad] (``d`` [m] first on a rail).
         T : (N,) array_like
             Times [s].
 
@@ -544,9 +672,9 @@ class CoordinatingController:
             ``gpsi`` of shape (N, m, 2), from one mapped call of the geometry Function.
         """
         Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
-        m = self.chain.m
-        if Q.shape[1:] != (m,) or T.shape != (len(Q),):
-            raise ConfigError(f"Q, T: need shapes (N, {m}) and (N,), got {Q.shape} and {T.shape}")
+        m, n = self.chain.m, self.chain.dof
+        if Q.shape[1:] != (n,) or T.shape != (len(Q),):
+            raise ConfigError(f"Q, T: need shapes (N, {n}) and (N,), got {Q.shape} and {T.shape}")
         N = len(Q)
         Y = self.chain.centres_np(Q)                                      # (N, m, 2)
         geo = self._mapped("geometry", lambda: self._geometry, N * m)
@@ -594,16 +722,18 @@ class CoordinatingController:
         Returns
         -------
         M : (N, m, m) ndarray
-            Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``.
+            Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``; on a rail (N, m+1, m+1),
+            rows ``(s, sigma, e^2..e^m)``, columns ``(u_d, u)``.
         rhs : (N, m) ndarray
-            ``(v* - dpsi/dt, -K e^j - dphi/dt)``.
+            ``(v* - dpsi/dt, -K e^j - dphi/dt)`` (on a rail with ``sigma_dot - dpsi/dt(y^m) +
+            dpsi/dt(y^1)`` second).
         """
         geo = geometry if geometry is not None else self.centre_geometry(Q, T)
         Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
         m, xi = self.chain.m, self.chain.xi
         # C^j[:, k] = xi/2 (S_{j-1} + S_j - P_k) for k <= j, with S the prefix sums of the
         # normals n_0..n_{m-1} and P_0 = n_0, P_k = 2 S_{k-1}  (0-based j, k; C^0 = 0).
-        S = np.cumsum(normal(np.cumsum(Q, axis=-1)), axis=-2)            # (N, m, 2)
+        S = np.cumsum(normal(np.cumsum(self.chain.revolute(Q), axis=-1)), axis=-2)   # (N, m, 2)
         P = np.concatenate([S[:, :1], 2 * S[:, :-1]], axis=1)
         rows = np.r_[m - 1, 1:m]                                           # target centre of each row
         W = np.concatenate([geo["gpsi"][:, m - 1:], geo["gphi"][:, 1:]], axis=1)  # (N, m, 2) its gradient
@@ -614,7 +744,26 @@ class CoordinatingController:
         M = M * b if b is not None else M @ self.chain.B
         rhs = np.concatenate([(self.speeds(T) - geo["psit"][:, m - 1])[:, None],
                               -self.gain * geo["phi"][:, 1:] - geo["phit"][:, 1:]], axis=1)
+        if not self.chain.rail:
+            return M, rhs
+        # the rail: C^j gains the column ``rail`` (every centre slides with the base); the span
+        # row sigma = psi(y^m) - psi(y^1) is the s row minus grad psi(y^1)^T C^1 = (h_1 . rail, 0, ...)
+        rail = self.chain.rail_direction
+        col = W @ rail                                                      # (N, m)
+        M = np.concatenate([col[:, :, None], M], axis=2)
+        span = M[:, :1].copy()
+        span[:, 0, 0] -= geo["gpsi"][:, 0] @ rail
+        M = np.concatenate([M[:, :1], span, M[:, 1:]], axis=1)
+        sigma = geo["psi"][:, m - 1] - geo["psi"][:, 0]
+        rate = np.asarray(self._mapped("span_rate", self._span_rate_function, len(T))(sigma[None], T[None])).ravel()
+        rhs = np.concatenate([rhs[:, :1], (rate - geo["psit"][:, m - 1] + geo["psit"][:, 0])[:, None], rhs[:, 1:]],
+                             axis=1)
         return M, rhs
+
+    def _span_rate_function(self) -> ca.Function:
+        """``(sigma, t) -> sigma_dot`` commanded (see :meth:`span_rate`)."""
+        sigma, t = ca.SX.sym("sigma"), ca.SX.sym("t")
+        return ca.Function("span_rate", [sigma, t], [ca.SX(self.span_rate(sigma, t))])
 
     def _mapped(self, name: str, make, n: int) -> ca.Function:
         """The Function ``make()`` evaluated at ``n`` points in one call (cached per name and ``n``)."""

@@ -103,6 +103,28 @@ class Curve:
         """
         raise NotImplementedError
 
+    def point_at(self, s: float, t: float = 0.0) -> np.ndarray:
+        """The point of arc length ``s`` at time ``t`` (for drawing the target ``s*(t)``).
+
+        Parameters
+        ----------
+        s : float
+            Arc length [m].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            The point [m].
+
+        Raises
+        ------
+        NotImplementedError
+            The curve cannot map an arc length to a point (a user-defined curve without it).
+        """
+        raise NotImplementedError
+
     def to_spec(self) -> dict:
         """The curve as data (only for parameters built from motion primitives).
 
@@ -178,6 +200,10 @@ class Line(Curve):
         s = np.linspace(-extent, extent, n)
         return p + s[:, None] * np.array([math.cos(th), math.sin(th)])
 
+    def point_at(self, s: float, t: float = 0.0) -> np.ndarray:
+        th = evaluate(self.angle, t)
+        return np.array([evaluate(c, t) for c in self.point]) + s * np.array([math.cos(th), math.sin(th)])
+
     def to_spec(self) -> dict:
         return {"kind": "line", "point": [motion_to_spec(c) for c in self.point],
                 "angle": motion_to_spec(self.angle)}
@@ -235,6 +261,11 @@ class Circle(Curve):
         c = np.array([evaluate(v, t) for v in self.center])
         a = np.linspace(0, 2 * math.pi, n)
         return c + evaluate(self.radius, t) * np.stack([np.cos(a), np.sin(a)], axis=1)
+
+    def point_at(self, s: float, t: float = 0.0) -> np.ndarray:
+        R, a = evaluate(self.radius, t), evaluate(self.reference, t)
+        ang = a + s / R
+        return np.array([evaluate(c, t) for c in self.center]) + R * np.array([math.cos(ang), math.sin(ang)])
 
     def to_spec(self) -> dict:
         return {"kind": "circle", "center": [motion_to_spec(c) for c in self.center],
@@ -303,7 +334,7 @@ def unwrap_s(curve: Curve, t: np.ndarray, s: np.ndarray, previous: tuple[float, 
 
 
 for _cls in (Line, Circle, Arc):     # the subclasses' implementations carry the base class's documentation
-    for _name in ("phi", "psi", "sample", "to_spec", "period"):
+    for _name in ("phi", "psi", "sample", "point_at", "to_spec", "period"):
         _own = vars(_cls).get(_name)
         if _own is not None and not _own.__doc__:
             _own.__doc__ = getattr(Curve, _name).__doc__
@@ -313,13 +344,21 @@ CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "rad
           "arc": (Arc, ("point", "angle", "radius"))}
 
 
+#: Curve kinds built by :mod:`symbolic.paths` and their keys.
+PATH_KINDS = {"path": ("start", "heading", "segments", "offset", "rotation"),
+              "waypoints": ("points", "radius", "offset", "rotation")}
+
+
 def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
     """Build a curve from data, e.g. ``{"kind": "line", "point": [0, 0], "angle": 0.3}``.
+
+    Kinds: ``line``, ``circle``, ``arc`` (moving curves of :mod:`symbolic.curves`) and
+    ``path``, ``waypoints`` (composite paths of :mod:`symbolic.paths`).
 
     Parameters
     ----------
     spec : dict
-        ``kind`` (``line``, ``circle``, ``arc``) and that curve's parameters (numbers or motions).
+        ``kind`` and that curve's parameters (numbers or motions; see the kinds' classes).
     field : str
         Name of the table in error messages.
 
@@ -335,8 +374,11 @@ def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
     if not isinstance(spec, dict):
         raise ConfigError(f"{field}: expected a table, got {shown(spec)}")
     kind = spec.get("kind")
+    if isinstance(kind, str) and kind in PATH_KINDS:
+        from .paths import path_from_spec   # paths builds on this module
+        return path_from_spec(spec, field)
     if not isinstance(kind, str) or kind not in CURVES:
-        raise ConfigError(f"{field}.kind: expected one of {sorted(CURVES)}, got {shown(kind)}")
+        raise ConfigError(f"{field}.kind: expected one of {sorted(CURVES) + list(PATH_KINDS)}, got {shown(kind)}")
     cls, keys = CURVES[kind]
     unknown = set(spec) - set(keys) - {"kind"}
     if unknown:

@@ -73,6 +73,40 @@ class SingularityError(CoordarmError):
                                    self.threshold, None))
 
 
+class TubeError(SingularityError):
+    """A central point left a path's tube ``|phi| < smallest radius`` (the closest point is no longer unique).
+
+    Parameters
+    ----------
+    time : float
+        Simulated time [s].
+    link : int or None
+        1-based index of the link whose central point left the tube.
+    margin : float
+        Its ``|phi|`` [m].
+    kind : str
+        ``"tube"``.
+    threshold : float
+        The tube radius (the path's smallest arc radius) [m].
+    run : object, optional
+        The run up to (and including) that state.
+
+    Notes
+    -----
+    Attributes as :class:`SingularityError`.
+    """
+
+    def __init__(self, time: float, link: int | None, margin: float, kind: str = "tube",
+                 threshold: float = 0.0, run: object | None = None) -> None:
+        super().__init__(time, link, margin, kind, threshold, run)
+        self.args = (f"left the path's tube at t = {self.time:.4f} s: the central point of link {link} is "
+                     f"{self.margin:.4g} m from the path, not less than its smallest radius "
+                     f"{self.threshold:.4g} m (its closest point is no longer unique); run stopped",)
+
+    def __reduce__(self):
+        return (TubeError, (self.time, self.link, self.margin, self.kind, self.threshold, None))
+
+
 class CollisionError(CoordarmError):
     """The chain hit an obstacle, itself or a joint limit during a run.
 

@@ -62,10 +62,20 @@ LAW_OUTPUTS: tuple[Output, ...] = (
     Output("longitudinal_pivot", 0, 1, "m/rad", None, "signed longitudinal pivot of the s equation"),
 )
 
+#: Extra outputs of a chain on a rail (introduction axis), after :data:`LAW_OUTPUTS`; there ``u``
+#: has ``m + 1`` entries, ``d_dot`` [m/s] first (see :func:`outputs_of`).
+RAIL_LAW_OUTPUTS: tuple[Output, ...] = (
+    Output("sigma", 0, 1, "m", "task_state", "span of the body along the path, psi(y^m) - psi(y^1)"),
+    Output("rail_margin", 0, 1, "-", "margins",
+           "rail margin |grad psi(y^1) . rail| / |grad psi(y^1)| (0: the rail stands across the path)"),
+)
+
 #: Names of the law's outputs, in order.
 OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS)
+#: Names of the rail's extra outputs.
+RAIL_OUTPUTS: tuple[str, ...] = tuple(o.name for o in RAIL_LAW_OUTPUTS)
 #: The outputs that are scalars (the others are vectors over links).
-SCALAR_OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS if o.scalar)
+SCALAR_OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS + RAIL_LAW_OUTPUTS if o.scalar)
 #: The outputs kept at every sample of a run and logged (those with a channel); the closed-loop RK4
 #: step returns them (the law at the step's start) after ``q_next``.
 RUN_OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS if o.channel is not None)
@@ -85,21 +95,41 @@ def by_name(name: str) -> Output:
     raise KeyError(f"no law output named {name!r} (outputs: {', '.join(OUTPUTS)})")
 
 
-def packed_width(m: int) -> int:
-    """Length of the packed output vector for ``m`` links (``3 m + 1`` for the current table)."""
-    return sum(o.width(m) for o in LAW_OUTPUTS)
+def outputs_of(rail: bool = False) -> tuple[Output, ...]:
+    """The rows of the law's outputs: :data:`LAW_OUTPUTS`, and on a ``rail`` ``u`` one wider plus
+    :data:`RAIL_LAW_OUTPUTS`.
+
+    Parameters
+    ----------
+    rail : bool
+        A chain on a rail.
+
+    Returns
+    -------
+    tuple of Output
+    """
+    if not rail:
+        return LAW_OUTPUTS
+    u = LAW_OUTPUTS[0]
+    return (Output(u.name, 1, 1, u.unit, u.channel, u.description + "; d_dot [m/s] first"),
+            *LAW_OUTPUTS[1:], *RAIL_LAW_OUTPUTS)
 
 
-def offsets(m: int) -> dict[str, tuple[int, int]]:
-    """``name -> (start, width)`` of each output in the packed vector for ``m`` links."""
+def packed_width(m: int, rail: bool = False) -> int:
+    """Length of the packed output vector for ``m`` links (``3 m + 1``; ``3 m + 4`` on a rail)."""
+    return sum(o.width(m) for o in outputs_of(rail))
+
+
+def offsets(m: int, rail: bool = False) -> dict[str, tuple[int, int]]:
+    """``name -> (start, width)`` of each output in the packed vector for ``m`` links (on a ``rail``)."""
     out, start = {}, 0
-    for o in LAW_OUTPUTS:
+    for o in outputs_of(rail):
         out[o.name] = (start, o.width(m))
         start += o.width(m)
     return out
 
 
-def split(packed: Any, m: int) -> dict[str, Any]:
+def split(packed: Any, m: int, rail: bool = False) -> dict[str, Any]:
     """Split packed output rows into a dict keyed by :data:`OUTPUTS`.
 
     Parameters
@@ -108,6 +138,8 @@ def split(packed: Any, m: int) -> dict[str, Any]:
         One packed row or a block of rows (a view is returned into it; copy if it is reused).
     m : int
         Number of links.
+    rail : bool
+        A chain on a rail (``u`` one wider, ``sigma`` and ``rail_margin`` at the end).
 
     Returns
     -------
@@ -119,12 +151,12 @@ def split(packed: Any, m: int) -> dict[str, Any]:
     ValueError
         The last axis is not ``packed_width(m)`` long.
     """
-    if packed.shape[-1] != packed_width(m):
-        raise ValueError(f"packed outputs: last axis of {packed.shape[-1]}, expected {packed_width(m)} "
+    if packed.shape[-1] != packed_width(m, rail):
+        raise ValueError(f"packed outputs: last axis of {packed.shape[-1]}, expected {packed_width(m, rail)} "
                          f"for {m} links")
     result: dict[str, Any] = {}
-    offs = offsets(m)
-    for o in LAW_OUTPUTS:
+    offs = offsets(m, rail)
+    for o in outputs_of(rail):
         start, width = offs[o.name]
         if o.scalar:
             v = packed[..., start]

@@ -102,12 +102,16 @@ def check_start(ctrl: CoordinatingController, q: np.ndarray) -> None:
         A joint beyond its limit or two non-adjacent links closer than the clearance.
     """
     chain = ctrl.chain
+    q_all, q = q, chain.revolute(np.asarray(q, float))
+    if chain.rail and not chain.rail_limits[0] <= q_all[0] <= chain.rail_limits[1]:
+        raise ConfigError(f"start: the rail position d = {q_all[0]:+.4f} m is outside chain.base.limits "
+                          f"{list(chain.rail_limits)}")
     bad = np.flatnonzero(~(np.abs(q[1:]) <= chain.joint_limits))
     if len(bad):
         j = int(bad[0]) + 2
         raise ConfigError(f"start: joint {j} (between links {j - 1} and {j}) is at {q[j - 1]:+.3f} rad, beyond its "
                           f"limit ±{chain.joint_limits[j - 2]:.3f} rad; choose a smaller start.beta or another start")
-    s, la, lb, d = self_distances(chain.joints_np(q[None]), chain.clearance)
+    s, la, lb, d = self_distances(chain.joints_np(q_all[None]), chain.clearance)
     hit = np.flatnonzero(touching(d, chain.clearance))
     if len(hit):
         k = hit[np.argmin(la[hit])]
@@ -164,3 +168,68 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
                           f"(residual {residual:.3g} m); choose another start guess or curve")
     check_start(ctrl, q_star)
     return q_star
+
+
+def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, d: float = 0.0,
+                 tol: float = 1e-13) -> np.ndarray:
+    """A zig-zag laid along the curve link by link: every central point ``y^2..y^m`` on it.
+
+    Link 1 leaves the base at ``beta`` to the curve's tangent there; each next link is the
+    root of ``phi(y^j) = 0`` nearest to the previous link mirrored across the local tangent
+    (on a straight line: the uniform zig-zag), found by a scalar Newton iteration, with
+    ``psi`` increasing. Unlike :func:`project_onto_curve` it follows bends of a path.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        Chain and curve.
+    beta : float
+        Fold angle [rad], ``0 < |beta| < pi/2``.
+    t0 : float
+        Time at which to lay the chain on the curve [s].
+    d : float
+        Rail position [m] (a chain on a rail only; the base is then ``d`` along the rail).
+
+    Returns
+    -------
+    (dof,) ndarray
+        Joint coordinates ``q`` (``d`` first on a rail) [m, rad].
+
+    Raises
+    ------
+    ConfigError
+        ``beta`` out of range, or a link that cannot reach the curve going forward.
+    """
+    if not 0 < abs(beta) < np.pi / 2:
+        raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {beta}")
+    geo, h = ctrl._geometry, 0.5 * ctrl.chain.xi
+    y = ctrl.chain.base_point(np.array([float(d)]))
+
+    def tangent(p):
+        g = np.asarray(geo(p, t0)[4]).ravel()
+        return float(np.arctan2(g[1], g[0]))
+
+    alphas = [tangent(y) + beta]
+    s_prev = float(geo(y, t0)[3])
+    for j in range(2, ctrl.chain.m + 1):
+        end = y + h * np.array([np.cos(alphas[-1]), np.sin(alphas[-1])])
+        a = 2 * tangent(end) - alphas[-1]
+        for _ in range(60):
+            dv = np.array([np.cos(a), np.sin(a)])
+            phi, g = (np.asarray(v).ravel() for v in geo(end + h * dv, t0)[:2])
+            slope = h * float(g @ np.array([-dv[1], dv[0]]))
+            if slope == 0:
+                break
+            step = float(phi[0]) / slope
+            a -= float(np.clip(step, -0.5, 0.5))
+            if abs(step) < tol:
+                break
+        y_new = end + h * np.array([np.cos(a), np.sin(a)])
+        phi, s = float(geo(y_new, t0)[0]), float(geo(y_new, t0)[3])
+        if not (abs(phi) < 1e-9 and s > s_prev):
+            raise ConfigError(f"start: link {j} cannot be laid on the curve going forward at t0 = {t0} "
+                              f"(beta = {beta}); try another beta or a gentler curve")
+        alphas.append(a)
+        y, s_prev = y_new, s
+    q = np.diff(np.r_[0.0, alphas])
+    return np.r_[float(d), q] if ctrl.chain.rail else q

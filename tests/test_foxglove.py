@@ -4,6 +4,8 @@ import math
 
 import jsonschema
 import numpy as np
+
+from coordarm.simulation.obstacles import outline
 import pytest
 from google.protobuf import descriptor_pb2
 from mcap.reader import make_reader

@@ -143,9 +143,10 @@ def test_generated_code_does_not_grow_with_the_number_of_links():
     assert abs(len(large) - len(small)) < 100
 
 
-@pytest.mark.parametrize("name", presets())
+@pytest.mark.parametrize("name", [p for p in presets() if p not in ("thread", "pipe")])   # rails run interpreted
 def test_compiled_runs_reproduce_interpreted_runs_of_every_preset(name):
-    scenario = load_scenario(name).with_overrides(12, 0.3, None)
+    from test_log_readers import held_span      # a rail's commanded span is sized for its own links
+    scenario = held_span(load_scenario(name)).with_overrides(12, 0.3, None)
     ctrl = scenario.controller()
     q0 = scenario.start(ctrl)
     args = (ctrl, q0, scenario.duration, scenario.step, scenario.t0)

@@ -9,7 +9,8 @@ README = Path(__file__).resolve().parent.parent / "README.md"
 
 def test_readme_api_compiled_and_analysis_examples_run():
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
-    examples = [b for b in blocks if "load(" not in b and "sweep(" not in b]   # those two: tested below
+    examples = [b for b in blocks if "load(" not in b and "sweep(" not in b
+                and not b.startswith("# example:")]   # those: tested below
     assert len(examples) == 5
     ns: dict = {}
     exec(compile("\n".join(examples).replace("20.0", "0.05"), str(README), "exec"), ns)
@@ -31,6 +32,21 @@ def test_readme_replay_example_runs_on_a_real_log(tmp_path, monkeypatch):
     assert ns["rep"].outcome["status"] == "completed" and ns["ctrl"].chain.m == 8
 
 
+def test_readme_path_rail_and_user_curve_examples_run():
+    blocks = {b.split("\n", 1)[0][len("# example: "):]: b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+              if b.startswith("# example:")}
+    assert set(blocks) == {"paths", "rail", "user curve"}
+    ns: dict = {}
+    exec(compile(blocks["paths"], str(README), "exec"), ns)
+    assert ns["fillet"].segments == ns["same"].segments and float(ns["psi"]) > 0
+    ns = {}
+    exec(compile(blocks["rail"], str(README), "exec"), ns)
+    assert abs(ns["out"]["u"][0] - 0.17) < 1e-12 and abs(ns["out"]["rail_margin"] - 1.0) < 1e-12
+    ns = {}
+    exec(compile(blocks["user curve"], str(README), "exec"), ns)
+    run = ns["run"]                  # the zig-zag starts on the tangent: e^j decays like exp(-K t)
+    assert run.info["stopped"] == "completed" and np.max(np.abs(run.e[0])) > 1e-3
+    np.testing.assert_allclose(run.e[-1], run.e[0] * np.exp(-2.0 * run.t[-1]), rtol=1e-6, atol=1e-12)
 def test_readme_sweep_example_runs_and_writes_its_results(tmp_path, monkeypatch):
     block = next(b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S) if "sweep(" in b)
     monkeypatch.chdir(tmp_path)

@@ -76,9 +76,12 @@ def stage_list(text: str) -> list[float]:
 
 def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> None:
     """Human-readable summary of a run (to ``out``, standard output by default)."""
+    import numpy as np
+
     out = sys.stdout if out is None else out
     s = run.summary()
-    lines = [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1]} links",
+    lines = [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1] - int(scenario.chain().rail)} links"
+             + (" on a rail" if scenario.chain().rail else ""),
              f"simulated     {s['duration']:.3f} s in {s['steps']} steps ({run.info.get('stopped', '?')}, "
              f"backend {run.info.get('backend', '?')})",
              f"final max|e|  {s['final_max_abs_e']:.3e} m",
@@ -87,7 +90,10 @@ def print_summary(run: Run, scenario: Scenario, out: TextIO | None = None) -> No
              f"t = {s['min_link_margin_time']:.2f} s)",
              f"longitudinal  min {s['min_longitudinal_margin']:.4f} (t = {s['min_longitudinal_margin_time']:.2f} s)",
              f"max|u|        {s['max_abs_u']:.4g}"]
-    if run.q.shape[1] == scenario.chain().m:
+    if run.sigma is not None:
+        lines.append(f"rail          d from {run.q[0, 0]:.4f} to {run.q[-1, 0]:.4f} m, span sigma {run.sigma[0]:.4f} -> "
+                     f"{run.sigma[-1]:.4f} m, min rail margin {np.min(run.rail_margin):.4f}")
+    if run.q.shape[1] == scenario.chain().dof:
         lines += physical_lines(run, scenario)
     print("\n".join(lines), file=out)
 
@@ -99,9 +105,10 @@ def physical_lines(run: Run, scenario: Scenario) -> list[str]:
     from coordarm.simulation.run import even_indices
 
     chain = scenario.chain()
-    rel = np.abs(run.q[:, 1:]) / chain.joint_limits
+    qr = chain.revolute(run.q)
+    rel = np.abs(qr[:, 1:]) / chain.joint_limits
     k, j = np.unravel_index(int(np.argmax(rel)), rel.shape)
-    lines = [f"joints        max |q_j|/limit = {rel[k, j]:.3f} (joint {j + 2}: {run.q[k, j + 1]:+.3f} rad of "
+    lines = [f"joints        max |q_j|/limit = {rel[k, j]:.3f} (joint {j + 2}: {qr[k, j + 1]:+.3f} rad of "
              f"±{chain.joint_limits[j]:.3f}, t = {run.t[k]:.2f} s)"]
     contacts = run.info.get("contacts") or []
     if contacts:

@@ -1,0 +1,535 @@
+"""Composite paths of straight lines and circular arcs, exact and in closed form (DESIGN.md section 6).
+
+A :class:`Path` is a start point, a start heading and segments, each a straight line of
+given length or a circular arc of given turning angle (+ = left, counter-clockwise) and
+radius, joined with a continuous tangent (G1). Before its start and after its end the path
+continues as straight rays along its end tangents.
+
+Definitions
+-----------
+``s = psi(y)`` is the arc length (0 at ``start``) of the closest point of the path to
+``y``; ``phi(y)`` the signed distance to it, positive to the left of the direction of
+travel. Both are closed forms per segment, the segment chosen by CasADi ``if_else`` (no
+iterative projection), so they compile to C like the other curves. They are exact and
+``phi`` is C1 in the tube ``|phi| < min R`` (the smallest arc radius): outside it the closest
+point may jump between segments, and the run stops (see ``tube_radius``).
+
+Selection: every segment's distance to ``y`` is computed cheaply (clamped to the segment);
+the closest segment's parameters are selected, and one line and one arc formula are
+evaluated with them (one square root and one ``atan2`` per point, whatever the number of
+segments).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import casadi as ca
+import numpy as np
+
+from .curves import Curve, _param, _point, evaluate
+from .errors import ConfigError
+from .motions import motion_to_spec
+
+#: Arcs turning more than this are split into equal pieces, so each piece's angle
+#: measured with ``atan2`` from its start stays away from the branch cut.
+MAX_PIECE = 2.0 * math.pi / 3.0
+
+
+def _finite(value: Any, field: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(value):
+        raise ConfigError(f"{field}: need a finite number, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One segment in the path frame: start ``p0``, unit tangent ``d0`` there, curvature ``k``.
+
+    ``k = 0`` for a line; an arc has ``k = sign(A) / R``. ``s0`` is the arc length at ``p0``,
+    ``length`` the piece's length (``inf`` for the rays); ``ray_before`` marks a piece whose
+    line extends backwards without limit.
+    """
+
+    p0: np.ndarray
+    d0: np.ndarray
+    k: float
+    s0: float
+    length: float
+    ray_before: bool = False
+
+    @property
+    def n0(self) -> np.ndarray:
+        return np.array([-self.d0[1], self.d0[0]])
+
+    @property
+    def centre(self) -> np.ndarray:
+        return self.p0 + self.n0 / self.k
+
+    def end(self) -> tuple[np.ndarray, np.ndarray]:
+        """End point and end tangent."""
+        if self.k == 0:
+            return self.p0 + self.length * self.d0, self.d0.copy()
+        a = self.k * self.length
+        c, s = math.cos(a), math.sin(a)
+        rot = np.array([[c, -s], [s, c]])
+        return self.centre + rot @ (self.p0 - self.centre), rot @ self.d0
+
+
+def parse_segment(seg: Any, field: str) -> tuple[str, float, float]:
+    """``{line = L}`` or ``{arc = A, radius = R}`` (a dict, or a tuple ``("line", L)``, ``("arc", A, R)``)."""
+    if isinstance(seg, (tuple, list)) and seg and seg[0] in ("line", "arc"):
+        seg = {"line": seg[1]} if seg[0] == "line" else {"arc": seg[1], "radius": seg[2] if len(seg) > 2 else None}
+    if not isinstance(seg, dict):
+        raise ConfigError(f"{field}: expected {{line = L}} or {{arc = A, radius = R}}, got {seg!r}")
+    if set(seg) == {"line"}:
+        length = _finite(seg["line"], f"{field}.line")
+        if not length > 0:
+            raise ConfigError(f"{field}.line: length must be > 0, got {length}")
+        return "line", length, 0.0
+    if set(seg) == {"arc", "radius"}:
+        angle = _finite(seg["arc"], f"{field}.arc")
+        radius = _finite(seg["radius"], f"{field}.radius")
+        if angle == 0 or abs(angle) >= 2 * math.pi:
+            raise ConfigError(f"{field}.arc: turning angle must be non-zero and below 2 pi in size, got {angle}")
+        if not radius > 0:
+            raise ConfigError(f"{field}.radius: must be > 0, got {radius}")
+        return "arc", angle, radius
+    raise ConfigError(f"{field}: expected {{line = L}} or {{arc = A, radius = R}}, got keys {sorted(seg)}")
+
+
+def build_pieces(start: Sequence[float], heading: float, segments: Sequence[tuple[str, float, float]]
+                 ) -> list[Piece]:
+    """The path's pieces (arcs over :data:`MAX_PIECE` split), with rays at both ends."""
+    p = np.asarray(start, float)
+    d = np.array([math.cos(heading), math.sin(heading)])
+    s, pieces = 0.0, []
+    for kind, a, r in segments:
+        if kind == "line":
+            parts = [(0.0, a)]
+        else:
+            n = max(1, math.ceil(abs(a) / MAX_PIECE - 1e-12))
+            parts = [(math.copysign(1.0 / r, a), abs(a) * r / n)] * n
+        for k, length in parts:
+            piece = Piece(p, d, k, s, length)
+            pieces.append(piece)
+            p, d = piece.end()
+            s += length
+    first, last = pieces[0], pieces[-1]
+    if first.k == 0:
+        pieces[0] = Piece(first.p0, first.d0, 0.0, first.s0, first.length, ray_before=True)
+    else:
+        pieces.insert(0, Piece(first.p0, first.d0, 0.0, 0.0, 0.0, ray_before=True))
+    if last.k == 0:
+        pieces[-1] = Piece(pieces[-1].p0, pieces[-1].d0, 0.0, pieces[-1].s0, math.inf, pieces[-1].ray_before)
+    else:
+        pieces.append(Piece(p, d, 0.0, s, math.inf))
+    return pieces
+
+
+def _junction_tests(pieces: list[Piece], p) -> list:
+    """``g_i = t_i . (p - J_i)`` at the start of every piece (``J_i`` its start point, ``t_i`` the tangent there).
+
+    A piece's closest-point range is ``g_k >= 0`` and ``g_{k+1} <= 0`` (for an arc: its wedge,
+    and the opposite one): neighbours share one test, so the ranges tile the tube.
+    """
+    return [pc.d0[0] * p[0] + pc.d0[1] * p[1] - float(pc.d0 @ pc.p0) for pc in pieces]
+
+
+def _abs_phi(piece: Piece, p):
+    """``|phi|`` of the piece's own formula at ``p`` and, for an arc, the test excluding the opposite wedge."""
+    if piece.k == 0:
+        n0 = piece.n0
+        return ca.fabs(n0[0] * p[0] + n0[1] * p[1] - float(n0 @ piece.p0)), None
+    c = piece.centre
+    rx, ry = p[0] - c[0], p[1] - c[1]
+    mid = piece.p0 + piece.end()[0] - 2 * c                    # towards the arc's middle from its centre
+    return ca.fabs(ca.sqrt(rx * rx + ry * ry) - 1.0 / abs(piece.k)), mid[0] * rx + mid[1] * ry > 0
+
+
+def closest_piece_formulas(pieces: list[Piece], p):
+    """``(phi, psi)`` of the path at ``p`` (path frame): select the closest piece, evaluate its formula.
+
+    Among the pieces whose closest-point range holds ``p`` (shared junction tests), the one
+    with the smallest ``|phi|``; its constants are selected and one line and one arc formula
+    evaluated with them.
+    """
+    g = _junction_tests(pieces, p)
+    params = [ca.DM(np.r_[pc.p0, pc.d0, pc.k, pc.s0]) for pc in pieces]
+    best, sel = ca.inf, params[0]
+    last = len(pieces) - 1
+    for i, (pc, par) in enumerate(zip(pieces, params)):
+        dist, extra = _abs_phi(pc, p)
+        tests = ([] if pc.ray_before or i == 0 else [g[i] >= 0]) + ([] if i == last else [g[i + 1] <= 0])
+        tests += [extra] if extra is not None else []
+        closer = dist < best
+        for tst in tests:
+            closer = ca.logic_and(closer, tst)
+        best = ca.if_else(closer, dist, best)
+        sel = ca.if_else(closer, par, sel)
+    p0, d0, k, s0 = sel[0:2], sel[2:4], sel[4], sel[5]
+    is_arc = k != 0
+    n0 = ca.vertcat(-d0[1], d0[0])
+    v = p - p0
+    # line: tau along d0, phi along n0
+    phi_line, psi_line = ca.dot(n0, v), s0 + ca.dot(d0, v)
+    # arc: centre p0 + n0 / k; phi = 1/k - sign(k) rho; psi = s0 + R a
+    kk = ca.if_else(is_arc, k, 1.0)                          # keep the arc formula finite on lines
+    sg = ca.sign(kk)
+    c = p0 + n0 / kk
+    r = p - c
+    u0 = -sg * n0                                            # radial unit vector at p0
+    a = sg * ca.atan2(u0[0] * r[1] - u0[1] * r[0], ca.dot(u0, r))
+    phi_arc = 1 / kk - sg * ca.norm_2(r)
+    psi_arc = s0 + a / (sg * kk)
+    return ca.if_else(is_arc, phi_arc, phi_line), ca.if_else(is_arc, psi_arc, psi_line)
+
+
+def _rot(th, v):
+    c, s = ca.cos(th), ca.sin(th)
+    return ca.vertcat(c * v[0] - s * v[1], s * v[0] + c * v[1])
+
+
+class Path(Curve):
+    """A composite path of lines and arcs (G1), optionally in rigid motion.
+
+    Parameters
+    ----------
+    start : (float, float)
+        Start point [m]; ``s = 0`` there.
+    heading : float
+        Tangent direction at the start [rad].
+    segments : sequence
+        Each ``{"line": L}`` (length L [m]) or ``{"arc": A, "radius": R}`` (turning angle A
+        [rad], + = left; radius R [m]); tuples ``("line", L)``, ``("arc", A, R)`` work too.
+    offset : (float | motion, float | motion), optional
+        Translation ``o(t)`` of the whole path [m].
+    rotation : float or motion, optional
+        Rotation ``th(t)`` of the whole path about ``start`` [rad].
+
+    Notes
+    -----
+    ``psi`` is the arc length of the closest point and ``phi`` the signed distance to it
+    (+ = left of the direction of travel), straight rays continuing both ends; closed form
+    per segment, selected with ``if_else``. Valid in the tube ``|phi| < tube_radius`` (the
+    smallest radius). The motion maps ``y`` to the path frame by
+    ``p = start + R(-th) (y - o - start)``.
+
+    Raises
+    ------
+    ConfigError
+        A malformed segment, a non-positive length or radius, a zero turning angle.
+    """
+
+    kind = "path"
+
+    def __init__(self, start: Sequence[float], heading: float, segments: Sequence[Any],
+                 offset: Any = (0.0, 0.0), rotation: Any = 0.0) -> None:
+        if not isinstance(start, (tuple, list, np.ndarray)) or len(start) != 2:
+            raise ConfigError(f"curve.start: expected a pair (x, y), got {start!r}")
+        self.start = np.array([_finite(v, f"curve.start[{i}]") for i, v in enumerate(start)])
+        self.heading = _finite(heading, "curve.heading")
+        if not isinstance(segments, (list, tuple)) or not segments:
+            raise ConfigError("curve.segments: need a non-empty list of segments")
+        self.segments = [parse_segment(sg, f"curve.segments[{i}]") for i, sg in enumerate(segments)]
+        self.offset, self.rotation = _point(offset, "curve.offset"), _param(rotation, "curve.rotation")
+        self.pieces = build_pieces(self.start, self.heading, self.segments)
+        radii = [r for kind, _, r in self.segments if kind == "arc"]
+        #: Half-width of the tube in which ``phi``, ``psi`` are valid [m] (inf for lines only).
+        self.tube_radius = min(radii) if radii else math.inf
+        self.length = sum(a if kind == "line" else abs(a) * r for kind, a, r in self.segments)
+
+    @classmethod
+    def from_waypoints(cls, points: Sequence[Sequence[float]], radius: float, offset: Any = (0.0, 0.0),
+                       rotation: Any = 0.0) -> "Path":
+        """The polyline through ``points`` with a circular fillet of ``radius`` at each interior corner.
+
+        Parameters
+        ----------
+        points : sequence of (x, y)
+            At least two waypoints [m]; the path starts at the first and ends at the last.
+        radius : float
+            Fillet radius [m].
+        offset, rotation :
+            Rigid motion, as for :class:`Path` (rotation about the first point).
+
+        Raises
+        ------
+        ConfigError
+            Fewer than two points, two consecutive points that coincide, or a fillet that does
+            not fit between its neighbours (the trims ``r tan(|a|/2)`` of two corners exceed the
+            line between them).
+        """
+        segments, start, heading = waypoint_segments(points, radius)
+        path = cls(start, heading, segments, offset=offset, rotation=rotation)
+        path.waypoints = (np.asarray(points, float).tolist(), float(radius))
+        return path
+
+    # ------------------------------------------------------------------ symbolic
+    def path_point(self, y, t):
+        """``p = start + R(-th(t)) (y - o(t) - start)``: ``y`` in the path's own frame.
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX, shape (2,)
+            The point in the path's frame [m].
+        """
+        st = ca.DM(self.start)
+        w = ca.vertcat(y[0] - self.offset[0](t), y[1] - self.offset[1](t)) - st
+        return st + _rot(-self.rotation(t), w)
+
+    def phi_psi(self, y, t):
+        """``(phi, psi)`` at ``y``, time ``t`` (one selection of the closest piece for both).
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        tuple of casadi.SX
+            Signed distance and arc length [m].
+        """
+        return closest_piece_formulas(self.pieces, self.path_point(y, t))
+
+    def phi(self, y, t):
+        """Signed distance to the closest point of the path, + to the left.
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX
+            ``phi`` [m].
+        """
+        return self.phi_psi(y, t)[0]
+
+    def psi(self, y, t):
+        """Arc length of the closest point of the path.
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        casadi.SX
+            ``psi`` [m].
+        """
+        return self.phi_psi(y, t)[1]
+
+    def functions(self) -> ca.Function:
+        """CasADi Function ``(y, t) -> (phi, psi)`` (one selection for both).
+
+        Returns
+        -------
+        casadi.Function
+        """
+        y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
+        phi, psi = self.phi_psi(y, t)
+        return ca.Function("path_curve", [y, t], [phi, psi], ["y", "t"], ["phi", "psi"])
+
+    # ------------------------------------------------------------------- numeric
+    def frame_points(self, n: int = 400, ray: float = 0.0) -> np.ndarray:
+        """Points along the whole path in its own frame (plus rays of length ``ray``).
+
+        Parameters
+        ----------
+        n : int
+            About how many points the arcs get in all (lines: their end points).
+        ray : float
+            Length of the rays drawn beyond both ends [m].
+
+        Returns
+        -------
+        ndarray, shape (N, 2)
+            The points [m].
+        """
+        inner = [pc for pc in self.pieces if pc.length > 0 and math.isfinite(pc.length)]
+        pts = []
+        if ray > 0:
+            pts.append(inner[0].p0 - ray * inner[0].d0)
+        for pc in inner:
+            k = max(2, int(n * pc.length / max(self.length, 1e-12)) + 2 if pc.k else 2)
+            for x in np.linspace(0.0, pc.length, k):
+                if pc.k == 0:
+                    pts.append(pc.p0 + x * pc.d0)
+                else:
+                    a = pc.k * x
+                    c, s = math.cos(a), math.sin(a)
+                    pts.append(pc.centre + np.array([[c, -s], [s, c]]) @ (pc.p0 - pc.centre))
+        if ray > 0:
+            end, d = inner[-1].end()
+            pts.append(end + ray * d)
+        return np.array(pts)
+
+    def to_world(self, pts: np.ndarray, t: float) -> np.ndarray:
+        """Map path-frame points to the world at time ``t`` (the inverse of :meth:`path_point`).
+
+        Parameters
+        ----------
+        pts : ndarray, shape (N, 2)
+            Points in the path's frame [m].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (N, 2)
+            The points in the world [m].
+        """
+        th = evaluate(self.rotation, t)
+        o = np.array([evaluate(c, t) for c in self.offset])
+        c, s = math.cos(th), math.sin(th)
+        return self.start + o + (pts - self.start) @ np.array([[c, s], [-s, c]])
+
+    def sample(self, t: float, n: int = 400, extent: float = 10.0) -> np.ndarray:
+        """The whole path at time ``t`` (with short rays at both ends).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        n : int
+            About how many points the arcs get.
+        extent : float
+            The rays drawn are ``min(extent / 10, 0.5)`` long [m].
+
+        Returns
+        -------
+        ndarray, shape (N, 2)
+            Points [m].
+        """
+        return self.to_world(self.frame_points(n, ray=min(extent * 0.1, 0.5)), t)
+
+    def point_at(self, s: float, t: float = 0.0) -> np.ndarray:
+        """World point of arc length ``s`` at time ``t`` (rays beyond the ends).
+
+        Parameters
+        ----------
+        s : float
+            Arc length [m].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (2,)
+            The point [m].
+        """
+        for pc in self.pieces:
+            if s <= pc.s0 + pc.length or pc is self.pieces[-1]:
+                x = s - pc.s0
+                if pc.k == 0:
+                    p = pc.p0 + x * pc.d0
+                else:
+                    a = pc.k * x
+                    c, sn = math.cos(a), math.sin(a)
+                    p = pc.centre + np.array([[c, -sn], [sn, c]]) @ (pc.p0 - pc.centre)
+                return self.to_world(p[None], t)[0]
+        raise AssertionError("unreachable")
+
+    def to_spec(self) -> dict:
+        """The path as data (``kind = "path"``, or ``"waypoints"`` when built from waypoints).
+
+        Returns
+        -------
+        dict
+        """
+        motion = {"offset": [motion_to_spec(c) for c in self.offset], "rotation": motion_to_spec(self.rotation)}
+        if getattr(self, "waypoints", None):
+            return {"kind": "waypoints", "points": self.waypoints[0], "radius": self.waypoints[1], **motion}
+        segs = [{"line": a} if kind == "line" else {"arc": a, "radius": r} for kind, a, r in self.segments]
+        return {"kind": "path", "start": self.start.tolist(), "heading": self.heading, "segments": segs, **motion}
+
+
+def waypoint_segments(points: Sequence[Sequence[float]], radius: float
+                      ) -> tuple[list[dict], tuple[float, float], float]:
+    """Segments, start and heading of the filleted polyline through ``points`` (see :meth:`Path.from_waypoints`)."""
+    if not isinstance(points, (list, tuple, np.ndarray)) or len(points) < 2:
+        raise ConfigError(f"curve.points: need at least two points [x, y], got {points!r}")
+    pts = []
+    for i, pt in enumerate(points):
+        if not isinstance(pt, (list, tuple, np.ndarray)) or len(pt) != 2:
+            raise ConfigError(f"curve.points[{i}]: expected [x, y], got {pt!r}")
+        pts.append([_finite(v, f"curve.points[{i}][{k}]") for k, v in enumerate(pt)])
+    P = np.array(pts)
+    r = _finite(radius, "curve.radius")
+    if not r > 0:
+        raise ConfigError(f"curve.radius: must be > 0, got {r}")
+    legs = np.diff(P, axis=0)
+    lengths = np.linalg.norm(legs, axis=1)
+    for i, L in enumerate(lengths):
+        if not L > 1e-12:
+            raise ConfigError(f"curve.points[{i}] and curve.points[{i + 1}] coincide")
+    head = np.arctan2(legs[:, 1], legs[:, 0])
+    turns = (np.diff(head) + math.pi) % (2 * math.pi) - math.pi      # signed corner angles
+    for i, a in enumerate(turns):
+        if abs(abs(a) - math.pi) < 1e-9:
+            raise ConfigError(f"curve.points[{i + 1}]: the path turns back on itself (180 degree corner)")
+    trim = r * np.tan(np.abs(turns) / 2)
+    before = np.r_[0.0, trim]          # trimmed at the start of each leg
+    after = np.r_[trim, 0.0]           # trimmed at its end
+    segments: list[dict] = []
+    for i, L in enumerate(lengths):
+        rest = L - before[i] - after[i]
+        if rest < -1e-12:
+            raise ConfigError(f"curve.radius: a fillet of radius {r} does not fit between curve.points[{i}] and "
+                              f"curve.points[{i + 1}] (needs {before[i] + after[i]:.4g} m of the {L:.4g} m leg)")
+        if rest > 1e-12:
+            segments.append({"line": float(rest)})
+        if i < len(turns) and abs(turns[i]) > 1e-12:
+            segments.append({"arc": float(turns[i]), "radius": r})
+    if not segments:
+        raise ConfigError("curve.points: the filleted path has no length")
+    return segments, (float(P[0, 0]), float(P[0, 1])), float(head[0])
+
+
+def path_from_spec(spec: dict, field: str = "curve") -> Path:
+    """A :class:`Path` from a ``kind = "path"`` or ``kind = "waypoints"`` table (see :func:`curve_from_spec`)."""
+    from .curves import PATH_KINDS
+    from .motions import motion_from_spec
+    kind = spec["kind"]
+    keys = PATH_KINDS[kind]
+    unknown = set(spec) - set(keys) - {"kind"}
+    if unknown:
+        raise ConfigError(f"{field}: unknown key(s) {sorted(unknown)} for kind {kind!r}; allowed: {list(keys)}")
+    required = keys[:3] if kind == "path" else keys[:2]
+    for k in required:
+        if k not in spec:
+            raise ConfigError(f"{field}.{k}: missing (kind {kind!r} needs {list(required)})")
+    motion = {}
+    if "offset" in spec:
+        v = spec["offset"]
+        if not isinstance(v, list) or len(v) != 2:
+            raise ConfigError(f"{field}.offset: expected a pair [x, y] of motions, got {v!r}")
+        motion["offset"] = tuple(motion_from_spec(c, f"{field}.offset[{i}]") for i, c in enumerate(v))
+    if "rotation" in spec:
+        motion["rotation"] = motion_from_spec(spec["rotation"], f"{field}.rotation")
+    try:
+        if kind == "waypoints":
+            return Path.from_waypoints(spec["points"], spec["radius"], **motion)
+        return Path(spec["start"], spec["heading"], spec["segments"], **motion)
+    except ConfigError as exc:
+        msg = str(exc)
+        raise ConfigError(msg.replace("curve.", f"{field}.", 1) if field != "curve" else msg) from None

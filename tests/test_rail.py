@@ -1,0 +1,124 @@
+"""Introduction axis (rail): the law against the dense decoupling matrix and closed-form facts."""
+import numpy as np
+import pytest
+
+from coordarm import Line, Path, PlanarChain, CoordinatingController, simulate
+from coordarm.symbolic import ConfigError, follow_curve
+from coordarm.symbolic.motions import Ramp, Sinusoid
+
+
+def rail_chain(m=10, angle=0.0, limits=(-5.0, 5.0)):
+    return PlanarChain(m, 0.1, base="rail", rail_angle=angle, rail_limits=limits)
+
+
+def test_on_a_straight_path_along_the_rail_the_d_column_is_a_unit_vector_and_d_dot_is_v_star():
+    chain = rail_chain(12, angle=0.3)
+    ctrl = CoordinatingController(chain, Line(angle=0.3), 2.0, 0.17)
+    q = chain.zigzag(1.2, heading=0.3, d=0.4)
+    M, rhs = ctrl.decoupling_matrices(q[None], [0.0])
+    np.testing.assert_allclose(M[0][:, 0], np.eye(chain.dof)[0], atol=1e-14)        # rows (s, sigma, e)
+    fixed = PlanarChain(12, 0.1)
+    M0 = CoordinatingController(fixed, Line(angle=0.3), 2.0, 0.17).decoupling_matrix(fixed.zigzag(1.2, 0.3))
+    assert np.linalg.det(M[0]) == pytest.approx(np.linalg.det(M0), rel=1e-10)
+    for form in ("structured", "dense"):
+        u = ctrl.evaluate(q, 0.0, form=form)["u"]
+        assert u[0] == pytest.approx(0.17, abs=1e-14)
+        np.testing.assert_allclose(u[1:], 0.0, atol=1e-12)  # rounding of the zig-zag on the line
+
+
+def test_the_d_column_equals_a_finite_difference_of_the_outputs():
+    chain = rail_chain(9, angle=-0.2)
+    path = Path((-0.4, 0.1), -0.1, [{"line": 0.5}, {"arc": 1.0, "radius": 0.6}, {"line": 1.0}])
+    ctrl = CoordinatingController(chain, path, 2.0, 0.1)
+    q = follow_curve(ctrl, 1.1, d=0.2)
+    q = q + np.random.default_rng(1).normal(scale=0.01, size=chain.dof)
+
+    def outputs(qq):
+        g = ctrl.centre_geometry(qq[None], [0.0])
+        return np.r_[g["psi"][0, -1], g["psi"][0, -1] - g["psi"][0, 0], g["phi"][0, 1:]]
+
+    M = ctrl.decoupling_matrices(q[None], [0.0])[0][0]
+    h = 1e-6
+    J = np.array([(outputs(q + h * e) - outputs(q - h * e)) / (2 * h) for e in np.eye(chain.dof)]).T
+    np.testing.assert_allclose(M, J, atol=1e-8)
+
+
+@pytest.mark.parametrize("span", [None, Sinusoid(0.05, 1.0, offset=0.5)], ids=["held", "commanded"])
+def test_structured_rail_law_equals_the_dense_solve_at_random_configurations(span):
+    chain = rail_chain(14, angle=0.1)
+    path = Path((-0.5, 0.0), 0.1, [{"line": 0.6}, {"arc": -1.2, "radius": 0.5}, {"arc": 1.5, "radius": 0.6}],
+                offset=(Ramp(0.0, 0.02), 0.0), rotation=Sinusoid(0.05, 0.5))
+    ctrl = CoordinatingController(chain, path, 2.0, Sinusoid(0.05, 0.3, offset=0.1), span=span)
+    q0 = follow_curve(ctrl, 1.1, d=0.1)
+    rng = np.random.default_rng(2)
+    for t in (0.0, 0.9, 2.3):
+        q = q0 + rng.normal(scale=0.02, size=chain.dof)
+        out = ctrl.evaluate(q, t)
+        M, rhs = ctrl.decoupling_matrices(q[None], [t])
+        u = np.linalg.solve(M[0], rhs[0])
+        np.testing.assert_allclose(out["u"], u, rtol=1e-10, atol=1e-10 * np.max(np.abs(u)))
+        np.testing.assert_allclose(ctrl.evaluate(q, t, form="dense")["u"], u, rtol=1e-10, atol=1e-12)
+        g = ctrl.centre_geometry(q[None], [t])
+        assert out["sigma"] == pytest.approx(g["psi"][0, -1] - g["psi"][0, 0], abs=1e-12)
+        grad = g["gpsi"][0, 0]
+        assert out["rail_margin"] == pytest.approx(abs(grad @ chain.rail_direction) / np.linalg.norm(grad), abs=1e-12)
+
+
+def test_a_rail_run_feeds_the_body_in_holds_the_span_and_tracks_s():
+    chain = rail_chain(16, angle=0.0, limits=(0.0, 3.0))
+    path = Path((-0.2, 0.0), 0.0, [{"line": 0.8}, {"arc": 0.8, "radius": 0.8}, {"line": 2.0}])
+    ctrl = CoordinatingController(chain, path, 2.0, 0.2)
+    q0 = follow_curve(ctrl, 1.1, d=0.0)
+    run = simulate(ctrl, q0, 2.0, 0.002, backend="interpreted")       # the base stays on the straight part
+    assert run.q.shape[1] == 17 and run.sigma is not None
+    np.testing.assert_allclose(run.sigma, run.sigma[0], atol=1e-9)                 # held span
+    np.testing.assert_allclose(run.s, run.s_reference(), atol=1e-9)               # s tracks v*
+    assert np.max(np.abs(run.e)) < 1e-7          # RK4 (h = 2 ms) meets the curvature jumps at the junctions
+    assert run.q[-1, 0] == pytest.approx(0.4, abs=1e-9)                           # the rail fed the body in at v*
+
+
+def test_leaving_the_rail_limits_stops_like_a_collision():
+    from coordarm import CollisionError
+    from coordarm.simulation.physical import Physical
+    chain = rail_chain(8, limits=(0.0, 0.3))
+    ctrl = CoordinatingController(chain, Line(), 2.0, 0.2)
+    with pytest.raises(CollisionError, match=r"rail limit at t = 1.50\d s: the rail position d = \+0.30\d+ m"):
+        simulate(ctrl, chain.zigzag(1.2), 3.0, 0.01, backend="interpreted", physical=Physical(chain))
+
+
+def test_bad_rail_parameters_are_refused():
+    with pytest.raises(ConfigError, match="base: expected one of"):
+        PlanarChain(4, 0.1, base="wheel")
+    with pytest.raises(ConfigError, match="rail_limits"):
+        PlanarChain(4, 0.1, base="rail", rail_limits=(1.0, 0.0))
+    with pytest.raises(ConfigError, match="span: only a chain on a rail"):
+        CoordinatingController(PlanarChain(4, 0.1), Line(), 1.0, 0.1, span=0.3)
+    with pytest.raises(ConfigError, match=r"q: need shape \(5,\) \(d, then"):
+        CoordinatingController(rail_chain(4), Line(), 1.0, 0.1).evaluate(np.zeros(4))
+
+
+def test_a_rail_chain_is_refused_by_the_compiled_backend_and_auto_falls_back():
+    from coordarm import BuildError
+    from coordarm.simulation.run import BackendFallbackWarning
+    chain = PlanarChain(6, 0.1, base="rail")
+    ctrl = CoordinatingController(chain, Line(), 2.0, 0.1)
+    with pytest.raises(BuildError, match="a chain on a rail runs on the interpreted backend"):
+        ctrl.compile()
+    with pytest.warns(BackendFallbackWarning):
+        run = simulate(ctrl, chain.zigzag(1.2), 0.1, 0.01)
+    assert run.info["backend"] == "interpreted"
+
+
+@pytest.mark.parametrize("span", [None, Ramp(0.4, 0.05)], ids=["held", "commanded"])
+def test_closed_form_rail_decoupling_matrices_equal_the_ad_ones(span):
+    chain = PlanarChain(9, 0.1, base="rail", rail_angle=0.3, B=np.linspace(0.7, 1.3, 9))
+    path = Path((-0.3, -0.1), 0.3, [{"line": 0.5}, {"arc": -0.8, "radius": 0.9}], offset=(Ramp(0.0, 0.03), 0.0))
+    ctrl = CoordinatingController(chain, path, 2.0, 0.1, span=span)
+    rng = np.random.default_rng(8)
+    Q = follow_curve(ctrl, 1.0, d=0.05)[None] + rng.normal(scale=0.02, size=(4, chain.dof))
+    T = np.array([0.0, 0.4, 1.1, 2.0])
+    M, rhs = ctrl.decoupling_matrices(Q, T)
+    for k in range(4):
+        Mk, rk = (np.asarray(v) for v in ctrl.decoupling_function()(Q[k], T[k]))
+        np.testing.assert_allclose(M[k], Mk, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(rhs[k], rk.ravel(), rtol=0, atol=1e-13)
