@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -42,10 +43,23 @@ COST_LIMITS = {"steps": 20_000_000, "log_bytes": 4 * 2**30, "memory_bytes": 2 * 
 #: Rows of a logged run kept in memory for the figures (the rest is streamed to the log).
 KEEP_ROWS = 20_000
 
+
+def _rk4_limit() -> float:
+    """The real root of ``x^3 - 4 x^2 + 12 x - 24`` in (2.5, 3), correctly rounded to a float."""
+    def cubic(x: float) -> Fraction:      # 24 (x^3/24 - x^2/6 + x/2 - 1), exact
+        f = Fraction(x)
+        return f**3 - 4 * f**2 + 12 * f - 24
+    lo, hi = 2.5, 3.0
+    while (mid := (lo + hi) / 2) not in (lo, hi):
+        lo, hi = (mid, hi) if cubic(mid) < 0 else (lo, mid)
+    return lo if abs(cubic(lo)) <= abs(cubic(hi)) else hi
+
+
 #: ``K h`` limit of classical RK4 on ``edot = -K e``: the real root of ``|R(-x)| = 1`` in (2.5, 3),
 #: ``R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24``; there ``R(-x) = 1``, i.e. ``x^3/24 - x^2/6 + x/2 - 1 = 0``.
-RK4_LIMIT = float(next(r.real for r in np.roots([1 / 24, -1 / 6, 1 / 2, -1])
-                       if abs(r.imag) < 1e-12 and 2.5 < r.real < 3.0))
+#: Bisected on floats with the cubic's sign evaluated exactly, so the value is the root correctly
+#: rounded (``np.roots`` was some ulp high, which moved the step of the RK4 divergence test).
+RK4_LIMIT = _rk4_limit()
 
 
 class GainStepWarning(UserWarning):

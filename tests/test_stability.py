@@ -106,3 +106,11 @@ def test_sampled_simulator_refuses_bad_input(static_line, kwargs, match):
     args = {"duration": 1.0, "period": 0.01, **kwargs}
     with pytest.raises(ConfigError, match=match):
         simulate_sampled(ctrl, q0, **args)
+
+
+def test_rk4_limit_is_the_correctly_rounded_root():
+    from fractions import Fraction
+    cubic = lambda x: Fraction(x) ** 3 - 4 * Fraction(x) ** 2 + 12 * Fraction(x) - 24   # noqa: E731
+    below, above = np.nextafter(RK4_LIMIT, 0.0), np.nextafter(RK4_LIMIT, 3.0)
+    assert cubic(below) < 0 < cubic(above)       # the root lies within one ulp either side
+    assert abs(cubic(RK4_LIMIT)) <= min(abs(cubic(below)), abs(cubic(above)))
