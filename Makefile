@@ -14,7 +14,7 @@ $(VENV)/.installed: pyproject.toml constraints.txt
 	touch $@
 
 demo: install
-	$(VENV)/bin/coordarm run line --out logs/line.mcap
+	$(VENV)/bin/coordarm run line --out logs/line.mcap --overwrite
 
 test: install
 	$(PY) -m pytest -q

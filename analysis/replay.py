@@ -5,10 +5,12 @@ Only the file is needed: the scenario is rebuilt from the ``scenario`` metadata,
 
 The file is read as a stream of records (not through its summary section), so that a log
 whose writer was killed, which lacks its end, is read up to its last complete chunk; such a
-log comes back with ``recovered = True``. Everything else raises
-:class:`~symbolic.errors.LogError` naming the file: not MCAP, empty, cut before its first
-complete sample, or damaged inside (a bad CRC or compressed data in a file that does have
-its end), giving how many messages were read before the damage.
+log comes back with ``recovered = True``. Damage is survived: a chunk whose CRC or
+compressed data is bad is skipped and named in ``problems`` (``damaged = True``), and the
+rest loads. The metadata records carry a SHA-256 of their entries: a mismatch raises a
+:class:`~symbolic.errors.LogError` naming the record, as do a file that is not MCAP, is
+empty, or lacks the scenario. A closed log without samples (a run interrupted before its
+first step) loads as an empty run.
 """
 from __future__ import annotations
 
@@ -33,6 +35,8 @@ from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
 from coordarm.simulation.choices import lz4_frame
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
+from coordarm.simulation.mcap_file import DIGEST_KEY, metadata_digest
+from coordarm.simulation.mcap_writer import partial_path
 from coordarm.simulation.run import ARRAYS, OPTIONAL, ExtraOutputs, Run
 from coordarm.simulation.scenario import USER_DEFINED, Scenario
 from coordarm.symbolic import ConfigError, LogError
@@ -111,6 +115,8 @@ class Replay(ExtraOutputs):
         ``{"status": "unknown"}`` if the writer never finished (killed).
     recovered : bool
         True if the file lacks its end (a killed or truncated run) and was read up to the break.
+    damaged : bool
+        True if damaged data was skipped (chunks with a bad CRC, or reading stopped early).
     messages : int
         Messages read.
     problems : list of str
@@ -139,6 +145,23 @@ class Replay(ExtraOutputs):
     messages: int
     problems: list = field(default_factory=list)
     extra: dict = field(default_factory=dict)
+    damaged: bool = False
+
+    def condition(self) -> str | None:
+        """Say whether the log was cut off or damaged, and what was kept.
+
+        Returns
+        -------
+        str or None
+            One line, e.g. ``"the log is damaged: 1200 samples kept (up to t = 1.199 s)"``, or
+            None for an intact log.
+        """
+        what = [w for w, flag in (("cut off (the run was killed?)", self.recovered),
+                                  ("damaged", self.damaged)) if flag]
+        if not what:
+            return None
+        span = f"up to t = {self.t[-1]:.3f} s" if len(self.t) else "no samples"
+        return f"the log is {' and '.join(what)}: {len(self.t)} samples kept ({span})"
 
     def to_run(self) -> Run:
         """The samples as a :class:`coordarm.simulation.run.Run` (for the figure functions).
@@ -170,7 +193,7 @@ def _read_records(path: Path):
     writer: a read error in it is damage.
     """
     schemas, channels, messages, meta = {}, {}, [], {}
-    complete, error = False, None
+    complete, error, skipped = False, None, []
     readers = {Opcode.SCHEMA: Schema.read, Opcode.CHANNEL: Channel.read, Opcode.METADATA: Metadata.read,
                Opcode.CHUNK: Chunk.read, Opcode.DATA_END: DataEnd.read, Opcode.FOOTER: Footer.read}
     with open(path, "rb") as f:
@@ -192,7 +215,11 @@ def _read_records(path: Path):
                     continue
                 rec = readers[opcode](ReadDataStream(io.BytesIO(body)))
                 if isinstance(rec, Chunk):
-                    messages += chunk_messages(rec)
+                    try:
+                        messages += chunk_messages(rec)
+                    except READ_ERRORS as exc:   # skip it, keep reading: the records are framed
+                        skipped.append(f"chunk at byte {f.tell() - length - _RECORD.size} skipped "
+                                       f"({type(exc).__name__}: {str(exc)[:80]})")
                 elif isinstance(rec, Channel):
                     channels[rec.id] = rec
                 elif isinstance(rec, Schema):
@@ -208,10 +235,25 @@ def _read_records(path: Path):
         f.seek(max(0, size - len(MCAP_MAGIC)))
         has_end = size >= 2 * len(MCAP_MAGIC) and f.read() == MCAP_MAGIC
     complete = complete and has_end
-    if error is not None and has_end:
-        raise LogError(f"{path}: corrupted MCAP log: {type(error).__name__}: {error} "
-                       f"({len(messages)} messages read before the damage)")
-    return schemas, channels, messages, meta, complete, error
+    if error is not None and has_end:  # a closed file: not cut off but damaged; what follows is lost
+        skipped.append(f"reading stopped at damaged data: {type(error).__name__}: {str(error)[:80]} "
+                       f"({len(messages)} messages read before it)")
+        complete, error = True, None
+    return schemas, channels, messages, meta, complete, error, skipped
+
+
+def _checked_metadata(meta: dict[str, dict], path: Path) -> None:
+    """Verify each record's SHA-256 (logs written before it existed have none)."""
+    for name, data in meta.items():
+        if DIGEST_KEY in data and data[DIGEST_KEY] != metadata_digest(data):
+            raise LogError(f"{path}: the '{name}' metadata record is damaged (its SHA-256 does not match)")
+
+
+def _json_values(record: dict[str, str], name: str, path: Path) -> dict:
+    try:
+        return {k: json.loads(v) for k, v in record.items() if k != DIGEST_KEY}
+    except (ValueError, RecursionError) as exc:
+        raise LogError(f"{path}: the '{name}' metadata holds a value that is not JSON: {str(exc)[:80]}") from None
 
 
 def _decode(channel_messages: list[RawMessage], width: int, topic: str, path: Path) -> np.ndarray:
@@ -226,7 +268,7 @@ def _decode(channel_messages: list[RawMessage], width: int, topic: str, path: Pa
 
 
 def load(path: str | Path, curve: Any = None) -> Replay:
-    """Read the log at ``path``.
+    """Read the log at ``path`` (or, if it is missing, its unfinished :func:`partial_path`).
 
     Parameters
     ----------
@@ -246,10 +288,14 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         Missing, empty, foreign or damaged file (naming it and how many messages were read
         before the damage), or a log without a usable scenario or any complete sample.
     """
-    path = Path(path)
+    path, note = Path(path), []
+    if not path.is_file() and partial_path(path).is_file():  # the run has not finished (or was killed)
+        note = [f"{path} does not exist (yet): read the unfinished {partial_path(path).name}"]
+        path = partial_path(path)
     if not path.is_file():
         raise LogError(f"{path}: no such log file")
-    schemas, channels, messages, meta, complete, error = _read_records(path)
+    schemas, channels, messages, meta, complete, error, skipped = _read_records(path)
+    _checked_metadata(meta, path)
     where = f"{path}: {'not a coordarm run log' if complete else 'MCAP log cut off'}"
     detail = f" ({type(error).__name__}: {error})" if error else ""
     if "scenario" not in meta:
@@ -259,7 +305,7 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         spec = json.loads(meta["scenario"]["json"])
         scenario = Scenario.from_dict(spec, f"{path} (scenario metadata)",
                                       curve=curve if spec.get("curve", {}).get("kind") == USER_DEFINED else None)
-    except (KeyError, ValueError, ConfigError) as exc:
+    except (KeyError, TypeError, ValueError, RecursionError, ConfigError) as exc:
         raise LogError(f"{path}: the 'scenario' metadata is not a valid scenario: {exc}") from None
     m = int(spec["chain"]["links"])
     rail = scenario.chain().rail
@@ -281,7 +327,7 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         data = _decode(msgs, ch.width, ch.topic, path) if msgs else np.empty((0, ch.width))
         order = np.argsort(data[:, 0], kind="stable")
         per_channel[key] = data[order]
-    problems = []
+    problems = note + skipped
     for key in PER_STEP:  # publisher sequence numbers run 0, 1, 2, ... on every per-step channel
         cid = by_topic.get(specs[key].topic)
         seq = np.unique([msg.sequence for msg in grouped.get(cid, [])])
@@ -298,7 +344,7 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         problems.append(f"{dropped} incomplete sample(s) dropped")
     if error is not None:
         problems.append(f"reading stopped at damaged data: {type(error).__name__}: {error}")
-    if len(common) == 0:
+    if len(common) == 0 and not (complete and not messages):  # a closed log without samples is an empty run
         raise LogError(f"{where}: no complete sample could be read ({len(messages)} messages recovered before "
                        f"the break){detail}")
     cols = {}
@@ -317,10 +363,14 @@ def load(path: str | Path, curve: Any = None) -> Replay:
                 problems.append(f"{current[key].topic}: no field {name!r} in this log (written before it "
                                 "existed); filled with NaN")
     cond = per_channel["cond"]
-    outcome = {k: json.loads(v) for k, v in meta["outcome"].items()} if "outcome" in meta else {"status": "unknown"}
+    outcome = _json_values(meta["outcome"], "outcome", path) if "outcome" in meta else {"status": "unknown"}
     named = {f.name for f in fields(Replay)}
     return Replay(path=path, **{a: v for a, v in cols.items() if a in named}, cond_t=cond[:, 0].copy(),
                   cond=cond[:, 1].copy(), scenario=scenario, scenario_dict=spec,
-                  build=meta.get("build", {}), run_info=meta.get("run", {}), outcome=outcome,
+                  build=_strip(meta.get("build", {})), run_info=_strip(meta.get("run", {})), outcome=outcome,
                   recovered=not complete, messages=len(messages), problems=problems,
-                  extra={a: v for a, v in cols.items() if a not in named})
+                  extra={a: v for a, v in cols.items() if a not in named}, damaged=bool(skipped))
+
+
+def _strip(record: dict[str, str]) -> dict[str, str]:
+    return {k: v for k, v in record.items() if k != DIGEST_KEY}

@@ -15,7 +15,6 @@ loop ``K e^{-s tau} / s`` has phase margin 90 deg at crossover ``K``: delay marg
 """
 from __future__ import annotations
 
-import math
 import warnings
 
 import control as ct
@@ -23,11 +22,10 @@ import numpy as np
 from scipy.optimize import brentq
 
 from coordarm.simulation.run import check_number
+from coordarm.simulation.limits import RK4_LIMIT, sampled_limit  # noqa: F401 (re-exported; derived here)
 from coordarm.simulation.sampled import check_delay
 from coordarm.symbolic import ConfigError, CoordinatingController
 
-#: ``K h`` limit of classical RK4 on ``edot = -K e`` (real negative axis of its stability region).
-RK4_LIMIT = float(brentq(lambda x: abs(1 - x + x**2 / 2 - x**3 / 6 + x**4 / 24) - 1, 2.5, 3.0, xtol=1e-15))
 
 
 def _check(gain: float, period: float | None = None, delay: int = 0) -> None:
@@ -35,12 +33,6 @@ def _check(gain: float, period: float | None = None, delay: int = 0) -> None:
         if v is not None:
             check_number(v, name)
     check_delay(delay)
-
-
-def sampled_limit(delay: int = 0) -> float:
-    """Closed-form limit of ``K h`` for the ZOH loop with an ``delay``-sample delay: ``2 sin(pi/(2(2n+1)))``."""
-    check_delay(delay)
-    return 2.0 * math.sin(math.pi / (2 * (2 * delay + 1)))
 
 
 def error_loop(gain: float, period: float | None = None, delay: int = 0) -> ct.TransferFunction:

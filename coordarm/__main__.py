@@ -1,6 +1,10 @@
 """``python -m coordarm``: the command line."""
 import sys
 
-from coordarm.cli import main
+try:
+    from coordarm.cli import main
+except KeyboardInterrupt:  # Ctrl-C while importing, before the handlers are installed
+    print("coordarm: interrupted", file=sys.stderr)
+    sys.exit(130)
 
 sys.exit(main())

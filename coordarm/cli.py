@@ -4,9 +4,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
-
-from coordarm.symbolic.errors import CoordarmError
+import threading
 
 #: Sub-command name -> module defining ``register(subparsers)``; the parser it adds sets ``func``.
 COMMANDS = {
@@ -54,25 +54,77 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``coordarm`` console script; returns the exit status.
 
-    The sub-commands write figures to files, so matplotlib (imported later, if at all) gets the
-    non-interactive Agg backend; library users keep their own backend.
+    0 done, 2 bad input or an unwritable/unreadable file (one line on stderr, no traceback),
+    3 stopped ahead of a singularity, 130 interrupted (Ctrl-C or SIGTERM, at any moment,
+    also while the first modules are imported). The sub-commands write
+    figures to files, so matplotlib (imported later, if at all) gets the non-interactive Agg
+    backend; library users keep their own backend.
     """
-    args = build_parser().parse_args(argv)
-    if "matplotlib" not in sys.modules:
-        os.environ["MPLBACKEND"] = "Agg"
+    previous = _early_handlers()
     try:
+        try:
+            from coordarm.symbolic.errors import CoordarmError  # noqa: F401 (the first coordarm modules)
+            from coordarm.symbolic.interrupts import handled
+        except KeyboardInterrupt:
+            print("coordarm: interrupted", file=sys.stderr)
+            return 130
+        with handled():  # Ctrl-C and SIGTERM raise Interrupted, also when inherited as ignored
+            return _main(argv)
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def _early_handlers() -> dict:
+    """Until :func:`~coordarm.symbolic.interrupts.handled` takes over: SIGINT and SIGTERM raise
+    KeyboardInterrupt (stdlib only, installed before anything heavy is imported)."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    return {s: signal.signal(s, interrupt) for s in (signal.SIGINT, signal.SIGTERM)}
+
+
+def _main(argv: list[str] | None) -> int:
+    from coordarm.symbolic.errors import CoordarmError
+    from coordarm.symbolic.interrupts import Interrupted, received
+
+    command = "coordarm"
+    try:
+        args = build_parser().parse_args(argv)
+        command = f"coordarm {args.command}"
+        if "matplotlib" not in sys.modules:
+            os.environ["MPLBACKEND"] = "Agg"
         return int(args.func(args) or 0)
     except CoordarmError as exc:
-        print(f"coordarm {args.command}: error: {exc}", file=sys.stderr)
+        print(f"{command}: error: {exc}", file=sys.stderr)
+        return 2
+    except (OSError, MemoryError, RecursionError) as exc:  # a full disk, a file in the way, a huge input
+        print(f"{command}: error: {_describe(exc)}", file=sys.stderr)
         return 2
     except (KeyboardInterrupt, SystemError) as exc:
         # CasADi's C++ calls can surface a Ctrl-C as "SystemError: ... returned a result with an
         # exception set", chained from the KeyboardInterrupt.
         if isinstance(exc, SystemError) and not isinstance(exc.__cause__, KeyboardInterrupt):
             raise
-        print(f"coordarm {args.command}: interrupted", file=sys.stderr)
+        # CasADi may re-raise a Ctrl-C as a plain KeyboardInterrupt: the signal is still on record.
+        signum = exc.signum if isinstance(exc, Interrupted) else received()
+        why = f" (interrupted by {signal.Signals(signum).name})" if signum else ""
+        print(f"{command}: interrupted{why}", file=sys.stderr)
         return 130
 
+
+def _describe(exc: BaseException) -> str:
+    """One line for an operating-system or resource error."""
+    if isinstance(exc, MemoryError):
+        return "out of memory (reduce --links, --duration or the log rate)"
+    if isinstance(exc, RecursionError):
+        return "input nested too deeply"
+    text = exc.strerror or str(exc) if isinstance(exc, OSError) else str(exc)
+    where = getattr(exc, "filename", None)
+    return f"{where}: {text}" if where else text
 
 if __name__ == "__main__":
     sys.exit(main())

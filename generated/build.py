@@ -18,15 +18,18 @@ import platform
 import shlex
 import shutil
 import signal
+import stat
 import subprocess
 import tempfile
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import casadi as ca
 
 from coordarm.symbolic import BuildError
+from coordarm.symbolic.errors import shown
 
 from .codegen import CODEGEN_OPTIONS, Source
 
@@ -37,6 +40,11 @@ DEFAULT_FLAGS = ("-O3", "-fno-math-errno", "-march=native")
 #: Flags every build needs: position-independent shared object, only the glue API exported.
 REQUIRED_FLAGS = ("-fPIC", "-shared", "-fvisibility=hidden")   # before the user flags
 LIBRARY, SOURCE, META = "libcoordarm.so", "coordarm.c", "meta.json"
+#: Seconds the compiler gets to answer ``--version`` [s].
+VERSION_TIMEOUT = 30.0
+#: Seconds a compilation may take before it is stopped (a hanging compiler) [s]; override with
+#: ``COORDARM_COMPILE_TIMEOUT``.
+COMPILE_TIMEOUT = 900.0
 
 
 @dataclass(frozen=True)
@@ -76,6 +84,55 @@ def build_root(build_dir: str | os.PathLike | None = None) -> Path:
     return (Path(xdg) if xdg else Path.home() / ".cache") / "coordarm"
 
 
+class CacheWarning(UserWarning):
+    """The build cache is not private to this user; libraries are built in a private temporary directory."""
+
+
+_private_fallback: list[Path] = []
+
+
+def private_root(root: Path) -> Path:
+    """``root`` (created 0700) if it is owned by this user and not writable by group or others, else a
+    private temporary directory (made once per process) with a :class:`CacheWarning`.
+
+    A library is loaded into this process: one that others can replace must never be loaded.
+    """
+    try:
+        root.mkdir(mode=0o700, parents=True, exist_ok=True)
+        st = root.stat()
+        problem = (f"owned by uid {st.st_uid}, not {os.getuid()}" if st.st_uid != os.getuid() else
+                   "writable by group or others" if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH) else None)
+    except OSError as exc:
+        problem = f"unusable ({exc.strerror or exc})"
+    if problem is None:
+        return root
+    if not _private_fallback:
+        _private_fallback.append(Path(tempfile.mkdtemp(prefix="coordarm-build-")))
+    warnings.warn(f"build cache {root} is {problem}: building in the private directory {_private_fallback[0]} "
+                  "instead", CacheWarning, stacklevel=3)
+    return _private_fallback[0]
+
+
+def compile_timeout() -> float:
+    """Seconds a compilation may take: ``$COORDARM_COMPILE_TIMEOUT``, else :data:`COMPILE_TIMEOUT`.
+
+    Raises
+    ------
+    BuildError
+        The variable is not a positive number.
+    """
+    env = os.environ.get("COORDARM_COMPILE_TIMEOUT")
+    if not env:
+        return COMPILE_TIMEOUT
+    try:
+        value = float(env)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < float("inf"):
+        raise BuildError(f"COORDARM_COMPILE_TIMEOUT: need a positive number of seconds, got {shown(env)}")
+    return value
+
+
 def find_compiler(cc: str | None = None) -> str:
     """Absolute path of the C compiler: ``cc``, else ``$CC``, else ``cc`` or ``gcc`` on the PATH.
 
@@ -96,18 +153,34 @@ def find_compiler(cc: str | None = None) -> str:
 @functools.lru_cache(maxsize=None)
 def _compiler_version(path: str) -> str:
     try:
-        res = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=30)
+        res = _run_compiler([path, "--version"], VERSION_TIMEOUT)
     except OSError as exc:
         raise BuildError(f"C compiler {path} does not run: {exc}") from None
+    except subprocess.TimeoutExpired:
+        raise BuildError(f"C compiler {path} does not answer --version within {VERSION_TIMEOUT:g} s "
+                         "(set CC to a working compiler)") from None
     return res.stdout.strip()
 
 
 def compile_flags(flags: tuple[str, ...] | list[str] | str | None = None) -> tuple[str, ...]:
-    """Optimisation flags: ``flags``, else ``$COORDARM_CFLAGS``, else :data:`DEFAULT_FLAGS`."""
+    """Optimisation flags: ``flags``, else ``$COORDARM_CFLAGS``, else :data:`DEFAULT_FLAGS`.
+
+    Raises
+    ------
+    BuildError
+        Flags that do not split as a shell command line (an unclosed quote).
+    """
+    name = "flags"
     if flags is None:
-        env = os.environ.get("COORDARM_CFLAGS")
-        return tuple(shlex.split(env)) if env else DEFAULT_FLAGS
-    return tuple(shlex.split(flags)) if isinstance(flags, str) else tuple(flags)
+        flags, name = os.environ.get("COORDARM_CFLAGS"), "COORDARM_CFLAGS"
+        if not flags:
+            return DEFAULT_FLAGS
+    if not isinstance(flags, str):
+        return tuple(flags)
+    try:
+        return tuple(shlex.split(flags))
+    except ValueError as exc:
+        raise BuildError(f"{name}: cannot split {shown(flags)} into flags: {exc}") from None
 
 
 @functools.lru_cache(maxsize=None)
@@ -188,12 +261,13 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
     """
     cc_path = find_compiler(cc)
     flags = compile_flags(flags)
+    timeout = compile_timeout() if timeout is None else timeout
     key = cache_key(source, cc_path, flags)
-    entry = build_root(build_dir) / key[:16]
+    entry = private_root(build_root(build_dir)) / key[:16]
     if not force and cached(entry, key):
         return Library(entry / LIBRARY, key, True, 0.0)
     try:
-        entry.mkdir(parents=True, exist_ok=True)
+        entry.mkdir(mode=0o700, parents=True, exist_ok=True)
         src = entry / SOURCE
         _write_atomic(src, source.text.encode())
         fd, tmp = tempfile.mkstemp(dir=entry, prefix=LIBRARY + ".", suffix=".tmp")
@@ -202,20 +276,24 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
         raise BuildError(f"build directory {entry}: {exc}") from None
     cmd = [cc_path, *REQUIRED_FLAGS, *flags, "-o", tmp, str(src), "-lm"]   # later flags win
     start = time.perf_counter()
+    placed = False
     try:
-        res = _run_compiler(cmd, timeout)
-    except subprocess.TimeoutExpired:
-        Path(tmp).unlink(missing_ok=True)
-        raise BuildError(f"compiling {src} took longer than {timeout} s; stopped") from None
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise BuildError(f"C compiler {cc_path} did not run: {exc}") from None
-    seconds = time.perf_counter() - start
-    if res.returncode != 0:
-        Path(tmp).unlink(missing_ok=True)
-        raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
-    digest = _sha256(Path(tmp))
-    os.replace(tmp, entry / LIBRARY)
+        try:
+            res = _run_compiler(cmd, timeout)
+        except subprocess.TimeoutExpired:
+            raise BuildError(f"compiling {src} took longer than {timeout:g} s; stopped "
+                             "(COORDARM_COMPILE_TIMEOUT sets the limit)") from None
+        except OSError as exc:
+            raise BuildError(f"C compiler {cc_path} did not run: {exc}") from None
+        seconds = time.perf_counter() - start
+        if res.returncode != 0:
+            raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
+        digest = _sha256(Path(tmp))
+        os.replace(tmp, entry / LIBRARY)
+        placed = True
+    finally:
+        if not placed:   # any failure or an interrupt: no half-written library left
+            Path(tmp).unlink(missing_ok=True)
     meta = {"key": key, "sha256": digest, "compiler": cc_path, "compiler_version": _compiler_version(cc_path),
             "flags": list(flags), "casadi": ca.__version__, "codegen_options": CODEGEN_OPTIONS,
             "form": source.form, "links": source.m, "compile_seconds": seconds}
@@ -224,20 +302,51 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
 
 
 def _run_compiler(cmd: list[str], timeout: float | None) -> subprocess.CompletedProcess:
-    """Run the compiler in a process group of its own; on a timeout or an interrupt kill the whole
-    group (``gcc`` is a driver: killing it alone leaves ``cc1`` compiling on)."""
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+    """Run the compiler in this process's group (a Ctrl-C or a kill of the group reaches it too),
+    with its temporary files in a private directory that is removed afterwards; on a timeout or an
+    interrupt kill it and every process it started (``gcc`` is a driver: ``cc1`` would compile on)."""
+    tmpdir = tempfile.mkdtemp(prefix="coordarm-cc-")
+    env = dict(os.environ, TMPDIR=tmpdir, TMP=tmpdir, TEMP=tmpdir)
     try:
-        out, err = proc.communicate(timeout=timeout)
-    except BaseException:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
         try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError, AttributeError):  # gone already, or not POSIX
-            proc.kill()
-        proc.communicate()
-        raise
-    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+            out, err = proc.communicate(timeout=timeout)
+        except BaseException:
+            _kill_tree(proc.pid)
+            proc.communicate()
+            raise
+        return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+    finally:
+        shutil.rmtree(tmpdir, ignore_errors=True)
+
+
+def descendants(pid: int) -> list[int]:
+    """Process ids started by ``pid``, recursively (Linux ``/proc``; empty elsewhere)."""
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        try:
+            tasks = os.listdir(f"/proc/{p}/task")
+        except OSError:
+            continue
+        for task in tasks:
+            try:
+                with open(f"/proc/{p}/task/{task}/children") as f:
+                    kids = [int(k) for k in f.read().split()]
+            except OSError:
+                continue
+            out += kids
+            todo += kids
+    return out
+
+
+def _kill_tree(pid: int) -> None:
+    """SIGKILL ``pid`` and its descendants (children first looked up, then all killed)."""
+    for p in [pid, *descendants(pid)]:
+        try:
+            os.kill(p, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
 
 
 def clean(build_dir=None) -> int:

@@ -19,6 +19,8 @@ COMPRESSIONS = ("lz4", "zstd")
 COMPARE_METHODS = ("coordinating", "pinv", "dls", "ftl")
 #: Backends of ``coordarm compare``: every method as generated C, or in CasADi's virtual machine.
 COMPARE_BACKENDS = ("compiled", "interpreted")
+#: Links above which the dense law's code generation and compilation take minutes (``coordarm run --yes``).
+DENSE_LINKS = 128
 #: Short names accepted by ``coordarm sweep --vary`` (the results column keeps the name as given).
 SWEEP_ALIASES = {"links": "chain.links", "link_length": "chain.link_length", "gain": "control.gain",
                  "speed": "control.speed", "beta": "start.beta", "heading": "start.heading",

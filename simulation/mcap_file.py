@@ -11,6 +11,11 @@ classes of the ``mcap`` library itself.
 """
 from __future__ import annotations
 
+import errno
+import fcntl
+import hashlib
+import json
+import os
 import queue
 import struct
 import threading
@@ -50,23 +55,66 @@ def message_records(channel_id: int, log_times: np.ndarray, data: list[bytes], s
     return bytes(out)
 
 
+#: Key of the checksum in every Metadata record written here.
+DIGEST_KEY = "sha256"
+
+
+def metadata_digest(data: dict[str, str]) -> str:
+    """SHA-256 of a metadata record's entries (all but :data:`DIGEST_KEY`), as canonical JSON."""
+    body = {k: v for k, v in data.items() if k != DIGEST_KEY}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, ensure_ascii=True).encode()).hexdigest()
+
+
+def open_locked(path: Path) -> BinaryIO:
+    """Open ``path`` for writing, emptied, holding an exclusive lock (``flock``) until it is closed.
+
+    The lock goes with the process: a killed writer leaves no stale lock behind.
+
+    Raises
+    ------
+    OSError
+        It cannot be created, or another process holds its lock (``EBUSY``).
+    """
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise OSError(errno.EBUSY, "another process is writing this file", str(path)) from None
+    except BaseException:
+        os.close(fd)
+        raise
+    os.ftruncate(fd, 0)
+    return os.fdopen(fd, "wb")
+
+
 class Worker:
     """One background thread that applies ``handle`` to queued jobs, in order.
 
     The first failure is kept in :attr:`error` and the jobs after it are skipped; the owner
-    re-raises it on its next call.
+    re-raises it on its next call. With ``idle``, that is called whenever no job came for
+    ``idle_interval`` seconds (e.g. to flush what was written so far).
     """
 
-    def __init__(self, handle: Callable[[Any], None], name: str, maxsize: int) -> None:
+    def __init__(self, handle: Callable[[Any], None], name: str, maxsize: int,
+                 idle: Callable[[], None] | None = None, idle_interval: float = 0.25) -> None:
         self.error: BaseException | None = None
-        self._handle = handle
+        self._handle, self._idle, self._idle_interval = handle, idle, idle_interval
         self._queue: queue.Queue = queue.Queue(maxsize=maxsize)
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
 
     def _run(self) -> None:
         while True:
-            job = self._queue.get()
+            try:
+                job = self._queue.get(timeout=self._idle_interval if self._idle else None)
+            except queue.Empty:
+                try:
+                    if self.error is None:
+                        self._idle()
+                except BaseException as exc:  # re-raised by the owner
+                    self.error = exc
+                continue
             try:
                 if job is None:
                     return
@@ -97,7 +145,7 @@ class McapFile:
     Parameters
     ----------
     path : str or Path
-        File to create (overwritten).
+        File to create (emptied if it exists), locked against a second writer until closed.
     profile : str
         MCAP profile written in the header (``"ros2"`` for ``cdr`` channels).
     compression : {"zstd", "lz4"}
@@ -124,7 +172,7 @@ class McapFile:
         self.compression = compression
         self._compress: Callable[[bytes], bytes] = (
             zstandard.ZstdCompressor(level=1).compress if compression == "zstd" else lz4_frame().compress)
-        self._stream: BinaryIO = open(self.path, "wb")
+        self._stream: BinaryIO = open_locked(self.path)
         self._schemas: list[Schema] = []
         self._channels: list[Channel] = []
         self._chunk_indexes: list[ChunkIndex] = []
@@ -175,10 +223,10 @@ class McapFile:
         return channel.id
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
-        """Write a Metadata record (string values only) and index it."""
+        """Write a Metadata record (string values only) with its checksum (:func:`metadata_digest`) and index it."""
         self._wait()
         builder = RecordBuilder()
-        Metadata(name=name, metadata=data).write(builder)
+        Metadata(name=name, metadata={**data, DIGEST_KEY: metadata_digest(data)}).write(builder)
         raw = builder.end()
         offset = self._stream.tell()
         self._stream.write(raw)
@@ -238,8 +286,11 @@ class McapFile:
         self._wait()
         self._stream.flush()
 
-    def close(self) -> None:
-        """Write the data end, the summary section (schemas, channels, statistics, indexes), footer."""
+    def close(self, rename_to: str | Path | None = None) -> None:
+        """Write the data end, the summary section (schemas, channels, statistics, indexes), footer.
+
+        With ``rename_to``, the finished file is renamed to it (replacing it) while still locked.
+        """
         if self._closed:
             return
         self._wait()
@@ -267,6 +318,10 @@ class McapFile:
         self._stream.write(summary)
         self._write(Footer(summary_start=summary_start, summary_offset_start=offset_start, summary_crc=crc))
         self._stream.write(MCAP0_MAGIC)
+        self._stream.flush()
+        if rename_to is not None:
+            os.replace(self.path, rename_to)
+            self.path = Path(rename_to)
         self._stream.close()
 
     def abandon(self) -> None:

@@ -12,11 +12,15 @@ Channels (timestamps: ns of simulated time)
 
 Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, versions),
 ``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
-``outcome``. Chunks are built with numpy for a whole block of steps at once, compressed with
-zstd (default) or lz4, and pushed to the operating system about once a second, so a killed
-run loses at most the last second of data. With ``threaded=True`` this runs on worker
-threads (compression and a compiled simulation release the GIL), which overlaps logging with
-the simulation when a core is free.
+``outcome``; each carries the SHA-256 of its entries (key ``sha256``), checked by
+:func:`analysis.replay.load`. Chunks are built with numpy for a whole block of steps at once,
+compressed with zstd (default) or lz4, and pushed to the operating system every half second
+(also while the simulation is busy with a long block), with at most two blocks queued, so a
+killed run loses at most the last second. The log is written as ``<name>.partial.mcap``
+(locked against a second writer) and renamed to its name when it is closed; a killed run
+leaves the ``.partial.mcap`` file, which :func:`analysis.replay.load` reads. With
+``threaded=True`` this runs on worker threads (compression and a compiled simulation release
+the GIL), which overlaps logging with the simulation when a core is free.
 """
 from __future__ import annotations
 
@@ -45,6 +49,16 @@ from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, 
 from .run import Run
 from .scenario import Scenario
 from .scene import SceneBuilder
+
+#: Wall time between pushes of the log to the operating system [s] (a kill loses at most ~2x this).
+FLUSH_INTERVAL = 0.5
+
+
+def partial_path(path: str | Path) -> Path:
+    """Where the log of ``path`` is written until it is closed: ``<stem>.partial<suffix>`` beside it."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}.partial{path.suffix}")
+
 
 #: Default rates of the reduced-rate channels [Hz].
 SCENE_RATE, COND_RATE = 20.0, 5.0
@@ -129,7 +143,8 @@ def outcome_of(error: BaseException | None, last_t: float | None,
         out = {"status": "collision", "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
                "value": c.value, "threshold": c.threshold, "obstacle": c.obstacle, "message": str(error)}
     else:
-        status = "interrupted" if isinstance(error, KeyboardInterrupt) else "error"
+        interrupted = isinstance(error, KeyboardInterrupt) or isinstance(error.__cause__, KeyboardInterrupt)
+        status = "interrupted" if interrupted else "error"
         out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
     if contacts:
         out["contacts"] = contacts
@@ -146,7 +161,7 @@ class RunLogger:
     Parameters
     ----------
     path : str or Path
-        The log file to create.
+        The log file to create; it is written as :func:`partial_path` and renamed at the end.
     scenario : Scenario
         The scenario being run (stored whole in the ``scenario`` metadata).
     ctrl : CoordinatingController, optional
@@ -164,10 +179,13 @@ class RunLogger:
         Target uncompressed chunk size [bytes].
     flush_interval : float
         Wall time between pushes of the written chunks to the operating system [s].
+    overwrite : bool
+        Replace an existing file at ``path`` (else a LogError before anything is written).
     command : list of str, optional
         Command line stored in the ``run`` metadata (default: ``sys.argv``).
     backend : str
-        Simulation backend, stored in the ``build`` metadata.
+        Simulation backend, stored in the ``build`` metadata (written with the first block, so
+        :meth:`set_backend` may still change it).
     library_key : str, optional
         Cache key (SHA-256 of the generated code and its build) of the compiled library that
         ran, stored in the ``build`` metadata.
@@ -182,14 +200,24 @@ class RunLogger:
     ConfigError
         A rate that is not a positive number.
     LogError
-        The file cannot be created.
+        The file cannot be created, exists (``overwrite=False``) or another run is writing it.
     """
 
-    def __init__(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        try:
+            self._open(*args, **kwargs)
+        except BaseException:  # a failure or Ctrl-C before the writer is complete: no half-made file left
+            file = getattr(self, "file", None)
+            if file is not None:
+                file.abandon()
+                file.path.unlink(missing_ok=True)
+            raise
+
+    def _open(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
                  log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float | None = None,
-                 compression: str = "zstd", chunk_size: int = 256 * 1024, flush_interval: float = 1.0,
+                 compression: str = "zstd", chunk_size: int = 256 * 1024, flush_interval: float = FLUSH_INTERVAL,
                  command: list[str] | None = None, backend: str = "interpreted", library_key: str | None = None,
-                 threaded: bool = False) -> None:
+                 threaded: bool = False, overwrite: bool = True) -> None:
         self.ctrl = ctrl or scenario.controller()
         if type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
             scenario = scenario.with_curve(self.ctrl.curve)      # the log records a user-defined curve
@@ -206,10 +234,13 @@ class RunLogger:
         self.flush_interval = float(flush_interval)
         self.path = Path(path)
         self.channels: dict[str, NumericChannel] = numeric_channels(m, self.ctrl.chain.rail)
+        if not overwrite and self.path.exists():
+            raise LogError(f"{self.path}: exists; choose another --out or pass --overwrite")
         try:
-            self.file = McapFile(self.path, profile="ros2", compression=compression, background=threaded)
+            self.file = McapFile(partial_path(self.path), profile="ros2", compression=compression,
+                                 background=threaded)
         except OSError as exc:
-            raise LogError(f"{self.path}: cannot create the log: {exc}") from None
+            raise LogError(f"{self.path}: cannot create the log: {exc.strerror or exc}") from None
         self.ids: dict[str, int] = {}
         for key, ch in self.channels.items():
             if key == "tracking" and not self.scene_every:
@@ -222,10 +253,10 @@ class RunLogger:
                 self.ids[key] = self.file.add_channel(topic, "json", sid)
         self.origin = min(0.0, scenario.t0)  # log times are ns since this simulated time (>= 0)
         self.file.add_metadata("scenario", {"json": scenario.to_json(), "source": scenario.source})
-        build = {**build_info(scenario), "backend": backend}
-        if library_key:
-            build["library_key"] = library_key
-        self.file.add_metadata("build", build)
+        self._build: dict[str, str] | None = None
+        self._build_written = False
+        self._lock = threading.RLock()  # the worker's idle flush against flush() from the caller
+        self.set_backend(backend, library_key)
         self.file.add_metadata("run", {
             "command": json.dumps(list(sys.argv if command is None else command)),
             "started": datetime.now(timezone.utc).isoformat(timespec="seconds"), "host": socket.gethostname(),
@@ -246,14 +277,48 @@ class RunLogger:
         self._last: Run | None = None
         self._last_logged = -1  # global index of the last sample logged
         self._governed = 0.0    # simulated time with v_scale < 1 [s]
-        self._flushed = time.monotonic()
+        self._flushed = self._received = time.monotonic()
+        self._gap = 0.0  # wall time between the last two blocks
         self.scene = SceneBuilder(self.ctrl, scenario.obstacles)
         self.outcome: dict[str, Any] | None = None
         #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
         self.contacts: list[dict] = []
-        # Unbounded: on_chunk never waits for the log, so the simulation never blocks on it. The
-        # queued parts are views of rows the run keeps anyway, so the queue adds no copies.
-        self._worker = Worker(self._process, "coordarm-log", 0) if threaded else None
+        # At most two blocks wait (so a kill loses at most ~1 s, and the queue holds at most two
+        # blocks: the run itself keeps only thinned rows); an idle worker still pushes the last
+        # block out in time.
+        self._worker = Worker(self._process, "coordarm-log", 2, idle=self._flush_if_due,
+                              idle_interval=self.flush_interval / 2) if threaded else None
+
+    @property
+    def writing(self) -> Path:
+        """The file being written (:func:`partial_path` until closed, then :attr:`path`)."""
+        return self.file.path
+
+    def set_backend(self, backend: str, library_key: str | None = None) -> None:
+        """Record the simulation backend (and compiled library) in the ``build`` metadata.
+
+        Parameters
+        ----------
+        backend : str
+            ``"compiled"`` or ``"interpreted"``.
+        library_key : str, optional
+            Cache key of the compiled library.
+
+        Raises
+        ------
+        LogError
+            Called after the first block was logged.
+        """
+        if self._build_written:
+            raise LogError(f"{self.path}: the backend is recorded before the first block")
+        self._build = {**build_info(self.scenario), "backend": backend}
+        if library_key:
+            self._build["library_key"] = library_key
+
+    def _write_build(self) -> None:
+        if not self._build_written:
+            self.file.add_metadata("build", self._build)
+            self._build_written = True
 
     def _check(self) -> None:
         if self._worker is not None and self._worker.error is not None:
@@ -275,6 +340,9 @@ class RunLogger:
             Writing an earlier block failed (e.g. the disk is full).
         """
         self._check()
+        self._write_build()
+        now = time.monotonic()
+        self._gap, self._received = now - self._received, now
         if self._worker is not None:
             self._worker.put(part)
         else:
@@ -282,6 +350,10 @@ class RunLogger:
                 self._process(part)
 
     def _process(self, part: Run) -> None:
+        with self._lock:
+            self._process_locked(part)
+
+    def _process_locked(self, part: Run) -> None:
         n = len(part.t)
         g = self._seen + np.arange(n)
         self._seen += n
@@ -304,8 +376,16 @@ class RunLogger:
                     self._extras.append(("cond", int(self._ns(part.t[k])), record))
         while len(self._pending) >= self.samples_per_chunk:
             self._write_chunk(self.samples_per_chunk)
-        if time.monotonic() - self._flushed >= self.flush_interval:
+        # Without a worker nothing runs until the next block: flush now if that would come too late.
+        wait = 0.0 if self._worker is not None else self._gap
+        if time.monotonic() - self._flushed + wait >= self.flush_interval:
             self._flush_now()
+
+    def _flush_if_due(self) -> None:
+        """Flush from the idle worker when blocks arrive slowly (see :class:`Worker`)."""
+        with self._lock:
+            if (len(self._pending) or self._extras) and time.monotonic() - self._flushed >= self.flush_interval / 2:
+                self._flush_now()
 
     def _ns(self, t: float | np.ndarray):
         return log_time_ns(t, self.origin)
@@ -359,7 +439,8 @@ class RunLogger:
         if self._worker is not None:
             self._worker.join()
         self._check()
-        self._flush_now()
+        with self._lock:
+            self._flush_now()
 
     def _flush_now(self) -> None:
         if len(self._pending) or self._extras:
@@ -386,9 +467,10 @@ class RunLogger:
                     self._add_samples(self._last, np.array([len(self._last.t) - 1]))
             if len(self._pending) or self._extras:
                 self._write_chunk(len(self._pending))
+            self._write_build()
             self.outcome = outcome_of(error, last_t, self.contacts, self._governed)
             self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in self.outcome.items()})
-            self.file.close()
+            self.file.close(rename_to=self.path)
         except Exception as exc:
             self.file.abandon()
             raise LogError(f"{self.path}: writing the log failed: {type(exc).__name__}: {exc}") from exc
@@ -406,15 +488,20 @@ class RunLogger:
 
 @contextmanager
 def _sigint_deferred():
-    """Hold back SIGINT (Ctrl-C) until the block ends, then deliver it to the previous handler."""
+    """Hold back SIGINT (Ctrl-C), and SIGTERM when Python handles it, until the block ends; then
+    deliver the first one caught to its previous handler."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    caught = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(frame))
+    caught: list[tuple[int, Any]] = []
+    previous = {}
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        if signum == signal.SIGINT or callable(signal.getsignal(signum)):
+            previous[signum] = signal.signal(signum, lambda n, frame: caught.append((n, frame)))
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
-        if caught and callable(previous):
-            previous(signal.SIGINT, caught[0])
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if caught and callable(previous[caught[0][0]]):
+            previous[caught[0][0]](*caught[0])

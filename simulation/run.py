@@ -14,9 +14,12 @@ from coordarm.generated import compile as compile_controller
 from coordarm.symbolic import (BuildError, CollisionError, ConfigError, CoordarmError, CoordinatingController,
                                SingularityError, TubeError)
 from coordarm.symbolic.curves import unwrap_s
+from coordarm.symbolic.errors import shown
+from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS, split
 
 from .choices import BACKENDS
+from .limits import KEEP_ROWS, check_gain_step
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
@@ -155,7 +158,7 @@ class Run(ExtraOutputs):
         """
         lm = self.link_margins
         k, j = np.unravel_index(np.argmin(lm), lm.shape)
-        return {"duration": float(self.t[-1] - self.t[0]), "steps": len(self.t) - 1,
+        return {"duration": float(self.t[-1] - self.t[0]), "steps": int(self.info.get("steps", len(self.t) - 1)),
                 "final_max_abs_e": float(np.max(np.abs(self.e[-1]))),
                 "max_s_tracking_error": float(np.max(np.abs(self.s - self.s_reference()))),
                 "min_link_margin": float(lm[k, j]), "min_link_margin_link": int(j) + 2,
@@ -168,9 +171,9 @@ class Run(ExtraOutputs):
 def check_number(value: Any, name: str, positive: bool = True) -> float:
     """``value`` as a float; a ConfigError naming ``name`` unless it is a finite real number (> 0 if ``positive``)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(f"{name}: need a finite number, got {value!r}")
+        raise ConfigError(f"{name}: need a finite number, got {shown(value)}")
     if positive and value <= 0:
-        raise ConfigError(f"{name}: must be > 0, got {value!r}")
+        raise ConfigError(f"{name}: must be > 0, got {shown(value)}")
     return float(value)
 
 
@@ -267,7 +270,7 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
         ``backend="compiled"`` and the library cannot be built or loaded.
     """
     if backend not in BACKENDS:
-        raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+        raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
     if backend == "interpreted":
         return "interpreted", None, {"backend": "interpreted"}
     try:
@@ -278,6 +281,7 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
         warnings.warn(f"compiled backend unavailable, running the interpreted CasADi backend "
                       f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)
         return "interpreted", None, {"backend": "interpreted", "fallback_reason": str(exc)}
+    check_interrupt()  # a Ctrl-C swallowed by a CasADi call while generating the code
     return "compiled", compiled, {"backend": "compiled", "cache_hit": compiled.cache_hit,
                                   "library": str(compiled.library.path)}
 
@@ -286,7 +290,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
              t0: float = 0.0, *, backend: str = "auto", chunk: int = DEFAULT_CHUNK,
              thresholds: dict[str, float] | None = None, progress: bool | None = None,
              on_chunk: Callable[[Run], None] | None = None, physical: Any = None,
-             check_every: int = 1, allow_contact: bool = False) -> Run:
+             check_every: int = 1, allow_contact: bool = False, keep: int | None = None) -> Run:
     """Integrate the closed loop with fixed-step RK4 from ``q0`` at ``t0`` for ``duration``.
 
     Parameters
@@ -320,6 +324,12 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     allow_contact : bool
         Keep going after a contact; ``run.info["contacts"]`` then lists the first contact of
         every (kind, links, obstacle).
+    keep : int, optional
+        Rows to keep in memory (about): the returned run holds every ``ceil(steps / keep)``-th
+        step plus, in each chunk, the rows of the smallest margins and the largest ``|u|`` and
+        the chunk's last row, so its summary's extremes, final values and step count are exact. Default:
+        :data:`~simulation.limits.KEEP_ROWS` when ``on_chunk`` is given (a logger streams the
+        rest to disk), else every row. ``run.info["kept_every"]`` records the thinning.
 
     Returns
     -------
@@ -347,10 +357,11 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     if step > duration:
         raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
     if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
-        raise ConfigError(f"chunk: need a positive integer, got {chunk!r}")
+        raise ConfigError(f"chunk: need a positive integer, got {shown(chunk)}")
     if backend not in BACKENDS:   # select_backend checks too, but only after the start checks below
-        raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+        raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
     thr = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
+    check_gain_step(ctrl.gain, step, refuse=False)
     q0 = ctrl.chain.check_q(q0, "q0")
     if not ctrl.chain.rail:          # a rail carries the base along; its own margin guards it
         check_curve_reaches_base(ctrl, t0, t0 + duration)
@@ -374,7 +385,12 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         raise ConfigError(f"q0: the central point of link {start_out[1]} is {start_out[2]:.4g} m from the path, "
                           f"not inside its tube (|phi| < {tube:.4g} m, the smallest radius)")
     backend, compiled, info = select_backend(ctrl, backend)
+    check_interrupt()
     n_steps = int(round(duration / step))
+    if keep is None:
+        keep = KEEP_ROWS if on_chunk is not None else n_steps + 1
+    every = max(1, -(-n_steps // max(1, int(keep))))
+    info = dict(info, kept_every=every)
     bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
     parts: list[Run] = []
     contacts: list = []
@@ -399,7 +415,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
             if stop is not None:
                 row, error = stop
                 part = _rows(part, slice(0, row + 1))
-                parts.append(part)
+                parts.append(_thin(part, k, every))
                 if on_chunk:
                     on_chunk(part)
                 if isinstance(error, SingularityError) and error.kind == "longitudinal" and not ctrl.governor:
@@ -407,12 +423,13 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
                                              hint="the speed governor ([control] governor = true, --governor) "
                                                   "slows v* instead of stopping")
                 error.run = _concat(parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
-                                                wall_time=_time.perf_counter() - wall))
+                                                steps=k + row, wall_time=_time.perf_counter() - wall))
                 error.run.info["governed"] = error.run.governed_time()
                 raise error
-            parts.append(part)
+            parts.append(_thin(part, k, every))
             if on_chunk:
                 on_chunk(part)
+            check_interrupt()
             if k == n_steps:
                 break
             q, k = Q[-1], k + n
@@ -422,7 +439,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         if bar:
             bar.close()
     info = dict(info, contacts=_records(contacts))
-    run = _concat(parts, dict(info, stopped="completed", wall_time=_time.perf_counter() - wall))
+    run = _concat(parts, dict(info, stopped="completed", steps=n_steps, wall_time=_time.perf_counter() - wall))
     run.info["governed"] = run.governed_time()
     return run
 
@@ -503,6 +520,17 @@ def _arrays(run: Run) -> tuple[str, ...]:
 
 def _rows(run: Run, rows: slice) -> Run:
     return Run.from_arrays({a: getattr(run, a)[rows] for a in _arrays(run)}, run.info)
+
+
+def _thin(part: Run, k0: int, every: int) -> Run:
+    """Rows of ``part`` (steps ``k0, k0+1, ...``) kept in memory: every ``every``-th, the extremes, the last."""
+    n = len(part.t)
+    if every == 1 or n == 0:
+        return part
+    rows = np.concatenate([np.flatnonzero((k0 + np.arange(n)) % every == 0),
+                           [np.argmin(np.min(part.link_margins, axis=1)), np.argmin(part.longitudinal),
+                            np.argmax(np.max(np.abs(part.u), axis=1)), n - 1]])
+    return Run.from_arrays({a: getattr(part, a)[np.unique(rows)] for a in _arrays(part)}, part.info)
 
 
 def _concat(parts: list[Run], info: dict) -> Run:

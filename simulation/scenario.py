@@ -41,9 +41,11 @@ import numpy as np
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, Curve, PlanarChain, curve_from_spec,
                                follow_curve, motion_from_spec, project_onto_curve)
+from coordarm.symbolic.errors import shown
 from coordarm.symbolic.start import check_start
 
 from .choices import presets
+from .limits import check_bounds, check_gain_step
 from .obstacles import Obstacle, obstacles_from_spec
 from .physical import Physical
 from .run import DEFAULT_THRESHOLDS, check_number
@@ -82,7 +84,7 @@ def check_stages(stages: Any, field: str = "figures.stages") -> list[float]:
         Not a non-empty list of finite numbers >= 0.
     """
     if not isinstance(stages, list) or not stages:
-        raise ConfigError(f"{field}: expected a non-empty list of times [s], got {stages!r}")
+        raise ConfigError(f"{field}: expected a non-empty list of times [s], got {shown(stages)}")
     return sorted(check_number(v, f"{field}[{i}]", positive=False) for i, v in enumerate(stages))
 
 
@@ -167,7 +169,7 @@ class Scenario:
             if k not in ch:
                 raise ConfigError(f"chain.{k}: missing")
         if isinstance(ch["links"], bool) or not isinstance(ch["links"], int) or ch["links"] < 2:
-            raise ConfigError(f"chain.links: need an integer >= 2, got {ch['links']!r}")
+            raise ConfigError(f"chain.links: need an integer >= 2, got {shown(ch['links'])}")
         check_number(ch["link_length"], "chain.link_length")
         for k in ("joint_limit", "clearance"):
             if k in ch:
@@ -193,9 +195,9 @@ class Scenario:
         check_number(spec["control"]["gain"], "control.gain")
         motion_from_spec(spec["control"].get("speed", 0.0), "control.speed")
         if spec["control"]["law"] not in LAWS:
-            raise ConfigError(f"control.law: expected one of {LAWS}, got {spec['control']['law']!r}")
+            raise ConfigError(f"control.law: expected one of {LAWS}, got {shown(spec['control']['law'])}")
         if not isinstance(spec["control"]["governor"], bool):
-            raise ConfigError(f"control.governor: expected true or false, got {spec['control']['governor']!r}")
+            raise ConfigError(f"control.governor: expected true or false, got {shown(spec['control']['governor'])}")
         try:
             check_damping(spec["control"].get("damping"))
         except ConfigError as exc:
@@ -208,7 +210,7 @@ class Scenario:
             curve_from_spec(spec["curve"], "curve")
         st = spec["start"]
         if st["kind"] not in START_KINDS:
-            raise ConfigError(f"start.kind: expected one of {START_KINDS}, got {st['kind']!r}")
+            raise ConfigError(f"start.kind: expected one of {START_KINDS}, got {shown(st['kind'])}")
         b = check_number(st["beta"], "start.beta", positive=False)
         if not 0 < abs(b) < math.pi / 2:
             raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {b}")
@@ -221,6 +223,8 @@ class Scenario:
         check_number(r["t0"], "run.t0", positive=False)
         if r["step"] > r["duration"]:
             raise ConfigError(f"run.step: {r['step']} is longer than run.duration {r['duration']}")
+        check_bounds(ch["links"], ch["link_length"], r["step"], r["duration"], r["t0"], spec["control"]["gain"])
+        check_gain_step(spec["control"]["gain"], r["step"], warn=False)
         for k in ("link", "longitudinal"):
             v = check_number(spec["thresholds"][k], f"thresholds.{k}", positive=False)
             if not 0 <= v < 1:
@@ -447,4 +451,6 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         parsed = tomllib.loads(data)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{source}: not valid TOML: arrays or tables nested too deeply") from None
     return Scenario.from_dict(parsed, source)

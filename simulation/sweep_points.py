@@ -274,7 +274,9 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
 
                 Path(log_path).parent.mkdir(parents=True, exist_ok=True)
                 with RunLogger(log_path, sc, ctrl, command=["coordarm", "sweep", repr(point)]) as log:
-                    run = simulate(ctrl, q0, sc.duration, sc.step, sc.t0, on_chunk=log.on_chunk, **kw)
+                    # every row kept (not thinned as with a log by default): the wall check below needs them
+                    run = simulate(ctrl, q0, sc.duration, sc.step, sc.t0, on_chunk=log.on_chunk,
+                                   keep=int(round(sc.duration / sc.step)) + 1, **kw)
             else:
                 run = simulate(ctrl, q0, sc.duration, sc.step, sc.t0, **kw)
             row["outcome"] = "completed"

@@ -13,7 +13,7 @@ from typing import Any, Callable
 import casadi as ca
 import numpy as np
 
-from .errors import ConfigError
+from .errors import ConfigError, shown
 from .motions import Constant, motion_from_spec, motion_to_spec
 
 Param = Any  # float | Callable[[t], expression]
@@ -24,9 +24,9 @@ def _param(value: Param, field: str) -> Callable:
     if callable(value):
         return value
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise ConfigError(f"{field}: expected a number or a callable of t, got {value!r}")
+        raise ConfigError(f"{field}: expected a number or a callable of t, got {shown(value)}")
     if not math.isfinite(value):
-        raise ConfigError(f"{field}: must be finite, got {value!r}")
+        raise ConfigError(f"{field}: must be finite, got {shown(value)}")
     return Constant(float(value))
 
 
@@ -35,7 +35,7 @@ def _point(value: Any, field: str) -> tuple[Callable, Callable]:
     if callable(value):
         return (lambda t: value(t)[0], lambda t: value(t)[1])
     if not isinstance(value, (tuple, list, np.ndarray)) or len(value) != 2:
-        raise ConfigError(f"{field}: expected a pair (x, y), got {value!r}")
+        raise ConfigError(f"{field}: expected a pair (x, y), got {shown(value)}")
     return _param(value[0], f"{field}[0]"), _param(value[1], f"{field}[1]")
 
 
@@ -372,24 +372,24 @@ def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
         Not a table, an unknown kind or key, a missing or bad parameter.
     """
     if not isinstance(spec, dict):
-        raise ConfigError(f"{field}: expected a table, got {spec!r}")
+        raise ConfigError(f"{field}: expected a table, got {shown(spec)}")
     kind = spec.get("kind")
     if isinstance(kind, str) and kind in PATH_KINDS:
         from .paths import path_from_spec   # paths builds on this module
         return path_from_spec(spec, field)
     if not isinstance(kind, str) or kind not in CURVES:
-        raise ConfigError(f"{field}.kind: expected one of {sorted(CURVES) + list(PATH_KINDS)}, got {kind!r}")
+        raise ConfigError(f"{field}.kind: expected one of {sorted(CURVES) + list(PATH_KINDS)}, got {shown(kind)}")
     cls, keys = CURVES[kind]
     unknown = set(spec) - set(keys) - {"kind"}
     if unknown:
-        raise ConfigError(f"{field}: unknown key(s) {sorted(unknown)} for kind {kind!r}; allowed: {list(keys)}")
+        raise ConfigError(f"{field}: unknown key(s) {sorted(unknown)} for kind {shown(kind)}; allowed: {list(keys)}")
     args = {}
     for k, v in spec.items():
         if k == "kind":
             continue
         if k in ("point", "center"):
             if not isinstance(v, list) or len(v) != 2:
-                raise ConfigError(f"{field}.{k}: expected a pair [x, y], got {v!r}")
+                raise ConfigError(f"{field}.{k}: expected a pair [x, y], got {shown(v)}")
             args[k] = tuple(motion_from_spec(c, f"{field}.{k}[{i}]") for i, c in enumerate(v))
         else:
             args[k] = motion_from_spec(v, f"{field}.{k}")

@@ -138,3 +138,13 @@ class CollisionError(CoordarmError):
 
     def __reduce__(self):
         return (CollisionError, (self.contact, None))
+
+
+#: Longest echo of an input value in a message [characters].
+SHOWN_LENGTH = 80
+
+
+def shown(value: object) -> str:
+    """``repr(value)`` cut to :data:`SHOWN_LENGTH` characters (with ``...``) for an error message."""
+    text = repr(value)
+    return text if len(text) <= SHOWN_LENGTH else text[:SHOWN_LENGTH - 3] + "..."

@@ -12,15 +12,15 @@ from typing import Any, Callable
 
 import casadi as ca
 
-from .errors import ConfigError
+from .errors import ConfigError, shown
 
 
 def _finite(value: Any, field: str) -> float:
     """Return ``value`` as a finite float or raise a ConfigError naming ``field``."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(f"{field}: expected a number, got {value!r}")
+        raise ConfigError(f"{field}: expected a number, got {shown(value)}")
     if not math.isfinite(value):
-        raise ConfigError(f"{field}: must be finite, got {value!r}")
+        raise ConfigError(f"{field}: must be finite, got {shown(value)}")
     return float(value)
 
 
@@ -148,15 +148,15 @@ def motion_from_spec(spec: Any, field: str) -> Motion:
             raise ConfigError(f"{field}: an empty list is not a motion")
         return Sum(tuple(motion_from_spec(s, f"{field}[{i}]") for i, s in enumerate(spec)))
     if not isinstance(spec, dict):
-        raise ConfigError(f"{field}: expected a number, a motion table or a list, got {spec!r}")
+        raise ConfigError(f"{field}: expected a number, a motion table or a list, got {shown(spec)}")
     kind = spec.get("kind")
     if not isinstance(kind, str) or kind not in KINDS:
-        raise ConfigError(f"{field}.kind: expected one of {sorted(KINDS)}, got {kind!r}")
+        raise ConfigError(f"{field}.kind: expected one of {sorted(KINDS)}, got {shown(kind)}")
     cls = KINDS[kind]
     names = {f.name for f in fields(cls)}
     unknown = set(spec) - names - {"kind"}
     if unknown:
-        raise ConfigError(f"{field}: unknown key(s) {sorted(unknown)} for kind {kind!r}; "
+        raise ConfigError(f"{field}: unknown key(s) {sorted(unknown)} for kind {shown(kind)}; "
                           f"allowed: {sorted(names)}")
     args = {k: _finite(v, f"{field}.{k}") for k, v in spec.items() if k != "kind"}
     try:
@@ -176,4 +176,4 @@ def motion_to_spec(motion: Any) -> Any:
             if cls is Constant:
                 return motion.value
             return {"kind": kind, **{f.name: getattr(motion, f.name) for f in fields(cls)}}
-    raise ConfigError(f"cannot describe {motion!r} as data (only motion primitives can be)")
+    raise ConfigError(f"cannot describe {shown(motion)} as data (only motion primitives can be)")

@@ -36,6 +36,8 @@ def test_singularity_exits_3_and_still_writes_figures(tmp_path):
 
 
 def test_ctrl_c_during_a_run_exits_130_and_leaves_a_closed_log(tmp_path, capsys, monkeypatch):
+    """A real SIGINT once blocks are logged, with SIGINT inherited as ignored (a background job):
+    the CLI installs its own handler, so it still stops the run."""
     import os
     import signal
 
@@ -52,8 +54,12 @@ def test_ctrl_c_during_a_run_exits_130_and_leaves_a_closed_log(tmp_path, capsys,
             os.kill(os.getpid(), signal.SIGINT)
 
     monkeypatch.setattr(RunLogger, "on_chunk", on_chunk)
-    status = main(["run", "line", "--duration", "100", "--backend", "interpreted",
-                   "--quiet", "--no-figures", "--out", str(out)])
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        status = main(["run", "line", "--duration", "100", "--backend", "interpreted",
+                       "--quiet", "--no-figures", "--out", str(out)])
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert status == 130 and "interrupted" in capsys.readouterr().err
     rep = load(out)
-    assert rep.outcome["status"] in ("interrupted", "error") and not rep.recovered and len(rep.t) > 0
+    assert rep.outcome["status"] == "interrupted" and not rep.recovered and len(rep.t) > 0

@@ -341,7 +341,7 @@ def test_regen_of_a_bad_scenario_exits_2(tmp_path, capsys):
 
 def test_run_reports_the_backend_and_the_cache(tmp_path, capsys):
     args = ["run", "line", "--links", "6", "--duration", "0.05", "--quiet", "--no-figures",
-            "--out", str(tmp_path / "line.mcap")]
+            "--out", str(tmp_path / "line.mcap"), "--overwrite"]
     assert cli_main(args + ["--backend", "compiled"]) == 0
     first = capsys.readouterr().out
     assert cli_main(args) == 0

@@ -93,7 +93,7 @@ def test_governor_from_the_scenario_and_the_cli_logs_v_scale_and_governed_time(t
     log = tmp_path / "p.mcap"
     assert cli_main(["run", str(path), "--out", str(log), "--no-figures", "--quiet"]) == 3
     assert "governor" in capsys.readouterr().err
-    assert cli_main(["run", str(path), "--governor", "--out", str(log), "--no-figures", "--quiet"]) == 0
+    assert cli_main(["run", str(path), "--governor", "--out", str(log), "--overwrite", "--no-figures", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "governor      v* slowed during" in out
     rep = load(log)

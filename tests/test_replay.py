@@ -13,6 +13,7 @@ from mcap.writer import Writer
 from coordarm.analysis.replay import load
 from coordarm.cli import main
 from coordarm.simulation.run import simulate
+from coordarm.simulation.mcap_writer import partial_path
 from coordarm.symbolic import LogError
 
 SWING = """name = "swing"
@@ -62,14 +63,15 @@ def _start_and_wait_for_flushes(tmp_path):
     toml = tmp_path / "swing.toml"
     toml.write_text(SWING)
     out = tmp_path / "swing.mcap"
-    proc = subprocess.Popen([sys.executable, "-m", "coordarm", "run", str(toml), "--quiet", "--no-figures",
+    proc = subprocess.Popen([sys.executable, "-m", "coordarm", "run", str(toml), "--quiet", "--no-figures", "--yes",
                              "--out", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    writing = partial_path(out)  # the log's name until it is closed
     start, grown_at = time.monotonic(), None
     while time.monotonic() - start < 60:
         time.sleep(0.1)
         if proc.poll() is not None:
             raise AssertionError(proc.stderr.read().decode())
-        size = out.stat().st_size if out.exists() else 0
+        size = writing.stat().st_size if writing.exists() else 0
         if size > 50_000 and grown_at is None:
             grown_at = time.monotonic()
         if grown_at is not None and time.monotonic() - grown_at > 2.5:  # a few flushes (1 s apart)
@@ -84,8 +86,10 @@ def test_a_run_killed_with_sigkill_leaves_a_log_that_load_recovers(tmp_path):
     finally:
         proc.wait()
     assert proc.returncode == -signal.SIGKILL
-    rep = load(out)
-    assert rep.recovered is True and rep.outcome == {"status": "unknown"}
+    assert not out.exists()
+    rep = load(out)  # falls back to the partial file, and says so
+    assert rep.recovered is True and rep.outcome == {"status": "unknown"} and rep.path == partial_path(out)
+    assert "read the unfinished swing.partial.mcap" in rep.problems[0]
     assert len(rep.t) > 1000
     np.testing.assert_allclose(np.diff(rep.t), rep.scenario.step, rtol=1e-6)  # no gap
     assert rep.t[0] == 0.0
@@ -128,19 +132,30 @@ def test_a_log_cut_before_its_first_sample_is_a_log_error_naming_the_file(full_l
 
 
 @pytest.mark.parametrize("log", ["full_log", "lz4_log"])
-def test_a_bit_flip_inside_a_chunk_is_a_log_error_saying_how_much_was_read(log, tmp_path, request):
+def test_a_bit_flip_inside_a_chunk_skips_that_chunk_only_and_reports_it(log, tmp_path, request, capsys):
     path, data = request.getfixturevalue(log)
+    full = load(path)
     with open(path, "rb") as f:
-        chunks = sorted(make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
+        reader = make_reader(f)
+        chunks = sorted(reader.get_summary().chunk_indexes, key=lambda c: c.chunk_start_offset)
     for which in (0, 2):
         c = chunks[which]
         flipped = bytearray(data)
         flipped[c.chunk_start_offset + c.chunk_length - 50] ^= 0x10  # inside the compressed records
         bad = tmp_path / f"flip{which}.mcap"
         bad.write_bytes(bytes(flipped))
-        with pytest.raises(LogError, match="corrupted") as info:
-            load(bad)
-        assert str(bad) in str(info.value) and "messages read before the damage" in str(info.value)
+        rep = load(bad)
+        assert rep.damaged and not rep.recovered
+        assert len(rep.problems) >= 1 and f"chunk at byte {c.chunk_start_offset} skipped" in rep.problems[0]
+        # Exactly the samples of the other chunks remain, unchanged.
+        t0, t1 = c.message_start_time / 1e9, c.message_end_time / 1e9
+        keep = (full.t < t0 - 1e-12) | (full.t > t1 + 1e-12)
+        np.testing.assert_array_equal(rep.t, full.t[keep])
+        np.testing.assert_array_equal(rep.q, full.q[keep])
+        assert 0 < len(rep.t) < len(full.t)
+        # replay and report say so on stderr and still finish
+        assert main(["report", str(bad), "--out", str(tmp_path / f"r{which}"), "--samples", "50"]) == 0
+        assert "the log is damaged" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("content", [b"", b"\x89PNG\r\n\x1a\n" + bytes(200), b"just some text\n" * 20],
@@ -229,7 +244,7 @@ def test_replay_cli_reads_a_cut_log_and_says_so(full_log, tmp_path, capsys):
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(data[: len(data) // 2])
     assert main(["replay", str(cut), "--no-animation"]) == 0
-    assert "breaks off" in capsys.readouterr().err
+    assert "the log is cut off" in capsys.readouterr().err
 
 
 def test_a_lost_chunk_in_the_middle_shows_as_sequence_gaps(tmp_path):

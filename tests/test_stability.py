@@ -5,6 +5,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from coordarm.simulation.limits import GainStepWarning
 from coordarm.analysis.stability import (RK4_LIMIT, control_limit, delay_margin, error_loop, grows, max_stable_delay,
                                 sampled_limit, simulated_limit, spectral_radius, step_responses)
 from coordarm.simulation import simulate
@@ -73,7 +74,8 @@ def test_rk4_step_limit_is_seen_by_the_continuous_simulator():
     for f in (0.97, 1.03):
         h = f * RK4_LIMIT / 2.0
         try:
-            run = simulate(ctrl, q0, 200 * h, h, thresholds={"link": 0.0, "longitudinal": 0.0})
+            with pytest.warns(GainStepWarning, match="RK4 diverges" if f > 1 else "K h = 2.70"):  # said beforehand
+                run = simulate(ctrl, q0, 200 * h, h, thresholds={"link": 0.0, "longitudinal": 0.0})
             e = np.max(np.abs(run.e), axis=1)
         except SingularityError as err:
             e = np.max(np.abs(err.run.e), axis=1)
@@ -104,3 +106,11 @@ def test_sampled_simulator_refuses_bad_input(static_line, kwargs, match):
     args = {"duration": 1.0, "period": 0.01, **kwargs}
     with pytest.raises(ConfigError, match=match):
         simulate_sampled(ctrl, q0, **args)
+
+
+def test_rk4_limit_is_the_correctly_rounded_root():
+    from fractions import Fraction
+    cubic = lambda x: Fraction(x) ** 3 - 4 * Fraction(x) ** 2 + 12 * Fraction(x) - 24   # noqa: E731
+    below, above = np.nextafter(RK4_LIMIT, 0.0), np.nextafter(RK4_LIMIT, 3.0)
+    assert cubic(below) < 0 < cubic(above)       # the root lies within one ulp either side
+    assert abs(cubic(RK4_LIMIT)) <= min(abs(cubic(below)), abs(cubic(above)))

@@ -6,7 +6,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from coordarm.symbolic.errors import ConfigError
+from coordarm.symbolic.errors import ConfigError, LogError, shown
+
+#: Allowed ``--samples``.
+SAMPLES_RANGE = (2, 100_000)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -21,7 +24,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, help="scenario only: override the duration [s]")
     p.add_argument("--samples", type=int,
                    help="margin samples over the run (default 1200 up to 64 links, then 1200 (64/m)^2, "
-                        "at least 100: each costs O(m^3))")
+                        f"at least 100: each costs O(m^3); {SAMPLES_RANGE[0]} to {SAMPLES_RANGE[1]})")
+    p.add_argument("--yes", action="store_true",
+                   help="scenario only: simulate even when the estimated steps or memory are above the limits")
     p.set_defaults(func=main)
 
 
@@ -37,21 +42,30 @@ def main(args: argparse.Namespace) -> int:
     """Write the report for ``args.source``; print where it went; return 0."""
     import numpy as np
 
+    from coordarm.simulation.limits import check_cost, estimate
     from coordarm.simulation.scenario import load_scenario
 
     from coordarm.analysis.report import default_samples, write_report
 
+    from coordarm.commands.replay import output_directory, report_condition
+
+    if args.samples is not None and not SAMPLES_RANGE[0] <= args.samples <= SAMPLES_RANGE[1]:
+        raise ConfigError(f"--samples: need {SAMPLES_RANGE[0]} to {SAMPLES_RANGE[1]}, got {shown(args.samples)}")
     src = str(args.source)
     if src.endswith(".mcap"):
         if args.links is not None or args.duration is not None:
             raise ConfigError("--links/--duration: only for a scenario, not for a log")
         from coordarm.analysis.replay import load
         run = load(src)
+        report_condition(run, "coordarm report")
+        if not len(run.t):
+            raise LogError(f"{src}: the log holds no samples; nothing to report")
         scenario = run.scenario
     else:
         scenario = load_scenario(src).with_overrides(args.links, args.duration)
+        check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, logged=False), args.yes)
         run = simulate_scenario(scenario)
-    out = args.out or Path("logs") / f"{scenario.name}_report"
+    out = output_directory(args.out or Path("logs") / f"{scenario.name}_report")
     m = np.shape(run.q)[1]
     if m > 128:  # about a second per 1000 samples at 64 links, a second per sample at 1024
         print(f"report: margins at {args.samples or default_samples(m)} samples of a {m}-link chain "

@@ -6,11 +6,12 @@ import math
 import os
 import sys
 import warnings
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
-from contextlib import ExitStack
-from typing import TYPE_CHECKING, Callable, TextIO
+from typing import TYPE_CHECKING, Callable, Iterator, TextIO
 
-from coordarm.simulation.choices import BACKENDS, COMPRESSIONS, presets
+from coordarm.simulation.choices import BACKENDS, COMPRESSIONS, DENSE_LINKS, presets
+from coordarm.symbolic.errors import LogError
 from coordarm.symbolic.laws import LAWS
 
 if TYPE_CHECKING:   # the simulation modules load numpy, CasADi, matplotlib: only when the command runs
@@ -34,7 +35,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="compiled C (built or taken from the cache), interpreted CasADi, or auto (default: "
                         "compiled when a C compiler is found, else interpreted with a warning)")
-    p.add_argument("--out", type=Path, help="log file (default: logs/<scenario>.mcap); figures go beside it")
+    p.add_argument("--out", type=Path, help="log file (default: logs/<scenario>.mcap); figures go beside it; "
+                                            "an existing file is refused unless --overwrite")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out log")
+    p.add_argument("--yes", action="store_true",
+                   help="run even when the estimate (steps, log size, memory) is above the limits, or the dense "
+                        f"law has more than {DENSE_LINKS} links")
     p.add_argument("--log-rate", type=float, metavar="HZ",
                    help="samples per simulated second in the log (default: every step)")
     p.add_argument("--cond-rate", type=float, metavar="HZ",
@@ -131,13 +137,24 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path, stages: list[f
     title = f"{scenario.name}: {ctrl.chain.m} links" + (f" ({outcome})" if outcome else "")
     stages_png = stem.with_name(stem.name + "_stages.png")
     panels = scenario.spec["figures"].get("panels")
-    if panels and stages is None:
-        first = plot_panels(run, ctrl, stages_png, panels, obstacles=scenario.obstacles, title=title)
-    else:
-        first = plot_stages(run, ctrl, stages_png, obstacles=scenario.obstacles, times=stages or scenario.stages,
-                            title=f"{title}, stages of the motion (dashed: the curve at that time)")
-    return [first, plot_tracking(run, ctrl.gain, stem.with_name(stem.name + "_tracking.png"),
-                                 thresholds=scenario.thresholds, title=title)]
+    tracking_png = stem.with_name(stem.name + "_tracking.png")
+    with writing(stages_png):
+        if panels and stages is None:
+            first = plot_panels(run, ctrl, stages_png, panels, obstacles=scenario.obstacles, title=title)
+        else:
+            first = plot_stages(run, ctrl, stages_png, obstacles=scenario.obstacles, times=stages or scenario.stages,
+                                title=f"{title}, stages of the motion (dashed: the curve at that time)")
+    with writing(tracking_png):
+        return [first, plot_tracking(run, ctrl.gain, tracking_png, thresholds=scenario.thresholds, title=title)]
+
+
+@contextmanager
+def writing(path: Path) -> Iterator[None]:
+    """Turn an OSError while writing ``path`` (a full disk, a read-only file system) into a LogError naming it."""
+    try:
+        yield
+    except OSError as exc:
+        raise LogError(f"{path}: cannot write it: {exc.strerror or exc}") from None
 
 
 def _both(first: Callable[[Run], None], second: Callable[[Run], None]) -> Callable[[Run], None]:
@@ -149,25 +166,37 @@ def _both(first: Callable[[Run], None], second: Callable[[Run], None]) -> Callab
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the scenario named in ``args``; return 0 (completed), 3 (singularity) or 4 (collision)."""
+    """Run the scenario named in ``args``; return 0 (completed), 3 (singularity) or 4 (collision).
+
+    The log is opened as soon as the controller exists, so that however the run ends (an
+    interrupt while compiling, a build error, a singularity, a collision) it is closed with its outcome.
+    """
+    from coordarm.simulation.limits import GainStepWarning, check_cost, check_gain_step, estimate
     from coordarm.simulation.live import LiveView
     from coordarm.simulation.mcap_writer import RunLogger
     from coordarm.simulation.outcome import EXIT_CODES, explain
     from coordarm.simulation.run import CHECK_RATE, BackendFallbackWarning, select_backend, simulate
     from coordarm.simulation.scenario import load_scenario
-    from coordarm.symbolic.errors import CollisionError, SingularityError
+    from coordarm.symbolic.errors import CollisionError, ConfigError, SingularityError
 
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step, law=args.law,
                                                            governor=True if args.governor else None)
-    ctrl = scenario.controller()
-    q0 = scenario.start(ctrl)
-    with warnings.catch_warnings(record=True) as caught:   # builds or loads before the log opens
-        warnings.simplefilter("always", BackendFallbackWarning)
-        backend, compiled, _ = select_backend(ctrl, args.backend)
-    for w in caught:
-        print(f"coordarm run: warning: {w.message}", file=sys.stderr)
+    check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, args.log_rate), args.yes)
+    m = scenario.spec["chain"]["links"]
+    if scenario.spec["control"]["law"] == "dense" and m > DENSE_LINKS and not args.yes:
+        raise ConfigError(f"--law dense with {m} links: generating and compiling it takes many minutes "
+                          f"(its size grows as m^2); use the structured law, or pass --yes")
     out = args.out or Path("logs") / f"{scenario.name}.mcap"
-    out.parent.mkdir(parents=True, exist_ok=True)
+    overwrite = args.overwrite or args.out is None   # the default log is a scratch file
+    if out.exists() and not out.is_file():
+        raise LogError(f"--out {out}: not a regular file; choose a log file name")
+    if not overwrite and out.exists():
+        raise LogError(f"--out {out}: exists; choose another file or pass --overwrite")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise LogError(f"--out {out}: cannot create its directory: {exc.strerror or exc}") from None
+    ctrl = scenario.controller()
     stopped: SingularityError | CollisionError | None = None
     with ExitStack() as stack:
         live = None
@@ -180,15 +209,24 @@ def main(args: argparse.Namespace) -> int:
             # The log is closed with its outcome however the run ends (singularity, collision, error, Ctrl-C).
             # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
             with RunLogger(out, scenario, ctrl, log_rate=args.log_rate, cond_rate=args.cond_rate,
-                           compression=args.compression, backend=backend,
-                           library_key=compiled.library.key if compiled else None,
+                           compression=args.compression, overwrite=overwrite,
                            threaded=(os.cpu_count() or 1) > 1) as log:
+                q0 = scenario.start(ctrl)
+                with warnings.catch_warnings(record=True) as caught:   # builds or loads the library
+                    warnings.simplefilter("always", BackendFallbackWarning)
+                    check_gain_step(ctrl.gain, scenario.step)
+                    backend, compiled, _ = select_backend(ctrl, args.backend)
+                for w in caught:
+                    print(f"coordarm run: warning: {w.message}", file=sys.stderr)
+                log.set_backend(backend, compiled.library.key if compiled else None)
                 on_chunk = log.on_chunk if live is None else _both(log.on_chunk, live.on_chunk)
-                run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
-                               thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=on_chunk,
-                               physical=scenario.physical(ctrl.chain),
-                               check_every=max(log.every, round(1.0 / (CHECK_RATE * scenario.step))),
-                               allow_contact=args.allow_contact)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", GainStepWarning)   # said above already
+                    run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
+                                   thresholds=scenario.thresholds, progress=not args.quiet, on_chunk=on_chunk,
+                                   physical=scenario.physical(ctrl.chain),
+                                   check_every=max(log.every, round(1.0 / (CHECK_RATE * scenario.step))),
+                                   allow_contact=args.allow_contact)
                 log.contacts = run.info["contacts"]
         except (SingularityError, CollisionError) as err:
             run, stopped = err.run, err

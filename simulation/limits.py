@@ -1,0 +1,220 @@
+"""Bounds on a run's inputs, what a run will cost, and the gain-step stability limits.
+
+Hard bounds (a :class:`~symbolic.errors.ConfigError` whatever ``--yes`` says) keep every
+number meaningful: log times are integer nanoseconds of simulated time, so steps shorter
+than 1 us or times beyond 1e6 s would collide or overflow; more than :data:`MAX_LINKS`
+links would not fit in memory. Within them, :func:`estimate` gives the number of steps, the
+log size and the memory of a run, and :func:`check_cost` refuses a run above
+:data:`COST_LIMITS` unless the user confirmed it (``coordarm run --yes``).
+
+Stability of the discretised loop: every deviation obeys ``edot = -K e``. RK4 with step
+``h`` is stable for ``K h <`` :data:`RK4_LIMIT` (a larger ``K h`` diverges, whatever the
+chain); a digital controller sampling every ``h`` with an ``n``-sample delay needs
+``K h < 2 sin(pi / (2 (2 n + 1)))`` (:func:`sampled_limit`; :mod:`analysis.stability`
+derives both).
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from coordarm.symbolic import ConfigError
+
+from .choices import DENSE_LINKS  # noqa: F401 (re-exported)
+from .log_schemas import PER_STEP, numeric_channels
+
+#: Largest number of links of a chain.
+MAX_LINKS = 4096
+#: Allowed RK4 step [s] (log times are integer ns; below 1 us consecutive times could collide).
+STEP_RANGE = (1e-6, 1.0)
+#: Longest simulated duration and largest |t0| [s] (keeps ns log times exact and in 64 bits).
+MAX_TIME = 1e6
+#: Allowed link length [m].
+LINK_LENGTH_RANGE = (1e-6, 1e3)
+#: Largest gain [1/s].
+MAX_GAIN = 1e6
+#: A run above any of these needs a confirmation (``--yes``): steps, log bytes, memory bytes.
+COST_LIMITS = {"steps": 20_000_000, "log_bytes": 4 * 2**30, "memory_bytes": 2 * 2**30}
+#: Rows of a logged run kept in memory for the figures (the rest is streamed to the log).
+KEEP_ROWS = 20_000
+
+
+def _rk4_limit() -> float:
+    """The real root of ``x^3 - 4 x^2 + 12 x - 24`` in (2.5, 3), correctly rounded to a float."""
+    def cubic(x: float) -> Fraction:      # 24 (x^3/24 - x^2/6 + x/2 - 1), exact
+        f = Fraction(x)
+        return f**3 - 4 * f**2 + 12 * f - 24
+    lo, hi = 2.5, 3.0
+    while (mid := (lo + hi) / 2) not in (lo, hi):
+        lo, hi = (mid, hi) if cubic(mid) < 0 else (lo, mid)
+    return lo if abs(cubic(lo)) <= abs(cubic(hi)) else hi
+
+
+#: ``K h`` limit of classical RK4 on ``edot = -K e``: the real root of ``|R(-x)| = 1`` in (2.5, 3),
+#: ``R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24``; there ``R(-x) = 1``, i.e. ``x^3/24 - x^2/6 + x/2 - 1 = 0``.
+#: Bisected on floats with the cubic's sign evaluated exactly, so the value is the root correctly
+#: rounded (``np.roots`` was some ulp high, which moved the step of the RK4 divergence test).
+RK4_LIMIT = _rk4_limit()
+
+
+class GainStepWarning(UserWarning):
+    """``K h`` is beyond what a digital controller sampling at the RK4 step could stabilise."""
+
+
+def sampled_limit(delay: int = 0) -> float:
+    """Limit of ``K h`` for the zero-order-hold loop with a ``delay``-sample delay: ``2 sin(pi/(2(2n+1)))``.
+
+    Raises
+    ------
+    ConfigError
+        ``delay`` is not an integer >= 0.
+    """
+    if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
+        raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
+    return 2.0 * math.sin(math.pi / (2 * (2 * delay + 1)))
+
+
+def check_gain_step(gain: float, step: float, refuse: bool = True, warn: bool = True) -> None:
+    """Refuse (or, ``refuse=False``, warn about) a gain and step that RK4 cannot integrate stably;
+    warn beyond the sampled-data limit.
+
+    Parameters
+    ----------
+    gain : float
+        Gain ``K`` [1/s].
+    step : float
+        RK4 step ``h`` [s].
+    refuse : bool
+        Raise (True) or warn (False) when RK4 diverges.
+    warn : bool
+        Warn beyond the sampled-data limit (else only the RK4 limit is checked).
+
+    Raises
+    ------
+    ConfigError
+        ``K h >= RK4_LIMIT`` and ``refuse``: the simulated deviations would grow without bound.
+
+    Warns
+    -----
+    GainStepWarning
+        ``K h >= 2``: a digital controller sampled at ``h`` would be unstable (or RK4 diverges).
+    """
+    kh = gain * step
+    if not kh < RK4_LIMIT:
+        text = (f"control.gain x run.step: K h = {gain:.4g} x {step:.4g} = {kh:.4g} >= {RK4_LIMIT:.4f}: "
+                f"RK4 diverges; use a step below {RK4_LIMIT / gain:.3g} s or a smaller gain")
+        if refuse:
+            raise ConfigError(text)
+        warnings.warn(text, GainStepWarning, stacklevel=3)
+    elif warn and kh >= sampled_limit(0):
+        warnings.warn(f"K h = {kh:.4g} >= 2: a digital controller sampling every {step:g} s would be unstable "
+                      f"(K h < 2 sin(pi/(2(2n+1))) with an n-sample delay); the RK4 run is not", GainStepWarning,
+                      stacklevel=3)
+
+
+def check_bounds(links: Any, link_length: float, step: float, duration: float, t0: float, gain: float) -> None:
+    """Hard bounds on a scenario's numbers (see the module docstring); fields named as in the TOML.
+
+    Raises
+    ------
+    ConfigError
+        The first value outside its bound.
+    """
+    if links > MAX_LINKS:
+        raise ConfigError(f"chain.links: at most {MAX_LINKS}, got {links}")
+    checks = (("chain.link_length", link_length, *LINK_LENGTH_RANGE), ("run.step", step, *STEP_RANGE),
+              ("run.duration", duration, 0.0, MAX_TIME), ("run.t0", abs(t0), 0.0, MAX_TIME),
+              ("control.gain", gain, 0.0, MAX_GAIN))
+    for name, value, lo, hi in checks:
+        if not lo <= value <= hi:
+            shown = f"|{name}|" if name == "run.t0" else name
+            raise ConfigError(f"{shown}: need {lo:g} to {hi:g}, got {value:g}")
+
+
+@dataclass(frozen=True)
+class Cost:
+    """What a run will take (upper estimates).
+
+    Attributes
+    ----------
+    steps : int
+        RK4 steps.
+    log_bytes : int
+        Uncompressed size of the log's per-step channels (the file is smaller after compression).
+    memory_bytes : int
+        Arrays held in memory: the rows kept for the figures and one block being simulated.
+    """
+
+    steps: int
+    log_bytes: int
+    memory_bytes: int
+
+    def describe(self) -> str:
+        return (f"{self.steps:,} steps, a log of up to {_size(self.log_bytes)}, "
+                f"{_size(self.memory_bytes)} of run data in memory")
+
+
+def _size(n: float) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if n < 1024 or unit == "TiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1024
+    return f"{n} B"
+
+
+def estimate(links: int, step: float, duration: float, log_rate: float | None = None, logged: bool = True,
+             block: int = 2000) -> Cost:
+    """Cost of a run of ``links`` links for ``duration`` s at ``step`` (see :class:`Cost`).
+
+    Parameters
+    ----------
+    links : int
+        Links of the chain.
+    step, duration : float
+        RK4 step and simulated duration [s].
+    log_rate : float, optional
+        Samples per simulated second on the per-step channels [Hz] (default: every step).
+    logged : bool
+        Whether a log is written; without one every row stays in memory.
+    block : int
+        Steps per simulated block (one block is in flight at a time).
+
+    Returns
+    -------
+    Cost
+        Steps, uncompressed log bytes and bytes of run data in memory.
+    """
+    steps = int(math.ceil(duration / step))
+    widths = numeric_channels(links)
+    row = sum(widths[k].width for k in PER_STEP) * 8          # float64 values of one sample
+    record = row + len(PER_STEP) * (31 + 4)                    # + message headers and CDR headers
+    every = max(1, int(round(1.0 / (log_rate * step)))) if log_rate else 1
+    log_bytes = (steps // every + 1) * record if logged else 0
+    kept = min(steps + 1, KEEP_ROWS + 4 * (steps // block + 1)) if logged else steps + 1
+    memory = 2 * kept * row + 4 * min(block, steps) * row      # concatenation doubles, one block in flight
+    return Cost(steps, log_bytes, memory)
+
+
+def check_cost(cost: Cost, confirmed: bool = False) -> None:
+    """Refuse a run above :data:`COST_LIMITS` unless ``confirmed``.
+
+    Raises
+    ------
+    ConfigError
+        Naming the estimate and the limit exceeded.
+    """
+    if confirmed:
+        return
+    def show(name: str, value: int) -> str:
+        return _size(value) if name.endswith("bytes") else f"{value:,}"
+
+    over = [f"{name} {show(name, getattr(cost, name))} > {show(name, limit)}"
+            for name, limit in COST_LIMITS.items() if getattr(cost, name) > limit]
+    if over:
+        raise ConfigError(f"this run needs {cost.describe()} ({'; '.join(over)}); "
+                          "pass --yes to run it anyway, or shorten --duration / lengthen --step / set --log-rate")

@@ -1,0 +1,74 @@
+"""Ctrl-C and SIGTERM that are never lost: a handler that raises *and* remembers.
+
+CasADi's C++ calls can swallow the ``KeyboardInterrupt`` raised by Python's default SIGINT
+handler (the call then returns normally and the run carries on). The handler installed by
+:func:`handled` raises :class:`Interrupted` like the default one but also records the signal,
+so the next :func:`check` (called between chunks of a run, after building, before the end)
+raises it again. SIGTERM is treated the same way, and a SIGINT inherited as "ignored" (a
+shell's background job) is replaced too, so that ``kill -INT`` works there as well.
+"""
+from __future__ import annotations
+
+import signal
+import threading
+from contextlib import contextmanager
+from typing import Iterator
+
+#: Signals turned into :class:`Interrupted`.
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+_received: list[int] = []
+
+
+class Interrupted(KeyboardInterrupt):
+    """The run was stopped by a signal (Ctrl-C = SIGINT, or SIGTERM).
+
+    Parameters
+    ----------
+    signum : int
+        The signal number (default SIGINT).
+
+    Attributes
+    ----------
+    signum : int
+        The signal number.
+    """
+
+    def __init__(self, signum: int = signal.SIGINT) -> None:
+        self.signum = int(signum)
+        super().__init__(f"interrupted by {signal.Signals(self.signum).name}")
+
+
+def _handler(signum: int, frame) -> None:
+    _received.append(signum)
+    raise Interrupted(signum)
+
+
+def received() -> int | None:
+    """The first signal received since :func:`handled` began, or None."""
+    return _received[0] if _received else None
+
+
+def check() -> None:
+    """Raise :class:`Interrupted` if a signal arrived (even one whose exception was swallowed)."""
+    if _received:
+        raise Interrupted(_received[0])
+
+
+@contextmanager
+def handled() -> Iterator[None]:
+    """Install the remembering handler for SIGINT and SIGTERM inside the block (main thread only).
+
+    The previous handlers come back afterwards and the record of received signals is cleared.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    _received.clear()
+    previous = {s: signal.signal(s, _handler) for s in SIGNALS}
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h if h is not None else signal.SIG_DFL)
+        _received.clear()
