@@ -117,10 +117,10 @@ def test_shown_cuts_values_to_80_characters():
 def test_estimate_counts_steps_and_log_bytes():
     cost = estimate(64, 0.001, 200.0)
     assert cost.steps == 200_000
-    # /joint_state (t, q, u), /task_state (t, s, v*, e), /margins (t, m-1 links, longitudinal):
-    # (1 + 2m) + (3 + m - 1) + (2 + m - 1) = 4m + 4 floats, plus 3 x (23-byte message header + 4 CDR + 9 record)
-    assert cost.log_bytes == 200_001 * ((4 * 64 + 4) * 8 + 3 * 35)
-    assert estimate(64, 0.001, 200.0, log_rate=100).log_bytes == 20_001 * ((4 * 64 + 4) * 8 + 3 * 35)
+    # /joint_state (t, q, u), /task_state (t, s, v*, e, v_scale), /margins (t, m-1 links, longitudinal):
+    # (1 + 2m) + (4 + m - 1) + (2 + m - 1) = 4m + 5 floats, plus 3 x (23-byte message header + 4 CDR + 9 record)
+    assert cost.log_bytes == 200_001 * ((4 * 64 + 5) * 8 + 3 * 35)
+    assert estimate(64, 0.001, 200.0, log_rate=100).log_bytes == 20_001 * ((4 * 64 + 5) * 8 + 3 * 35)
 
 
 def _rewrite_metadata(path: Path, name: str, edit) -> bytes:
