@@ -1,6 +1,6 @@
 """Wall time of ``coordarm replay``'s GIF for a 64-link, 15 s run (the line preset): 200 frames.
 
-Run: ``python -P benchmarks/animation.py`` (``-P``: ``benchmarks/logging.py`` would shadow the standard library); results in ``benchmarks/RESULTS.md``.
+Run: ``python benchmarks/animation.py``; results in ``benchmarks/RESULTS.md``.
 """
 from __future__ import annotations
 

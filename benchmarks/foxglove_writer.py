@@ -1,7 +1,7 @@
 """coordarm's own MCAP/CDR writer (``RunLogger``) against foxglove-sdk's MCAP writer, on the same log.
 
 1. Throughput: the same synthetic 64-link run (30,000 steps in blocks of 500, as ``simulate``
-   hands them over; ``benchmarks/logging.py`` makes the signals) written by ``RunLogger`` and
+   hands them over; ``benchmarks/log_cost.py`` makes the signals) written by ``RunLogger`` and
    by foxglove-sdk (``foxglove.open_mcap`` + one ``Channel.log`` per message), each on one
    thread with zstd level 1 and 256 KiB chunks, both pushing the file to the OS once a second.
    Without scenes (the three per-step channels) and with ``/scene``, ``/tf``, ``/tracking`` at
@@ -16,7 +16,6 @@ Usage: ``python benchmarks/foxglove_writer.py [--repeats 5] [--links 64] [--dura
 from __future__ import annotations
 
 import argparse
-import importlib.util
 from importlib import metadata
 import os
 import platform
@@ -46,10 +45,8 @@ from coordarm.simulation.mcap_writer import SCENE_RATE, RunLogger, log_time_ns, 
 from coordarm.simulation.scenario import load_scenario  # noqa: E402
 from coordarm.simulation.scene import SceneBuilder  # noqa: E402
 
-_spec = importlib.util.spec_from_file_location("coordarm_bench_logging", ROOT / "benchmarks" / "logging.py")
-_bench_logging = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_bench_logging)
-synthetic_blocks, timed, STEP = _bench_logging.synthetic_blocks, _bench_logging.timed, _bench_logging.STEP
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from log_cost import STEP, synthetic_blocks, timed  # noqa: E402
 
 
 class FoxgloveLogger:

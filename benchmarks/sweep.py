@@ -15,21 +15,15 @@ Usage: ``python benchmarks/sweep.py [--repeats 3] [--tasks 500]``. Results: RESU
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import platform
 import statistics
-import sys
 import time
-from pathlib import Path
 
-# benchmarks/logging.py would shadow the standard library's logging (which Dask imports).
-sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+import numpy as np
 
-import logging  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-from coordarm.simulation.sweep import sweep  # noqa: E402
+from coordarm.simulation.sweep import sweep
 
 VARY = {"control.gain": [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5], "control.speed": [0.02, 0.04, 0.06, 0.08],
         "chain.links": [64], "run.duration": [10.0]}

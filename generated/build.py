@@ -11,10 +11,12 @@ processes building the same key both end with a valid library.
 from __future__ import annotations
 
 import functools
+import grp
 import hashlib
 import json
 import os
 import platform
+import pwd
 import shlex
 import shutil
 import signal
@@ -39,6 +41,11 @@ from .codegen import CODEGEN_OPTIONS, Source
 DEFAULT_FLAGS = ("-O3", "-fno-math-errno", "-march=native")
 #: Flags every build needs: position-independent shared object, only the glue API exported.
 REQUIRED_FLAGS = ("-fPIC", "-shared", "-fvisibility=hidden")   # before the user flags
+#: Flags that make gcc link start-up objects which change the floating-point mode of the whole
+#: process that loads the library (``crtfastmath.o``: flush-to-zero; ``crtprec*.o``: x87
+#: precision). They are kept for compiling and left out of the link, which is a separate step.
+PROCESS_MODE_FLAGS = frozenset({"-Ofast", "-ffast-math", "-funsafe-math-optimizations", "-mpc32", "-mpc64",
+                                "-mpc80"})
 LIBRARY, SOURCE, META = "libcoordarm.so", "coordarm.c", "meta.json"
 #: Seconds the compiler gets to answer ``--version`` [s].
 VERSION_TIMEOUT = 30.0
@@ -91,17 +98,45 @@ class CacheWarning(UserWarning):
 _private_fallback: list[Path] = []
 
 
-def private_root(root: Path) -> Path:
-    """``root`` (created 0700) if it is owned by this user and not writable by group or others, else a
-    private temporary directory (made once per process) with a :class:`CacheWarning`.
+def own_group(gid: int) -> bool:
+    """Whether group ``gid`` is this user's own: the user's primary group, with no other members listed
+    (the "user private group" of most Linux systems, where ``umask 002`` makes directories group-writable).
 
-    A library is loaded into this process: one that others can replace must never be loaded.
+    Parameters
+    ----------
+    gid : int
+        A group id.
+
+    Returns
+    -------
+    bool
+        False for any other group, or when the group database does not know ``gid``.
+    """
+    if gid != os.getgid():
+        return False
+    try:
+        members = set(grp.getgrgid(gid).gr_mem)
+        name = pwd.getpwuid(os.getuid()).pw_name
+    except KeyError:
+        return False
+    return members <= {name}
+
+
+def private_root(root: Path) -> Path:
+    """``root`` (created 0700) if it is owned by this user and writable by no one else, else a private
+    temporary directory (made once per process) with a :class:`CacheWarning`.
+
+    Group write permission is accepted when the group is the user's own (:func:`own_group`), as
+    ``umask 002`` leaves it. A library is loaded into this process: one that others can replace
+    must never be loaded.
     """
     try:
         root.mkdir(mode=0o700, parents=True, exist_ok=True)
         st = root.stat()
         problem = (f"owned by uid {st.st_uid}, not {os.getuid()}" if st.st_uid != os.getuid() else
-                   "writable by group or others" if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH) else None)
+                   "writable by others" if st.st_mode & stat.S_IWOTH else
+                   f"writable by group {st.st_gid}" if st.st_mode & stat.S_IWGRP and not own_group(st.st_gid)
+                   else None)
     except OSError as exc:
         problem = f"unusable ({exc.strerror or exc})"
     if problem is None:
@@ -274,24 +309,26 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
         os.close(fd)
     except OSError as exc:
         raise BuildError(f"build directory {entry}: {exc}") from None
-    cmd = [cc_path, *REQUIRED_FLAGS, *flags, "-o", tmp, str(src), "-lm"]   # later flags win
+    obj = tmp[:-len(".tmp")] + ".o"
     start = time.perf_counter()
     placed = False
     try:
-        try:
-            res = _run_compiler(cmd, timeout)
-        except subprocess.TimeoutExpired:
-            raise BuildError(f"compiling {src} took longer than {timeout:g} s; stopped "
-                             "(COORDARM_COMPILE_TIMEOUT sets the limit)") from None
-        except OSError as exc:
-            raise BuildError(f"C compiler {cc_path} did not run: {exc}") from None
+        for cmd in compile_and_link(cc_path, flags, src, obj, tmp):
+            try:
+                res = _run_compiler(cmd, max(1e-3, timeout - (time.perf_counter() - start)))
+            except subprocess.TimeoutExpired:
+                raise BuildError(f"compiling {src} took longer than {timeout:g} s; stopped "
+                                 "(COORDARM_COMPILE_TIMEOUT sets the limit)") from None
+            except OSError as exc:
+                raise BuildError(f"C compiler {cc_path} did not run: {exc}") from None
+            if res.returncode != 0:
+                raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
         seconds = time.perf_counter() - start
-        if res.returncode != 0:
-            raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
         digest = _sha256(Path(tmp))
         os.replace(tmp, entry / LIBRARY)
         placed = True
     finally:
+        Path(obj).unlink(missing_ok=True)
         if not placed:   # any failure or an interrupt: no half-written library left
             Path(tmp).unlink(missing_ok=True)
     meta = {"key": key, "sha256": digest, "compiler": cc_path, "compiler_version": _compiler_version(cc_path),
@@ -299,6 +336,34 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
             "form": source.form, "links": source.m, "compile_seconds": seconds}
     _write_atomic(entry / META, json.dumps(meta, indent=1).encode())
     return Library(entry / LIBRARY, key, False, seconds)
+
+
+def compile_and_link(cc: str, flags: tuple[str, ...], src: str | Path, obj: str | Path,
+                     out: str | Path) -> list[list[str]]:
+    """The two compiler runs of a build: compile ``src`` to the object ``obj`` with every flag, then
+    link ``obj`` into the shared library ``out`` without :data:`PROCESS_MODE_FLAGS`.
+
+    Linked with ``-ffast-math`` (gcc < 13), a shared library carries ``crtfastmath.o``, whose
+    constructor sets flush-to-zero for the whole process that loads it; linked separately it
+    never changes the process's floating-point mode, whatever the flags.
+
+    Parameters
+    ----------
+    cc : str
+        The compiler.
+    flags : tuple of str
+        The optimisation flags (:func:`compile_flags`).
+    src, obj, out : path
+        The C source, the object file to write, the library to write.
+
+    Returns
+    -------
+    list of list of str
+        The compile command, then the link command.
+    """
+    link_flags = [f for f in flags if f not in PROCESS_MODE_FLAGS]
+    return [[cc, "-c", *REQUIRED_FLAGS, *flags, "-o", str(obj), str(src)],   # later flags win
+            [cc, *REQUIRED_FLAGS, *link_flags, "-o", str(out), str(obj), "-lm"]]
 
 
 def _run_compiler(cmd: list[str], timeout: float | None) -> subprocess.CompletedProcess:

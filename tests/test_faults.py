@@ -264,13 +264,39 @@ def test_a_hanging_compiler_is_stopped_with_its_children_and_temporary_files(tmp
     assert not list((tmp_path / "build").rglob("*.tmp"))   # no half-written library left
 
 
+def test_a_cache_directory_writable_by_the_users_own_group_is_used(tmp_path, monkeypatch):
+    """umask 002 leaves the cache group-writable by the user's private group: used without a warning."""
+    import grp
+    import warnings
+    from coordarm.generated import build as build_mod
+    if set(grp.getgrgid(os.getgid()).gr_mem) - {__import__("pwd").getpwuid(os.getuid()).pw_name}:
+        pytest.skip("this user's primary group has other members")
+    mine = tmp_path / "umask002"
+    mine.mkdir()
+    mine.chmod(0o775)
+    os.chown(mine, -1, os.getgid())
+    monkeypatch.setattr(build_mod, "_private_fallback", [])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", build_mod.CacheWarning)
+        assert build_mod.private_root(mine) == mine
+    other = next((g for g in [*os.getgroups(), *range(1, 100)] if g != os.getgid()), None)
+    try:
+        os.chown(mine, -1, other)                   # the same permissions, another group: refused
+    except (OSError, TypeError):
+        pytest.skip("cannot give the directory to another group here")
+    if os.stat(mine).st_gid == os.getgid():
+        pytest.skip("cannot give the directory to another group here")
+    with pytest.warns(build_mod.CacheWarning, match=f"writable by group {other}"):
+        assert build_mod.private_root(mine) != mine
+
+
 def test_an_unsafe_cache_directory_is_not_used(tmp_path, monkeypatch, capsys):
     from coordarm.generated import build as build_mod
     shared = tmp_path / "shared"
     shared.mkdir()
     shared.chmod(0o777)
     monkeypatch.setattr(build_mod, "_private_fallback", [])
-    with pytest.warns(build_mod.CacheWarning, match="writable by group or others"):
+    with pytest.warns(build_mod.CacheWarning, match="writable by others"):
         private = build_mod.private_root(shared)
     assert private != shared and stat.S_IMODE(private.stat().st_mode) == 0o700
     assert build_mod.private_root(tmp_path / "mine") == tmp_path / "mine"

@@ -8,7 +8,7 @@
    (as ``simulate`` does), so the number stands whatever the simulation backend; for
    comparison the same per-step messages written one by one with ``mcap.writer.Writer``.
 
-Usage: ``python benchmarks/logging.py [--repeats 3] [--backend compiled] [--skip-run] [--links 64] [--duration 30]``
+Usage: ``python benchmarks/log_cost.py [--repeats 3] [--backend compiled] [--skip-run] [--links 64] [--duration 30]``
 """
 from __future__ import annotations
 
