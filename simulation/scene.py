@@ -19,6 +19,7 @@ import numpy as np
 from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
 
+from .json_fill import JsonTemplate
 from .log_schemas import CDR_HEADER
 from .obstacles import outline
 from .run import Run
@@ -27,12 +28,6 @@ from .run import Run
 #: integers format about twice as fast as floats).
 _POINT = '{"x":%de-6,"y":%de-6,"z":0}'
 _POSE0 = '{"position":{"x":0,"y":0,"z":0},"orientation":{"x":0,"y":0,"z":0,"w":1}}'
-#: One frame transform (parent and child filled in once per chain): translation as integer
-#: nanometres, rotation as integer multiples of 1e-15 (integers format fast; doubles near 1 are
-#: spaced 1.1e-16, so the quaternion is exact to about that).
-_TRANSFORM = ('{"timestamp":@T,"parent_frame_id":"%s","child_frame_id":"link%d",'
-              '"translation":{"x":%%de-9,"y":%%de-9,"z":0},"rotation":{"x":0,"y":0,"z":%%de-15,"w":%%de-15}}')
-
 ARM_COLOR, CURVE_COLOR, WALL_COLOR, TARGET_COLOR = ((0.15, 0.45, 0.9, 1.0), (0.9, 0.5, 0.1, 0.8),
                                                     (0.2, 0.2, 0.2, 1.0), (0.85, 0.1, 0.1, 1.0))
 
@@ -47,26 +42,29 @@ def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
     return [outline(ob) for ob in obstacles]
 
 
+def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0) -> tuple[str, str]:
+    """The text of a ``foxglove.LinePrimitive`` before and after its points."""
+    r, g, b, a = color
+    return (f'{{"type":{kind},"pose":{_POSE0},"thickness":{thickness},"scale_invariant":false,"points":[',
+            f'],"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}},"colors":[],"indices":[]}}')
+
+
 def line_json(points: np.ndarray, thickness: float, color: tuple[float, ...], kind: int = 0) -> str:
     """A ``foxglove.LinePrimitive`` in JSON (``kind`` 0 = line strip; points formatted in one pass)."""
     xy = np.round(np.asarray(points, float).reshape(-1, 2) * 1e6).astype(np.int64)
-    pts = ",".join([_POINT] * len(xy)) % tuple(xy.ravel().tolist())
-    r, g, b, a = color
-    return (f'{{"type":{kind},"pose":{_POSE0},"thickness":{thickness},"scale_invariant":false,"points":[{pts}],'
-            f'"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}},"colors":[],"indices":[]}}')
+    head, tail = _line_parts(thickness, color, kind)
+    return head + ",".join([_POINT] * len(xy)) % tuple(xy.ravel().tolist()) + tail
 
 
-def sphere_json(point: np.ndarray, diameter: float, color: tuple[float, ...]) -> str:
-    """A ``foxglove.SpherePrimitive`` in JSON centred at ``point`` (x, y) [m]."""
-    r, g, b, a = color
-    return (f'{{"pose":{{"position":{{"x":{float(point[0])!r},"y":{float(point[1])!r},"z":0}},'
-            f'"orientation":{{"x":0,"y":0,"z":0,"w":1}}}},"size":{{"x":{diameter},"y":{diameter},"z":{diameter}}},'
-            f'"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}')
-
-
-def stamp_json(ns: int) -> str:
-    """A ``foxglove`` time ``{"sec", "nsec"}`` for ``ns`` nanoseconds."""
-    return f'{{"sec":{ns // 10**9},"nsec":{ns % 10**9}}}'
+def _line_slots(template: JsonTemplate, points: int, thickness: float, color: tuple[float, ...],
+                slot_kind: int) -> None:
+    """Append a line strip of ``points`` points whose coordinates [µm] are slots of ``slot_kind``."""
+    head, tail = _line_parts(thickness, color)
+    template.text(head)
+    for i in range(points):
+        template.text("," if i else "").text('{"x":').number(slot_kind).text('e-6,"y":').number(slot_kind)
+        template.text('e-6,"z":0}')
+    template.text(tail)
 
 
 def link_frames(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -97,21 +95,47 @@ def link_frames(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return trans, angle
 
 
-def frame_transforms_json(joints: np.ndarray, ns: list[int] | np.ndarray) -> list[str]:
+def _stamp_slots(template: JsonTemplate) -> JsonTemplate:
+    """Append a ``foxglove`` time whose ``sec`` and ``nsec`` are slots of kinds 0 and 1."""
+    return template.text('{"sec":').number(0).text(',"nsec":').number(1).text("}")
+
+
+def _stamps(ns: list[int] | np.ndarray) -> np.ndarray:
+    """``(sec, nsec)`` columns of log times ``ns`` [ns]."""
+    ns = np.asarray(ns, np.int64)
+    return np.column_stack([ns // 10**9, ns % 10**9])
+
+
+_TF_TEMPLATES: dict[int, JsonTemplate] = {}
+
+
+def _tf_template(m: int) -> JsonTemplate:
+    """The ``foxglove.FrameTransforms`` of m links, slots (sec, nsec, x, y [nm], z, w [1e-15]) per link."""
+    if m not in _TF_TEMPLATES:
+        t = JsonTemplate(kinds=4).text('{"transforms":[')
+        for j in range(m):
+            _stamp_slots(t.text("," if j else "").text('{"timestamp":'))
+            t.text(f',"parent_frame_id":"{"world" if j == 0 else f"link{j}"}","child_frame_id":"link{j + 1}",'
+                   '"translation":{"x":').number(2).text('e-9,"y":').number(2)
+            t.text('e-9,"z":0},"rotation":{"x":0,"y":0,"z":').number(3).text('e-15,"w":').number(3).text("e-15}}")
+        _TF_TEMPLATES[m] = t.text("]}")
+    return _TF_TEMPLATES[m]
+
+
+def frame_transforms_json(joints: np.ndarray, ns: list[int] | np.ndarray) -> list[bytes]:
     """The ``foxglove.FrameTransforms`` of poses ``joints`` (n, m+1, 2) stamped ``ns`` [ns], one JSON each.
 
-    Translations are exact to 1 nm, rotations (quaternions about z) to 1e-15.
+    Translations are exact to 1 nm, rotations (quaternions about z) to 1e-15; the numbers are
+    written by :class:`~.json_fill.JsonTemplate` (space-padded, fixed width per batch).
     """
     trans, angle = link_frames(joints)
-    m = angle.shape[-1]
-    template = '{"transforms":[' + ",".join(_TRANSFORM % ("world" if j == 0 else f"link{j}", j + 1)
-                                            for j in range(m)) + "]}"
-    values = np.empty(angle.shape + (4,), np.int64)
-    values[..., :2] = np.round(trans * 1e9)
-    values[..., 2] = np.round(np.sin(0.5 * angle) * 1e15)
-    values[..., 3] = np.round(np.cos(0.5 * angle) * 1e15)
-    return [(template % tuple(v)).replace("@T", stamp_json(n))
-            for n, v in zip(np.asarray(ns).tolist(), values.reshape(len(values), -1).tolist())]
+    n, m = angle.shape
+    values = np.empty((n, m, 6), np.int64)
+    values[..., :2] = _stamps(ns)[:, None, :]
+    values[..., 2:4] = np.round(trans * 1e9)
+    values[..., 4] = np.round(np.sin(0.5 * angle) * 1e15)
+    values[..., 5] = np.round(np.cos(0.5 * angle) * 1e15)
+    return _tf_template(m).fill(values.reshape(n, -1))
 
 
 def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.ndarray:
@@ -166,6 +190,7 @@ class SceneBuilder:
         self.reach = 2.2 * ctrl.chain.m * ctrl.chain.xi
         outlines = obstacle_outlines(obstacles)
         self._obstacle_lines = tuple(line_json(p, 0.02, WALL_COLOR) for p in outlines)  # same in every scene
+        self._scene_templates: dict[tuple[int, int], JsonTemplate] = {}
         self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
         self._s0: float | None = None
         self._carry = (0.0, 0.0, 0.0)  # (t, v*, integral of v*) at the last step seen
@@ -227,15 +252,40 @@ class SceneBuilder:
         targets = _targets(curves, ends, s_target - s)
         tracking = np.column_stack([part.t[ks], s, s_target, targets, np.max(np.abs(part.e[ks]), axis=1),
                                     np.min(part.link_margins[ks], axis=1), np.linalg.norm(part.u[ks], axis=1)])
+        scenes: list[bytes] = [b""] * len(ks)
+        sizes = np.array([len(c) for c in curves])
+        for size in np.unique(sizes):        # one template per number of curve points (one for a line)
+            rows = np.flatnonzero(sizes == size)
+            values = np.concatenate([       # in the template's order: stamp, target, arm, curve
+                _stamps(np.asarray(ns)[rows]), np.round(targets[rows] * 1e12),
+                np.round(joints[rows].reshape(len(rows), -1) * 1e6),
+                np.round(np.array([curves[i] for i in rows]).reshape(len(rows), -1) * 1e6)], axis=1)
+            for i, text in zip(rows, self._scene_template(joints.shape[1], int(size)).fill(values)):
+                scenes[i] = text
         out = []
-        for J, C, n, tf, target, record in zip(joints, curves, np.asarray(ns).tolist(), frames, targets,
-                                              tracking.astype("<f8")):
-            lines = (line_json(J, 0.01, ARM_COLOR), line_json(C, 0.005, CURVE_COLOR), *self._obstacle_lines)
-            entity = ('{"timestamp":' + stamp_json(n) + ',"frame_id":"world","id":"coordarm",'
-                      '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],'
-                      '"spheres":[' + sphere_json(target, 0.04, TARGET_COLOR) + '],"cylinders":[],"triangles":[],'
-                      '"texts":[],"models":[],"lines":[' + ",".join(lines) + "]}")
-            out.append(("scene", n, ('{"deletions":[],"entities":[' + entity + "]}").encode()))
-            out.append(("tf", n, tf.encode()))
+        for n, scene, tf, record in zip(np.asarray(ns).tolist(), scenes, frames, tracking.astype("<f8")):
+            out.append(("scene", n, scene))
+            out.append(("tf", n, tf))
             out.append(("tracking", n, CDR_HEADER + record.tobytes()))
         return out
+
+    def _scene_template(self, joints: int, curve_points: int) -> JsonTemplate:
+        """The ``foxglove.SceneUpdate`` with slots: stamp (kinds 0, 1), the arm's ``joints`` points [µm] (2),
+        the curve's ``curve_points`` points [µm] (3) and the target sphere's centre [pm] (4); obstacles are
+        literal."""
+        key = (joints, curve_points)
+        if key not in self._scene_templates:
+            r, g, b, a = TARGET_COLOR
+            d = 0.04
+            t = _stamp_slots(JsonTemplate(kinds=5).text('{"deletions":[],"entities":[{"timestamp":'))
+            t.text(',"frame_id":"world","id":"coordarm","lifetime":{"sec":0,"nsec":0},"frame_locked":false,'
+                   '"metadata":[],"arrows":[],"cubes":[],"spheres":[{"pose":{"position":{"x":').number(4)
+            t.text('e-12,"y":').number(4).text('e-12,"z":0},"orientation":{"x":0,"y":0,"z":0,"w":1}},'
+                                               f'"size":{{"x":{d},"y":{d},"z":{d}}},'
+                                               f'"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}],"cylinders":[],'
+                                               '"triangles":[],"texts":[],"models":[],"lines":[')
+            _line_slots(t, joints, 0.01, ARM_COLOR, 2)
+            t.text(",")
+            _line_slots(t, curve_points, 0.005, CURVE_COLOR, 3)
+            self._scene_templates[key] = t.text("".join("," + x for x in self._obstacle_lines) + "]}]}")
+        return self._scene_templates[key]

@@ -1,0 +1,159 @@
+"""JSON messages of one shape filled with integers for many messages at once, with numpy.
+
+The scene and frame-transform messages of a run all have the same text around their numbers.
+A :class:`JsonTemplate` holds that text once, with a fixed-width slot per number; filling it
+for n messages writes the digits of every number with array operations (no per-number Python
+string formatting). A number is right-aligned in its slot and padded with spaces, which JSON
+allows between tokens, so the text parses to exactly the integers given (``"x":  -1234e-9``
+is the number -1.234e-6). Each slot's *kind* shares one width, the digits (and sign) of the
+widest value of that kind in the batch, so the messages stay about as short as formatted ones.
+"""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+#: Largest magnitude a slot takes (int64 powers of ten stop at 10**18).
+LIMIT = 10 ** 18
+
+
+#: ASCII of "0000" .. "9999".
+_GROUPS = np.frombuffer("".join(f"{i:04d}" for i in range(10000)).encode(), np.uint8).reshape(10000, 4)
+#: 10**0 .. 10**18: the number of these <= |v| is the number of digits of v (v != 0).
+_POWERS = 10 ** np.arange(19, dtype=np.int64)
+
+
+@functools.lru_cache(maxsize=None)
+def _padding(width: int) -> np.ndarray:
+    """What to subtract from ``width`` ASCII digits to blank ``b`` leading zeros (``'0' - ' '``) and,
+    if negative, turn the last of them into ``'-'``: row ``2 b + negative``."""
+    table = np.zeros((width + 1, 2, width), np.uint8)
+    for b in range(width + 1):
+        table[b, :, :b] = ord("0") - ord(" ")
+        if b:
+            table[b, 1, b - 1] = ord("0") - ord("-")
+    return table.reshape(-1, width)
+
+
+def int_text(values: np.ndarray, width: int) -> np.ndarray:
+    """ASCII of integers right-aligned in ``width`` characters, spaces before, minus sign if negative.
+
+    Parameters
+    ----------
+    values : int64 array, any shape
+        The integers, ``|v| < LIMIT`` and short enough for ``width`` (digits plus sign).
+    width : int
+        Characters per value.
+
+    Returns
+    -------
+    uint8 array, shape ``values.shape + (width,)``
+    """
+    v = np.asarray(values, np.int64)
+    rest = np.abs(v)
+    groups = -(-width // 4)
+    buf = np.empty(v.shape + (groups, 4), np.uint8)
+    blanks = width - np.maximum(1, np.searchsorted(_POWERS, rest, side="right"))
+    for j in range(groups - 1, -1, -1):          # four digits per integer division
+        rest, low = np.divmod(rest, 10000)
+        buf[..., j, :] = np.take(_GROUPS, low, axis=0)
+    out = buf.reshape(v.shape + (4 * groups,))[..., 4 * groups - width:]
+    return out - np.take(_padding(width), 2 * blanks + (v < 0), axis=0)
+
+
+def text_width(values: np.ndarray) -> int:
+    """Characters the widest of ``values`` needs (digits, and a sign if any is negative).
+
+    Raises
+    ------
+    ValueError
+        A value of magnitude :data:`LIMIT` or more.
+    """
+    v = np.asarray(values, np.int64)
+    if not v.size:
+        return 1
+    top = int(np.max(np.abs(v)))
+    if top >= LIMIT:
+        raise ValueError(f"integer {top} too large for a JSON slot (limit 1e18)")
+    return len(str(top)) + int(bool(np.any(v < 0)))
+
+
+class JsonTemplate:
+    """Literal JSON text with integer slots, built by :meth:`text` and :meth:`number` calls in order.
+
+    Parameters
+    ----------
+    kinds : int
+        Number of slot kinds (a kind's slots share one width per batch).
+    """
+
+    def __init__(self, kinds: int = 1) -> None:
+        self.kinds = kinds
+        self._literals: list[str] = [""]
+        self._slot_kinds: list[int] = []
+        self._layouts: dict[tuple[int, ...], tuple[np.ndarray, list[tuple[int, np.ndarray, np.ndarray]]]] = {}
+
+    @property
+    def slots(self) -> int:
+        """Number of integer slots."""
+        return len(self._slot_kinds)
+
+    def text(self, literal: str) -> "JsonTemplate":
+        """Append literal text."""
+        self._literals[-1] += literal
+        return self
+
+    def number(self, kind: int = 0) -> "JsonTemplate":
+        """Append an integer slot of ``kind``."""
+        if not 0 <= kind < self.kinds:
+            raise ValueError(f"slot kind {kind} outside 0..{self.kinds - 1}")
+        self._slot_kinds.append(kind)
+        self._literals.append("")
+        return self
+
+    def _layout(self, widths: tuple[int, ...]):
+        """The blank message (spaces in the slots) and, per width, which slots and where."""
+        if widths not in self._layouts:
+            kinds = np.array(self._slot_kinds, int)
+            w = np.array(widths, int)[kinds] if len(kinds) else np.zeros(0, int)
+            lit = [s.encode() for s in self._literals]
+            starts = np.cumsum([len(lit[0])] + [len(lit[i + 1]) + w[i] for i in range(len(w) - 1)]).astype(int)
+            blank = np.frombuffer(b"".join(l + b" " * int(wi) for l, wi in zip(lit, [*w, 0])), np.uint8).copy()
+            groups = []
+            for width in sorted(set(w.tolist())):
+                idx = np.flatnonzero(w == width)
+                groups.append((width, idx, starts[idx, None] + np.arange(width)))
+            self._layouts[widths] = blank, groups
+        return self._layouts[widths]
+
+    def fill(self, values: np.ndarray) -> list[bytes]:
+        """The messages, one per row of ``values``.
+
+        Parameters
+        ----------
+        values : int array, shape (n, slots)
+            The integers of each message, in slot order.
+
+        Returns
+        -------
+        list of bytes
+            n UTF-8 JSON texts.
+
+        Raises
+        ------
+        ValueError
+            ``values`` of the wrong shape, or a value of magnitude 1e18 or more.
+        """
+        values = np.asarray(values, np.int64)
+        n = len(values)
+        if values.shape != (n, self.slots):
+            raise ValueError(f"values: expected shape (n, {self.slots}), got {values.shape}")
+        kinds = np.array(self._slot_kinds, int)
+        widths = tuple(text_width(values[:, kinds == k]) for k in range(self.kinds))
+        blank, groups = self._layout(widths)
+        out = np.empty((n, len(blank)), np.uint8)
+        out[:] = blank
+        for width, idx, pos in groups:
+            out[:, pos] = int_text(values[:, idx], width)
+        return [row.tobytes() for row in out]

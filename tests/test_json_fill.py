@@ -1,0 +1,41 @@
+"""Fixed-width JSON numbers filled with numpy, checked against Python's own formatting and json.loads."""
+import json
+
+import numpy as np
+import pytest
+
+from coordarm.simulation.json_fill import LIMIT, JsonTemplate, int_text, text_width
+
+
+def test_int_text_equals_python_right_aligned_formatting_at_every_digit_count(rng):
+    edges = [0, 1, -1, 9, -9, 10, -10]
+    for k in range(2, 18):
+        edges += [10 ** k - 1, 10 ** k, -(10 ** k - 1), -(10 ** k)]
+    values = np.array(edges + list(rng.integers(-LIMIT + 1, LIMIT, 2000)) + list(rng.integers(-999, 1000, 500)))
+    width = text_width(values)
+    assert width == 19                                   # 18 digits and a sign
+    text = int_text(values, width)
+    assert [row.tobytes().decode() for row in text] == [f"{v:>{width}d}" for v in values.tolist()]
+
+
+def test_a_filled_template_parses_to_its_integers_and_each_kind_is_as_wide_as_its_widest_value(rng):
+    t = JsonTemplate(kinds=2).text('{"a":[')
+    for i in range(5):
+        t.text("," if i else "").number(0)
+    t.text('],"b":{"x":').number(1).text('e-9,"y":').number(1).text("e-9}}")
+    values = np.column_stack([rng.integers(-5000, 5000, (50, 5)), rng.integers(0, 10 ** 12, (50, 2))])
+    texts = t.fill(values)
+    for row, text in zip(values, texts):
+        doc = json.loads(text)
+        assert doc["a"] == row[:5].tolist()
+        assert [doc["b"]["x"], doc["b"]["y"]] == [float(f"{v}e-9") for v in row[5:].tolist()]
+    widest = len(str(np.abs(values[:, :5]).max())) + 1, len(str(values[:, 5:].max()))
+    assert len(texts[0]) == len('{"a":[,,,,],"b":{"x":e-9,"y":e-9}}') + 5 * widest[0] + 2 * widest[1]
+
+
+def test_a_value_too_large_for_a_slot_or_a_wrong_shape_is_refused():
+    t = JsonTemplate().text("[").number().text("]")
+    with pytest.raises(ValueError, match="too large"):
+        t.fill(np.array([[LIMIT]]))
+    with pytest.raises(ValueError, match="shape"):
+        t.fill(np.zeros((3, 2), int))
