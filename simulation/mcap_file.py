@@ -238,8 +238,9 @@ class McapFile:
 
         Parameters
         ----------
-        records : bytes
-            Concatenated Message records (see :data:`MESSAGE_HEADER_DTYPE`).
+        records : bytes-like
+            Concatenated Message records (see :data:`MESSAGE_HEADER_DTYPE`); ``bytes`` or a contiguous
+            uint8 array, which must not change afterwards (it may be compressed later, on the chunk thread).
         index : dict
             Channel id -> ``(log_times, offsets)`` (uint64 arrays) of that channel's messages
             inside ``records``.

@@ -13,6 +13,7 @@ from mcap.writer import Writer
 from coordarm.analysis.replay import load
 from coordarm.cli import main
 from coordarm.simulation.run import simulate
+from coordarm.simulation import mcap_writer
 from coordarm.simulation.mcap_writer import partial_path
 from coordarm.symbolic import LogError
 
@@ -35,19 +36,24 @@ duration = 100000.0
 @pytest.fixture(scope="module")
 def full_log(tmp_path_factory):
     """A complete log written by ``coordarm run`` (line preset, 8 links, 1.5 s) and its bytes."""
-    path = tmp_path_factory.mktemp("replay") / "line.mcap"
-    assert main(["run", "line", "--links", "8", "--duration", "1.5", "--quiet", "--no-figures",
-                 "--out", str(path)]) == 0
+    return _small_run(tmp_path_factory.mktemp("replay") / "line.mcap")
+
+
+def _small_run(path, *options: str):
+    """``coordarm run line`` of 8 links for 1.5 s into ``path``, in several 256 KiB chunks (the default
+    1 MiB would make one); the log and its bytes."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(mcap_writer, "CHUNK_SIZE", 256 * 1024)
+        assert main(["run", "line", "--links", "8", "--duration", "1.5", "--quiet", "--no-figures", *options,
+                     "--out", str(path)]) == 0
     return path, path.read_bytes()
 
 
 @pytest.fixture(scope="module")
 def lz4_log(tmp_path_factory):
     """The same run as ``full_log``, its chunks lz4-compressed, ``cond`` at 2 Hz."""
-    path = tmp_path_factory.mktemp("replay") / "line_lz4.mcap"
-    assert main(["run", "line", "--links", "8", "--duration", "1.5", "--quiet", "--no-figures",
-                 "--compression", "lz4", "--cond-rate", "2", "--out", str(path)]) == 0
-    return path, path.read_bytes()
+    return _small_run(tmp_path_factory.mktemp("replay") / "line_lz4.mcap", "--compression", "lz4",
+                      "--cond-rate", "2")
 
 
 def test_the_cli_writes_lz4_chunks_and_cond_at_the_chosen_rate(full_log, lz4_log):
