@@ -14,10 +14,11 @@ from .obstacles import Obstacle, outline
 from .run import Run, even_indices
 
 
-def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
-    """Lay out ``fig`` (tight, unless it has a layout engine), write it to ``path``, close it."""
+def save_figure(fig, path: str | Path, dpi: int = 110, tight: bool = True) -> Path:
+    """Lay out ``fig`` (tight, unless it has a layout engine or ``tight`` is False: its margins are set
+    already), write it to ``path``, close it."""
     path = Path(path)
-    if fig.get_layout_engine() is None:
+    if tight and fig.get_layout_engine() is None:
         fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
@@ -191,7 +192,10 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     link, longitudinal = np.min(run.link_margins, axis=1), run.longitudinal
     keep = envelope_indices(np.column_stack([np.log10(np.maximum(emax, 1e-17)), s_err, link, longitudinal]))
     t = run.t[keep]
-    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
+    # Fixed margins (room for the tick labels, axis labels and title of these three panels): tight_layout
+    # would measure every text first, which took longer than drawing the figure.
+    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True,
+                             gridspec_kw=dict(left=0.13, right=0.97, bottom=0.06, top=0.95, hspace=0.08))
     axes[0].semilogy(t, np.maximum(emax[keep], 1e-17), label="max$_j$ |e$^j$|")
     if emax[0] > 0:
         axes[0].semilogy(t, emax[0] * np.exp(-gain * (t - t[0])), "--", label=f"e(0) exp(-{gain:g} t)")
@@ -212,4 +216,4 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     for ax in axes:
         ax.grid(alpha=0.3)
     axes[0].set_title(title or "tracking and singularity margins")
-    return save_figure(fig, path)
+    return save_figure(fig, path, tight=False)
