@@ -90,7 +90,7 @@ def command(tmp: Path, *extra: str) -> tuple[float, dict[str, float]]:
 def decomposition(rounds: int = 5) -> list[str]:
     """Markdown lines: the decomposition table (medians of ``rounds`` interleaved rounds)."""
     sys.path.insert(0, str(ROOT))
-    from coordarm.simulation.run import select_backend, simulate
+    from coordarm.simulation.run import CHECK_RATE, select_backend, simulate
     from coordarm.simulation.scenario import load_scenario
     scenario = load_scenario("line").with_overrides(64, 30.0, None)
     ctrl = scenario.controller()
@@ -113,6 +113,10 @@ def decomposition(rounds: int = 5) -> list[str]:
         start = time.perf_counter()
         simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled", progress=False)
         add("bare simulation (this process)", time.perf_counter() - start)
+        start = time.perf_counter()
+        simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled", progress=False,
+                 physical=scenario.physical(ctrl.chain), check_every=round(1.0 / (CHECK_RATE * scenario.step)))
+        add("bare simulation with the physical checks `coordarm run` makes (200 Hz)", time.perf_counter() - start)
         for label, extra in (("--no-figures", ("--no-figures",)), ("with figures", ())):
             wall, phases = command(tmp, *extra)
             add(f"`coordarm run` {label}: wall time (new process)", wall)

@@ -127,6 +127,7 @@ def main() -> None:
 
     def logged(name: str, **options):
         def go():
+            (tmp / name).unlink(missing_ok=True)   # a new file (replacing one frees its blocks: not logging)
             with RunLogger(tmp / name, sc, ctrl, command=["bench"], **options) as log:
                 simulate(ctrl, q0, duration, STEP, progress=False, on_chunk=log.on_chunk, **kw)
         return go
@@ -140,14 +141,16 @@ def main() -> None:
     for _ in range(args.repeats):  # interleaved, so that load changes hit every variant alike
         for k, fn in variants.items():
             times[k].append(timed(fn))
-    base = statistics.median(times["without log"])
-    print(f"\n{links}-link line run, {duration:g} s at {STEP * 1e3:g} ms, backend {args.backend or 'default'}")
     files = {"full-rate log": "run.mcap", "full-rate log, threaded": "run_threaded.mcap",
              "full-rate lz4, threaded": "run_lz4.mcap", "log at 100 Hz, threaded": "run100.mcap"}
+    ratios = {k: statistics.median(t / b for t, b in zip(ts, times["without log"])) for k, ts in times.items()}
+    base = statistics.median(times["without log"])
+    print(f"\n{links}-link line run, {duration:g} s at {STEP * 1e3:g} ms, backend {args.backend or 'default'}")
     for k, ts in times.items():
         med = statistics.median(ts)
         size = f"   log {(tmp / files[k]).stat().st_size / duration / 2**20:.3f} MiB per simulated s" if k in files else ""
-        print(f"  {k:26s} median {med:7.3f} s  ratio {med / base:5.2f}  ({', '.join(f'{t:.3f}' for t in ts)}){size}")
+        print(f"  {k:26s} median {med:7.3f} s  ratio {med / base:5.2f} (median per round {ratios[k]:5.2f})  "
+              f"({', '.join(f'{t:.3f}' for t in ts)}){size}")
 
 
 if __name__ == "__main__":

@@ -38,6 +38,7 @@ from coordarm.generated.codegen import generate_source  # noqa: E402
 from coordarm.simulation.mcap_writer import RunLogger  # noqa: E402
 from coordarm.simulation.run import select_backend, simulate  # noqa: E402
 from coordarm.simulation.scenario import load_scenario  # noqa: E402
+from command_cost import decomposition  # noqa: E402
 from run_benchmarks import line_controller, machine  # noqa: E402
 from scalar_law import scalar_source  # noqa: E402
 from timing import c_interleaved, floor_library, fmt_ratio, py_interleaved, ratio  # noqa: E402
@@ -120,13 +121,17 @@ def command(rounds: int) -> list[str]:
     def bare():
         simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled", progress=False)
 
+    def logger(name: str, **options) -> RunLogger:
+        (tmp / name).unlink(missing_ok=True)   # a new file each time (replacing one frees its blocks: not logging)
+        return RunLogger(tmp / name, scenario, ctrl, backend="compiled", threaded=True, **options)
+
     def logged():
-        with RunLogger(tmp / "b.mcap", scenario, ctrl, backend="compiled", threaded=True) as log:
+        with logger("b.mcap") as log:
             simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled", progress=False,
                      on_chunk=log.on_chunk)
 
     def logged_lz4():
-        with RunLogger(tmp / "b4.mcap", scenario, ctrl, backend="compiled", threaded=True, compression="lz4") as log:
+        with logger("b4.mcap", compression="lz4") as log:
             simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend="compiled", progress=False,
                      on_chunk=log.on_chunk)
 
@@ -175,6 +180,9 @@ def main() -> None:
              "", "### Scaling of a run and of the set-up", "", *scaling(max(3, rounds // 3)), "",
              "### Python wrapper", "", *wrapper(rounds), "",
              "### What the command costs (64 links, 30 s simulated)", "", *command(max(3, rounds // 3)), "",
+             "Where the command's time goes (`benchmarks/command_cost.py`: phases timed inside the command's "
+             "process; the log's writer threads run during *simulate + log*):", "",
+             *decomposition(max(3, rounds // 3)), "",
              f"Load average at start {load0:.2f}, at end {os.getloadavg()[0]:.2f}; the benchmark took "
              f"{time.time() - started:.0f} s.", END]
     text = "\n".join(parts) + "\n"
