@@ -100,7 +100,7 @@ def scaling(rounds: int) -> list[str]:
 def wrapper(rounds: int) -> list[str]:
     ctrl = line_controller(8)
     comp = ctrl.compile()
-    q, u, packed = ctrl.chain.zigzag(1.0), np.empty(8), np.empty(25)
+    q, u, packed = ctrl.chain.zigzag(1.0), np.empty(8), np.empty(comp.n_out)
     py = py_interleaved([lambda: comp.control(q, 1.0, out=u), lambda: comp.evaluate(q, 1.0, out=packed),
                          lambda: comp.control(q, 1.0)], rounds=rounds, sub=5)
     law, _ = c_interleaved([comp.library.path], q, rounds=rounds)
@@ -137,7 +137,8 @@ def command(rounds: int) -> list[str]:
 
     def cmd(*extra):
         subprocess.run([sys.executable, "-m", "coordarm", "run", "line", "--links", "64", "--duration", "30",
-                        "--quiet", "--out", str(tmp / "c.mcap"), *extra], check=True, capture_output=True)
+                        "--quiet", "--overwrite", "--out", str(tmp / "c.mcap"), *extra], check=True,
+                       capture_output=True)
 
     try:
         import lz4.frame  # noqa: F401   optional (coordarm[lz4])

@@ -1,5 +1,6 @@
 """The generated law as it was before the vectorised trigonometry (commit 35299a5): the baseline
-of the benchmarks. Each link step computes its own sine/cosine pair inside the recursion.
+of the benchmarks. Each link step computes its own sine/cosine pair inside the recursion. The
+tail's fifth output (``v_scale``, added later) gets a slot, else the tail writes through an unset pointer.
 
 Benchmark-only; the library's own code is :mod:`coordarm.generated.codegen`.
 """
@@ -12,7 +13,7 @@ from coordarm.symbolic import CoordinatingController
 SCALAR_LAW = """
 #define CA_LAW_SCRATCH 0
 static int ca_law_packed(const casadi_real* q, casadi_real t, casadi_real* out, casadi_int* iw, casadi_real* w) {
-  casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[4], tl[4], a[CA_M], b[CA_M];
+  casadi_real wt[CA_NW + 1], c0[CA_NC], c1[CA_NC], o[4], tl[5], a[CA_M], b[CA_M];
   casadi_real *cur = c0, *nxt = c1, *tmp, p, rate, prev;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
@@ -31,6 +32,7 @@ static int ca_law_packed(const casadi_real* q, casadi_real t, casadi_real* out, 
     tmp = cur; cur = nxt; nxt = tmp;
   }
   arg[0] = cur; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
+  res[4] = tl + 4;                     /* v_scale (a tail output since issue 13; not in the old law) */
   if (tail(arg, res, iw, w, 0)) return 2;
   out[2 * CA_M - 1] = tl[0];           /* s */
   out[3 * CA_M - 1] = tl[2];           /* longitudinal margin */
