@@ -131,10 +131,11 @@ def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages
     Path
         The written file.
     """
-    fig, ax = plt.subplots(figsize=(7, 6.5))
+    # Fixed margins, as in plot_tracking: tight_layout measured every text first (1.46x slower).
+    fig, ax = plt.subplots(figsize=(7, 6.5), gridspec_kw=dict(left=0.1, right=0.97, bottom=0.08, top=0.94))
     _draw_stages(ax, run, ctrl, stage_indices(run, stages, times), list(obstacles))
     ax.set_title(title or f"{ctrl.chain.m}-link robot: stages of the motion (dashed: the curve then)")
-    return save_figure(fig, path)
+    return save_figure(fig, path, tight=False)
 
 
 def plot_panels(run: Run, ctrl: CoordinatingController, path: str | Path, panels: Sequence[dict],
