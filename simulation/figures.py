@@ -5,6 +5,7 @@ from pathlib import Path
 from typing import Sequence
 
 import matplotlib.pyplot as plt
+from matplotlib.ticker import LogFormatter, NullFormatter
 import numpy as np
 
 from coordarm.symbolic import CoordinatingController
@@ -200,6 +201,9 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     axes[0].semilogy(t, np.maximum(emax[keep], 1e-17), label="max$_j$ |e$^j$|")
     if emax[0] > 0:
         axes[0].semilogy(t, emax[0] * np.exp(-gain * (t - t[0])), "--", label=f"e(0) exp(-{gain:g} t)")
+    # Plain "1e-05" tick labels: the default 10^k labels are typeset with mathtext, a quarter of the figure's time.
+    axes[0].yaxis.set_major_formatter(LogFormatter())
+    axes[0].yaxis.set_minor_formatter(NullFormatter())
     axes[0].set_ylabel("deviation [m]")
     axes[0].legend(fontsize=8)
     axes[1].plot(t, s_err[keep], label="s - (s(0) + ∫v*)")
