@@ -13,6 +13,11 @@ The glue defines the library's whole API (every other symbol is hidden):
 * ``coordarm_chunk(q0, times, h, n, Q, D, iw, w)``: ``n`` RK4 steps in one call;
 * ``coordarm_sizes(sizes)``: ``m``, ``len(out)``, ``len(iw)``, ``len(w)``.
 
+On a chain on a rail (``CA_RAIL`` = 1) the state has ``CA_NQ = CA_M + 1`` joints, ``d`` first:
+``q``, ``u`` and the RK4 and chunk states are ``CA_NQ`` long, the recursion starts from the
+generated rail head (``d_dot``, the rail margin, ``psi(y^1)``) and the packed outputs end with
+``sigma`` and ``rail_margin``; with a fixed base ``CA_NQ = CA_M``.
+
 A law or step call returns 1 when ``q`` or ``t`` is not finite (nothing is computed), 2 when
 a generated Function failed, 3 when it produced a non-finite output, 0 otherwise. All
 finiteness checks test the IEEE bits, so they hold under ``-ffast-math`` too.
