@@ -15,8 +15,10 @@ import numpy as np
 import coordarm.symbolic.controller as controller_module
 from coordarm.symbolic import LAWS, BuildError, CoordinatingController
 from coordarm.symbolic.outputs import offsets, packed_width
+from coordarm.symbolic.paths import Path
 
 from . import templates
+from .path_search import search_source
 
 #: Options of CasADi's CodeGenerator (part of the cache key).
 CODEGEN_OPTIONS = {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"}
@@ -46,13 +48,16 @@ def _split(ctrl: CoordinatingController, form: str) -> bool:
     return form == "structured" and not ctrl.damping
 
 
-def structured_law(ctrl: CoordinatingController) -> str:
+def structured_law(ctrl: CoordinatingController, path_search: bool = True) -> str:
     """The C of the structured law (:data:`.templates.STRUCTURED_LAW`) with its re-pivoting macros.
 
     Parameters
     ----------
     ctrl : CoordinatingController
         The controller (its time terms of the re-pivoting step set ``CA_NW_REPIVOT``).
+    path_search : bool
+        On a path, search the closest piece in C (see :mod:`.path_search`); False: select it
+        inside the generated link step, over every piece (the reference form, slower).
 
     Returns
     -------
@@ -61,19 +66,45 @@ def structured_law(ctrl: CoordinatingController) -> str:
     """
     return (f"#define CA_REPIVOT {controller_module.REPIVOT!r}\n"
             f"#define CA_NW_REPIVOT {int(ctrl.time_features_repivot().numel_out(0))}\n"
-            + rail_macros(ctrl) + templates.STRUCTURED_LAW)
+            + rail_macros(ctrl) + (path_macros(ctrl) if path_search else "") + templates.STRUCTURED_LAW)
 
 
-def functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
+def path_macros(ctrl: CoordinatingController) -> str:
+    """The C of the closest-piece search on a path (tables and :data:`.templates.PATH_SEARCH`), else "".
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller.
+
+    Returns
+    -------
+    str
+        ``CA_PATH`` macros, the piece tables and the search, or an empty string for other curves.
+    """
+    if not _searched(ctrl):
+        return ""
+    return (f"#define CA_PATH_HALF_XI {0.5 * ctrl.chain.xi!r}\n" + search_source(ctrl.curve)
+            + templates.PATH_SEARCH)
+
+
+def functions(ctrl: CoordinatingController, form: str, path_search: bool = True) -> list[ca.Function]:
     """The CasADi Functions the C of ``form`` calls (the structured form's time features first).
 
     The structured form adds the re-pivoting step and its time terms (called only at a state
     with a small link pivot); with damping, the whole law is one Function.
     """
     if _split(ctrl, form):
-        return [ctrl.time_features(True), _head(ctrl), ctrl.link_step_trig(), ctrl.tail(),
-                ctrl.link_pivot(), ctrl.time_features_repivot(), ctrl.link_step_repivot()]
+        piece = path_search and _searched(ctrl)
+        return [ctrl.time_features(True, piece), _head(ctrl), ctrl.link_step_trig(piece), ctrl.tail(),
+                ctrl.link_pivot(piece), ctrl.time_features_repivot(), ctrl.link_step_repivot()] \
+            + ([ctrl.curve.frame_function()] if piece else [])
     return [ctrl.law(form)]
+
+
+def _searched(ctrl: CoordinatingController) -> bool:
+    """Whether the C glue searches the closest piece of a path itself (see :mod:`.path_search`)."""
+    return isinstance(ctrl.curve, Path)
 
 
 def _head(ctrl: CoordinatingController) -> ca.Function:
@@ -137,7 +168,7 @@ def layout_macros(m: int, rail: bool = False) -> str:
     return "\n".join(lines) + "\n"
 
 
-def generate_source(ctrl: CoordinatingController, form: str = "structured") -> Source:
+def generate_source(ctrl: CoordinatingController, form: str = "structured", path_search: bool = True) -> Source:
     """The C source of ``ctrl``'s law (``form``), RK4 step and chunk loop.
 
     Parameters
@@ -146,6 +177,8 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
         Chain (with a diagonal B), curve, gain and speed.
     form : {"structured", "dense"}
         Law form.
+    path_search : bool
+        See :func:`structured_law`.
 
     Returns
     -------
@@ -163,9 +196,9 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     """
     if form not in LAWS:
         raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
-    funcs = functions(ctrl, form)
+    funcs = functions(ctrl, form, path_search)
     if _split(ctrl, form):
-        law = structured_law(ctrl)
+        law = structured_law(ctrl, path_search)
     else:
         results = "\n".join(f"  res[{i}] = {'u' if name == 'u' else 'out + CA_OUT_' + name.upper()};"
                             for i, name in enumerate(ctrl.outputs))

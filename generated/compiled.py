@@ -89,6 +89,9 @@ class CompiledController:
         Compiler, optimisation flags and cache directory (see :func:`generated.build.build`).
     force : bool
         Recompile even on a cache hit.
+    path_search : bool
+        On a path, the C glue searches the closest piece near the previous link's (default); False
+        selects it over every piece inside the generated step (the slower reference form).
 
     Attributes
     ----------
@@ -103,10 +106,10 @@ class CompiledController:
     """
 
     def __init__(self, ctrl: CoordinatingController, form: str = "structured", *, cc: str | None = None,
-                 flags=None, build_dir=None, force: bool = False) -> None:
+                 flags=None, build_dir=None, force: bool = False, path_search: bool = True) -> None:
         self.ctrl, self.form, self.chain = ctrl, form, ctrl.chain
         start = time.perf_counter()
-        source = generate_source(ctrl, form)
+        source = generate_source(ctrl, form, path_search)
         self.generate_seconds = time.perf_counter() - start
         self.library: Library = build(source, cc=cc, flags=flags, build_dir=build_dir, force=force)
         self._lib = load_library(self.library.path)

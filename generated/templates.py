@@ -129,6 +129,51 @@ static void ca_trig(const casadi_real* restrict alpha, casadi_real* restrict c, 
 }
 """
 
+#: The search of a path's closest piece (see :mod:`.path_search`, whose tables it reads): junction
+#: tests and ``|phi|`` by the same formulas as :func:`coordarm.symbolic.paths.closest_piece_formulas`.
+PATH_SEARCH = """
+/* Whether p lies in piece j's closest-point range (its junction tests, and an arc's wedge); *dist = |phi_j|. */
+static int ca_piece_ok(casadi_int j, const casadi_real* p, casadi_real* dist) {
+  const casadi_real* f = ca_pf[j];
+  casadi_real rx, ry;
+  if (!(ca_pk[j] & 2) && !(ca_pj[j][0] * p[0] + ca_pj[j][1] * p[1] - ca_pj[j][2] >= 0)) return 0;
+  if (!(ca_pk[j] & 4) && !(ca_pj[j + 1][0] * p[0] + ca_pj[j + 1][1] * p[1] - ca_pj[j + 1][2] <= 0)) return 0;
+  if (ca_pk[j] & 1) {
+    rx = p[0] - f[0]; ry = p[1] - f[1];
+    if (!(f[3] * rx + f[4] * ry > 0)) return 0;
+    *dist = fabs(sqrt(rx * rx + ry * ry) - f[2]);
+  } else {
+    *dist = fabs(f[0] * p[0] + f[1] * p[1] - f[2]);
+  }
+  return 1;
+}
+
+/* The closest piece to p, the same as the full selection: the first candidate found from `guess`
+   outwards has |phi| = delta; a piece k can be closer only if its lower-bound distance to that
+   one is at most 2 delta (+ slack), and each piece lists the others in that order. Among the
+   pieces that may be closer the first (in order) of the smallest |phi| wins, as in the full
+   selection; with no candidate at all it keeps piece 0, as the full selection does. */
+static casadi_int ca_closest_piece(const casadi_real* p, casadi_int guess) {
+  casadi_real delta = 0, dist = 0, limit;
+  casadi_int i = -1, k, j, best;
+  for (k = 0; k < CA_NP && i < 0; ++k) {
+    if (guess + k < CA_NP && ca_piece_ok(guess + k, p, &delta)) i = guess + k;
+    else if (k > 0 && guess - k >= 0 && ca_piece_ok(guess - k, p, &delta)) i = guess - k;
+  }
+  if (i < 0) return 0;
+  best = i;
+  limit = 2 * delta + CA_PATH_EPS;
+  for (k = ca_nb_start[i]; k < ca_nb_start[i + 1] && ca_nb_lb[k] <= limit; ++k) {
+    j = ca_nb_j[k];
+    if (ca_piece_ok(j, p, &dist) && (dist < delta || (dist == delta && j < best))) {
+      delta = dist;
+      best = j;
+    }
+  }
+  return best;
+}
+"""
+
 #: The structured law: :data:`TRIG_PASSES`, then the O(m) recursion calling the generated
 #: per-link step (which has no trigonometry), then the tail and the rates. If some link's pivot
 #: is small (margin below ``CA_REPIVOT`` or NaN) the recursion only raises a flag and the whole
@@ -136,12 +181,28 @@ static void ca_trig(const casadi_real* restrict alpha, casadi_real* restrict c, 
 STRUCTURED_LAW = TRIG_PASSES + """
 #define CA_LAW_SCRATCH (5 * CA_M)
 
-/* One link j: carry `from` -> carry `to`; writes e^j, the link margin and a_j, b_j. */
+/* One link j: carry `from` -> carry `to`; writes e^j, the link margin and a_j, b_j. On a path
+   (CA_PATH) the closest piece of y^j is searched first, from the previous link's (PATH_SEARCH). */
+#ifdef CA_PATH
+#define CA_PIECE_ARGS(j, from, k) do { \\
+    casadi_real yj0 = from[0] + CA_PATH_HALF_XI * (from[3] + c[j]); \\
+    casadi_real yj1 = from[1] + CA_PATH_HALF_XI * (from[4] + s[j]); \\
+    casadi_real pp[2]; \\
+    pp[0] = fr[0] * yj0 + fr[2] * yj1 + fr[4]; pp[1] = fr[1] * yj0 + fr[3] * yj1 + fr[5]; \\
+    piece = ca_closest_piece(pp, piece); \\
+    arg[k] = ca_pp[piece]; \\
+  } while (0)
+#define CA_PIECE_STEP_ARG() (arg[6] = ca_pp[piece])
+#else
+#define CA_PIECE_ARGS(j, from, k) ((void)0)
+#define CA_PIECE_STEP_ARG() ((void)0)
+#endif
 #define CA_LINK(j, from, to) do { \\
     arg[0] = from; arg[1] = q + (j); arg[2] = c + (j); arg[3] = s + (j); arg[4] = wt; \\
+    CA_PIECE_ARGS(j, from, 5); \\
     res[0] = &inv; \\
     if (link_pivot(arg, res, iw, w, 0)) return 2; \\
-    arg[5] = &inv; res[0] = to; res[1] = o; \\
+    arg[5] = &inv; CA_PIECE_STEP_ARG(); res[0] = to; res[1] = o; \\
     if (link_step_trig(arg, res, iw, w, 0)) return 2; \\
     out[CA_OUT_E + (j) - 1] = o[0]; out[CA_OUT_LINK_MARGINS + (j) - 1] = o[1]; \\
     a[j] = o[2]; b[j] = o[3]; \\
@@ -185,13 +246,18 @@ static int ca_head(const casadi_real* q, casadi_real t, const casadi_real* c, co
 /* The recursion over links 2..m (returns 1 if a link pivot is small: see ca_law_repivot); the carry is copied back (not pointer-swapped) and the step has
    a single call site and is inlined (flatten), so the compiler keeps the carry in registers. */
 CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, const casadi_real* s,
-                        const casadi_real* wt, casadi_real* carry, casadi_real* out,
+                        const casadi_real* wt, const casadi_real* fr, casadi_real* carry, casadi_real* out,
                         casadi_real* a, casadi_real* b, casadi_int* iw, casadi_real* w) {
   casadi_real c0[CA_NC], c1[CA_NC], o[4], inv;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int j, k;
   int repivot = 0;
+#ifdef CA_PATH
+  casadi_int piece = 0;                /* the previous link's closest piece: where the next search starts */
+#else
+  (void)fr;
+#endif
   a[0] = 0; b[0] = 1;
   for (k = 0; k < CA_NC; ++k) c0[k] = carry[k];
   for (j = 1; j < CA_M; ++j) {
@@ -253,7 +319,7 @@ static __attribute__((noinline, cold)) int ca_law_repivot(const casadi_real* q, 
 /* The law at (q, t); on a rail q = (d, q_1..q_m) and u = (d_dot, u_1..u_m). */
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
                   casadi_real* w) {
-  casadi_real wt[CA_NW + 1], head[CA_NC], carry[CA_NC], tl[5], psi1;
+  casadi_real wt[CA_NW + 1], head[CA_NC], carry[CA_NC], tl[5], psi1, fr[6] = {0, 0, 0, 0, 0, 0};
   casadi_real *alpha = w + CA_SZ_W + CA_RK4_SCRATCH, *c = alpha + CA_M, *s = c + CA_M;
   casadi_real *a = s + CA_M, *b = a + CA_M;
   casadi_real p, rate, prev;
@@ -265,11 +331,15 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   int rc;
   arg[0] = &t; res[0] = wt;
   if (time_features(arg, res, iw, w, 0)) return 2;
+#ifdef CA_PATH
+  res[0] = fr; res[1] = fr + 4;        /* the path's frame at t: p = A y + b */
+  if (path_frame(arg, res, iw, w, 0)) return 2;
+#endif
   ca_angles(qr, alpha);
   ca_trig(alpha, c, s);
   if (ca_head(q, t, c, s, head, u, out, &psi1, iw, w)) return 2;
   for (j = 0; j < CA_NC; ++j) carry[j] = head[j];
-  if ((rc = ca_recursion(qr, c, s, wt, carry, out, a, b, iw, w))) {
+  if ((rc = ca_recursion(qr, c, s, wt, fr, carry, out, a, b, iw, w))) {
     if (rc == 2) return 2;
     return ca_law_repivot(qr, t, head, psi1, ur, out, iw, w);
   }

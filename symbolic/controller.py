@@ -198,8 +198,23 @@ class CoordinatingController:
     #: Layout of the carry of the link recursion (see :meth:`link_step`).
     CARRY = ("y1", "y2", "alpha", "cos_alpha", "sin_alpha", "P1", "P2", "Q1", "Q2", "a", "b", "sum_abs_b")
 
-    def _link_expressions(self, trig_inputs: bool = False):
+    def _piece_geometry(self) -> ca.Function:
+        """``(y, t, piece) -> (phi, grad phi, dphi/dt)`` of a path by the formulas of one piece (AD)."""
+        if "piece_geometry" not in self._cache:
+            y, t, sel = ca.SX.sym("y", 2), ca.SX.sym("t"), ca.SX.sym("piece", 6)
+            phi = self.curve.phi_psi_piece(y, t, sel)[0]
+            self._cache["piece_geometry"] = ca.Function(
+                "piece_geometry", [y, t, sel], [phi, ca.gradient(phi, y), ca.jacobian(phi, t)],
+                ["y", "t", "piece"], ["phi", "gphi", "phit"])
+        return self._cache["piece_geometry"]
+
+    def _link_expressions(self, trig_inputs: bool = False, piece: bool = False):
         """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd).
+
+        With ``piece`` (a :class:`~coordarm.symbolic.paths.Path` only) the path's closest piece
+        is not selected inside: its six constants are one more input (the last), found by the
+        generated C's search (the same piece as the full selection, see
+        :mod:`coordarm.generated.path_search`).
 
         The carried ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}`` is the part of
         ``ydot^j`` known before ``w_j``; the only division (by the link pivot) is turned into
@@ -217,7 +232,8 @@ class CoordinatingController:
         d_j = trig if trig_inputs else direction(alpha)   # the only sine/cosine pair of the link
         n_j = ca.vertcat(-d_j[1], d_j[0])
         y_j = y + 0.5 * xi * (d_prev + d_j)
-        phi, g, phit, *_ = self._geometry(y_j, t)
+        sel = ca.SX.sym("piece", 6) if piece else None
+        phi, g, phit = (self._piece_geometry()(y_j, t, sel) if piece else self._geometry(y_j, t)[:3])
         pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
         inv_expr = 1 / (0.5 * xi * pivot)
         # with trig inputs the reciprocal is an input too (computed by link_pivot): CasADi would
@@ -240,13 +256,15 @@ class CoordinatingController:
             out = ca.vertcat(out, inv_expr)
             trig = (trig[0], trig[1], inv)
         both = ca.cse(ca.vertcat(new, out))          # one CSE over both, so a_j, b_j are shared
+        if piece:
+            trig = (*trig, sel)
         return carry, qj, trig, t, both[:new.numel()], both[new.numel():]
 
-    def _hoisted_link(self, trig_inputs: bool = False):
+    def _hoisted_link(self, trig_inputs: bool = False, piece: bool = False):
         """The link step split into time-only terms ``w(t)`` and the per-link rest (cached)."""
-        key = ("hoisted", trig_inputs)
+        key = ("hoisted", trig_inputs) + (("piece",) if piece else ())
         if key not in self._cache:
-            carry, qj, trig, t, new, out = self._link_expressions(trig_inputs)
+            carry, qj, trig, t, new, out = self._link_expressions(trig_inputs, piece)
             expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new, out), t)
             # A static curve has no time-only terms: w is then one unused 0 rather than empty
             # (an empty input makes CasADi emit a copy to a null pointer in mapped code).
@@ -255,14 +273,14 @@ class CoordinatingController:
             n_new = new.numel()
             tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
             if trig_inputs:
-                c, s, inv = trig
+                c, s, inv, *sel = trig
                 n_out = expr.numel() - 1
-                pivot = ca.Function("link_pivot", [carry, qj, c, s, wsym], [expr[n_out]],
-                                    ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w"], ["inv_pivot"])
-                step = ca.Function("link_step_trig", [carry, qj, c, s, wsym, inv],
+                names = ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w"]
+                pivot = ca.Function("link_pivot", [carry, qj, c, s, wsym, *sel], [expr[n_out]],
+                                    names + ["piece"] * len(sel), ["inv_pivot"])
+                step = ca.Function("link_step_trig", [carry, qj, c, s, wsym, inv, *sel],
                                    [expr[:n_new], expr[n_new:n_out]],
-                                   ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w", "inv_pivot"],
-                                   ["carry_next", "out"])
+                                   names + ["inv_pivot"] + ["piece"] * len(sel), ["carry_next", "out"])
                 self._cache[key] = (tf, step, pivot)
                 return self._cache[key]
             else:
@@ -330,7 +348,7 @@ class CoordinatingController:
         """
         return self._hoisted_repivot()[0]
 
-    def time_features(self, trig_inputs: bool = False) -> ca.Function:
+    def time_features(self, trig_inputs: bool = False, piece: bool = False) -> ca.Function:
         """``t -> w``: the terms of :meth:`link_step` (:meth:`link_step_trig` if ``trig_inputs``)
         that depend on time only, computed once per ``t``.
 
@@ -338,13 +356,15 @@ class CoordinatingController:
         ----------
         trig_inputs : bool
             The terms of :meth:`link_step_trig` (the generated C's step) instead.
+        piece : bool
+            The terms of the path's per-piece step (``link_step_trig(piece=True)``).
 
         Returns
         -------
         casadi.Function
             Input ``t`` [s], output ``w`` (one 0 for a static curve).
         """
-        return self._hoisted_link(trig_inputs)[0]
+        return self._hoisted_link(trig_inputs, piece)[0]
 
     def link_step(self) -> ca.Function:
         """One link of the O(m) recursion: ``(carry, q_j, w) -> (carry_next, out_j)``.
@@ -379,7 +399,7 @@ class CoordinatingController:
         """
         return self._hoisted_repivot()[1]
 
-    def link_step_trig(self) -> ca.Function:
+    def link_step_trig(self, piece: bool = False) -> ca.Function:
         """:meth:`link_step` with ``cos(alpha_j)``, ``sin(alpha_j)`` and the reciprocal of the
         scaled link pivot as inputs:
         ``(carry, q_j, cos_alpha_j, sin_alpha_j, w, inv_pivot) -> (carry_next, out_j)``.
@@ -388,6 +408,13 @@ class CoordinatingController:
         vectorises, then runs this step over the links (no trigonometry inside the recursion);
         ``inv_pivot`` comes from :meth:`link_pivot`, so no division sits on the carried chain.
 
+        Parameters
+        ----------
+        piece : bool
+            On a :class:`~coordarm.symbolic.paths.Path`: one more input ``piece``, the six
+            constants of the closest piece (:func:`~coordarm.symbolic.paths.piece_parameters`),
+            instead of selecting it inside.
+
         Returns
         -------
         casadi.Function
@@ -395,17 +422,22 @@ class CoordinatingController:
             ``w`` (:meth:`time_features` with ``trig_inputs=True``), ``inv_pivot`` [1/m]; outputs
             ``carry_next`` and ``out`` as :meth:`link_step`'s.
         """
-        return self._hoisted_link(True)[1]
+        return self._hoisted_link(True, piece)[1]
 
-    def link_pivot(self) -> ca.Function:
+    def link_pivot(self, piece: bool = False) -> ca.Function:
         """``(carry, q_j, cos_alpha_j, sin_alpha_j, w) -> 1 / (xi/2 pivot_j)`` for :meth:`link_step_trig`.
+
+        Parameters
+        ----------
+        piece : bool
+            With the closest piece's constants as a last input (see :meth:`link_step_trig`).
 
         Returns
         -------
         casadi.Function
             Output ``inv_pivot`` [1/m], the reciprocal of half a link length times the link pivot.
         """
-        return self._hoisted_link(True)[2]
+        return self._hoisted_link(True, piece)[2]
 
     def first_carry(self) -> ca.Function:
         """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``).

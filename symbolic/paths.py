@@ -157,7 +157,7 @@ def closest_piece_formulas(pieces: list[Piece], p):
     evaluated with them.
     """
     g = _junction_tests(pieces, p)
-    params = [ca.DM(np.r_[pc.p0, pc.d0, pc.k, pc.s0]) for pc in pieces]
+    params = [ca.DM(piece_parameters(pc)) for pc in pieces]
     best, sel = ca.inf, params[0]
     last = len(pieces) - 1
     for i, (pc, par) in enumerate(zip(pieces, params)):
@@ -169,6 +169,41 @@ def closest_piece_formulas(pieces: list[Piece], p):
             closer = ca.logic_and(closer, tst)
         best = ca.if_else(closer, dist, best)
         sel = ca.if_else(closer, par, sel)
+    return piece_formulas(sel, p)
+
+
+def piece_parameters(piece: Piece) -> np.ndarray:
+    """The six constants ``(p0, d0, k, s0)`` of a piece that :func:`piece_formulas` takes.
+
+    Parameters
+    ----------
+    piece : Piece
+        One piece of a path.
+
+    Returns
+    -------
+    ndarray, shape (6,)
+        Start point [m], unit tangent there, curvature [1/m] (0 for a line), arc length at the start [m].
+    """
+    return np.r_[piece.p0, piece.d0, piece.k, piece.s0]
+
+
+def piece_formulas(sel, p):
+    """``(phi, psi)`` at ``p`` (path frame) by the formulas of the piece whose constants are ``sel``.
+
+    Parameters
+    ----------
+    sel : casadi.SX or casadi.DM, shape (6,)
+        The piece's :func:`piece_parameters` (selected by :func:`closest_piece_formulas`, or by
+        the generated C's own search, which finds the same piece).
+    p : casadi.SX, shape (2,)
+        A point in the path's frame [m].
+
+    Returns
+    -------
+    tuple of casadi.SX
+        Signed distance and arc length [m] (one line and one arc formula, chosen by ``k != 0``).
+    """
     p0, d0, k, s0 = sel[0:2], sel[2:4], sel[4], sel[5]
     is_arc = k != 0
     n0 = ca.vertcat(-d0[1], d0[0])
@@ -303,6 +338,42 @@ class Path(Curve):
             Signed distance and arc length [m].
         """
         return closest_piece_formulas(self.pieces, self.path_point(y, t))
+
+    def phi_psi_piece(self, y, t, sel):
+        """``(phi, psi)`` at ``y``, time ``t``, by the formulas of the piece with constants ``sel``.
+
+        Equal to :meth:`phi_psi` when ``sel`` is the closest piece's :func:`piece_parameters`
+        (the generated C finds that piece itself and passes it in).
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX
+            Time [s].
+        sel : casadi.SX, shape (6,)
+            The piece's constants.
+
+        Returns
+        -------
+        tuple of casadi.SX
+            Signed distance and arc length [m].
+        """
+        return piece_formulas(sel, self.path_point(y, t))
+
+    def frame_function(self) -> ca.Function:
+        """``t -> (A, b)``: the path frame as an affine map, ``p = A y + b`` (see :meth:`path_point`).
+
+        Returns
+        -------
+        casadi.Function
+            ``A`` as a 2 x 2 matrix (column-major in C), ``b`` [m].
+        """
+        y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
+        p = self.path_point(y, t)
+        A = ca.densify(ca.jacobian(p, y))                 # dense: the C reads four and two numbers
+        b = ca.densify(ca.substitute(p, y, ca.DM.zeros(2)))
+        return ca.Function("path_frame", [t], [A, b], ["t"], ["A", "b"])
 
     def phi(self, y, t):
         """Signed distance to the closest point of the path, + to the left.
