@@ -95,10 +95,12 @@ def functions(ctrl: CoordinatingController, form: str, path_search: bool = True)
     with a small link pivot); with damping, the whole law is one Function.
     """
     if _split(ctrl, form):
-        piece = path_search and _searched(ctrl)
-        return [ctrl.time_features(True, piece), _head(ctrl), ctrl.link_step_trig(piece), ctrl.tail(),
-                ctrl.link_pivot(piece), ctrl.time_features_repivot(), ctrl.link_step_repivot()] \
-            + ([ctrl.curve.frame_function()] if piece else [])
+        if path_search and _searched(ctrl):
+            tf, steps = ctrl.piece_steps()
+            return [tf, _head(ctrl), *steps["line"], ctrl.tail(), ctrl.time_features_repivot(),
+                    ctrl.link_step_repivot(), ctrl.curve.frame_function(), *steps["arc"]]
+        return [ctrl.time_features(True), _head(ctrl), ctrl.link_step_trig(), ctrl.tail(),
+                ctrl.link_pivot(), ctrl.time_features_repivot(), ctrl.link_step_repivot()]
     return [ctrl.law(form)]
 
 

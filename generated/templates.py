@@ -193,17 +193,22 @@ STRUCTURED_LAW = TRIG_PASSES + """
     arg[k] = ca_pp[piece]; \\
   } while (0)
 #define CA_PIECE_STEP_ARG() (arg[6] = ca_pp[piece])
+/* the step of the piece's kind: its formula only (line or arc) */
+#define CA_PIVOT() (ca_pk[piece] & 1 ? link_pivot_arc(arg, res, iw, w, 0) : link_pivot_line(arg, res, iw, w, 0))
+#define CA_STEP() (ca_pk[piece] & 1 ? link_step_arc(arg, res, iw, w, 0) : link_step_line(arg, res, iw, w, 0))
 #else
 #define CA_PIECE_ARGS(j, from, k) ((void)0)
 #define CA_PIECE_STEP_ARG() ((void)0)
+#define CA_PIVOT() link_pivot(arg, res, iw, w, 0)
+#define CA_STEP() link_step_trig(arg, res, iw, w, 0)
 #endif
 #define CA_LINK(j, from, to) do { \\
     arg[0] = from; arg[1] = q + (j); arg[2] = c + (j); arg[3] = s + (j); arg[4] = wt; \\
     CA_PIECE_ARGS(j, from, 5); \\
     res[0] = &inv; \\
-    if (link_pivot(arg, res, iw, w, 0)) return 2; \\
+    if (CA_PIVOT()) return 2; \\
     arg[5] = &inv; CA_PIECE_STEP_ARG(); res[0] = to; res[1] = o; \\
-    if (link_step_trig(arg, res, iw, w, 0)) return 2; \\
+    if (CA_STEP()) return 2; \\
     out[CA_OUT_E + (j) - 1] = o[0]; out[CA_OUT_LINK_MARGINS + (j) - 1] = o[1]; \\
     a[j] = o[2]; b[j] = o[3]; \\
     repivot |= !(o[1] >= CA_REPIVOT);  /* a small (or NaN) link pivot */ \\

@@ -198,23 +198,26 @@ class CoordinatingController:
     #: Layout of the carry of the link recursion (see :meth:`link_step`).
     CARRY = ("y1", "y2", "alpha", "cos_alpha", "sin_alpha", "P1", "P2", "Q1", "Q2", "a", "b", "sum_abs_b")
 
-    def _piece_geometry(self) -> ca.Function:
-        """``(y, t, piece) -> (phi, grad phi, dphi/dt)`` of a path by the formulas of one piece (AD)."""
-        if "piece_geometry" not in self._cache:
+    def _piece_geometry(self, kind: str) -> ca.Function:
+        """``(y, t, piece) -> (phi, grad phi, dphi/dt)`` of a path by the formulas of one piece
+        of ``kind`` (``"line"`` or ``"arc"``), by AD."""
+        key = ("piece_geometry", kind)
+        if key not in self._cache:
             y, t, sel = ca.SX.sym("y", 2), ca.SX.sym("t"), ca.SX.sym("piece", 6)
-            phi = self.curve.phi_psi_piece(y, t, sel)[0]
-            self._cache["piece_geometry"] = ca.Function(
+            phi = self.curve.phi_psi_piece(y, t, sel, kind)[0]
+            self._cache[key] = ca.Function(
                 "piece_geometry", [y, t, sel], [phi, ca.gradient(phi, y), ca.jacobian(phi, t)],
                 ["y", "t", "piece"], ["phi", "gphi", "phit"])
-        return self._cache["piece_geometry"]
+        return self._cache[key]
 
-    def _link_expressions(self, trig_inputs: bool = False, piece: bool = False):
+    def _link_expressions(self, trig_inputs: bool = False, piece: str | None = None, symbols=None):
         """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd).
 
-        With ``piece`` (a :class:`~coordarm.symbolic.paths.Path` only) the path's closest piece
-        is not selected inside: its six constants are one more input (the last), found by the
-        generated C's search (the same piece as the full selection, see
-        :mod:`coordarm.generated.path_search`).
+        With ``piece`` (``"line"`` or ``"arc"``, a :class:`~coordarm.symbolic.paths.Path` only)
+        the path's closest piece is not selected inside: it is a piece of that kind whose six
+        constants are one more input (the last), found by the generated C's search (the same
+        piece as the full selection, see :mod:`coordarm.generated.path_search`). ``symbols``
+        (the first four results of an earlier call) makes both kinds share their inputs.
 
         The carried ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}`` is the part of
         ``ydot^j`` known before ``w_j``; the only division (by the link pivot) is turned into
@@ -224,21 +227,24 @@ class CoordinatingController:
         the step has no trigonometry of its own.
         """
         xi, K = self.chain.xi, self.gain
-        carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
+        if symbols is None:
+            carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
+            cs = ca.SX.sym("cos_sin_alpha_j", 2) if trig_inputs else None
+            inv_sym, sel = ca.SX.sym("inv_pivot"), ca.SX.sym("piece", 6)
+        else:
+            carry, qj, (cs, inv_sym, sel), t = symbols
         y, alpha_prev, d_prev, P, Q = carry[0:2], carry[2], carry[3:5], carry[5:7], carry[7:9]
         nb = carry[11]
         alpha = alpha_prev + qj
-        trig = ca.SX.sym("cos_sin_alpha_j", 2) if trig_inputs else None
-        d_j = trig if trig_inputs else direction(alpha)   # the only sine/cosine pair of the link
+        d_j = cs if trig_inputs else direction(alpha)   # the only sine/cosine pair of the link
         n_j = ca.vertcat(-d_j[1], d_j[0])
         y_j = y + 0.5 * xi * (d_prev + d_j)
-        sel = ca.SX.sym("piece", 6) if piece else None
-        phi, g, phit = (self._piece_geometry()(y_j, t, sel) if piece else self._geometry(y_j, t)[:3])
+        phi, g, phit = (self._piece_geometry(piece)(y_j, t, sel) if piece else self._geometry(y_j, t)[:3])
         pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
         inv_expr = 1 / (0.5 * xi * pivot)
         # with trig inputs the reciprocal is an input too (computed by link_pivot): CasADi would
         # fold ``x * (1/y)`` back into a division on the loop-carried chain of P and Q
-        inv = ca.SX.sym("inv_pivot") if trig_inputs else inv_expr
+        inv = inv_sym if trig_inputs else inv_expr
         r, gP, gQ = -K * phi - phit, ca.dot(g, P), ca.dot(g, Q)
         a_j = (r - gP) * inv
         b_j = -gQ * inv
@@ -252,19 +258,65 @@ class CoordinatingController:
             P_next, Q_next = P + step * a_j, Q + step * b_j
         new = ca.vertcat(y_j, alpha, d_j, P_next, Q_next, a_j, b_j, nb + ca.fabs(b_j))
         out = ca.vertcat(phi, ca.fabs(pivot) / ca.norm_2(g), a_j, b_j)
+        trig = None
         if trig_inputs:
             out = ca.vertcat(out, inv_expr)
-            trig = (trig[0], trig[1], inv)
+            trig = (cs, inv, sel) if piece else (cs[0], cs[1], inv)
         both = ca.cse(ca.vertcat(new, out))          # one CSE over both, so a_j, b_j are shared
-        if piece:
-            trig = (*trig, sel)
         return carry, qj, trig, t, both[:new.numel()], both[new.numel():]
 
-    def _hoisted_link(self, trig_inputs: bool = False, piece: bool = False):
-        """The link step split into time-only terms ``w(t)`` and the per-link rest (cached)."""
-        key = ("hoisted", trig_inputs) + (("piece",) if piece else ())
+    def _hoisted_pieces(self):
+        """``(time_features, {kind: (link_step, link_pivot)})`` of a path's per-piece steps (cached).
+
+        One Function pair per kind of piece (``"line"``, ``"arc"``: only that formula, no
+        selection), with the same inputs as :meth:`link_step_trig` and :meth:`link_pivot` plus
+        the piece's constants, and one vector of time-only terms for both.
+        """
+        key = ("hoisted", True, "pieces")
         if key not in self._cache:
-            carry, qj, trig, t, new, out = self._link_expressions(trig_inputs, piece)
+            carry, qj, (cs, inv, sel), t, new_l, out_l = self._link_expressions(True, "line")
+            symbols = (carry, qj, (cs, inv, sel), t)
+            new_a, out_a = self._link_expressions(True, "arc", symbols)[4:]
+            sizes = [e.numel() for e in (new_l, out_l, new_a, out_a)]
+            expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new_l, out_l, new_a, out_a), t)
+            wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 1)
+            wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX.zeros(1, 1)
+            cuts = np.cumsum([0] + sizes)
+            parts = [expr[a:b] for a, b in zip(cuts[:-1], cuts[1:])]
+            tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
+            c, s = cs[0], cs[1]
+            names = ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w"]
+            steps = {}
+            for kind, (new, out) in zip(("line", "arc"), (parts[:2], parts[2:])):
+                n_out = out.numel() - 1
+                step = ca.Function(f"link_step_{kind}", [carry, qj, c, s, wsym, inv, sel], [new, out[:n_out]],
+                                   names + ["inv_pivot", "piece"], ["carry_next", "out"])
+                pivot = ca.Function(f"link_pivot_{kind}", [carry, qj, c, s, wsym, sel], [out[n_out]],
+                                    names + ["piece"], ["inv_pivot"])
+                steps[kind] = (step, pivot)
+            self._cache[key] = (tf, steps)
+        return self._cache[key]
+
+    def piece_steps(self) -> tuple[ca.Function, dict]:
+        """The path's per-piece link steps for the generated C (a :class:`~coordarm.symbolic.paths.Path` only).
+
+        Returns
+        -------
+        time_features : casadi.Function
+            ``t -> w``, the time-only terms of both kinds.
+        steps : dict
+            ``{"line": (link_step_line, link_pivot_line), "arc": (...)}``: :meth:`link_step_trig`
+            and :meth:`link_pivot` with one more (last) input, ``piece``, the six constants
+            (:func:`~coordarm.symbolic.paths.piece_parameters`) of the closest piece, which is of
+            that kind.
+        """
+        return self._hoisted_pieces()
+
+    def _hoisted_link(self, trig_inputs: bool = False):
+        """The link step split into time-only terms ``w(t)`` and the per-link rest (cached)."""
+        key = ("hoisted", trig_inputs)
+        if key not in self._cache:
+            carry, qj, trig, t, new, out = self._link_expressions(trig_inputs)
             expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new, out), t)
             # A static curve has no time-only terms: w is then one unused 0 rather than empty
             # (an empty input makes CasADi emit a copy to a null pointer in mapped code).
@@ -273,14 +325,14 @@ class CoordinatingController:
             n_new = new.numel()
             tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
             if trig_inputs:
-                c, s, inv, *sel = trig
+                c, s, inv = trig
                 n_out = expr.numel() - 1
-                names = ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w"]
-                pivot = ca.Function("link_pivot", [carry, qj, c, s, wsym, *sel], [expr[n_out]],
-                                    names + ["piece"] * len(sel), ["inv_pivot"])
-                step = ca.Function("link_step_trig", [carry, qj, c, s, wsym, inv, *sel],
+                pivot = ca.Function("link_pivot", [carry, qj, c, s, wsym], [expr[n_out]],
+                                    ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w"], ["inv_pivot"])
+                step = ca.Function("link_step_trig", [carry, qj, c, s, wsym, inv],
                                    [expr[:n_new], expr[n_new:n_out]],
-                                   names + ["inv_pivot"] + ["piece"] * len(sel), ["carry_next", "out"])
+                                   ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w", "inv_pivot"],
+                                   ["carry_next", "out"])
                 self._cache[key] = (tf, step, pivot)
                 return self._cache[key]
             else:
@@ -348,7 +400,7 @@ class CoordinatingController:
         """
         return self._hoisted_repivot()[0]
 
-    def time_features(self, trig_inputs: bool = False, piece: bool = False) -> ca.Function:
+    def time_features(self, trig_inputs: bool = False) -> ca.Function:
         """``t -> w``: the terms of :meth:`link_step` (:meth:`link_step_trig` if ``trig_inputs``)
         that depend on time only, computed once per ``t``.
 
@@ -356,15 +408,13 @@ class CoordinatingController:
         ----------
         trig_inputs : bool
             The terms of :meth:`link_step_trig` (the generated C's step) instead.
-        piece : bool
-            The terms of the path's per-piece step (``link_step_trig(piece=True)``).
 
         Returns
         -------
         casadi.Function
             Input ``t`` [s], output ``w`` (one 0 for a static curve).
         """
-        return self._hoisted_link(trig_inputs, piece)[0]
+        return self._hoisted_link(trig_inputs)[0]
 
     def link_step(self) -> ca.Function:
         """One link of the O(m) recursion: ``(carry, q_j, w) -> (carry_next, out_j)``.
@@ -399,7 +449,7 @@ class CoordinatingController:
         """
         return self._hoisted_repivot()[1]
 
-    def link_step_trig(self, piece: bool = False) -> ca.Function:
+    def link_step_trig(self) -> ca.Function:
         """:meth:`link_step` with ``cos(alpha_j)``, ``sin(alpha_j)`` and the reciprocal of the
         scaled link pivot as inputs:
         ``(carry, q_j, cos_alpha_j, sin_alpha_j, w, inv_pivot) -> (carry_next, out_j)``.
@@ -408,13 +458,6 @@ class CoordinatingController:
         vectorises, then runs this step over the links (no trigonometry inside the recursion);
         ``inv_pivot`` comes from :meth:`link_pivot`, so no division sits on the carried chain.
 
-        Parameters
-        ----------
-        piece : bool
-            On a :class:`~coordarm.symbolic.paths.Path`: one more input ``piece``, the six
-            constants of the closest piece (:func:`~coordarm.symbolic.paths.piece_parameters`),
-            instead of selecting it inside.
-
         Returns
         -------
         casadi.Function
@@ -422,22 +465,17 @@ class CoordinatingController:
             ``w`` (:meth:`time_features` with ``trig_inputs=True``), ``inv_pivot`` [1/m]; outputs
             ``carry_next`` and ``out`` as :meth:`link_step`'s.
         """
-        return self._hoisted_link(True, piece)[1]
+        return self._hoisted_link(True)[1]
 
-    def link_pivot(self, piece: bool = False) -> ca.Function:
+    def link_pivot(self) -> ca.Function:
         """``(carry, q_j, cos_alpha_j, sin_alpha_j, w) -> 1 / (xi/2 pivot_j)`` for :meth:`link_step_trig`.
-
-        Parameters
-        ----------
-        piece : bool
-            With the closest piece's constants as a last input (see :meth:`link_step_trig`).
 
         Returns
         -------
         casadi.Function
             Output ``inv_pivot`` [1/m], the reciprocal of half a link length times the link pivot.
         """
-        return self._hoisted_link(True, piece)[2]
+        return self._hoisted_link(True)[2]
 
     def first_carry(self) -> ca.Function:
         """``q_1 -> carry`` of link 1 (centre at the base, ``w_1 = p``).

@@ -188,7 +188,7 @@ def piece_parameters(piece: Piece) -> np.ndarray:
     return np.r_[piece.p0, piece.d0, piece.k, piece.s0]
 
 
-def piece_formulas(sel, p):
+def piece_formulas(sel, p, kind: str | None = None):
     """``(phi, psi)`` at ``p`` (path frame) by the formulas of the piece whose constants are ``sel``.
 
     Parameters
@@ -198,11 +198,14 @@ def piece_formulas(sel, p):
         the generated C's own search, which finds the same piece).
     p : casadi.SX, shape (2,)
         A point in the path's frame [m].
+    kind : {None, "line", "arc"}
+        None: one line and one arc formula, chosen by ``k != 0``; ``"line"`` or ``"arc"``: that
+        formula only (for a piece known to be of that kind; the same operations).
 
     Returns
     -------
     tuple of casadi.SX
-        Signed distance and arc length [m] (one line and one arc formula, chosen by ``k != 0``).
+        Signed distance and arc length [m].
     """
     p0, d0, k, s0 = sel[0:2], sel[2:4], sel[4], sel[5]
     is_arc = k != 0
@@ -210,8 +213,10 @@ def piece_formulas(sel, p):
     v = p - p0
     # line: tau along d0, phi along n0
     phi_line, psi_line = ca.dot(n0, v), s0 + ca.dot(d0, v)
+    if kind == "line":
+        return phi_line, psi_line
     # arc: centre p0 + n0 / k; phi = 1/k - sign(k) rho; psi = s0 + R a
-    kk = ca.if_else(is_arc, k, 1.0)                          # keep the arc formula finite on lines
+    kk = k if kind == "arc" else ca.if_else(is_arc, k, 1.0)  # keep the arc formula finite on lines
     sg = ca.sign(kk)
     c = p0 + n0 / kk
     r = p - c
@@ -219,6 +224,8 @@ def piece_formulas(sel, p):
     a = sg * ca.atan2(u0[0] * r[1] - u0[1] * r[0], ca.dot(u0, r))
     phi_arc = 1 / kk - sg * ca.norm_2(r)
     psi_arc = s0 + a / (sg * kk)
+    if kind == "arc":
+        return phi_arc, psi_arc
     return ca.if_else(is_arc, phi_arc, phi_line), ca.if_else(is_arc, psi_arc, psi_line)
 
 
@@ -339,7 +346,7 @@ class Path(Curve):
         """
         return closest_piece_formulas(self.pieces, self.path_point(y, t))
 
-    def phi_psi_piece(self, y, t, sel):
+    def phi_psi_piece(self, y, t, sel, kind: str | None = None):
         """``(phi, psi)`` at ``y``, time ``t``, by the formulas of the piece with constants ``sel``.
 
         Equal to :meth:`phi_psi` when ``sel`` is the closest piece's :func:`piece_parameters`
@@ -353,13 +360,15 @@ class Path(Curve):
             Time [s].
         sel : casadi.SX, shape (6,)
             The piece's constants.
+        kind : {None, "line", "arc"}
+            The piece's kind, when known (see :func:`piece_formulas`).
 
         Returns
         -------
         tuple of casadi.SX
             Signed distance and arc length [m].
         """
-        return piece_formulas(sel, self.path_point(y, t))
+        return piece_formulas(sel, self.path_point(y, t), kind)
 
     def frame_function(self) -> ca.Function:
         """``t -> (A, b)``: the path frame as an affine map, ``p = A y + b`` (see :meth:`path_point`).
