@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from coordarm.symbolic.paths import Path, Piece, piece_parameters
+from coordarm.symbolic.paths import PIECE_CONSTANTS, Path, Piece, piece_parameters
 
 #: Relative slack on the lower bounds (rounding of the tables and of ``|phi|`` in the search).
 SLACK = 1e-9
@@ -76,7 +76,7 @@ def search_tables(path: Path) -> dict:
     Returns
     -------
     dict
-        ``params`` (n, 6) piece constants, ``junction`` (n, 3) ``(d0, d0 . p0)``, ``formula`` (n, 5)
+        ``params`` (n, PIECE_CONSTANTS) piece constants (with the derived ones), ``junction`` (n, 3) ``(d0, d0 . p0)``, ``formula`` (n, 5)
         (line: ``n0, n0 . p0``; arc: centre, radius, towards the middle), ``flags`` (n,) (1: arc,
         2: no start test, 4: no end test), ``start`` (n + 1,), ``others`` and ``bounds``: piece
         ``i``'s list of the other pieces and their lower bounds, ascending, at
@@ -84,7 +84,7 @@ def search_tables(path: Path) -> dict:
     """
     pieces = path.pieces
     n = len(pieces)
-    params = np.array([piece_parameters(pc) for pc in pieces])
+    params = np.array([piece_parameters(pc, derived=True) for pc in pieces])
     junction = np.array([[pc.d0[0], pc.d0[1], float(pc.d0 @ pc.p0)] for pc in pieces])
     formula, flags = np.zeros((n, 5)), np.zeros(n, dtype=int)
     for i, pc in enumerate(pieces):
@@ -136,7 +136,7 @@ def search_source(path: Path) -> str:
     tb = search_tables(path)
     n = len(tb["flags"])
     return (f"#define CA_PATH 1\n#define CA_NP {n}\n#define CA_PATH_EPS {tb['eps']!r}\n"
-            f"static const casadi_real ca_pp[CA_NP][6] = {{{_rows(tb['params'])}}};\n"
+            f"static const casadi_real ca_pp[CA_NP][{PIECE_CONSTANTS}] = {{{_rows(tb['params'])}}};\n"
             f"static const casadi_real ca_pj[CA_NP][3] = {{{_rows(tb['junction'])}}};\n"
             f"static const casadi_real ca_pf[CA_NP][5] = {{{_rows(tb['formula'])}}};\n"
             f"static const int ca_pk[CA_NP] = {{{_values(tb['flags'], int)}}};\n"

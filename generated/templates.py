@@ -172,6 +172,25 @@ static casadi_int ca_closest_piece(const casadi_real* p, casadi_int guess) {
   }
   return best;
 }
+
+/* The closest piece pc[j] of every central point y^j (j = 0..m-1, 0-based), before the recursion
+   and apart from it: the centres are summed from y^1 (the head's) like the link steps do, each
+   search starting from the previous link's piece. */
+static void ca_pieces(const casadi_real* head, const casadi_real* c, const casadi_real* s,
+                      const casadi_real* fr, casadi_int* pc) {
+  casadi_real y0 = head[0], y1 = head[1], pp[2];
+  casadi_int j, k;
+  pp[0] = fr[0] * y0 + fr[2] * y1 + fr[4];
+  pp[1] = fr[1] * y0 + fr[3] * y1 + fr[5];
+  k = pc[0] = ca_closest_piece(pp, 0);
+  for (j = 1; j < CA_M; ++j) {
+    y0 = y0 + CA_PATH_HALF_XI * (c[j - 1] + c[j]);
+    y1 = y1 + CA_PATH_HALF_XI * (s[j - 1] + s[j]);
+    pp[0] = fr[0] * y0 + fr[2] * y1 + fr[4];
+    pp[1] = fr[1] * y0 + fr[3] * y1 + fr[5];
+    k = pc[j] = ca_closest_piece(pp, k);
+  }
+}
 """
 
 #: The structured law: :data:`TRIG_PASSES`, then the O(m) recursion calling the generated
@@ -182,16 +201,9 @@ STRUCTURED_LAW = TRIG_PASSES + """
 #define CA_LAW_SCRATCH (5 * CA_M)
 
 /* One link j: carry `from` -> carry `to`; writes e^j, the link margin and a_j, b_j. On a path
-   (CA_PATH) the closest piece of y^j is searched first, from the previous link's (PATH_SEARCH). */
+   (CA_PATH) the step of the kind of y^j's closest piece pc[j] (found by ca_pieces) gets its constants. */
 #ifdef CA_PATH
-#define CA_PIECE_ARGS(j, from, k) do { \\
-    casadi_real yj0 = from[0] + CA_PATH_HALF_XI * (from[3] + c[j]); \\
-    casadi_real yj1 = from[1] + CA_PATH_HALF_XI * (from[4] + s[j]); \\
-    casadi_real pp[2]; \\
-    pp[0] = fr[0] * yj0 + fr[2] * yj1 + fr[4]; pp[1] = fr[1] * yj0 + fr[3] * yj1 + fr[5]; \\
-    piece = ca_closest_piece(pp, piece); \\
-    arg[k] = ca_pp[piece]; \\
-  } while (0)
+#define CA_PIECE_ARGS(j, from, k) (piece = pc[j], arg[k] = ca_pp[piece])
 #define CA_PIECE_STEP_ARG() (arg[6] = ca_pp[piece])
 /* the step of the piece's kind: its formula only (line or arc) */
 #define CA_PIVOT() (ca_pk[piece] & 1 ? link_pivot_arc(arg, res, iw, w, 0) : link_pivot_line(arg, res, iw, w, 0))
@@ -251,7 +263,7 @@ static int ca_head(const casadi_real* q, casadi_real t, const casadi_real* c, co
 /* The recursion over links 2..m (returns 1 if a link pivot is small: see ca_law_repivot); the carry is copied back (not pointer-swapped) and the step has
    a single call site and is inlined (flatten), so the compiler keeps the carry in registers. */
 CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, const casadi_real* s,
-                        const casadi_real* wt, const casadi_real* fr, casadi_real* carry, casadi_real* out,
+                        const casadi_real* wt, const casadi_int* pc, casadi_real* carry, casadi_real* out,
                         casadi_real* a, casadi_real* b, casadi_int* iw, casadi_real* w) {
   casadi_real c0[CA_NC], c1[CA_NC], o[4], inv;
   const casadi_real* arg[CA_SZ_ARG];
@@ -259,9 +271,9 @@ CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, c
   casadi_int j, k;
   int repivot = 0;
 #ifdef CA_PATH
-  casadi_int piece = 0;                /* the previous link's closest piece: where the next search starts */
+  casadi_int piece;
 #else
-  (void)fr;
+  (void)pc;
 #endif
   a[0] = 0; b[0] = 1;
   for (k = 0; k < CA_NC; ++k) c0[k] = carry[k];
@@ -324,7 +336,7 @@ static __attribute__((noinline, cold)) int ca_law_repivot(const casadi_real* q, 
 /* The law at (q, t); on a rail q = (d, q_1..q_m) and u = (d_dot, u_1..u_m). */
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
                   casadi_real* w) {
-  casadi_real wt[CA_NW + 1], head[CA_NC], carry[CA_NC], tl[5], psi1, fr[6] = {0, 0, 0, 0, 0, 0};
+  casadi_real wt[CA_NW + 1], head[CA_NC], carry[CA_NC], tl[5], psi1;
   casadi_real *alpha = w + CA_SZ_W + CA_RK4_SCRATCH, *c = alpha + CA_M, *s = c + CA_M;
   casadi_real *a = s + CA_M, *b = a + CA_M;
   casadi_real p, rate, prev;
@@ -337,20 +349,32 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   arg[0] = &t; res[0] = wt;
   if (time_features(arg, res, iw, w, 0)) return 2;
 #ifdef CA_PATH
+  casadi_real fr[6];
+  casadi_int pc[CA_M];
   res[0] = fr; res[1] = fr + 4;        /* the path's frame at t: p = A y + b */
   if (path_frame(arg, res, iw, w, 0)) return 2;
+#else
+  casadi_int* pc = 0;
 #endif
   ca_angles(qr, alpha);
   ca_trig(alpha, c, s);
   if (ca_head(q, t, c, s, head, u, out, &psi1, iw, w)) return 2;
   for (j = 0; j < CA_NC; ++j) carry[j] = head[j];
-  if ((rc = ca_recursion(qr, c, s, wt, fr, carry, out, a, b, iw, w))) {
+#ifdef CA_PATH
+  ca_pieces(head, c, s, fr, pc);
+#endif
+  if ((rc = ca_recursion(qr, c, s, wt, pc, carry, out, a, b, iw, w))) {
     if (rc == 2) return 2;
     return ca_law_repivot(qr, t, head, psi1, ur, out, iw, w);
   }
   arg[0] = carry; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
   res[4] = tl + 4;
+#ifdef CA_PATH
+  arg[2] = ca_pp[pc[CA_M - 1]];        /* the tail by the formulas of y^m's piece */
+  if (ca_pk[pc[CA_M - 1]] & 1 ? tail_arc(arg, res, iw, w, 0) : tail_line(arg, res, iw, w, 0)) return 2;
+#else
   if (tail(arg, res, iw, w, 0)) return 2;
+#endif
   out[CA_OUT_S] = tl[0];
   out[CA_OUT_LONGITUDINAL] = tl[2];
   out[CA_OUT_LONGITUDINAL_PIVOT] = tl[3];

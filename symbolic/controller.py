@@ -28,7 +28,7 @@ from .curves import Arc, Circle, Curve, Line, _param, evaluate
 from .errors import ConfigError
 from .laws import LAWS
 from .outputs import OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS
-from .paths import Path
+from .paths import PIECE_CONSTANTS, Path
 from .near_singular import damping_factor, speed_scale
 
 #: Below this ``|cos|`` between a link's normal and the curve normal the recursion re-pivots that
@@ -199,15 +199,16 @@ class CoordinatingController:
     CARRY = ("y1", "y2", "alpha", "cos_alpha", "sin_alpha", "P1", "P2", "Q1", "Q2", "a", "b", "sum_abs_b")
 
     def _piece_geometry(self, kind: str) -> ca.Function:
-        """``(y, t, piece) -> (phi, grad phi, dphi/dt)`` of a path by the formulas of one piece
-        of ``kind`` (``"line"`` or ``"arc"``), by AD."""
+        """``(y, t, piece) -> (phi, grad phi, dphi/dt, psi, grad psi, dpsi/dt)`` of a path by the
+        formulas of one piece of ``kind`` (``"line"`` or ``"arc"``), by AD."""
         key = ("piece_geometry", kind)
         if key not in self._cache:
-            y, t, sel = ca.SX.sym("y", 2), ca.SX.sym("t"), ca.SX.sym("piece", 6)
-            phi = self.curve.phi_psi_piece(y, t, sel, kind)[0]
+            y, t, sel = ca.SX.sym("y", 2), ca.SX.sym("t"), ca.SX.sym("piece", PIECE_CONSTANTS)
+            phi, psi = self.curve.phi_psi_piece(y, t, sel, kind)
             self._cache[key] = ca.Function(
-                "piece_geometry", [y, t, sel], [phi, ca.gradient(phi, y), ca.jacobian(phi, t)],
-                ["y", "t", "piece"], ["phi", "gphi", "phit"])
+                "piece_geometry", [y, t, sel], [phi, ca.gradient(phi, y), ca.jacobian(phi, t),
+                                                psi, ca.gradient(psi, y), ca.jacobian(psi, t)],
+                ["y", "t", "piece"], ["phi", "gphi", "phit", "psi", "gpsi", "psit"])
         return self._cache[key]
 
     def _link_expressions(self, trig_inputs: bool = False, piece: str | None = None, symbols=None):
@@ -230,7 +231,7 @@ class CoordinatingController:
         if symbols is None:
             carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
             cs = ca.SX.sym("cos_sin_alpha_j", 2) if trig_inputs else None
-            inv_sym, sel = ca.SX.sym("inv_pivot"), ca.SX.sym("piece", 6)
+            inv_sym, sel = ca.SX.sym("inv_pivot"), ca.SX.sym("piece", PIECE_CONSTANTS)
         else:
             carry, qj, (cs, inv_sym, sel), t = symbols
         y, alpha_prev, d_prev, P, Q = carry[0:2], carry[2], carry[3:5], carry[5:7], carry[7:9]
@@ -239,7 +240,7 @@ class CoordinatingController:
         d_j = cs if trig_inputs else direction(alpha)   # the only sine/cosine pair of the link
         n_j = ca.vertcat(-d_j[1], d_j[0])
         y_j = y + 0.5 * xi * (d_prev + d_j)
-        phi, g, phit = (self._piece_geometry(piece)(y_j, t, sel) if piece else self._geometry(y_j, t)[:3])
+        phi, g, phit = (self._piece_geometry(piece)(y_j, t, sel) if piece else self._geometry(y_j, t))[:3]
         pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
         inv_expr = 1 / (0.5 * xi * pivot)
         # with trig inputs the reciprocal is an input too (computed by link_pivot): CasADi would
@@ -306,9 +307,9 @@ class CoordinatingController:
             ``t -> w``, the time-only terms of both kinds.
         steps : dict
             ``{"line": (link_step_line, link_pivot_line), "arc": (...)}``: :meth:`link_step_trig`
-            and :meth:`link_pivot` with one more (last) input, ``piece``, the six constants
-            (:func:`~coordarm.symbolic.paths.piece_parameters`) of the closest piece, which is of
-            that kind.
+            and :meth:`link_pivot` with one more (last) input, ``piece``, the ten constants
+            (:func:`~coordarm.symbolic.paths.piece_parameters` with ``derived=True``) of the
+            closest piece, which is of that kind.
         """
         return self._hoisted_pieces()
 
@@ -573,15 +574,40 @@ class CoordinatingController:
         casadi.Function
             ``(carry, t) -> (s, p, longitudinal, longitudinal_pivot, v_scale)``.
         """
+        return self._tail()
+
+    def tail_piece(self, kind: str) -> ca.Function:
+        """:meth:`tail` by the formulas of one piece of a path, ``kind`` ``"line"`` or ``"arc"``:
+        ``(carry_m, t, piece) -> (s, p, longitudinal, longitudinal_pivot, v_scale)``, ``piece`` the
+        ten constants (:func:`~coordarm.symbolic.paths.piece_parameters`, ``derived=True``) of the
+        closest piece to ``y^m``, which the generated C searches (a :class:`~coordarm.symbolic.paths.Path` only).
+
+        Parameters
+        ----------
+        kind : {"line", "arc"}
+            The kind of the piece.
+
+        Returns
+        -------
+        casadi.Function
+        """
+        return self.memo(("tail", kind), lambda: self._tail(kind))
+
+    def _tail(self, kind: str | None = None) -> ca.Function:
+        """:meth:`tail` (``kind`` None) or :meth:`tail_piece`."""
         carry, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("t")
+        sel = ca.SX.sym("piece", PIECE_CONSTANTS)
         y_m, n_m, nb = carry[0:2], ca.vertcat(-carry[4], carry[3]), carry[11]
         half = 0.5 * self.chain.xi * n_m
         A_m, B_m = carry[5:7] - half * carry[9], carry[7:9] - half * carry[10]   # ydot^m = A_m + B_m p
-        _, _, _, psi, h, psit = self._geometry(y_m, t)
+        _, _, _, psi, h, psit = self._piece_geometry(kind)(y_m, t, sel) if kind else self._geometry(y_m, t)
         pivot = ca.dot(h, B_m)
         margin = ca.fabs(pivot) / (self.chain.xi * nb)
         scale = speed_scale(margin, self.governor_threshold) if self.governor else ca.SX(1)
         p = (scale * self.speed(t) - psit - ca.dot(h, A_m)) / pivot
+        if kind:
+            return ca.Function(f"tail_{kind}", [carry, t, sel], [psi, p, margin, pivot, scale], ["carry", "t", "piece"],
+                               ["s", "p", "longitudinal", "longitudinal_pivot", "v_scale"])
         return ca.Function("tail", [carry, t], [psi, p, margin, pivot, scale], ["carry", "t"],
                            ["s", "p", "longitudinal", "longitudinal_pivot", "v_scale"])
 

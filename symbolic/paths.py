@@ -32,6 +32,9 @@ from .curves import Curve, _param, _point, evaluate
 from .errors import ConfigError
 from .motions import motion_to_spec
 
+#: Length of a piece's constants with the derived ones (:func:`piece_parameters`), as the
+#: generated per-piece link steps take them.
+PIECE_CONSTANTS = 10
 #: Arcs turning more than this are split into equal pieces, so each piece's angle
 #: measured with ``atan2`` from its start stays away from the branch cut.
 MAX_PIECE = 2.0 * math.pi / 3.0
@@ -172,20 +175,31 @@ def closest_piece_formulas(pieces: list[Piece], p):
     return piece_formulas(sel, p)
 
 
-def piece_parameters(piece: Piece) -> np.ndarray:
+def piece_parameters(piece: Piece, derived: bool = False) -> np.ndarray:
     """The six constants ``(p0, d0, k, s0)`` of a piece that :func:`piece_formulas` takes.
 
     Parameters
     ----------
     piece : Piece
         One piece of a path.
+    derived : bool
+        Append four constants that the arc formula would compute from those six, computed here
+        by the same floating-point operations: the centre ``p0 + n0 / k``, ``1 / k`` and
+        ``sign(k)`` (zeros for a line).
 
     Returns
     -------
-    ndarray, shape (6,)
-        Start point [m], unit tangent there, curvature [1/m] (0 for a line), arc length at the start [m].
+    ndarray, shape (6,) or (10,)
+        Start point [m], unit tangent there, curvature [1/m] (0 for a line), arc length at the
+        start [m]; with ``derived``, then centre [m], ``1 / k`` [m] and the turning sign.
     """
-    return np.r_[piece.p0, piece.d0, piece.k, piece.s0]
+    base = np.r_[piece.p0, piece.d0, piece.k, piece.s0]
+    if not derived:
+        return base
+    if piece.k == 0:
+        return np.r_[base, 0.0, 0.0, 0.0, 0.0]
+    n0 = np.array([-piece.d0[1], piece.d0[0]])
+    return np.r_[base, piece.p0 + n0 / piece.k, 1.0 / piece.k, math.copysign(1.0, piece.k)]
 
 
 def piece_formulas(sel, p, kind: str | None = None):
@@ -193,9 +207,10 @@ def piece_formulas(sel, p, kind: str | None = None):
 
     Parameters
     ----------
-    sel : casadi.SX or casadi.DM, shape (6,)
+    sel : casadi.SX or casadi.DM, shape (6,) or (10,)
         The piece's :func:`piece_parameters` (selected by :func:`closest_piece_formulas`, or by
-        the generated C's own search, which finds the same piece).
+        the generated C's own search, which finds the same piece); with its ``derived`` constants
+        the arc formula takes them instead of computing them (the same values).
     p : casadi.SX, shape (2,)
         A point in the path's frame [m].
     kind : {None, "line", "arc"}
@@ -217,12 +232,14 @@ def piece_formulas(sel, p, kind: str | None = None):
         return phi_line, psi_line
     # arc: centre p0 + n0 / k; phi = 1/k - sign(k) rho; psi = s0 + R a
     kk = k if kind == "arc" else ca.if_else(is_arc, k, 1.0)  # keep the arc formula finite on lines
-    sg = ca.sign(kk)
-    c = p0 + n0 / kk
+    if kind == "arc" and sel.numel() == 10:
+        c, inv_k, sg = sel[6:8], sel[8], sel[9]
+    else:
+        sg, c, inv_k = ca.sign(kk), p0 + n0 / kk, 1 / kk
     r = p - c
     u0 = -sg * n0                                            # radial unit vector at p0
     a = sg * ca.atan2(u0[0] * r[1] - u0[1] * r[0], ca.dot(u0, r))
-    phi_arc = 1 / kk - sg * ca.norm_2(r)
+    phi_arc = inv_k - sg * ca.norm_2(r)
     psi_arc = s0 + a / (sg * kk)
     if kind == "arc":
         return phi_arc, psi_arc
@@ -358,8 +375,8 @@ class Path(Curve):
             A point [m].
         t : casadi.SX
             Time [s].
-        sel : casadi.SX, shape (6,)
-            The piece's constants.
+        sel : casadi.SX, shape (6,) or (10,)
+            The piece's constants (see :func:`piece_parameters`).
         kind : {None, "line", "arc"}
             The piece's kind, when known (see :func:`piece_formulas`).
 
