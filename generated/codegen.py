@@ -96,9 +96,9 @@ def functions(ctrl: CoordinatingController, form: str, path_search: bool = True)
     """
     if _split(ctrl, form):
         if path_search and _searched(ctrl):
-            tf, steps = ctrl.piece_steps()
-            return [tf, _head(ctrl), *steps["line"], ctrl.tail(), ctrl.time_features_repivot(),
-                    ctrl.link_step_repivot(), ctrl.curve.frame_function(), *steps["arc"],
+            tf, geometry, step = ctrl.piece_steps()
+            return [tf, _head(ctrl), step, ctrl.tail(), geometry["line"], ctrl.time_features_repivot(),
+                    ctrl.link_step_repivot(), ctrl.curve.frame_function(), geometry["arc"],
                     ctrl.tail_piece("line"), ctrl.tail_piece("arc")]
         return [ctrl.time_features(True), _head(ctrl), ctrl.link_step_trig(), ctrl.tail(),
                 ctrl.link_pivot(), ctrl.time_features_repivot(), ctrl.link_step_repivot()]

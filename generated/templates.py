@@ -201,26 +201,28 @@ STRUCTURED_LAW = TRIG_PASSES + """
 #define CA_LAW_SCRATCH (5 * CA_M)
 
 /* One link j: carry `from` -> carry `to`; writes e^j, the link margin and a_j, b_j. On a path
-   (CA_PATH) the step of the kind of y^j's closest piece pc[j] (found by ca_pieces) gets its constants. */
+   (CA_PATH) the geometry of y^j comes first, by the formulas of the kind of its closest piece pc[j]
+   (found by ca_pieces; line or arc), then the step common to both kinds. */
 #ifdef CA_PATH
-#define CA_PIECE_ARGS(j, from, k) (piece = pc[j], arg[k] = ca_pp[piece])
-#define CA_PIECE_STEP_ARG() (arg[6] = ca_pp[piece])
-/* the step of the piece's kind: its formula only (line or arc) */
-#define CA_PIVOT() (ca_pk[piece] & 1 ? link_pivot_arc(arg, res, iw, w, 0) : link_pivot_line(arg, res, iw, w, 0))
-#define CA_STEP() (ca_pk[piece] & 1 ? link_step_arc(arg, res, iw, w, 0) : link_step_line(arg, res, iw, w, 0))
+#define CA_LINK_CALLS(j, from, to) do { \\
+    arg[0] = from; arg[1] = q + (j); arg[2] = c + (j); arg[3] = s + (j); arg[4] = wt; \\
+    arg[5] = ca_pp[pc[j]]; res[0] = geo; \\
+    if (ca_pk[pc[j]] & 1 ? link_geometry_arc(arg, res, iw, w, 0) : link_geometry_line(arg, res, iw, w, 0)) \\
+      return 2; \\
+    arg[4] = geo; res[0] = to; res[1] = o; \\
+    if (link_step_piece(arg, res, iw, w, 0)) return 2; \\
+  } while (0)
 #else
-#define CA_PIECE_ARGS(j, from, k) ((void)0)
-#define CA_PIECE_STEP_ARG() ((void)0)
-#define CA_PIVOT() link_pivot(arg, res, iw, w, 0)
-#define CA_STEP() link_step_trig(arg, res, iw, w, 0)
+#define CA_LINK_CALLS(j, from, to) do { \\
+    arg[0] = from; arg[1] = q + (j); arg[2] = c + (j); arg[3] = s + (j); arg[4] = wt; \\
+    res[0] = &inv; \\
+    if (link_pivot(arg, res, iw, w, 0)) return 2; \\
+    arg[5] = &inv; res[0] = to; res[1] = o; \\
+    if (link_step_trig(arg, res, iw, w, 0)) return 2; \\
+  } while (0)
 #endif
 #define CA_LINK(j, from, to) do { \\
-    arg[0] = from; arg[1] = q + (j); arg[2] = c + (j); arg[3] = s + (j); arg[4] = wt; \\
-    CA_PIECE_ARGS(j, from, 5); \\
-    res[0] = &inv; \\
-    if (CA_PIVOT()) return 2; \\
-    arg[5] = &inv; CA_PIECE_STEP_ARG(); res[0] = to; res[1] = o; \\
-    if (CA_STEP()) return 2; \\
+    CA_LINK_CALLS(j, from, to); \\
     out[CA_OUT_E + (j) - 1] = o[0]; out[CA_OUT_LINK_MARGINS + (j) - 1] = o[1]; \\
     a[j] = o[2]; b[j] = o[3]; \\
     repivot |= !(o[1] >= CA_REPIVOT);  /* a small (or NaN) link pivot */ \\
@@ -271,7 +273,8 @@ CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, c
   casadi_int j, k;
   int repivot = 0;
 #ifdef CA_PATH
-  casadi_int piece;
+  casadi_real geo[6];                  /* 1/(xi/2 pivot), phi, link margin, grad phi, -K phi - dphi/dt */
+  (void)inv;
 #else
   (void)pc;
 #endif

@@ -211,14 +211,8 @@ class CoordinatingController:
                 ["y", "t", "piece"], ["phi", "gphi", "phit", "psi", "gpsi", "psit"])
         return self._cache[key]
 
-    def _link_expressions(self, trig_inputs: bool = False, piece: str | None = None, symbols=None):
+    def _link_expressions(self, trig_inputs: bool = False):
         """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd).
-
-        With ``piece`` (``"line"`` or ``"arc"``, a :class:`~coordarm.symbolic.paths.Path` only)
-        the path's closest piece is not selected inside: it is a piece of that kind whose six
-        constants are one more input (the last), found by the generated C's search (the same
-        piece as the full selection, see :mod:`coordarm.generated.path_search`). ``symbols``
-        (the first four results of an earlier call) makes both kinds share their inputs.
 
         The carried ``P + Q p = ydot^{j-1} + xi/2 n(alpha_{j-1}) w_{j-1}`` is the part of
         ``ydot^j`` known before ``w_j``; the only division (by the link pivot) is turned into
@@ -228,24 +222,20 @@ class CoordinatingController:
         the step has no trigonometry of its own.
         """
         xi, K = self.chain.xi, self.gain
-        if symbols is None:
-            carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
-            cs = ca.SX.sym("cos_sin_alpha_j", 2) if trig_inputs else None
-            inv_sym, sel = ca.SX.sym("inv_pivot"), ca.SX.sym("piece", PIECE_CONSTANTS)
-        else:
-            carry, qj, (cs, inv_sym, sel), t = symbols
+        carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
         y, alpha_prev, d_prev, P, Q = carry[0:2], carry[2], carry[3:5], carry[5:7], carry[7:9]
         nb = carry[11]
         alpha = alpha_prev + qj
-        d_j = cs if trig_inputs else direction(alpha)   # the only sine/cosine pair of the link
+        trig = ca.SX.sym("cos_sin_alpha_j", 2) if trig_inputs else None
+        d_j = trig if trig_inputs else direction(alpha)   # the only sine/cosine pair of the link
         n_j = ca.vertcat(-d_j[1], d_j[0])
         y_j = y + 0.5 * xi * (d_prev + d_j)
-        phi, g, phit = (self._piece_geometry(piece)(y_j, t, sel) if piece else self._geometry(y_j, t))[:3]
+        phi, g, phit, *_ = self._geometry(y_j, t)
         pivot = ca.dot(g, n_j)                       # the link pivot (eq. 26 row, divided out)
         inv_expr = 1 / (0.5 * xi * pivot)
         # with trig inputs the reciprocal is an input too (computed by link_pivot): CasADi would
         # fold ``x * (1/y)`` back into a division on the loop-carried chain of P and Q
-        inv = inv_sym if trig_inputs else inv_expr
+        inv = ca.SX.sym("inv_pivot") if trig_inputs else inv_expr
         r, gP, gQ = -K * phi - phit, ca.dot(g, P), ca.dot(g, Q)
         a_j = (r - gP) * inv
         b_j = -gQ * inv
@@ -259,57 +249,73 @@ class CoordinatingController:
             P_next, Q_next = P + step * a_j, Q + step * b_j
         new = ca.vertcat(y_j, alpha, d_j, P_next, Q_next, a_j, b_j, nb + ca.fabs(b_j))
         out = ca.vertcat(phi, ca.fabs(pivot) / ca.norm_2(g), a_j, b_j)
-        trig = None
         if trig_inputs:
             out = ca.vertcat(out, inv_expr)
-            trig = (cs, inv, sel) if piece else (cs[0], cs[1], inv)
+            trig = (trig[0], trig[1], inv)
         both = ca.cse(ca.vertcat(new, out))          # one CSE over both, so a_j, b_j are shared
         return carry, qj, trig, t, both[:new.numel()], both[new.numel():]
 
     def _hoisted_pieces(self):
-        """``(time_features, {kind: (link_step, link_pivot)})`` of a path's per-piece steps (cached).
+        """``(time_features, {kind: link_geometry_kind}, link_step_piece)`` of a path (cached).
 
-        One Function pair per kind of piece (``"line"``, ``"arc"``: only that formula, no
-        selection), with the same inputs as :meth:`link_step_trig` and :meth:`link_pivot` plus
-        the piece's constants, and one vector of time-only terms for both.
+        The link's geometry by the formulas of one kind of piece (``"line"``, ``"arc"``; no
+        selection): ``(carry, q_j, cos_alpha_j, sin_alpha_j, w, piece) -> geometry``, ``geometry =
+        (1 / (xi/2 pivot_j), phi, link margin, grad phi, -K phi - dphi/dt)``, with one vector
+        ``w(t)`` of time-only terms for both kinds; then the step, the same for both kinds:
+        ``(carry, q_j, cos_alpha_j, sin_alpha_j, geometry) -> (carry_next, out_j)``, the
+        operations of :meth:`link_step_trig` after its geometry.
         """
         key = ("hoisted", True, "pieces")
         if key not in self._cache:
-            carry, qj, (cs, inv, sel), t, new_l, out_l = self._link_expressions(True, "line")
-            symbols = (carry, qj, (cs, inv, sel), t)
-            new_a, out_a = self._link_expressions(True, "arc", symbols)[4:]
-            sizes = [e.numel() for e in (new_l, out_l, new_a, out_a)]
-            expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(new_l, out_l, new_a, out_a), t)
+            xi, K = self.chain.xi, self.gain
+            carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
+            cs, sel = ca.SX.sym("cos_sin_alpha_j", 2), ca.SX.sym("piece", PIECE_CONSTANTS)
+            y, d_prev, P, Q, nb = carry[0:2], carry[3:5], carry[5:7], carry[7:9], carry[11]
+            n_j = ca.vertcat(-cs[1], cs[0])
+            y_j = y + 0.5 * xi * (d_prev + cs)
+            geos = []
+            for kind in ("line", "arc"):
+                phi, g, phit = self._piece_geometry(kind)(y_j, t, sel)[:3]
+                pivot = ca.dot(g, n_j)
+                # |grad phi| = 1 for a distance to a line or a circle: the margin is |pivot| (the
+                # full form's |pivot| / |grad phi| differs by the rounding of a unit norm, 1e-16)
+                geos.append(ca.vertcat(1 / (0.5 * xi * pivot), phi, ca.fabs(pivot), g, -K * phi - phit))
+            expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(*geos), t)
             wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 1)
             wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX.zeros(1, 1)
-            cuts = np.cumsum([0] + sizes)
-            parts = [expr[a:b] for a, b in zip(cuts[:-1], cuts[1:])]
             tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
-            c, s = cs[0], cs[1]
-            names = ["carry", "q_j", "cos_alpha_j", "sin_alpha_j", "w"]
-            steps = {}
-            for kind, (new, out) in zip(("line", "arc"), (parts[:2], parts[2:])):
-                n_out = out.numel() - 1
-                step = ca.Function(f"link_step_{kind}", [carry, qj, c, s, wsym, inv, sel], [new, out[:n_out]],
-                                   names + ["inv_pivot", "piece"], ["carry_next", "out"])
-                pivot = ca.Function(f"link_pivot_{kind}", [carry, qj, c, s, wsym, sel], [out[n_out]],
-                                    names + ["piece"], ["inv_pivot"])
-                steps[kind] = (step, pivot)
-            self._cache[key] = (tf, steps)
+            names = ["carry", "q_j", "cos_alpha_j", "sin_alpha_j"]
+            geometry = {kind: ca.Function(f"link_geometry_{kind}", [carry, qj, cs[0], cs[1], wsym, sel],
+                                          [ca.cse(expr[6 * i:6 * i + 6])], names + ["w", "piece"], ["geometry"])
+                        for i, kind in enumerate(("line", "arc"))}
+            geo = ca.SX.sym("geometry", 6)
+            inv, phi, margin, g, r = geo[0], geo[1], geo[2], geo[3:5], geo[5]
+            gP, gQ = ca.dot(g, P), ca.dot(g, Q)
+            a_j, b_j = (r - gP) * inv, -gQ * inv
+            u = (xi * inv) * n_j                     # regrouped as in link_step_trig
+            new = ca.vertcat(y_j, carry[2] + qj, cs, (P + u * r) - u * gP, Q - u * gQ, a_j, b_j, nb + ca.fabs(b_j))
+            both = ca.cse(ca.vertcat(new, phi, margin, a_j, b_j))
+            step = ca.Function("link_step_piece", [carry, qj, cs[0], cs[1], geo], [both[:new.numel()], both[new.numel():]],
+                               names + ["geometry"], ["carry_next", "out"])
+            self._cache[key] = (tf, geometry, step)
         return self._cache[key]
 
-    def piece_steps(self) -> tuple[ca.Function, dict]:
-        """The path's per-piece link steps for the generated C (a :class:`~coordarm.symbolic.paths.Path` only).
+    def piece_steps(self) -> tuple[ca.Function, dict, ca.Function]:
+        """The path's per-piece link step for the generated C (a :class:`~coordarm.symbolic.paths.Path` only).
 
         Returns
         -------
         time_features : casadi.Function
             ``t -> w``, the time-only terms of both kinds.
-        steps : dict
-            ``{"line": (link_step_line, link_pivot_line), "arc": (...)}``: :meth:`link_step_trig`
-            and :meth:`link_pivot` with one more (last) input, ``piece``, the ten constants
-            (:func:`~coordarm.symbolic.paths.piece_parameters` with ``derived=True``) of the
-            closest piece, which is of that kind.
+        geometry : dict
+            ``{"line": link_geometry_line, "arc": link_geometry_arc}``: ``(carry, q_j, cos_alpha_j,
+            sin_alpha_j, w, piece) -> geometry``, ``piece`` the ten constants
+            (:func:`~coordarm.symbolic.paths.piece_parameters` with ``derived=True``) of the closest
+            piece, which is of that kind; ``geometry = (1 / (xi/2 pivot_j) [1/m], phi [m], link
+            margin, grad phi, -K phi - dphi/dt [m/s])``.
+        step : casadi.Function
+            ``(carry, q_j, cos_alpha_j, sin_alpha_j, geometry) -> (carry_next, out_j)``, as
+            :meth:`link_step_trig`'s outputs.
         """
         return self._hoisted_pieces()
 
