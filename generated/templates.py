@@ -132,12 +132,19 @@ static void ca_trig(const casadi_real* restrict alpha, casadi_real* restrict c, 
 #: The search of a path's closest piece (see :mod:`.path_search`, whose tables it reads): junction
 #: tests and ``|phi|`` by the same formulas as :func:`coordarm.symbolic.paths.closest_piece_formulas`.
 PATH_SEARCH = """
-/* Whether p lies in piece j's closest-point range (its junction tests, and an arc's wedge); *dist = |phi_j|. */
-static int ca_piece_ok(casadi_int j, const casadi_real* p, casadi_real* dist) {
+/* Whether p lies in piece j's closest-point range (its junction tests, and an arc's wedge); *dist = |phi_j|,
+   g[0] and g[1] the junction tests at its start and end (those it has). */
+static int ca_piece_ok(casadi_int j, const casadi_real* p, casadi_real* dist, casadi_real* g) {
   const casadi_real* f = ca_pf[j];
   casadi_real rx, ry;
-  if (!(ca_pk[j] & 2) && !(ca_pj[j][0] * p[0] + ca_pj[j][1] * p[1] - ca_pj[j][2] >= 0)) return 0;
-  if (!(ca_pk[j] & 4) && !(ca_pj[j + 1][0] * p[0] + ca_pj[j + 1][1] * p[1] - ca_pj[j + 1][2] <= 0)) return 0;
+  if (!(ca_pk[j] & 2)) {
+    g[0] = ca_pj[j][0] * p[0] + ca_pj[j][1] * p[1] - ca_pj[j][2];
+    if (!(g[0] >= 0)) return 0;
+  }
+  if (!(ca_pk[j] & 4)) {
+    g[1] = ca_pj[j + 1][0] * p[0] + ca_pj[j + 1][1] * p[1] - ca_pj[j + 1][2];
+    if (!(g[1] <= 0)) return 0;
+  }
   if (ca_pk[j] & 1) {
     rx = p[0] - f[0]; ry = p[1] - f[1];
     if (!(f[3] * rx + f[4] * ry > 0)) return 0;
@@ -152,20 +159,23 @@ static int ca_piece_ok(casadi_int j, const casadi_real* p, casadi_real* dist) {
    outwards has |phi| = delta; a piece k can be closer only if its lower-bound distance to that
    one is at most 2 delta (+ slack), and each piece lists the others in that order. Among the
    pieces that may be closer the first (in order) of the smallest |phi| wins, as in the full
-   selection; with no candidate at all it keeps piece 0, as the full selection does. */
+   selection; with no candidate at all it keeps piece 0, as the full selection does. A neighbour
+   shares a junction test with piece i, of the opposite sign: it is a candidate only where that
+   test is 0, so it is skipped where the test is clearly (beyond rounding) not. */
 static casadi_int ca_closest_piece(const casadi_real* p, casadi_int guess) {
-  casadi_real delta = 0, dist = 0, limit;
+  casadi_real delta = 0, dist = 0, limit, g[2] = {0, 0}, h[2];
   casadi_int i = -1, k, j, best;
   for (k = 0; k < CA_NP && i < 0; ++k) {
-    if (guess + k < CA_NP && ca_piece_ok(guess + k, p, &delta)) i = guess + k;
-    else if (k > 0 && guess - k >= 0 && ca_piece_ok(guess - k, p, &delta)) i = guess - k;
+    if (guess + k < CA_NP && ca_piece_ok(guess + k, p, &delta, g)) i = guess + k;
+    else if (k > 0 && guess - k >= 0 && ca_piece_ok(guess - k, p, &delta, g)) i = guess - k;
   }
   if (i < 0) return 0;
   best = i;
   limit = 2 * delta + CA_PATH_EPS;
   for (k = ca_nb_start[i]; k < ca_nb_start[i + 1] && ca_nb_lb[k] <= limit; ++k) {
     j = ca_nb_j[k];
-    if (ca_piece_ok(j, p, &dist) && (dist < delta || (dist == delta && j < best))) {
+    if ((j == i + 1 && g[1] < -CA_PATH_EPS) || (j == i - 1 && g[0] > CA_PATH_EPS)) continue;
+    if (ca_piece_ok(j, p, &dist, h) && (dist < delta || (dist == delta && j < best))) {
       delta = dist;
       best = j;
     }
@@ -176,7 +186,7 @@ static casadi_int ca_closest_piece(const casadi_real* p, casadi_int guess) {
 /* The closest piece pc[j] of every central point y^j (j = 0..m-1, 0-based), before the recursion
    and apart from it: the centres are summed from y^1 (the head's) like the link steps do, each
    search starting from the previous link's piece. */
-static void ca_pieces(const casadi_real* head, const casadi_real* c, const casadi_real* s,
+CA_FLATTEN static void ca_pieces(const casadi_real* head, const casadi_real* c, const casadi_real* s,
                       const casadi_real* fr, casadi_int* pc) {
   casadi_real y0 = head[0], y1 = head[1], pp[2];
   casadi_int j, k;
