@@ -84,7 +84,8 @@ def path_macros(ctrl: CoordinatingController) -> str:
     """
     if not _searched(ctrl):
         return ""
-    return (f"#define CA_PATH_HALF_XI {0.5 * ctrl.chain.xi!r}\n" + search_source(ctrl.curve)
+    return (f"#define CA_PATH_HALF_XI {0.5 * ctrl.chain.xi!r}\n#define CA_PATH_SCRATCH (6 * CA_M)\n"
+            + search_source(ctrl.curve)
             + templates.PATH_SEARCH)
 
 

@@ -183,13 +183,18 @@ static casadi_int ca_closest_piece(const casadi_real* p, casadi_int guess) {
   return best;
 }
 
-/* The closest piece pc[j] of every central point y^j (j = 0..m-1, 0-based), before the recursion
-   and apart from it: the centres are summed from y^1 (the head's) like the link steps do, each
-   search starting from the previous link's piece. */
-CA_FLATTEN static void ca_pieces(const casadi_real* head, const casadi_real* c, const casadi_real* s,
-                      const casadi_real* fr, casadi_int* pc) {
-  casadi_real y0 = head[0], y1 = head[1], pp[2];
+/* Before the recursion and apart from it (the centres do not depend on the rates): the closest
+   piece pc[j] of every central point y^j (j = 0..m-1, 0-based), each search starting from the
+   previous link's piece, and each link's geometry geo[6 j .. 6 j + 5] by the formulas of its
+   piece's kind (line or arc). The centres are summed from y^1 (the head's) like the steps do. */
+CA_FLATTEN static int ca_path_pass(const casadi_real* head, const casadi_real* q, const casadi_real* c,
+                                   const casadi_real* s, const casadi_real* fr, const casadi_real* wt,
+                                   casadi_int* pc, casadi_real* geo, casadi_int* iw, casadi_real* w) {
+  casadi_real cy[CA_NC], y0 = head[0], y1 = head[1], pp[2];
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
   casadi_int j, k;
+  for (k = 0; k < CA_NC; ++k) cy[k] = head[k];     /* the geometry reads y^{j-1} and d_{j-1} */
   pp[0] = fr[0] * y0 + fr[2] * y1 + fr[4];
   pp[1] = fr[1] * y0 + fr[3] * y1 + fr[5];
   k = pc[0] = ca_closest_piece(pp, 0);
@@ -199,7 +204,12 @@ CA_FLATTEN static void ca_pieces(const casadi_real* head, const casadi_real* c, 
     pp[0] = fr[0] * y0 + fr[2] * y1 + fr[4];
     pp[1] = fr[1] * y0 + fr[3] * y1 + fr[5];
     k = pc[j] = ca_closest_piece(pp, k);
+    arg[0] = cy; arg[1] = q + j; arg[2] = c + j; arg[3] = s + j; arg[4] = wt; arg[5] = ca_pp[k];
+    res[0] = geo + 6 * j;
+    if (ca_pk[k] & 1 ? link_geometry_arc(arg, res, iw, w, 0) : link_geometry_line(arg, res, iw, w, 0)) return 2;
+    cy[0] = y0; cy[1] = y1; cy[3] = c[j]; cy[4] = s[j];
   }
+  return 0;
 }
 """
 
@@ -208,18 +218,17 @@ CA_FLATTEN static void ca_pieces(const casadi_real* head, const casadi_real* c, 
 #: is small (margin below ``CA_REPIVOT`` or NaN) the recursion only raises a flag and the whole
 #: law is evaluated again, out of line, with the re-pivoting step (``ca_law_repivot``).
 STRUCTURED_LAW = TRIG_PASSES + """
-#define CA_LAW_SCRATCH (5 * CA_M)
+#ifndef CA_PATH_SCRATCH
+#define CA_PATH_SCRATCH 0
+#endif
+#define CA_LAW_SCRATCH (5 * CA_M + CA_PATH_SCRATCH)
 
 /* One link j: carry `from` -> carry `to`; writes e^j, the link margin and a_j, b_j. On a path
-   (CA_PATH) the geometry of y^j comes first, by the formulas of the kind of its closest piece pc[j]
-   (found by ca_pieces; line or arc), then the step common to both kinds. */
+   (CA_PATH) the link's geometry geo (from ca_path_pass) goes into the step common to both kinds. */
 #ifdef CA_PATH
 #define CA_LINK_CALLS(j, from, to) do { \\
-    arg[0] = from; arg[1] = q + (j); arg[2] = c + (j); arg[3] = s + (j); arg[4] = wt; \\
-    arg[5] = ca_pp[pc[j]]; res[0] = geo; \\
-    if (ca_pk[pc[j]] & 1 ? link_geometry_arc(arg, res, iw, w, 0) : link_geometry_line(arg, res, iw, w, 0)) \\
-      return 2; \\
-    arg[4] = geo; res[0] = to; res[1] = o; \\
+    arg[0] = from; arg[1] = q + (j); arg[2] = c + (j); arg[3] = s + (j); arg[4] = geo + 6 * (j); \\
+    res[0] = to; res[1] = o; \\
     if (link_step_piece(arg, res, iw, w, 0)) return 2; \\
   } while (0)
 #else
@@ -275,7 +284,7 @@ static int ca_head(const casadi_real* q, casadi_real t, const casadi_real* c, co
 /* The recursion over links 2..m (returns 1 if a link pivot is small: see ca_law_repivot); the carry is copied back (not pointer-swapped) and the step has
    a single call site and is inlined (flatten), so the compiler keeps the carry in registers. */
 CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, const casadi_real* s,
-                        const casadi_real* wt, const casadi_int* pc, casadi_real* carry, casadi_real* out,
+                        const casadi_real* wt, const casadi_real* geo, casadi_real* carry, casadi_real* out,
                         casadi_real* a, casadi_real* b, casadi_int* iw, casadi_real* w) {
   casadi_real c0[CA_NC], c1[CA_NC], o[4], inv;
   const casadi_real* arg[CA_SZ_ARG];
@@ -283,10 +292,9 @@ CA_FLATTEN static int ca_recursion(const casadi_real* q, const casadi_real* c, c
   casadi_int j, k;
   int repivot = 0;
 #ifdef CA_PATH
-  casadi_real geo[6];                  /* 1/(xi/2 pivot), phi, link margin, grad phi, -K phi - dphi/dt */
-  (void)inv;
+  (void)inv; (void)wt;
 #else
-  (void)pc;
+  (void)geo;
 #endif
   a[0] = 0; b[0] = 1;
   for (k = 0; k < CA_NC; ++k) c0[k] = carry[k];
@@ -352,6 +360,7 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   casadi_real wt[CA_NW + 1], head[CA_NC], carry[CA_NC], tl[5], psi1;
   casadi_real *alpha = w + CA_SZ_W + CA_RK4_SCRATCH, *c = alpha + CA_M, *s = c + CA_M;
   casadi_real *a = s + CA_M, *b = a + CA_M;
+  casadi_real *geo = b + CA_M;                 /* on a path: every link's geometry (CA_PATH_SCRATCH) */
   casadi_real p, rate, prev;
   const casadi_real* qr = q + CA_RAIL;         /* the revolute joints q_1..q_m */
   casadi_real* ur = u + CA_RAIL;
@@ -366,17 +375,15 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   casadi_int pc[CA_M];
   res[0] = fr; res[1] = fr + 4;        /* the path's frame at t: p = A y + b */
   if (path_frame(arg, res, iw, w, 0)) return 2;
-#else
-  casadi_int* pc = 0;
 #endif
   ca_angles(qr, alpha);
   ca_trig(alpha, c, s);
   if (ca_head(q, t, c, s, head, u, out, &psi1, iw, w)) return 2;
   for (j = 0; j < CA_NC; ++j) carry[j] = head[j];
 #ifdef CA_PATH
-  ca_pieces(head, c, s, fr, pc);
+  if (ca_path_pass(head, qr, c, s, fr, wt, pc, geo, iw, w)) return 2;
 #endif
-  if ((rc = ca_recursion(qr, c, s, wt, pc, carry, out, a, b, iw, w))) {
+  if ((rc = ca_recursion(qr, c, s, wt, geo, carry, out, a, b, iw, w))) {
     if (rc == 2) return 2;
     return ca_law_repivot(qr, t, head, psi1, ur, out, iw, w);
   }
