@@ -204,6 +204,6 @@ def test_the_searched_path_law_compiles_without_a_warning(moving, tmp_path):
     from coordarm.generated.codegen import generate_source
     ctrl = built("s-bend", moving, m=6)[0]
     source = generate_source(ctrl)
-    assert "ca_closest_piece" in source.text and "link_step_arc" in source.text
+    assert "ca_closest_piece" in source.text and "link_geometry_arc" in source.text
     lib = build(source, flags="-O2 -Wall -Wextra -Werror", build_dir=tmp_path)
     assert lib.path.is_file() and not lib.cache_hit
