@@ -17,7 +17,9 @@ point may jump between segments, and the run stops (see ``tube_radius``).
 Selection: every segment's distance to ``y`` is computed cheaply (clamped to the segment);
 the closest segment's parameters are selected, and one line and one arc formula are
 evaluated with them (one square root and one ``atan2`` per point, whatever the number of
-segments).
+segments). The generated C finds the same piece by a search near the previous link's piece
+(:mod:`coordarm.generated.path_search`) and evaluates that piece's formula only
+(:func:`piece_formulas` with its ``kind``).
 """
 from __future__ import annotations
 
