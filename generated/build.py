@@ -236,11 +236,14 @@ def cpu_identity() -> str:
 
 def cache_key(source: Source, cc: str, flags: tuple[str, ...]) -> str:
     """SHA-256 over source, compiler path and version, flags, CasADi version, codegen options,
-    and the CPU when a flag asks for ``native`` code (a shared cache then never serves another CPU)."""
+    the CPU when a flag asks for ``native`` code (a shared cache then never serves another CPU), and
+    with a flag of :data:`PROCESS_MODE_FLAGS` the separate link (older entries were linked with it)."""
     h = hashlib.sha256()
     cpu = cpu_identity() if any("native" in f for f in flags) else ""
+    # Libraries of such flags were linked with them before compile_and_link: never serve those again.
+    link = "linked without " + " ".join(sorted(PROCESS_MODE_FLAGS)) if set(flags) & PROCESS_MODE_FLAGS else ""
     for part in (source.text, cc, _compiler_version(cc), json.dumps(list(flags)), ca.__version__,
-                 json.dumps(CODEGEN_OPTIONS, sort_keys=True), json.dumps(list(REQUIRED_FLAGS)), cpu):
+                 json.dumps(CODEGEN_OPTIONS, sort_keys=True), json.dumps(list(REQUIRED_FLAGS)), cpu, link):
         h.update(part.encode())
         h.update(b"\0")
     return h.hexdigest()

@@ -136,3 +136,15 @@ def test_a_library_built_with_fast_math_leaves_the_process_floating_point_mode_a
     version = subprocess.run([cc, "-dumpversion"], capture_output=True, text=True).stdout.strip()
     if "crtfastmath" in specs and int(version.split(".")[0]) < 13:
         assert _loaded_flushes(one_step)      # the one-step library does switch the process: the test can fail
+
+
+def test_fast_math_libraries_get_new_cache_keys_and_default_ones_keep_theirs(monkeypatch):
+    """Entries built before the separate link (with crtfastmath) are never served; default-flag ones stay valid."""
+    from coordarm.generated import build as build_mod
+    ctrl = expiring_controller()
+    src, cc = generate_source(ctrl), build_mod.find_compiler()
+    fast, default = ("-O3", "-ffast-math"), build_mod.DEFAULT_FLAGS
+    now = build_mod.cache_key(src, cc, fast), build_mod.cache_key(src, cc, default)
+    monkeypatch.setattr(build_mod, "PROCESS_MODE_FLAGS", frozenset())     # the key as it was computed before
+    before = build_mod.cache_key(src, cc, fast), build_mod.cache_key(src, cc, default)
+    assert now[0] != before[0] and now[1] == before[1]
