@@ -80,7 +80,7 @@ class FollowTheLeader:
         self._y0 = y_m
         self._cache: dict = {}
         q, _, residual = self.configuration(self.t0, self.s0)
-        if not residual < TOLERANCE or not np.max(np.abs(q - self.q0)) < 1e-7:
+        if not residual < TOLERANCE or not np.max(np.abs(q - self.q0)) < 1e-9:
             raise ConfigError("ftl: the start must have every central point on the path, laid from the base "
                               "(start.kind = \"follow\"); this one differs from the laid chain by "
                               f"{np.max(np.abs(q - self.q0)):.3g} rad")
