@@ -125,6 +125,9 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     """
     if form not in LAWS:
         raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
+    if ctrl.chain.rail and ctrl.governor:
+        raise BuildError("governor: the governed rail law (two passes of the recursion) runs on the interpreted "
+                         "backend; use backend 'interpreted' ('auto' falls back by itself)")
     if ctrl.chain.rail:
         raise BuildError("base: a chain on a rail runs on the interpreted backend for now (the compiled rail "
                          "glue was written for the glue before issue 15's vectorisation and is not ported yet); "
