@@ -44,6 +44,28 @@ def test_pinv_end_point_velocity_is_the_commanded_one(seed):
     assert phidot == pytest.approx(-K * phi, abs=1e-9)
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_pinv_on_a_rail_moves_the_end_point_as_commanded_and_centres_only_the_revolute_joints(seed):
+    from coordarm.symbolic import Path, follow_curve
+    chain = PlanarChain(12, 0.1, base="rail", rail_angle=0.1, rail_limits=(-5.0, 5.0))
+    path = Path((-0.4, -0.04), 0.1, [{"line": 0.8}, {"arc": 0.9, "radius": 0.8}, {"line": 2.0}])
+    ctrl = CoordinatingController(chain, path, K, lambda t: 0.1 + 0.05 * ca.sin(t))
+    centre = follow_curve(ctrl, 1.1, d=0.2)
+    rng = np.random.default_rng(seed)
+    q = centre + 0.05 * rng.standard_normal(chain.dof)
+    t = float(rng.uniform(0, 3))
+    law = EndPointRate(ctrl, centre)
+    u = law.control(q, t)
+    sdot, phidot, phi = end_point_rates(ctrl, q, u, t)   # eq. 7 with the rail column
+    assert sdot == pytest.approx(ctrl.speed_at(t), abs=1e-9)
+    assert phidot == pytest.approx(-K * phi, abs=1e-9)
+    _, A, r = law.task(q, t)
+    free = u - np.linalg.pinv(A) @ r                     # the null-space part: (I - A^+ A) z, z_d = 0
+    z = -(q - centre)
+    z[0] = 0.0
+    np.testing.assert_allclose(free, z - np.linalg.pinv(A) @ (A @ z), atol=1e-12)
+
+
 def test_pinv_at_the_centre_is_the_minimum_norm_solution_of_numpy():
     ctrl = arc_ctrl()
     q = ctrl.chain.zigzag(1.0)
