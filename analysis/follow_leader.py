@@ -13,9 +13,9 @@ point back to the base, as the ``follow`` start lays it from the base
   ``d = y^1 . rail`` and the rail feeds the body at whatever speed that takes (``v*`` while the
   body lies on a straight part: then every joint is at rest).
 
-So every central point is on the path (to the Newton tolerance) and travels along it, each link
-taking the place the one before it had: the classic follow-the-leader of snake-arm robots, for a
-body that keeps its compact fold. It never unfolds (its span is what the path's bends make of
+So every central point is on the path (to the Newton tolerance) and travels along the path the
+end point traced (on a straight part each link takes the place the link two ahead had, the fold's
+period): the classic follow-the-leader of snake-arm robots, for a body that keeps its compact fold. It never unfolds (its span is what the path's bends make of
 it), so the rail must feed as far as the end point travels. The joint rates are differences of
 consecutive configurations (``u_k = (q_{k+1} - q_k) / h``). The configurations are independent
 of each other, so one mapped call lays them all (``step_time`` is its time per sample). A run
