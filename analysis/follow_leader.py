@@ -81,9 +81,10 @@ class FollowTheLeader:
         self._cache: dict = {}
         q, _, residual = self.configuration(self.t0, self.s0)
         if not residual < TOLERANCE or not np.max(np.abs(q - self.q0)) < 1e-9:
-            raise ConfigError("ftl: the start must have every central point on the path, laid from the base "
+            raise ConfigError("ftl: the start must be the chain laid on the path "
                               "(start.kind = \"follow\"); this one differs from the laid chain by "
-                              f"{np.max(np.abs(q - self.q0)):.3g} rad")
+                              f"{np.max(np.abs(q - self.q0)):.3g} rad (coordarm compare: leave ftl out with "
+                              "--methods coordinating,pinv,dls)")
 
     def _link(self) -> ca.Function:
         """``(y^{j+1}, alpha_{j+1}, t) -> (y^j, alpha_j, |phi(y^j)|, psi(y^j))``: one link laid behind the next."""
