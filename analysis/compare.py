@@ -260,7 +260,7 @@ def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, 
     wide = (hi - lo)[0] > 1.8 * (hi - lo)[1]
     shape, size = ((len(times), 1), (13.0, 0.6 + 13.0 * (hi - lo)[1] / (hi - lo)[0] * len(times))) if wide else \
         ((1, len(times)), (4.2 * len(times), 4.4))
-    fig, axes = plt.subplots(*shape, figsize=size, squeeze=False)
+    fig, axes = plt.subplots(*shape, figsize=size, squeeze=False, layout="constrained")
     for ax, t in zip(axes.ravel(), times):
         cur = ctrl.curve.sample(float(t), extent=extent)
         ax.plot(cur[:, 0], cur[:, 1], "k--", lw=0.8, alpha=0.6)
