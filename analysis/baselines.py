@@ -29,7 +29,7 @@ from coordarm.generated.build import build
 from coordarm.generated.codegen import CODEGEN_OPTIONS, Source
 from coordarm.simulation.choices import COMPARE_BACKENDS
 from coordarm.simulation.run import ARRAYS, OPTIONAL, Run
-from coordarm.symbolic import ConfigError, CoordinatingController
+from coordarm.symbolic import ConfigError, CoordinatingController, PlanarChain
 from coordarm.symbolic.near_singular import damping_factor
 
 #: Baselines implemented here.
@@ -178,7 +178,7 @@ def compiled(fn: ca.Function, kind: str, m: int) -> ca.Function:
     return ca.external(fn.name(), str(lib.path))
 
 
-def stop_at_rail_limit(run: Run, chain) -> Run:
+def stop_at_rail_limit(run: Run, chain: PlanarChain) -> Run:
     """``run`` up to its last sample inside the rail's limits (then ``info["stopped"] = "rail_limit"``).
 
     A robot's rail cannot feed the body beyond its ends; every method of ``coordarm compare`` is

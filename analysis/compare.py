@@ -28,7 +28,7 @@ from coordarm.simulation.obstacles import outline
 from coordarm.simulation.choices import COMPARE_METHODS
 from coordarm.simulation.run import Run, even_indices, select_backend, simulate
 from coordarm.simulation.scenario import Scenario
-from coordarm.symbolic import BuildError, CollisionError, ConfigError, SingularityError
+from coordarm.symbolic import BuildError, CollisionError, ConfigError, CoordinatingController, SingularityError
 
 from .baselines import BACKENDS, BASELINES, EndPointRate, simulate_baseline, stop_at_rail_limit
 from .follow_leader import FollowTheLeader, simulate_ftl
@@ -83,8 +83,9 @@ def run_method(method: str, scenario: Scenario, backend: str = "compiled") -> Ru
     Every run ends where it would leave the rail's limits (``rail_limit``, see
     :func:`.baselines.stop_at_rail_limit`).
 
-    ``backend``: ``"compiled"`` (generated C for every method; built before the clock starts)
-    or ``"interpreted"`` (CasADi's virtual machine for every method).
+    ``backend``: ``"compiled"`` (generated C for every method, built before the clock starts;
+    the coordinating law of a rail robot falls back to the interpreted law where its C cannot be
+    generated) or ``"interpreted"`` (CasADi's virtual machine for every method).
 
     Raises
     ------
@@ -97,7 +98,7 @@ def run_method(method: str, scenario: Scenario, backend: str = "compiled") -> Ru
     return stop_at_rail_limit(_run(method, scenario, ctrl, backend), ctrl.chain)
 
 
-def _run(method: str, scenario: Scenario, ctrl, backend: str) -> Run:
+def _run(method: str, scenario: Scenario, ctrl: CoordinatingController, backend: str) -> Run:
     """:func:`run_method` before the rail's limits are applied."""
     q0 = scenario.start(ctrl)
     if method == "coordinating":
