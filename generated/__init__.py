@@ -27,7 +27,8 @@ def compile(ctrl: "CoordinatingController", form: str | None = None, **build_opt
         Law form (default: the controller's ``law_form``).
     **build_options
         ``cc`` (compiler), ``flags`` (optimisation flags, default ``$COORDARM_CFLAGS`` or ``-O3``),
-        ``build_dir`` (cache directory, default :func:`coordarm.generated.build.build_root`), ``force``.
+        ``build_dir`` (cache directory, default :func:`coordarm.generated.build.build_root`), ``force``,
+        ``path_search`` (on a path: False compiles the full selection of the closest piece, the slower reference).
 
     Returns
     -------

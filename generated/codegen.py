@@ -14,9 +14,11 @@ import numpy as np
 
 import coordarm.symbolic.controller as controller_module
 from coordarm.symbolic import LAWS, BuildError, CoordinatingController
-from coordarm.symbolic.outputs import OUTPUTS, offsets, packed_width
+from coordarm.symbolic.outputs import offsets, packed_width
+from coordarm.symbolic.paths import Path
 
 from . import templates
+from .path_search import search_source
 
 #: Options of CasADi's CodeGenerator (part of the cache key).
 CODEGEN_OPTIONS = {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"}
@@ -46,13 +48,16 @@ def _split(ctrl: CoordinatingController, form: str) -> bool:
     return form == "structured" and not ctrl.damping
 
 
-def structured_law(ctrl: CoordinatingController) -> str:
+def structured_law(ctrl: CoordinatingController, path_search: bool = True) -> str:
     """The C of the structured law (:data:`.templates.STRUCTURED_LAW`) with its re-pivoting macros.
 
     Parameters
     ----------
     ctrl : CoordinatingController
         The controller (its time terms of the re-pivoting step set ``CA_NW_REPIVOT``).
+    path_search : bool
+        On a path, search the closest piece in C (see :mod:`.path_search`); False: select it
+        inside the generated link step, over every piece (the reference form, slower).
 
     Returns
     -------
@@ -61,19 +66,87 @@ def structured_law(ctrl: CoordinatingController) -> str:
     """
     return (f"#define CA_REPIVOT {controller_module.REPIVOT!r}\n"
             f"#define CA_NW_REPIVOT {int(ctrl.time_features_repivot().numel_out(0))}\n"
-            + templates.STRUCTURED_LAW)
+            + rail_macros(ctrl) + (path_macros(ctrl) if path_search else "") + templates.STRUCTURED_LAW)
 
 
-def functions(ctrl: CoordinatingController, form: str) -> list[ca.Function]:
+def path_macros(ctrl: CoordinatingController) -> str:
+    """The C of the closest-piece search on a path (tables and :data:`.templates.PATH_SEARCH`), else "".
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller.
+
+    Returns
+    -------
+    str
+        ``CA_PATH`` macros, the piece tables and the search, or an empty string for other curves.
+    """
+    if not _searched(ctrl):
+        return ""
+    return (f"#define CA_PATH_HALF_XI {0.5 * ctrl.chain.xi!r}\n#define CA_PATH_SCRATCH (6 * CA_M)\n"
+            + search_source(ctrl.curve)
+            + templates.PATH_SEARCH)
+
+
+def functions(ctrl: CoordinatingController, form: str, path_search: bool = True) -> list[ca.Function]:
     """The CasADi Functions the C of ``form`` calls (the structured form's time features first).
 
     The structured form adds the re-pivoting step and its time terms (called only at a state
     with a small link pivot); with damping, the whole law is one Function.
+
+    Raises
+    ------
+    BuildError
+        The governor on a rail in the structured form: its two passes of the recursion (see
+        :class:`~coordarm.symbolic.controller.CoordinatingController`) are not in the C glue.
     """
+    if _split(ctrl, form) and ctrl.chain.rail and ctrl.governor:
+        raise BuildError("governor: the governed rail law (two passes of the recursion) is not in the compiled "
+                         "glue; use backend 'interpreted' ('auto' falls back by itself) or law = \"dense\"")
     if _split(ctrl, form):
-        return [ctrl.time_features(True), ctrl.first_carry(), ctrl.link_step_trig(), ctrl.tail(),
+        if path_search and _searched(ctrl):
+            tf, geometry, step = ctrl.piece_steps()
+            return [tf, _head(ctrl), step, ctrl.tail(), geometry["line"], ctrl.time_features_repivot(),
+                    ctrl.link_step_repivot(), ctrl.curve.frame_function(), geometry["arc"],
+                    ctrl.tail_piece("line"), ctrl.tail_piece("arc")]
+        return [ctrl.time_features(True), _head(ctrl), ctrl.link_step_trig(), ctrl.tail(),
                 ctrl.link_pivot(), ctrl.time_features_repivot(), ctrl.link_step_repivot()]
     return [ctrl.law(form)]
+
+
+def _searched(ctrl: CoordinatingController) -> bool:
+    """Whether the C glue searches the closest piece of a path itself (see :mod:`.path_search`)."""
+    return isinstance(ctrl.curve, Path)
+
+
+def _head(ctrl: CoordinatingController) -> ca.Function:
+    """The Function that starts the recursion: the first carry, or on a rail the rail head (with the
+    span computed from the end's centre when it is commanded)."""
+    if not ctrl.chain.rail:
+        return ctrl.first_carry()
+    return ctrl.rail_head_from_end() if ctrl.span is not None else ctrl.rail_head()
+
+
+def rail_macros(ctrl: CoordinatingController) -> str:
+    """C macros of a chain on a rail: the rail's direction, half a link and the head's name.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller (on a rail; a fixed base gives an empty string).
+
+    Returns
+    -------
+    str
+        ``CA_RAIL_C``, ``CA_RAIL_S``, ``CA_HALF_XI``, ``CA_RAIL_HEAD`` and, for a commanded span,
+        ``CA_SPAN`` definitions.
+    """
+    if not ctrl.chain.rail:
+        return ""
+    c, s = (float(v) for v in ctrl.chain.rail_direction)
+    return (f"#define CA_RAIL_C {c!r}\n#define CA_RAIL_S {s!r}\n#define CA_HALF_XI {0.5 * ctrl.chain.xi!r}\n"
+            f"#define CA_RAIL_HEAD {_head(ctrl).name()}\n" + ("#define CA_SPAN 1\n" if ctrl.span is not None else ""))
 
 
 def _b_macros(ctrl: CoordinatingController) -> str:
@@ -83,28 +156,32 @@ def _b_macros(ctrl: CoordinatingController) -> str:
                          "use backend='interpreted' for a full B")
     if np.all(bd == 1):
         return templates.B_IDENTITY
+    if ctrl.chain.rail:
+        bd = np.r_[1.0, bd]                           # qdot_d = u_d on a rail
     return templates.B_DIAGONAL.format(values=", ".join(repr(float(v)) for v in bd))
 
 
-def layout_macros(m: int) -> str:
+def layout_macros(m: int, rail: bool = False) -> str:
     """C macros of the packed output vector for ``m`` links: ``CA_NOUT`` and ``CA_OUT_<NAME>`` offsets.
 
     Parameters
     ----------
     m : int
         Number of links.
+    rail : bool
+        A chain on a rail (``u`` one wider, then ``sigma`` and ``rail_margin``).
 
     Returns
     -------
     str
         One ``#define`` per line, from :data:`coordarm.symbolic.outputs.LAW_OUTPUTS`.
     """
-    lines = [f"#define CA_NOUT {packed_width(m)}"]
-    lines += [f"#define CA_OUT_{name.upper()} {start}" for name, (start, _) in offsets(m).items()]
+    lines = [f"#define CA_NOUT {packed_width(m, rail)}"]
+    lines += [f"#define CA_OUT_{name.upper()} {start}" for name, (start, _) in offsets(m, rail).items()]
     return "\n".join(lines) + "\n"
 
 
-def generate_source(ctrl: CoordinatingController, form: str = "structured") -> Source:
+def generate_source(ctrl: CoordinatingController, form: str = "structured", path_search: bool = True) -> Source:
     """The C source of ``ctrl``'s law (``form``), RK4 step and chunk loop.
 
     Parameters
@@ -113,6 +190,8 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
         Chain (with a diagonal B), curve, gain and speed.
     form : {"structured", "dense"}
         Law form.
+    path_search : bool
+        See :func:`structured_law`.
 
     Returns
     -------
@@ -122,22 +201,20 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured") -> S
     ------
     BuildError
         A non-diagonal B, or an unknown form.
+
+    Notes
+    -----
+    A chain on a rail compiles too: ``q`` and ``u`` have ``d`` and ``d_dot`` first, and the packed
+    outputs end with ``sigma`` and ``rail_margin`` (:func:`coordarm.symbolic.outputs.offsets`).
     """
     if form not in LAWS:
         raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
-    if ctrl.chain.rail and ctrl.governor:
-        raise BuildError("governor: the governed rail law (two passes of the recursion) runs on the interpreted "
-                         "backend; use backend 'interpreted' ('auto' falls back by itself)")
-    if ctrl.chain.rail:
-        raise BuildError("base: a chain on a rail runs on the interpreted backend for now (the compiled rail "
-                         "glue was written for the glue before issue 15's vectorisation and is not ported yet); "
-                         "use backend 'interpreted' ('auto' falls back by itself)")
-    funcs = functions(ctrl, form)
+    funcs = functions(ctrl, form, path_search)
     if _split(ctrl, form):
-        law = structured_law(ctrl)
+        law = structured_law(ctrl, path_search)
     else:
         results = "\n".join(f"  res[{i}] = {'u' if name == 'u' else 'out + CA_OUT_' + name.upper()};"
-                            for i, name in enumerate(OUTPUTS))
+                            for i, name in enumerate(ctrl.outputs))
         law = templates.DENSE_LAW.replace("{law_name}", funcs[0].name()).replace("{results}", results)
     return assemble_source(ctrl, funcs, law, form)
 
@@ -156,9 +233,10 @@ def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law:
         cg.add(f)
     sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
              for k in ("arg", "res", "iw", "w")}
-    m = ctrl.chain.m
+    m, rail = ctrl.chain.m, ctrl.chain.rail
     parts = [templates.CASADI_BEGIN, cg.dump(), templates.CASADI_END,
-             templates.HEADER.format(m=m, layout=layout_macros(m), b_diagonal=b_macros,
+             templates.HEADER.format(m=m, nq=ctrl.chain.dof, rail=int(rail), layout=layout_macros(m, rail),
+                                     b_diagonal=b_macros,
                                      **{f"sz_{k}": v for k, v in sizes.items()})]
     if _split(ctrl, form):
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"

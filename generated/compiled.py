@@ -89,6 +89,9 @@ class CompiledController:
         Compiler, optimisation flags and cache directory (see :func:`generated.build.build`).
     force : bool
         Recompile even on a cache hit.
+    path_search : bool
+        On a path, the C glue searches the closest piece near the previous link's (default); False
+        selects it over every piece inside the generated step (the slower reference form).
 
     Attributes
     ----------
@@ -103,23 +106,26 @@ class CompiledController:
     """
 
     def __init__(self, ctrl: CoordinatingController, form: str = "structured", *, cc: str | None = None,
-                 flags=None, build_dir=None, force: bool = False) -> None:
+                 flags=None, build_dir=None, force: bool = False, path_search: bool = True) -> None:
         self.ctrl, self.form, self.chain = ctrl, form, ctrl.chain
         start = time.perf_counter()
-        source = generate_source(ctrl, form)
+        source = generate_source(ctrl, form, path_search)
         self.generate_seconds = time.perf_counter() - start
         self.library: Library = build(source, cc=cc, flags=flags, build_dir=build_dir, force=force)
         self._lib = load_library(self.library.path)
         sizes = np.zeros(4, dtype=np.int64)
         self._lib.coordarm_sizes(sizes.ctypes.data)
         m, self.n_out, n_iw, n_w = (int(v) for v in sizes)
-        if m != self.chain.m or self.n_out != packed_width(m):
+        self.rail = self.chain.rail
+        width = packed_width(self.chain.m, self.rail)
+        if m != self.chain.m or self.n_out != width:
             raise BuildError(f"generated library {self.library.path} is for {m} links and {self.n_out} outputs, "
-                             f"not {self.chain.m} and {packed_width(self.chain.m)}")
-        self.m = m
-        self._q = np.zeros(m)
+                             f"not {self.chain.m} and {width}")
+        #: Number of links ``m`` and of joints ``n`` (``m + 1`` on a rail: ``d`` first).
+        self.m, self.n = m, self.chain.dof
+        self._q = np.zeros(self.n)
         self._out = np.zeros(self.n_out)
-        self._qn = np.zeros(m)
+        self._qn = np.zeros(self.n)
         self._iw = np.zeros(n_iw, dtype=np.int64)
         self._w = np.zeros(n_w)
         self._ptr = (self._q.ctypes.data, self._out.ctypes.data, self._iw.ctypes.data, self._w.ctypes.data,
@@ -155,8 +161,8 @@ class CompiledController:
         return 0
 
     def _q_pointer(self, q) -> int:
-        """``q``'s own buffer when it is a float64 C-contiguous (m,) array, else a checked copy's."""
-        ptr = self._in_place("q", q, self.m)
+        """``q``'s own buffer when it is a float64 C-contiguous (n,) array, else a checked copy's."""
+        ptr = self._in_place("q", q, self.n)
         if ptr:
             return ptr
         self._load_q(q)
@@ -179,15 +185,15 @@ class CompiledController:
         raise BuildError(f"generated library {self.library.path}: a generated Function failed (code {rc})")
 
     def control(self, q, t: float = 0.0, out: np.ndarray | None = None) -> np.ndarray:
-        """Control ``u(q, t)``, shape (m,).
+        """Control ``u(q, t)``, shape (n,) (``n = m``; on a rail ``m + 1``, ``d_dot`` [m/s] first).
 
         Parameters
         ----------
-        q : (m,) array_like
-            Joint coordinates [rad]; a float64 C-contiguous array is read in place.
+        q : (n,) array_like
+            Joint coordinates [rad] (``d`` [m] first on a rail); a float64 C-contiguous array is read in place.
         t : float
             Time [s].
-        out : (m,) float64 ndarray, optional
+        out : (n,) float64 ndarray, optional
             Write ``u`` [rad/s per unit of B] here, in place, and return it (no copies).
 
         Raises
@@ -202,8 +208,8 @@ class CompiledController:
             rc = self._law_c(qp, t, self._ptr[1], self._ptr[2], self._ptr[3])
             if rc:
                 self._fail(rc, t, q)
-            return self._out[:self.m].copy()
-        up = self._out_pointer(out, self.m, "u")
+            return self._out[:self.n].copy()
+        up = self._out_pointer(out, self.n, "u")
         rc = self._control_c(qp, t, up, self._ptr[1], self._ptr[2], self._ptr[3])
         if rc:
             self._fail(rc, t, q)
@@ -224,15 +230,15 @@ class CompiledController:
         """
         if out is None:
             self.control(q, t)
-            return split(self._out.copy(), self.m)
+            return split(self._out.copy(), self.m, self.rail)
         qp = self._q_pointer(q)
         rc = self._law_c(qp, t, self._out_pointer(out, self.n_out, "out"), self._ptr[2], self._ptr[3])
         if rc:
             self._fail(rc, t, q)
-        return split(out, self.m)
+        return split(out, self.m, self.rail)
 
     def step(self, q, t: float, h: float) -> np.ndarray:
-        """One closed-loop RK4 step of length ``h`` [s] from ``(q, t)``: the next state [rad].
+        """One closed-loop RK4 step of length ``h`` [s] from ``(q, t)``: the next state [rad] (``d`` [m] first on a rail).
 
         Raises
         ------
@@ -253,7 +259,7 @@ class CompiledController:
 
         Returns
         -------
-        Q : (n, m) array
+        Q : (len(times), n) array
             State after each step.
         D : (n, packed_width(m)) array
             The law at each step's start, packed (split it with
@@ -262,7 +268,7 @@ class CompiledController:
         self._load_q(q0)
         times = np.ascontiguousarray(times, dtype=float)
         n = len(times)
-        Q, D = np.empty((n, self.m)), np.empty((n, self.n_out))
+        Q, D = np.empty((n, self.n)), np.empty((n, self.n_out))
         p = self._ptr
         rc = self._chunk_c(p[0], times.ctypes.data, h, n, Q.ctypes.data, D.ctypes.data, p[2], p[3])
         if rc:

@@ -28,7 +28,7 @@ from .curves import Arc, Circle, Curve, Line, _param, evaluate
 from .errors import ConfigError
 from .laws import LAWS
 from .outputs import OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS
-from .paths import Path
+from .paths import PIECE_CONSTANTS, Path
 from .near_singular import damping_factor, speed_scale
 
 #: Below this ``|cos|`` between a link's normal and the curve normal the recursion re-pivots that
@@ -199,6 +199,19 @@ class CoordinatingController:
     #: Layout of the carry of the link recursion (see :meth:`link_step`).
     CARRY = ("y1", "y2", "alpha", "cos_alpha", "sin_alpha", "P1", "P2", "Q1", "Q2", "a", "b", "sum_abs_b")
 
+    def _piece_geometry(self, kind: str) -> ca.Function:
+        """``(y, t, piece) -> (phi, grad phi, dphi/dt, psi, grad psi, dpsi/dt)`` of a path by the
+        formulas of one piece of ``kind`` (``"line"`` or ``"arc"``), by AD."""
+        key = ("piece_geometry", kind)
+        if key not in self._cache:
+            y, t, sel = ca.SX.sym("y", 2), ca.SX.sym("t"), ca.SX.sym("piece", PIECE_CONSTANTS)
+            phi, psi = self.curve.phi_psi_piece(y, t, sel, kind)
+            self._cache[key] = ca.Function(
+                "piece_geometry", [y, t, sel], [phi, ca.gradient(phi, y), ca.jacobian(phi, t),
+                                                psi, ca.gradient(psi, y), ca.jacobian(psi, t)],
+                ["y", "t", "piece"], ["phi", "gphi", "phit", "psi", "gpsi", "psit"])
+        return self._cache[key]
+
     def _link_expressions(self, trig_inputs: bool = False):
         """Symbolic carry, ``q_j``, ``t`` and the link step's outputs in terms of them (CSE'd).
 
@@ -242,6 +255,70 @@ class CoordinatingController:
             trig = (trig[0], trig[1], inv)
         both = ca.cse(ca.vertcat(new, out))          # one CSE over both, so a_j, b_j are shared
         return carry, qj, trig, t, both[:new.numel()], both[new.numel():]
+
+    def _hoisted_pieces(self):
+        """``(time_features, {kind: link_geometry_kind}, link_step_piece)`` of a path (cached).
+
+        The link's geometry by the formulas of one kind of piece (``"line"``, ``"arc"``; no
+        selection): ``(carry, q_j, cos_alpha_j, sin_alpha_j, w, piece) -> geometry``, ``geometry =
+        (1 / (xi/2 pivot_j), phi, link margin, grad phi, -K phi - dphi/dt)``, with one vector
+        ``w(t)`` of time-only terms for both kinds; then the step, the same for both kinds:
+        ``(carry, q_j, cos_alpha_j, sin_alpha_j, geometry) -> (carry_next, out_j)``, the
+        operations of :meth:`link_step_trig` after its geometry.
+        """
+        key = ("hoisted", True, "pieces")
+        if key not in self._cache:
+            xi, K = self.chain.xi, self.gain
+            carry, qj, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("q_j"), ca.SX.sym("t")
+            cs, sel = ca.SX.sym("cos_sin_alpha_j", 2), ca.SX.sym("piece", PIECE_CONSTANTS)
+            y, d_prev, P, Q, nb = carry[0:2], carry[3:5], carry[5:7], carry[7:9], carry[11]
+            n_j = ca.vertcat(-cs[1], cs[0])
+            y_j = y + 0.5 * xi * (d_prev + cs)
+            geos = []
+            for kind in ("line", "arc"):
+                phi, g, phit = self._piece_geometry(kind)(y_j, t, sel)[:3]
+                pivot = ca.dot(g, n_j)
+                # |grad phi| = 1 for a distance to a line or a circle: the margin is |pivot| (the
+                # full form's |pivot| / |grad phi| differs by the rounding of a unit norm, 1e-16)
+                geos.append(ca.vertcat(1 / (0.5 * xi * pivot), phi, ca.fabs(pivot), g, -K * phi - phit))
+            expr, wsym, wexpr = ca.extract_parametric(ca.vertcat(*geos), t)
+            wsym = ca.vertcat(*wsym) if len(wsym) else ca.SX.sym("w", 1)
+            wexpr = ca.vertcat(*wexpr) if len(wexpr) else ca.SX.zeros(1, 1)
+            tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
+            names = ["carry", "q_j", "cos_alpha_j", "sin_alpha_j"]
+            geometry = {kind: ca.Function(f"link_geometry_{kind}", [carry, qj, cs[0], cs[1], wsym, sel],
+                                          [ca.cse(expr[6 * i:6 * i + 6])], names + ["w", "piece"], ["geometry"])
+                        for i, kind in enumerate(("line", "arc"))}
+            geo = ca.SX.sym("geometry", 6)
+            inv, phi, margin, g, r = geo[0], geo[1], geo[2], geo[3:5], geo[5]
+            gP, gQ = ca.dot(g, P), ca.dot(g, Q)
+            a_j, b_j = (r - gP) * inv, -gQ * inv
+            u = (xi * inv) * n_j                     # regrouped as in link_step_trig
+            new = ca.vertcat(y_j, carry[2] + qj, cs, (P + u * r) - u * gP, Q - u * gQ, a_j, b_j, nb + ca.fabs(b_j))
+            both = ca.cse(ca.vertcat(new, phi, margin, a_j, b_j))
+            step = ca.Function("link_step_piece", [carry, qj, cs[0], cs[1], geo], [both[:new.numel()], both[new.numel():]],
+                               names + ["geometry"], ["carry_next", "out"])
+            self._cache[key] = (tf, geometry, step)
+        return self._cache[key]
+
+    def piece_steps(self) -> tuple[ca.Function, dict, ca.Function]:
+        """The path's per-piece link step for the generated C (a :class:`~coordarm.symbolic.paths.Path` only).
+
+        Returns
+        -------
+        time_features : casadi.Function
+            ``t -> w``, the time-only terms of both kinds.
+        geometry : dict
+            ``{"line": link_geometry_line, "arc": link_geometry_arc}``: ``(carry, q_j, cos_alpha_j,
+            sin_alpha_j, w, piece) -> geometry``, ``piece`` the ten constants
+            (:func:`~coordarm.symbolic.paths.piece_parameters` with ``derived=True``) of the closest
+            piece, which is of that kind; ``geometry = (1 / (xi/2 pivot_j) [1/m], phi [m], link
+            margin, grad phi, -K phi - dphi/dt [m/s])``.
+        step : casadi.Function
+            ``(carry, q_j, cos_alpha_j, sin_alpha_j, geometry) -> (carry_next, out_j)``, as
+            :meth:`link_step_trig`'s outputs.
+        """
+        return self._hoisted_pieces()
 
     def _hoisted_link(self, trig_inputs: bool = False):
         """The link step split into time-only terms ``w(t)`` and the per-link rest (cached)."""
@@ -476,6 +553,23 @@ class CoordinatingController:
                            ["d", "q_1", "t", "sigma"] + (["v_scale"] if governed else []),
                            ["carry", "d_dot", "rail_margin", "psi_1"])
 
+    def rail_head_from_end(self) -> ca.Function:
+        """:meth:`rail_head` with the span computed inside: ``(d, q_1, t, y_m) -> (carry, d_dot,
+        rail_margin, psi_1)``, ``sigma = psi(y_m) - psi(y^1)`` (for the generated C of a commanded span,
+        whose loop knows the end's centre ``y_m`` [m] from its cosines and sines).
+
+        Returns
+        -------
+        casadi.Function
+        """
+        d, q1, t, y_m = ca.SX.sym("d"), ca.SX.sym("q_1"), ca.SX.sym("t"), ca.SX.sym("y_m", 2)
+        psi_1 = self._geometry(d * ca.DM(self.chain.rail_direction), t)[3]
+        outs = self.rail_head()(d, q1, t, self._geometry(y_m, t)[3] - psi_1)
+        both = ca.cse(ca.vertcat(*outs))
+        sizes = np.cumsum([0] + [o.numel() for o in outs])
+        return ca.Function("rail_head_from_end", [d, q1, t, y_m], [both[a:b] for a, b in zip(sizes[:-1], sizes[1:])],
+                           ["d", "q_1", "t", "y_m"], ["carry", "d_dot", "rail_margin", "psi_1"])
+
     def _span_now(self, q, t):
         """``sigma = psi(y^m) - psi(y^1)`` from the forward kinematics (needed only for a commanded span)."""
         if self.span is None:
@@ -496,15 +590,40 @@ class CoordinatingController:
         casadi.Function
             ``(carry, t) -> (s, p, longitudinal, longitudinal_pivot, v_scale)``.
         """
+        return self._tail()
+
+    def tail_piece(self, kind: str) -> ca.Function:
+        """:meth:`tail` by the formulas of one piece of a path, ``kind`` ``"line"`` or ``"arc"``:
+        ``(carry_m, t, piece) -> (s, p, longitudinal, longitudinal_pivot, v_scale)``, ``piece`` the
+        ten constants (:func:`~coordarm.symbolic.paths.piece_parameters`, ``derived=True``) of the
+        closest piece to ``y^m``, which the generated C searches (a :class:`~coordarm.symbolic.paths.Path` only).
+
+        Parameters
+        ----------
+        kind : {"line", "arc"}
+            The kind of the piece.
+
+        Returns
+        -------
+        casadi.Function
+        """
+        return self.memo(("tail", kind), lambda: self._tail(kind))
+
+    def _tail(self, kind: str | None = None) -> ca.Function:
+        """:meth:`tail` (``kind`` None) or :meth:`tail_piece`."""
         carry, t = ca.SX.sym("carry", len(self.CARRY)), ca.SX.sym("t")
+        sel = ca.SX.sym("piece", PIECE_CONSTANTS)
         y_m, n_m, nb = carry[0:2], ca.vertcat(-carry[4], carry[3]), carry[11]
         half = 0.5 * self.chain.xi * n_m
         A_m, B_m = carry[5:7] - half * carry[9], carry[7:9] - half * carry[10]   # ydot^m = A_m + B_m p
-        _, _, _, psi, h, psit = self._geometry(y_m, t)
+        _, _, _, psi, h, psit = self._piece_geometry(kind)(y_m, t, sel) if kind else self._geometry(y_m, t)
         pivot = ca.dot(h, B_m)
         margin = ca.fabs(pivot) / (self.chain.xi * nb)
         scale = speed_scale(margin, self.governor_threshold) if self.governor else ca.SX(1)
         p = (scale * self.speed(t) - psit - ca.dot(h, A_m)) / pivot
+        if kind:
+            return ca.Function(f"tail_{kind}", [carry, t, sel], [psi, p, margin, pivot, scale], ["carry", "t", "piece"],
+                               ["s", "p", "longitudinal", "longitudinal_pivot", "v_scale"])
         return ca.Function("tail", [carry, t], [psi, p, margin, pivot, scale], ["carry", "t"],
                            ["s", "p", "longitudinal", "longitudinal_pivot", "v_scale"])
 

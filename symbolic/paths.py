@@ -17,7 +17,9 @@ point may jump between segments, and the run stops (see ``tube_radius``).
 Selection: every segment's distance to ``y`` is computed cheaply (clamped to the segment);
 the closest segment's parameters are selected, and one line and one arc formula are
 evaluated with them (one square root and one ``atan2`` per point, whatever the number of
-segments).
+segments). The generated C finds the same piece by a search near the previous link's piece
+(:mod:`coordarm.generated.path_search`) and evaluates that piece's formula only
+(:func:`piece_formulas` with its ``kind``).
 """
 from __future__ import annotations
 
@@ -32,6 +34,9 @@ from .curves import Curve, _param, _point, evaluate
 from .errors import ConfigError
 from .motions import motion_to_spec
 
+#: Length of a piece's constants with the derived ones (:func:`piece_parameters`), as the
+#: generated per-piece link steps take them.
+PIECE_CONSTANTS = 10
 #: Arcs turning more than this are split into equal pieces, so each piece's angle
 #: measured with ``atan2`` from its start stays away from the branch cut.
 MAX_PIECE = 2.0 * math.pi / 3.0
@@ -157,7 +162,7 @@ def closest_piece_formulas(pieces: list[Piece], p):
     evaluated with them.
     """
     g = _junction_tests(pieces, p)
-    params = [ca.DM(np.r_[pc.p0, pc.d0, pc.k, pc.s0]) for pc in pieces]
+    params = [ca.DM(piece_parameters(pc)) for pc in pieces]
     best, sel = ca.inf, params[0]
     last = len(pieces) - 1
     for i, (pc, par) in enumerate(zip(pieces, params)):
@@ -169,21 +174,77 @@ def closest_piece_formulas(pieces: list[Piece], p):
             closer = ca.logic_and(closer, tst)
         best = ca.if_else(closer, dist, best)
         sel = ca.if_else(closer, par, sel)
+    return piece_formulas(sel, p)
+
+
+def piece_parameters(piece: Piece, derived: bool = False) -> np.ndarray:
+    """The six constants ``(p0, d0, k, s0)`` of a piece that :func:`piece_formulas` takes.
+
+    Parameters
+    ----------
+    piece : Piece
+        One piece of a path.
+    derived : bool
+        Append four constants that the arc formula would compute from those six, computed here
+        by the same floating-point operations: the centre ``p0 + n0 / k``, ``1 / k`` and
+        ``sign(k)`` (zeros for a line).
+
+    Returns
+    -------
+    ndarray, shape (6,) or (10,)
+        Start point [m], unit tangent there, curvature [1/m] (0 for a line), arc length at the
+        start [m]; with ``derived``, then centre [m], ``1 / k`` [m] and the turning sign.
+    """
+    base = np.r_[piece.p0, piece.d0, piece.k, piece.s0]
+    if not derived:
+        return base
+    if piece.k == 0:
+        return np.r_[base, 0.0, 0.0, 0.0, 0.0]
+    n0 = np.array([-piece.d0[1], piece.d0[0]])
+    return np.r_[base, piece.p0 + n0 / piece.k, 1.0 / piece.k, math.copysign(1.0, piece.k)]
+
+
+def piece_formulas(sel, p, kind: str | None = None):
+    """``(phi, psi)`` at ``p`` (path frame) by the formulas of the piece whose constants are ``sel``.
+
+    Parameters
+    ----------
+    sel : casadi.SX or casadi.DM, shape (6,) or (10,)
+        The piece's :func:`piece_parameters` (selected by :func:`closest_piece_formulas`, or by
+        the generated C's own search, which finds the same piece); with its ``derived`` constants
+        the arc formula takes them instead of computing them (the same values).
+    p : casadi.SX, shape (2,)
+        A point in the path's frame [m].
+    kind : {None, "line", "arc"}
+        None: one line and one arc formula, chosen by ``k != 0``; ``"line"`` or ``"arc"``: that
+        formula only (for a piece known to be of that kind; the same operations).
+
+    Returns
+    -------
+    tuple of casadi.SX
+        Signed distance and arc length [m].
+    """
     p0, d0, k, s0 = sel[0:2], sel[2:4], sel[4], sel[5]
     is_arc = k != 0
     n0 = ca.vertcat(-d0[1], d0[0])
     v = p - p0
     # line: tau along d0, phi along n0
     phi_line, psi_line = ca.dot(n0, v), s0 + ca.dot(d0, v)
+    if kind == "line":
+        return phi_line, psi_line
     # arc: centre p0 + n0 / k; phi = 1/k - sign(k) rho; psi = s0 + R a
-    kk = ca.if_else(is_arc, k, 1.0)                          # keep the arc formula finite on lines
-    sg = ca.sign(kk)
-    c = p0 + n0 / kk
+    kk = k if kind == "arc" else ca.if_else(is_arc, k, 1.0)  # keep the arc formula finite on lines
+    if kind == "arc" and sel.numel() == 10:
+        c, inv_k, sg = sel[6:8], sel[8], sel[9]
+    else:
+        sg, c, inv_k = ca.sign(kk), p0 + n0 / kk, 1 / kk
     r = p - c
     u0 = -sg * n0                                            # radial unit vector at p0
     a = sg * ca.atan2(u0[0] * r[1] - u0[1] * r[0], ca.dot(u0, r))
-    phi_arc = 1 / kk - sg * ca.norm_2(r)
+    phi_arc = inv_k - sg * ca.norm_2(r)
     psi_arc = s0 + a / (sg * kk)
+    if kind == "arc":
+        return phi_arc, psi_arc
     return ca.if_else(is_arc, phi_arc, phi_line), ca.if_else(is_arc, psi_arc, psi_line)
 
 
@@ -303,6 +364,44 @@ class Path(Curve):
             Signed distance and arc length [m].
         """
         return closest_piece_formulas(self.pieces, self.path_point(y, t))
+
+    def phi_psi_piece(self, y, t, sel, kind: str | None = None):
+        """``(phi, psi)`` at ``y``, time ``t``, by the formulas of the piece with constants ``sel``.
+
+        Equal to :meth:`phi_psi` when ``sel`` is the closest piece's :func:`piece_parameters`
+        (the generated C finds that piece itself and passes it in).
+
+        Parameters
+        ----------
+        y : casadi.SX, shape (2,)
+            A point [m].
+        t : casadi.SX
+            Time [s].
+        sel : casadi.SX, shape (6,) or (10,)
+            The piece's constants (see :func:`piece_parameters`).
+        kind : {None, "line", "arc"}
+            The piece's kind, when known (see :func:`piece_formulas`).
+
+        Returns
+        -------
+        tuple of casadi.SX
+            Signed distance and arc length [m].
+        """
+        return piece_formulas(sel, self.path_point(y, t), kind)
+
+    def frame_function(self) -> ca.Function:
+        """``t -> (A, b)``: the path frame as an affine map, ``p = A y + b`` (see :meth:`path_point`).
+
+        Returns
+        -------
+        casadi.Function
+            ``A`` as a 2 x 2 matrix (column-major in C), ``b`` [m].
+        """
+        y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
+        p = self.path_point(y, t)
+        A = ca.densify(ca.jacobian(p, y))                 # dense: the C reads four and two numbers
+        b = ca.densify(ca.substitute(p, y, ca.DM.zeros(2)))
+        return ca.Function("path_frame", [t], [A, b], ["t"], ["A", "b"])
 
     def phi(self, y, t):
         """Signed distance to the closest point of the path, + to the left.

@@ -9,7 +9,7 @@ import pytest
 from coordarm.cli import main as cli_main
 from coordarm.generated.build import DEFAULT_FLAGS, find_compiler
 from coordarm.simulation.scenario import load_scenario
-from coordarm.symbolic.outputs import packed_width
+from coordarm.symbolic.outputs import packed_width, split
 from tests.test_generated import ROUNDING_FACTOR, rounding_sensitivity
 
 M, STEPS = 12, 40
@@ -113,3 +113,33 @@ def test_error_codes_of_the_exported_api(exported, example_rows, tmp_path):
         [str(exe)], capture_output=True, text=True, check=True).stdout.split()
     assert (int(n_q), int(n_out), int(n_work) > 0) == (M, packed_width(M) - M, True)
     assert (int(ok), int(null), int(inf_t), int(nan_q), int(nan_out)) == (0, -1, -2, -2, 1)
+
+
+def test_a_rail_scenario_exports_and_its_example_loop_agrees_with_the_compiled_law(tmp_path):
+    """`thread` (a rail, a commanded span): q and u carry d first, outputs end with sigma and the rail margin."""
+    out = tmp_path / "thread"
+    assert cli_main(["export", "thread", "--links", str(M), "--duration", "0.5", "--out", str(out)]) == 0
+    header = (out / "coordarm_law.h").read_text()
+    assert f"#define COORDARM_LAW_N_Q {M + 1}L" in header and "sigma [m]" in header and "rail_margin" in header
+    res = subprocess.run(["make", "-C", str(out), f"WARN={' '.join(STRICT)}", "example"], capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout + res.stderr
+    run = subprocess.run([str(out / "example"), str(STEPS)], capture_output=True, text=True, check=True)
+    rows = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
+    n, width = M + 1, packed_width(M, rail=True)
+    assert rows.shape == (STEPS + 1, 1 + n + width)
+    scenario = load_scenario("thread").with_overrides(M, 0.5, None)
+    ctrl = scenario.controller()
+    comp = ctrl.compile()
+    T, Q, packed = rows[:, 0], rows[:, 1:n + 1], rows[:, n + 1:]
+    np.testing.assert_array_equal(Q[0], scenario.start(ctrl))
+    for k in range(0, STEPS + 1, 5):
+        ref = np.empty(width)
+        comp.evaluate(Q[k], T[k], out=ref)
+        np.testing.assert_allclose(packed[k], ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
+        interp = ctrl.evaluate(Q[k], T[k])
+        for name in ("u", "sigma", "rail_margin", "s"):
+            np.testing.assert_allclose(split(packed[k], M, rail=True)[name], interp[name], rtol=1e-11, atol=1e-12,
+                                       err_msg=name)
+    assert Q[-1, 0] != Q[0, 0]                                    # the rail moved
+    Qc, _ = comp.chunk(Q[0], T[:-1], scenario.step)
+    np.testing.assert_allclose(Qc, Q[1:], rtol=1e-12, atol=1e-12)

@@ -9,7 +9,7 @@ from coordarm.analysis.replay import load
 from coordarm.analysis.singularity import margins
 from coordarm.simulation.run import BackendFallbackWarning, simulate
 from coordarm.simulation.scenario import Scenario, load_scenario
-from coordarm.symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain, SingularityError
+from coordarm.symbolic import Arc, BuildError, ConfigError, CoordinatingController, Line, PlanarChain, SingularityError
 from coordarm.symbolic.near_singular import damping_factor, speed_scale
 
 K = 2.0
@@ -271,3 +271,16 @@ def test_governed_rail_law_solves_the_decoupling_system_with_scaled_commands(bet
         assert g == 1 and np.allclose(out["u"], plain.evaluate(q, t)["u"], rtol=0, atol=1e-15)
     else:
         assert g < 1
+
+
+def test_the_governed_rail_law_compiles_in_the_dense_form_and_equals_the_interpreted_one():
+    ctrl = pushed_rail_chain(True)
+    fast = ctrl.compile(form="dense")
+    for beta in (0.2, 0.3, 1.2):
+        q = ctrl.chain.zigzag(beta, d=0.2)
+        ref = ctrl.evaluate(q, 0.3, form="dense")
+        out = fast.evaluate(q, 0.3)
+        assert out["v_scale"] == pytest.approx(ref["v_scale"], abs=1e-14)
+        np.testing.assert_allclose(out["u"], ref["u"], rtol=1e-12, atol=1e-14)
+    with pytest.raises(BuildError, match="governor"):      # the structured C glue has one pass only
+        ctrl.compile()

@@ -5,6 +5,8 @@ import pytest
 
 from coordarm.analysis.replay import load
 from coordarm.cli import main
+from coordarm.simulation.run import simulate
+from coordarm.simulation.scenario import load_scenario
 from coordarm.symbolic import curve_from_spec
 from test_outcomes import crossing_pairs
 from test_paths import dense_polyline
@@ -87,3 +89,21 @@ def test_path_preset_completes_physically_valid_and_reports(preset, tmp_path):
     rep_out = tmp_path / "report"
     assert main(["report", str(out), "--out", str(rep_out)]) == 0
     assert (rep_out / "report.md").read_text().count("|") > 10
+
+
+@pytest.mark.parametrize("preset", ["thread", "pipe"])
+def test_path_preset_runs_the_same_compiled_and_interpreted(preset):
+    """The whole preset (its obstacles checked) on both backends: same outcome, same trajectory."""
+    scenario = load_scenario(preset)
+    ctrl = scenario.controller()
+    q0 = scenario.start(ctrl)
+    runs = {}
+    for backend in ("compiled", "interpreted"):
+        runs[backend] = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
+                                 thresholds=scenario.thresholds, physical=scenario.physical(ctrl.chain),
+                                 check_every=25, progress=False)
+        assert runs[backend].info["backend"] == backend and not runs[backend].info["contacts"]
+    a, b = runs["compiled"], runs["interpreted"]
+    assert a.q.shape == b.q.shape == (round(scenario.duration / scenario.step) + 1, ctrl.chain.m + 1)
+    for field in ("q", "u", "s", "sigma", "rail_margin", "longitudinal"):
+        np.testing.assert_allclose(getattr(a, field), getattr(b, field), rtol=1e-9, atol=1e-10, err_msg=field)

@@ -1,9 +1,12 @@
 """Introduction axis (rail): the law against the dense decoupling matrix and closed-form facts."""
+import warnings
+
 import numpy as np
 import pytest
 
-from coordarm import Line, Path, PlanarChain, CoordinatingController, simulate
-from coordarm.symbolic import ConfigError, follow_curve
+from coordarm import Arc, Line, Path, PlanarChain, CoordinatingController, simulate
+from coordarm.symbolic import OUTPUTS, ConfigError, follow_curve
+from coordarm.symbolic.outputs import RAIL_OUTPUTS, packed_width, split
 from coordarm.symbolic.motions import Ramp, Sinusoid
 
 
@@ -97,16 +100,100 @@ def test_bad_rail_parameters_are_refused():
         CoordinatingController(rail_chain(4), Line(), 1.0, 0.1).evaluate(np.zeros(4))
 
 
-def test_a_rail_chain_is_refused_by_the_compiled_backend_and_auto_falls_back():
-    from coordarm import BuildError
-    from coordarm.simulation.run import BackendFallbackWarning
-    chain = PlanarChain(6, 0.1, base="rail")
-    ctrl = CoordinatingController(chain, Line(), 2.0, 0.1)
-    with pytest.raises(BuildError, match="a chain on a rail runs on the interpreted backend"):
-        ctrl.compile()
-    with pytest.warns(BackendFallbackWarning):
-        run = simulate(ctrl, chain.zigzag(1.2), 0.1, 0.01)
-    assert run.info["backend"] == "interpreted"
+#: Curves through the rail's base region, each moving, for the compiled-law tests.
+RAIL_CURVES = {
+    "line": lambda: Line((0.0, Sinusoid(0.01, 1.0)), angle=Sinusoid(0.05, 0.5, offset=0.2)),
+    "arc": lambda: Arc((0.0, Sinusoid(0.02, 0.7)), angle=0.2, radius=Sinusoid(0.1, 0.4, offset=1.5)),
+    "path": lambda: Path((-0.392, -0.0795), 0.2, [{"line": 0.6}, {"arc": 0.9, "radius": 0.7}, {"line": 0.3},
+                                                  {"arc": -1.2, "radius": 0.5}, {"line": 1.0}],
+                         offset=(Ramp(0.0, 0.02), 0.0), rotation=Sinusoid(0.05, 0.7)),
+}
+COMPILED = {}
+
+
+def compiled_rail(kind, span, form="structured"):
+    """A rail controller (diagonal B, moving curve and speed) and its compiled twin, built once."""
+    key = (kind, span, form)
+    if key not in COMPILED:
+        chain = PlanarChain(11, 0.1, base="rail", rail_angle=0.2, B=np.linspace(0.5, 1.5, 11))
+        ctrl = CoordinatingController(chain, RAIL_CURVES[kind](), 2.0, Sinusoid(0.05, 0.3, offset=0.1), law=form,
+                                      span=None if span == "held" else Sinusoid(0.05, 1.0, offset=0.5))
+        COMPILED[key] = (ctrl, ctrl.compile())
+    return COMPILED[key]
+
+
+def random_rail_states(ctrl, n, seed):
+    """States near the curve: the chain laid along it from a random rail position, then perturbed."""
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        t = rng.uniform(0.0, 3.0)
+        q = follow_curve(ctrl, rng.uniform(0.8, 1.3), t0=t, d=rng.uniform(-0.1, 0.2))
+        yield q + rng.normal(scale=0.03, size=ctrl.chain.dof), t
+
+
+@pytest.mark.parametrize("form", ["structured", "dense"])
+@pytest.mark.parametrize("span", ["held", "commanded"])
+@pytest.mark.parametrize("kind", list(RAIL_CURVES))
+def test_compiled_rail_law_equals_the_interpreted_law_to_1e12_at_random_states(kind, span, form):
+    from tests.test_generated import ROUNDING_FACTOR, rounding_sensitivity
+    ctrl, comp = compiled_rail(kind, span, form)
+    assert comp.n == 12 and comp.n_out == packed_width(11, rail=True)
+    for q, t in random_rail_states(ctrl, 6, seed=len(kind) + 10 * len(span) + len(form)):
+        a, b = comp.evaluate(q, t), ctrl.evaluate(q, t)
+        assert set(a) == set(b) == set(OUTPUTS + RAIL_OUTPUTS)
+        assert b["rail_margin"] > 0.5 and b["longitudinal"] > 0.01 and b["v_scale"] == 1.0
+        sens = rounding_sensitivity(ctrl.evaluate, q, t)
+        for name in a:
+            ref = np.atleast_1d(b[name])
+            bound = 1e-12 * max(np.max(np.abs(ref)), 1e-3) + ROUNDING_FACTOR * sens[name]
+            assert np.max(np.abs(np.atleast_1d(a[name]) - ref)) <= bound, (name, a[name], b[name])
+        np.testing.assert_array_equal(comp.control(q, t), a["u"])
+        assert a["u"].shape == (12,)
+
+
+@pytest.mark.parametrize("span", ["held", "commanded"])
+def test_compiled_rail_step_and_chunk_equal_the_interpreted_rk4_step(span):
+    ctrl, comp = compiled_rail("path", span)
+    h, (q, _) = 2e-3, next(random_rail_states(ctrl, 1, seed=3))
+    times = 0.4 + h * np.arange(15)
+    Q, D = comp.chunk(q, times, h)
+    assert Q.shape == (15, 12)
+    step = ctrl.rk4_step(h)
+    x = q
+    for k, t in enumerate(times):
+        res = [np.asarray(v).ravel() for v in step(x, t)]
+        np.testing.assert_allclose(comp.step(x, t, h), res[0], rtol=1e-12, atol=1e-12)
+        d = split(D[k], 11, rail=True)
+        for name, ref in zip(ctrl.run_outputs, res[1:]):
+            np.testing.assert_allclose(np.atleast_1d(d[name]), ref, rtol=1e-12, atol=1e-12, err_msg=name)
+        x = res[0]
+        np.testing.assert_allclose(Q[k], x, rtol=1e-12, atol=1e-12)
+
+
+def test_a_rail_run_compiled_by_auto_equals_the_interpreted_run():
+    chain = rail_chain(16, angle=0.0, limits=(0.0, 3.0))
+    path = Path((-0.2, 0.0), 0.0, [{"line": 0.8}, {"arc": 0.8, "radius": 0.8}, {"line": 2.0}])
+    ctrl = CoordinatingController(chain, path, 2.0, 0.2, span=Ramp(1.2, 0.01))
+    q0 = follow_curve(ctrl, 1.1, d=0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                    # no fallback warning: a rail compiles
+        a = simulate(ctrl, q0, 1.0, 0.002)
+    b = simulate(ctrl, q0, 1.0, 0.002, backend="interpreted")
+    assert a.info["backend"] == "compiled" and b.info["backend"] == "interpreted"
+    for field in ("q", "u", "e", "s", "sigma", "rail_margin", "link_margins", "longitudinal"):
+        np.testing.assert_allclose(getattr(a, field), getattr(b, field), rtol=1e-12, atol=1e-12, err_msg=field)
+
+
+@pytest.mark.parametrize("form", ["structured", "dense"])
+@pytest.mark.parametrize("span", ["held", "commanded"])
+def test_every_rail_library_compiles_without_a_warning(span, form, tmp_path):
+    from coordarm.generated.build import build
+    from coordarm.generated.codegen import generate_source
+    chain = PlanarChain(4, 0.1, base="rail", rail_angle=0.3, B=np.array([1.0, 2.0, 0.5, 1.5]))
+    ctrl = CoordinatingController(chain, Line(angle=0.3), 2.0, 0.05, law=form,
+                                  span=None if span == "held" else Ramp(0.25, 0.01))
+    lib = build(generate_source(ctrl, form), flags="-O2 -Wall -Wextra -Werror", build_dir=tmp_path)
+    assert lib.path.is_file() and not lib.cache_hit
 
 
 @pytest.mark.parametrize("span", [None, Ramp(0.4, 0.05)], ids=["held", "commanded"])
