@@ -84,7 +84,7 @@ def path_macros(ctrl: CoordinatingController) -> str:
     """
     if not _searched(ctrl):
         return ""
-    return (f"#define CA_PATH_HALF_XI {0.5 * ctrl.chain.xi!r}\n#define CA_PATH_SCRATCH (6 * CA_M)\n"
+    return ("#define CA_PATH_SCRATCH (6 * CA_M)\n"
             + search_source(ctrl.curve)
             + templates.PATH_SEARCH)
 
@@ -139,13 +139,13 @@ def rail_macros(ctrl: CoordinatingController) -> str:
     Returns
     -------
     str
-        ``CA_RAIL_C``, ``CA_RAIL_S``, ``CA_HALF_XI``, ``CA_RAIL_HEAD`` and, for a commanded span,
+        ``CA_RAIL_C``, ``CA_RAIL_S``, ``CA_RAIL_HEAD`` and, for a commanded span,
         ``CA_SPAN`` definitions.
     """
     if not ctrl.chain.rail:
         return ""
     c, s = (float(v) for v in ctrl.chain.rail_direction)
-    return (f"#define CA_RAIL_C {c!r}\n#define CA_RAIL_S {s!r}\n#define CA_HALF_XI {0.5 * ctrl.chain.xi!r}\n"
+    return (f"#define CA_RAIL_C {c!r}\n#define CA_RAIL_S {s!r}\n"
             f"#define CA_RAIL_HEAD {_head(ctrl).name()}\n" + ("#define CA_SPAN 1\n" if ctrl.span is not None else ""))
 
 
@@ -235,8 +235,8 @@ def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law:
              for k in ("arg", "res", "iw", "w")}
     m, rail = ctrl.chain.m, ctrl.chain.rail
     parts = [templates.CASADI_BEGIN, cg.dump(), templates.CASADI_END,
-             templates.HEADER.format(m=m, nq=ctrl.chain.dof, rail=int(rail), layout=layout_macros(m, rail),
-                                     b_diagonal=b_macros,
+             templates.HEADER.format(m=m, nq=ctrl.chain.dof, half_xi=repr(0.5 * ctrl.chain.xi), rail=int(rail),
+                                     layout=layout_macros(m, rail), b_diagonal=b_macros,
                                      **{f"sz_{k}": v for k, v in sizes.items()})]
     if _split(ctrl, form):
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"

@@ -37,6 +37,7 @@ HEADER = """
 /* ---- coordarm glue (generated/templates.py) ---- */
 #define CA_M {m}
 #define CA_NQ {nq}
+#define CA_HALF_XI {half_xi}   /* half a link [m]: centre to centre is CA_HALF_XI (c_j-1 + c_j) */
 #define CA_RAIL {rail}
 {layout}#define CA_SZ_ARG {sz_arg}
 #define CA_SZ_RES {sz_res}
@@ -199,8 +200,8 @@ CA_FLATTEN static int ca_path_pass(const casadi_real* head, const casadi_real* q
   pp[1] = fr[1] * y0 + fr[3] * y1 + fr[5];
   k = pc[0] = ca_closest_piece(pp, 0);
   for (j = 1; j < CA_M; ++j) {
-    y0 = y0 + CA_PATH_HALF_XI * (c[j - 1] + c[j]);
-    y1 = y1 + CA_PATH_HALF_XI * (s[j - 1] + s[j]);
+    y0 = y0 + CA_HALF_XI * (c[j - 1] + c[j]);
+    y1 = y1 + CA_HALF_XI * (s[j - 1] + s[j]);
     pp[0] = fr[0] * y0 + fr[2] * y1 + fr[4];
     pp[1] = fr[1] * y0 + fr[3] * y1 + fr[5];
     k = pc[j] = ca_closest_piece(pp, k);
