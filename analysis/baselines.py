@@ -12,7 +12,10 @@ along the curve and ``d phi / dt = -K phi`` across it (the same ``v*`` and gain 
 * ``dls``: the same with the damped inverse ``A^T (A A^T + lambda_v^2 I)^-1`` (variable
   damping of the ratio of singular values of ``A``, see :func:`symbolic.near_singular.damping_factor`).
 
-The chains of the scenarios have ``B = I``, so ``u = qdot``.
+The chains of the scenarios have ``B = I``, so ``u = qdot``. On a rail (``q = (d, q_1..q_m)``)
+the rail is one more column of ``dy^m/dq`` (the rail direction: every centre slides with the
+base) and the joint-centering term leaves ``d`` free (``z_d = 0``): it keeps the body compact,
+not the base in place.
 """
 from __future__ import annotations
 
@@ -25,8 +28,8 @@ import numpy as np
 from coordarm.generated.build import build
 from coordarm.generated.codegen import CODEGEN_OPTIONS, Source
 from coordarm.simulation.choices import COMPARE_BACKENDS
-from coordarm.simulation.run import Run
-from coordarm.symbolic import ConfigError, CoordinatingController
+from coordarm.simulation.run import ARRAYS, OPTIONAL, Run
+from coordarm.symbolic import ConfigError, CoordinatingController, PlanarChain
 from coordarm.symbolic.near_singular import damping_factor
 
 #: Baselines implemented here.
@@ -47,8 +50,9 @@ class EndPointRate:
     ----------
     ctrl : CoordinatingController
         Supplies the chain, the curve's geometry, the gain ``K`` [1/s] and ``v*(t)`` [m/s].
-    centre : (m,) ndarray
-        Joint configuration the null-space term pulls towards [rad] (the compact start).
+    centre : (dof,) ndarray
+        Joint configuration the null-space term pulls towards [rad] (the compact start; on a
+        rail its ``d`` is ignored).
     damping : dict, optional
         ``{"lambda": [m/rad], "band": [-]}`` for ``dls``; None for the pseudoinverse.
     centering : float
@@ -65,23 +69,27 @@ class EndPointRate:
         if chain.b_diagonal is None or not np.all(chain.b_diagonal == 1):
             raise ConfigError("baselines: need B = I (qdot = u)")
         self.centre = np.asarray(self.centre, dtype=float)
-        if self.centre.shape != (chain.m,):
-            raise ConfigError(f"centre: need shape ({chain.m},), got {self.centre.shape}")
+        if self.centre.shape != (chain.dof,):
+            raise ConfigError(f"centre: need shape ({chain.dof},), got {self.centre.shape}")
         self._cache: dict = {}
 
     def _expressions(self):
         """``q``, ``t`` and ``(y^m, A, r, u)`` as SX expressions (O(m) operations)."""
         chain, ctrl = self.ctrl.chain, self.ctrl
         m = chain.m
-        q, t = ca.SX.sym("q", m), ca.SX.sym("t")
+        q, t = ca.SX.sym("q", chain.dof), ca.SX.sym("t")
         weights = np.full(m, chain.xi)
-        weights[[0, -1]] = 0.5 * chain.xi          # y^m = sum_j w_j d(alpha_j)
-        alpha = ca.cumsum(q)
+        weights[[0, -1]] = 0.5 * chain.xi          # y^m = y^1 + sum_j w_j d(alpha_j)
+        alpha = ca.cumsum(chain.revolute(q))
         c, s = ca.cos(alpha), ca.sin(alpha)
         y = ca.vertcat(ca.dot(weights, c), ca.dot(weights, s))
         # dy^m/dq_k = sum_{j >= k} w_j n(alpha_j): a reverse cumulative sum
         rev = list(range(m - 1, -1, -1))
         J = ca.horzcat(ca.cumsum((-weights * s)[rev])[rev], ca.cumsum((weights * c)[rev])[rev]).T
+        free = np.ones(chain.dof)
+        if chain.rail:                             # y^1 = d rail: the rail is the first column
+            rail = ca.DM(chain.rail_direction)
+            y, J, free[0] = y + q[0] * rail, ca.horzcat(rail, J), 0.0
         phi, g, phit, _, h, psit = ctrl._geometry(y, t)
         A = ca.vertcat(ca.mtimes(h.T, J), ca.mtimes(g.T, J))
         r = ca.vertcat(ctrl.speed(t) - psit, -ctrl.gain * phi - phit)
@@ -93,19 +101,19 @@ class EndPointRate:
             G = G + damping_factor(ratio, self.damping["lambda"], self.damping["band"]) * ca.SX.eye(2)
         det = G[0, 0] * G[1, 1] - G[0, 1] * G[1, 0]
         Ginv = ca.vertcat(ca.horzcat(G[1, 1], -G[0, 1]), ca.horzcat(-G[1, 0], G[0, 0])) / det
-        z = -self.centering * (q - ca.DM(self.centre))
+        z = -self.centering * ca.DM(free) * (q - ca.DM(self.centre))
         u = ca.mtimes(A.T, ca.mtimes(Ginv, r)) + z - ca.mtimes(A.T, ca.mtimes(Ginv, ca.mtimes(A, z)))
         return q, t, y, A, r, u
 
     def law(self) -> ca.Function:
-        """``(q, t) -> u`` (m,) [rad/s]; not finite where ``A A^T`` is singular (pinv)."""
+        """``(q, t) -> u`` (dof,) [rad/s; ``d_dot`` m/s first on a rail]; not finite where ``A A^T`` is singular (pinv)."""
         if "law" not in self._cache:
             q, t, _, _, _, u = self._expressions()
             self._cache["law"] = ca.Function("baseline_law", [q, t], [u], ["q", "t"], ["u"])
         return self._cache["law"]
 
     def task(self, q, t: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``y^m`` (2,) [m], the task Jacobian ``A`` (2, m) [m/rad] and the commanded rates ``r`` (2,) [m/s]."""
+        """``y^m`` (2,) [m], the task Jacobian ``A`` (2, dof) [m/rad] and the commanded rates ``r`` (2,) [m/s]."""
         if "task" not in self._cache:
             qs, ts, y, A, r, _ = self._expressions()
             self._cache["task"] = ca.Function("baseline_task", [qs, ts], [y, A, r])
@@ -113,7 +121,7 @@ class EndPointRate:
         return np.asarray(y).ravel(), np.asarray(A), np.asarray(r).ravel()
 
     def control(self, q, t: float = 0.0) -> np.ndarray:
-        """``u = qdot`` (m,) [rad/s]."""
+        """``u = qdot`` (dof,) [rad/s]."""
         return np.asarray(self.law()(self.ctrl.chain.check_q(q), t)).ravel()
 
     def chunk(self, step: float, n: int, backend: str = "interpreted") -> ca.Function:
@@ -134,16 +142,67 @@ class EndPointRate:
             name = "baseline_chunk"   # one named Function (mapaccum may nest and rename itself)
             rk4 = rk4_function(self.law(), step)
             acc = (rk4 if backend == "compiled" else rk4.expand()).mapaccum("steps", n)
-            q0, times = ca.MX.sym("q0", self.ctrl.chain.m), ca.MX.sym("t", 1, n)
+            q0, times = ca.MX.sym("q0", self.ctrl.chain.dof), ca.MX.sym("t", 1, n)
             fn = ca.Function(name, [q0, times], acc(q0, times), ["q0", "t"], ["Q", "U"])
             if backend == "compiled":
-                cg = ca.CodeGenerator("baseline", dict(CODEGEN_OPTIONS))
-                cg.add(fn)
-                kind = "dls" if self.damping else "pinv"
-                lib = build(Source(_EXPORT + cg.dump(), kind, self.ctrl.chain.m))
-                fn = ca.external(name, str(lib.path))
+                fn = compiled(fn, "dls" if self.damping else "pinv", self.ctrl.chain.m)
             self._cache[key] = fn
         return self._cache[key]
+
+
+def compiled(fn: ca.Function, kind: str, m: int) -> ca.Function:
+    """``fn`` as generated C: built (or taken from the build cache) and loaded with ``casadi.external``.
+
+    Parameters
+    ----------
+    fn : casadi.Function
+        The Function to generate (its name names the C symbol).
+    kind : str
+        What it is (part of the cache entry's description, e.g. ``"pinv"``).
+    m : int
+        Number of links (likewise).
+
+    Returns
+    -------
+    casadi.Function
+        The external Function, same inputs and outputs as ``fn``.
+
+    Raises
+    ------
+    BuildError
+        No C compiler, or the generated code did not compile or load.
+    """
+    cg = ca.CodeGenerator("baseline", dict(CODEGEN_OPTIONS))
+    cg.add(fn)
+    lib = build(Source(_EXPORT + cg.dump(), kind, m))
+    return ca.external(fn.name(), str(lib.path))
+
+
+def stop_at_rail_limit(run: Run, chain: PlanarChain) -> Run:
+    """``run`` up to its last sample inside the rail's limits (then ``info["stopped"] = "rail_limit"``).
+
+    A robot's rail cannot feed the body beyond its ends; every method of ``coordarm compare`` is
+    held to that (a fixed base, or a run inside the limits, is returned as it is).
+
+    Parameters
+    ----------
+    run : Run
+    chain : PlanarChain
+        Its ``rail_limits`` [m].
+
+    Returns
+    -------
+    Run
+    """
+    if not chain.rail:
+        return run
+    lo, hi = chain.rail_limits
+    outside = ~((run.q[:, 0] >= lo) & (run.q[:, 0] <= hi))
+    if not outside.any():
+        return run
+    end = max(int(np.argmax(outside)), 1)
+    keep = ARRAYS + tuple(a for a in OPTIONAL if getattr(run, a, None) is not None)
+    return Run.from_arrays({a: getattr(run, a)[:end] for a in keep}, dict(run.info, stopped="rail_limit"))
 
 
 def rk4_function(law: ca.Function, h: float) -> ca.Function:
@@ -199,7 +258,7 @@ def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: f
     wall = time.perf_counter() - wall
     Q, U = np.concatenate(Qs), np.concatenate(Us)
     T = t0 + step * np.arange(len(Q))
-    m, nan = Q.shape[1], np.full(len(Q), np.nan)
+    m, nan = law.ctrl.chain.m, np.full(len(Q), np.nan)
     return Run(T, Q, U, np.full((len(Q), m - 1), np.nan), nan, np.full((len(Q), m - 1), np.nan), nan.copy(),
                law.ctrl.speeds(T), info={"backend": backend, "stopped": stopped, "wall_time": wall,
                                          "steps": max(k, 1)})

@@ -94,7 +94,16 @@ def functions(ctrl: CoordinatingController, form: str, path_search: bool = True)
 
     The structured form adds the re-pivoting step and its time terms (called only at a state
     with a small link pivot); with damping, the whole law is one Function.
+
+    Raises
+    ------
+    BuildError
+        The governor on a rail in the structured form: its two passes of the recursion (see
+        :class:`~coordarm.symbolic.controller.CoordinatingController`) are not in the C glue.
     """
+    if _split(ctrl, form) and ctrl.chain.rail and ctrl.governor:
+        raise BuildError("governor: the governed rail law (two passes of the recursion) is not in the compiled "
+                         "glue; use backend 'interpreted' ('auto' falls back by itself) or law = \"dense\"")
     if _split(ctrl, form):
         if path_search and _searched(ctrl):
             tf, geometry, step = ctrl.piece_steps()

@@ -114,7 +114,8 @@ class CoordinatingController:
         ``sigma_dot = 0``.
     governor : bool
         Scale ``v*`` by :func:`~.near_singular.speed_scale` of the longitudinal margin
-        (output ``v_scale``; 1 when off).
+        (output ``v_scale``; 1 when off). On a rail the commanded span rate ``sigma_dot`` is
+        scaled too (it is what stretches the body between base and end point).
     governor_threshold : float
         Longitudinal margin at which the governed speed reaches 0 (dimensionless, in (0, 1);
         used only with the governor).
@@ -128,7 +129,10 @@ class CoordinatingController:
     On a rail (``chain.rail``) ``q = (d, q_1..q_m)`` and the outputs are ``(s, sigma, e^2..e^m)``:
     the rail rate follows from the span row alone, ``d_dot = (v* - sigma_dot - dpsi/dt(y^1)) /
     (grad psi(y^1) . rail)`` (the rail pivot), then the revolute joints from the usual O(m)
-    recursion with ``ydot^1 = d_dot rail``.
+    recursion with ``ydot^1 = d_dot rail``. With the governor, ``v*`` and ``sigma_dot`` are both
+    scaled by ``v_scale``; the longitudinal margin does not depend on the rail rate (only on the
+    recursion's ``Q`` and ``b``, never on ``P``), so a first pass of the recursion finds it and a
+    second one solves with the governed rail rate.
     """
 
     def __init__(self, chain: PlanarChain, curve: Curve, gain: float, speed: Any,
@@ -157,9 +161,6 @@ class CoordinatingController:
         if span is not None and not chain.rail:
             raise ConfigError("span: only a chain on a rail (base = 'rail') has a span output")
         self.span = None if span is None else _param(span, "span")
-        if governor and chain.rail:
-            raise ConfigError("governor: not available on a rail (the rail rate is fixed by the span row before "
-                              "the longitudinal margin is known); use a fixed base or lower the speed")
         #: Names of the outputs of :meth:`law`, in order (the rail adds :data:`RAIL_OUTPUTS`).
         self.outputs = OUTPUTS + (RAIL_OUTPUTS if chain.rail else ())
         #: The outputs kept at every sample of a run (the law's logged ones; the rail's too).
@@ -521,27 +522,36 @@ class CoordinatingController:
         sig_t, sig_dot = rate(t)
         return sig_dot - self.gain * (sigma - sig_t)
 
-    def rail_head(self) -> ca.Function:
+    def rail_head(self, governed: bool = False) -> ca.Function:
         """``(d, q_1, t, sigma) -> (carry, d_dot, rail_margin, psi_1)`` of a chain on a rail.
 
         The span row minus the ``s`` row leaves ``grad psi(y^1) . rail d_dot = v* - sigma_dot -
         dpsi/dt(y^1)``: the rail rate, dividing by the rail pivot ``grad psi(y^1) . rail``; the carry
         is :meth:`first_carry`'s with ``y^1 = d rail`` and ``ydot^1 = d_dot rail``.
 
+        Parameters
+        ----------
+        governed : bool
+            A fifth input ``v_scale`` scales the commands: ``v_scale (v* - sigma_dot) - dpsi/dt(y^1)``.
+
         Returns
         -------
         casadi.Function
         """
         d, q1, t, sigma = ca.SX.sym("d"), ca.SX.sym("q_1"), ca.SX.sym("t"), ca.SX.sym("sigma")
+        scale = ca.SX.sym("v_scale") if governed else None
         rail = ca.DM(self.chain.rail_direction)
         y1 = d * rail
         _, _, _, psi1, h1, psit1 = self._geometry(y1, t)
         pivot = ca.dot(h1, rail)
-        rate = (ca.SX(self.speed(t)) - self.span_rate(sigma, t) - psit1) / pivot
+        command = ca.SX(self.speed(t)) - self.span_rate(sigma, t)
+        rate = ((scale * command if governed else command) - psit1) / pivot
         carry = self.first_carry()(q1)
         carry = ca.vertcat(y1, carry[2:5], rate * rail, carry[7:])
-        return ca.Function("rail_head", [d, q1, t, sigma], [carry, rate, ca.fabs(pivot) / ca.norm_2(h1), psi1],
-                           ["d", "q_1", "t", "sigma"], ["carry", "d_dot", "rail_margin", "psi_1"])
+        inputs = [d, q1, t, sigma] + ([scale] if governed else [])
+        return ca.Function("rail_head", inputs, [carry, rate, ca.fabs(pivot) / ca.norm_2(h1), psi1],
+                           ["d", "q_1", "t", "sigma"] + (["v_scale"] if governed else []),
+                           ["carry", "d_dot", "rail_margin", "psi_1"])
 
     def rail_head_from_end(self) -> ca.Function:
         """:meth:`rail_head` with the span computed inside: ``(d, q_1, t, y_m) -> (carry, d_dot,
@@ -642,10 +652,15 @@ class CoordinatingController:
         fold = self.link_step_repivot().mapaccum("links", m - 1)
         qr = self.chain.revolute(q)
         if self.chain.rail:
-            carry0, rail_rate, rail_margin, psi1 = self.rail_head()(q[0], qr[0], t, self._span_now(q, t))
+            sigma = self._span_now(q, t)
+            carry0, rail_rate, rail_margin, psi1 = self.rail_head()(q[0], qr[0], t, sigma)
         else:
             carry0 = self.first_carry()(qr[0])
         carries, outs = fold(carry0, qr[1:].T, ca.repmat(w_t, 1, m - 1))
+        if self.chain.rail and self.governor:      # the margin (so v_scale) is independent of the rail rate
+            scale = self.tail()(carries[:, m - 2], t)[4]
+            carry0, rail_rate, rail_margin, psi1 = self.rail_head(True)(q[0], qr[0], t, sigma, scale)
+            carries, outs = fold(carry0, qr[1:].T, ca.repmat(w_t, 1, m - 1))
         psi, p, margin, pivot, scale = self.tail()(carries[:, m - 2], t)
         back = self.back_step().mapaccum("back", m - 1)
         rev = list(range(m - 2, -1, -1))
@@ -687,7 +702,8 @@ class CoordinatingController:
         M : casadi expression, shape (m, m)
             Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``.
         rhs : casadi expression, shape (m,)
-            ``(v_scale v* - dpsi/dt, -K e^j - dphi/dt)``.
+            ``(v_scale v* - dpsi/dt, -K e^j - dphi/dt)`` (on a rail the span row's ``sigma_dot`` is
+            scaled by ``v_scale`` too).
         """
         y = self.chain.centres(q)
         rows, rhs = [], []
@@ -700,7 +716,7 @@ class CoordinatingController:
                 if self.chain.rail:        # the span row: sigma = psi(y^m) - psi(y^1)
                     _, _, _, psi1, h1, psit1 = self._geometry(y[:, 0], t)
                     rows.append(rows[0] - ca.mtimes(h1.T, ca.jacobian(y[:, 0], q)))
-                    rhs.append(self.span_rate(psi - psi1, t) - psit + psit1)
+                    rhs.append(v_scale * self.span_rate(psi - psi1, t) - psit + psit1)
                 continue
             rows.append(ca.mtimes(g.T, Cj))
             rhs.append(-self.gain * phi - phit)

@@ -44,6 +44,28 @@ def test_pinv_end_point_velocity_is_the_commanded_one(seed):
     assert phidot == pytest.approx(-K * phi, abs=1e-9)
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_pinv_on_a_rail_moves_the_end_point_as_commanded_and_centres_only_the_revolute_joints(seed):
+    from coordarm.symbolic import Path, follow_curve
+    chain = PlanarChain(12, 0.1, base="rail", rail_angle=0.1, rail_limits=(-5.0, 5.0))
+    path = Path((-0.4, -0.04), 0.1, [{"line": 0.8}, {"arc": 0.9, "radius": 0.8}, {"line": 2.0}])
+    ctrl = CoordinatingController(chain, path, K, lambda t: 0.1 + 0.05 * ca.sin(t))
+    centre = follow_curve(ctrl, 1.1, d=0.2)
+    rng = np.random.default_rng(seed)
+    q = centre + 0.05 * rng.standard_normal(chain.dof)
+    t = float(rng.uniform(0, 3))
+    law = EndPointRate(ctrl, centre)
+    u = law.control(q, t)
+    sdot, phidot, phi = end_point_rates(ctrl, q, u, t)   # eq. 7 with the rail column
+    assert sdot == pytest.approx(ctrl.speed_at(t), abs=1e-9)
+    assert phidot == pytest.approx(-K * phi, abs=1e-9)
+    _, A, r = law.task(q, t)
+    free = u - np.linalg.pinv(A) @ r                     # the null-space part: (I - A^+ A) z, z_d = 0
+    z = -(q - centre)
+    z[0] = 0.0
+    np.testing.assert_allclose(free, z - np.linalg.pinv(A) @ (A @ z), atol=1e-12)
+
+
 def test_pinv_at_the_centre_is_the_minimum_norm_solution_of_numpy():
     ctrl = arc_ctrl()
     q = ctrl.chain.zigzag(1.0)
@@ -181,3 +203,51 @@ def test_compiled_baseline_steps_equal_the_interpreted_ones(damping):
     np.testing.assert_allclose(runs[0].u, runs[1].u, rtol=0, atol=1e-12)
     with pytest.raises(ConfigError, match="backend"):
         law.chunk(0.001, 10, "gpu")
+
+
+def small_rail_scenario() -> Scenario:
+    """16 links on a rail 0.8 m long, a path with one bend; the span grows 0.3 m from t = 1 s."""
+    spec = {"name": "rail-small",
+            "chain": {"links": 16, "link_length": 0.1, "base": {"kind": "rail", "angle": 0.0, "limits": [-0.1, 0.7]}},
+            "curve": {"kind": "path", "start": [-0.3, 0.0], "heading": 0.0,
+                      "segments": [{"line": 1.3}, {"arc": 0.5, "radius": 1.0}, {"line": 2.0}]},
+            "control": {"gain": K, "speed": {"kind": "smoothstep", "start": 0.0, "end": 0.2, "t0": 0.0, "t1": 1.0}},
+            "start": {"kind": "follow", "beta": 1.1}, "run": {"duration": 5.0, "step": 0.002}}
+    held = Scenario.from_dict(spec)
+    ctrl = held.controller()
+    sigma0 = float(ctrl.evaluate(held.start(ctrl), 0.0)["sigma"])
+    spec["control"]["span"] = [sigma0, {"kind": "smoothstep", "start": 0.0, "end": 0.3, "t0": 1.0, "t1": 4.5}]
+    return Scenario.from_dict(spec)
+
+
+def test_compare_on_a_rail_robot_runs_all_four_methods_and_holds_them_to_the_rail(tmp_path):
+    sc = small_rail_scenario()
+    assert parse_methods(None, sc) == ["coordinating", "pinv", "dls", "ftl"]
+    results = compare(sc)
+    by = {r.method: r for r in results}
+    coord, ftl = by["coordinating"], by["ftl"]
+    # the coordinating law unfolds the body, so its rail stays short of the limit; ftl cannot unfold
+    assert coord.scores["outcome"] == "completed" and coord.run.q[:, 0].max() < 0.7
+    assert coord.scores["max_deviation"] == pytest.approx(np.max(np.abs(coord.run.e)), rel=1e-9)
+    assert coord.scores["final_s_error"] == pytest.approx(abs(coord.run.s[-1] - coord.run.s_reference()[-1]),
+                                                          abs=1e-12)
+    assert coord.scores["peak_rail_rate"] == pytest.approx(np.max(np.abs(coord.run.u[:, 0])), rel=1e-12)
+    assert ftl.scores["outcome"] == "rail_limit" and ftl.run.q[-1, 0] <= 0.7 < ftl.run.q[-1, 0] + 0.2 * 0.002 + 1e-9
+    assert ftl.scores["max_deviation"] < 1e-9 and ftl.scores["final_s_error"] < 1e-9
+    for r in results:                                   # every method is cut at the rail's end
+        assert r.run.q[:, 0].max() <= 0.7
+        assert (r.scores["outcome"] == "rail_limit") == (len(r.run.t) < len(coord.run.t))
+    from coordarm.analysis.compare import write_outputs
+    paths = write_outputs(sc, results, tmp_path)
+    data = json.loads(paths["json"].read_text())
+    for scores in data["methods"].values():
+        assert list(scores) == list(SCORES) + ["peak_rail_rate"]
+    assert "peak rail rate [m/s]" in paths["md"].read_text() and paths["png"].stat().st_size > 10_000
+
+
+def test_compare_thread_reproduces_the_readme_table(tmp_path):
+    out = tmp_path / "thread"
+    assert cli_main(["compare", "thread", "--out", str(out)]) == 0
+    md = [[c.strip() for c in line.strip("|").split("|")]
+          for line in (out / "compare.md").read_text().splitlines() if line.startswith("| ")]
+    assert [row[:-1] for row in md] == [row[:-1] for row in readme_table("thread")]

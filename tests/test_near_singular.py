@@ -7,9 +7,9 @@ import coordarm.symbolic.controller as controller_module
 from coordarm.cli import main as cli_main
 from coordarm.analysis.replay import load
 from coordarm.analysis.singularity import margins
-from coordarm.simulation.run import simulate
+from coordarm.simulation.run import BackendFallbackWarning, simulate
 from coordarm.simulation.scenario import Scenario, load_scenario
-from coordarm.symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain, SingularityError
+from coordarm.symbolic import Arc, BuildError, ConfigError, CoordinatingController, Line, PlanarChain, SingularityError
 from coordarm.symbolic.near_singular import damping_factor, speed_scale
 
 K = 2.0
@@ -216,3 +216,71 @@ def test_bad_damping_tables_are_config_errors_naming_the_field(bad, field):
     spec["control"]["damping"] = bad
     with pytest.raises(ConfigError, match="control." + field):
         Scenario.from_dict(spec)
+
+
+# ------------------------------------------------------------------ the governor on a rail
+SIGMA0 = 9 * 0.1 * np.cos(1.2)            # the span of the 10-link zig-zag at beta = 1.2
+
+
+def pushed_rail_chain(governor):
+    """10 links on a rail along a line 0.01 m beside it; the commanded span grows 0.2 m/s from the zig-zag's
+    0.326 m, so the body is stretched (longitudinal margin 0.15 at a span of 0.887 m) after about 2.8 s."""
+    chain = PlanarChain(10, 0.1, base="rail", rail_limits=(-1.0, 5.0))
+    return CoordinatingController(chain, Line(point=(0.0, 0.01)), K, 0.1, span=lambda t: SIGMA0 + 0.2 * t,
+                                  governor=governor)
+
+
+def test_without_the_governor_the_pushed_rail_chain_stops_at_the_longitudinal_singularity():
+    ctrl = pushed_rail_chain(False)
+    with pytest.raises(SingularityError, match="governor") as err:
+        simulate(ctrl, ctrl.chain.zigzag(1.2, d=0.0), 5.0, 0.001, backend="interpreted")
+    assert err.value.kind == "longitudinal" and 2.5 < err.value.time < 3.0
+
+
+def test_the_governor_slows_the_pushed_rail_chain_which_completes_with_bounded_u_and_decaying_deviations():
+    ctrl = pushed_rail_chain(True)
+    with pytest.warns(BackendFallbackWarning, match="governor"):      # no generated C of the governed rail
+        run = simulate(ctrl, ctrl.chain.zigzag(1.2, d=0.0), 5.0, 0.001, backend="auto")
+    assert run.info["stopped"] == "completed" and run.info["backend"] == "interpreted"
+    assert np.all(np.isfinite(run.u)) and np.max(np.abs(run.u)) < 1.2     # it was 2.7 when the run stopped
+    assert np.max(np.abs(run.u[-1])) < 0.01                                 # coming to rest
+    assert run.longitudinal.min() > 0.15 and run.v_scale.min() < 0.05 and run.info["governed"] > 2.0
+    assert run.sigma[-1] < SIGMA0 + 0.2 * 5.0 - 0.3 and run.sigma[-1] > 0.85    # held back, nearly stretched
+    E = np.max(np.abs(run.e), axis=1)             # e rows untouched: exp(-K t) from 0.01 m
+    ref = E[0] * np.exp(-K * run.t)
+    np.testing.assert_allclose(E, ref, rtol=2e-3, atol=1e-14)
+    assert np.max(np.abs(run.s - run.s_reference())) < 1e-6          # s follows v_scale v*
+
+
+@pytest.mark.parametrize("beta", [0.17, 0.2, 0.3, 1.2])     # margins 0.15 (at the threshold), 0.18, 0.27, 0.84
+def test_governed_rail_law_solves_the_decoupling_system_with_scaled_commands(beta):
+    gov, plain = pushed_rail_chain(True), pushed_rail_chain(False)
+    q, t = gov.chain.zigzag(beta, d=0.2), 0.3
+    out = gov.evaluate(q, t)
+    g = out["v_scale"]
+    assert g == pytest.approx(float(speed_scale(out["longitudinal"], 0.15)), abs=1e-15)
+    assert out["longitudinal"] == pytest.approx(plain.evaluate(q, t)["longitudinal"], abs=1e-15)
+    M, rhs = (x[0] for x in plain.decoupling_matrices(q[None], [t]))
+    sigma_dot = 0.2 - K * (out["sigma"] - (SIGMA0 + 0.2 * t))
+    rhs[0] -= (1 - g) * 0.1                        # the s row asks for v_scale v*,
+    rhs[1] -= (1 - g) * sigma_dot                  # the span row for v_scale sigma_dot
+    u = np.linalg.solve(M, rhs)
+    np.testing.assert_allclose(out["u"], u, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(gov.evaluate(q, t, form="dense")["u"], u, rtol=1e-9, atol=1e-12)
+    if beta == 1.2:
+        assert g == 1 and np.allclose(out["u"], plain.evaluate(q, t)["u"], rtol=0, atol=1e-15)
+    else:
+        assert g < 1
+
+
+def test_the_governed_rail_law_compiles_in_the_dense_form_and_equals_the_interpreted_one():
+    ctrl = pushed_rail_chain(True)
+    fast = ctrl.compile(form="dense")
+    for beta in (0.2, 0.3, 1.2):
+        q = ctrl.chain.zigzag(beta, d=0.2)
+        ref = ctrl.evaluate(q, 0.3, form="dense")
+        out = fast.evaluate(q, 0.3)
+        assert out["v_scale"] == pytest.approx(ref["v_scale"], abs=1e-14)
+        np.testing.assert_allclose(out["u"], ref["u"], rtol=1e-12, atol=1e-14)
+    with pytest.raises(BuildError, match="governor"):      # the structured C glue has one pass only
+        ctrl.compile()
