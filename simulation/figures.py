@@ -15,13 +15,14 @@ from .obstacles import Obstacle, outline
 from .run import Run, even_indices
 
 
-def save_figure(fig, path: str | Path, dpi: int = 110, tight: bool = True) -> Path:
+def save_figure(fig, path: str | Path, dpi: int = 110, tight: bool = True, bbox_inches: str | None = None) -> Path:
     """Lay out ``fig`` (tight, unless it has a layout engine or ``tight`` is False: its margins are set
-    already), write it to ``path``, close it."""
+    already), write it to ``path`` (``bbox_inches="tight"``: the saved box fitted to the drawn artists),
+    close it."""
     path = Path(path)
     if tight and fig.get_layout_engine() is None:
         fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
+    fig.savefig(path, dpi=dpi, bbox_inches=bbox_inches)
     plt.close(fig)
     return path
 
@@ -70,8 +71,10 @@ def draw_rail(ax, chain, lo: np.ndarray, hi: np.ndarray) -> None:
 
 
 def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, obstacles: Sequence[Obstacle],
-                 frame: np.ndarray | None = None) -> None:
-    """The chain at rows ``idx`` with the curve at those times, the obstacles and the base, on ``ax``."""
+                 frame: np.ndarray | None = None, legend_outside: bool = False) -> float:
+    """The chain at rows ``idx`` with the curve at those times, the obstacles and the base, on ``ax``.
+
+    Returns the height-to-width ratio of the drawn extent (the axes' equal-aspect shape)."""
     joints = ctrl.chain.joints_np(run.q[idx])
     colors = plt.cm.viridis(np.linspace(0, 0.9, len(idx)))
     pts = joints.reshape(-1, 2) if frame is None else frame
@@ -105,8 +108,13 @@ def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, ob
     ax.set_aspect("equal")
     ax.set_xlabel("y$_1$ [m]")
     ax.set_ylabel("y$_2$ [m]")
-    ax.legend(loc="best", fontsize=8)
+    ax.plot([], [], "--", color="gray", lw=0.8, label="curve at that time")
+    if legend_outside:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0)
+    else:
+        ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
+    return float((hi[1] - lo[1]) / (hi[0] - lo[0]))
 
 
 def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages: int = 5,
@@ -132,10 +140,16 @@ def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages
     Path
         The written file.
     """
-    # Fixed margins, as in plot_tracking: tight_layout measured every text first (1.46x slower).
-    fig, ax = plt.subplots(figsize=(7, 6.5), gridspec_kw=dict(left=0.1, right=0.97, bottom=0.08, top=0.94))
-    _draw_stages(ax, run, ctrl, stage_indices(run, stages, times), list(obstacles))
-    ax.set_title(title or f"{ctrl.chain.m}-link robot: stages of the motion (dashed: the curve then)")
+    # Fixed margins, as in plot_tracking: tight_layout measured every text first (1.46x slower). The
+    # figure's height follows the scene's aspect (a long, flat path gets a flat figure, not white bands).
+    # The legend stands right of the scene, never over the chain.
+    width, left, right, below, above = 9.0, 0.75, 1.9, 0.6, 0.4       # inches
+    fig, ax = plt.subplots(figsize=(width, 6.5))
+    aspect = _draw_stages(ax, run, ctrl, stage_indices(run, stages, times), list(obstacles), legend_outside=True)
+    height = float(np.clip((width - left - right) * aspect, 2.4, 8.0)) + below + above
+    fig.set_size_inches(width, height)
+    fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=below / height, top=1 - above / height)
+    ax.set_title(title or f"{ctrl.chain.m}-link robot: stages of the motion", fontsize=11)
     return save_figure(fig, path, tight=False)
 
 
@@ -158,7 +172,8 @@ def plot_panels(run: Run, ctrl: CoordinatingController, path: str | Path, panels
         _draw_stages(ax, run, ctrl, stage_indices(run, times=panel["stages"]), list(obstacles), frame=frame)
         ax.set_title(panel["title"], fontsize=10)
     fig.suptitle(title or f"{ctrl.chain.m}-link robot: phases of the motion")
-    return save_figure(fig, path)
+    # tight_layout leaves equal-aspect panels' x labels outside the canvas: the saved box is fitted instead
+    return save_figure(fig, path, tight=False, bbox_inches="tight")
 
 
 def envelope_indices(Y: np.ndarray, points: int = 2000) -> np.ndarray:
@@ -200,7 +215,9 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
                              gridspec_kw=dict(left=0.13, right=0.97, bottom=0.06, top=0.95, hspace=0.08))
     axes[0].semilogy(t, np.maximum(emax[keep], 1e-17), label="max$_j$ |e$^j$|")
     if emax[0] > 0:
-        axes[0].semilogy(t, emax[0] * np.exp(-gain * (t - t[0])), "--", label=f"e(0) exp(-{gain:g} t)")
+        # held at the same 1e-17 m floor as the data: below it lie only rounding errors, not a decay to compare
+        axes[0].semilogy(t, np.maximum(emax[0] * np.exp(-gain * (t - t[0])), 1e-17), "--",
+                         label=f"e(0) exp(-{gain:g} t)")
     # Plain "1e-05" tick labels: the default 10^k labels are typeset with mathtext, a quarter of the figure's time.
     axes[0].yaxis.set_major_formatter(LogFormatter())
     axes[0].yaxis.set_minor_formatter(NullFormatter())

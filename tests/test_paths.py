@@ -236,13 +236,15 @@ def test_compiled_path_law_agrees_with_the_interpreted_law(tmp_path):
 
 def test_a_point_leaving_the_tube_stops_the_run_naming_link_time_and_radius():
     from coordarm import TubeError, simulate
+    from coordarm.simulation.limits import GainStepWarning
     from coordarm.symbolic import follow_curve
     chain = PlanarChain(20, 0.1)
     path = Path((0.0, 0.0), 0.0, [{"line": 0.4}, {"arc": 1.0, "radius": 0.25}, {"line": 1.5}])
     ctrl = CoordinatingController(chain, path, 40.0, 0.0)
     q0 = follow_curve(ctrl, 1.0) + np.random.default_rng(5).normal(scale=1e-3, size=chain.m)
     # K h = 4 is beyond RK4's stability limit (2.79): the deviations grow until one leaves the tube
-    with pytest.raises(TubeError, match=r"left the path's tube at t = .* link \d+ is .* smallest radius 0.25 m") as err:
+    with pytest.raises(TubeError, match=r"left the path's tube at t = .* link \d+ is .* smallest radius 0.25 m") as err, \
+            pytest.warns(GainStepWarning, match="RK4 diverges"):                  # said before the run starts
         simulate(ctrl, q0, 5.0, 0.1, backend="interpreted", thresholds={"link": 0.0, "longitudinal": 0.0})
     run = err.value.run
     assert err.value.kind == "tube" and run.info["stopped"] == "tube"

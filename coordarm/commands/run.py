@@ -143,7 +143,7 @@ def write_figures(run: Run, scenario: Scenario, ctrl, stem: Path, stages: list[f
             first = plot_panels(run, ctrl, stages_png, panels, obstacles=scenario.obstacles, title=title)
         else:
             first = plot_stages(run, ctrl, stages_png, obstacles=scenario.obstacles, times=stages or scenario.stages,
-                                title=f"{title}, stages of the motion (dashed: the curve at that time)")
+                                title=f"{title}, stages of the motion")
     with writing(tracking_png):
         return [first, plot_tracking(run, ctrl.gain, tracking_png, thresholds=scenario.thresholds, title=title)]
 
