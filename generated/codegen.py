@@ -7,6 +7,7 @@ grow with the number of links. The dense law (eq. 27) is emitted as one Function
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import casadi as ca
@@ -63,10 +64,28 @@ def structured_law(ctrl: CoordinatingController, path_search: bool = True) -> st
     -------
     str
         ``CA_REPIVOT`` and ``CA_NW_REPIVOT`` definitions followed by the law's C.
+
+    Notes
+    -----
+    With the governor on a rail the C keeps its ``#ifdef CA_GOVERNED`` blocks: the recursion runs
+    twice, first with ``v_scale`` = 1 for the longitudinal margin (it does not depend on the rail
+    rate), then with the head's governed rail rate, as the interpreted law does. Every other law
+    drops those blocks, so its C (and its build's cache key) is the one-pass glue, unchanged.
     """
+    law = templates.STRUCTURED_LAW if _governed_rail(ctrl) else _GOVERNED_BLOCK.sub("", templates.STRUCTURED_LAW)
     return (f"#define CA_REPIVOT {controller_module.REPIVOT!r}\n"
             f"#define CA_NW_REPIVOT {int(ctrl.time_features_repivot().numel_out(0))}\n"
-            + rail_macros(ctrl) + (path_macros(ctrl) if path_search else "") + templates.STRUCTURED_LAW)
+            + rail_macros(ctrl) + (path_macros(ctrl) if path_search else "") + law)
+
+
+#: A ``#ifdef CA_GOVERNED`` block of :data:`.templates.STRUCTURED_LAW` (none nests another ``#if``):
+#: only the governed rail keeps them, so every other law's C is the one-pass glue, unchanged.
+_GOVERNED_BLOCK = re.compile(r"^#ifdef CA_GOVERNED\n.*?^#endif\n", re.S | re.M)
+
+
+def _governed_rail(ctrl: CoordinatingController) -> bool:
+    """Whether the law is the governor on a rail (its C runs the recursion twice: ``CA_GOVERNED``)."""
+    return bool(ctrl.chain.rail and ctrl.governor)
 
 
 def path_macros(ctrl: CoordinatingController) -> str:
@@ -93,17 +112,9 @@ def functions(ctrl: CoordinatingController, form: str, path_search: bool = True)
     """The CasADi Functions the C of ``form`` calls (the structured form's time features first).
 
     The structured form adds the re-pivoting step and its time terms (called only at a state
-    with a small link pivot); with damping, the whole law is one Function.
-
-    Raises
-    ------
-    BuildError
-        The governor on a rail in the structured form: its two passes of the recursion (see
-        :class:`~coordarm.symbolic.controller.CoordinatingController`) are not in the C glue.
+    with a small link pivot); with damping, the whole law is one Function. With the governor
+    on a rail, the head takes ``v_scale`` (the C calls it twice, see :func:`structured_law`).
     """
-    if _split(ctrl, form) and ctrl.chain.rail and ctrl.governor:
-        raise BuildError("governor: the governed rail law (two passes of the recursion) is not in the compiled "
-                         "glue; use backend 'interpreted' ('auto' falls back by itself) or law = \"dense\"")
     if _split(ctrl, form):
         if path_search and _searched(ctrl):
             tf, geometry, step = ctrl.piece_steps()
@@ -125,7 +136,8 @@ def _head(ctrl: CoordinatingController) -> ca.Function:
     span computed from the end's centre when it is commanded)."""
     if not ctrl.chain.rail:
         return ctrl.first_carry()
-    return ctrl.rail_head_from_end() if ctrl.span is not None else ctrl.rail_head()
+    governed = _governed_rail(ctrl)
+    return ctrl.rail_head_from_end(governed) if ctrl.span is not None else ctrl.rail_head(governed)
 
 
 def rail_macros(ctrl: CoordinatingController) -> str:
@@ -140,13 +152,14 @@ def rail_macros(ctrl: CoordinatingController) -> str:
     -------
     str
         ``CA_RAIL_C``, ``CA_RAIL_S``, ``CA_RAIL_HEAD`` and, for a commanded span,
-        ``CA_SPAN`` definitions.
+        ``CA_SPAN``, with the governor ``CA_GOVERNED`` definitions.
     """
     if not ctrl.chain.rail:
         return ""
     c, s = (float(v) for v in ctrl.chain.rail_direction)
     return (f"#define CA_RAIL_C {c!r}\n#define CA_RAIL_S {s!r}\n"
-            f"#define CA_RAIL_HEAD {_head(ctrl).name()}\n" + ("#define CA_SPAN 1\n" if ctrl.span is not None else ""))
+            f"#define CA_RAIL_HEAD {_head(ctrl).name()}\n" + ("#define CA_SPAN 1\n" if ctrl.span is not None else "")
+            + ("#define CA_GOVERNED 1\n" if _governed_rail(ctrl) else ""))
 
 
 def _b_macros(ctrl: CoordinatingController) -> str:

@@ -218,6 +218,8 @@ CA_FLATTEN static int ca_path_pass(const casadi_real* head, const casadi_real* q
 #: per-link step (which has no trigonometry), then the tail and the rates. If some link's pivot
 #: is small (margin below ``CA_REPIVOT`` or NaN) the recursion only raises a flag and the whole
 #: law is evaluated again, out of line, with the re-pivoting step (``ca_law_repivot``).
+#: The ``#ifdef CA_GOVERNED`` blocks (the governor on a rail: a second pass of head, recursion and
+#: tail with the governed rail rate) are kept only for that law (see :func:`.codegen.structured_law`).
 STRUCTURED_LAW = TRIG_PASSES + """
 #ifndef CA_PATH_SCRATCH
 #define CA_PATH_SCRATCH 0
@@ -272,6 +274,9 @@ static int ca_head(const casadi_real* q, casadi_real t, const casadi_real* c, co
   arg[3] = &sigma;
 #endif
   arg[0] = q; arg[1] = q + 1; arg[2] = &t;
+#ifdef CA_GOVERNED
+  arg[4] = out + CA_OUT_V_SCALE;       /* the governor's factor on the commands (1 in the first pass) */
+#endif
   res[0] = carry; res[1] = u; res[2] = out + CA_OUT_RAIL_MARGIN; res[3] = psi1;
   return CA_RAIL_HEAD(arg, res, iw, w, 0) ? 2 : 0;
 #else
@@ -369,6 +374,10 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   casadi_real* res[CA_SZ_RES];
   casadi_int j;
   int rc;
+#ifdef CA_GOVERNED
+  int pass = 0;
+  out[CA_OUT_V_SCALE] = 1;             /* first pass: the ungoverned rail rate, for the margin only */
+#endif
   arg[0] = &t; res[0] = wt;
   if (time_features(arg, res, iw, w, 0)) return 2;
 #ifdef CA_PATH
@@ -384,8 +393,17 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
 #ifdef CA_PATH
   if (ca_path_pass(head, qr, c, s, fr, wt, pc, geo, iw, w)) return 2;
 #endif
+#ifdef CA_GOVERNED
+again:
+#endif
   if ((rc = ca_recursion(qr, c, s, wt, geo, carry, out, a, b, iw, w))) {
     if (rc == 2) return 2;
+#ifdef CA_GOVERNED
+    if (!pass) {                       /* the first pass re-pivoted for v_scale, then the governed head */
+      if (ca_law_repivot(qr, t, head, psi1, ur, out, iw, w)) return 2;
+      if (ca_head(q, t, c, s, head, u, out, &psi1, iw, w)) return 2;
+    }
+#endif
     return ca_law_repivot(qr, t, head, psi1, ur, out, iw, w);
   }
   arg[0] = carry; arg[1] = &t; res[0] = tl; res[1] = tl + 1; res[2] = tl + 2; res[3] = tl + 3;
@@ -402,6 +420,13 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   out[CA_OUT_V_SCALE] = tl[4];
 #if CA_RAIL
   out[CA_OUT_SIGMA] = tl[0] - psi1;    /* sigma = psi(y^m) - psi(y^1) */
+#endif
+#ifdef CA_GOVERNED
+  if (!pass++) {                       /* second pass: the head with the governed rail rate (v_scale) */
+    if (ca_head(q, t, c, s, head, u, out, &psi1, iw, w)) return 2;
+    for (j = 0; j < CA_NC; ++j) carry[j] = head[j];
+    goto again;
+  }
 #endif
   p = tl[1];                           /* the free rate w_1 */
   prev = 0;

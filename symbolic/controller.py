@@ -553,22 +553,30 @@ class CoordinatingController:
                            ["d", "q_1", "t", "sigma"] + (["v_scale"] if governed else []),
                            ["carry", "d_dot", "rail_margin", "psi_1"])
 
-    def rail_head_from_end(self) -> ca.Function:
+    def rail_head_from_end(self, governed: bool = False) -> ca.Function:
         """:meth:`rail_head` with the span computed inside: ``(d, q_1, t, y_m) -> (carry, d_dot,
         rail_margin, psi_1)``, ``sigma = psi(y_m) - psi(y^1)`` (for the generated C of a commanded span,
         whose loop knows the end's centre ``y_m`` [m] from its cosines and sines).
+
+        Parameters
+        ----------
+        governed : bool
+            A fifth input ``v_scale`` scales the commands (see :meth:`rail_head`).
 
         Returns
         -------
         casadi.Function
         """
         d, q1, t, y_m = ca.SX.sym("d"), ca.SX.sym("q_1"), ca.SX.sym("t"), ca.SX.sym("y_m", 2)
+        scale = [ca.SX.sym("v_scale")] if governed else []
         psi_1 = self._geometry(d * ca.DM(self.chain.rail_direction), t)[3]
-        outs = self.rail_head()(d, q1, t, self._geometry(y_m, t)[3] - psi_1)
+        outs = self.rail_head(governed)(d, q1, t, self._geometry(y_m, t)[3] - psi_1, *scale)
         both = ca.cse(ca.vertcat(*outs))
         sizes = np.cumsum([0] + [o.numel() for o in outs])
-        return ca.Function("rail_head_from_end", [d, q1, t, y_m], [both[a:b] for a, b in zip(sizes[:-1], sizes[1:])],
-                           ["d", "q_1", "t", "y_m"], ["carry", "d_dot", "rail_margin", "psi_1"])
+        return ca.Function("rail_head_from_end", [d, q1, t, y_m] + scale,
+                           [both[a:b] for a, b in zip(sizes[:-1], sizes[1:])],
+                           ["d", "q_1", "t", "y_m"] + (["v_scale"] if governed else []),
+                           ["carry", "d_dot", "rail_margin", "psi_1"])
 
     def _span_now(self, q, t):
         """``sigma = psi(y^m) - psi(y^1)`` from the forward kinematics (needed only for a commanded span)."""

@@ -143,3 +143,58 @@ def test_a_rail_scenario_exports_and_its_example_loop_agrees_with_the_compiled_l
     assert Q[-1, 0] != Q[0, 0]                                    # the rail moved
     Qc, _ = comp.chunk(Q[0], T[:-1], scenario.step)
     np.testing.assert_allclose(Qc, Q[1:], rtol=1e-12, atol=1e-12)
+
+
+GOVERNED_RAIL = """name = "pushed"
+[chain]
+links = 10
+link_length = 0.1
+base = { kind = "rail", angle = 0.0, limits = [-1.0, 5.0] }
+[curve]
+kind = "line"
+point = [0.0, 0.01]
+[control]
+gain = 2.0
+speed = 0.1
+span = { kind = "ramp", start = 0.878, rate = 0.2 }   # from the zig-zag's span, growing
+governor = true
+[start]
+kind = "zigzag"
+beta = 0.22
+[run]
+duration = 0.2
+step = 0.002
+[thresholds]
+longitudinal = 0.15
+"""
+
+
+def test_a_governed_rail_scenario_exports_and_its_example_loop_agrees_with_the_laws(tmp_path):
+    """The governor on a rail (two passes of the recursion in the C), started slowed (v_scale < 1)."""
+    toml, out = tmp_path / "pushed.toml", tmp_path / "pushed"
+    toml.write_text(GOVERNED_RAIL)
+    assert cli_main(["export", str(toml), "--out", str(out)]) == 0
+    res = subprocess.run(["make", "-C", str(out), f"WARN={' '.join(STRICT)}", "example"], capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout + res.stderr
+    run = subprocess.run([str(out / "example"), "100"], capture_output=True, text=True, check=True)
+    rows = np.array([[float(v) for v in line.split()] for line in run.stdout.splitlines()])
+    m, n = 10, 11
+    width = packed_width(m, rail=True)
+    scenario = load_scenario(str(toml))
+    ctrl = scenario.controller()
+    assert ctrl.governor and ctrl.chain.rail
+    comp = ctrl.compile()
+    T, Q, packed = rows[:, 0], rows[:, 1:n + 1], rows[:, n + 1:]
+    scales = [split(p, m, rail=True)["v_scale"] for p in packed]
+    assert 0 < min(scales) and max(scales) < 0.1 and scales[-1] < scales[0]   # slowed all along, more and more
+    for k in range(0, len(T), 10):
+        ref = np.empty(width)
+        comp.evaluate(Q[k], T[k], out=ref)
+        np.testing.assert_allclose(packed[k], ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
+        interp = ctrl.evaluate(Q[k], T[k])
+        sens = rounding_sensitivity(ctrl.evaluate, Q[k], T[k])
+        for name in ("u", "v_scale", "sigma", "rail_margin", "s", "longitudinal"):
+            np.testing.assert_allclose(split(packed[k], m, rail=True)[name], interp[name], rtol=1e-11,
+                                       atol=1e-12 + ROUNDING_FACTOR * sens[name], err_msg=name)
+    Qc, _ = comp.chunk(Q[0], T[:-1], scenario.step)
+    np.testing.assert_allclose(Qc, Q[1:], rtol=1e-12, atol=1e-12)

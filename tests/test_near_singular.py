@@ -1,4 +1,6 @@
 """Near singularities: the speed governor, re-pivoting of small link pivots, damped least squares."""
+import warnings
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -237,10 +239,27 @@ def test_without_the_governor_the_pushed_rail_chain_stops_at_the_longitudinal_si
     assert err.value.kind == "longitudinal" and 2.5 < err.value.time < 3.0
 
 
-def test_the_governor_slows_the_pushed_rail_chain_which_completes_with_bounded_u_and_decaying_deviations():
+@pytest.fixture(scope="module")
+def governed_rail_runs():
+    """The pushed rail chain with the governor, run 5 s by ``auto`` (compiled: no fallback) and interpreted."""
     ctrl = pushed_rail_chain(True)
-    with pytest.warns(BackendFallbackWarning, match="governor"):      # no generated C of the governed rail
-        run = simulate(ctrl, ctrl.chain.zigzag(1.2, d=0.0), 5.0, 0.001, backend="auto")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", BackendFallbackWarning)        # the governed rail compiles
+        fast = simulate(ctrl, ctrl.chain.zigzag(1.2, d=0.0), 5.0, 0.001, backend="auto")
+    return fast, simulate(ctrl, ctrl.chain.zigzag(1.2, d=0.0), 5.0, 0.001, backend="interpreted")
+
+
+def test_the_governed_rail_run_compiled_equals_the_interpreted_run(governed_rail_runs):
+    fast, ref = governed_rail_runs
+    assert fast.info["backend"] == "compiled" and ref.info["backend"] == "interpreted"
+    assert fast.v_scale.min() < 0.05                                   # both passes mattered
+    for field in ("q", "u", "e", "s", "sigma", "rail_margin", "link_margins", "longitudinal", "v_scale"):
+        np.testing.assert_allclose(getattr(fast, field), getattr(ref, field), rtol=1e-12, atol=1e-12, err_msg=field)
+
+
+def test_the_governor_slows_the_pushed_rail_chain_which_completes_with_bounded_u_and_decaying_deviations(
+        governed_rail_runs):
+    run = governed_rail_runs[1]
     assert run.info["stopped"] == "completed" and run.info["backend"] == "interpreted"
     assert np.all(np.isfinite(run.u)) and np.max(np.abs(run.u)) < 1.2     # it was 2.7 when the run stopped
     assert np.max(np.abs(run.u[-1])) < 0.01                                 # coming to rest
@@ -282,5 +301,25 @@ def test_the_governed_rail_law_compiles_in_the_dense_form_and_equals_the_interpr
         out = fast.evaluate(q, 0.3)
         assert out["v_scale"] == pytest.approx(ref["v_scale"], abs=1e-14)
         np.testing.assert_allclose(out["u"], ref["u"], rtol=1e-12, atol=1e-14)
-    with pytest.raises(BuildError, match="governor"):      # the structured C glue has one pass only
-        ctrl.compile()
+    structured = ctrl.compile()                             # its C runs the recursion twice
+    for beta in (0.2, 0.3, 1.2):
+        q = ctrl.chain.zigzag(beta, d=0.2)
+        ref, out = ctrl.evaluate(q, 0.3), structured.evaluate(q, 0.3)
+        assert out["v_scale"] == pytest.approx(ref["v_scale"], abs=1e-14)
+        np.testing.assert_allclose(out["u"], ref["u"], rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("span", [None, lambda t: SIGMA0 + 0.2 * t], ids=["held", "commanded"])
+def test_the_governed_rail_law_re_pivoted_in_both_passes_compiles_and_equals_the_interpreted_one(monkeypatch, span):
+    """With REPIVOT above every margin the C takes its re-pivoting branch at every state (for v_scale, then
+    again with the governed head); the interpreted law always uses the re-pivoting step."""
+    monkeypatch.setattr(controller_module, "REPIVOT", 2.0)
+    chain = PlanarChain(10, 0.1, base="rail", rail_limits=(-1.0, 5.0))
+    ctrl = CoordinatingController(chain, Line(point=(0.0, 0.01)), K, 0.1, span=span, governor=True)
+    comp = ctrl.compile()
+    for beta in (0.2, 0.3, 1.2):
+        q = chain.zigzag(beta, d=0.2)
+        ref, out = ctrl.evaluate(q, 0.3), comp.evaluate(q, 0.3)
+        assert (ref["v_scale"] < 1) == (beta < 1)
+        for name in ref:
+            np.testing.assert_allclose(out[name], ref[name], rtol=1e-12, atol=1e-14, err_msg=name)

@@ -111,44 +111,68 @@ RAIL_CURVES = {
 COMPILED = {}
 
 
-def compiled_rail(kind, span, form="structured"):
+def compiled_rail(kind, span, form="structured", governor=False):
     """A rail controller (diagonal B, moving curve and speed) and its compiled twin, built once."""
-    key = (kind, span, form)
+    key = (kind, span, form, governor)
     if key not in COMPILED:
         chain = PlanarChain(11, 0.1, base="rail", rail_angle=0.2, B=np.linspace(0.5, 1.5, 11))
         ctrl = CoordinatingController(chain, RAIL_CURVES[kind](), 2.0, Sinusoid(0.05, 0.3, offset=0.1), law=form,
-                                      span=None if span == "held" else Sinusoid(0.05, 1.0, offset=0.5))
+                                      span=None if span == "held" else Sinusoid(0.05, 1.0, offset=0.5),
+                                      governor=governor)
         COMPILED[key] = (ctrl, ctrl.compile())
     return COMPILED[key]
 
 
-def random_rail_states(ctrl, n, seed):
-    """States near the curve: the chain laid along it from a random rail position, then perturbed."""
+def random_rail_states(ctrl, n, seed, beta=(0.8, 1.3)):
+    """States near the curve: the chain laid along it (fold angle in ``beta``) from a random rail position,
+    then perturbed."""
     rng = np.random.default_rng(seed)
     for _ in range(n):
         t = rng.uniform(0.0, 3.0)
-        q = follow_curve(ctrl, rng.uniform(0.8, 1.3), t0=t, d=rng.uniform(-0.1, 0.2))
+        q = follow_curve(ctrl, rng.uniform(*beta), t0=t, d=rng.uniform(-0.1, 0.2))
         yield q + rng.normal(scale=0.03, size=ctrl.chain.dof), t
+
+
+def assert_compiled_equals_interpreted(comp, ctrl, q, t):
+    """Every packed output of the compiled law equals the interpreted one to 1e-12 relative plus
+    the state's own one-ulp sensitivity (as the fixed-base random-state tests); returns the interpreted."""
+    from tests.test_generated import ROUNDING_FACTOR, rounding_sensitivity
+    a, b = comp.evaluate(q, t), ctrl.evaluate(q, t)
+    assert set(a) == set(b) == set(OUTPUTS + RAIL_OUTPUTS)
+    sens = rounding_sensitivity(ctrl.evaluate, q, t)
+    for name in a:
+        ref = np.atleast_1d(b[name])
+        bound = 1e-12 * max(np.max(np.abs(ref)), 1e-3) + ROUNDING_FACTOR * sens[name]
+        assert np.max(np.abs(np.atleast_1d(a[name]) - ref)) <= bound, (name, a[name], b[name])
+    np.testing.assert_array_equal(comp.control(q, t), a["u"])
+    return b
 
 
 @pytest.mark.parametrize("form", ["structured", "dense"])
 @pytest.mark.parametrize("span", ["held", "commanded"])
 @pytest.mark.parametrize("kind", list(RAIL_CURVES))
 def test_compiled_rail_law_equals_the_interpreted_law_to_1e12_at_random_states(kind, span, form):
-    from tests.test_generated import ROUNDING_FACTOR, rounding_sensitivity
     ctrl, comp = compiled_rail(kind, span, form)
     assert comp.n == 12 and comp.n_out == packed_width(11, rail=True)
     for q, t in random_rail_states(ctrl, 6, seed=len(kind) + 10 * len(span) + len(form)):
-        a, b = comp.evaluate(q, t), ctrl.evaluate(q, t)
-        assert set(a) == set(b) == set(OUTPUTS + RAIL_OUTPUTS)
+        b = assert_compiled_equals_interpreted(comp, ctrl, q, t)
         assert b["rail_margin"] > 0.5 and b["longitudinal"] > 0.01 and b["v_scale"] == 1.0
-        sens = rounding_sensitivity(ctrl.evaluate, q, t)
-        for name in a:
-            ref = np.atleast_1d(b[name])
-            bound = 1e-12 * max(np.max(np.abs(ref)), 1e-3) + ROUNDING_FACTOR * sens[name]
-            assert np.max(np.abs(np.atleast_1d(a[name]) - ref)) <= bound, (name, a[name], b[name])
-        np.testing.assert_array_equal(comp.control(q, t), a["u"])
-        assert a["u"].shape == (12,)
+        assert b["u"].shape == (12,)
+
+
+@pytest.mark.parametrize("span", ["held", "commanded"])
+@pytest.mark.parametrize("kind", ["line", "path"])
+def test_compiled_governed_rail_law_runs_both_passes_and_equals_the_interpreted_law(kind, span):
+    """The governor on a rail: the C's second pass (head with the governed rail rate) at slowed states."""
+    ctrl, comp = compiled_rail(kind, span, governor=True)
+    plain = compiled_rail(kind, span)[1]
+    scales = []
+    for q, t in random_rail_states(ctrl, 10, seed=7 + len(kind) + len(span), beta=(0.2, 1.0)):
+        b = assert_compiled_equals_interpreted(comp, ctrl, q, t)
+        scales.append(b["v_scale"])
+        if b["v_scale"] < 0.9:                   # the governed rail rate is not the plain law's
+            assert abs(b["u"][0] - plain.evaluate(q, t)["u"][0]) > 1e-3
+    assert sum(0 < g < 1 for g in scales) >= 4 and max(scales) == 1.0, scales
 
 
 @pytest.mark.parametrize("span", ["held", "commanded"])
