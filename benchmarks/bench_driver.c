@@ -69,14 +69,15 @@ int main(int argc, char** argv) {
     sizes(sz);
     if (m >= 0 && sz[0] != m) { fprintf(stderr, "%s: %lld links, not %ld\n", argv[5 + k], sz[0], m); return 2; }
     m = (long)sz[0];
-    libs[k].qn = malloc(sz[0] * sizeof(double));
+    libs[k].qn = malloc((sz[0] + 1) * sizeof(double));   /* on a rail q has m + 1 values (d first) */
     libs[k].out = malloc(sz[1] * sizeof(double));
     libs[k].iw = malloc((sz[2] + 1) * sizeof(ci));
     libs[k].w = malloc(sz[3] * sizeof(double));
   }
-  q = malloc(m * sizeof(double));
+  q = malloc((m + 1) * sizeof(double));
   FILE* f = fopen(argv[1], "rb");
-  if (!f || fread(q, sizeof(double), m, f) != (size_t)m) { fprintf(stderr, "bad Q_FILE\n"); return 2; }
+  size_t nq = f ? fread(q, sizeof(double), m + 1, f) : 0;   /* m joints, or d and m joints on a rail */
+  if (nq != (size_t)m && nq != (size_t)m + 1) { fprintf(stderr, "bad Q_FILE\n"); return 2; }
   fclose(f);
   for (k = 0; k < nlib; ++k) {      /* warm up (page in, caches), then size the batches */
     time_law(&libs[k], q, t, 3);
