@@ -208,13 +208,14 @@ def test_a_rail_run_compiled_by_auto_equals_the_interpreted_run():
         np.testing.assert_allclose(getattr(a, field), getattr(b, field), rtol=1e-12, atol=1e-12, err_msg=field)
 
 
+@pytest.mark.parametrize("governor", [False, True], ids=["plain", "governed"])
 @pytest.mark.parametrize("form", ["structured", "dense"])
 @pytest.mark.parametrize("span", ["held", "commanded"])
-def test_every_rail_library_compiles_without_a_warning(span, form, tmp_path):
+def test_every_rail_library_compiles_without_a_warning(span, form, governor, tmp_path):
     from coordarm.generated.build import build
     from coordarm.generated.codegen import generate_source
     chain = PlanarChain(4, 0.1, base="rail", rail_angle=0.3, B=np.array([1.0, 2.0, 0.5, 1.5]))
-    ctrl = CoordinatingController(chain, Line(angle=0.3), 2.0, 0.05, law=form,
+    ctrl = CoordinatingController(chain, Line(angle=0.3), 2.0, 0.05, law=form, governor=governor,
                                   span=None if span == "held" else Ramp(0.25, 0.01))
     lib = build(generate_source(ctrl, form), flags="-O2 -Wall -Wextra -Werror", build_dir=tmp_path)
     assert lib.path.is_file() and not lib.cache_hit
@@ -233,3 +234,15 @@ def test_closed_form_rail_decoupling_matrices_equal_the_ad_ones(span):
         Mk, rk = (np.asarray(v) for v in ctrl.decoupling_function()(Q[k], T[k]))
         np.testing.assert_allclose(M[k], Mk, rtol=0, atol=1e-13)
         np.testing.assert_allclose(rhs[k], rk.ravel(), rtol=0, atol=1e-13)
+
+
+def test_only_the_governed_rail_keeps_the_second_pass_of_the_c_glue():
+    from coordarm.generated.codegen import _GOVERNED_BLOCK, generate_source
+    from coordarm.generated.templates import STRUCTURED_LAW
+    assert "CA_GOVERNED" not in _GOVERNED_BLOCK.sub("", STRUCTURED_LAW)      # no block left half-removed
+    chain = PlanarChain(4, 0.1, base="rail")
+    texts = {(g, rail): generate_source(CoordinatingController(chain if rail else PlanarChain(4, 0.1), Line(), 2.0,
+                                                               0.1, governor=g)).text
+             for g in (False, True) for rail in (False, True)}
+    assert [k for k, text in texts.items() if "goto again" in text] == [(True, True)]
+    assert all("CA_GOVERNED" not in text for k, text in texts.items() if k != (True, True))
