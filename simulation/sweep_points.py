@@ -56,7 +56,10 @@ def field_path(name: str) -> tuple[str, ...]:
 
 
 def _number(text: str, name: str) -> Any:
+    """``text`` as an int, a float, a TOML boolean (``true``/``false``) or else the string itself."""
     text = text.strip()
+    if text in ("true", "false"):
+        return text == "true"
     for kind in (int, float):
         try:
             return kind(text)
@@ -73,7 +76,7 @@ def parse_vary(text: str) -> tuple[str, list]:
     Returns
     -------
     (str, list)
-        The name as given and its values (int, float or str).
+        The name as given and its values (int, float, bool for ``true``/``false``, or str).
 
     Raises
     ------

@@ -30,6 +30,13 @@ def test_parse_vary_reads_lists_and_inclusive_ranges():
             parse_vary(bad)
 
 
+def test_booleans_are_read_as_toml_so_a_switch_can_be_swept():
+    assert parse_vary("control.governor=true,false") == ("control.governor", [True, False])
+    rows = sweep("line", {"control.governor": [True, False], "run.duration": [0.5], "links": [8]}, client="serial")
+    assert list(rows["outcome"]) == ["completed", "completed"]
+    assert list(sweep("line", {"control.governor": ["True"], "links": [8]}, client="serial")["outcome"]) == ["error"]
+
+
 def test_grid_is_the_cartesian_product_with_the_names_as_given():
     pts = grid_points({"links": [8, 16], "control.gain": [1.0, 2.0, 3.0]})
     assert len(pts) == 6 and pts[0] == {"links": 8, "control.gain": 1.0} and pts[-1] == {"links": 16, "control.gain": 3.0}
