@@ -7,7 +7,6 @@ grow with the number of links. The dense law (eq. 27) is emitted as one Function
 """
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import casadi as ca
@@ -67,20 +66,15 @@ def structured_law(ctrl: CoordinatingController, path_search: bool = True) -> st
 
     Notes
     -----
-    With the governor on a rail the C keeps its ``#ifdef CA_GOVERNED`` blocks: the recursion runs
-    twice, first with ``v_scale`` = 1 for the longitudinal margin (it does not depend on the rail
-    rate), then with the head's governed rail rate, as the interpreted law does. Every other law
-    drops those blocks, so its C (and its build's cache key) is the one-pass glue, unchanged.
+    With the governor on a rail (``CA_GOVERNED`` defined by :func:`rail_macros`) the C's
+    ``#ifdef CA_GOVERNED`` blocks run the recursion twice, first with ``v_scale`` = 1 for the
+    longitudinal margin (it does not depend on the rail rate), then with the head's governed rail
+    rate, as the interpreted law does; for every other law the preprocessor drops them.
     """
-    law = templates.STRUCTURED_LAW if _governed_rail(ctrl) else _GOVERNED_BLOCK.sub("", templates.STRUCTURED_LAW)
+    law = templates.STRUCTURED_LAW
     return (f"#define CA_REPIVOT {controller_module.REPIVOT!r}\n"
             f"#define CA_NW_REPIVOT {int(ctrl.time_features_repivot().numel_out(0))}\n"
             + rail_macros(ctrl) + (path_macros(ctrl) if path_search else "") + law)
-
-
-#: A ``#ifdef CA_GOVERNED`` block of :data:`.templates.STRUCTURED_LAW` (none nests another ``#if``):
-#: only the governed rail keeps them, so every other law's C is the one-pass glue, unchanged.
-_GOVERNED_BLOCK = re.compile(r"^#ifdef CA_GOVERNED\n.*?^#endif\n", re.S | re.M)
 
 
 def _governed_rail(ctrl: CoordinatingController) -> bool:
