@@ -313,6 +313,9 @@ def _run(spec, todo, client, workers, batch, point_fn, log_dir, table, bar):
         return None
     from distributed import as_completed
 
+    from .sweep_plugin import drop_sync_cancel_race
+
+    drop_sync_cancel_race()
     dask_client, owned = _open_client(client, workers)
     try:
         n_workers = sum(dask_client.nthreads().values()) or (workers or 1)

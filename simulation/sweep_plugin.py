@@ -1,8 +1,11 @@
-"""Dask worker plugin of local sweeps (imports Dask: loaded only when a local cluster starts)."""
+"""Dask-side pieces of sweeps: the local workers' Ctrl-C plugin and a filter for a race in distributed
+(imports Dask: loaded only when a sweep uses Dask)."""
 from __future__ import annotations
 
+import logging
 import signal
 import threading
+from pathlib import Path
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
@@ -24,3 +27,33 @@ class IgnoreCtrlC(WorkerPlugin):
         """
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class SyncCancelRace(logging.Filter):
+    """Drops the one log record of a race in ``distributed.utils.sync`` (distributed 2026.8).
+
+    A Ctrl-C that lands while the client's event loop has not yet started the awaited call
+    makes ``sync`` schedule a ``cancel`` callback that reads a variable the call has not set:
+    tornado logs ``NameError: cannot access free variable 'future'`` with a traceback on
+    ``tornado.application``. Nothing had started, so nothing is lost; the sweep's own
+    "interrupted" line is the message. Every other record passes.
+    """
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        """False for exactly that record: a NameError raised in ``cancel`` of distributed/utils.py."""
+        exc = record.exc_info[1] if record.exc_info else None
+        if not isinstance(exc, NameError):
+            return True
+        tb = exc.__traceback__
+        while tb is not None and tb.tb_next is not None:
+            tb = tb.tb_next
+        code = tb.tb_frame.f_code if tb is not None else None
+        return not (code is not None and code.co_name == "cancel"
+                    and Path(code.co_filename).match("distributed/utils.py"))
+
+
+def drop_sync_cancel_race() -> None:
+    """Install :class:`SyncCancelRace` on tornado's callback logger (once per process)."""
+    log = logging.getLogger("tornado.application")
+    if not any(isinstance(f, SyncCancelRace) for f in log.filters):
+        log.addFilter(SyncCancelRace())
