@@ -89,7 +89,7 @@ def _early_handlers() -> dict:
 
 def _main(argv: list[str] | None) -> int:
     from coordarm.symbolic.errors import CoordarmError
-    from coordarm.symbolic.interrupts import Interrupted, received
+    from coordarm.symbolic.interrupts import interruption
 
     command = "coordarm"
     try:
@@ -98,22 +98,20 @@ def _main(argv: list[str] | None) -> int:
         if "matplotlib" not in sys.modules:
             os.environ["MPLBACKEND"] = "Agg"
         return int(args.func(args) or 0)
-    except CoordarmError as exc:
-        print(f"{command}: error: {exc}", file=sys.stderr)
-        return 2
-    except (OSError, MemoryError, RecursionError) as exc:  # a full disk, a file in the way, a huge input
-        print(f"{command}: error: {_describe(exc)}", file=sys.stderr)
-        return 2
-    except (KeyboardInterrupt, SystemError) as exc:
-        # CasADi's C++ calls can surface a Ctrl-C as "SystemError: ... returned a result with an
-        # exception set", chained from the KeyboardInterrupt.
-        if isinstance(exc, SystemError) and not isinstance(exc.__cause__, KeyboardInterrupt):
-            raise
-        # CasADi may re-raise a Ctrl-C as a plain KeyboardInterrupt: the signal is still on record.
-        signum = exc.signum if isinstance(exc, Interrupted) else received()
-        why = f" (interrupted by {signal.Signals(signum).name})" if signum else ""
-        print(f"{command}: interrupted{why}", file=sys.stderr)
-        return 130
+    except BaseException as exc:
+        # First the signal: CasADi's C++ calls can turn a Ctrl-C into another error (a SystemError,
+        # or a TypeError of the next overload SWIG tries); a signal on record decides (`interruption`).
+        signum = interruption(exc)
+        if signum is not None:
+            print(f"{command}: interrupted by {signal.Signals(signum).name}", file=sys.stderr)
+            return 130
+        if isinstance(exc, CoordarmError):
+            print(f"{command}: error: {exc}", file=sys.stderr)
+            return 2
+        if isinstance(exc, (OSError, MemoryError, RecursionError)):  # a full disk, a file in the way, a huge input
+            print(f"{command}: error: {_describe(exc)}", file=sys.stderr)
+            return 2
+        raise
 
 
 def _describe(exc: BaseException) -> str:

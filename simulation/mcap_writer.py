@@ -42,6 +42,7 @@ import numpy as np
 
 from coordarm.symbolic import CollisionError, ConfigError, CoordinatingController, LogError, SingularityError
 from coordarm.symbolic.controller import BUILT_IN_CURVES
+from coordarm.symbolic.interrupts import interruption
 
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
@@ -147,8 +148,7 @@ def outcome_of(error: BaseException | None, last_t: float | None,
         out = {"status": "collision", "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
                "value": c.value, "threshold": c.threshold, "obstacle": c.obstacle, "message": str(error)}
     else:
-        interrupted = isinstance(error, KeyboardInterrupt) or isinstance(error.__cause__, KeyboardInterrupt)
-        status = "interrupted" if interrupted else "error"
+        status = "interrupted" if interruption(error) is not None else "error"
         out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
     if contacts:
         out["contacts"] = contacts

@@ -49,6 +49,34 @@ def received() -> int | None:
     return _received[0] if _received else None
 
 
+def interruption(exc: BaseException) -> int | None:
+    """The signal behind ``exc`` if it ends the run as an interruption, else None.
+
+    An interruption is a :class:`Interrupted`, a ``KeyboardInterrupt`` (SIGINT, also chained as
+    the cause), or *any* error raised after a signal was received: CasADi's C++ calls can turn
+    the ``KeyboardInterrupt`` raised inside them into a ``SystemError`` and, when SWIG then tries
+    the next overload of a Function call (the symbolic one), into a ``TypeError`` far from the
+    signal (both seen with SIGINT sent every 0.7 ms to a loop of mapped Function calls).
+
+    Parameters
+    ----------
+    exc : BaseException
+        The exception that ended the run.
+
+    Returns
+    -------
+    int or None
+        The signal number (SIGINT when a bare ``KeyboardInterrupt`` has none on record).
+    """
+    if isinstance(exc, Interrupted):
+        return exc.signum
+    if _received:
+        return _received[0]
+    if isinstance(exc, KeyboardInterrupt) or isinstance(exc.__cause__, KeyboardInterrupt):
+        return int(signal.SIGINT)
+    return None
+
+
 def check() -> None:
     """Raise :class:`Interrupted` if a signal arrived (even one whose exception was swallowed)."""
     if _received:

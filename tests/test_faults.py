@@ -392,6 +392,49 @@ def test_a_ctrl_c_swallowed_by_a_casadi_call_still_stops_the_run_before_its_firs
     assert steps and not seen   # stopped before the first block
 
 
+def test_a_ctrl_c_that_casadi_turns_into_a_type_error_is_an_interruption(monkeypatch, tmp_path, capsys):
+    """What CasADi did to 1 of 200 Ctrl-Cs at random moments of a run: SWIG loses the KeyboardInterrupt
+    inside a mapped Function call, tries the symbolic overload, and numpy then fails on the SX result."""
+    import signal
+
+    from coordarm.symbolic.controller import CoordinatingController
+    original, calls = CoordinatingController.speeds, []
+
+    def signal_then_type_error(self, times):
+        if calls:
+            return original(self, times)
+        calls.append(times)
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+        except KeyboardInterrupt:
+            pass   # lost inside the C++ call
+        raise TypeError("Implicit conversion of symbolic CasADi type to numeric matrix not supported.")
+
+    monkeypatch.setattr(CoordinatingController, "speeds", signal_then_type_error)
+    out = tmp_path / "run.mcap"
+    code = main(["run", "line", "--links", "4", "--duration", "0.2", "--backend", "interpreted", "--no-figures",
+                 "--quiet", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert calls and code == 130 and err.strip() == "coordarm run: interrupted by SIGINT", err
+    assert load(out).outcome["status"] == "interrupted"
+
+
+def test_an_error_without_a_signal_is_not_an_interruption():
+    from coordarm.symbolic import interrupts
+    with interrupts.handled():
+        assert interrupts.interruption(TypeError("x")) is None
+        assert interrupts.interruption(KeyboardInterrupt()) == signal_number("SIGINT")
+        assert interrupts.interruption(interrupts.Interrupted(signal_number("SIGTERM"))) == signal_number("SIGTERM")
+        cause = SystemError("returned a result with an exception set")
+        cause.__cause__ = KeyboardInterrupt()
+        assert interrupts.interruption(cause) == signal_number("SIGINT")
+
+
+def signal_number(name: str) -> int:
+    import signal
+    return int(getattr(signal, name))
+
+
 def test_a_build_started_while_an_exception_is_handled_keeps_its_library(tmp_path):
     """(A sweep worker compiles inside an ``except`` block of Dask's: the library must survive.)"""
     from coordarm.generated.build import build, cached
