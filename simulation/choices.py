@@ -12,9 +12,10 @@ from coordarm.symbolic.errors import ConfigError
 
 #: ``auto`` = compiled when a C compiler builds the library, else interpreted (with a warning).
 BACKENDS = ("auto", "compiled", "interpreted")
-#: Chunk compressions of the run log (both are in the MCAP specification and read by Foxglove);
-#: ``lz4`` needs the optional ``lz4`` package (``pip install coordarm[lz4]``).
-COMPRESSIONS = ("lz4", "zstd")
+#: Chunk compressions of the run log (all in the MCAP specification and read by Foxglove): ``zstd``
+#: (level 1, the smallest file), ``lz4`` (needs the optional ``lz4`` package, ``pip install coordarm[lz4]``)
+#: and ``none`` (chunks stored as they are: the cheapest to write; a run's floats shrink only ~1.3x anyway).
+COMPRESSIONS = ("lz4", "none", "zstd")
 #: Methods of ``coordarm compare`` (:mod:`coordarm.analysis.compare`), in table order.
 COMPARE_METHODS = ("coordinating", "pinv", "dls", "ftl")
 #: Backends of ``coordarm compare``: every method as generated C, or in CasADi's virtual machine.

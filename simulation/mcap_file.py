@@ -148,9 +148,10 @@ class McapFile:
         File to create (emptied if it exists), locked against a second writer until closed.
     profile : str
         MCAP profile written in the header (``"ros2"`` for ``cdr`` channels).
-    compression : {"zstd", "lz4"}
+    compression : {"zstd", "lz4", "none"}
         Chunk compression: zstd (level 1) makes smaller files, lz4 (frame format, fast mode)
-        compresses about twice as fast (benchmarks/RESULTS_logging.md).
+        compresses about twice as fast, none stores the records as they are (MCAP's empty
+        compression string; benchmarks/RESULTS_logging.md).
     background : bool
         Compress and write chunks on a thread of their own (zstd, lz4 and zlib release the
         GIL), so that the caller can build the next chunk meanwhile; :meth:`flush` and
@@ -169,9 +170,10 @@ class McapFile:
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
         self.path = Path(path)
-        self.compression = compression
-        self._compress: Callable[[bytes], bytes] = (
-            zstandard.ZstdCompressor(level=1).compress if compression == "zstd" else lz4_frame().compress)
+        self.compression = "" if compression == "none" else compression   # as the Chunk record names it
+        self._compress: Callable[[bytes], bytes] = {
+            "zstd": lambda: zstandard.ZstdCompressor(level=1).compress, "lz4": lambda: lz4_frame().compress,
+            "none": lambda: bytes}[compression]()
         self._stream: BinaryIO = open_locked(self.path)
         self._schemas: list[Schema] = []
         self._channels: list[Channel] = []

@@ -14,7 +14,7 @@ Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, 
 ``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
 ``outcome``; each carries the SHA-256 of its entries (key ``sha256``), checked by
 :func:`analysis.replay.load`. Chunks are built with numpy for a whole block of steps at once,
-compressed with zstd (default) or lz4, and pushed to the operating system every half second
+compressed with zstd (default) or lz4 (or stored as they are), and pushed to the operating system every half second
 (also while the simulation is busy with a long block), with at most two blocks queued, so a
 killed run loses at most the last second. The log is written as ``<name>.partial.mcap``
 (locked against a second writer) and renamed to its name when it is closed; a killed run
@@ -177,7 +177,7 @@ class RunLogger:
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz]; 0 switches it off. Default :func:`default_cond_rate`:
         5 Hz up to 64 links, then falling as ``1/m^2`` (an SVD costs O(m^3), a step O(m)).
-    compression : {"zstd", "lz4"}
+    compression : {"zstd", "lz4", "none"}
         Chunk compression (see :class:`~simulation.mcap_file.McapFile`).
     chunk_size : int, optional
         Target uncompressed chunk size [bytes] (default :data:`CHUNK_SIZE`, 1 MiB).

@@ -209,9 +209,9 @@ def test_a_failure_on_the_writer_thread_surfaces_as_a_log_error_naming_the_file(
         log.finish()
 
 
-def test_lz4_and_zstd_logs_hold_the_same_messages_for_the_plain_reader_and_load(scenario, tmp_path):
+def test_lz4_zstd_and_uncompressed_logs_hold_the_same_messages_for_the_plain_reader_and_load(scenario, tmp_path):
     ctrl = scenario.controller()
-    paths = {c: tmp_path / f"{c}.mcap" for c in ("zstd", "lz4")}
+    paths = {c: tmp_path / f"{c}.mcap" for c in ("zstd", "lz4", "none")}
     for compression, path in paths.items():
         with RunLogger(path, scenario, ctrl, compression=compression, chunk_size=8 * 1024) as log:
             simulate(ctrl, scenario.start(ctrl), 0.3, scenario.step, chunk=64, on_chunk=log.on_chunk)
@@ -219,11 +219,16 @@ def test_lz4_and_zstd_logs_hold_the_same_messages_for_the_plain_reader_and_load(
     for compression, path in paths.items():
         with open(path, "rb") as f:
             reader = make_reader(f)
-            assert {c.compression for c in reader.get_summary().chunk_indexes} == {compression}
+            names = {c.compression for c in reader.get_summary().chunk_indexes}
+            assert names == {"" if compression == "none" else compression}   # MCAP names no compression ""
             seen[compression] = [(ch.topic, m.log_time, m.data) for _, ch, m in reader.iter_messages()]
-    assert len(seen["lz4"]) == 3 * 301 + 3 * 7 + 2 and seen["lz4"] == seen["zstd"]  # 3 per step, 7 x (scene, tf, tracking), 2 conds
-    a, b = load(paths["zstd"]), load(paths["lz4"])
-    assert np.array_equal(a.q, b.q) and np.array_equal(a.e, b.e) and np.array_equal(a.cond, b.cond)
+    # 3 per step, 7 x (scene, tf, tracking), 2 conds
+    assert len(seen["lz4"]) == 3 * 301 + 3 * 7 + 2 and seen["lz4"] == seen["zstd"] == seen["none"]
+    assert paths["none"].stat().st_size > paths["zstd"].stat().st_size
+    a = load(paths["zstd"])
+    for other in ("lz4", "none"):
+        b = load(paths[other])
+        assert np.array_equal(a.q, b.q) and np.array_equal(a.e, b.e) and np.array_equal(a.cond, b.cond)
     with pytest.raises(ConfigError, match="compression"):
         RunLogger(tmp_path / "x.mcap", scenario, ctrl, compression="gzip")
     assert not (tmp_path / "x.mcap").exists()

@@ -47,7 +47,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per simulated second of cond (an SVD each; default 5 Hz up to 64 links, "
                         "then falling as 1/m^2, off above 1024 links; 0 = off)")
     p.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
-                   help="chunk compression of the log: zstd (default, smaller) or lz4 (faster)")
+                   help="chunk compression of the log: zstd (default, smallest), lz4 (faster) "
+                        "or none (the cheapest to write, ~1.3x larger)")
     p.add_argument("--live", action="store_true",
                    help="serve the run over the Foxglove WebSocket protocol while it is simulated (paced to "
                         "real time, see --live-speed), writing the log too; in Foxglove: Open connection, "
