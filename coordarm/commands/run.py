@@ -48,7 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "then falling as 1/m^2, off above 1024 links; 0 = off)")
     p.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
                    help="chunk compression of the log: zstd (default, smallest), lz4 (faster) "
-                        "or none (the cheapest to write, ~1.3x larger)")
+                        "or none (the cheapest to write, ~2.6x larger)")
     p.add_argument("--live", action="store_true",
                    help="serve the run over the Foxglove WebSocket protocol while it is simulated (paced to "
                         "real time, see --live-speed), writing the log too; in Foxglove: Open connection, "
