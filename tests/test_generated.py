@@ -281,7 +281,9 @@ def test_a_compile_over_its_timeout_is_stopped_with_every_compiler_process(tmp_p
     with pytest.raises(BuildError, match="took longer than 0.5 s; stopped"):
         build(source, build_dir=tmp_path, timeout=0.5)
     src = next(tmp_path.rglob("coordarm.c"))
-    time.sleep(0.2)
+    deadline = time.monotonic() + 1.0   # until reaped; cc1 alone runs ~3 s, so one left compiling is seen
+    while _processes_reading(src) and time.monotonic() < deadline:
+        time.sleep(0.01)
     assert _processes_reading(src) == []
     assert not list(tmp_path.rglob("*.tmp"))
 
