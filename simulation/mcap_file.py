@@ -171,9 +171,11 @@ class McapFile:
             raise ValueError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
         self.path = Path(path)
         self.compression = "" if compression == "none" else compression   # as the Chunk record names it
-        self._compress: Callable[[bytes], bytes] = {
-            "zstd": lambda: zstandard.ZstdCompressor(level=1).compress, "lz4": lambda: lz4_frame().compress,
-            "none": lambda: bytes}[compression]()
+        self._compress: Callable[[bytes], bytes] = bytes          # none: the records as they are
+        if compression == "zstd":
+            self._compress = zstandard.ZstdCompressor(level=1).compress
+        elif compression == "lz4":
+            self._compress = lz4_frame().compress
         self._stream: BinaryIO = open_locked(self.path)
         self._schemas: list[Schema] = []
         self._channels: list[Channel] = []
