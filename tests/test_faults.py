@@ -420,19 +420,16 @@ def test_a_ctrl_c_that_casadi_turns_into_a_type_error_is_an_interruption(monkeyp
 
 
 def test_an_error_without_a_signal_is_not_an_interruption():
+    import signal
+
     from coordarm.symbolic import interrupts
     with interrupts.handled():
         assert interrupts.interruption(TypeError("x")) is None
-        assert interrupts.interruption(KeyboardInterrupt()) == signal_number("SIGINT")
-        assert interrupts.interruption(interrupts.Interrupted(signal_number("SIGTERM"))) == signal_number("SIGTERM")
+        assert interrupts.interruption(KeyboardInterrupt()) == signal.SIGINT
+        assert interrupts.interruption(interrupts.Interrupted(signal.SIGTERM)) == signal.SIGTERM
         cause = SystemError("returned a result with an exception set")
         cause.__cause__ = KeyboardInterrupt()
-        assert interrupts.interruption(cause) == signal_number("SIGINT")
-
-
-def signal_number(name: str) -> int:
-    import signal
-    return int(getattr(signal, name))
+        assert interrupts.interruption(cause) == signal.SIGINT
 
 
 def test_a_build_started_while_an_exception_is_handled_keeps_its_library(tmp_path):
