@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import signal
 import threading
+import traceback
 from pathlib import Path
 
 from distributed.diagnostics.plugin import WorkerPlugin
@@ -44,12 +45,8 @@ class SyncCancelRace(logging.Filter):
         exc = record.exc_info[1] if record.exc_info else None
         if not isinstance(exc, NameError):
             return True
-        tb = exc.__traceback__
-        while tb is not None and tb.tb_next is not None:
-            tb = tb.tb_next
-        code = tb.tb_frame.f_code if tb is not None else None
-        return not (code is not None and code.co_name == "cancel"
-                    and Path(code.co_filename).match("distributed/utils.py"))
+        last = traceback.extract_tb(exc.__traceback__)[-1:]   # the frame that raised it
+        return not (last and last[0].name == "cancel" and Path(last[0].filename).match("distributed/utils.py"))
 
 
 def drop_sync_cancel_race() -> None:
