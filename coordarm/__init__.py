@@ -8,6 +8,8 @@ the parts that need them.
 >>> scenario = coordarm.load_scenario("line")          # doctest: +SKIP
 >>> ctrl = scenario.controller()                       # doctest: +SKIP
 >>> run = coordarm.simulate(ctrl, scenario.start(ctrl), 1.0)   # doctest: +SKIP
+>>> result = coordarm.run_scenario("line", duration=1.0, log="line.mcap")   # doctest: +SKIP
+>>> result.outcome, result.log, result.figures                 # doctest: +SKIP
 
 Layers (imports flow one way): ``coordarm.symbolic`` <- ``coordarm.generated`` <-
 ``coordarm.simulation`` <- ``coordarm.analysis`` <- ``coordarm.cli``.
@@ -51,6 +53,8 @@ _EXPORTS = {
     "load_scenario": "coordarm.simulation.scenario",
     "presets": "coordarm.simulation.scenario",
     "simulate": "coordarm.simulation.run",
+    "run_scenario": "coordarm.simulation.session",
+    "ScenarioResult": "coordarm.simulation.session",
     "Run": "coordarm.simulation.run",
     "estimate": "coordarm.simulation.limits",
     "sweep": "coordarm.simulation.sweep",

@@ -38,7 +38,8 @@ def main(args: argparse.Namespace) -> int:
         ``--fps`` outside :data:`FPS_RANGE`, or ``--out`` is a file.
     """
     from coordarm.analysis.replay import load
-    from coordarm.commands.run import print_summary, write_figures, writing
+    from coordarm.simulation.figure_files import write_figures, writing
+    from coordarm.simulation.summary import summary_lines
 
     if not FPS_RANGE[0] <= args.fps <= FPS_RANGE[1]:
         raise ConfigError(f"--fps: need {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} frames per second, got {shown(args.fps)}")
@@ -50,7 +51,7 @@ def main(args: argparse.Namespace) -> int:
         print(f"outcome       {replay.outcome.get('status')}: the log holds no samples; nothing to draw")
         return 0
     run, ctrl = replay.to_run(), replay.controller()
-    print_summary(run, replay.scenario)
+    print("\n".join(summary_lines(run, replay.scenario)))
     print(f"outcome       {replay.outcome.get('status')}"
           + (f": {replay.outcome['message']}" if "message" in replay.outcome else ""))
     for p in write_figures(run, replay.scenario, ctrl, stem, args.stages, outcome=replay.outcome.get("status", "")):

@@ -1,0 +1,84 @@
+"""The human-readable summary of a run: tracking, margins, joints, contacts and clearances, one line each."""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:   # numpy and the run module load only when a summary is written
+    from coordarm.simulation.run import Run
+    from coordarm.simulation.scenario import Scenario
+
+
+def summary_lines(run: Run, scenario: Scenario) -> list[str]:
+    """The summary of ``run`` that ``coordarm run`` and ``coordarm replay`` print, one string per line.
+
+    Parameters
+    ----------
+    run : Run
+        The simulated (or replayed) run; ``run.q`` is ``(n, m)`` [rad, and m for a rail].
+    scenario : Scenario
+        The scenario it ran (name, source, chain, obstacles, ``[control] governor``).
+
+    Returns
+    -------
+    list of str
+        Scenario and link count; simulated time and steps, stop reason and backend; final max|e| [m];
+        s tracking [m]; the smallest link and longitudinal margins; max|u|; the governor's slowing and
+        the rail's travel when used; then :func:`physical_lines` for a full configuration.
+    """
+    import numpy as np
+
+    s = run.summary()
+    lines = [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1] - int(scenario.chain().rail)} links"
+             + (" on a rail" if scenario.chain().rail else ""),
+             f"simulated     {s['duration']:.3f} s in {s['steps']} steps ({run.info.get('stopped', '?')}, "
+             f"backend {run.info.get('backend', '?')})",
+             f"final max|e|  {s['final_max_abs_e']:.3e} m",
+             f"s tracking    max |s - (s0 + ∫v*)| = {s['max_s_tracking_error']:.3e} m",
+             f"link margin   min {s['min_link_margin']:.4f} (link {s['min_link_margin_link']}, "
+             f"t = {s['min_link_margin_time']:.2f} s)",
+             f"longitudinal  min {s['min_longitudinal_margin']:.4f} (t = {s['min_longitudinal_margin_time']:.2f} s)",
+             f"max|u|        {s['max_abs_u']:.4g}"]
+    if scenario.spec["control"].get("governor"):
+        lines.append(f"governor      v* slowed during {run.governed_time():.3f} s (final v_scale {run.speed_factor()[-1]:.3g})")
+    if run.sigma is not None:
+        lines.append(f"rail          d from {run.q[0, 0]:.4f} to {run.q[-1, 0]:.4f} m, span sigma {run.sigma[0]:.4f} -> "
+                     f"{run.sigma[-1]:.4f} m, min rail margin {np.min(run.rail_margin):.4f}")
+    if run.q.shape[1] == scenario.chain().dof:
+        lines += physical_lines(run, scenario)
+    return lines
+
+
+def physical_lines(run: Run, scenario: Scenario) -> list[str]:
+    """Summary lines: largest joint angle against its limit, contacts, clearance per obstacle.
+
+    Parameters
+    ----------
+    run : Run
+        A run of the scenario's full chain (``run.q`` is ``(n, dof)``).
+    scenario : Scenario
+        Its scenario (joint limits, obstacles).
+
+    Returns
+    -------
+    list of str
+        The joint line [rad], a contacts line when the run recorded any, one clearance line [m] per obstacle
+        (clearances from at most 2000 evenly spread samples).
+    """
+    import numpy as np
+
+    from coordarm.simulation.run import even_indices
+
+    chain = scenario.chain()
+    qr = chain.revolute(run.q)
+    rel = np.abs(qr[:, 1:]) / chain.joint_limits
+    k, j = np.unravel_index(int(np.argmax(rel)), rel.shape)
+    lines = [f"joints        max |q_j|/limit = {rel[k, j]:.3f} (joint {j + 2}: {qr[k, j + 1]:+.3f} rad of "
+             f"±{chain.joint_limits[j]:.3f}, t = {run.t[k]:.2f} s)"]
+    contacts = run.info.get("contacts") or []
+    if contacts:
+        lines.append(f"contacts      {len(contacts)} distinct (allowed), first: {contacts[0]['kind']} at "
+                     f"t = {contacts[0]['time']:.3f} s, links {contacts[0]['links']}")
+    rows = even_indices(len(run.t), 2000)
+    for name, (d, t, link) in scenario.physical(chain).clearances(run.q[rows], run.t[rows]).items():
+        lines.append(f"clearance     {name!r}: min {d:.4f} m (link {link}, t = {t:.2f} s)")
+    return lines
