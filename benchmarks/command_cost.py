@@ -54,8 +54,8 @@ if "--no-figures" not in sys.argv:
     T["import matplotlib (figures)"] = time.perf_counter() - t
     timed(figures, "plot_stages", "figure: stages")
     timed(figures, "plot_tracking", "figure: tracking")
-    from coordarm.commands import run as cmd_run
-    timed(cmd_run, "write_figures", "figures (total)")
+    from coordarm.simulation import figure_files
+    timed(figure_files, "write_figures", "figures (total)")
 t = time.perf_counter()
 code = coordarm.cli.main(sys.argv[2:])
 T["command inside the process"] = time.perf_counter() - t

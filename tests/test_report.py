@@ -5,7 +5,7 @@ import sys
 import numpy as np
 import pytest
 
-from coordarm.commands.report import simulate_scenario
+from coordarm.analysis.report_outputs import simulate_scenario
 from coordarm.analysis.report import analyse_run, default_samples, simulate_through, write_report
 from coordarm.analysis.workspace import curve_zigzag, plot_workspace, workspace_map
 from coordarm.cli import main

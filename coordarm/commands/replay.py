@@ -5,11 +5,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from coordarm.analysis.replay_outputs import FPS_RANGE
 from coordarm.commands.run import stage_list
-from coordarm.symbolic.errors import ConfigError, LogError, shown
-
-#: Allowed frames per second of the animation.
-FPS_RANGE = (0.1, 60.0)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -28,57 +25,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Replay the log named in ``args``: summary, figures, animation; returns 0.
+    """Replay the log named in ``args`` (:func:`~coordarm.analysis.replay_outputs.replay_log`): summary, figures,
+    animation; returns 0.
 
     Raises
     ------
     LogError
-        The log cannot be read (named, with what could be recovered).
+        The log cannot be read (named, with what could be recovered), or ``--out`` is a file.
     ConfigError
-        ``--fps`` outside :data:`FPS_RANGE`, or ``--out`` is a file.
+        ``--fps`` outside :data:`FPS_RANGE`.
     """
-    from coordarm.analysis.replay import load
-    from coordarm.simulation.figure_files import write_figures, writing
-    from coordarm.simulation.summary import summary_lines
+    from coordarm.analysis.replay_outputs import replay_log
 
-    if not FPS_RANGE[0] <= args.fps <= FPS_RANGE[1]:
-        raise ConfigError(f"--fps: need {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} frames per second, got {shown(args.fps)}")
-    replay = load(args.log)
-    out_dir = output_directory(args.out or args.log.parent)
-    stem = out_dir / args.log.stem
-    report_condition(replay, "coordarm replay")
-    if not len(replay.t):
-        print(f"outcome       {replay.outcome.get('status')}: the log holds no samples; nothing to draw")
-        return 0
-    run, ctrl = replay.to_run(), replay.controller()
-    print("\n".join(summary_lines(run, replay.scenario)))
-    print(f"outcome       {replay.outcome.get('status')}"
-          + (f": {replay.outcome['message']}" if "message" in replay.outcome else ""))
-    for p in write_figures(run, replay.scenario, ctrl, stem, args.stages, outcome=replay.outcome.get("status", "")):
-        print(f"figure        {p}")
-    if not args.no_animation:
-        from coordarm.analysis.animation import animate
-        gif = stem.with_name(stem.name + ".gif")
-        with writing(gif):
-            print(f"animation     {animate(replay, gif, fps=args.fps, ctrl=ctrl)}")
+    replay_log(args.log, args.out, stages=args.stages, animation=not args.no_animation, fps=args.fps,
+               echo=print, on_problem=lambda text: print(f"coordarm replay: {text}", file=sys.stderr))
     return 0
-
-
-def report_condition(replay, prefix: str) -> None:
-    """Say on stderr when a log was cut off or damaged, and each problem met while reading it."""
-    condition = replay.condition()
-    if condition:
-        print(f"{prefix}: {replay.path}: {condition}", file=sys.stderr)
-    for problem in replay.problems:
-        print(f"{prefix}: {replay.path}: {problem}", file=sys.stderr)
-
-
-def output_directory(path: Path) -> Path:
-    """``path`` created as a directory (a LogError if a file is in the way or it cannot be made)."""
-    if path.exists() and not path.is_dir():
-        raise LogError(f"--out {shown(str(path))}: is a file; need a directory for the figures")
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise LogError(f"--out {shown(str(path))}: cannot create the directory: {exc.strerror or exc}") from None
-    return path

@@ -4,12 +4,8 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
 
-from coordarm.symbolic.errors import ConfigError, LogError, shown
-
-#: Allowed ``--samples``.
-SAMPLES_RANGE = (2, 100_000)
+from coordarm.analysis.report_outputs import SAMPLES_RANGE
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -30,48 +26,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=main)
 
 
-def simulate_scenario(scenario: Any) -> Any:
-    """Simulate ``scenario`` without singularity stops; a run ending in NaN is kept up to there."""
-    from coordarm.analysis.report import simulate_through
-
-    ctrl = scenario.controller()
-    return simulate_through(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0)
-
-
 def main(args: argparse.Namespace) -> int:
-    """Write the report for ``args.source``; print where it went; return 0."""
-    import numpy as np
+    """Write the report for ``args.source`` (:func:`~coordarm.analysis.report_outputs.report_of`); print where
+    it went; return 0."""
+    from coordarm.analysis.report_outputs import report_of
 
-    from coordarm.simulation.limits import check_cost, estimate
-    from coordarm.simulation.scenario import load_scenario
-
-    from coordarm.analysis.report import default_samples, write_report
-
-    from coordarm.commands.replay import output_directory, report_condition
-
-    if args.samples is not None and not SAMPLES_RANGE[0] <= args.samples <= SAMPLES_RANGE[1]:
-        raise ConfigError(f"--samples: need {SAMPLES_RANGE[0]} to {SAMPLES_RANGE[1]}, got {shown(args.samples)}")
-    src = str(args.source)
-    if src.endswith(".mcap"):
-        if args.links is not None or args.duration is not None:
-            raise ConfigError("--links/--duration: only for a scenario, not for a log")
-        from coordarm.analysis.replay import load
-        run = load(src)
-        report_condition(run, "coordarm report")
-        if not len(run.t):
-            raise LogError(f"{src}: the log holds no samples; nothing to report")
-        scenario = run.scenario
-    else:
-        scenario = load_scenario(src).with_overrides(args.links, args.duration)
-        check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, logged=False), args.yes)
-        run = simulate_scenario(scenario)
-    out = output_directory(args.out or Path("logs") / f"{scenario.name}_report")
-    m = np.shape(run.q)[1]
-    if m > 128:  # about a second per 1000 samples at 64 links, a second per sample at 1024
-        print(f"report: margins at {args.samples or default_samples(m)} samples of a {m}-link chain "
-              "(an SVD and a QR of the m x m decoupling matrix each) ...", file=sys.stderr, flush=True)
-    path = write_report(run, scenario, out, samples=args.samples)
-    print(f"report        {path}", file=sys.stdout)
-    for png in sorted(path.parent.glob("*.png")):
+    result = report_of(args.source, args.out, links=args.links, duration=args.duration, samples=args.samples,
+                       yes=args.yes, on_problem=lambda text: print(f"coordarm report: {text}", file=sys.stderr),
+                       on_note=lambda text: print(text, file=sys.stderr, flush=True))
+    print(f"report        {result.path}", file=sys.stdout)
+    for png in result.figures:
         print(f"figure        {png}")
     return 0
