@@ -43,7 +43,8 @@ class ReplayOutputs(NamedTuple):
 
 
 def replay_log(log: str | os.PathLike, out: str | os.PathLike | None = None, *, stages: Sequence[float] | None = None,
-               animation: bool = True, fps: float = 15.0, echo: Callable[[str], None] | None = None,
+               animation: bool = True, fps: float = 15.0, progress: bool = False,
+               echo: Callable[[str], None] | None = None,
                on_problem: Callable[[str], None] | None = None) -> ReplayOutputs:
     """Read a run log (also one left by a killed run) and draw its figures and a GIF animation.
 
@@ -59,6 +60,8 @@ def replay_log(log: str | os.PathLike, out: str | os.PathLike | None = None, *, 
         Write ``<log stem>.gif`` too.
     fps : float, optional
         Frames per second of the GIF, within :data:`FPS_RANGE`.
+    progress : bool, optional
+        Show the animation's progress bar on standard error.
     echo : callable, optional
         Gets each line ``coordarm replay`` prints on standard output, once known.
     on_problem : callable, optional
@@ -110,7 +113,7 @@ def replay_log(log: str | os.PathLike, out: str | os.PathLike | None = None, *, 
         from coordarm.analysis.animation import animate
         gif = stem.with_name(stem.name + ".gif")
         with writing(gif):
-            gif = animate(replay, gif, fps=fps, ctrl=ctrl)
+            gif = animate(replay, gif, fps=fps, ctrl=ctrl, progress=progress)
         say(f"animation     {gif}")
     return ReplayOutputs(replay, tuple(figures), gif, tuple(lines))
 

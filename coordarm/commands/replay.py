@@ -37,6 +37,6 @@ def main(args: argparse.Namespace) -> int:
     """
     from coordarm.analysis.replay_outputs import replay_log
 
-    replay_log(args.log, args.out, stages=args.stages, animation=not args.no_animation, fps=args.fps,
+    replay_log(args.log, args.out, stages=args.stages, animation=not args.no_animation, fps=args.fps, progress=True,
                echo=print, on_problem=lambda text: print(f"coordarm replay: {text}", file=sys.stderr))
     return 0
