@@ -1,7 +1,7 @@
 """The closest piece of a composite path, searched by the generated C near the previous link's piece.
 
 Consecutive central points are one link apart, so the C glue carries the piece found for link
-``j - 1`` and starts link ``j``'s search there (:data:`.templates.PATH_SEARCH`): the first piece
+``j - 1`` and starts link ``j``'s search there (``templates/path_search.c``): the first piece
 whose closest-point range holds the point (its ``|phi| = delta``) bounds every other candidate,
 because a piece ``k`` can only be closer if the two pieces come within ``2 delta`` of each other.
 Each piece lists the others by a lower bound of that distance (discs around finite pieces,
