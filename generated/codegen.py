@@ -40,8 +40,8 @@ from coordarm.symbolic import LAWS, BuildError, CoordinatingController
 from coordarm.symbolic.outputs import offsets, packed_width
 from coordarm.symbolic.paths import Path
 
-from .render import render
 from .path_search import search_source
+from .render import render
 
 #: Options of CasADi's CodeGenerator (part of the cache key).
 CODEGEN_OPTIONS = {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"}
