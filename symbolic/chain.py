@@ -35,14 +35,36 @@ def _joint_limits(links: int, joint_limit) -> np.ndarray:
 
 
 def direction(a):
-    """Unit vector ``d(a) = (cos a, sin a)`` (CasADi or numpy)."""
+    """Unit vector ``d(a) = (cos a, sin a)`` (CasADi or numpy).
+
+    Parameters
+    ----------
+    a : casadi.SX, casadi.MX, casadi.DM, float or array_like
+        Angle(s) [rad], any shape for numpy.
+
+    Returns
+    -------
+    casadi column (2, 1) or ndarray, shape a.shape + (2,)
+        The unit vector(s) [-].
+    """
     if isinstance(a, (ca.SX, ca.MX, ca.DM)):
         return ca.vertcat(ca.cos(a), ca.sin(a))
     return np.stack([np.cos(a), np.sin(a)], axis=-1)
 
 
 def normal(a):
-    """Unit normal ``n(a) = (-sin a, cos a) = T(a)^T r`` (CasADi or numpy)."""
+    """Unit normal ``n(a) = (-sin a, cos a) = T(a)^T r`` (CasADi or numpy).
+
+    Parameters
+    ----------
+    a : casadi.SX, casadi.MX, casadi.DM, float or array_like
+        Angle(s) [rad], any shape for numpy.
+
+    Returns
+    -------
+    casadi column (2, 1) or ndarray, shape a.shape + (2,)
+        The unit normal(s) [-].
+    """
     if isinstance(a, (ca.SX, ca.MX, ca.DM)):
         return ca.vertcat(-ca.sin(a), ca.cos(a))
     return np.stack([-np.sin(a), np.cos(a)], axis=-1)

@@ -50,7 +50,13 @@ class OrthonormalityCheck:
     points: int
 
     def message(self) -> str:
-        """One line naming the offending point (or confirming the check)."""
+        """One line naming the offending point (or confirming the check).
+
+        Returns
+        -------
+        str
+            The message, with the point [m], time [s] and deviation.
+        """
         x, y = self.worst_point
         if self.ok:
             return (f"curve is orthonormalised: the (psi, phi) Jacobian is a rotation to "

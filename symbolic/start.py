@@ -30,8 +30,6 @@ def place_on_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0) -> np
         Start guess [rad].
     t0 : float
         Time [s] of the curve to project onto.
-    tol : float
-        Absolute tolerance of the Newton iteration [m].
 
     Returns
     -------
@@ -189,6 +187,8 @@ def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, d: 
         Time at which to lay the chain on the curve [s].
     d : float
         Rail position [m] (a chain on a rail only; the base is then ``d`` along the rail).
+    tol : float
+        The Newton iteration stops once its step of the link angle is below ``tol`` [rad].
 
     Returns
     -------
