@@ -48,12 +48,35 @@ READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error,
 
 #: A message as read here: much lighter than ``mcap.records.Message`` (a log has ~10^5 of them).
 RawMessage = namedtuple("RawMessage", "channel_id sequence log_time data")
+RawMessage.__doc__ = """One MCAP message record as read from a chunk.
+
+Parameters
+----------
+channel_id : int
+    The channel's id.
+sequence : int
+    Sequence number.
+log_time : int
+    Log time [ns].
+data : memoryview
+    The message body (a view into the decompressed chunk).
+"""
 _RECORD = struct.Struct("<BQ")
 _MESSAGE = struct.Struct("<HIQ")
 
 
 def chunk_messages(chunk: Chunk) -> list[RawMessage]:
     """The messages of a chunk, its CRC checked (other records inside a chunk are skipped).
+
+    Parameters
+    ----------
+    chunk : mcap.records.Chunk
+        A chunk record (zstd, lz4 or uncompressed).
+
+    Returns
+    -------
+    list of RawMessage
+        Its messages in file order.
 
     Raises
     ------

@@ -23,7 +23,18 @@ OUTCOME_COLOURS = ("#2ca02c", "#ff7f0e", "#9467bd", "#d62728")
 
 
 def smallest_margin(df) -> np.ndarray:
-    """``min(min_link_margin, min_longitudinal)`` per row (NaN where the point did not run)."""
+    """``min(min_link_margin, min_longitudinal)`` per row (NaN where the point did not run).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The sweep's results table (one row per point).
+
+    Returns
+    -------
+    ndarray, shape (len(df),)
+        Smallest margins [-].
+    """
     return np.fmin(df["min_link_margin"].to_numpy(float), df["min_longitudinal"].to_numpy(float))
 
 
@@ -36,7 +47,22 @@ def _numeric(values) -> bool:
 
 
 def plot_line(df, name: str, path: str | Path) -> Path:
-    """Smallest link and longitudinal margins against one varied ``name``, markers coloured by outcome."""
+    """Smallest link and longitudinal margins against one varied ``name``, markers coloured by outcome.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The sweep's results table (one row per point).
+    name : str
+        The varied name (a column of ``df``).
+    path : str or Path
+        The PNG to write.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     fig, ax = plt.subplots(figsize=(7, 4.2))
     d = df.sort_values(name) if _numeric(df[name]) else df
     x = d[name].to_numpy() if _numeric(d[name]) else np.arange(len(d))
@@ -58,7 +84,22 @@ def plot_line(df, name: str, path: str | Path) -> Path:
 
 
 def plot_pair(df, a: str, b: str, path: str | Path) -> Path:
-    """Heat maps of the worst outcome and the smallest margin over the varied names ``a`` x ``b``."""
+    """Heat maps of the worst outcome and the smallest margin over the varied names ``a`` x ``b``.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The sweep's results table (one row per point).
+    a, b : str
+        The varied names on the x and y axes (columns of ``df``).
+    path : str or Path
+        The PNG to write.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     code = df["outcome"].map({o: i for i, o in enumerate(OUTCOMES)}).fillna(len(OUTCOMES) - 1).to_numpy(float)
     data = df.assign(_code=code, _margin=smallest_margin(df))
     cmap = ListedColormap(OUTCOME_COLOURS)
@@ -90,6 +131,20 @@ def plot_sweep(df, names: list[str], out: str | Path) -> list[Path]:
     """All figures of a sweep into ``out``: ``sweep_<name>.png`` for one name, else ``sweep_<a>__<b>.png`` per pair.
 
     Names held at a single value are left out (they add no axis).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The sweep's results table (one row per point).
+    names : list of str
+        The varied names (columns of ``df``).
+    out : str or Path
+        Output directory (created if missing).
+
+    Returns
+    -------
+    list of Path
+        The files written (none for an empty table).
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

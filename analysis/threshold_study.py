@@ -19,7 +19,13 @@ CANDIDATES = (0.05, 0.1, 0.15, 0.2)
 
 
 def blowup_cases() -> dict[str, tuple[CoordinatingController, np.ndarray, float]]:
-    """``name -> (controller, q0, duration)`` of runs that reach the longitudinal singularity."""
+    """``name -> (controller, q0, duration)`` of runs that reach the longitudinal singularity.
+
+    Returns
+    -------
+    dict of str to (CoordinatingController, ndarray, float)
+        Per case: the controller, the start joint angles ``q0`` (m,) [rad] and the duration [s].
+    """
     from coordarm.simulation.scenario import load_scenario
 
     cases = {}
@@ -38,6 +44,15 @@ def blowup_cases() -> dict[str, tuple[CoordinatingController, np.ndarray, float]
 
 def threshold_point(spec: dict, point: dict, log_path=None) -> dict:
     """One sweep point: the case ``point["case"]`` of :func:`blowup_cases` run without stops and analysed.
+
+    Parameters
+    ----------
+    spec : dict
+        The sweep's scenario as data (unused: the case builds its own controller).
+    point : dict
+        The point: ``{"case": name}``.
+    log_path : str or None
+        Unused (the point writes no log).
 
     Returns
     -------
@@ -66,6 +81,13 @@ def threshold_point(spec: dict, point: dict, log_path=None) -> dict:
 def study(client="serial", workers: int | None = None):
     """Every case of :func:`blowup_cases` as one point of a sweep (see :func:`threshold_point`).
 
+    Parameters
+    ----------
+    client : None, str or distributed.Client
+        Where to run (see :func:`coordarm.simulation.sweep.sweep`); ``"serial"``: here, without Dask.
+    workers : int or None
+        Worker processes of a new local cluster (``client`` None).
+
     Returns
     -------
     pandas.DataFrame
@@ -79,7 +101,13 @@ def study(client="serial", workers: int | None = None):
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Print the study as a Markdown table (``--workers N``: on a local Dask cluster)."""
+    """Print the study as a Markdown table (``--workers N``: on a local Dask cluster).
+
+    Parameters
+    ----------
+    argv : list of str or None
+        Command-line arguments (None: ``sys.argv[1:]``).
+    """
     import argparse
 
     p = argparse.ArgumentParser(prog="python -m coordarm.analysis.threshold_study", description=__doc__.splitlines()[0])
