@@ -49,7 +49,13 @@ class Contact:
     obstacle: str | None = None
 
     def describe(self) -> str:
-        """What happened, in words (time, links, value against threshold, geometric meaning)."""
+        """What happened, in words (time, links, value against threshold, geometric meaning).
+
+        Returns
+        -------
+        str
+            One sentence.
+        """
         t = f"t = {self.time:.3f} s"
         if self.kind == "rail_limit":
             return (f"rail limit at {t}: the rail position d = {self.value:+.4f} m is beyond its limit "
@@ -67,7 +73,13 @@ class Contact:
         return f"collision at {t}: link {self.links[0]} {what} {self.obstacle!r} (clearance {self.threshold:g} m)"
 
     def advice(self) -> str:
-        """One line of advice."""
+        """One line of advice.
+
+        Returns
+        -------
+        str
+            The advice, starting with ``advice:``.
+        """
         if self.kind == "joint_limit":
             return ("advice: start more compact only up to the limit (smaller start.beta), lower the curve's "
                     "curvature or speed, or raise chain.joint_limit if the hardware allows")
@@ -78,14 +90,33 @@ class Contact:
                 "to pass an opening, or add --allow-contact to record contacts and keep going")
 
     def to_dict(self) -> dict:
-        """JSON-ready record (the MCAP ``outcome`` and ``report.json``)."""
+        """JSON-ready record (the MCAP ``outcome`` and ``report.json``).
+
+        Returns
+        -------
+        dict
+            The fields, ``links`` as a list.
+        """
         d = asdict(self)
         d["links"] = list(self.links)
         return d
 
 
 def joint_limits(links: int, joint_limit: float | Sequence[float]) -> np.ndarray:
-    """Limits [rad] of the relative joints 2..m, shape (m-1,), from one number or a list of m-1."""
+    """Limits [rad] of the relative joints 2..m, shape (m-1,), from one number or a list of m-1.
+
+    Parameters
+    ----------
+    links : int
+        Number of links m.
+    joint_limit : float or sequence of float
+        One limit for every joint, or m-1 limits [rad].
+
+    Returns
+    -------
+    ndarray
+        The limits [rad], shape (m-1,) (a sequence is returned as given).
+    """
     lim = np.asarray(joint_limit, dtype=float)
     if lim.ndim == 0:
         lim = np.full(links - 1, float(lim))
@@ -108,11 +139,37 @@ class Physical:
     obstacles: list[Obstacle] = field(default_factory=list)
 
     def check(self, t: np.ndarray, q: np.ndarray) -> list[Contact]:
-        """Every contact at the samples ``(t[k], q[k])``, sorted by time (then kind, links)."""
+        """Every contact at the samples ``(t[k], q[k])``, sorted by time (then kind, links).
+
+        Parameters
+        ----------
+        t : ndarray, shape (N,)
+            Times of the samples [s].
+        q : ndarray, shape (N, dof)
+            Configurations [rad] (on a rail ``d`` [m] first).
+
+        Returns
+        -------
+        list of Contact
+            The contacts.
+        """
         return check_configuration(self.chain, q, self.obstacles, t)
 
     def clearances(self, q: np.ndarray, t: np.ndarray) -> dict[str, tuple[float, float, int]]:
-        """Per obstacle: (smallest distance [m], its time [s], its 1-based link) over the samples."""
+        """Per obstacle: (smallest distance [m], its time [s], its 1-based link) over the samples.
+
+        Parameters
+        ----------
+        q : ndarray, shape (N, dof)
+            Configurations [rad] (on a rail ``d`` [m] first).
+        t : ndarray, shape (N,)
+            Times of the samples [s].
+
+        Returns
+        -------
+        dict of str to (float, float, int)
+            By obstacle name.
+        """
         joints = self.chain.joints_np(np.asarray(q, float))
         out = {}
         for ob in self.obstacles:
@@ -170,7 +227,18 @@ def check_configuration(chain: PlanarChain, q, obstacles: Sequence[Obstacle] = (
 
 
 def distinct(contacts: Sequence[Contact]) -> list[Contact]:
-    """The first contact of every (kind, links, obstacle), in time order (for ``--allow-contact`` records)."""
+    """The first contact of every (kind, links, obstacle), in time order (for ``--allow-contact`` records).
+
+    Parameters
+    ----------
+    contacts : sequence of Contact
+        Contacts in time order.
+
+    Returns
+    -------
+    list of Contact
+        The first of each kind, links and obstacle.
+    """
     seen, out = set(), []
     for c in contacts:
         key = (c.kind, c.links, c.obstacle)
