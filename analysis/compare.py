@@ -28,7 +28,8 @@ from coordarm.simulation.obstacles import outline
 from coordarm.simulation.choices import COMPARE_METHODS
 from coordarm.simulation.run import Run, even_indices, select_backend, simulate
 from coordarm.simulation.scenario import Scenario
-from coordarm.symbolic import BuildError, CollisionError, ConfigError, CoordinatingController, SingularityError
+from coordarm.symbolic import (BuildError, CollisionError, ConfigError, CoordinatingController, PlanarChain,
+                               SingularityError)
 
 from .baselines import BACKENDS, BASELINES, EndPointRate, simulate_baseline, stop_at_rail_limit
 from .follow_leader import FollowTheLeader, simulate_ftl
@@ -400,7 +401,7 @@ def stage_times(scenario: Scenario, stages: int = 4) -> np.ndarray:
     return scenario.t0 + np.linspace(0.0, scenario.duration, stages)
 
 
-def rail_segment(chain, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+def rail_segment(chain: PlanarChain, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """The rail's ends (2, 2) [m]: its limits, cut to the box ``lo``..``hi`` where they are farther or infinite.
 
     Parameters

@@ -39,7 +39,7 @@ from coordarm.simulation.mcap_file import DIGEST_KEY, metadata_digest
 from coordarm.simulation.mcap_writer import partial_path
 from coordarm.simulation.run import ARRAYS, OPTIONAL, ExtraOutputs, Run
 from coordarm.simulation.scenario import USER_DEFINED, Scenario
-from coordarm.symbolic import ConfigError, LogError
+from coordarm.symbolic import ConfigError, CoordinatingController, LogError
 
 #: Exceptions the mcap reader raises on damaged input (it has no single base class for them).
 READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error, zlib.error, EOFError,
@@ -198,7 +198,7 @@ class Replay(ExtraOutputs):
                                info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?"),
                                      "contacts": self.outcome.get("contacts", [])})
 
-    def controller(self):
+    def controller(self) -> CoordinatingController:
         """The controller that made the run, rebuilt from the scenario.
 
         Returns

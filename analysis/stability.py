@@ -16,9 +16,11 @@ loop ``K e^{-s tau} / s`` has phase margin 90 deg at crossover ``K``: delay marg
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 
 import control as ct
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import brentq
 
 from coordarm.simulation.run import check_number
@@ -197,7 +199,7 @@ def max_stable_delay(gain: float, period: float) -> int:
     return n
 
 
-def step_responses(gain: float, period: float, delays=(0, 1, 2), duration: float | None = None) -> dict:
+def step_responses(gain: float, period: float, delays: Sequence[int] = (0, 1, 2), duration: float | None = None) -> dict:
     """Step responses of the deviation loop: continuous and sampled with each delay.
 
     Parameters
@@ -206,7 +208,7 @@ def step_responses(gain: float, period: float, delays=(0, 1, 2), duration: float
         Error gain K > 0 [1/s].
     period : float
         Sampling period h > 0 [s].
-    delays : iterable of int
+    delays : sequence of int
         Control delays [samples], one sampled response each.
     duration : float or None
         Time span [s] (None: ``5 / gain``).
@@ -224,7 +226,7 @@ def step_responses(gain: float, period: float, delays=(0, 1, 2), duration: float
     return {k: (np.asarray(r.time), np.asarray(r.outputs).ravel()) for k, r in out.items()}
 
 
-def grows(ctrl: CoordinatingController, q0, period: float, delay: int = 0, samples: int = 600,
+def grows(ctrl: CoordinatingController, q0: ArrayLike, period: float, delay: int = 0, samples: int = 600,
           factor: float = 10.0) -> bool:
     """Whether ``max|e|`` of a sampled run exceeds ``factor`` times its start value within ``samples``.
 
@@ -262,7 +264,7 @@ def grows(ctrl: CoordinatingController, q0, period: float, delay: int = 0, sampl
     return run.info["stopped"] == "diverged"
 
 
-def simulated_limit(ctrl: CoordinatingController, q0, delay: int = 0, rel_tol: float = 1e-3,
+def simulated_limit(ctrl: CoordinatingController, q0: ArrayLike, delay: int = 0, rel_tol: float = 1e-3,
                     samples: int = 600) -> float:
     """``K h`` at which the simulated sampled-data loop starts to diverge (bisection on ``h``).
 

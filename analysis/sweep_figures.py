@@ -10,6 +10,7 @@ from __future__ import annotations
 import itertools
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -18,11 +19,14 @@ from matplotlib.colors import BoundaryNorm, ListedColormap
 from coordarm.simulation.figures import save_figure
 from coordarm.simulation.sweep_points import OUTCOMES
 
+if TYPE_CHECKING:
+    import pandas as pd
+
 #: Colour of each outcome (same order as OUTCOMES).
 OUTCOME_COLOURS = ("#2ca02c", "#ff7f0e", "#9467bd", "#d62728")
 
 
-def smallest_margin(df) -> np.ndarray:
+def smallest_margin(df: pd.DataFrame) -> np.ndarray:
     """``min(min_link_margin, min_longitudinal)`` per row (NaN where the point did not run).
 
     Parameters
@@ -46,7 +50,7 @@ def _numeric(values) -> bool:
     return all(isinstance(v, (int, float, np.number)) and not isinstance(v, bool) for v in values)
 
 
-def plot_line(df, name: str, path: str | Path) -> Path:
+def plot_line(df: pd.DataFrame, name: str, path: str | Path) -> Path:
     """Smallest link and longitudinal margins against one varied ``name``, markers coloured by outcome.
 
     Parameters
@@ -83,7 +87,7 @@ def plot_line(df, name: str, path: str | Path) -> Path:
     return save_figure(fig, path)
 
 
-def plot_pair(df, a: str, b: str, path: str | Path) -> Path:
+def plot_pair(df: pd.DataFrame, a: str, b: str, path: str | Path) -> Path:
     """Heat maps of the worst outcome and the smallest margin over the varied names ``a`` x ``b``.
 
     Parameters
@@ -127,7 +131,7 @@ def plot_pair(df, a: str, b: str, path: str | Path) -> Path:
     return save_figure(fig, path, dpi=100)
 
 
-def plot_sweep(df, names: list[str], out: str | Path) -> list[Path]:
+def plot_sweep(df: pd.DataFrame, names: list[str], out: str | Path) -> list[Path]:
     """All figures of a sweep into ``out``: ``sweep_<name>.png`` for one name, else ``sweep_<a>__<b>.png`` per pair.
 
     Names held at a single value are left out (they add no axis).

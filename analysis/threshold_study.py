@@ -8,12 +8,17 @@ one point of a :func:`coordarm.simulation.sweep.sweep` (``--workers N``: on a lo
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import casadi as ca
 import numpy as np
 
 from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
 from .report import analyse_run, simulate_through
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 CANDIDATES = (0.05, 0.1, 0.15, 0.2)
 
@@ -42,7 +47,7 @@ def blowup_cases() -> dict[str, tuple[CoordinatingController, np.ndarray, float]
     return cases
 
 
-def threshold_point(spec: dict, point: dict, log_path=None) -> dict:
+def threshold_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
     """One sweep point: the case ``point["case"]`` of :func:`blowup_cases` run without stops and analysed.
 
     Parameters
@@ -78,7 +83,7 @@ def threshold_point(spec: dict, point: dict, log_path=None) -> dict:
     return row
 
 
-def study(client="serial", workers: int | None = None):
+def study(client: Any = "serial", workers: int | None = None) -> pd.DataFrame:
     """Every case of :func:`blowup_cases` as one point of a sweep (see :func:`threshold_point`).
 
     Parameters

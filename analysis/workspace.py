@@ -15,8 +15,10 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from coordarm.symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain
 
@@ -77,7 +79,7 @@ COLUMNS = {"longitudinal": "min_longitudinal", "smallest_link": "min_link_margin
 _CONTROLLERS: dict[tuple, CoordinatingController] = {}
 
 
-def workspace_point(spec: dict, point: dict, log_path=None) -> dict:
+def workspace_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
     """One sweep point of the map: margins of the on-curve zig-zag ``(chain.links, curvature, start.beta)``.
 
     Parameters
@@ -116,7 +118,8 @@ def workspace_point(spec: dict, point: dict, log_path=None) -> dict:
             "min_link_margin": float(np.min(mg["links"])), "log10_cond": float(np.log10(mg["cond"][0]))}
 
 
-def workspace_map(links=(8, 16, 32, 64), betas=None, curvatures=None, xi: float = 0.1, client="serial",
+def workspace_map(links: Sequence[int] = (8, 16, 32, 64), betas: ArrayLike | None = None,
+                  curvatures: ArrayLike | None = None, xi: float = 0.1, client: Any = "serial",
                   workers: int | None = None) -> dict:
     """Margins of on-curve zig-zags over ``betas`` x ``curvatures`` for each link count, as a sweep.
 

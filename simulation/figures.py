@@ -8,14 +8,14 @@ import matplotlib.pyplot as plt
 from matplotlib.ticker import LogFormatter, NullFormatter
 import numpy as np
 
-from coordarm.symbolic import CoordinatingController
+from coordarm.symbolic import CoordinatingController, PlanarChain
 from coordarm.symbolic.paths import Path as PathCurve
 
 from .obstacles import Obstacle, outline
 from .run import Run, even_indices
 
 
-def save_figure(fig, path: str | Path, dpi: int = 110, tight: bool = True, bbox_inches: str | None = None) -> Path:
+def save_figure(fig: plt.Figure, path: str | Path, dpi: int = 110, tight: bool = True, bbox_inches: str | None = None) -> Path:
     """Lay out ``fig`` (tight, unless it has a layout engine or ``tight`` is False: its margins are set
     already), write it to ``path`` (``bbox_inches="tight"``: the saved box fitted to the drawn artists),
     close it.
@@ -69,7 +69,7 @@ def stage_indices(run: Run, stages: int = 5, times: Sequence[float] | None = Non
     return np.unique([int(np.argmin(np.abs(run.t - t))) for t in inside])
 
 
-def draw_obstacles(ax, obstacles: Sequence[Obstacle], labels: bool = True) -> None:
+def draw_obstacles(ax: plt.Axes, obstacles: Sequence[Obstacle], labels: bool = True) -> None:
     """Draw every obstacle from its :func:`~coordarm.simulation.obstacles.outline` (discs and polygons filled).
 
     Parameters
@@ -119,7 +119,7 @@ def target_points(run: Run, ctrl: CoordinatingController, idx: np.ndarray) -> np
         return None
 
 
-def draw_rail(ax, chain, lo: np.ndarray, hi: np.ndarray) -> None:
+def draw_rail(ax: plt.Axes, chain: PlanarChain, lo: np.ndarray, hi: np.ndarray) -> None:
     """The introduction axis: its travel ``[low, high]`` along its direction, clipped to the view.
 
     Parameters

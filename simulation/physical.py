@@ -10,6 +10,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from coordarm.symbolic import PlanarChain
 from coordarm.symbolic.geometry import self_distances, touching
@@ -179,8 +180,8 @@ class Physical:
         return out
 
 
-def check_configuration(chain: PlanarChain, q, obstacles: Sequence[Obstacle] = (),
-                        t=None) -> list[Contact]:
+def check_configuration(chain: PlanarChain, q: ArrayLike, obstacles: Sequence[Obstacle] = (),
+                        t: ArrayLike | None = None) -> list[Contact]:
     """Joint limits, self-collision and obstacle contacts of configurations ``q``.
 
     Parameters

@@ -21,7 +21,7 @@ import os
 import re
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, TextIO
 
 import numpy as np
 
@@ -31,6 +31,9 @@ from .run import Progress
 from .scenario import Scenario, load_scenario
 from .sweep_points import (RESULT_COLUMNS, check_names, grid_points, integer_fields, latin_hypercube_points,
                            run_batch)
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 RESULTS = "results.parquet"
 RESULTS_CSV = "results.csv"
@@ -58,7 +61,7 @@ class SweepProgress(Progress):
         Where the bar is written (None: ``sys.stderr``).
     """
 
-    def __init__(self, total: int, already: int = 0, stream=None) -> None:
+    def __init__(self, total: int, already: int = 0, stream: TextIO | None = None) -> None:
         super().__init__(total, "sweep", stream)
         self.already = already
 
@@ -274,7 +277,7 @@ class ResultsTable:
         if self.out is not None and time.monotonic() - self.last_write > WRITE_INTERVAL:
             self.write()
 
-    def frame(self, rank: bool = True):
+    def frame(self, rank: bool = True) -> pd.DataFrame:
         """All rows as a DataFrame: the varied names, :data:`RESULT_COLUMNS`, extra columns, in point order.
 
         Parameters
@@ -354,7 +357,7 @@ def _error_rows(points: list[dict], exc: BaseException) -> list[dict]:
 def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], client: Any = None, *,
           samples: int | None = None, seed: int = 0, out: str | os.PathLike | None = None, logs: bool = False,
           workers: int | None = None, batch: int | None = None, progress: bool = False,
-          point_fn: Callable[..., dict] | None = None):
+          point_fn: Callable[..., dict] | None = None) -> pd.DataFrame:
     """Run ``scenario`` at every point of ``vary`` on Dask and return one row per point.
 
     Parameters

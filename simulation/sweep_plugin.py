@@ -7,8 +7,12 @@ import signal
 import threading
 import traceback
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from distributed.diagnostics.plugin import WorkerPlugin
+
+if TYPE_CHECKING:
+    from distributed import Worker
 
 
 class IgnoreCtrlC(WorkerPlugin):
@@ -18,7 +22,7 @@ class IgnoreCtrlC(WorkerPlugin):
     cluster, without a KeyboardInterrupt traceback from every worker.
     """
 
-    def setup(self, worker) -> None:
+    def setup(self, worker: Worker) -> None:
         """Ignore SIGINT in this worker process (its event loop runs in the main thread).
 
         Parameters

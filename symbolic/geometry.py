@@ -6,6 +6,7 @@ Used by the start construction (no self-intersection) and by the physical checks
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -24,7 +25,7 @@ def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return (a[..., 0] - o[..., 0]) * (b[..., 1] - o[..., 1]) - (a[..., 1] - o[..., 1]) * (b[..., 0] - o[..., 0])
 
 
-def segments_intersect(p1, p2, q1, q2) -> np.ndarray:
+def segments_intersect(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
     """Whether segments ``p1p2`` and ``q1q2`` intersect (touching counts), broadcast.
 
     Parameters
@@ -49,7 +50,7 @@ def segments_intersect(p1, p2, q1, q2) -> np.ndarray:
     return proper | on(q1, q2, p1, d1) | on(q1, q2, p2, d2) | on(p1, p2, q1, d3) | on(p1, p2, q2, d4)
 
 
-def point_segment_distance(p, a, b) -> np.ndarray:
+def point_segment_distance(p: ArrayLike, a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """Distance [m] from points ``p`` to segments ``ab``, broadcast over leading axes.
 
     Parameters
@@ -71,7 +72,7 @@ def point_segment_distance(p, a, b) -> np.ndarray:
     return np.linalg.norm(p - (a + tpar[..., None] * ab), axis=-1)
 
 
-def segment_distance(p1, p2, q1, q2) -> np.ndarray:
+def segment_distance(p1: ArrayLike, p2: ArrayLike, q1: ArrayLike, q2: ArrayLike) -> np.ndarray:
     """Distance [m] between segments ``p1p2`` and ``q1q2`` (exactly 0 when they intersect), broadcast.
 
     Parameters
