@@ -116,7 +116,8 @@ def joint_limits(links: int, joint_limit: float | Sequence[float]) -> np.ndarray
     Returns
     -------
     ndarray
-        The limits [rad], shape (m-1,) (a sequence is returned as given).
+        The limits [rad], shape (m-1,) for one number (a sequence is converted to floats as it
+        is, its length not checked here).
     """
     lim = np.asarray(joint_limit, dtype=float)
     if lim.ndim == 0:

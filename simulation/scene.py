@@ -291,7 +291,8 @@ class SceneBuilder:
         Returns
         -------
         list of ndarray
-            One polyline [m] per time: shape (2, 2) for a line, (90, 2) otherwise.
+            One polyline [m] per time: its two ends for a straight line, else the curve's
+            ``sample(t, n=90, extent=reach)``.
         """
         curve = self.ctrl.curve
         if self._line_params is None and isinstance(curve, Line) and len(times):
