@@ -39,7 +39,7 @@ from coordarm.simulation.mcap_file import DIGEST_KEY, metadata_digest
 from coordarm.simulation.mcap_writer import partial_path
 from coordarm.simulation.run import ARRAYS, OPTIONAL, ExtraOutputs, Run
 from coordarm.simulation.scenario import USER_DEFINED, Scenario
-from coordarm.symbolic import ConfigError, LogError
+from coordarm.symbolic import ConfigError, CoordinatingController, LogError
 
 #: Exceptions the mcap reader raises on damaged input (it has no single base class for them).
 READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error, zlib.error, EOFError,
@@ -48,12 +48,35 @@ READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error,
 
 #: A message as read here: much lighter than ``mcap.records.Message`` (a log has ~10^5 of them).
 RawMessage = namedtuple("RawMessage", "channel_id sequence log_time data")
+RawMessage.__doc__ = """One MCAP message record as read from a chunk.
+
+Parameters
+----------
+channel_id : int
+    The channel's id.
+sequence : int
+    Sequence number.
+log_time : int
+    Log time [ns].
+data : memoryview
+    The message body (a view into the decompressed chunk).
+"""
 _RECORD = struct.Struct("<BQ")
 _MESSAGE = struct.Struct("<HIQ")
 
 
 def chunk_messages(chunk: Chunk) -> list[RawMessage]:
     """The messages of a chunk, its CRC checked (other records inside a chunk are skipped).
+
+    Parameters
+    ----------
+    chunk : mcap.records.Chunk
+        A chunk record (zstd, lz4 or uncompressed).
+
+    Returns
+    -------
+    list of RawMessage
+        Its messages in file order.
 
     Raises
     ------
@@ -175,7 +198,7 @@ class Replay(ExtraOutputs):
                                info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?"),
                                      "contacts": self.outcome.get("contacts", [])})
 
-    def controller(self):
+    def controller(self) -> CoordinatingController:
         """The controller that made the run, rebuilt from the scenario.
 
         Returns

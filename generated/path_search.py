@@ -52,7 +52,19 @@ def _rays_cross(p: np.ndarray, u: np.ndarray, q: np.ndarray, v: np.ndarray) -> b
 
 
 def lower_bound(a: tuple, b: tuple) -> float:
-    """A lower bound of the distance between two shapes of :func:`_shape` [m]."""
+    """A lower bound of the distance between two shapes of :func:`_shape` [m].
+
+    Parameters
+    ----------
+    a, b : tuple
+        Sets containing a path piece: ``("disc", centre, radius)``, ``("ray", start, unit direction)``
+        or ``("all", point, 0.0)``; points and directions shape (2,) [m], radius [m].
+
+    Returns
+    -------
+    float
+        A distance [m] no larger than the distance between the two sets (0 when either is ``"all"``).
+    """
     if a[0] == "all" or b[0] == "all":
         return 0.0
     if a[0] == "disc" and b[0] == "disc":

@@ -44,6 +44,16 @@ _MAX_CONTROLLERS = 8
 def field_path(name: str) -> tuple[str, ...]:
     """The TOML path of a varied ``name`` (an alias or a dotted name), as a tuple of keys.
 
+    Parameters
+    ----------
+    name : str
+        A dotted name such as ``control.gain``, or an alias of :data:`ALIASES`.
+
+    Returns
+    -------
+    tuple of str
+        The keys.
+
     Raises
     ------
     ConfigError
@@ -73,6 +83,11 @@ def _number(text: str, name: str) -> Any:
 def parse_vary(text: str) -> tuple[str, list]:
     """Parse ``NAME=v1,v2,...`` (a list) or ``NAME=a:b:n`` (``n`` values from ``a`` to ``b``).
 
+    Parameters
+    ----------
+    text : str
+        One ``--vary`` argument.
+
     Returns
     -------
     (str, list)
@@ -101,7 +116,18 @@ def parse_vary(text: str) -> tuple[str, list]:
 
 
 def grid_points(vary: dict[str, list]) -> list[dict]:
-    """Every combination of the varied values (cartesian product, last name fastest)."""
+    """Every combination of the varied values (cartesian product, last name fastest).
+
+    Parameters
+    ----------
+    vary : dict of str to list
+        Values of each varied name.
+
+    Returns
+    -------
+    list of dict
+        One ``{name: value}`` per combination.
+    """
     names = list(vary)
     return [dict(zip(names, combo)) for combo in itertools.product(*(vary[n] for n in names))]
 
@@ -159,6 +185,18 @@ def apply_point(spec: dict, point: dict) -> Scenario:
     A value replaces the field whole (a motion table becomes a constant); an integer field
     (``chain.links``) takes integral floats as ints.
 
+    Parameters
+    ----------
+    spec : dict
+        The scenario as data (not modified).
+    point : dict
+        ``{name: value}`` of the varied fields.
+
+    Returns
+    -------
+    Scenario
+        The scenario of the point.
+
     Raises
     ------
     ConfigError
@@ -188,6 +226,18 @@ def check_names(spec: dict, names: list[str]) -> None:
 
     Fields of the fixed sections (``[chain]``, ``[control]``, ``[start]``, ``[run]``,
     ``[thresholds]``) may be absent (their default is used); curve fields must be present.
+
+    Parameters
+    ----------
+    spec : dict
+        The scenario as data.
+    names : list of str
+        Varied names (dotted or aliases).
+
+    Raises
+    ------
+    ConfigError
+        The first name that is not a field (or is malformed).
     """
     from .scenario import KEYS
 
@@ -202,7 +252,20 @@ def check_names(spec: dict, names: list[str]) -> None:
 
 
 def integer_fields(spec: dict, names: list[str]) -> set[str]:
-    """The names whose field in the scenario holds an integer (e.g. ``chain.links``)."""
+    """The names whose field in the scenario holds an integer (e.g. ``chain.links``).
+
+    Parameters
+    ----------
+    spec : dict
+        The scenario as data.
+    names : list of str
+        Varied names (dotted or aliases).
+
+    Returns
+    -------
+    set of str
+        Those of ``names`` whose field is an int (not a bool).
+    """
     out = set()
     for name in names:
         value: Any = spec
@@ -224,7 +287,13 @@ def _controller(sc: Scenario):
 
 
 def worker_name() -> str:
-    """The Dask worker's address when called on one, else ``host:pid``."""
+    """The Dask worker's address when called on one, else ``host:pid``.
+
+    Returns
+    -------
+    str
+        The name of the process running a point.
+    """
     try:
         from distributed import get_worker
 

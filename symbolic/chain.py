@@ -6,6 +6,7 @@ from typing import Sequence
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .errors import ConfigError
 
@@ -34,15 +35,37 @@ def _joint_limits(links: int, joint_limit) -> np.ndarray:
     return lim
 
 
-def direction(a):
-    """Unit vector ``d(a) = (cos a, sin a)`` (CasADi or numpy)."""
+def direction(a: ca.SX | ca.MX | ca.DM | ArrayLike) -> ca.SX | ca.MX | ca.DM | np.ndarray:
+    """Unit vector ``d(a) = (cos a, sin a)`` (CasADi or numpy).
+
+    Parameters
+    ----------
+    a : casadi.SX, casadi.MX, casadi.DM, float or array_like
+        Angle(s) [rad], any shape for numpy.
+
+    Returns
+    -------
+    casadi column (2, 1) or ndarray, shape a.shape + (2,)
+        The unit vector(s) [-].
+    """
     if isinstance(a, (ca.SX, ca.MX, ca.DM)):
         return ca.vertcat(ca.cos(a), ca.sin(a))
     return np.stack([np.cos(a), np.sin(a)], axis=-1)
 
 
-def normal(a):
-    """Unit normal ``n(a) = (-sin a, cos a) = T(a)^T r`` (CasADi or numpy)."""
+def normal(a: ca.SX | ca.MX | ca.DM | ArrayLike) -> ca.SX | ca.MX | ca.DM | np.ndarray:
+    """Unit normal ``n(a) = (-sin a, cos a) = T(a)^T r`` (CasADi or numpy).
+
+    Parameters
+    ----------
+    a : casadi.SX, casadi.MX, casadi.DM, float or array_like
+        Angle(s) [rad], any shape for numpy.
+
+    Returns
+    -------
+    casadi column (2, 1) or ndarray, shape a.shape + (2,)
+        The unit normal(s) [-].
+    """
     if isinstance(a, (ca.SX, ca.MX, ca.DM)):
         return ca.vertcat(-ca.sin(a), ca.cos(a))
     return np.stack([-np.sin(a), np.cos(a)], axis=-1)
@@ -80,7 +103,7 @@ class PlanarChain:
         Allowed range of ``d`` [m] (a run leaving it stops like a collision).
     """
 
-    def __init__(self, links: int, link_length: float, B=None,
+    def __init__(self, links: int, link_length: float, B: ArrayLike | None = None,
                  joint_limit: float | Sequence[float] = None, clearance: float = 0.0,
                  base: str = "fixed", rail_angle: float = 0.0,
                  rail_limits: Sequence[float] = (-math.inf, math.inf)) -> None:
@@ -128,7 +151,7 @@ class PlanarChain:
         """Diagonal of B if B is diagonal, else None (O(m): a diagonal B is stored as a vector)."""
         return None if self._bd is None else self._bd.copy()
 
-    def apply_B(self, u) -> np.ndarray:
+    def apply_B(self, u: ArrayLike) -> np.ndarray:
         """``B u``: a product by the diagonal when B is diagonal, O(m) per row.
 
         Parameters
@@ -153,7 +176,7 @@ class PlanarChain:
         """Unit vector of the rail (the direction in which ``d`` slides the base)."""
         return np.array([math.cos(self.rail_angle), math.sin(self.rail_angle)])
 
-    def revolute(self, q):
+    def revolute(self, q: np.ndarray | ca.SX | ca.MX) -> np.ndarray | ca.SX | ca.MX:
         """The revolute joint angles ``q_1..q_m`` of ``q`` (drops ``d`` on a rail), any leading axes.
 
         Parameters
@@ -168,7 +191,7 @@ class PlanarChain:
         """
         return q[..., 1:] if self.rail and isinstance(q, np.ndarray) else (q[1:] if self.rail else q)
 
-    def base_point(self, q):
+    def base_point(self, q: ArrayLike) -> np.ndarray:
         """The first central point ``y^1``: the origin, or ``d`` along the rail.
 
         Parameters
@@ -211,7 +234,7 @@ class PlanarChain:
         return ca.horzcat(*cols)
 
     # ------------------------------------------------------------------ numeric
-    def check_q(self, q, field: str = "q") -> np.ndarray:
+    def check_q(self, q: ArrayLike, field: str = "q") -> np.ndarray:
         """Return ``q`` as a float array of shape (dof,), or raise a ConfigError naming ``field``.
 
         Parameters
@@ -239,7 +262,7 @@ class PlanarChain:
             raise ConfigError(f"{field}: contains NaN or inf at index {int(np.flatnonzero(~np.isfinite(q))[0])}")
         return q
 
-    def centres_np(self, q) -> np.ndarray:
+    def centres_np(self, q: ArrayLike) -> np.ndarray:
         """Central points, vectorised over leading axes of ``q``.
 
         Parameters
@@ -259,7 +282,7 @@ class PlanarChain:
         base = self.base_point(q)[..., None, :]
         return np.concatenate([base, base + np.cumsum(steps, axis=-2)], axis=-2)
 
-    def joints_np(self, q) -> np.ndarray:
+    def joints_np(self, q: ArrayLike) -> np.ndarray:
         """Link end points: the chain drawn as a polyline.
 
         Parameters
@@ -279,7 +302,7 @@ class PlanarChain:
         first = y[..., :1, :] - 0.5 * self.xi * d[..., :1, :]
         return np.concatenate([first, y + 0.5 * self.xi * d], axis=-2)
 
-    def jacobians_closed_form(self, q) -> np.ndarray:
+    def jacobians_closed_form(self, q: ArrayLike) -> np.ndarray:
         """``C^j(q)`` by the closed form of eq. 7; ``C^1 = 0`` (on a rail: the rail column).
 
         Parameters

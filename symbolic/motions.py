@@ -113,7 +113,13 @@ class Smoothstep:
 
 @dataclass(frozen=True)
 class Sum:
-    """Sum of several motions."""
+    """Sum of several motions.
+
+    Attributes
+    ----------
+    terms : tuple
+        The motions added (callables of time ``t`` [s]).
+    """
     terms: tuple
 
     def __call__(self, t):
@@ -166,7 +172,24 @@ def motion_from_spec(spec: Any, field: str) -> Motion:
 
 
 def motion_to_spec(motion: Any) -> Any:
-    """Inverse of :func:`motion_from_spec` (numbers stay numbers)."""
+    """Inverse of :func:`motion_from_spec` (numbers stay numbers).
+
+    Parameters
+    ----------
+    motion : float, Constant, Ramp, Sinusoid, Smoothstep or Sum
+        A number or motion primitive.
+
+    Returns
+    -------
+    float, dict or list
+        A float for a number or :class:`Constant`, ``{"kind": ..., field: value}`` for another
+        primitive, a list of those for a :class:`Sum`.
+
+    Raises
+    ------
+    ConfigError
+        ``motion`` is not a number or motion primitive.
+    """
     if isinstance(motion, (int, float)):
         return float(motion)
     if isinstance(motion, Sum):
