@@ -29,6 +29,7 @@ from coordarm.symbolic import (
     Line,
     PlanarChain,
 )
+from coordarm.generated import compile as compile_controller
 from tests.curves_for_tests import moving_curve
 
 REPO = Path(__file__).resolve().parents[1]
@@ -83,7 +84,7 @@ def compiled(kind, m, B=None, law="structured"):
     key = (kind, m, None if B is None else tuple(B), law)
     if key not in COMPILED:
         ctrl = controller(kind, m, B, law)
-        COMPILED[key] = (ctrl, ctrl.compile())
+        COMPILED[key] = (ctrl, compile_controller(ctrl))
     return COMPILED[key]
 
 
@@ -293,7 +294,7 @@ def test_full_b_is_refused_by_the_compiled_backend_and_auto_falls_back():
     chain = PlanarChain(4, 0.1, B=B)
     ctrl = CoordinatingController(chain, Line(angle=0.1), 2.0, 0.1)
     with pytest.raises(BuildError, match="diagonal input matrix B"):
-        ctrl.compile()
+        compile_controller(ctrl)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         run = simulate(ctrl, chain.zigzag(1.0), 0.01)
