@@ -143,6 +143,15 @@ class CoordinatingController(NumericAPI):
         margin solve ``u = M^T (M M^T + lambda_v^2 I)^-1 r`` with the variable damping
         :func:`~.near_singular.damping_factor` [lambda in m/rad]. Default: off.
 
+    Attributes
+    ----------
+    task : Task
+        The task outputs: the curve's geometry Function (``task.geometry``), speed, gain and span.
+    recursion : StructuredRecursion
+        The O(m) recursion's Functions (link steps, head, tail) for this chain and task.
+    outputs, run_outputs : tuple of str
+        Names of the law's outputs, and of those kept at every sample of a run.
+
     Notes
     -----
     On a rail (``chain.rail``) ``q = (d, q_1..q_m)`` and the outputs are ``(s, sigma, e^2..e^m)``:

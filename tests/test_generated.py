@@ -186,6 +186,18 @@ def test_cold_build_then_cache_hit(tmp_path):
     np.testing.assert_array_equal(warm.control(q, 1.0), cold.control(q, 1.0))
 
 
+def test_compile_keeps_one_compiled_controller_per_controller_form_and_options(tmp_path):
+    ctrl = controller("line", 5)
+    first = compile_controller(ctrl, build_dir=tmp_path)
+    assert compile_controller(ctrl, build_dir=tmp_path) is first
+    assert compile_controller(ctrl, "structured", build_dir=str(tmp_path)) is first
+    forced = compile_controller(ctrl, build_dir=tmp_path, force=True)       # force builds anew, and is kept
+    assert forced is not first and not forced.cache_hit
+    assert compile_controller(ctrl, build_dir=tmp_path) is forced
+    other = compile_controller(controller("line", 5), build_dir=tmp_path)   # another controller: its own
+    assert other is not forced and other.cache_hit and other.library.path == forced.library.path
+
+
 def test_everything_that_determines_the_code_changes_the_key(tmp_path):
     base = generate_source(controller("line", 5))
     key = build(base, build_dir=tmp_path).key
