@@ -15,7 +15,7 @@ import casadi as ca
 class Carry(NamedTuple):
     """The fields of the carry after link ``j-1`` (values, or their widths in :data:`CARRY_WIDTHS`).
 
-    Attributes
+    Parameters
     ----------
     y : (2,)
         Centre ``y^{j-1}`` [m].

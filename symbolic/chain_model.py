@@ -53,30 +53,128 @@ class ChainModel(Protocol):
         """``B`` over all joints, shape (dof, dof) (``diag(1, B)`` on a rail)."""
 
     def revolute(self, q: Any) -> Any:
-        """The revolute joint angles of ``q`` (``d`` dropped on a rail), shape (..., m) [rad]."""
+        """The revolute joint angles of ``q`` (``d`` dropped on a rail).
+
+        Parameters
+        ----------
+        q : ndarray or casadi expression, shape (..., dof)
+            Joint coordinates.
+
+        Returns
+        -------
+        same type, shape (..., m)
+            Revolute joint angles [rad].
+        """
 
     def check_q(self, q: Any, field: str = "q") -> np.ndarray:
-        """``q`` as a float array of shape (dof,), or a ConfigError naming ``field``."""
+        """``q`` as floats, or a ConfigError naming ``field``.
+
+        Parameters
+        ----------
+        q : array_like, shape (dof,)
+            Joint coordinates.
+        field : str
+            Name used in the error message.
+
+        Returns
+        -------
+        ndarray, shape (dof,)
+        """
 
     # ---------------------------------------------------------------------------- kinematics
     def centres(self, q: Any) -> Any:
-        """Link centres as a CasADi expression of shape (2, m) [m] for symbolic ``q`` of shape (dof,)."""
+        """Link centres of symbolic joint coordinates.
+
+        Parameters
+        ----------
+        q : casadi.SX or casadi.MX, shape (dof,)
+            Joint coordinates.
+
+        Returns
+        -------
+        casadi expression, shape (2, m)
+            Column j is the centre of link j+1 [m].
+        """
 
     def centres_np(self, q: Any) -> np.ndarray:
-        """Link centres of shape (..., m, 2) [m] for ``q`` of shape (..., dof)."""
+        """Link centres, vectorised over leading axes.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., dof)
+            Joint coordinates.
+
+        Returns
+        -------
+        ndarray, shape (..., m, 2)
+            Link centres [m].
+        """
 
     # ----------------------------------------------------------------- pieces of the law
     def link_direction(self, alpha: Any) -> Any:
-        """The direction ``d_j`` of a link at absolute angle ``alpha`` (CasADi)."""
+        """The direction ``d_j`` of a link at absolute orientation ``alpha``.
 
-    def link_normal(self, direction: Any) -> Any:
-        """The normal ``n_j`` of a link whose direction is ``direction`` (CasADi)."""
+        Parameters
+        ----------
+        alpha : casadi.SX
+            The link's absolute orientation (the planar chain: ``alpha_j = q_1 + ... + q_j`` [rad]).
+
+        Returns
+        -------
+        casadi.SX
+            Unit vector along the link.
+        """
+
+    def link_normal(self, d: Any) -> Any:
+        """The normal(s) ``n_j`` of a link of direction ``d``: where the link's rate moves its centres.
+
+        Parameters
+        ----------
+        d : casadi.SX
+            Link direction.
+
+        Returns
+        -------
+        casadi.SX
+        """
 
     def centre_step(self, d_prev: Any, d_j: Any) -> Any:
-        """``y^j - y^{j-1}`` [m] from the directions of links ``j-1`` and ``j``."""
+        """``y^j - y^{j-1}`` from the directions of links ``j-1`` and ``j``.
+
+        Parameters
+        ----------
+        d_prev, d_j : casadi.SX
+            Directions of links ``j-1`` and ``j``.
+
+        Returns
+        -------
+        casadi.SX
+            Step between the centres [m].
+        """
 
     def first_carry(self, q1: Any) -> Any:
-        """The carry of link 1 (layout :data:`~coordarm.symbolic.carry.CARRY`) for joint angle ``q1``."""
+        """The carry of link 1 (layout :data:`~coordarm.symbolic.carry.CARRY`).
+
+        Parameters
+        ----------
+        q1 : casadi.SX
+            Joint angle(s) of the first joint [rad].
+
+        Returns
+        -------
+        casadi.SX, shape (CARRY.size, 1)
+        """
 
     def controls_from_link_rates(self, w: Any) -> Any:
-        """The controls ``u = B^-1 qdot`` of the revolute joints from the link rates ``w`` [rad/s]."""
+        """The controls ``u = B^-1 qdot`` of the revolute joints from the link rates ``w``.
+
+        Parameters
+        ----------
+        w : casadi.MX
+            Link rates [rad/s].
+
+        Returns
+        -------
+        casadi.MX
+            Controls ``u`` [rad/s for B = I].
+        """

@@ -47,6 +47,16 @@ DAMPING_KINDS = ("dls",)
 def check_damping(damping: Any) -> dict | None:
     """``damping`` validated, defaults filled in: None or ``{"kind": "dls", "lambda": > 0, "band": in (0, 1]}``.
 
+    Parameters
+    ----------
+    damping : dict or None
+        ``{"kind": "dls", "lambda": [m/rad], "band": in (0, 1]}``, keys other than ``kind`` optional.
+
+    Returns
+    -------
+    dict or None
+        The damping with its defaults (``lambda`` 0.01, ``band`` 0.1), or None (off).
+
     Raises
     ------
     ConfigError

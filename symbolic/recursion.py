@@ -27,7 +27,7 @@ TAIL_OUTPUTS = ["s", "p", "longitudinal", "longitudinal_pivot", "v_scale"]
 class LinkGeometry(NamedTuple):
     """Link ``j`` placed from the carry of link ``j-1``, with the curve's geometry at its centre.
 
-    Attributes
+    Parameters
     ----------
     n : casadi.SX, shape (2, 1)
         The link's normal.
