@@ -52,7 +52,8 @@ def compile(ctrl: "CoordinatingController", form: str | None = None, **build_opt
     -----
     The result is kept for the same controller, form and options (the :data:`KEEP_COMPILED` most
     recent): a second call returns the same object, without generating the code again. ``force=True``
-    builds anew (and keeps that).
+    builds anew (and keeps that). Its buffers serve one thread: another thread takes a
+    :class:`~coordarm.generated.compiled.CompiledController` of its own.
     """
     from coordarm.generated.compiled import CompiledController
 
