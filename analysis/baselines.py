@@ -90,7 +90,7 @@ class EndPointRate:
         if chain.rail:                             # y^1 = d rail: the rail is the first column
             rail = ca.DM(chain.rail_direction)
             y, J, free[0] = y + q[0] * rail, ca.horzcat(rail, J), 0.0
-        phi, g, phit, _, h, psit = ctrl._geometry(y, t)
+        phi, g, phit, _, h, psit = ctrl.task.geometry(y, t)
         A = ca.vertcat(ca.mtimes(h.T, J), ca.mtimes(g.T, J))
         r = ca.vertcat(ctrl.speed(t) - psit, -ctrl.gain * phi - phit)
         G = ca.mtimes(A, A.T)

@@ -14,6 +14,7 @@ input is ``v*`` alone.
 """
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import casadi as ca
@@ -68,6 +69,11 @@ class Linearisation:
         return float(np.max(np.abs((self.frozen_task_matrix if frozen else self.task_matrix) - target)))
 
 
+#: The Functions of :func:`linearisation_function`, per controller and form.
+_linearisations: "weakref.WeakKeyDictionary[CoordinatingController, dict[str, ca.Function]]" = \
+    weakref.WeakKeyDictionary()
+
+
 def linearisation_function(ctrl: CoordinatingController, form: str | None = None) -> ca.Function:
     """``(q, t) -> (H, F, Hdot, task_rate)`` as a CasADi Function, by AD of the law.
 
@@ -79,7 +85,10 @@ def linearisation_function(ctrl: CoordinatingController, form: str | None = None
         Form of the law (default: the controller's).
     """
     form = form or ctrl.law_form
-    return ctrl.memo(("linearise", form), lambda: _linearisation_function(ctrl, form))
+    per_ctrl = _linearisations.setdefault(ctrl, {})
+    if form not in per_ctrl:
+        per_ctrl[form] = _linearisation_function(ctrl, form)
+    return per_ctrl[form]
 
 
 def _linearisation_function(ctrl: CoordinatingController, form: str) -> ca.Function:

@@ -35,11 +35,13 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-import coordarm.symbolic.controller as controller_module
+import coordarm.symbolic.recursion as recursion_module
 from coordarm.symbolic import LAWS, BuildError, CoordinatingController
+from coordarm.symbolic.carry import CARRY
 from coordarm.symbolic.outputs import offsets, packed_width
 from coordarm.symbolic.paths import Path
 
+from . import link_variants
 from .path_search import search_source
 from .render import render
 
@@ -104,8 +106,8 @@ def structured_law(ctrl: CoordinatingController, path_search: bool = True) -> st
     rate, as the interpreted law does; for every other law the preprocessor drops them.
     """
     law = render("trig_passes.c") + render("structured_law.c")
-    return (f"#define CA_REPIVOT {controller_module.REPIVOT!r}\n"
-            f"#define CA_NW_REPIVOT {int(ctrl.time_features_repivot().numel_out(0))}\n"
+    return (f"#define CA_REPIVOT {recursion_module.REPIVOT!r}\n"
+            f"#define CA_NW_REPIVOT {int(ctrl.recursion.time_features_repivot().numel_out(0))}\n"
             + rail_macros(ctrl) + (path_macros(ctrl) if path_search else "") + law)
 
 
@@ -142,13 +144,14 @@ def functions(ctrl: CoordinatingController, form: str, path_search: bool = True)
     on a rail, the head takes ``v_scale`` (the C calls it twice, see :func:`structured_law`).
     """
     if _split(ctrl, form):
+        rec = ctrl.recursion
         if path_search and _searched(ctrl):
-            tf, geometry, step = ctrl.piece_steps()
-            return [tf, _head(ctrl), step, ctrl.tail(), geometry["line"], ctrl.time_features_repivot(),
-                    ctrl.link_step_repivot(), ctrl.curve.frame_function(), geometry["arc"],
-                    ctrl.tail_piece("line"), ctrl.tail_piece("arc")]
-        return [ctrl.time_features(True), _head(ctrl), ctrl.link_step_trig(), ctrl.tail(),
-                ctrl.link_pivot(), ctrl.time_features_repivot(), ctrl.link_step_repivot()]
+            tf, geometry, step = link_variants.piece_steps(ctrl)
+            return [tf, _head(ctrl), step, rec.tail(), geometry["line"], rec.time_features_repivot(),
+                    rec.link_step_repivot(), ctrl.curve.frame_function(), geometry["arc"],
+                    link_variants.tail_piece(ctrl, "line"), link_variants.tail_piece(ctrl, "arc")]
+        return [link_variants.time_features_trig(ctrl), _head(ctrl), link_variants.link_step_trig(ctrl), rec.tail(),
+                link_variants.link_pivot(ctrl), rec.time_features_repivot(), rec.link_step_repivot()]
     return [ctrl.law(form)]
 
 
@@ -161,9 +164,10 @@ def _head(ctrl: CoordinatingController) -> ca.Function:
     """The Function that starts the recursion: the first carry, or on a rail the rail head (with the
     span computed from the end's centre when it is commanded)."""
     if not ctrl.chain.rail:
-        return ctrl.first_carry()
+        return ctrl.recursion.first_carry()
     governed = _governed_rail(ctrl)
-    return ctrl.rail_head_from_end(governed) if ctrl.span is not None else ctrl.rail_head(governed)
+    return (link_variants.rail_head_from_end(ctrl, governed) if ctrl.span is not None
+            else ctrl.recursion.rail_head(governed))
 
 
 def rail_macros(ctrl: CoordinatingController) -> str:
@@ -306,6 +310,6 @@ def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law:
                     layout=layout_macros(m, rail), b_macros=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
     if _split(ctrl, form):
         parts.append(f"#define CA_NW {int(funcs[0].numel_out(0))}\n"
-                     f"#define CA_NC {len(CoordinatingController.CARRY)}\n")
+                     f"#define CA_NC {CARRY.size}\n")
     parts += [law, render("library_api.c") if api is None else api]
     return Source("\n".join(parts), form, m)

@@ -9,7 +9,7 @@ half-lines for the rays), sorted, so the search tests only the pieces that may b
 returns the same piece as the full selection of :func:`coordarm.symbolic.paths.closest_piece_formulas`
 (the first, in order, of the candidates with the smallest ``|phi|``; pieces that tie to rounding give
 the same law, ``phi`` being C1 across a junction). The link step then takes that piece's constants
-(:meth:`coordarm.symbolic.CoordinatingController.link_step_trig` with ``piece=True``).
+(:func:`coordarm.generated.link_variants.piece_steps`).
 """
 from __future__ import annotations
 

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import CollisionError, ConfigError, CoordinatingController, LogError, SingularityError
-from coordarm.symbolic.controller import BUILT_IN_CURVES
+from coordarm.symbolic.task import BUILT_IN_CURVES
 from coordarm.symbolic.interrupts import interruption
 
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,

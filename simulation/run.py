@@ -5,6 +5,7 @@ import math
 import sys
 import time as _time
 import warnings
+import weakref
 from dataclasses import dataclass, field, fields
 from typing import Any, Callable
 
@@ -246,12 +247,20 @@ def even_indices(n: int, k: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, k).round().astype(int))
 
 
+#: The interpreted chunk Functions of :func:`chunk_function`, per controller and ``(step, n)``.
+_chunk_functions: "weakref.WeakKeyDictionary[CoordinatingController, dict]" = weakref.WeakKeyDictionary()
+
+
 def chunk_function(ctrl: CoordinatingController, step: float, n: int):
     """Interpreted closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, *RUN_OUTPUTS)``.
 
     Column k of ``Q`` is the state after step k; the diagnostics are at each step's start.
     """
-    return ctrl.memo(("chunk", float(step), n), lambda: ctrl.rk4_step(step).expand().mapaccum("chunk", n))
+    key = (float(step), n)
+    chunks = _chunk_functions.setdefault(ctrl, {})
+    if key not in chunks:
+        chunks[key] = ctrl.rk4_step(step).expand().mapaccum("chunk", n)
+    return chunks[key]
 
 
 def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
@@ -260,7 +269,7 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
     ``"auto"`` compiles (or takes from the cache) the generated library and falls back to
     ``"interpreted"`` with a :class:`BackendFallbackWarning` when that fails (e.g. no C
     compiler); ``"compiled"`` raises the BuildError instead. The compiled controller is
-    kept on ``ctrl`` so later runs reuse it.
+    kept by :func:`coordarm.generated.compile`, so later runs reuse it.
 
     Raises
     ------
@@ -274,7 +283,7 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
     if backend == "interpreted":
         return "interpreted", None, {"backend": "interpreted"}
     try:
-        compiled = ctrl.memo(("compiled", ctrl.law_form), lambda: compile_controller(ctrl))
+        compiled = compile_controller(ctrl)
     except BuildError as exc:
         if backend == "compiled":
             raise

@@ -11,6 +11,7 @@ from .lazy import lazy_exports
 #: Public name -> submodule that defines it.
 _EXPORTS = {
     "PlanarChain": "chain",
+    "ChainModel": "chain_model",
     "CoordinatingController": "controller",
     "LAWS": "laws",
     "OUTPUTS": "outputs", "SCALAR_OUTPUTS": "outputs", "RUN_OUTPUTS": "outputs", "LAW_OUTPUTS": "outputs",

@@ -1,4 +1,4 @@
-"""Planar chain of m equal links with revolute joints (paper eqs. 1-7)."""
+"""Planar chain of m equal links with revolute joints (paper eqs. 1-7): a :class:`.ChainModel`."""
 from __future__ import annotations
 
 import math
@@ -8,6 +8,8 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .carry import CARRY, Carry
+from .chain_model import ChainModel
 from .errors import ConfigError
 
 #: Kinds of base: pinned at the origin, or on a rail (introduction axis).
@@ -71,7 +73,7 @@ def normal(a: ca.SX | ca.MX | ca.DM | ArrayLike) -> ca.SX | ca.MX | ca.DM | np.n
     return np.stack([-np.sin(a), np.cos(a)], axis=-1)
 
 
-class PlanarChain:
+class PlanarChain(ChainModel):
     """A planar chain of ``links`` links of length ``link_length``.
 
     Link 1 turns about its own centre, pinned at the origin (``y^1 = 0``); joint j
@@ -232,6 +234,96 @@ class PlanarChain:
         for j in range(1, self.m):
             cols.append(cols[-1] + 0.5 * self.xi * (direction(alpha[j - 1]) + direction(alpha[j])))
         return ca.horzcat(*cols)
+
+    @property
+    def B_joints(self) -> np.ndarray:
+        """``B`` over all joints: ``diag(1, B)`` on a rail (``qdot_d = u_d``), else ``B``; shape (dof, dof)."""
+        if not self.rail:
+            return self.B
+        out = np.eye(self.dof)
+        out[1:, 1:] = self.B
+        return out
+
+    # ----------------------------------------------------- pieces of the law (ChainModel)
+    def link_direction(self, alpha: ca.SX) -> ca.SX:
+        """The direction ``d(alpha) = (cos, sin)(alpha)`` of a link at absolute angle ``alpha`` [rad].
+
+        Parameters
+        ----------
+        alpha : casadi.SX
+            Absolute angle ``alpha_j = q_1 + ... + q_j`` [rad].
+
+        Returns
+        -------
+        casadi.SX, shape (2, 1)
+        """
+        return direction(alpha)
+
+    @staticmethod
+    def link_normal(d: ca.SX) -> ca.SX:
+        """The normal ``n = (-d_2, d_1)`` of a link of direction ``d``.
+
+        Parameters
+        ----------
+        d : casadi.SX, shape (2, 1)
+            Link direction.
+
+        Returns
+        -------
+        casadi.SX, shape (2, 1)
+        """
+        return ca.vertcat(-d[1], d[0])
+
+    def centre_step(self, d_prev: ca.SX, d_j: ca.SX) -> ca.SX:
+        """``y^j - y^{j-1} = xi/2 (d_{j-1} + d_j)`` [m] (eq. 4).
+
+        Parameters
+        ----------
+        d_prev, d_j : casadi.SX, shape (2, 1)
+            Directions of links ``j-1`` and ``j``.
+
+        Returns
+        -------
+        casadi.SX, shape (2, 1)
+        """
+        return 0.5 * self.xi * (d_prev + d_j)
+
+    def first_carry(self, q1: ca.SX) -> ca.SX:
+        """The carry of link 1: centre at the base (the origin), ``w_1 = p``, ``ydot^1 + xi/2 n_1 w_1 = xi/2 n_1 p``.
+
+        Parameters
+        ----------
+        q1 : casadi.SX
+            Joint angle ``q_1`` [rad].
+
+        Returns
+        -------
+        casadi.SX, shape (CARRY.size, 1)
+            Layout :data:`~coordarm.symbolic.carry.CARRY`.
+        """
+        c, s = ca.cos(q1), ca.sin(q1)
+        h = 0.5 * self.xi
+        return CARRY.pack(Carry(y=(0, 0), alpha=q1, direction=(c, s), P=(0, 0), Q=(-h * s, h * c), a=0, b=1,
+                                sum_abs_b=1))
+
+    def controls_from_link_rates(self, w: ca.MX) -> ca.MX:
+        """The controls ``u = B^-1 qdot`` of the revolute joints from the link rates ``w_j = alpha_j'``.
+
+        Parameters
+        ----------
+        w : casadi.MX, shape (m, 1)
+            Link rates ``w_1..w_m`` [rad/s].
+
+        Returns
+        -------
+        casadi.MX, shape (m, 1)
+            ``u`` [rad/s for B = I]; ``qdot_j = w_j - w_{j-1}`` (a division when B is diagonal).
+        """
+        qdot = w - ca.vertcat(0, w[:-1])
+        bd = self.b_diagonal
+        if bd is not None:
+            return qdot / ca.DM(bd) if not np.all(bd == 1) else qdot
+        return ca.mtimes(ca.DM(np.linalg.inv(self.B)), qdot)
 
     # ------------------------------------------------------------------ numeric
     def check_q(self, q: ArrayLike, field: str = "q") -> np.ndarray:

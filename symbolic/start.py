@@ -50,7 +50,7 @@ def place_on_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: float =
     def phi_at(pts: np.ndarray) -> np.ndarray:
         n = len(pts)
         if n not in mapped:
-            mapped[n] = ctrl._geometry.map(n)
+            mapped[n] = ctrl.task.geometry.map(n)
         return np.asarray(mapped[n](pts.T, t0)[0]).ravel()
 
     q = np.empty(chain.m)
@@ -154,7 +154,7 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: flo
     q_place = place_on_curve(ctrl, q_guess, t0)
     q = ca.SX.sym("q", chain.m)
     y = chain.centres(q)
-    geo = ctrl._geometry
+    geo = ctrl.task.geometry
     s_target = float(geo(chain.centres_np(q_place)[-1], t0)[3])
     res = [geo(y[:, chain.m - 1], t0)[3] - s_target] + [geo(y[:, j], t0)[0] for j in range(1, chain.m)]
     g = ca.Function("project_residual", [q], [ca.vertcat(*res)])
@@ -203,7 +203,7 @@ def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, d: 
     """
     if not 0 < abs(beta) < np.pi / 2:
         raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {beta}")
-    geo, h = ctrl._geometry, 0.5 * ctrl.chain.xi
+    geo, h = ctrl.task.geometry, 0.5 * ctrl.chain.xi
     y = ctrl.chain.base_point(np.array([float(d)]))
 
     def tangent(p):

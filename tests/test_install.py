@@ -80,7 +80,7 @@ import json, coordarm
 from coordarm import CoordinatingController, Line, PlanarChain
 ctrl = CoordinatingController(PlanarChain(4, 0.1), Line((0.0, 0.0), 0.0), 2.0, 0.05)
 q = ctrl.chain.zigzag(1.0)
-fast = ctrl.compile()
+fast = coordarm.compile(ctrl)
 print(json.dumps({"module": coordarm.symbolic.__file__, "library": str(fast.library.path),
                   "diff": float(abs(fast.control(q, 0.3) - ctrl.control(q, 0.3)).max())}))
 """
