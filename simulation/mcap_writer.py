@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import CollisionError, ConfigError, CoordinatingController, LogError, SingularityError
+from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.controller import BUILT_IN_CURVES
 from coordarm.symbolic.interrupts import interruption
 
@@ -94,7 +95,7 @@ def steps_between(rate: Any, step: float, name: str) -> int:
     ConfigError
         ``rate`` (named ``name`` in the message) is not a positive number.
     """
-    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0 or not np.isfinite(rate):
+    if not is_real(rate) or not rate > 0 or not np.isfinite(rate):
         raise ConfigError(f"{name}: need a positive number of samples per second, got {rate!r}")
     return max(1, int(round(1.0 / (rate * step))))
 

@@ -41,6 +41,7 @@ import numpy as np
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic import (LAWS, ConfigError, CoordinatingController, Curve, PlanarChain, curve_from_spec,
                                follow_curve, motion_from_spec, project_onto_curve)
+from coordarm.symbolic.checks import is_integer, is_real
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.start import check_start
 
@@ -168,7 +169,7 @@ class Scenario:
         for k in ("links", "link_length"):
             if k not in ch:
                 raise ConfigError(f"chain.{k}: missing")
-        if isinstance(ch["links"], bool) or not isinstance(ch["links"], int) or ch["links"] < 2:
+        if not is_integer(ch["links"]) or ch["links"] < 2:
             raise ConfigError(f"chain.links: need an integer >= 2, got {shown(ch['links'])}")
         check_number(ch["link_length"], "chain.link_length")
         for k in ("joint_limit", "clearance"):
@@ -411,7 +412,7 @@ def _base_args(spec) -> dict:
     angle = check_number(spec.get("angle", 0.0), "chain.base.angle", positive=False)
     limits = spec.get("limits", [-math.inf, math.inf])
     if (not isinstance(limits, list) or len(limits) != 2
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in limits)
+            or not all(is_real(v) for v in limits)
             or not limits[0] < limits[1]):
         raise ConfigError(f"chain.base.limits: need [low, high] with low < high [m], got {limits!r}")
     return {"base": "rail", "rail_angle": angle, "rail_limits": tuple(float(v) for v in limits)}

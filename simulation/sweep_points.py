@@ -22,6 +22,7 @@ from typing import Any, Callable
 import numpy as np
 
 from coordarm.symbolic import CollisionError, ConfigError, CoordarmError, SingularityError
+from coordarm.symbolic.checks import is_integer, is_real
 
 from .choices import SWEEP_ALIASES
 from .run import CHECK_RATE, even_indices, simulate
@@ -136,14 +137,14 @@ def latin_hypercube_points(vary: dict[str, list], samples: int, seed: int,
     """
     from scipy.stats import qmc
 
-    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+    if not is_integer(samples) or samples < 1:
         raise ConfigError(f"--samples: need a positive integer, got {samples!r}")
     names = list(vary)
     u = qmc.LatinHypercube(d=len(names), seed=np.random.default_rng(seed)).random(samples)
     cols = {}
     for i, n in enumerate(names):
         vals = vary[n]
-        if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+        if all(is_real(v) for v in vals):
             lo, hi = min(vals), max(vals)
             x = lo + u[:, i] * (hi - lo)
             whole = n in integers if integers is not None else all(isinstance(v, int) for v in vals)
@@ -174,8 +175,7 @@ def apply_point(spec: dict, point: dict) -> Scenario:
             table = table[key]
         if isinstance(value, (float, np.floating)):
             value = float(value)
-            if isinstance(table.get(path[-1]), int) and not isinstance(table.get(path[-1]), bool) \
-                    and value.is_integer():
+            if is_integer(table.get(path[-1])) and value.is_integer():
                 value = int(value)
         elif isinstance(value, np.integer):
             value = int(value)
@@ -208,7 +208,7 @@ def integer_fields(spec: dict, names: list[str]) -> set[str]:
         value: Any = spec
         for key in field_path(name):
             value = value.get(key) if isinstance(value, dict) else None
-        if isinstance(value, int) and not isinstance(value, bool):
+        if is_integer(value):
             out.add(name)
     return out
 

@@ -23,6 +23,7 @@ from typing import Any, Callable, Hashable
 import casadi as ca
 import numpy as np
 
+from .checks import is_real
 from .chain import PlanarChain, direction, normal
 from .curves import Arc, Circle, Curve, Line, _param, evaluate
 from .errors import ConfigError
@@ -87,7 +88,7 @@ def check_damping(damping: Any) -> dict | None:
     out = {"kind": damping["kind"]}
     for key, default, upper in (("lambda", 0.01, math.inf), ("band", 0.1, 1.0)):
         v = damping.get(key, default)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= upper:
+        if not is_real(v) or not math.isfinite(v) or not 0 < v <= upper:
             raise ConfigError(f"damping.{key}: need a finite number in (0, {upper}], got {v!r}")
         out[key] = float(v)
     return out
@@ -142,14 +143,14 @@ class CoordinatingController:
             raise ConfigError(f"chain: expected a PlanarChain, got {type(chain).__name__}")
         if not isinstance(curve, Curve):
             raise ConfigError(f"curve: expected a Curve (Line, Circle, Arc), got {type(curve).__name__}")
-        if (isinstance(gain, bool) or not isinstance(gain, (int, float))
+        if (not is_real(gain)
                 or not math.isfinite(gain) or gain <= 0):
             raise ConfigError(f"gain: K must be a finite number > 0, got {gain!r}")
         if law not in LAWS:
             raise ConfigError(f"law: expected one of {LAWS}, got {law!r}")
         if not isinstance(governor, bool):
             raise ConfigError(f"governor: expected true or false, got {governor!r}")
-        if governor and (isinstance(governor_threshold, bool) or not isinstance(governor_threshold, (int, float))
+        if governor and (not is_real(governor_threshold)
                          or not 0 < governor_threshold < 1):
             raise ConfigError(f"governor_threshold: need a number in (0, 1), got {governor_threshold!r}")
         self.chain, self.curve, self.gain, self.law_form = chain, curve, float(gain), law
