@@ -45,6 +45,7 @@ from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.controller import BUILT_IN_CURVES
 from coordarm.symbolic.interrupts import interruption
 
+from .choices import Backend, Compression, Outcome
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
@@ -140,16 +141,16 @@ def outcome_of(error: BaseException | None, last_t: float | None,
     ``governed`` is the simulated time [s] during which the speed governor slowed ``v*``.
     """
     if error is None:
-        out = {"status": "completed", "t_end": last_t}
+        out = {"status": Outcome.COMPLETED.value, "t_end": last_t}
     elif isinstance(error, SingularityError):
-        out = {"status": "singularity", "t_end": last_t, "time": error.time, "link": error.link,
+        out = {"status": Outcome.SINGULARITY.value, "t_end": last_t, "time": error.time, "link": error.link,
                "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
     elif isinstance(error, CollisionError):
         c = error.contact
-        out = {"status": "collision", "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
+        out = {"status": Outcome.COLLISION.value, "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
                "value": c.value, "threshold": c.threshold, "obstacle": c.obstacle, "message": str(error)}
     else:
-        status = "interrupted" if interruption(error) is not None else "error"
+        status = (Outcome.INTERRUPTED if interruption(error) is not None else Outcome.ERROR).value
         out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
     if contacts:
         out["contacts"] = contacts
@@ -210,8 +211,8 @@ class RunLogger:
 
     def __init__(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
                  log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float | None = None,
-                 compression: str = "zstd", chunk_size: int | None = None, flush_interval: float = FLUSH_INTERVAL,
-                 command: list[str] | None = None, backend: str = "interpreted", library_key: str | None = None,
+                 compression: str = Compression.ZSTD.value, chunk_size: int | None = None, flush_interval: float = FLUSH_INTERVAL,
+                 command: list[str] | None = None, backend: str = Backend.INTERPRETED.value, library_key: str | None = None,
                  threaded: bool = False, overwrite: bool = True) -> None:
         with self._removed_on_failure():
             self._open(path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,

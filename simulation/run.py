@@ -19,7 +19,7 @@ from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS, split
 
-from .choices import BACKENDS
+from .choices import BACKENDS, Backend
 from .limits import KEEP_ROWS, check_gain_step
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
@@ -272,12 +272,12 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
     """
     if backend not in BACKENDS:
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
-    if backend == "interpreted":
+    if backend == Backend.INTERPRETED:
         return "interpreted", None, {"backend": "interpreted"}
     try:
         compiled = ctrl.memo(("compiled", ctrl.law_form), lambda: compile_controller(ctrl))
     except BuildError as exc:
-        if backend == "compiled":
+        if backend == Backend.COMPILED:
             raise
         warnings.warn(f"compiled backend unavailable, running the interpreted CasADi backend "
                       f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)

@@ -24,14 +24,14 @@ import numpy as np
 from coordarm.symbolic import CollisionError, ConfigError, CoordarmError, SingularityError
 from coordarm.symbolic.checks import is_integer, is_real
 
-from .choices import SWEEP_ALIASES
+from .choices import SWEEP_ALIASES, Backend, Outcome
 from .run import CHECK_RATE, even_indices, simulate
 from .scenario import Scenario
 
 #: Short names accepted by ``--vary`` (the results column keeps the name as given).
 ALIASES = SWEEP_ALIASES
 #: How a point can end, from best to worst.
-OUTCOMES = ("completed", "singularity", "collision", "error")
+OUTCOMES = tuple(o.value for o in (Outcome.COMPLETED, Outcome.SINGULARITY, Outcome.COLLISION, Outcome.ERROR))
 #: Result columns after the varied names, in order.
 RESULT_COLUMNS = ("outcome", "message", "stop_time", "min_link_margin", "min_longitudinal", "final_max_e",
                   "peak_u", "min_clearance", "wall_time", "worker")
@@ -269,7 +269,7 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
         sc = apply_point(spec, point)
         ctrl = _controller(sc)
         q0 = sc.start(ctrl)
-        kw = dict(backend="auto", thresholds=sc.thresholds, progress=False, physical=sc.physical(ctrl.chain),
+        kw = dict(backend=Backend.AUTO.value, thresholds=sc.thresholds, progress=False, physical=sc.physical(ctrl.chain),
                   check_every=max(1, round(1.0 / (CHECK_RATE * sc.step))))
         try:
             if log_path:
@@ -282,11 +282,11 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
                                    keep=int(round(sc.duration / sc.step)) + 1, **kw)
             else:
                 run = simulate(ctrl, q0, sc.duration, sc.step, sc.t0, **kw)
-            row["outcome"] = "completed"
+            row["outcome"] = Outcome.COMPLETED.value
         except SingularityError as err:
-            run, row["outcome"], row["message"] = err.run, "singularity", str(err)
+            run, row["outcome"], row["message"] = err.run, Outcome.SINGULARITY.value, str(err)
         except CollisionError as err:
-            run, row["outcome"], row["message"] = err.run, "collision", str(err)
+            run, row["outcome"], row["message"] = err.run, Outcome.COLLISION.value, str(err)
         if run is not None:
             row.update(stop_time=float(run.t[-1]), min_link_margin=float(np.min(run.link_margins)),
                        min_longitudinal=float(np.min(run.longitudinal)),
