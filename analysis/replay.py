@@ -307,7 +307,7 @@ def load(path: str | Path, curve: Any = None) -> Replay:
                                       curve=curve if spec.get("curve", {}).get("kind") == USER_DEFINED else None)
     except (KeyError, TypeError, ValueError, RecursionError, ConfigError) as exc:
         raise LogError(f"{path}: the 'scenario' metadata is not a valid scenario: {exc}") from None
-    m = int(spec["chain"]["links"])
+    m = scenario.config.chain.links
     rail = scenario.chain().rail
     specs = numeric_channels(m, True) if rail else numeric_channels(m)
     by_topic = {ch.topic: cid for cid, ch in channels.items()}

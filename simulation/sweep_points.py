@@ -189,7 +189,7 @@ def check_names(spec: dict, names: list[str]) -> None:
     Fields of the fixed sections (``[chain]``, ``[control]``, ``[start]``, ``[run]``,
     ``[thresholds]``) may be absent (their default is used); curve fields must be present.
     """
-    from .scenario import KEYS
+    from .scenario_tables import KEYS
 
     for name in names:
         path = field_path(name)
@@ -214,7 +214,7 @@ def integer_fields(spec: dict, names: list[str]) -> set[str]:
 
 
 def _controller(sc: Scenario):
-    key = repr([sc.spec["chain"], sc.spec["curve"], sc.spec["control"]])
+    key = repr((sc.config.chain, sc.config.curve, sc.config.control))
     ctrl = _CONTROLLERS.get(key)
     if ctrl is None:
         if len(_CONTROLLERS) >= _MAX_CONTROLLERS:
