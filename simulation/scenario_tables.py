@@ -84,6 +84,9 @@ class ChainTable:
         Least distance kept between non-adjacent links [m]; None: 0.
     base : str or dict or None
         ``"fixed"`` or ``{kind = "rail", angle [rad], limits [m]}``; None: fixed.
+    base_args : dict
+        ``base`` as :class:`PlanarChain` keyword arguments (``base``, ``rail_angle`` [rad],
+        ``rail_limits`` [m]), checked when read.
     """
 
     links: int
@@ -91,10 +94,12 @@ class ChainTable:
     joint_limit: float | list[float] | None = None
     clearance: float | None = None
     base: str | dict | None = None
+    base_args: dict = field(default_factory=lambda: {"base": "fixed"}, compare=False, repr=False)
 
-    def base_args(self) -> dict:
-        """The base as :class:`PlanarChain` keyword arguments (``base``, ``rail_angle``, ``rail_limits``)."""
-        return base_args("fixed" if self.base is None else self.base)
+    @property
+    def rail(self) -> bool:
+        """Whether the base slides on a rail."""
+        return self.base_args["base"] == "rail"
 
     def build(self) -> PlanarChain:
         """The chain this table describes.
@@ -104,7 +109,7 @@ class ChainTable:
         PlanarChain
         """
         return PlanarChain(self.links, float(self.link_length), joint_limit=self.joint_limit,
-                           clearance=float(self.clearance or 0.0), **self.base_args())
+                           clearance=float(self.clearance or 0.0), **self.base_args)
 
     def to_dict(self) -> dict:
         """The table as the file writes it (keys left out stay out)."""
@@ -380,16 +385,15 @@ def _chain(ch: dict) -> ChainTable:
                 PlanarChain(ch["links"], 1.0, **{k: ch[k]})
             except ConfigError as exc:
                 raise ConfigError(f"chain.{exc}") from None
-    table = ChainTable(ch["links"], ch["link_length"], ch.get("joint_limit"), ch.get("clearance"), ch.get("base"))
-    table.base_args()
-    return table
+    return ChainTable(ch["links"], ch["link_length"], ch.get("joint_limit"), ch.get("clearance"), ch.get("base"),
+                      base_args(ch.get("base", "fixed")))
 
 
 def _span(control: dict, chain: ChainTable) -> Any:
     """``[control] span`` as a motion (None when left out); only a chain on a rail has one."""
     if "span" not in control:
         return None
-    if chain.base_args()["base"] != "rail":
+    if not chain.rail:
         raise ConfigError("control.span: only a chain on a rail (chain.base.kind = 'rail') has a span")
     return motion_from_spec(control["span"], "control.span")
 
