@@ -33,7 +33,7 @@ from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
-from coordarm.simulation.choices import lz4_frame
+from coordarm.simulation.choices import Compression, lz4_frame
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
 from coordarm.simulation.mcap_file import DIGEST_KEY, metadata_digest
 from coordarm.simulation.mcap_writer import partial_path
@@ -60,9 +60,9 @@ def chunk_messages(chunk: Chunk) -> list[RawMessage]:
     CRCValidationError, zstandard.ZstdError, struct.error, ValueError
         Damaged chunk (the caller turns these into a LogError).
     """
-    if chunk.compression == "zstd":
+    if chunk.compression == Compression.ZSTD:
         data = zstandard.decompress(chunk.data, chunk.uncompressed_size)
-    elif chunk.compression == "lz4":
+    elif chunk.compression == Compression.LZ4:
         try:
             data = lz4_frame().decompress(chunk.data)
         except RuntimeError as exc:  # what python-lz4 raises on a damaged frame
