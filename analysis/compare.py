@@ -170,7 +170,7 @@ def _run(method: str, scenario: Scenario, ctrl: CoordinatingController, backend:
         run.info["steps"] = max(len(run.t) - 1, 1)
         return run
     if method in BASELINES:
-        damping = (scenario.spec["control"].get("damping") or DEFAULT_DLS) if method == "dls" else None
+        damping = (scenario.config.control.damping or DEFAULT_DLS) if method == "dls" else None
         law = EndPointRate(ctrl, q0, damping)
         return simulate_baseline(law, q0, scenario.duration, scenario.step, scenario.t0, backend=backend)
     if method == "ftl" and ctrl.chain.rail:

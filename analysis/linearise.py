@@ -22,6 +22,7 @@ import numpy as np
 
 from coordarm.simulation.run import even_indices
 from coordarm.symbolic import CoordinatingController
+from coordarm.symbolic.laws import Law
 
 
 
@@ -94,7 +95,7 @@ def linearisation_function(ctrl: CoordinatingController, form: str | None = None
 def _linearisation_function(ctrl: CoordinatingController, form: str) -> ca.Function:
     """The uncached body of :func:`linearisation_function` (on a rail: tasks ``(s, sigma, e)``)."""
     m = ctrl.chain.dof
-    sym = ca.SX if form == "structured" else ca.MX      # the dense law's linear solve is MX only
+    sym = ca.SX if form == Law.STRUCTURED else ca.MX      # the dense law's linear solve is MX only
     q, t = sym.sym("q", m), sym.sym("t")
     out = dict(zip(ctrl.outputs, ctrl.fast_law(form)(q, t)))
     u, e, s = out["u"], out["e"], out["s"]

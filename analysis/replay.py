@@ -33,7 +33,7 @@ from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
-from coordarm.simulation.choices import lz4_frame
+from coordarm.simulation.choices import Compression, lz4_frame
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
 from coordarm.simulation.mcap_file import DIGEST_KEY, metadata_digest
 from coordarm.simulation.mcap_writer import partial_path
@@ -83,9 +83,9 @@ def chunk_messages(chunk: Chunk) -> list[RawMessage]:
     CRCValidationError, zstandard.ZstdError, struct.error, ValueError
         Damaged chunk (the caller turns these into a LogError).
     """
-    if chunk.compression == "zstd":
+    if chunk.compression == Compression.ZSTD:
         data = zstandard.decompress(chunk.data, chunk.uncompressed_size)
-    elif chunk.compression == "lz4":
+    elif chunk.compression == Compression.LZ4:
         try:
             data = lz4_frame().decompress(chunk.data)
         except RuntimeError as exc:  # what python-lz4 raises on a damaged frame
@@ -330,7 +330,7 @@ def load(path: str | Path, curve: Any = None) -> Replay:
                                       curve=curve if spec.get("curve", {}).get("kind") == USER_DEFINED else None)
     except (KeyError, TypeError, ValueError, RecursionError, ConfigError) as exc:
         raise LogError(f"{path}: the 'scenario' metadata is not a valid scenario: {exc}") from None
-    m = int(spec["chain"]["links"])
+    m = scenario.config.chain.links
     rail = scenario.chain().rail
     specs = numeric_channels(m, True) if rail else numeric_channels(m)
     by_topic = {ch.topic: cid for cid, ch in channels.items()}

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import casadi as ca
 import numpy as np
 
+from coordarm.simulation.choices import Outcome
 from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
 from .report import analyse_run, simulate_through
@@ -71,7 +72,7 @@ def threshold_point(spec: dict, point: dict, log_path: str | None = None) -> dic
     a = analyse_run(ctrl, run.t, run.q, run.u, samples=600)
     blowup = a.blowup_time
     k = min(np.searchsorted(run.t, blowup), len(run.t) - 1) if blowup is not None else -1
-    row = {**point, "outcome": "singularity" if blowup is not None else "completed", "message": "",
+    row = {**point, "outcome": (Outcome.SINGULARITY if blowup is not None else Outcome.COMPLETED).value, "message": "",
            "stop_time": float(run.t[-1]), "min_link_margin": float(np.min(run.link_margins)),
            "min_longitudinal": float(np.min(run.longitudinal)), "final_max_e": float(np.max(np.abs(run.e[-1]))),
            "peak_u": float(np.max(np.abs(run.u))), "blowup": np.nan if blowup is None else float(blowup),

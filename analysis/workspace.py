@@ -20,6 +20,7 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
+from coordarm.simulation.choices import Outcome
 from coordarm.symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain
 
 from .singularity import run_margins
@@ -114,7 +115,7 @@ def workspace_point(spec: dict, point: dict, log_path: str | None = None) -> dic
         _CONTROLLERS[key] = CoordinatingController(PlanarChain(m, xi), Line() if kappa == 0 else Arc(radius=1.0 / kappa),
                                                    1.0, 0.1)
     mg = run_margins(_CONTROLLERS[key], np.zeros(1), q[None])
-    return {**point, "outcome": "completed", "message": "", "min_longitudinal": float(mg["longitudinal"][0]),
+    return {**point, "outcome": Outcome.COMPLETED.value, "message": "", "min_longitudinal": float(mg["longitudinal"][0]),
             "min_link_margin": float(np.min(mg["links"])), "log10_cond": float(np.log10(mg["cond"][0]))}
 
 

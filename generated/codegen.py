@@ -38,6 +38,7 @@ import numpy as np
 import coordarm.symbolic.recursion as recursion_module
 from coordarm.symbolic import LAWS, BuildError, CoordinatingController
 from coordarm.symbolic.carry import CARRY
+from coordarm.symbolic.laws import Law
 from coordarm.symbolic.outputs import offsets, packed_width
 from coordarm.symbolic.paths import Path
 
@@ -70,7 +71,7 @@ class Source:
 
 def _split(ctrl: CoordinatingController, form: str) -> bool:
     """Whether the law is emitted as per-link Functions and a C loop (structured, undamped)."""
-    return form == "structured" and not ctrl.damping
+    return form == Law.STRUCTURED and not ctrl.damping
 
 
 def structured_law(ctrl: CoordinatingController, path_search: bool = True) -> str:

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import ConfigError
+from coordarm.symbolic.checks import is_integer
 
 from .choices import DENSE_LINKS  # noqa: F401 (re-exported)
 from .log_schemas import PER_STEP, numeric_channels
@@ -84,7 +85,7 @@ def sampled_limit(delay: int = 0) -> float:
     ConfigError
         ``delay`` is not an integer >= 0.
     """
-    if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
+    if not is_integer(delay, numpy=True) or delay < 0:
         raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
     return 2.0 * math.sin(math.pi / (2 * (2 * delay + 1)))
 

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController
+from coordarm.symbolic.checks import is_real
 
 from .log_schemas import CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, foxglove_schema_bytes, numeric_channels
 from .mcap_file import Worker
@@ -106,7 +107,7 @@ class LiveView:
         from foxglove.websocket import Capability
 
         ctrl = ctrl or scenario.controller()
-        if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not speed > 0 or not np.isfinite(speed):
+        if not is_real(speed) or not speed > 0 or not np.isfinite(speed):
             raise ConfigError(f"live speed: need a positive number of simulated seconds per second, got {speed!r}")
         self.speed = float(speed)
         self.every = steps_between(rate, scenario.step, "live rate")

@@ -33,7 +33,7 @@ from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, M
                           Statistics, SummaryOffset)
 from mcap.writer import LIBRARY_IDENTIFIER, MCAP0_MAGIC
 
-from .choices import COMPRESSIONS, lz4_frame
+from .choices import COMPRESSIONS, Compression, lz4_frame
 
 
 #: Bytes of a Message record before its data: opcode, length, channel id, sequence, log and publish time.
@@ -222,16 +222,16 @@ class McapFile:
         ``compression="lz4"`` without the lz4 package installed.
     """
 
-    def __init__(self, path: str | Path, profile: str = "", compression: str = "zstd",
+    def __init__(self, path: str | Path, profile: str = "", compression: str = Compression.ZSTD.value,
                  background: bool = False) -> None:
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
         self.path = Path(path)
-        self.compression = "" if compression == "none" else compression   # as the Chunk record names it
+        self.compression = "" if compression == Compression.NONE else compression   # as the Chunk record names it
         self._compress: Callable[[bytes], bytes] = bytes          # none: the records as they are
-        if compression == "zstd":
+        if compression == Compression.ZSTD:
             self._compress = zstandard.ZstdCompressor(level=1).compress
-        elif compression == "lz4":
+        elif compression == Compression.LZ4:
             self._compress = lz4_frame().compress
         self._stream: BinaryIO = open_locked(self.path)
         self._schemas: list[Schema] = []

@@ -14,12 +14,13 @@ import numpy as np
 from coordarm.generated import compile as compile_controller
 from coordarm.symbolic import (BuildError, CollisionError, ConfigError, CoordarmError, CoordinatingController,
                                SingularityError, TubeError)
+from coordarm.symbolic.checks import is_integer, is_real
 from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS, split
 
-from .choices import BACKENDS
+from .choices import BACKENDS, Backend
 from .limits import KEEP_ROWS, check_gain_step
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
@@ -171,7 +172,7 @@ class Run(ExtraOutputs):
 
 def check_number(value: Any, name: str, positive: bool = True) -> float:
     """``value`` as a float; a ConfigError naming ``name`` unless it is a finite real number (> 0 if ``positive``)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not is_real(value) or not math.isfinite(value):
         raise ConfigError(f"{name}: need a finite number, got {shown(value)}")
     if positive and value <= 0:
         raise ConfigError(f"{name}: must be > 0, got {shown(value)}")
@@ -280,12 +281,12 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
     """
     if backend not in BACKENDS:
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
-    if backend == "interpreted":
+    if backend == Backend.INTERPRETED:
         return "interpreted", None, {"backend": "interpreted"}
     try:
         compiled = compile_controller(ctrl)
     except BuildError as exc:
-        if backend == "compiled":
+        if backend == Backend.COMPILED:
             raise
         warnings.warn(f"compiled backend unavailable, running the interpreted CasADi backend "
                       f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)
@@ -365,7 +366,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     t0 = check_number(t0, "t0", positive=False)
     if step > duration:
         raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
-    if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
+    if not is_integer(chunk) or chunk < 1:
         raise ConfigError(f"chunk: need a positive integer, got {shown(chunk)}")
     if backend not in BACKENDS:   # select_backend checks too, but only after the start checks below
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
@@ -381,7 +382,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         where = f"link {link}" if link else "the end point"
         raise ConfigError(f"q0: start configuration is (near) singular: {kind} margin of {where} is "
                           f"{margin:.3g} < {thr[kind]}")
-    if isinstance(check_every, bool) or not isinstance(check_every, int) or check_every < 1:
+    if not is_integer(check_every) or check_every < 1:
         raise ConfigError(f"check_every: need a positive integer, got {check_every!r}")
     if physical is not None:
         invalid = physical.check(np.array([t0]), q0[None])

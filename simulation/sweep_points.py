@@ -22,15 +22,16 @@ from typing import Any, Callable
 import numpy as np
 
 from coordarm.symbolic import CollisionError, ConfigError, CoordarmError, SingularityError
+from coordarm.symbolic.checks import is_integer, is_real
 
-from .choices import SWEEP_ALIASES
+from .choices import SWEEP_ALIASES, Backend, Outcome
 from .run import CHECK_RATE, even_indices, simulate
 from .scenario import Scenario
 
 #: Short names accepted by ``--vary`` (the results column keeps the name as given).
 ALIASES = SWEEP_ALIASES
 #: How a point can end, from best to worst.
-OUTCOMES = ("completed", "singularity", "collision", "error")
+OUTCOMES = tuple(o.value for o in (Outcome.COMPLETED, Outcome.SINGULARITY, Outcome.COLLISION, Outcome.ERROR))
 #: Result columns after the varied names, in order.
 RESULT_COLUMNS = ("outcome", "message", "stop_time", "min_link_margin", "min_longitudinal", "final_max_e",
                   "peak_u", "min_clearance", "wall_time", "worker")
@@ -162,14 +163,14 @@ def latin_hypercube_points(vary: dict[str, list], samples: int, seed: int,
     """
     from scipy.stats import qmc
 
-    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+    if not is_integer(samples) or samples < 1:
         raise ConfigError(f"--samples: need a positive integer, got {samples!r}")
     names = list(vary)
     u = qmc.LatinHypercube(d=len(names), seed=np.random.default_rng(seed)).random(samples)
     cols = {}
     for i, n in enumerate(names):
         vals = vary[n]
-        if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+        if all(is_real(v) for v in vals):
             lo, hi = min(vals), max(vals)
             x = lo + u[:, i] * (hi - lo)
             whole = n in integers if integers is not None else all(isinstance(v, int) for v in vals)
@@ -212,8 +213,7 @@ def apply_point(spec: dict, point: dict) -> Scenario:
             table = table[key]
         if isinstance(value, (float, np.floating)):
             value = float(value)
-            if isinstance(table.get(path[-1]), int) and not isinstance(table.get(path[-1]), bool) \
-                    and value.is_integer():
+            if is_integer(table.get(path[-1])) and value.is_integer():
                 value = int(value)
         elif isinstance(value, np.integer):
             value = int(value)
@@ -239,7 +239,7 @@ def check_names(spec: dict, names: list[str]) -> None:
     ConfigError
         The first name that is not a field (or is malformed).
     """
-    from .scenario import KEYS
+    from .scenario_tables import KEYS
 
     for name in names:
         path = field_path(name)
@@ -271,13 +271,13 @@ def integer_fields(spec: dict, names: list[str]) -> set[str]:
         value: Any = spec
         for key in field_path(name):
             value = value.get(key) if isinstance(value, dict) else None
-        if isinstance(value, int) and not isinstance(value, bool):
+        if is_integer(value):
             out.add(name)
     return out
 
 
 def _controller(sc: Scenario):
-    key = repr([sc.spec["chain"], sc.spec["curve"], sc.spec["control"]])
+    key = repr((sc.config.chain, sc.config.curve, sc.config.control))
     ctrl = _CONTROLLERS.get(key)
     if ctrl is None:
         if len(_CONTROLLERS) >= _MAX_CONTROLLERS:
@@ -338,7 +338,7 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
         sc = apply_point(spec, point)
         ctrl = _controller(sc)
         q0 = sc.start(ctrl)
-        kw = dict(backend="auto", thresholds=sc.thresholds, progress=False, physical=sc.physical(ctrl.chain),
+        kw = dict(backend=Backend.AUTO.value, thresholds=sc.thresholds, progress=False, physical=sc.physical(ctrl.chain),
                   check_every=max(1, round(1.0 / (CHECK_RATE * sc.step))))
         try:
             if log_path:
@@ -351,11 +351,11 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
                                    keep=int(round(sc.duration / sc.step)) + 1, **kw)
             else:
                 run = simulate(ctrl, q0, sc.duration, sc.step, sc.t0, **kw)
-            row["outcome"] = "completed"
+            row["outcome"] = Outcome.COMPLETED.value
         except SingularityError as err:
-            run, row["outcome"], row["message"] = err.run, "singularity", str(err)
+            run, row["outcome"], row["message"] = err.run, Outcome.SINGULARITY.value, str(err)
         except CollisionError as err:
-            run, row["outcome"], row["message"] = err.run, "collision", str(err)
+            run, row["outcome"], row["message"] = err.run, Outcome.COLLISION.value, str(err)
         if run is not None:
             row.update(stop_time=float(run.t[-1]), min_link_margin=float(np.min(run.link_margins)),
                        min_longitudinal=float(np.min(run.longitudinal)),

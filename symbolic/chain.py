@@ -10,6 +10,7 @@ from numpy.typing import ArrayLike
 
 from .carry import CARRY, Carry
 from .chain_model import ChainModel
+from .checks import is_integer, is_real
 from .errors import ConfigError
 
 #: Kinds of base: pinned at the origin, or on a rail (introduction axis).
@@ -22,12 +23,12 @@ def _joint_limits(links: int, joint_limit) -> np.ndarray:
     """Limits of joints 2..m as an (m-1,) array in (0, pi], from one number or a list of m-1."""
     if isinstance(joint_limit, (list, tuple, np.ndarray)):
         lim = np.asarray(joint_limit, dtype=float) if all(
-            isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool)
+            is_real(v, numpy=True)
             for v in np.ravel(joint_limit)) else None
         if lim is None or lim.shape != (links - 1,):
             raise ConfigError(f"joint_limit: need one number or a list of {links - 1} numbers "
                               f"(joints 2..{links}), got {joint_limit!r}")
-    elif isinstance(joint_limit, bool) or not isinstance(joint_limit, (int, float, np.floating, np.integer)):
+    elif not is_real(joint_limit, numpy=True):
         raise ConfigError(f"joint_limit: need a number [rad] or a list of them, got {joint_limit!r}")
     else:
         lim = np.full(links - 1, float(joint_limit))
@@ -109,26 +110,26 @@ class PlanarChain(ChainModel):
                  joint_limit: float | Sequence[float] = None, clearance: float = 0.0,
                  base: str = "fixed", rail_angle: float = 0.0,
                  rail_limits: Sequence[float] = (-math.inf, math.inf)) -> None:
-        if isinstance(links, bool) or not isinstance(links, (int, np.integer)) or links < 2:
+        if not is_integer(links, numpy=True) or links < 2:
             raise ConfigError(f"links: need an integer of at least 2, got {links!r}")
-        if (isinstance(link_length, bool) or not isinstance(link_length, (int, float))
+        if (not is_real(link_length)
                 or not math.isfinite(link_length) or link_length <= 0):
             raise ConfigError(f"link_length: need a finite number > 0, got {link_length!r}")
         self.m, self.xi = int(links), float(link_length)
         self._bd, self._B = _input_matrix(B, self.m)
         self.joint_limits = _joint_limits(self.m, DEFAULT_JOINT_LIMIT if joint_limit is None else joint_limit)
-        if (isinstance(clearance, bool) or not isinstance(clearance, (int, float))
+        if (not is_real(clearance)
                 or not math.isfinite(clearance) or clearance < 0):
             raise ConfigError(f"clearance: need a finite number >= 0, got {clearance!r}")
         self.clearance = float(clearance)
         if base not in BASES:
             raise ConfigError(f"base: expected one of {BASES}, got {base!r}")
         self.rail = base == "rail"
-        if isinstance(rail_angle, bool) or not isinstance(rail_angle, (int, float)) or not math.isfinite(rail_angle):
+        if not is_real(rail_angle) or not math.isfinite(rail_angle):
             raise ConfigError(f"rail_angle: need a finite number [rad], got {rail_angle!r}")
         self.rail_angle = float(rail_angle)
         lim = tuple(rail_limits) if isinstance(rail_limits, (list, tuple)) else ()
-        if (len(lim) != 2 or any(isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v) for v in lim)
+        if (len(lim) != 2 or any(not is_real(v) or math.isnan(v) for v in lim)
                 or not lim[0] < lim[1]):
             raise ConfigError(f"rail_limits: need [low, high] with low < high [m], got {rail_limits!r}")
         self.rail_limits = (float(lim[0]), float(lim[1]))
@@ -445,7 +446,7 @@ class PlanarChain(ChainModel):
             ``beta`` or ``heading`` not finite, or ``beta`` out of range.
         """
         for name, v in (("beta", beta), ("heading", heading)):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            if not is_real(v) or not math.isfinite(v):
                 raise ConfigError(f"{name}: need a finite number, got {v!r}")
         if not 0 < abs(beta) < math.pi / 2:
             raise ConfigError(f"beta: need 0 < |beta| < pi/2 for a zig-zag, got {beta}")

@@ -27,12 +27,13 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from .checks import is_real
 from .chain import PlanarChain
 from .curves import Curve, _param
 from .dense import decoupling_matrix_expr
 from .errors import ConfigError
 from .law import law_function
-from .laws import LAWS
+from .laws import LAWS, Law
 from .numeric import NumericAPI
 from .outputs import OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS
 from .recursion import StructuredRecursion
@@ -71,7 +72,7 @@ def check_damping(damping: Any) -> dict | None:
     out = {"kind": damping["kind"]}
     for key, default, upper in (("lambda", 0.01, math.inf), ("band", 0.1, 1.0)):
         v = damping.get(key, default)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not 0 < v <= upper:
+        if not is_real(v) or not math.isfinite(v) or not 0 < v <= upper:
             raise ConfigError(f"damping.{key}: need a finite number in (0, {upper}], got {v!r}")
         out[key] = float(v)
     return out
@@ -102,15 +103,13 @@ def check_controller(chain: Any, curve: Any, gain: Any, speed: Any, law: Any, sp
         raise ConfigError(f"chain: expected a PlanarChain, got {type(chain).__name__}")
     if not isinstance(curve, Curve):
         raise ConfigError(f"curve: expected a Curve (Line, Circle, Arc), got {type(curve).__name__}")
-    if (isinstance(gain, bool) or not isinstance(gain, (int, float))
-            or not math.isfinite(gain) or gain <= 0):
+    if not is_real(gain) or not math.isfinite(gain) or gain <= 0:
         raise ConfigError(f"gain: K must be a finite number > 0, got {gain!r}")
     if law not in LAWS:
         raise ConfigError(f"law: expected one of {LAWS}, got {law!r}")
     if not isinstance(governor, bool):
         raise ConfigError(f"governor: expected true or false, got {governor!r}")
-    if governor and (isinstance(governor_threshold, bool) or not isinstance(governor_threshold, (int, float))
-                     or not 0 < governor_threshold < 1):
+    if governor and (not is_real(governor_threshold) or not 0 < governor_threshold < 1):
         raise ConfigError(f"governor_threshold: need a number in (0, 1), got {governor_threshold!r}")
     checked = {"gain": float(gain), "governor_threshold": float(governor_threshold),
                "damping": check_damping(damping), "speed": _param(speed, "speed")}
@@ -252,7 +251,7 @@ class CoordinatingController(NumericAPI):
         form = form or self.law_form
         key = ("fast", form)
         if key not in self._cache:
-            self._cache[key] = (self.law(form).expand() if form == "structured" and not self.damping
+            self._cache[key] = (self.law(form).expand() if form == Law.STRUCTURED and not self.damping
                                else self.law(form))
         return self._cache[key]
 

@@ -13,6 +13,7 @@ from typing import Any, Callable
 import casadi as ca
 import numpy as np
 
+from .checks import is_real
 from .errors import ConfigError, shown
 from .motions import Constant, motion_from_spec, motion_to_spec
 
@@ -23,7 +24,7 @@ def _param(value: Param, field: str) -> Callable:
     """A scalar parameter as a callable of time, validated."""
     if callable(value):
         return value
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+    if not is_real(value, numpy=True):
         raise ConfigError(f"{field}: expected a number or a callable of t, got {shown(value)}")
     if not math.isfinite(value):
         raise ConfigError(f"{field}: must be finite, got {shown(value)}")

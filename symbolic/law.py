@@ -12,6 +12,7 @@ from typing import Sequence
 import casadi as ca
 
 from .dense import dense_controls
+from .laws import Law
 from .recursion import StructuredRecursion
 
 
@@ -39,6 +40,6 @@ def law_function(recursion: StructuredRecursion, form: str, damping: dict | None
     chain = recursion.chain
     q, t = ca.MX.sym("q", chain.dof), ca.MX.sym("t")
     outs = recursion.outputs(q, t)
-    if form == "dense" or damping:
-        outs["u"] = dense_controls(chain, recursion.task, outs, q, t, form == "dense", damping)
+    if form == Law.DENSE or damping:
+        outs["u"] = dense_controls(chain, recursion.task, outs, q, t, form == Law.DENSE, damping)
     return ca.Function(f"coordinating_law_{form}", [q, t], [outs[n] for n in names], ["q", "t"], list(names))

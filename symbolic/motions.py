@@ -12,12 +12,13 @@ from typing import Any, Callable
 
 import casadi as ca
 
+from .checks import is_real
 from .errors import ConfigError, shown
 
 
 def _finite(value: Any, field: str) -> float:
     """Return ``value`` as a finite float or raise a ConfigError naming ``field``."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not is_real(value):
         raise ConfigError(f"{field}: expected a number, got {shown(value)}")
     if not math.isfinite(value):
         raise ConfigError(f"{field}: must be finite, got {shown(value)}")
@@ -147,7 +148,7 @@ def motion_from_spec(spec: Any, field: str) -> Motion:
     Motion
         A callable of time.
     """
-    if isinstance(spec, (int, float)) and not isinstance(spec, bool):
+    if is_real(spec):
         return Constant(_finite(spec, field))
     if isinstance(spec, list):
         if not spec:

@@ -30,6 +30,7 @@ from typing import Any, Sequence
 import casadi as ca
 import numpy as np
 
+from .checks import is_real
 from .curves import Curve, _param, _point, evaluate
 from .errors import ConfigError
 from .motions import motion_to_spec
@@ -43,8 +44,7 @@ MAX_PIECE = 2.0 * math.pi / 3.0
 
 
 def _finite(value: Any, field: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(value):
+    if not is_real(value, numpy=True) or not math.isfinite(value):
         raise ConfigError(f"{field}: need a finite number, got {value!r}")
     return float(value)
 
