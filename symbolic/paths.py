@@ -30,9 +30,10 @@ from typing import Any, Sequence
 import casadi as ca
 import numpy as np
 
-from .curves import Curve, _param, _point, evaluate
+from .curves import Curve
 from .errors import ConfigError
-from .motions import motion_to_spec
+from .motions import motion_from_spec, motion_to_spec
+from .params import as_param, as_point, evaluate
 
 #: Length of a piece's constants with the derived ones (:func:`piece_parameters`), as the
 #: generated per-piece link steps take them.
@@ -295,7 +296,7 @@ class Path(Curve):
         if not isinstance(segments, (list, tuple)) or not segments:
             raise ConfigError("curve.segments: need a non-empty list of segments")
         self.segments = [parse_segment(sg, f"curve.segments[{i}]") for i, sg in enumerate(segments)]
-        self.offset, self.rotation = _point(offset, "curve.offset"), _param(rotation, "curve.rotation")
+        self.offset, self.rotation = as_point(offset, "curve.offset"), as_param(rotation, "curve.rotation")
         self.pieces = build_pieces(self.start, self.heading, self.segments)
         radii = [r for kind, _, r in self.segments if kind == "arc"]
         #: Half-width of the tube in which ``phi``, ``psi`` are valid [m] (inf for lines only).
@@ -604,10 +605,13 @@ def waypoint_segments(points: Sequence[Sequence[float]], radius: float
     return segments, (float(P[0, 0]), float(P[0, 1])), float(head[0])
 
 
+#: Curve kinds built by :func:`path_from_spec` and their keys (read by :mod:`.curve_specs`).
+PATH_KINDS = {"path": ("start", "heading", "segments", "offset", "rotation"),
+              "waypoints": ("points", "radius", "offset", "rotation")}
+
+
 def path_from_spec(spec: dict, field: str = "curve") -> Path:
     """A :class:`Path` from a ``kind = "path"`` or ``kind = "waypoints"`` table (see :func:`curve_from_spec`)."""
-    from .curves import PATH_KINDS
-    from .motions import motion_from_spec
     kind = spec["kind"]
     keys = PATH_KINDS[kind]
     unknown = set(spec) - set(keys) - {"kind"}
