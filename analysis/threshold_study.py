@@ -13,7 +13,8 @@ import numpy as np
 
 from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
-from .report import analyse_run, simulate_through
+from .report import simulate_through
+from .run_analysis import analyse_run
 
 CANDIDATES = (0.05, 0.1, 0.15, 0.2)
 
