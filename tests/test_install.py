@@ -134,7 +134,8 @@ def test_the_wheel_installs_real_files_for_every_module_of_the_layer_folders(ven
 
 def test_the_sdist_holds_real_files_and_builds_the_same_wheel(venv, src, tmp_path):
     python, site = venv
-    build = [sys.executable, "-c", "import sys; from setuptools import build_meta; print(build_meta.build_sdist(sys.argv[1]))"]
+    build = [sys.executable, "-c", "import sys; from setuptools import build_meta; "
+             "print(build_meta.build_sdist(sys.argv[1]))"]
     name = run([*build, tmp_path], cwd=src).stdout.strip().splitlines()[-1]
     with tarfile.open(tmp_path / name) as tar:
         members = tar.getmembers()
