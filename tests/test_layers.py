@@ -4,6 +4,7 @@
 installed layout: ``lint-imports`` (grimp) runs on it as is.
 """
 import ast
+import copy
 import os
 import shutil
 import subprocess
@@ -76,17 +77,22 @@ def test_the_graph_covers_every_module_of_every_layer(graph):
     assert graph.modules == set(package_modules())
 
 
-def test_no_import_cycle_between_modules(graph):
-    pending = PENDING_CYCLE_EDGES & imports(graph)
+def without_pending(g: grimp.ImportGraph) -> grimp.ImportGraph:
+    """A copy of ``g`` without :data:`PENDING_CYCLE_EDGES`, each of which must still be there."""
+    pending = PENDING_CYCLE_EDGES & imports(g)
     assert pending == PENDING_CYCLE_EDGES, f"gone (delete from PENDING_CYCLE_EDGES): {PENDING_CYCLE_EDGES - pending}"
+    g = copy.deepcopy(g)
     for importer, imported in pending:
-        graph.remove_import(importer=importer, imported=imported)
-    assert cycles(graph) == []
+        g.remove_import(importer=importer, imported=imported)
+    return g
+
+
+def test_no_import_cycle_between_modules(graph):
+    assert cycles(without_pending(graph)) == []
 
 
 def test_no_import_cycle_between_the_children_of_any_package(graph):
-    for importer, imported in PENDING_CYCLE_EDGES:
-        graph.remove_import(importer=importer, imported=imported)
+    graph = without_pending(graph)
     packages = sorted(m for m in graph.modules if graph.find_children(m))
     assert {p: graph.nominate_cycle_breakers(p) for p in packages} == {p: set() for p in packages}
 
