@@ -11,11 +11,62 @@ from typing import Any
 from .curves import Arc, Circle, Curve, Line
 from .errors import ConfigError, shown
 from .motions import motion_from_spec
-from .paths import PATH_KINDS, path_from_spec
+from .paths import Path
 
 #: Curve kind -> its class of :mod:`.curves` and that class's keys.
 CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "radius", "reference")),
           "arc": (Arc, ("point", "angle", "radius"))}
+
+#: Curve kinds built by :func:`path_from_spec` (composite paths of :mod:`.paths`) and their keys.
+PATH_KINDS = {"path": ("start", "heading", "segments", "offset", "rotation"),
+              "waypoints": ("points", "radius", "offset", "rotation")}
+
+
+def path_from_spec(spec: dict, field: str = "curve") -> Path:
+    """A :class:`Path` from a ``kind = "path"`` or ``kind = "waypoints"`` table (see :func:`curve_from_spec`).
+
+    Parameters
+    ----------
+    spec : dict
+        ``kind`` (a key of :data:`PATH_KINDS`) and that kind's keys: ``start`` [m], ``heading``
+        [rad] and ``segments``, or ``points`` [m] and the fillet ``radius`` [m]; optional
+        ``offset`` (a pair of motions [m]) and ``rotation`` (a motion [rad]).
+    field : str
+        Name of the table in error messages.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ConfigError
+        An unknown or missing key, or a bad value (named with ``field``).
+    """
+    kind = spec["kind"]
+    keys = PATH_KINDS[kind]
+    unknown = set(spec) - set(keys) - {"kind"}
+    if unknown:
+        raise ConfigError(f"{field}: unknown key(s) {sorted(unknown)} for kind {kind!r}; allowed: {list(keys)}")
+    required = keys[:3] if kind == "path" else keys[:2]
+    for k in required:
+        if k not in spec:
+            raise ConfigError(f"{field}.{k}: missing (kind {kind!r} needs {list(required)})")
+    motion = {}
+    if "offset" in spec:
+        v = spec["offset"]
+        if not isinstance(v, list) or len(v) != 2:
+            raise ConfigError(f"{field}.offset: expected a pair [x, y] of motions, got {v!r}")
+        motion["offset"] = tuple(motion_from_spec(c, f"{field}.offset[{i}]") for i, c in enumerate(v))
+    if "rotation" in spec:
+        motion["rotation"] = motion_from_spec(spec["rotation"], f"{field}.rotation")
+    try:
+        if kind == "waypoints":
+            return Path.from_waypoints(spec["points"], spec["radius"], **motion)
+        return Path(spec["start"], spec["heading"], spec["segments"], **motion)
+    except ConfigError as exc:
+        msg = str(exc)
+        raise ConfigError(msg.replace("curve.", f"{field}.", 1) if field != "curve" else msg) from None
 
 
 def curve_from_spec(spec: Any, field: str = "curve") -> Curve:

@@ -32,7 +32,7 @@ import numpy as np
 
 from .curves import Curve
 from .errors import ConfigError
-from .motions import motion_from_spec, motion_to_spec
+from .motions import motion_to_spec
 from .params import as_param, as_point, evaluate
 
 #: Length of a piece's constants with the derived ones (:func:`piece_parameters`), as the
@@ -603,36 +603,3 @@ def waypoint_segments(points: Sequence[Sequence[float]], radius: float
     if not segments:
         raise ConfigError("curve.points: the filleted path has no length")
     return segments, (float(P[0, 0]), float(P[0, 1])), float(head[0])
-
-
-#: Curve kinds built by :func:`path_from_spec` and their keys (read by :mod:`.curve_specs`).
-PATH_KINDS = {"path": ("start", "heading", "segments", "offset", "rotation"),
-              "waypoints": ("points", "radius", "offset", "rotation")}
-
-
-def path_from_spec(spec: dict, field: str = "curve") -> Path:
-    """A :class:`Path` from a ``kind = "path"`` or ``kind = "waypoints"`` table (see :func:`curve_from_spec`)."""
-    kind = spec["kind"]
-    keys = PATH_KINDS[kind]
-    unknown = set(spec) - set(keys) - {"kind"}
-    if unknown:
-        raise ConfigError(f"{field}: unknown key(s) {sorted(unknown)} for kind {kind!r}; allowed: {list(keys)}")
-    required = keys[:3] if kind == "path" else keys[:2]
-    for k in required:
-        if k not in spec:
-            raise ConfigError(f"{field}.{k}: missing (kind {kind!r} needs {list(required)})")
-    motion = {}
-    if "offset" in spec:
-        v = spec["offset"]
-        if not isinstance(v, list) or len(v) != 2:
-            raise ConfigError(f"{field}.offset: expected a pair [x, y] of motions, got {v!r}")
-        motion["offset"] = tuple(motion_from_spec(c, f"{field}.offset[{i}]") for i, c in enumerate(v))
-    if "rotation" in spec:
-        motion["rotation"] = motion_from_spec(spec["rotation"], f"{field}.rotation")
-    try:
-        if kind == "waypoints":
-            return Path.from_waypoints(spec["points"], spec["radius"], **motion)
-        return Path(spec["start"], spec["heading"], spec["segments"], **motion)
-    except ConfigError as exc:
-        msg = str(exc)
-        raise ConfigError(msg.replace("curve.", f"{field}.", 1) if field != "curve" else msg) from None
