@@ -28,7 +28,8 @@ import numpy as np
 from coordarm.generated.build import build
 from coordarm.generated.codegen import CODEGEN_OPTIONS, Source
 from coordarm.simulation.choices import COMPARE_BACKENDS
-from coordarm.simulation.run import ARRAYS, OPTIONAL, Run
+from coordarm.simulation.log_layout import ARRAYS, OPTIONAL
+from coordarm.simulation.run import Run
 from coordarm.symbolic import ConfigError, CoordinatingController, PlanarChain
 from coordarm.symbolic.near_singular import damping_factor
 

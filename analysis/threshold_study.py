@@ -16,7 +16,8 @@ import numpy as np
 from coordarm.simulation.choices import Outcome
 from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
-from .report import analyse_run, simulate_through
+from .report import simulate_through
+from .run_analysis import analyse_run
 
 if TYPE_CHECKING:
     import pandas as pd

@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import errno
 import fcntl
-import hashlib
-import json
 import os
 import queue
 import struct
@@ -34,6 +32,7 @@ from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, M
 from mcap.writer import LIBRARY_IDENTIFIER, MCAP0_MAGIC
 
 from .choices import COMPRESSIONS, Compression, lz4_frame
+from .log_layout import DIGEST_KEY, metadata_digest
 
 
 #: Bytes of a Message record before its data: opcode, length, channel id, sequence, log and publish time.
@@ -70,27 +69,6 @@ def message_records(channel_id: int, log_times: np.ndarray, data: list[bytes], s
                            (sequence0 + i) & 0xFFFFFFFF, int(lt), int(lt))
         out += d
     return bytes(out)
-
-
-#: Key of the checksum in every Metadata record written here.
-DIGEST_KEY = "sha256"
-
-
-def metadata_digest(data: dict[str, str]) -> str:
-    """SHA-256 of a metadata record's entries (all but :data:`DIGEST_KEY`), as canonical JSON.
-
-    Parameters
-    ----------
-    data : dict of str to str
-        The record's entries.
-
-    Returns
-    -------
-    str
-        The digest as 64 hex digits.
-    """
-    body = {k: v for k, v in data.items() if k != DIGEST_KEY}
-    return hashlib.sha256(json.dumps(body, sort_keys=True, ensure_ascii=True).encode()).hexdigest()
 
 
 def open_locked(path: Path) -> BinaryIO:

@@ -46,6 +46,7 @@ from coordarm.symbolic.task import BUILT_IN_CURVES
 from coordarm.symbolic.interrupts import interruption
 
 from .choices import Backend, Compression, Outcome
+from .log_layout import partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
@@ -55,12 +56,6 @@ from .scene import SceneBuilder
 
 #: Wall time between pushes of the log to the operating system [s] (a kill loses at most ~2x this).
 FLUSH_INTERVAL = 0.5
-
-
-def partial_path(path: str | Path) -> Path:
-    """Where the log of ``path`` is written until it is closed: ``<stem>.partial<suffix>`` beside it."""
-    path = Path(path)
-    return path.with_name(f"{path.stem}.partial{path.suffix}")
 
 
 #: Default uncompressed chunk size [bytes]: zstd level 1 compresses a 64-link run's 1 MiB chunks about

@@ -29,12 +29,13 @@ import numpy as np
 
 from .checks import is_real
 from .chain import PlanarChain
-from .curves import Curve, _param
+from .curves import Curve
 from .dense import decoupling_matrix_expr
 from .errors import ConfigError
 from .law import law_function
 from .laws import LAWS, Law
 from .numeric import NumericAPI
+from .params import as_param
 from .outputs import OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS
 from .recursion import StructuredRecursion
 from .task import BUILT_IN_CURVES, Task, check_user_curve
@@ -112,12 +113,12 @@ def check_controller(chain: Any, curve: Any, gain: Any, speed: Any, law: Any, sp
     if governor and (not is_real(governor_threshold) or not 0 < governor_threshold < 1):
         raise ConfigError(f"governor_threshold: need a number in (0, 1), got {governor_threshold!r}")
     checked = {"gain": float(gain), "governor_threshold": float(governor_threshold),
-               "damping": check_damping(damping), "speed": _param(speed, "speed")}
+               "damping": check_damping(damping), "speed": as_param(speed, "speed")}
     if type(curve) not in BUILT_IN_CURVES:
         check_user_curve(curve)
     if span is not None and not chain.rail:
         raise ConfigError("span: only a chain on a rail (base = 'rail') has a span output")
-    checked["span"] = None if span is None else _param(span, "span")
+    checked["span"] = None if span is None else as_param(span, "span")
     return checked
 
 

@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 
 from .chain import PlanarChain, normal
-from .curves import evaluate as evaluate_param
+from .params import evaluate as evaluate_param
 from .errors import ConfigError
 from .outputs import SCALAR_OUTPUTS
 from .task import Task

@@ -375,3 +375,22 @@ def test_run_without_a_compiler_warns_in_one_line_and_runs_interpreted(tmp_path)
     assert res.returncode == 0, res.stderr
     assert "coordarm run: warning: compiled backend unavailable" in res.stderr and "Traceback" not in res.stderr
     assert "backend interpreted" in res.stdout and not (tmp_path / "build").exists()
+
+
+@pytest.mark.parametrize("xdg", [None, "", "   ", "relative/cache", "/abs/cache"])
+def test_the_cache_directory_is_the_build_dir_the_variable_or_the_users_linux_cache(xdg, tmp_path, monkeypatch):
+    """XDG base directories: an absolute ``$XDG_CACHE_HOME``, else ``~/.cache`` (relative values are ignored)."""
+    from coordarm.generated.build import build_root
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the XDG layout is Linux's")
+    monkeypatch.delenv("COORDARM_BUILD_DIR", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    if xdg is None:
+        monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    else:
+        monkeypatch.setenv("XDG_CACHE_HOME", xdg)
+    expected = Path(xdg) if xdg and xdg.startswith("/") else tmp_path / "home" / ".cache"
+    assert build_root() == expected / "coordarm"
+    assert build_root(tmp_path / "given") == tmp_path / "given"
+    monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path / "env"))
+    assert build_root() == tmp_path / "env" and build_root(tmp_path / "given") == tmp_path / "given"

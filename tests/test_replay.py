@@ -14,7 +14,7 @@ from coordarm.analysis.replay import load
 from coordarm.cli import main
 from coordarm.simulation.run import simulate
 from coordarm.simulation import mcap_writer
-from coordarm.simulation.mcap_writer import partial_path
+from coordarm.simulation.log_layout import partial_path
 from coordarm.symbolic import LogError
 
 SWING = """name = "swing"
