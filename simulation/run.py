@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import math
-import sys
 import time as _time
 import warnings
+import weakref
 from dataclasses import dataclass, field, fields
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
@@ -20,6 +20,11 @@ from coordarm.symbolic.outputs import RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS,
 
 from .choices import BACKENDS
 from .limits import KEEP_ROWS, check_gain_step
+
+if TYPE_CHECKING:
+    import casadi
+
+    from .progress import Progress
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
@@ -107,6 +112,65 @@ class Run(ExtraOutputs):
         return cls(**{a: arrays[a] for a in keys if a in named}, info=dict(info or {}),
                    extra={a: arrays[a] for a in keys if a not in named})
 
+    @classmethod
+    def from_states(cls, t: np.ndarray, q: np.ndarray, u: np.ndarray, v_star: np.ndarray, links: int,
+                    info: dict | None = None) -> "Run":
+        """A Run of a method other than the coordinating law (a baseline): states and inputs only.
+
+        The law's diagnostics are not computed for such a run: ``e``, ``s``, ``link_margins`` and
+        ``longitudinal`` are NaN (score it from ``q``, see :mod:`coordarm.analysis.compare`), it has
+        no rail outputs and ``v_scale`` is all ones (not governed).
+
+        Parameters
+        ----------
+        t : (N,) ndarray
+            Time [s].
+        q : (N, dof) ndarray
+            Joint coordinates [rad; on a rail the position ``d`` [m] first].
+        u : (N, dof) ndarray
+            Control at each sample [rad/s; on a rail ``d_dot`` [m/s] first].
+        v_star : (N,) ndarray
+            Commanded speed [m/s].
+        links : int
+            Number of links ``m`` (the diagnostics per link have m-1 columns).
+        info : dict, optional
+            Backend, stop reason, wall time, steps (see :attr:`info`).
+
+        Returns
+        -------
+        Run
+        """
+        n = len(t)
+        return cls(t=t, q=q, u=u, e=np.full((n, links - 1), np.nan), s=np.full(n, np.nan),
+                   link_margins=np.full((n, links - 1), np.nan), longitudinal=np.full(n, np.nan),
+                   v_star=v_star, info=dict(info or {}))
+
+    def rows(self, index: slice | np.ndarray, info: dict | None = None) -> "Run":
+        """The run at the rows ``index`` of every per-sample array (:data:`ARRAYS`, rail outputs if any).
+
+        Parameters
+        ----------
+        index : slice or integer ndarray
+            Rows to keep.
+        info : dict, optional
+            Info of the result (default: this run's).
+
+        Returns
+        -------
+        Run
+        """
+        return Run.from_arrays({a: getattr(self, a)[index] for a in self.array_names()},
+                               self.info if info is None else info)
+
+    def array_names(self) -> tuple[str, ...]:
+        """Names of this run's per-sample arrays: :data:`ARRAYS` and the rail outputs it has.
+
+        Returns
+        -------
+        tuple of str
+        """
+        return ARRAYS + tuple(a for a in OPTIONAL if getattr(self, a, None) is not None)
+
     def __post_init__(self) -> None:
         # A run made without the governor's output (e.g. by a baseline) was not governed.
         if "v_scale" not in self.extra:
@@ -177,35 +241,6 @@ def check_number(value: Any, name: str, positive: bool = True) -> float:
     return float(value)
 
 
-class Progress:
-    """A one-line progress bar on stderr (redrawn in place on a terminal, every 10% otherwise)."""
-
-    def __init__(self, total: float, label: str = "run", stream=None, unit: str = "t = {done:.2f}/{total:.2f} s") -> None:
-        self.total, self.label, self.stream, self.unit = total, label, stream or sys.stderr, unit
-        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
-        self.start, self.last = _time.perf_counter(), -1
-
-    def update(self, done: float) -> None:
-        frac = min(max(done / self.total, 0.0), 1.0)
-        decile = int(frac * 10)
-        if not self.tty and decile == self.last:
-            return
-        self.last = decile
-        bar = "#" * int(frac * 30)
-        msg = f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  {self.status(done, _time.perf_counter() - self.start)}"
-        self.stream.write(("\r" + msg) if self.tty else msg + "\n")
-        self.stream.flush()
-
-    def status(self, done: float, elapsed: float) -> str:
-        """The text after the bar: the progress in ``unit`` (simulated time by default) and wall time spent."""
-        return f"{self.unit.format(done=done, total=self.total)}  {elapsed:.1f} s wall"
-
-    def close(self) -> None:
-        if self.tty:
-            self.stream.write("\n")
-            self.stream.flush()
-
-
 def check_curve_reaches_base(ctrl: CoordinatingController, t0: float, t1: float, samples: int = 201) -> None:
     """Raise a ConfigError if the curve passes farther than one link length from the base."""
     for t in np.linspace(t0, t1, samples):
@@ -246,12 +281,36 @@ def even_indices(n: int, k: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, k).round().astype(int))
 
 
-def chunk_function(ctrl: CoordinatingController, step: float, n: int):
+#: The interpreted chunk Functions built for each controller, by ``(law form, step, steps)``;
+#: an entry goes with its controller.
+_CHUNKS: weakref.WeakKeyDictionary[CoordinatingController, dict[tuple, Any]] = weakref.WeakKeyDictionary()
+
+
+def chunk_function(ctrl: CoordinatingController, step: float, n: int) -> casadi.Function:
     """Interpreted closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, *RUN_OUTPUTS)``.
 
     Column k of ``Q`` is the state after step k; the diagnostics are at each step's start.
+    Built once per controller, law form, step and ``n`` (kept while ``ctrl`` lives).
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop (its :meth:`~CoordinatingController.rk4_step`, expanded to SX).
+    step : float
+        RK4 step [s].
+    n : int
+        Steps per call.
+
+    Returns
+    -------
+    casadi.Function
+        ``(q0 (dof,), t (1, n)) -> (Q (dof, n), *RUN_OUTPUTS (one column per step))``.
     """
-    return ctrl.memo(("chunk", float(step), n), lambda: ctrl.rk4_step(step).expand().mapaccum("chunk", n))
+    made = _CHUNKS.setdefault(ctrl, {})
+    key = (ctrl.law_form, float(step), n)
+    if key not in made:
+        made[key] = ctrl.rk4_step(step).expand().mapaccum("chunk", n)
+    return made[key]
 
 
 def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
@@ -284,6 +343,48 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
     check_interrupt()  # a Ctrl-C swallowed by a CasADi call while generating the code
     return "compiled", compiled, {"backend": "compiled", "cache_hit": compiled.cache_hit,
                                   "library": str(compiled.library.path)}
+
+
+@dataclass(frozen=True)
+class Stepping:
+    """The checked settings of one run's chunk loop (made by :func:`simulate`).
+
+    Attributes
+    ----------
+    ctrl : CoordinatingController
+        The closed loop.
+    compiled : CompiledController or None
+        The generated library that steps it, None for CasADi's interpreter.
+    t0, step : float
+        Start time and RK4 step [s].
+    n_steps, chunk : int
+        Steps of the run; steps per call of the chunk Function.
+    thresholds : dict
+        ``{"link": .., "longitudinal": ..}`` margins below which the run stops [-].
+    tube : float
+        Tube radius of the path [m] (inf without one).
+    every : int
+        Keep every this many rows in memory (plus each chunk's extremes and last row).
+    physical : Physical or None
+        Joint limits, self-collision and obstacles to check.
+    check_every : int
+        Physical check stride [steps].
+    allow_contact : bool
+        Keep going after a contact.
+    """
+
+    ctrl: CoordinatingController
+    compiled: Any
+    t0: float
+    step: float
+    n_steps: int
+    chunk: int
+    thresholds: dict[str, float]
+    tube: float
+    every: int
+    physical: Any = None
+    check_every: int = 1
+    allow_contact: bool = False
 
 
 def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.001,
@@ -352,16 +453,145 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         A contact (joint limit, self-collision, obstacle) and not ``allow_contact``;
         ``err.contact`` is the first, ``err.run`` holds the run up to there.
     """
+    duration, step, t0, thr = check_settings(ctrl, duration, step, t0, chunk, backend, thresholds)
+    q0, tube = check_start(ctrl, q0, t0, duration, thr, check_every, physical)
+    backend, compiled, info = select_backend(ctrl, backend)
+    check_interrupt()
+    n_steps = int(round(duration / step))
+    every = kept_every(keep, on_chunk is not None, n_steps)
+    loop = Stepping(ctrl, compiled, t0, step, n_steps, chunk, thr, tube, every, physical, check_every, allow_contact)
+    bar = progress_bar(duration, n_steps, progress)
+    try:
+        return integrate(loop, q0, dict(info, kept_every=every), on_chunk, bar)
+    finally:
+        if bar:
+            bar.close()
+
+
+def kept_every(keep: int | None, logged: bool, n_steps: int) -> int:
+    """Keep every this many steps of a run in memory, to keep about ``keep`` rows.
+
+    ``keep`` defaults to :data:`KEEP_ROWS` when the run is logged, else to every row.
+
+    Parameters
+    ----------
+    keep : int or None
+        Asked for by the caller.
+    logged : bool
+        The run streams every row to a log (``on_chunk`` given).
+    n_steps : int
+        Steps of the run.
+
+    Returns
+    -------
+    int
+        The stride, >= 1.
+    """
+    if keep is None:
+        keep = KEEP_ROWS if logged else n_steps + 1
+    return max(1, -(-n_steps // max(1, int(keep))))
+
+
+def progress_bar(duration: float, n_steps: int, shown: bool | None) -> Progress | None:
+    """The run's progress bar on stderr if ``shown`` (by default for runs over 20,000 steps), else None.
+
+    Parameters
+    ----------
+    duration : float
+        Simulated time of the run [s] (the bar's total).
+    n_steps : int
+        Steps of the run.
+    shown : bool or None
+        Whether to show one (None: decide from ``n_steps``).
+
+    Returns
+    -------
+    Progress or None
+    """
+    if not (shown if shown is not None else n_steps > 20000):
+        return None
+    from .progress import Progress      # here: the progress library loads only when a bar is shown
+    return Progress(duration)
+
+
+def check_settings(ctrl: CoordinatingController, duration: Any, step: Any, t0: Any, chunk: Any, backend: Any,
+                   thresholds: dict[str, float] | None) -> tuple[float, float, float, dict[str, float]]:
+    """Check :func:`simulate`'s time span, chunk and backend (before anything is evaluated).
+
+    Warns (:func:`~simulation.limits.check_gain_step`) when the gain is beyond the sampled-data
+    limit of the step.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop (its gain).
+    duration, step, t0 : float
+        Simulated time, RK4 step and start time [s].
+    chunk : int
+        Steps per call of the chunk Function.
+    backend : str
+        One of :data:`~simulation.choices.BACKENDS`.
+    thresholds : dict or None
+        Margin thresholds that replace some of :data:`DEFAULT_THRESHOLDS`.
+
+    Returns
+    -------
+    duration, step, t0 : float
+        As floats [s].
+    thresholds : dict
+        ``{"link": .., "longitudinal": ..}`` [-].
+
+    Raises
+    ------
+    ConfigError
+        Not a finite number (``duration``, ``step`` not > 0), a step longer than the run, a chunk
+        that is not a positive integer, or an unknown backend.
+    """
     duration, step = check_number(duration, "duration"), check_number(step, "step")
     t0 = check_number(t0, "t0", positive=False)
     if step > duration:
         raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
     if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
         raise ConfigError(f"chunk: need a positive integer, got {shown(chunk)}")
-    if backend not in BACKENDS:   # select_backend checks too, but only after the start checks below
+    if backend not in BACKENDS:   # select_backend checks too, but only after the start checks
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
     thr = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
     check_gain_step(ctrl.gain, step, refuse=False)
+    return duration, step, t0, thr
+
+
+def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: float, thr: dict[str, float],
+                check_every: Any, physical: Any) -> tuple[np.ndarray, float]:
+    """Check the start of a run: ``q0``, the curve's reach, the margins, the contacts and the tube at ``t0``.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop.
+    q0 : (dof,) array_like
+        Start configuration [rad].
+    t0, duration : float
+        Start time and simulated time [s].
+    thr : dict
+        ``{"link": .., "longitudinal": ..}`` margin thresholds [-].
+    check_every : int
+        Physical check stride [steps] (checked here, where its error has always been reported).
+    physical : Physical or None
+        Joint limits, self-collision and obstacles.
+
+    Returns
+    -------
+    q0 : (dof,) ndarray
+        The start configuration [rad].
+    tube : float
+        Tube radius of the path [m] (inf without one).
+
+    Raises
+    ------
+    ConfigError
+        A bad or (near) singular start, a curve out of the base's reach, a bad ``check_every``, a
+        start in contact or outside the path's tube.
+    """
     q0 = ctrl.chain.check_q(q0, "q0")
     if not ctrl.chain.rail:          # a rail carries the base along; its own margin guards it
         check_curve_reaches_base(ctrl, t0, t0 + duration)
@@ -378,70 +608,133 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         invalid = physical.check(np.array([t0]), q0[None])
         if invalid:
             raise ConfigError(f"q0: start configuration is not physically valid: {invalid[0].describe()}")
-
     tube = float(getattr(ctrl.curve, "tube_radius", math.inf))
     start_out = tube_exit(start["e"][None], tube)
     if start_out is not None:
         raise ConfigError(f"q0: the central point of link {start_out[1]} is {start_out[2]:.4g} m from the path, "
                           f"not inside its tube (|phi| < {tube:.4g} m, the smallest radius)")
-    backend, compiled, info = select_backend(ctrl, backend)
-    check_interrupt()
-    n_steps = int(round(duration / step))
-    if keep is None:
-        keep = KEEP_ROWS if on_chunk is not None else n_steps + 1
-    every = max(1, -(-n_steps // max(1, int(keep))))
-    info = dict(info, kept_every=every)
-    bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
+    return q0, tube
+
+
+def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Run], None] | None,
+              bar: Progress | None) -> Run:
+    """Run the chunk loop of :func:`simulate` from ``q0`` at ``loop.t0`` (see there).
+
+    Parameters
+    ----------
+    loop : Stepping
+        The checked settings.
+    q0 : (dof,) ndarray
+        Start configuration [rad].
+    info : dict
+        Backend information (:func:`select_backend`) and ``kept_every``.
+    on_chunk : callable or None
+        Called with each completed chunk.
+    bar : Progress or None
+        Progress bar to update after each chunk.
+
+    Returns
+    -------
+    Run
+        The completed run (rows thinned to ``loop.every``).
+
+    Raises
+    ------
+    SingularityError, TubeError, CollisionError
+        The run stopped; ``err.run`` holds it up to there.
+    """
     parts: list[Run] = []
     contacts: list = []
     q, k, wall = q0, 0, _time.perf_counter()
     prev: tuple[float, float] | None = None
-    try:
-        while k <= n_steps:
-            if k < n_steps:
-                n = min(chunk, n_steps - k)
-                times = t0 + step * np.arange(k, k + n)
-                Q, outs = _advance(ctrl, compiled, q, times, step)
-                part = Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times)))
-            else:          # the final state
-                t_end = t0 + step * n_steps
-                final = (compiled or ctrl).evaluate(q, t_end)
-                part = Run.from_arrays({a: np.asarray(v)[None] for a, v in
-                                        dict(final, t=t_end, q=q, v_star=ctrl.speed_at(t_end)).items()
-                                        if a in ARRAYS + OPTIONAL})
-            part.s = unwrap_s(ctrl.curve, part.t, part.s, prev)
-            prev = (float(part.t[-1]), float(part.s[-1]))
-            stop = _first_stop(part, k, n_steps, thr, physical, check_every, allow_contact, contacts, tube)
-            if stop is not None:
-                row, error = stop
-                part = _rows(part, slice(0, row + 1))
-                parts.append(_thin(part, k, every))
-                if on_chunk:
-                    on_chunk(part)
-                if isinstance(error, SingularityError) and error.kind == "longitudinal" and not ctrl.governor:
-                    error = SingularityError(error.time, error.link, error.margin, error.kind, error.threshold,
-                                             hint="the speed governor ([control] governor = true, --governor) "
-                                                  "slows v* instead of stopping")
-                error.run = _concat(parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
-                                                steps=k + row, wall_time=_time.perf_counter() - wall))
-                error.run.info["governed"] = error.run.governed_time()
-                raise error
-            parts.append(_thin(part, k, every))
+    while k <= loop.n_steps:
+        part, Q, n = next_part(loop, q, k)
+        part.s = unwrap_s(loop.ctrl.curve, part.t, part.s, prev)
+        prev = (float(part.t[-1]), float(part.s[-1]))
+        stop = _first_stop(part, k, loop, contacts)
+        if stop is not None:
+            row, error = stop
+            part = part.rows(slice(0, row + 1))
+            parts.append(_thin(part, k, loop.every))
             if on_chunk:
                 on_chunk(part)
-            check_interrupt()
-            if k == n_steps:
-                break
-            q, k = Q[-1], k + n
-            if bar:
-                bar.update(step * k)
-    finally:
+            raise stopped(loop.ctrl, error, parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
+                                                        steps=k + row, wall_time=_time.perf_counter() - wall))
+        parts.append(_thin(part, k, loop.every))
+        if on_chunk:
+            on_chunk(part)
+        check_interrupt()
+        if k == loop.n_steps:
+            break
+        q, k = Q[-1], k + n
         if bar:
-            bar.close()
+            bar.update(loop.step * k)
     info = dict(info, contacts=_records(contacts))
-    run = _concat(parts, dict(info, stopped="completed", steps=n_steps, wall_time=_time.perf_counter() - wall))
+    run = _concat(parts, dict(info, stopped="completed", steps=loop.n_steps, wall_time=_time.perf_counter() - wall))
     run.info["governed"] = run.governed_time()
     return run
+
+
+def next_part(loop: Stepping, q: np.ndarray, k: int) -> tuple[Run, np.ndarray | None, int]:
+    """The rows of the chunk that starts at step ``k`` in state ``q``, or the final state's row.
+
+    Parameters
+    ----------
+    loop : Stepping
+        The checked settings.
+    q : (dof,) ndarray
+        State at step ``k`` [rad].
+    k : int
+        Global step index (``loop.n_steps``: the final state).
+
+    Returns
+    -------
+    part : Run
+        One row per step of the chunk (the law at each step's start), or the final state's one row.
+    Q : (n, dof) ndarray or None
+        States after each step (None for the final state).
+    n : int
+        Steps in the chunk (0 for the final state).
+    """
+    ctrl = loop.ctrl
+    if k < loop.n_steps:
+        n = min(loop.chunk, loop.n_steps - k)
+        times = loop.t0 + loop.step * np.arange(k, k + n)
+        Q, outs = _advance(ctrl, loop.compiled, q, times, loop.step)
+        return Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times))), Q, n
+    t_end = loop.t0 + loop.step * loop.n_steps
+    final = (loop.compiled or ctrl).evaluate(q, t_end)
+    return Run.from_arrays({a: np.asarray(v)[None] for a, v in
+                            dict(final, t=t_end, q=q, v_star=ctrl.speed_at(t_end)).items()
+                            if a in ARRAYS + OPTIONAL}), None, 0
+
+
+def stopped(ctrl: CoordinatingController, error: CoordarmError, parts: list[Run], info: dict) -> CoordarmError:
+    """``error``, holding the run up to the stop (with a hint for a longitudinal stop without the governor).
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop (its ``governor`` decides the hint).
+    error : SingularityError, TubeError or CollisionError
+        Why the run stopped.
+    parts : list of Run
+        The chunks run, the last one cut at the stop.
+    info : dict
+        Info of the run up to the stop.
+
+    Returns
+    -------
+    CoordarmError
+        The error to raise, ``.run`` the run up to the stop.
+    """
+    if isinstance(error, SingularityError) and error.kind == "longitudinal" and not ctrl.governor:
+        error = SingularityError(error.time, error.link, error.margin, error.kind, error.threshold,
+                                 hint="the speed governor ([control] governor = true, --governor) "
+                                      "slows v* instead of stopping")
+    error.run = _concat(parts, info)
+    error.run.info["governed"] = error.run.governed_time()
+    return error
 
 
 _STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision"}
@@ -451,13 +744,13 @@ def _records(contacts: list) -> list[dict]:
     return [c.to_dict() for c in contacts]
 
 
-def _first_stop(part: Run, k: int, n_steps: int, thr: dict, physical: Any, check_every: int,
-                allow_contact: bool, contacts: list, tube: float = math.inf) -> tuple[int, CoordarmError] | None:
+def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int, CoordarmError] | None:
     """The first row of ``part`` (global step ``k`` at row 0) where the run must stop, and why.
 
     A contact at or before the first singular row wins. With ``allow_contact`` the first
     contact of every (kind, links, obstacle) is appended to ``contacts`` instead.
     """
+    thr, tube, physical = loop.thresholds, loop.tube, loop.physical
     stop = None
     bad = first_violation(part.link_margins, part.longitudinal, thr)
     if bad is not None:
@@ -474,12 +767,12 @@ def _first_stop(part: Run, k: int, n_steps: int, thr: dict, physical: Any, check
         stop = row, TubeError(part.t[row], link, dist, "tube", tube)
     if physical is not None:
         n = len(part.t)
-        rows = np.flatnonzero(((k + np.arange(n)) % check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
+        rows = np.flatnonzero(((k + np.arange(n)) % loop.check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
         if stop is not None:
             rows = np.union1d(rows[rows < stop[0]], [stop[0]])
         if len(rows):
             found = physical.check(part.t[rows], part.q[rows])
-            if found and not allow_contact:
+            if found and not loop.allow_contact:
                 i = int(np.searchsorted(part.t[rows], found[0].time))
                 row = int(rows[i])
                 if i > 0 and rows[i - 1] + 1 < row:     # locate the first contact to the step
@@ -514,14 +807,6 @@ ARRAYS = ("t", "q", *RUN_OUTPUTS, "v_star")
 OPTIONAL = RAIL_OUTPUTS
 
 
-def _arrays(run: Run) -> tuple[str, ...]:
-    return ARRAYS + tuple(a for a in OPTIONAL if getattr(run, a, None) is not None)
-
-
-def _rows(run: Run, rows: slice) -> Run:
-    return Run.from_arrays({a: getattr(run, a)[rows] for a in _arrays(run)}, run.info)
-
-
 def _thin(part: Run, k0: int, every: int) -> Run:
     """Rows of ``part`` (steps ``k0, k0+1, ...``) kept in memory: every ``every``-th, the extremes, the last."""
     n = len(part.t)
@@ -530,8 +815,9 @@ def _thin(part: Run, k0: int, every: int) -> Run:
     rows = np.concatenate([np.flatnonzero((k0 + np.arange(n)) % every == 0),
                            [np.argmin(np.min(part.link_margins, axis=1)), np.argmin(part.longitudinal),
                             np.argmax(np.max(np.abs(part.u), axis=1)), n - 1]])
-    return Run.from_arrays({a: getattr(part, a)[np.unique(rows)] for a in _arrays(part)}, part.info)
+    return part.rows(np.unique(rows))
 
 
 def _concat(parts: list[Run], info: dict) -> Run:
-    return Run.from_arrays({a: np.concatenate([getattr(p, a) for p in parts]) for a in _arrays(parts[0])}, info)
+    return Run.from_arrays({a: np.concatenate([getattr(p, a) for p in parts]) for a in parts[0].array_names()},
+                          info)

@@ -8,7 +8,8 @@ from scipy.integrate import quad
 
 from coordarm.simulation import ConfigError, SingularityError, simulate
 from coordarm.simulation.obstacles import link_distances
-from coordarm.simulation.run import DEFAULT_THRESHOLDS, Progress
+from coordarm.simulation.progress import Progress
+from coordarm.simulation.run import DEFAULT_THRESHOLDS
 from coordarm.simulation.scenario import load_scenario
 from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
