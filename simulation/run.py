@@ -24,6 +24,8 @@ from .limits import KEEP_ROWS, check_gain_step
 if TYPE_CHECKING:
     import casadi
 
+    from coordarm.generated.compiled import CompiledController
+
     from .progress import Progress
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
@@ -374,7 +376,7 @@ class Stepping:
     """
 
     ctrl: CoordinatingController
-    compiled: Any
+    compiled: CompiledController | None
     t0: float
     step: float
     n_steps: int
