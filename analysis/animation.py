@@ -13,7 +13,7 @@ from PIL import Image
 
 from coordarm.simulation.figures import draw_obstacles
 from coordarm.simulation.obstacles import outline
-from coordarm.simulation.run import Progress
+from coordarm.simulation.progress import Progress
 from coordarm.symbolic import CoordinatingController
 
 from .replay import Replay

@@ -229,7 +229,6 @@ def simulate_ftl(law: FollowTheLeader, duration: float, step: float, backend: st
     Q, T = Q[:end], T[:end]
     U = np.diff(Q, axis=0) / step
     U = np.vstack([U, U[-1:]]) if len(U) else np.zeros_like(Q)
-    m, nan = chain.m, np.full(end, np.nan)
-    run = Run(T, Q, U, np.full((end, m - 1), np.nan), nan, np.full((end, m - 1), np.nan), nan.copy(), v[:end],
-              info={"backend": backend, "stopped": stopped, "wall_time": wall, "steps": max(n - 1, 1)})
+    run = Run.from_states(T, Q, U, v[:end], chain.m,
+                          info={"backend": backend, "stopped": stopped, "wall_time": wall, "steps": max(n - 1, 1)})
     return stop_at_rail_limit(run, chain)

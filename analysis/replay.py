@@ -36,7 +36,7 @@ from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 from coordarm.simulation.choices import Compression, lz4_frame
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
 from coordarm.simulation.log_layout import ARRAYS, DIGEST_KEY, OPTIONAL, metadata_digest, partial_path
-from coordarm.simulation.run import ExtraOutputs, Run
+from coordarm.simulation.result import ExtraOutputs, Run
 from coordarm.simulation.scenario import USER_DEFINED, Scenario
 from coordarm.symbolic import ConfigError, CoordinatingController, LogError
 

@@ -46,6 +46,7 @@ from coordarm.simulation.run import DEFAULT_CHUNK, chunk_function, simulate  # n
 from coordarm.simulation.scenario import load_scenario  # noqa: E402
 from coordarm.symbolic import BuildError, CoordinatingController, Line, PlanarChain  # noqa: E402
 from coordarm.generated import compile as compile_controller  # noqa: E402
+from coordarm.symbolic.integrator import rk4  # noqa: E402
 
 SIZES = (8, 64, 256, 1024)
 DENSE_LIMIT_SECONDS = 60.0
@@ -98,11 +99,7 @@ def numpy_law(q: np.ndarray, t: float) -> np.ndarray:
 
 def numpy_rk4(q: np.ndarray, t: float, h: float) -> np.ndarray:
     """One RK4 step of the numpy law."""
-    k1 = numpy_law(q, t)
-    k2 = numpy_law(q + h / 2 * k1, t + h / 2)
-    k3 = numpy_law(q + h / 2 * k2, t + h / 2)
-    k4 = numpy_law(q + h * k3, t + h)
-    return q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return rk4(numpy_law, q, t, h)
 
 
 def cold_build(ctrl: CoordinatingController, form: str, timeout: float | None = None) -> float:

@@ -27,7 +27,7 @@ import numpy as np
 
 from coordarm.symbolic import ConfigError
 
-from .run import Progress
+from .progress import Progress
 from .scenario import Scenario, load_scenario
 from .sweep_points import (RESULT_COLUMNS, check_names, grid_points, integer_fields, latin_hypercube_points,
                            run_batch)

@@ -274,6 +274,8 @@ class CoordinatingController(NumericAPI):
         casadi.Function
             ``(q, t) -> (q_next, *RUN_OUTPUTS)`` (cached per form and ``h``).
         """
+        from .integrator import rk4
+
         form = form or self.law_form
         key = ("rk4", form, float(h))
         if key not in self._cache:
@@ -284,12 +286,8 @@ class CoordinatingController(NumericAPI):
             apply_B = ((lambda u: ca.DM(bd) * u) if bd is not None
                        else (lambda u: ca.mtimes(ca.DM(self.B_joints), u)))
             q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")
-            out1 = law(q, t)
-            k1 = apply_B(out1[0])
-            k2 = apply_B(law(q + h / 2 * k1, t + h / 2)[0])
-            k3 = apply_B(law(q + h / 2 * k2, t + h / 2)[0])
-            k4 = apply_B(law(q + h * k3, t + h)[0])
-            q_next = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            out1 = law(q, t)                              # kept: the diagnostics at the step's start
+            q_next = rk4(lambda x, s: apply_B(law(x, s)[0]), q, t, h, k1=apply_B(out1[0]))
             kept = [out1[self.outputs.index(name)] for name in self.run_outputs]
             self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *kept],
                                            ["q", "t"], ["q_next", *self.run_outputs])
