@@ -13,22 +13,62 @@ from PIL import Image
 
 from coordarm.simulation.figures import draw_obstacles
 from coordarm.simulation.obstacles import outline
-from coordarm.simulation.run import Progress
+from coordarm.simulation.progress import Progress
 from coordarm.symbolic import CoordinatingController
 
 from .replay import Replay
 
 
 class FrameProgress(Progress):
-    """The progress bar of the rendering: frames done instead of simulated time."""
+    """The progress bar of the rendering: frames done instead of simulated time.
+
+    Parameters
+    ----------
+    total : float
+        Number of frames to render.
+    label : str
+        Text before the bar.
+    stream : file-like or None
+        Where the bar is written (None: ``sys.stderr``).
+    unit : str
+        Unused here (:meth:`status` names frames); kept from :class:`Progress`.
+    """
 
     def status(self, done: float, elapsed: float) -> str:
-        """Frames done of all and wall time spent."""
+        """Frames done of all and wall time spent.
+
+        Parameters
+        ----------
+        done : float
+            Frames rendered.
+        elapsed : float
+            Wall time since the start [s].
+
+        Returns
+        -------
+        str
+            The text after the bar.
+        """
         return f"frame {done:.0f}/{self.total:.0f}  {elapsed:.1f} s wall"
 
 
 def frame_indices(t: np.ndarray, fps: float, max_frames: int) -> np.ndarray:
-    """Sample rows for the frames: real time at ``fps`` if that fits in ``max_frames``, else sped up."""
+    """Sample rows for the frames: real time at ``fps`` if that fits in ``max_frames``, else sped up.
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,)
+        Sample times [s], increasing.
+    fps : float
+        Frames per second of the video [1/s].
+    max_frames : int
+        Most frames to render.
+
+    Returns
+    -------
+    ndarray of int, shape (F,)
+        Increasing distinct row indices into ``t``, ``F <= max_frames``.
+    """
     span = float(t[-1] - t[0]) if len(t) else 0.0
     frames = int(min(max(2, round(span * fps) + 1), max_frames))
     targets = np.linspace(t[0], t[-1], frames)

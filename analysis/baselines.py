@@ -28,8 +28,9 @@ import numpy as np
 from coordarm.generated.build import build
 from coordarm.generated.codegen import CODEGEN_OPTIONS, Source
 from coordarm.simulation.choices import COMPARE_BACKENDS
-from coordarm.simulation.run import ARRAYS, OPTIONAL, Run
+from coordarm.simulation.run import Run
 from coordarm.symbolic import ConfigError, CoordinatingController, PlanarChain
+from coordarm.symbolic.integrator import rk4
 from coordarm.symbolic.near_singular import damping_factor
 
 #: Baselines implemented here.
@@ -90,7 +91,7 @@ class EndPointRate:
         if chain.rail:                             # y^1 = d rail: the rail is the first column
             rail = ca.DM(chain.rail_direction)
             y, J, free[0] = y + q[0] * rail, ca.horzcat(rail, J), 0.0
-        phi, g, phit, _, h, psit = ctrl._geometry(y, t)
+        phi, g, phit, _, h, psit = ctrl.task.geometry(y, t)
         A = ca.vertcat(ca.mtimes(h.T, J), ca.mtimes(g.T, J))
         r = ca.vertcat(ctrl.speed(t) - psit, -ctrl.gain * phi - phit)
         G = ca.mtimes(A, A.T)
@@ -201,8 +202,7 @@ def stop_at_rail_limit(run: Run, chain: PlanarChain) -> Run:
     if not outside.any():
         return run
     end = max(int(np.argmax(outside)), 1)
-    keep = ARRAYS + tuple(a for a in OPTIONAL if getattr(run, a, None) is not None)
-    return Run.from_arrays({a: getattr(run, a)[:end] for a in keep}, dict(run.info, stopped="rail_limit"))
+    return run.rows(slice(0, end), dict(run.info, stopped="rail_limit"))
 
 
 def rk4_function(law: ca.Function, h: float) -> ca.Function:
@@ -212,11 +212,8 @@ def rk4_function(law: ca.Function, h: float) -> ca.Function:
     ``.expand()`` it for CasADi's virtual machine.
     """
     q, t = ca.MX.sym("q", law.size1_in(0)), ca.MX.sym("t")
-    k1 = law(q, t)
-    k2 = law(q + h / 2 * k1, t + h / 2)
-    k3 = law(q + h / 2 * k2, t + h / 2)
-    k4 = law(q + h * k3, t + h)
-    return ca.Function("rk4", [q, t], [q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4), k1], ["q", "t"], ["q_next", "u"])
+    u = law(q, t)
+    return ca.Function("rk4", [q, t], [rk4(law, q, t, h, k1=u), u], ["q", "t"], ["q_next", "u"])
 
 
 def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: float = 0.0,
@@ -258,7 +255,5 @@ def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: f
     wall = time.perf_counter() - wall
     Q, U = np.concatenate(Qs), np.concatenate(Us)
     T = t0 + step * np.arange(len(Q))
-    m, nan = law.ctrl.chain.m, np.full(len(Q), np.nan)
-    return Run(T, Q, U, np.full((len(Q), m - 1), np.nan), nan, np.full((len(Q), m - 1), np.nan), nan.copy(),
-               law.ctrl.speeds(T), info={"backend": backend, "stopped": stopped, "wall_time": wall,
-                                         "steps": max(k, 1)})
+    return Run.from_states(T, Q, U, law.ctrl.speeds(T), law.ctrl.chain.m,
+                           info={"backend": backend, "stopped": stopped, "wall_time": wall, "steps": max(k, 1)})

@@ -28,7 +28,8 @@ from coordarm.simulation.obstacles import outline
 from coordarm.simulation.choices import COMPARE_METHODS
 from coordarm.simulation.run import Run, even_indices, select_backend, simulate
 from coordarm.simulation.scenario import Scenario
-from coordarm.symbolic import BuildError, CollisionError, ConfigError, CoordinatingController, SingularityError
+from coordarm.symbolic import (BuildError, CollisionError, ConfigError, CoordinatingController, PlanarChain,
+                               SingularityError)
 
 from .baselines import BACKENDS, BASELINES, EndPointRate, simulate_baseline, stop_at_rail_limit
 from .follow_leader import FollowTheLeader, simulate_ftl
@@ -48,7 +49,17 @@ DEFAULT_DLS = {"kind": "dls", "lambda": 0.01, "band": 0.1}
 
 @dataclass
 class MethodRun:
-    """One method's run of a scenario and its scores (keys :data:`SCORES`)."""
+    """One method's run of a scenario and its scores (keys :data:`SCORES`).
+
+    Attributes
+    ----------
+    method : str
+        One of :data:`METHODS`.
+    run : Run
+        The simulated run.
+    scores : dict of str to Any
+        Its scores (see :func:`score`).
+    """
 
     method: str
     run: Run
@@ -56,13 +67,42 @@ class MethodRun:
 
 
 def available_methods(scenario: Scenario) -> tuple[str, ...]:
-    """Methods that apply to ``scenario``: all of them on a rail robot; ``ftl`` needs the rail."""
+    """Methods that apply to ``scenario``: all of them on a rail robot; ``ftl`` needs the rail.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+
+    Returns
+    -------
+    tuple of str
+        Names from :data:`METHODS`, in that order.
+    """
     rail = scenario.chain().rail
     return tuple(m for m in METHODS if m != "ftl" or rail)
 
 
 def parse_methods(text: str | None, scenario: Scenario) -> list[str]:
-    """``"coordinating,pinv"`` as a list (default: all that apply); a ConfigError names a bad one."""
+    """``"coordinating,pinv"`` as a list (default: all that apply); a ConfigError names a bad one.
+
+    Parameters
+    ----------
+    text : str or None
+        Comma-separated method names (the ``--methods`` option), or None for all that apply.
+    scenario : Scenario
+        The scenario the methods are to run.
+
+    Returns
+    -------
+    list of str
+        The names, duplicates dropped, in the order given.
+
+    Raises
+    ------
+    ConfigError
+        An unknown name, ``ftl`` without a rail, or an empty list.
+    """
     if text is None:
         return list(available_methods(scenario))
     names = [n.strip() for n in text.split(",") if n.strip()]
@@ -83,12 +123,26 @@ def run_method(method: str, scenario: Scenario, backend: str = "compiled") -> Ru
     Every run ends where it would leave the rail's limits (``rail_limit``, see
     :func:`.baselines.stop_at_rail_limit`).
 
-    ``backend``: ``"compiled"`` (generated C for every method, built before the clock starts;
-    the coordinating law of a rail robot falls back to the interpreted law where its C cannot be
-    generated) or ``"interpreted"`` (CasADi's virtual machine for every method).
+    Parameters
+    ----------
+    method : str
+        One of :data:`METHODS`.
+    scenario : Scenario
+        The scenario.
+    backend : str
+        ``"compiled"`` (generated C for every method, built before the clock starts; the
+        coordinating law of a rail robot falls back to the interpreted law where its C cannot be
+        generated) or ``"interpreted"`` (CasADi's virtual machine for every method).
+
+    Returns
+    -------
+    Run
+        The run, cut at the rail's limits.
 
     Raises
     ------
+    ConfigError
+        ``backend`` is not one of ``BACKENDS``.
     BuildError
         ``backend="compiled"`` and a library cannot be built.
     """
@@ -116,7 +170,7 @@ def _run(method: str, scenario: Scenario, ctrl: CoordinatingController, backend:
         run.info["steps"] = max(len(run.t) - 1, 1)
         return run
     if method in BASELINES:
-        damping = (scenario.spec["control"].get("damping") or DEFAULT_DLS) if method == "dls" else None
+        damping = (scenario.config.control.damping or DEFAULT_DLS) if method == "dls" else None
         law = EndPointRate(ctrl, q0, damping)
         return simulate_baseline(law, q0, scenario.duration, scenario.step, scenario.t0, backend=backend)
     if method == "ftl" and ctrl.chain.rail:
@@ -125,7 +179,23 @@ def _run(method: str, scenario: Scenario, ctrl: CoordinatingController, backend:
 
 
 def score(run: Run, scenario: Scenario) -> dict[str, Any]:
-    """The scores of one run (keys :data:`SCORES`), computed from ``run.q`` and ``run.u`` only."""
+    """The scores of one run (keys :data:`SCORES`), computed from ``run.q`` and ``run.u`` only.
+
+    Parameters
+    ----------
+    run : Run
+        A run of ``scenario``.
+    scenario : Scenario
+        Its scenario (chain, curve, obstacles, step).
+
+    Returns
+    -------
+    dict of str to Any
+        ``outcome`` (str), ``max_deviation`` [m], ``wall_contacts`` and ``self_collisions``
+        (contact sample counts), ``peak_u`` [rad/s], ``peak_joint_rate`` [rad/s],
+        ``final_s_error`` [m], ``step_time`` (wall time per step) [s]; on a rail also
+        ``peak_rail_rate`` [m/s].
+    """
     ctrl = scenario.controller()
     geo = ctrl.centre_geometry(run.q, run.t)
     s_ref = geo["psi"][0, -1] + np.concatenate(
@@ -153,7 +223,22 @@ def score(run: Run, scenario: Scenario) -> dict[str, Any]:
 
 
 def compare(scenario: Scenario, methods: list[str] | None = None, backend: str = "compiled") -> list[MethodRun]:
-    """Run and score ``scenario`` under each of ``methods`` (default: all that apply) on ``backend``."""
+    """Run and score ``scenario`` under each of ``methods`` (default: all that apply) on ``backend``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    methods : list of str or None
+        Names from :data:`METHODS` (None or empty: :func:`available_methods`).
+    backend : str
+        ``"compiled"`` or ``"interpreted"`` (see :func:`run_method`).
+
+    Returns
+    -------
+    list of MethodRun
+        One per method, in order.
+    """
     out = []
     for method in methods or available_methods(scenario):
         run = run_method(method, scenario, backend)
@@ -162,7 +247,20 @@ def compare(scenario: Scenario, methods: list[str] | None = None, backend: str =
 
 
 def to_json(scenario: Scenario, results: list[MethodRun]) -> dict[str, Any]:
-    """``{"scenario": name, "methods": {method: {score: value}}}`` (on a rail with :data:`RAIL_SCORES` last)."""
+    """``{"scenario": name, "methods": {method: {score: value}}}`` (on a rail with :data:`RAIL_SCORES` last).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario compared.
+    results : list of MethodRun
+        Its scored runs.
+
+    Returns
+    -------
+    dict of str to Any
+        The JSON-ready summary.
+    """
     keys = SCORES + tuple(k for k in RAIL_SCORES if results and k in results[0].scores)
     return {"scenario": scenario.name, "methods": {r.method: {k: r.scores[k] for k in keys} for r in results}}
 
@@ -178,7 +276,18 @@ ENGINES = {"compiled": "as generated C", "interpreted": "in CasADi's virtual mac
 
 
 def engines(results: list[MethodRun]) -> str:
-    """How the methods ran, e.g. ``"every method as generated C"`` or ``"coordinating in ..., pinv, dls as ..."``."""
+    """How the methods ran, e.g. ``"every method as generated C"`` or ``"coordinating in ..., pinv, dls as ..."``.
+
+    Parameters
+    ----------
+    results : list of MethodRun
+        The scored runs (their ``run.info["backend"]``).
+
+    Returns
+    -------
+    str
+        The phrase.
+    """
     used = {r.method: r.run.info.get("backend", "interpreted") for r in results}
     if len(set(used.values())) == 1:
         return f"every method {ENGINES[next(iter(used.values()))]}"
@@ -193,7 +302,18 @@ def _length(value: float) -> str:
 
 
 def headers(results: list[MethodRun]) -> list[str]:
-    """The table's column titles (a rail robot's runs get :data:`RAIL_HEADER`)."""
+    """The table's column titles (a rail robot's runs get :data:`RAIL_HEADER`).
+
+    Parameters
+    ----------
+    results : list of MethodRun
+        The scored runs.
+
+    Returns
+    -------
+    list of str
+        The titles, with units.
+    """
     out = list(HEADERS)
     if results and "peak_rail_rate" in results[0].scores:
         out.insert(HEADERS.index("peak rate [rad/s]") + 1, RAIL_HEADER)
@@ -201,7 +321,18 @@ def headers(results: list[MethodRun]) -> list[str]:
 
 
 def table_rows(results: list[MethodRun]) -> list[list[str]]:
-    """The table's cells, one row per method."""
+    """The table's cells, one row per method.
+
+    Parameters
+    ----------
+    results : list of MethodRun
+        The scored runs.
+
+    Returns
+    -------
+    list of list of str
+        One row per run, columns as :func:`headers`.
+    """
     rows = []
     for r in results:
         s = r.scores
@@ -215,7 +346,18 @@ def table_rows(results: list[MethodRun]) -> list[list[str]]:
 
 
 def text_table(results: list[MethodRun]) -> str:
-    """The scores as an aligned plain-text table."""
+    """The scores as an aligned plain-text table.
+
+    Parameters
+    ----------
+    results : list of MethodRun
+        The scored runs.
+
+    Returns
+    -------
+    str
+        The table, lines joined by newlines.
+    """
     rows = [headers(results)] + table_rows(results)
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in rows]
@@ -224,19 +366,56 @@ def text_table(results: list[MethodRun]) -> str:
 
 
 def markdown_table(results: list[MethodRun]) -> str:
-    """The scores as a Markdown table."""
+    """The scores as a Markdown table.
+
+    Parameters
+    ----------
+    results : list of MethodRun
+        The scored runs.
+
+    Returns
+    -------
+    str
+        The table, lines joined by newlines.
+    """
     head = headers(results)
     rows = [head, ["---"] * len(head)] + table_rows(results)
     return "\n".join("| " + " | ".join(row) + " |" for row in rows)
 
 
 def stage_times(scenario: Scenario, stages: int = 4) -> np.ndarray:
-    """``stages`` times evenly spread over the scenario, start and end included [s]."""
+    """``stages`` times evenly spread over the scenario, start and end included [s].
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Its ``t0`` and ``duration`` [s].
+    stages : int
+        Number of times.
+
+    Returns
+    -------
+    ndarray, shape (stages,)
+        The times [s].
+    """
     return scenario.t0 + np.linspace(0.0, scenario.duration, stages)
 
 
-def rail_segment(chain, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """The rail's ends (2, 2) [m]: its limits, cut to the box ``lo``..``hi`` where they are farther or infinite."""
+def rail_segment(chain: PlanarChain, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The rail's ends (2, 2) [m]: its limits, cut to the box ``lo``..``hi`` where they are farther or infinite.
+
+    Parameters
+    ----------
+    chain : PlanarChain
+        A chain on a rail (``rail_limits`` [m], ``rail_direction``).
+    lo, hi : ndarray, shape (2,)
+        Corners of the plotted box [m].
+
+    Returns
+    -------
+    ndarray, shape (2, 2)
+        The two ends [m], one per row.
+    """
     reach = float(np.linalg.norm(np.abs(lo) + np.abs(hi)))
     ends = np.clip(np.array(chain.rail_limits), -reach, reach)
     return ends[:, None] * chain.rail_direction
@@ -246,6 +425,22 @@ def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, 
     """One panel per stage time with every method's body (and the curve, the walls, the rail) then; a PNG.
 
     A scene much wider than tall (a path) gets one panel per row.
+
+    Parameters
+    ----------
+    results : list of MethodRun
+        The runs to draw.
+    scenario : Scenario
+        Their scenario.
+    path : str or Path
+        The PNG to write.
+    stages : int
+        Number of panels (times from :func:`stage_times`).
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     from coordarm.simulation.figures import plt, save_figure
 
@@ -292,7 +487,24 @@ def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, 
 
 def write_outputs(scenario: Scenario, results: list[MethodRun], out: Path, backend: str = "compiled"
                   ) -> dict[str, Path]:
-    """``compare.json``, ``compare.md`` and ``compare.png`` in the directory ``out``."""
+    """``compare.json``, ``compare.md`` and ``compare.png`` in the directory ``out``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario compared.
+    results : list of MethodRun
+        Its scored runs.
+    out : Path
+        Output directory (created if missing).
+    backend : str
+        Unused: the Markdown names each run's backend from :func:`engines`.
+
+    Returns
+    -------
+    dict of str to Path
+        ``{"json": ..., "md": ..., "png": ...}``.
+    """
     out.mkdir(parents=True, exist_ok=True)
     paths = {"json": out / "compare.json", "md": out / "compare.md", "png": out / "compare.png"}
     paths["json"].write_text(json.dumps(to_json(scenario, results), indent=2) + "\n")

@@ -70,7 +70,7 @@ class FollowTheLeader:
         if not chain.rail:
             raise ConfigError("ftl: follow-the-leader needs a robot with an introduction axis (rail)")
         self.q0 = chain.check_q(self.q0, "q0")
-        geo = self.ctrl._geometry
+        geo = self.ctrl.task.geometry
         y_m = chain.centres_np(self.q0)[-1]
         g = np.asarray(geo(y_m, self.t0)[4]).ravel()
         #: Angle of link m to the path's tangent at the end point [rad], kept as it leads.
@@ -88,7 +88,7 @@ class FollowTheLeader:
 
     def _link(self) -> ca.Function:
         """``(y^{j+1}, alpha_{j+1}, t) -> (y^j, alpha_j, |phi(y^j)|, psi(y^j))``: one link laid behind the next."""
-        geo, h = self.ctrl._geometry, 0.5 * self.ctrl.chain.xi
+        geo, h = self.ctrl.task.geometry, 0.5 * self.ctrl.chain.xi
         y, alpha, t = ca.SX.sym("y", 2), ca.SX.sym("alpha"), ca.SX.sym("t")
         rear = y - h * direction(alpha)
         g = geo(rear, t)[4]
@@ -108,7 +108,7 @@ class FollowTheLeader:
         The Jacobian of ``(phi, psi)`` is a rotation on the path (orthonormalised curves), so each
         step subtracts ``phi grad phi + (psi - s*) grad psi``.
         """
-        geo = self.ctrl._geometry
+        geo = self.ctrl.task.geometry
         t, target, y = ca.SX.sym("t"), ca.SX.sym("s_target"), ca.SX.sym("guess", 2)
         p = y
         for _ in range(3):
@@ -124,7 +124,7 @@ class FollowTheLeader:
         laying backwards (a link that found the path ahead of its successor).
         """
         if "fn" not in self._cache:
-            chain, geo, m = self.ctrl.chain, self.ctrl._geometry, self.ctrl.chain.m
+            chain, geo, m = self.ctrl.chain, self.ctrl.task.geometry, self.ctrl.chain.m
             link = self._link()
             carry, ts = ca.SX.sym("carry", 5), ca.SX.sym("t")   # y, alpha, psi, worst
             y_new, a, phi, psi = link(carry[0:2], carry[2], ts)
@@ -229,7 +229,6 @@ def simulate_ftl(law: FollowTheLeader, duration: float, step: float, backend: st
     Q, T = Q[:end], T[:end]
     U = np.diff(Q, axis=0) / step
     U = np.vstack([U, U[-1:]]) if len(U) else np.zeros_like(Q)
-    m, nan = chain.m, np.full(end, np.nan)
-    run = Run(T, Q, U, np.full((end, m - 1), np.nan), nan, np.full((end, m - 1), np.nan), nan.copy(), v[:end],
-              info={"backend": backend, "stopped": stopped, "wall_time": wall, "steps": max(n - 1, 1)})
+    run = Run.from_states(T, Q, U, v[:end], chain.m,
+                          info={"backend": backend, "stopped": stopped, "wall_time": wall, "steps": max(n - 1, 1)})
     return stop_at_rail_limit(run, chain)

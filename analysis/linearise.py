@@ -14,6 +14,7 @@ input is ``v*`` alone.
 """
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import casadi as ca
@@ -21,6 +22,7 @@ import numpy as np
 
 from coordarm.simulation.run import even_indices
 from coordarm.symbolic import CoordinatingController
+from coordarm.symbolic.laws import Law
 
 
 
@@ -68,6 +70,11 @@ class Linearisation:
         return float(np.max(np.abs((self.frozen_task_matrix if frozen else self.task_matrix) - target)))
 
 
+#: The Functions of :func:`linearisation_function`, per controller and form.
+_linearisations: "weakref.WeakKeyDictionary[CoordinatingController, dict[str, ca.Function]]" = \
+    weakref.WeakKeyDictionary()
+
+
 def linearisation_function(ctrl: CoordinatingController, form: str | None = None) -> ca.Function:
     """``(q, t) -> (H, F, Hdot, task_rate)`` as a CasADi Function, by AD of the law.
 
@@ -79,13 +86,16 @@ def linearisation_function(ctrl: CoordinatingController, form: str | None = None
         Form of the law (default: the controller's).
     """
     form = form or ctrl.law_form
-    return ctrl.memo(("linearise", form), lambda: _linearisation_function(ctrl, form))
+    per_ctrl = _linearisations.setdefault(ctrl, {})
+    if form not in per_ctrl:
+        per_ctrl[form] = _linearisation_function(ctrl, form)
+    return per_ctrl[form]
 
 
 def _linearisation_function(ctrl: CoordinatingController, form: str) -> ca.Function:
     """The uncached body of :func:`linearisation_function` (on a rail: tasks ``(s, sigma, e)``)."""
     m = ctrl.chain.dof
-    sym = ca.SX if form == "structured" else ca.MX      # the dense law's linear solve is MX only
+    sym = ca.SX if form == Law.STRUCTURED else ca.MX      # the dense law's linear solve is MX only
     q, t = sym.sym("q", m), sym.sym("t")
     out = dict(zip(ctrl.outputs, ctrl.fast_law(form)(q, t)))
     u, e, s = out["u"], out["e"], out["s"]

@@ -33,13 +33,12 @@ from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
-from coordarm.simulation.choices import lz4_frame
+from coordarm.simulation.choices import Compression, lz4_frame
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
-from coordarm.simulation.mcap_file import DIGEST_KEY, metadata_digest
-from coordarm.simulation.mcap_writer import partial_path
-from coordarm.simulation.run import ARRAYS, OPTIONAL, ExtraOutputs, Run
+from coordarm.simulation.log_layout import ARRAYS, DIGEST_KEY, OPTIONAL, metadata_digest, partial_path
+from coordarm.simulation.result import ExtraOutputs, Run
 from coordarm.simulation.scenario import USER_DEFINED, Scenario
-from coordarm.symbolic import ConfigError, LogError
+from coordarm.symbolic import ConfigError, CoordinatingController, LogError
 
 #: Exceptions the mcap reader raises on damaged input (it has no single base class for them).
 READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error, zlib.error, EOFError,
@@ -48,6 +47,19 @@ READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error,
 
 #: A message as read here: much lighter than ``mcap.records.Message`` (a log has ~10^5 of them).
 RawMessage = namedtuple("RawMessage", "channel_id sequence log_time data")
+RawMessage.__doc__ = """One MCAP message record as read from a chunk.
+
+Parameters
+----------
+channel_id : int
+    The channel's id.
+sequence : int
+    Sequence number.
+log_time : int
+    Log time [ns].
+data : memoryview
+    The message body (a view into the decompressed chunk).
+"""
 _RECORD = struct.Struct("<BQ")
 _MESSAGE = struct.Struct("<HIQ")
 
@@ -55,14 +67,24 @@ _MESSAGE = struct.Struct("<HIQ")
 def chunk_messages(chunk: Chunk) -> list[RawMessage]:
     """The messages of a chunk, its CRC checked (other records inside a chunk are skipped).
 
+    Parameters
+    ----------
+    chunk : mcap.records.Chunk
+        A chunk record (zstd, lz4 or uncompressed).
+
+    Returns
+    -------
+    list of RawMessage
+        Its messages in file order.
+
     Raises
     ------
     CRCValidationError, zstandard.ZstdError, struct.error, ValueError
         Damaged chunk (the caller turns these into a LogError).
     """
-    if chunk.compression == "zstd":
+    if chunk.compression == Compression.ZSTD:
         data = zstandard.decompress(chunk.data, chunk.uncompressed_size)
-    elif chunk.compression == "lz4":
+    elif chunk.compression == Compression.LZ4:
         try:
             data = lz4_frame().decompress(chunk.data)
         except RuntimeError as exc:  # what python-lz4 raises on a damaged frame
@@ -175,7 +197,7 @@ class Replay(ExtraOutputs):
                                info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?"),
                                      "contacts": self.outcome.get("contacts", [])})
 
-    def controller(self):
+    def controller(self) -> CoordinatingController:
         """The controller that made the run, rebuilt from the scenario.
 
         Returns
@@ -307,7 +329,7 @@ def load(path: str | Path, curve: Any = None) -> Replay:
                                       curve=curve if spec.get("curve", {}).get("kind") == USER_DEFINED else None)
     except (KeyError, TypeError, ValueError, RecursionError, ConfigError) as exc:
         raise LogError(f"{path}: the 'scenario' metadata is not a valid scenario: {exc}") from None
-    m = int(spec["chain"]["links"])
+    m = scenario.config.chain.links
     rail = scenario.chain().rail
     specs = numeric_channels(m, True) if rail else numeric_channels(m)
     by_topic = {ch.topic: cid for cid, ch in channels.items()}

@@ -8,7 +8,7 @@ import numpy as np
 
 from coordarm.simulation.figures import save_figure
 
-from .report import BLOWUP_FACTOR, LABELS, RunAnalysis
+from .run_analysis import BLOWUP_FACTOR, LABELS, RunAnalysis
 from .singularity import MARGINS
 from .stability import sampled_limit, step_responses
 

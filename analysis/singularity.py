@@ -29,6 +29,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from coordarm.symbolic import ConfigError, CoordinatingController
 from coordarm.symbolic.chain import normal
@@ -104,7 +105,7 @@ def _margins_batch(ctrl: CoordinatingController, Q: np.ndarray, T: np.ndarray) -
             "amplification": amp, "u_max": np.max(np.abs(u), axis=-1)}
 
 
-def margins(controller: CoordinatingController, q, t: float = 0.0) -> dict[str, Any]:
+def margins(controller: CoordinatingController, q: ArrayLike, t: float = 0.0) -> dict[str, Any]:
     """Singularity margins of ``controller`` at configuration ``q`` and time ``t``.
 
     Parameters
@@ -129,7 +130,7 @@ def margins(controller: CoordinatingController, q, t: float = 0.0) -> dict[str, 
             for k, v in out.items()}
 
 
-def run_margins(controller: CoordinatingController, t, q, batch: int | None = None) -> dict[str, np.ndarray]:
+def run_margins(controller: CoordinatingController, t: ArrayLike, q: ArrayLike, batch: int | None = None) -> dict[str, np.ndarray]:
     """:func:`margins` along a trajectory: every value becomes an array over samples.
 
     Parameters

@@ -16,9 +16,11 @@ loop ``K e^{-s tau} / s`` has phase margin 90 deg at crossover ``K``: delay marg
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 
 import control as ct
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.optimize import brentq
 
 from coordarm.simulation.run import check_number
@@ -36,7 +38,27 @@ def _check(gain: float, period: float | None = None, delay: int = 0) -> None:
 
 
 def error_loop(gain: float, period: float | None = None, delay: int = 0) -> ct.TransferFunction:
-    """Open loop of one deviation: ``K / s`` (``period`` None) or ``K h z^{-n} / (z - 1)`` (ZOH, delayed)."""
+    """Open loop of one deviation: ``K / s`` (``period`` None) or ``K h z^{-n} / (z - 1)`` (ZOH, delayed).
+
+    Parameters
+    ----------
+    gain : float
+        Error gain K > 0 [1/s].
+    period : float or None
+        Sampling period h > 0 [s]; None: the continuous loop.
+    delay : int
+        Control delay n >= 0 [samples].
+
+    Returns
+    -------
+    control.TransferFunction
+        The loop (continuous, or discrete with time step ``period``).
+
+    Raises
+    ------
+    ConfigError
+        ``gain`` or ``period`` not a positive finite number, or ``delay`` not an integer >= 0.
+    """
     _check(gain, period, delay)
     plant = ct.tf([1.0], [1.0, 0.0])
     if period is None:
@@ -46,12 +68,52 @@ def error_loop(gain: float, period: float | None = None, delay: int = 0) -> ct.T
 
 
 def error_closed_loop(gain: float, period: float | None = None, delay: int = 0) -> ct.TransferFunction:
-    """Closed loop ``e_ref -> e`` (unit negative feedback around :func:`error_loop`)."""
+    """Closed loop ``e_ref -> e`` (unit negative feedback around :func:`error_loop`).
+
+    Parameters
+    ----------
+    gain : float
+        Error gain K > 0 [1/s].
+    period : float or None
+        Sampling period h > 0 [s]; None: the continuous loop.
+    delay : int
+        Control delay n >= 0 [samples].
+
+    Returns
+    -------
+    control.TransferFunction
+        The closed loop.
+
+    Raises
+    ------
+    ConfigError
+        ``gain`` or ``period`` not a positive finite number, or ``delay`` not an integer >= 0.
+    """
     return ct.feedback(error_loop(gain, period, delay), 1)
 
 
 def spectral_radius(gain: float, period: float, delay: int = 0) -> float:
-    """Largest pole magnitude of the sampled closed loop (python-control); < 1 is stable."""
+    """Largest pole magnitude of the sampled closed loop (python-control); < 1 is stable.
+
+    Parameters
+    ----------
+    gain : float
+        Error gain K > 0 [1/s].
+    period : float
+        Sampling period h > 0 [s].
+    delay : int
+        Control delay n >= 0 [samples].
+
+    Returns
+    -------
+    float
+        Spectral radius [-].
+
+    Raises
+    ------
+    ConfigError
+        ``gain`` or ``period`` not a positive finite number, or ``delay`` not an integer >= 0.
+    """
     return float(np.max(np.abs(error_closed_loop(gain, period, delay).poles())))
 
 
@@ -60,6 +122,25 @@ def control_limit(gain: float, period: float, delay: int = 0) -> float:
 
     (The gain margin of ``L(z)`` cannot be used for ``n = 0``: its phase reaches -180 deg only
     at the Nyquist frequency, where python-control reports an infinite margin.)
+
+    Parameters
+    ----------
+    gain : float
+        Error gain K > 0 [1/s].
+    period : float
+        Sampling period h > 0 [s].
+    delay : int
+        Control delay n >= 0 [samples].
+
+    Returns
+    -------
+    float
+        The limit of ``K h`` [-] (independent of ``gain``, which is only checked).
+
+    Raises
+    ------
+    ConfigError
+        ``gain`` or ``period`` not a positive finite number, or ``delay`` not an integer >= 0.
     """
     _check(gain, period, delay)
     return float(brentq(lambda x: spectral_radius(x / period, period, delay) - 1.0, 1e-6, 2.5, xtol=1e-14))
@@ -70,6 +151,18 @@ def delay_margin(gain: float, period: float | None = None) -> float:
 
     ``period`` None: the continuous loop, ``pi / (2 K)``. Otherwise the sampled loop with
     zero-order hold, whose own half-sample lag already uses part of the margin.
+
+    Parameters
+    ----------
+    gain : float
+        Error gain K > 0 [1/s].
+    period : float or None
+        Sampling period h > 0 [s]; None: the continuous loop.
+
+    Returns
+    -------
+    float
+        Delay margin [s].
     """
     with warnings.catch_warnings(), np.errstate(divide="ignore", invalid="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)     # K/s evaluated at s = 0 while searching
@@ -78,7 +171,25 @@ def delay_margin(gain: float, period: float | None = None) -> float:
 
 
 def max_stable_delay(gain: float, period: float) -> int:
-    """Largest delay in samples for which the sampled loop is stable (-1: unstable without delay)."""
+    """Largest delay in samples for which the sampled loop is stable (-1: unstable without delay).
+
+    Parameters
+    ----------
+    gain : float
+        Error gain K > 0 [1/s].
+    period : float
+        Sampling period h > 0 [s].
+
+    Returns
+    -------
+    int
+        The delay [samples] (the search stops after 10,001).
+
+    Raises
+    ------
+    ConfigError
+        ``gain`` or ``period`` not a positive finite number.
+    """
     _check(gain, period)
     n = -1
     while gain * period < sampled_limit(n + 1):
@@ -88,8 +199,19 @@ def max_stable_delay(gain: float, period: float) -> int:
     return n
 
 
-def step_responses(gain: float, period: float, delays=(0, 1, 2), duration: float | None = None) -> dict:
+def step_responses(gain: float, period: float, delays: Sequence[int] = (0, 1, 2), duration: float | None = None) -> dict:
     """Step responses of the deviation loop: continuous and sampled with each delay.
+
+    Parameters
+    ----------
+    gain : float
+        Error gain K > 0 [1/s].
+    period : float
+        Sampling period h > 0 [s].
+    delays : sequence of int
+        Control delays [samples], one sampled response each.
+    duration : float or None
+        Time span [s] (None: ``5 / gain``).
 
     Returns
     -------
@@ -104,9 +226,35 @@ def step_responses(gain: float, period: float, delays=(0, 1, 2), duration: float
     return {k: (np.asarray(r.time), np.asarray(r.outputs).ravel()) for k, r in out.items()}
 
 
-def grows(ctrl: CoordinatingController, q0, period: float, delay: int = 0, samples: int = 600,
+def grows(ctrl: CoordinatingController, q0: ArrayLike, period: float, delay: int = 0, samples: int = 600,
           factor: float = 10.0) -> bool:
-    """Whether ``max|e|`` of a sampled run exceeds ``factor`` times its start value within ``samples``."""
+    """Whether ``max|e|`` of a sampled run exceeds ``factor`` times its start value within ``samples``.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller (its gain K [1/s]).
+    q0 : array_like, shape (m,)
+        Start, with a nonzero deviation from the curve [rad].
+    period : float
+        Sampling period h [s].
+    delay : int
+        Control delay [samples].
+    samples : int
+        Samples simulated.
+    factor : float
+        Growth of ``max|e|`` [-] counted as divergence.
+
+    Returns
+    -------
+    bool
+        True if the run diverged.
+
+    Raises
+    ------
+    ConfigError
+        ``q0`` lies on the curve (zero deviation).
+    """
     from coordarm.simulation.sampled import simulate_sampled
 
     e0 = float(np.max(np.abs(ctrl.evaluate(q0, 0.0)["e"])))
@@ -116,7 +264,7 @@ def grows(ctrl: CoordinatingController, q0, period: float, delay: int = 0, sampl
     return run.info["stopped"] == "diverged"
 
 
-def simulated_limit(ctrl: CoordinatingController, q0, delay: int = 0, rel_tol: float = 1e-3,
+def simulated_limit(ctrl: CoordinatingController, q0: ArrayLike, delay: int = 0, rel_tol: float = 1e-3,
                     samples: int = 600) -> float:
     """``K h`` at which the simulated sampled-data loop starts to diverge (bisection on ``h``).
 
@@ -133,6 +281,16 @@ def simulated_limit(ctrl: CoordinatingController, q0, delay: int = 0, rel_tol: f
         Relative width of the final bracket.
     samples : int
         Samples simulated per trial.
+
+    Returns
+    -------
+    float
+        ``K h`` [-] at the middle of the final bracket.
+
+    Raises
+    ------
+    ConfigError
+        The limit is not within 0.5 to 1.5 times :func:`sampled_limit`.
     """
     K, guess = ctrl.gain, sampled_limit(delay)
     lo, hi = 0.5 * guess / K, 1.5 * guess / K

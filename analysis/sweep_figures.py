@@ -10,6 +10,7 @@ from __future__ import annotations
 import itertools
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -18,12 +19,26 @@ from matplotlib.colors import BoundaryNorm, ListedColormap
 from coordarm.simulation.figures import save_figure
 from coordarm.simulation.sweep_points import OUTCOMES
 
+if TYPE_CHECKING:
+    import pandas as pd
+
 #: Colour of each outcome (same order as OUTCOMES).
 OUTCOME_COLOURS = ("#2ca02c", "#ff7f0e", "#9467bd", "#d62728")
 
 
-def smallest_margin(df) -> np.ndarray:
-    """``min(min_link_margin, min_longitudinal)`` per row (NaN where the point did not run)."""
+def smallest_margin(df: pd.DataFrame) -> np.ndarray:
+    """``min(min_link_margin, min_longitudinal)`` per row (NaN where the point did not run).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The sweep's results table (one row per point).
+
+    Returns
+    -------
+    ndarray, shape (len(df),)
+        Smallest margins [-].
+    """
     return np.fmin(df["min_link_margin"].to_numpy(float), df["min_longitudinal"].to_numpy(float))
 
 
@@ -35,8 +50,23 @@ def _numeric(values) -> bool:
     return all(isinstance(v, (int, float, np.number)) and not isinstance(v, bool) for v in values)
 
 
-def plot_line(df, name: str, path: str | Path) -> Path:
-    """Smallest link and longitudinal margins against one varied ``name``, markers coloured by outcome."""
+def plot_line(df: pd.DataFrame, name: str, path: str | Path) -> Path:
+    """Smallest link and longitudinal margins against one varied ``name``, markers coloured by outcome.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The sweep's results table (one row per point).
+    name : str
+        The varied name (a column of ``df``).
+    path : str or Path
+        The PNG to write.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     fig, ax = plt.subplots(figsize=(7, 4.2))
     d = df.sort_values(name) if _numeric(df[name]) else df
     x = d[name].to_numpy() if _numeric(d[name]) else np.arange(len(d))
@@ -57,8 +87,23 @@ def plot_line(df, name: str, path: str | Path) -> Path:
     return save_figure(fig, path)
 
 
-def plot_pair(df, a: str, b: str, path: str | Path) -> Path:
-    """Heat maps of the worst outcome and the smallest margin over the varied names ``a`` x ``b``."""
+def plot_pair(df: pd.DataFrame, a: str, b: str, path: str | Path) -> Path:
+    """Heat maps of the worst outcome and the smallest margin over the varied names ``a`` x ``b``.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The sweep's results table (one row per point).
+    a, b : str
+        The varied names on the x and y axes (columns of ``df``).
+    path : str or Path
+        The PNG to write.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     code = df["outcome"].map({o: i for i, o in enumerate(OUTCOMES)}).fillna(len(OUTCOMES) - 1).to_numpy(float)
     data = df.assign(_code=code, _margin=smallest_margin(df))
     cmap = ListedColormap(OUTCOME_COLOURS)
@@ -86,10 +131,24 @@ def plot_pair(df, a: str, b: str, path: str | Path) -> Path:
     return save_figure(fig, path, dpi=100)
 
 
-def plot_sweep(df, names: list[str], out: str | Path) -> list[Path]:
+def plot_sweep(df: pd.DataFrame, names: list[str], out: str | Path) -> list[Path]:
     """All figures of a sweep into ``out``: ``sweep_<name>.png`` for one name, else ``sweep_<a>__<b>.png`` per pair.
 
     Names held at a single value are left out (they add no axis).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The sweep's results table (one row per point).
+    names : list of str
+        The varied names (columns of ``df``).
+    out : str or Path
+        Output directory (created if missing).
+
+    Returns
+    -------
+    list of Path
+        The files written (none for an empty table).
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -8,18 +8,31 @@ one point of a :func:`coordarm.simulation.sweep.sweep` (``--workers N``: on a lo
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import casadi as ca
 import numpy as np
 
+from coordarm.simulation.choices import Outcome
 from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
-from .report import analyse_run, simulate_through
+from .report import simulate_through
+from .run_analysis import analyse_run
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 CANDIDATES = (0.05, 0.1, 0.15, 0.2)
 
 
 def blowup_cases() -> dict[str, tuple[CoordinatingController, np.ndarray, float]]:
-    """``name -> (controller, q0, duration)`` of runs that reach the longitudinal singularity."""
+    """``name -> (controller, q0, duration)`` of runs that reach the longitudinal singularity.
+
+    Returns
+    -------
+    dict of str to (CoordinatingController, ndarray, float)
+        Per case: the controller, the start joint angles ``q0`` (m,) [rad] and the duration [s].
+    """
     from coordarm.simulation.scenario import load_scenario
 
     cases = {}
@@ -36,8 +49,17 @@ def blowup_cases() -> dict[str, tuple[CoordinatingController, np.ndarray, float]
     return cases
 
 
-def threshold_point(spec: dict, point: dict, log_path=None) -> dict:
+def threshold_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
     """One sweep point: the case ``point["case"]`` of :func:`blowup_cases` run without stops and analysed.
+
+    Parameters
+    ----------
+    spec : dict
+        The sweep's scenario as data (unused: the case builds its own controller).
+    point : dict
+        The point: ``{"case": name}``.
+    log_path : str or None
+        Unused (the point writes no log).
 
     Returns
     -------
@@ -51,7 +73,7 @@ def threshold_point(spec: dict, point: dict, log_path=None) -> dict:
     a = analyse_run(ctrl, run.t, run.q, run.u, samples=600)
     blowup = a.blowup_time
     k = min(np.searchsorted(run.t, blowup), len(run.t) - 1) if blowup is not None else -1
-    row = {**point, "outcome": "singularity" if blowup is not None else "completed", "message": "",
+    row = {**point, "outcome": (Outcome.SINGULARITY if blowup is not None else Outcome.COMPLETED).value, "message": "",
            "stop_time": float(run.t[-1]), "min_link_margin": float(np.min(run.link_margins)),
            "min_longitudinal": float(np.min(run.longitudinal)), "final_max_e": float(np.max(np.abs(run.e[-1]))),
            "peak_u": float(np.max(np.abs(run.u))), "blowup": np.nan if blowup is None else float(blowup),
@@ -63,8 +85,15 @@ def threshold_point(spec: dict, point: dict, log_path=None) -> dict:
     return row
 
 
-def study(client="serial", workers: int | None = None):
+def study(client: Any = "serial", workers: int | None = None) -> pd.DataFrame:
     """Every case of :func:`blowup_cases` as one point of a sweep (see :func:`threshold_point`).
+
+    Parameters
+    ----------
+    client : None, str or distributed.Client
+        Where to run (see :func:`coordarm.simulation.sweep.sweep`); ``"serial"``: here, without Dask.
+    workers : int or None
+        Worker processes of a new local cluster (``client`` None).
 
     Returns
     -------
@@ -79,7 +108,13 @@ def study(client="serial", workers: int | None = None):
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Print the study as a Markdown table (``--workers N``: on a local Dask cluster)."""
+    """Print the study as a Markdown table (``--workers N``: on a local Dask cluster).
+
+    Parameters
+    ----------
+    argv : list of str or None
+        Command-line arguments (None: ``sys.argv[1:]``).
+    """
     import argparse
 
     p = argparse.ArgumentParser(prog="python -m coordarm.analysis.threshold_study", description=__doc__.splitlines()[0])

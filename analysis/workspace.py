@@ -15,9 +15,12 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from coordarm.simulation.choices import Outcome
 from coordarm.symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain
 
 from .singularity import run_margins
@@ -40,6 +43,12 @@ def curve_zigzag(m: int, xi: float, beta: float, curvature: float) -> np.ndarray
         Angle of the first link to the curve's tangent at the base [rad].
     curvature : float
         ``1/R`` of the arc through the base with centre ``(0, R)``; 0 for the x axis.
+
+    Returns
+    -------
+    ndarray, shape (m,) or None
+        Joint coordinates [rad] (the angle of link 1, then each link's angle relative to the
+        previous), or None if a link cannot reach the curve again.
     """
     y, a = np.zeros(2), float(beta)
     alphas = [a]
@@ -71,14 +80,28 @@ COLUMNS = {"longitudinal": "min_longitudinal", "smallest_link": "min_link_margin
 _CONTROLLERS: dict[tuple, CoordinatingController] = {}
 
 
-def workspace_point(spec: dict, point: dict, log_path=None) -> dict:
+def workspace_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
     """One sweep point of the map: margins of the on-curve zig-zag ``(chain.links, curvature, start.beta)``.
+
+    Parameters
+    ----------
+    spec : dict
+        The sweep's scenario as data (its ``chain.link_length`` [m] is read).
+    point : dict
+        The point: ``{"chain.links": m, "curvature": 1/R [1/m], "start.beta": beta [rad]}``.
+    log_path : str or None
+        Unused (the point writes no log).
 
     Returns
     -------
     dict
         ``outcome`` completed (``error`` when no zig-zag fits), ``min_link_margin`` (smallest link
         margin), ``min_longitudinal`` and ``log10_cond`` of the decoupling matrix [-].
+
+    Raises
+    ------
+    ConfigError
+        The curvature is negative or not finite.
     """
     m, kappa, beta = int(point["chain.links"]), float(point["curvature"]), float(point["start.beta"])
     xi = float(spec["chain"]["link_length"])
@@ -92,11 +115,12 @@ def workspace_point(spec: dict, point: dict, log_path=None) -> dict:
         _CONTROLLERS[key] = CoordinatingController(PlanarChain(m, xi), Line() if kappa == 0 else Arc(radius=1.0 / kappa),
                                                    1.0, 0.1)
     mg = run_margins(_CONTROLLERS[key], np.zeros(1), q[None])
-    return {**point, "outcome": "completed", "message": "", "min_longitudinal": float(mg["longitudinal"][0]),
+    return {**point, "outcome": Outcome.COMPLETED.value, "message": "", "min_longitudinal": float(mg["longitudinal"][0]),
             "min_link_margin": float(np.min(mg["links"])), "log10_cond": float(np.log10(mg["cond"][0]))}
 
 
-def workspace_map(links=(8, 16, 32, 64), betas=None, curvatures=None, xi: float = 0.1, client="serial",
+def workspace_map(links: Sequence[int] = (8, 16, 32, 64), betas: ArrayLike | None = None,
+                  curvatures: ArrayLike | None = None, xi: float = 0.1, client: Any = "serial",
                   workers: int | None = None) -> dict:
     """Margins of on-curve zig-zags over ``betas`` x ``curvatures`` for each link count, as a sweep.
 
@@ -142,7 +166,23 @@ def workspace_map(links=(8, 16, 32, 64), betas=None, curvatures=None, xi: float 
 
 
 def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = None) -> Path:
-    """Heat maps: one row per link count, one column per mapped quantity; threshold contours dashed."""
+    """Heat maps: one row per link count, one column per mapped quantity; threshold contours dashed.
+
+    Parameters
+    ----------
+    result : dict
+        What :func:`workspace_map` returns.
+    path : str or Path
+        The PNG to write.
+    thresholds : dict of str to float or None
+        Contour levels by mapped key (``longitudinal``, ``smallest_link``) [-], overriding the
+        default stop thresholds.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     import matplotlib.pyplot as plt
 
     from coordarm.simulation.figures import save_figure
@@ -171,7 +211,18 @@ def plot_workspace(result: dict, path: str | Path, thresholds: dict | None = Non
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m coordarm.analysis.workspace OUT.png [--links 8 16 ...]``: compute and draw the map."""
+    """``python -m coordarm.analysis.workspace OUT.png [--links 8 16 ...]``: compute and draw the map.
+
+    Parameters
+    ----------
+    argv : list of str or None
+        Command-line arguments (None: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit status 0.
+    """
     p = argparse.ArgumentParser(prog="python -m coordarm.analysis.workspace", description=__doc__.splitlines()[0])
     p.add_argument("out", type=Path, help="PNG file to write")
     p.add_argument("--links", type=int, nargs="+", default=[8, 16, 32, 64], help="link counts")

@@ -19,12 +19,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from coordarm.symbolic import CoordinatingController, Line, PlanarChain  # noqa: E402
+from coordarm.generated import compile as compile_controller  # noqa: E402
 from run_benchmarks import c_driver, time_from_c  # noqa: E402
 
 
 def untuned_link(ctrl: CoordinatingController, carried_trig: bool, hoist: bool):
     """The link step with the two optimisations switched on or off."""
-    carry, qj, t, new, out = ctrl._link_expressions()
+    carry, qj, t, new, out = ctrl.recursion.link_expressions()
     if not carried_trig:   # recompute cos/sin of alpha_{j-1} from alpha_{j-1}: two pairs per link
         prev = ca.vertcat(ca.cos(carry[2]), ca.sin(carry[2]))
         new = ca.cse(ca.substitute(new, carry[3:5], prev))
@@ -64,8 +65,8 @@ def main() -> None:
             for m in (64, 1024):
                 ctrl = CoordinatingController(PlanarChain(m, 0.1), Line(angle=lambda t: 0.6 * ca.sin(0.2 * t)),
                                               2.0, 0.1)
-                ctrl._cache["hoisted"] = untuned_link(ctrl, trig, hoist)
-                comp = ctrl.compile(flags=flags, build_dir=tmp)
+                ctrl.recursion._cache["hoisted"] = untuned_link(ctrl, trig, hoist)
+                comp = compile_controller(ctrl, flags=flags, build_dir=tmp)
                 reference = CoordinatingController(PlanarChain(m, 0.1),
                                                    Line(angle=lambda t: 0.6 * ca.sin(0.2 * t)), 2.0, 0.1)
                 rng = np.random.default_rng(1)

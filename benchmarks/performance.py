@@ -38,6 +38,7 @@ from coordarm.generated.codegen import generate_source  # noqa: E402
 from coordarm.simulation.mcap_writer import RunLogger  # noqa: E402
 from coordarm.simulation.run import select_backend, simulate  # noqa: E402
 from coordarm.simulation.scenario import load_scenario  # noqa: E402
+from coordarm.generated import compile as compile_controller  # noqa: E402
 from command_cost import decomposition  # noqa: E402
 from run_benchmarks import line_controller, machine  # noqa: E402
 from scalar_law import scalar_source  # noqa: E402
@@ -80,7 +81,7 @@ def build_seconds(m: int) -> float:
     ctrl = line_controller(m)
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()
-        ctrl.compile(build_dir=tmp)
+        compile_controller(ctrl, build_dir=tmp)
         return time.perf_counter() - start
 
 
@@ -99,7 +100,7 @@ def scaling(rounds: int) -> list[str]:
 
 def wrapper(rounds: int) -> list[str]:
     ctrl = line_controller(8)
-    comp = ctrl.compile()
+    comp = compile_controller(ctrl)
     q, u, packed = ctrl.chain.zigzag(1.0), np.empty(8), np.empty(comp.n_out)
     py = py_interleaved([lambda: comp.control(q, 1.0, out=u), lambda: comp.evaluate(q, 1.0, out=packed),
                          lambda: comp.control(q, 1.0)], rounds=rounds, sub=5)

@@ -45,6 +45,8 @@ from timing import c_driver, c_interleaved  # noqa: E402
 from coordarm.simulation.run import DEFAULT_CHUNK, chunk_function, simulate  # noqa: E402
 from coordarm.simulation.scenario import load_scenario  # noqa: E402
 from coordarm.symbolic import BuildError, CoordinatingController, Line, PlanarChain  # noqa: E402
+from coordarm.generated import compile as compile_controller  # noqa: E402
+from coordarm.symbolic.integrator import rk4  # noqa: E402
 
 SIZES = (8, 64, 256, 1024)
 DENSE_LIMIT_SECONDS = 60.0
@@ -97,11 +99,7 @@ def numpy_law(q: np.ndarray, t: float) -> np.ndarray:
 
 def numpy_rk4(q: np.ndarray, t: float, h: float) -> np.ndarray:
     """One RK4 step of the numpy law."""
-    k1 = numpy_law(q, t)
-    k2 = numpy_law(q + h / 2 * k1, t + h / 2)
-    k3 = numpy_law(q + h / 2 * k2, t + h / 2)
-    k4 = numpy_law(q + h * k3, t + h)
-    return q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return rk4(numpy_law, q, t, h)
 
 
 def cold_build(ctrl: CoordinatingController, form: str, timeout: float | None = None) -> float:
@@ -148,7 +146,7 @@ def main() -> None:
             q, t, h = ctrl.chain.zigzag(1.0), 1.0, 1e-3
             r = rows[m] = {}
             r["build"] = statistics.median(cold_build(ctrl, "structured") for _ in range(1 if args.quick else 3))
-            comp = ctrl.compile(build_dir=cache)
+            comp = compile_controller(ctrl, build_dir=cache)
             r["c_law"], r["c_rk4"] = (v / 1e3 for v in time_from_c(driver, comp, q, reps))
             r["py_law"] = median_time(lambda: comp.control(q, t), repeat=reps) * 1e6
             times = t + h * np.arange(1000)
@@ -167,7 +165,7 @@ def main() -> None:
                 dctrl = line_controller(m, "dense")
                 try:
                     r["dense_build"] = cold_build(dctrl, "dense", timeout=DENSE_LIMIT_SECONDS)
-                    dcomp = dctrl.compile(build_dir=cache)
+                    dcomp = compile_controller(dctrl, build_dir=cache)
                     r["dense_c_law"], r["dense_c_rk4"] = (v / 1e3 for v in time_from_c(driver, dcomp, q, reps))
                     r["dense_py_law"] = median_time(lambda: dcomp.control(q, t), repeat=reps) * 1e6
                 except BuildError as exc:

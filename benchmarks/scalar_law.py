@@ -58,5 +58,6 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
 
 def scalar_source(ctrl: CoordinatingController) -> Source:
     """The structured law of ``ctrl`` as generated before the vectorised trigonometry."""
-    funcs = [ctrl.time_features(), ctrl.first_carry(), ctrl.link_step(), ctrl.tail()]
+    funcs = [ctrl.recursion.time_features(), ctrl.recursion.first_carry(), ctrl.recursion.link_step(),
+             ctrl.recursion.tail()]
     return assemble_source(ctrl, funcs, SCALAR_LAW, "structured")

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from coordarm.generated import templates
 from coordarm.generated.build import build, find_compiler
 from coordarm.generated.codegen import Source
+from coordarm.generated.render import render
 
 HERE = Path(__file__).resolve().parent
 
@@ -30,7 +30,7 @@ FLOOR = """#include <math.h>
 #define casadi_int long long int
 #define CA_M {m}
 #define API __attribute__((visibility("default")))
-""" + templates.TRIG_PASSES + """
+""" + render("trig_passes.c") + """
 API int coordarm_law(const double* q, double t, double* out, long long* iw, double* w) {
   (void)t; (void)iw;
   ca_angles(q, w); ca_trig(w, out, out + CA_M);

@@ -28,7 +28,7 @@ _EXPORTS = {
     "Line": "coordarm.symbolic.curves",
     "Circle": "coordarm.symbolic.curves",
     "Arc": "coordarm.symbolic.curves",
-    "curve_from_spec": "coordarm.symbolic.curves",
+    "curve_from_spec": "coordarm.symbolic.curve_specs",
     "Path": "coordarm.symbolic.paths",
     "Constant": "coordarm.symbolic.motions",
     "Ramp": "coordarm.symbolic.motions",

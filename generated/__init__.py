@@ -1,19 +1,28 @@
 """Generated C for the coordinating law and the simulation loop: emitted, compiled, cached, loaded.
 
 * :mod:`coordarm.generated.codegen` emits the C source from the symbolic Functions,
-* :mod:`coordarm.generated.templates` holds the hand-written C glue (loops over links and steps),
+* ``templates/*.c`` hold the hand-written C glue (loops over links and steps), filled by
+  :mod:`coordarm.generated.render`,
 * :mod:`coordarm.generated.build` compiles it into a content-addressed cache,
 * :mod:`coordarm.generated.compiled` loads it with ctypes (:class:`CompiledController`).
 
-:func:`compile` is the entry point (``CoordinatingController.compile()`` calls it).
+:func:`compile` is the entry point; it keeps the compiled controllers it loaded, per controller.
 """
 from __future__ import annotations
 
+from collections import OrderedDict
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from coordarm.generated.compiled import CompiledController
     from coordarm.symbolic.controller import CoordinatingController
+
+#: How many compiled controllers :func:`compile` keeps (the most recently used).
+KEEP_COMPILED = 8
+# (id(ctrl), form, options) -> (ctrl, compiled); holding ctrl keeps its id from being reused. Not a
+# WeakKeyDictionary: a compiled controller refers to its controller, so a weakly keyed entry would
+# never be released.
+_compiled: "OrderedDict[tuple, tuple[CoordinatingController, CompiledController]]" = OrderedDict()
 
 
 def compile(ctrl: "CoordinatingController", form: str | None = None, **build_options: Any) -> "CompiledController":
@@ -39,7 +48,36 @@ def compile(ctrl: "CoordinatingController", form: str | None = None, **build_opt
     ------
     BuildError
         No C compiler, a non-diagonal B, or the generated code did not compile or load.
+
+    Notes
+    -----
+    The result is kept for the same controller, form and options (the :data:`KEEP_COMPILED` most
+    recent): a second call returns the same object, without generating the code again. ``force=True``
+    builds anew (and keeps that). Its buffers serve one thread: another thread takes a
+    :class:`~coordarm.generated.compiled.CompiledController` of its own.
     """
     from coordarm.generated.compiled import CompiledController
 
-    return CompiledController(ctrl, form or ctrl.law_form, **build_options)
+    form = form or ctrl.law_form
+    options = {k: v for k, v in build_options.items() if k != "force"}
+    try:
+        key = (id(ctrl), form, tuple(sorted((k, _frozen(v)) for k, v in options.items())))
+        hash(key)
+    except TypeError:                      # an option that cannot be a key: nothing kept
+        return CompiledController(ctrl, form, **build_options)
+    if key in _compiled and not build_options.get("force"):
+        _compiled.move_to_end(key)
+        return _compiled[key][1]
+    compiled = CompiledController(ctrl, form, **build_options)
+    _compiled[key] = (ctrl, compiled)
+    _compiled.move_to_end(key)
+    while len(_compiled) > KEEP_COMPILED:
+        _compiled.popitem(last=False)
+    return compiled
+
+
+def _frozen(value: Any) -> Any:
+    """``value`` as a cache key: lists and tuples as tuples, paths as strings."""
+    if isinstance(value, (list, tuple)):
+        return tuple(_frozen(v) for v in value)
+    return str(value) if hasattr(value, "__fspath__") else value

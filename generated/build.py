@@ -19,7 +19,6 @@ import platform
 import pwd
 import shlex
 import shutil
-import signal
 import stat
 import subprocess
 import tempfile
@@ -77,18 +76,28 @@ class Library:
 
 
 def build_root(build_dir: str | os.PathLike | None = None) -> Path:
-    """The cache directory of compiled libraries.
+    """The cache directory of compiled libraries: a per-user cache, never inside the installed package.
 
-    ``build_dir``, else ``$COORDARM_BUILD_DIR``, else ``$XDG_CACHE_HOME/coordarm``, else
-    ``~/.cache/coordarm``: a per-user cache, never inside the installed package.
+    Parameters
+    ----------
+    build_dir : path, optional
+        Used as it is when given.
+
+    Returns
+    -------
+    Path
+        ``build_dir``, else ``$COORDARM_BUILD_DIR``, else the platform's user cache directory
+        (platformdirs) for ``coordarm``: on Linux ``$XDG_CACHE_HOME/coordarm`` (an absolute
+        ``XDG_CACHE_HOME``), else ``~/.cache/coordarm``.
     """
     if build_dir is not None:
         return Path(build_dir)
     env = os.environ.get("COORDARM_BUILD_DIR")
     if env:
         return Path(env)
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg) if xdg else Path.home() / ".cache") / "coordarm"
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("coordarm", appauthor=False))
 
 
 class CacheWarning(UserWarning):
@@ -380,7 +389,7 @@ def _run_compiler(cmd: list[str], timeout: float | None) -> subprocess.Completed
         try:
             out, err = proc.communicate(timeout=timeout)
         except BaseException:
-            _kill_tree(proc.pid)
+            kill_process_tree(proc.pid)
             proc.communicate()
             raise
         return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
@@ -388,32 +397,28 @@ def _run_compiler(cmd: list[str], timeout: float | None) -> subprocess.Completed
         shutil.rmtree(tmpdir, ignore_errors=True)
 
 
-def descendants(pid: int) -> list[int]:
-    """Process ids started by ``pid``, recursively (Linux ``/proc``; empty elsewhere)."""
-    out, todo = [], [pid]
-    while todo:
-        p = todo.pop()
-        try:
-            tasks = os.listdir(f"/proc/{p}/task")
-        except OSError:
-            continue
-        for task in tasks:
-            try:
-                with open(f"/proc/{p}/task/{task}/children") as f:
-                    kids = [int(k) for k in f.read().split()]
-            except OSError:
-                continue
-            out += kids
-            todo += kids
-    return out
+def kill_process_tree(pid: int) -> None:
+    """SIGKILL process ``pid`` and every process it started, recursively (children looked up first).
 
+    The compiler shares this process's group (so that a terminal's Ctrl-C reaches it), so the
+    group cannot be killed as a whole; psutil finds the descendants.
 
-def _kill_tree(pid: int) -> None:
-    """SIGKILL ``pid`` and its descendants (children first looked up, then all killed)."""
-    for p in [pid, *descendants(pid)]:
+    Parameters
+    ----------
+    pid : int
+        The process (the compiler driver).
+    """
+    import psutil
+
+    try:
+        root = psutil.Process(pid)
+        tree = [root, *root.children(recursive=True)]
+    except psutil.NoSuchProcess:
+        return
+    for proc in tree:
         try:
-            os.kill(p, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError):
+            proc.kill()
+        except (psutil.NoSuchProcess, psutil.AccessDenied):
             pass
 
 

@@ -1,7 +1,7 @@
 """The closest piece of a composite path, searched by the generated C near the previous link's piece.
 
 Consecutive central points are one link apart, so the C glue carries the piece found for link
-``j - 1`` and starts link ``j``'s search there (:data:`.templates.PATH_SEARCH`): the first piece
+``j - 1`` and starts link ``j``'s search there (``templates/path_search.c``): the first piece
 whose closest-point range holds the point (its ``|phi| = delta``) bounds every other candidate,
 because a piece ``k`` can only be closer if the two pieces come within ``2 delta`` of each other.
 Each piece lists the others by a lower bound of that distance (discs around finite pieces,
@@ -9,7 +9,7 @@ half-lines for the rays), sorted, so the search tests only the pieces that may b
 returns the same piece as the full selection of :func:`coordarm.symbolic.paths.closest_piece_formulas`
 (the first, in order, of the candidates with the smallest ``|phi|``; pieces that tie to rounding give
 the same law, ``phi`` being C1 across a junction). The link step then takes that piece's constants
-(:meth:`coordarm.symbolic.CoordinatingController.link_step_trig` with ``piece=True``).
+(:func:`coordarm.generated.link_variants.piece_steps`).
 """
 from __future__ import annotations
 
@@ -52,7 +52,19 @@ def _rays_cross(p: np.ndarray, u: np.ndarray, q: np.ndarray, v: np.ndarray) -> b
 
 
 def lower_bound(a: tuple, b: tuple) -> float:
-    """A lower bound of the distance between two shapes of :func:`_shape` [m]."""
+    """A lower bound of the distance between two shapes of :func:`_shape` [m].
+
+    Parameters
+    ----------
+    a, b : tuple
+        Sets containing a path piece: ``("disc", centre, radius)``, ``("ray", start, unit direction)``
+        or ``("all", point, 0.0)``; points and directions shape (2,) [m], radius [m].
+
+    Returns
+    -------
+    float
+        A distance [m] no larger than the distance between the two sets (0 when either is ``"all"``).
+    """
     if a[0] == "all" or b[0] == "all":
         return 0.0
     if a[0] == "disc" and b[0] == "disc":

@@ -5,21 +5,58 @@ them from here.
 """
 from __future__ import annotations
 
+from enum import StrEnum
 from importlib import import_module, resources
 from types import ModuleType
 
 from coordarm.symbolic.errors import ConfigError
 
-#: ``auto`` = compiled when a C compiler builds the library, else interpreted (with a warning).
-BACKENDS = ("auto", "compiled", "interpreted")
-#: Chunk compressions of the run log (all in the MCAP specification and read by Foxglove): ``zstd``
-#: (level 1, the smallest file), ``lz4`` (needs the optional ``lz4`` package, ``pip install coordarm[lz4]``)
-#: and ``none`` (chunks stored as they are: the cheapest to write, a 2.6x larger file at 64 links).
-COMPRESSIONS = ("lz4", "none", "zstd")
+class Backend(StrEnum):
+    """How a run evaluates the law; a member equals (and prints as) its string value.
+
+    ``AUTO`` = compiled when a C compiler builds the library, else interpreted (with a warning);
+    ``COMPILED``: the generated C; ``INTERPRETED``: CasADi's virtual machine.
+    """
+
+    AUTO = "auto"
+    COMPILED = "compiled"
+    INTERPRETED = "interpreted"
+
+
+class Compression(StrEnum):
+    """Chunk compression of the run log (all in the MCAP specification and read by Foxglove).
+
+    ``ZSTD`` (level 1, the smallest file), ``LZ4`` (needs the optional ``lz4`` package,
+    ``pip install coordarm[lz4]``) and ``NONE`` (chunks stored as they are: the cheapest to
+    write, a 2.6x larger file at 64 links).
+    """
+
+    LZ4 = "lz4"
+    NONE = "none"
+    ZSTD = "zstd"
+
+
+class Outcome(StrEnum):
+    """How a run ended (the log's ``outcome`` status and a sweep row's ``outcome``).
+
+    A member equals (and prints as) its string value.
+    """
+
+    COMPLETED = "completed"
+    SINGULARITY = "singularity"
+    COLLISION = "collision"
+    INTERRUPTED = "interrupted"
+    ERROR = "error"
+
+
+#: The backends as plain strings (argparse choices and error messages).
+BACKENDS = tuple(b.value for b in Backend)
+#: The compressions as plain strings, sorted (argparse choices and error messages).
+COMPRESSIONS = tuple(c.value for c in Compression)
 #: Methods of ``coordarm compare`` (:mod:`coordarm.analysis.compare`), in table order.
 COMPARE_METHODS = ("coordinating", "pinv", "dls", "ftl")
 #: Backends of ``coordarm compare``: every method as generated C, or in CasADi's virtual machine.
-COMPARE_BACKENDS = ("compiled", "interpreted")
+COMPARE_BACKENDS = (Backend.COMPILED.value, Backend.INTERPRETED.value)
 #: Links above which the dense law's code generation and compilation take minutes (``coordarm run --yes``).
 DENSE_LINKS = 128
 #: Short names accepted by ``coordarm sweep --vary`` (the results column keeps the name as given).

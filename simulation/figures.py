@@ -8,17 +8,36 @@ import matplotlib.pyplot as plt
 from matplotlib.ticker import LogFormatter, NullFormatter
 import numpy as np
 
-from coordarm.symbolic import CoordinatingController
+from coordarm.symbolic import CoordinatingController, PlanarChain
 from coordarm.symbolic.paths import Path as PathCurve
 
 from .obstacles import Obstacle, outline
 from .run import Run, even_indices
 
 
-def save_figure(fig, path: str | Path, dpi: int = 110, tight: bool = True, bbox_inches: str | None = None) -> Path:
+def save_figure(fig: plt.Figure, path: str | Path, dpi: int = 110, tight: bool = True, bbox_inches: str | None = None) -> Path:
     """Lay out ``fig`` (tight, unless it has a layout engine or ``tight`` is False: its margins are set
     already), write it to ``path`` (``bbox_inches="tight"``: the saved box fitted to the drawn artists),
-    close it."""
+    close it.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure (closed afterwards).
+    path : str or Path
+        The file to write (format from its suffix).
+    dpi : int
+        Resolution [dots per inch].
+    tight : bool
+        Call ``tight_layout`` first (when the figure has no layout engine).
+    bbox_inches : str or None
+        Passed to ``savefig``.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     path = Path(path)
     if tight and fig.get_layout_engine() is None:
         fig.tight_layout()
@@ -28,15 +47,40 @@ def save_figure(fig, path: str | Path, dpi: int = 110, tight: bool = True, bbox_
 
 
 def stage_indices(run: Run, stages: int = 5, times: Sequence[float] | None = None) -> np.ndarray:
-    """Indices of the samples nearest to ``times`` [s] (within the run), else ``stages`` evenly spread ones."""
+    """Indices of the samples nearest to ``times`` [s] (within the run), else ``stages`` evenly spread ones.
+
+    Parameters
+    ----------
+    run : Run
+        The simulated run.
+    stages : int
+        Number of evenly spread samples when ``times`` is None.
+    times : sequence of float or None
+        Times [s]; those outside the run are dropped (none left: the last sample).
+
+    Returns
+    -------
+    ndarray of int
+        Increasing distinct row indices into ``run.t``.
+    """
     if times is None:
         return even_indices(len(run.t), stages)
     inside = [t for t in times if run.t[0] - 1e-9 <= t <= run.t[-1] + 1e-9] or [run.t[-1]]
     return np.unique([int(np.argmin(np.abs(run.t - t))) for t in inside])
 
 
-def draw_obstacles(ax, obstacles: Sequence[Obstacle], labels: bool = True) -> None:
-    """Draw every obstacle from its :func:`~coordarm.simulation.obstacles.outline` (discs and polygons filled)."""
+def draw_obstacles(ax: plt.Axes, obstacles: Sequence[Obstacle], labels: bool = True) -> None:
+    """Draw every obstacle from its :func:`~coordarm.simulation.obstacles.outline` (discs and polygons filled).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Where to draw.
+    obstacles : sequence of Obstacle
+        The obstacles.
+    labels : bool
+        Write each obstacle's name at its centre.
+    """
     for ob in obstacles:
         pts = outline(ob)
         if ob.kind == "segment":
@@ -53,6 +97,20 @@ def target_points(run: Run, ctrl: CoordinatingController, idx: np.ndarray) -> np
     """The end point's target ``s*(t) = s(0) + integral of v*`` on the curve at rows ``idx``, (len(idx), 2) [m].
 
     None when the curve cannot map an arc length to a point (a user curve without ``point_at``).
+
+    Parameters
+    ----------
+    run : Run
+        The simulated run.
+    ctrl : CoordinatingController
+        Its controller (chain and curve).
+    idx : ndarray of int, shape (k,)
+        Rows of the run.
+
+    Returns
+    -------
+    ndarray, shape (k, 2), or None
+        The target points [m].
     """
     s_ref = run.s_reference()
     try:
@@ -61,8 +119,18 @@ def target_points(run: Run, ctrl: CoordinatingController, idx: np.ndarray) -> np
         return None
 
 
-def draw_rail(ax, chain, lo: np.ndarray, hi: np.ndarray) -> None:
-    """The introduction axis: its travel ``[low, high]`` along its direction, clipped to the view."""
+def draw_rail(ax: plt.Axes, chain: PlanarChain, lo: np.ndarray, hi: np.ndarray) -> None:
+    """The introduction axis: its travel ``[low, high]`` along its direction, clipped to the view.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Where to draw.
+    chain : PlanarChain
+        A chain on a rail (``rail_limits`` [m], ``rail_direction``).
+    lo, hi : ndarray, shape (2,)
+        Corners of the view [m].
+    """
     reach = float(np.linalg.norm(hi - lo)) + float(np.linalg.norm(lo)) + float(np.linalg.norm(hi))
     a, b = (min(max(v, -reach), reach) for v in chain.rail_limits)
     ends = np.outer([a, b], chain.rail_direction)
@@ -159,6 +227,21 @@ def plot_panels(run: Run, ctrl: CoordinatingController, path: str | Path, panels
 
     All panels share the view of the whole run so that the phases line up.
 
+    Parameters
+    ----------
+    run : Run
+        The simulated run.
+    ctrl : CoordinatingController
+        Its controller (chain and curve).
+    path : str or Path
+        The PNG to write.
+    panels : sequence of dict
+        ``{"title": str, "stages": [t, ...]}`` per panel, times [s].
+    obstacles : sequence of Obstacle
+        Obstacles to draw.
+    title : str
+        Figure title (empty: a default naming the link count).
+
     Returns
     -------
     Path
@@ -182,6 +265,18 @@ def envelope_indices(Y: np.ndarray, points: int = 2000) -> np.ndarray:
     The samples are cut into about ``points / 2`` buckets and each column's smallest and largest
     sample in each bucket is kept (with the first and last sample): every extreme survives, and
     a figure a few hundred pixels wide is drawn from a few thousand vertices instead of n.
+
+    Parameters
+    ----------
+    Y : ndarray, shape (n, k) or (n,)
+        The lines, one per column (non-finite values count as 0).
+    points : int
+        About how many samples to keep per column.
+
+    Returns
+    -------
+    ndarray of int
+        Increasing distinct row indices (all of them when ``n <= points``).
     """
     Y = np.asarray(Y, dtype=float).reshape(len(Y), -1)
     n = len(Y)
@@ -203,6 +298,24 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     """Three panels over time: ``max|e|`` vs ``e(0) exp(-K t)``, ``s`` tracking error, margins.
 
     Each line is drawn from its :func:`envelope_indices` (a few thousand samples), not every step.
+
+    Parameters
+    ----------
+    run : Run
+        The simulated run.
+    gain : float
+        Error gain K [1/s] of the reference decay.
+    path : str or Path
+        The PNG to write.
+    thresholds : dict of str to float or None
+        Margin thresholds [-] drawn as dotted lines, by name.
+    title : str
+        Title of the top panel (empty: a default).
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     emax = np.max(np.abs(run.e), axis=1)
     s_err = run.s - run.s_reference()

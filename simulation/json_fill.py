@@ -65,6 +65,16 @@ def int_text(values: np.ndarray, width: int) -> np.ndarray:
 def text_width(values: np.ndarray) -> int:
     """Characters the widest of ``values`` needs (digits, and a sign if any is negative).
 
+    Parameters
+    ----------
+    values : ndarray of int
+        The integers, any shape.
+
+    Returns
+    -------
+    int
+        The width (1 for no values).
+
     Raises
     ------
     ValueError
@@ -100,12 +110,39 @@ class JsonTemplate:
         return len(self._slot_kinds)
 
     def text(self, literal: str) -> "JsonTemplate":
-        """Append literal text."""
+        """Append literal text.
+
+        Parameters
+        ----------
+        literal : str
+            JSON text.
+
+        Returns
+        -------
+        JsonTemplate
+            This template (calls chain).
+        """
         self._literals[-1] += literal
         return self
 
     def number(self, kind: int = 0) -> "JsonTemplate":
-        """Append an integer slot of ``kind``."""
+        """Append an integer slot of ``kind``.
+
+        Parameters
+        ----------
+        kind : int
+            Slot kind, ``0 <= kind < kinds``.
+
+        Returns
+        -------
+        JsonTemplate
+            This template (calls chain).
+
+        Raises
+        ------
+        ValueError
+            ``kind`` out of range.
+        """
         if not 0 <= kind < self.kinds:
             raise ValueError(f"slot kind {kind} outside 0..{self.kinds - 1}")
         self._slot_kinds.append(kind)

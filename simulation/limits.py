@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import ConfigError
+from coordarm.symbolic.checks import is_integer
 
 from .choices import DENSE_LINKS  # noqa: F401 (re-exported)
 from .log_schemas import PER_STEP, numeric_channels
@@ -69,12 +70,22 @@ class GainStepWarning(UserWarning):
 def sampled_limit(delay: int = 0) -> float:
     """Limit of ``K h`` for the zero-order-hold loop with a ``delay``-sample delay: ``2 sin(pi/(2(2n+1)))``.
 
+    Parameters
+    ----------
+    delay : int
+        Control delay n >= 0 [samples].
+
+    Returns
+    -------
+    float
+        The largest stable ``K h`` [-] (gain [1/s] times sampling period [s]).
+
     Raises
     ------
     ConfigError
         ``delay`` is not an integer >= 0.
     """
-    if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
+    if not is_integer(delay, numpy=True) or delay < 0:
         raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
     return 2.0 * math.sin(math.pi / (2 * (2 * delay + 1)))
 
@@ -120,6 +131,21 @@ def check_gain_step(gain: float, step: float, refuse: bool = True, warn: bool = 
 def check_bounds(links: Any, link_length: float, step: float, duration: float, t0: float, gain: float) -> None:
     """Hard bounds on a scenario's numbers (see the module docstring); fields named as in the TOML.
 
+    Parameters
+    ----------
+    links : int
+        ``chain.links``, number of links.
+    link_length : float
+        ``chain.link_length`` [m].
+    step : float
+        ``run.step``, the integration step [s].
+    duration : float
+        ``run.duration`` [s].
+    t0 : float
+        ``run.t0``, start time [s] (its magnitude is bounded).
+    gain : float
+        ``control.gain``, error gain K [1/s].
+
     Raises
     ------
     ConfigError
@@ -155,6 +181,13 @@ class Cost:
     memory_bytes: int
 
     def describe(self) -> str:
+        """The estimate in words, e.g. ``"1,000 steps, a log of up to 2.0 MiB, ..."``.
+
+        Returns
+        -------
+        str
+            Steps, log size and memory.
+        """
         return (f"{self.steps:,} steps, a log of up to {_size(self.log_bytes)}, "
                 f"{_size(self.memory_bytes)} of run data in memory")
 
@@ -202,6 +235,13 @@ def estimate(links: int, step: float, duration: float, log_rate: float | None = 
 
 def check_cost(cost: Cost, confirmed: bool = False) -> None:
     """Refuse a run above :data:`COST_LIMITS` unless ``confirmed``.
+
+    Parameters
+    ----------
+    cost : Cost
+        The run's estimate.
+    confirmed : bool
+        The user said yes (``--yes``): no check.
 
     Raises
     ------

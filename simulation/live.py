@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController
+from coordarm.symbolic.checks import is_real
 
 from .log_schemas import CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, foxglove_schema_bytes, numeric_channels
 from .mcap_file import Worker
@@ -30,7 +31,22 @@ LIVE_RATE = 50.0
 
 def sdk_channels(context: Any, links: int, scenes: bool = True) -> dict[str, Any]:
     """foxglove-sdk channels on ``context`` for the log's topics: the per-step ones and, if ``scenes``,
-    ``/tracking``, ``/scene`` and ``/tf`` (same schemas and encodings as the log; keys as in the log)."""
+    ``/tracking``, ``/scene`` and ``/tf`` (same schemas and encodings as the log; keys as in the log).
+
+    Parameters
+    ----------
+    context : foxglove.Context
+        The SDK context the channels belong to.
+    links : int
+        Number of links (sets the array lengths of the schemas).
+    scenes : bool
+        Also the ``/tracking``, ``/scene`` and ``/tf`` channels.
+
+    Returns
+    -------
+    dict of str to foxglove.Channel
+        The channels by log key.
+    """
     import foxglove
 
     numeric = numeric_channels(links)
@@ -91,7 +107,7 @@ class LiveView:
         from foxglove.websocket import Capability
 
         ctrl = ctrl or scenario.controller()
-        if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not speed > 0 or not np.isfinite(speed):
+        if not is_real(speed) or not speed > 0 or not np.isfinite(speed):
             raise ConfigError(f"live speed: need a positive number of simulated seconds per second, got {speed!r}")
         self.speed = float(speed)
         self.every = steps_between(rate, scenario.step, "live rate")
@@ -125,11 +141,33 @@ class LiveView:
         return f"ws://{self.host}:{self.port}"
 
     def wait_for_client(self, timeout: float | None = None) -> bool:
-        """Block until a client subscribes to a channel (or ``timeout`` [s] passes); True if one did."""
+        """Block until a client subscribes to a channel (or ``timeout`` [s] passes); True if one did.
+
+        Parameters
+        ----------
+        timeout : float or None
+            Longest wait [s] (None: no limit).
+
+        Returns
+        -------
+        bool
+            A client subscribed.
+        """
         return self._listener.event.wait(timeout)
 
     def on_chunk(self, part: Run) -> None:
-        """Queue a block of consecutive steps (blocks while the view is more than a few blocks behind)."""
+        """Queue a block of consecutive steps (blocks while the view is more than a few blocks behind).
+
+        Parameters
+        ----------
+        part : Run
+            The steps (rows in time order).
+
+        Raises
+        ------
+        BaseException
+            The first error of the sending thread, re-raised.
+        """
         if self._worker.error is not None:
             raise self._worker.error
         self._worker.put(part)
@@ -171,7 +209,13 @@ class LiveView:
             time.sleep(due - now)
 
     def close(self, drop: bool = False) -> None:
-        """Send what is queued (or drop it if ``drop``), then stop the server."""
+        """Send what is queued (or drop it if ``drop``), then stop the server.
+
+        Parameters
+        ----------
+        drop : bool
+            Discard the queued blocks instead of sending them.
+        """
         self._drop = self._drop or drop
         self._worker.stop()
         self.server.stop()

@@ -35,6 +35,8 @@ class NumericChannel:
         ROS 2 type name, e.g. ``coordarm_msgs/msg/JointState``.
     fields : tuple of (str, int)
         Field names with their lengths (0 = a scalar ``float64``).
+    comment : str
+        Comment lines heading the ``ros2msg`` definition (e.g. what ``q[0]`` is on a rail).
     """
 
     topic: str
@@ -55,17 +57,39 @@ class NumericChannel:
     comment: str = ""
 
     def schema_text(self) -> str:
-        """The ``ros2msg`` definition, one field per line (after the comment lines, if any)."""
+        """The ``ros2msg`` definition, one field per line (after the comment lines, if any).
+
+        Returns
+        -------
+        str
+            The definition text.
+        """
         head = "".join(f"# {line}\n" for line in self.comment.splitlines())
         return head + "".join(f"float64{f'[{n}]' if n else ''} {name}\n" for name, n in self.fields)
 
     def fill(self, out: Any, run: Any, rows: Any) -> None:
-        """Write the fields of ``run`` (a :class:`~simulation.run.Run`) at ``rows`` into ``out``, shape (n, width)."""
+        """Write the fields of ``run`` (a :class:`~simulation.run.Run`) at ``rows`` into ``out``, shape (n, width).
+
+        Parameters
+        ----------
+        out : ndarray, shape (n, width)
+            Destination, one message per row.
+        run : Run
+            A run with an array attribute per field.
+        rows : slice or ndarray of int
+            The ``n`` rows of the run to write.
+        """
         for name, cols in self.slices().items():
             out[:, cols] = getattr(run, name)[rows]
 
     def slices(self) -> dict[str, slice | int]:
-        """Column of each field in the decoded ``(N, width)`` array (an int for scalars)."""
+        """Column of each field in the decoded ``(N, width)`` array (an int for scalars).
+
+        Returns
+        -------
+        dict of str to slice or int
+            The columns by field name.
+        """
         out, col = {}, 0
         for name, n in self.fields:
             out[name] = slice(col, col + n) if n else col
@@ -109,6 +133,18 @@ def numeric_channels(links: int, rail: bool = False) -> dict[str, NumericChannel
     curve [m], ``max|e|`` [m], the smallest link margin and the Euclidean norm of ``u``. On a
     ``rail`` ``q``, ``u`` hold ``d``, ``d_dot`` first (m+1 entries, said in the schema's comment),
     ``/task_state`` adds the span ``sigma`` and ``/margins`` the ``rail_margin``.
+
+    Parameters
+    ----------
+    links : int
+        Number of links m.
+    rail : bool
+        The chain's base moves on a rail.
+
+    Returns
+    -------
+    dict of str to NumericChannel
+        The channels by short name.
     """
     m = links
     out = {}
@@ -177,6 +213,16 @@ def foxglove_schema_bytes(name: str) -> bytes:
     The files are the ones the published ``@foxglove/schemas`` package defines (version in
     ``foxglove_schemas/VERSION``), extracted verbatim by ``foxglove_schemas/update.sh``.
 
+    Parameters
+    ----------
+    name : str
+        The message type, e.g. ``foxglove.SceneUpdate``.
+
+    Returns
+    -------
+    bytes
+        The schema file's content.
+
     Raises
     ------
     FileNotFoundError
@@ -186,5 +232,21 @@ def foxglove_schema_bytes(name: str) -> bytes:
 
 
 def foxglove_schema(name: str) -> dict:
-    """:func:`foxglove_schema_bytes` parsed."""
+    """:func:`foxglove_schema_bytes` parsed.
+
+    Parameters
+    ----------
+    name : str
+        The message type, e.g. ``foxglove.SceneUpdate``.
+
+    Returns
+    -------
+    dict
+        The JSON Schema.
+
+    Raises
+    ------
+    FileNotFoundError
+        No schema of that name ships with coordarm.
+    """
     return json.loads(foxglove_schema_bytes(name))

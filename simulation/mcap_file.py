@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import errno
 import fcntl
-import hashlib
-import json
 import os
 import queue
 import struct
@@ -33,7 +31,8 @@ from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, M
                           Statistics, SummaryOffset)
 from mcap.writer import LIBRARY_IDENTIFIER, MCAP0_MAGIC
 
-from .choices import COMPRESSIONS, lz4_frame
+from .choices import COMPRESSIONS, Compression, lz4_frame
+from .log_layout import DIGEST_KEY, metadata_digest
 
 
 #: Bytes of a Message record before its data: opcode, length, channel id, sequence, log and publish time.
@@ -46,7 +45,24 @@ MESSAGE_HEADER_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel"
 
 
 def message_records(channel_id: int, log_times: np.ndarray, data: list[bytes], sequence0: int = 0) -> bytes:
-    """Message records for a few messages of variable size (the slow path, for low-rate channels)."""
+    """Message records for a few messages of variable size (the slow path, for low-rate channels).
+
+    Parameters
+    ----------
+    channel_id : int
+        The channel's id.
+    log_times : ndarray of int, shape (n,)
+        Log (and publish) time of each message [ns].
+    data : list of bytes
+        The n message bodies.
+    sequence0 : int
+        Sequence number of the first message (wraps at 2^32).
+
+    Returns
+    -------
+    bytes
+        The encoded records, back to back.
+    """
     out = bytearray()
     for i, (lt, d) in enumerate(zip(log_times, data)):
         out += struct.pack("<BQHIQQ", Opcode.MESSAGE, MESSAGE_HEADER_SIZE - 9 + len(d), channel_id,
@@ -55,20 +71,20 @@ def message_records(channel_id: int, log_times: np.ndarray, data: list[bytes], s
     return bytes(out)
 
 
-#: Key of the checksum in every Metadata record written here.
-DIGEST_KEY = "sha256"
-
-
-def metadata_digest(data: dict[str, str]) -> str:
-    """SHA-256 of a metadata record's entries (all but :data:`DIGEST_KEY`), as canonical JSON."""
-    body = {k: v for k, v in data.items() if k != DIGEST_KEY}
-    return hashlib.sha256(json.dumps(body, sort_keys=True, ensure_ascii=True).encode()).hexdigest()
-
-
 def open_locked(path: Path) -> BinaryIO:
     """Open ``path`` for writing, emptied, holding an exclusive lock (``flock``) until it is closed.
 
     The lock goes with the process: a killed writer leaves no stale lock behind.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+
+    Returns
+    -------
+    BinaryIO
+        The file opened ``"wb"``, empty.
 
     Raises
     ------
@@ -94,6 +110,19 @@ class Worker:
     The first failure is kept in :attr:`error` and the jobs after it are skipped; the owner
     re-raises it on its next call. With ``idle``, that is called whenever no job came for
     ``idle_interval`` seconds (e.g. to flush what was written so far).
+
+    Parameters
+    ----------
+    handle : callable
+        ``handle(job)``, applied to each job.
+    name : str
+        The thread's name.
+    maxsize : int
+        Most jobs queued (0: no limit).
+    idle : callable or None
+        ``idle()``, called after ``idle_interval`` without a job.
+    idle_interval : float
+        Wait before ``idle`` is called [s].
     """
 
     def __init__(self, handle: Callable[[Any], None], name: str, maxsize: int,
@@ -126,7 +155,13 @@ class Worker:
                 self._queue.task_done()
 
     def put(self, job: Any) -> None:
-        """Queue ``job`` (blocks while the queue is full; never with ``maxsize=0``)."""
+        """Queue ``job`` (blocks while the queue is full; never with ``maxsize=0``).
+
+        Parameters
+        ----------
+        job : Any
+            Passed to ``handle``; None stops the thread.
+        """
         self._queue.put(job)
 
     def join(self) -> None:
@@ -165,16 +200,16 @@ class McapFile:
         ``compression="lz4"`` without the lz4 package installed.
     """
 
-    def __init__(self, path: str | Path, profile: str = "", compression: str = "zstd",
+    def __init__(self, path: str | Path, profile: str = "", compression: str = Compression.ZSTD.value,
                  background: bool = False) -> None:
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
         self.path = Path(path)
-        self.compression = "" if compression == "none" else compression   # as the Chunk record names it
+        self.compression = "" if compression == Compression.NONE else compression   # as the Chunk record names it
         self._compress: Callable[[bytes], bytes] = bytes          # none: the records as they are
-        if compression == "zstd":
+        if compression == Compression.ZSTD:
             self._compress = zstandard.ZstdCompressor(level=1).compress
-        elif compression == "lz4":
+        elif compression == Compression.LZ4:
             self._compress = lz4_frame().compress
         self._stream: BinaryIO = open_locked(self.path)
         self._schemas: list[Schema] = []
@@ -211,7 +246,22 @@ class McapFile:
         return offset
 
     def add_schema(self, name: str, encoding: str, data: bytes) -> int:
-        """Register a schema; returns its id (1, 2, ...)."""
+        """Register a schema; returns its id (1, 2, ...).
+
+        Parameters
+        ----------
+        name : str
+            Schema name, e.g. ``coordarm_msgs/msg/JointState``.
+        encoding : str
+            Schema encoding, e.g. ``ros2msg`` or ``jsonschema``.
+        data : bytes
+            The schema definition.
+
+        Returns
+        -------
+        int
+            The schema id.
+        """
         schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
         self._schemas.append(schema)
         self._write(schema)
@@ -219,7 +269,24 @@ class McapFile:
 
     def add_channel(self, topic: str, message_encoding: str, schema_id: int,
                     metadata: dict[str, str] | None = None) -> int:
-        """Register a channel; returns its id (1, 2, ...)."""
+        """Register a channel; returns its id (1, 2, ...).
+
+        Parameters
+        ----------
+        topic : str
+            Channel topic, e.g. ``/joint_state``.
+        message_encoding : str
+            ``cdr`` or ``json``.
+        schema_id : int
+            Id from :meth:`add_schema`.
+        metadata : dict of str to str or None
+            Channel metadata.
+
+        Returns
+        -------
+        int
+            The channel id.
+        """
         channel = Channel(id=len(self._channels) + 1, topic=topic, message_encoding=message_encoding,
                           schema_id=schema_id, metadata=dict(metadata or {}))
         self._channels.append(channel)
@@ -227,7 +294,15 @@ class McapFile:
         return channel.id
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
-        """Write a Metadata record (string values only) with its checksum (:func:`metadata_digest`) and index it."""
+        """Write a Metadata record (string values only) with its checksum (:func:`metadata_digest`) and index it.
+
+        Parameters
+        ----------
+        name : str
+            The record's name, e.g. ``scenario``.
+        data : dict of str to str
+            Its entries.
+        """
         self._wait()
         builder = RecordBuilder()
         Metadata(name=name, metadata={**data, DIGEST_KEY: metadata_digest(data)}).write(builder)
@@ -295,6 +370,11 @@ class McapFile:
         """Write the data end, the summary section (schemas, channels, statistics, indexes), footer.
 
         With ``rename_to``, the finished file is renamed to it (replacing it) while still locked.
+
+        Parameters
+        ----------
+        rename_to : str, Path or None
+            Final name of the file.
         """
         if self._closed:
             return

@@ -41,9 +41,12 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import CollisionError, ConfigError, CoordinatingController, LogError, SingularityError
-from coordarm.symbolic.controller import BUILT_IN_CURVES
+from coordarm.symbolic.checks import is_real
+from coordarm.symbolic.task import BUILT_IN_CURVES
 from coordarm.symbolic.interrupts import interruption
 
+from .choices import Backend, Compression, Outcome
+from .log_layout import partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
@@ -53,12 +56,6 @@ from .scene import SceneBuilder
 
 #: Wall time between pushes of the log to the operating system [s] (a kill loses at most ~2x this).
 FLUSH_INTERVAL = 0.5
-
-
-def partial_path(path: str | Path) -> Path:
-    """Where the log of ``path`` is written until it is closed: ``<stem>.partial<suffix>`` beside it."""
-    path = Path(path)
-    return path.with_name(f"{path.stem}.partial{path.suffix}")
 
 
 #: Default uncompressed chunk size [bytes]: zstd level 1 compresses a 64-link run's 1 MiB chunks about
@@ -94,7 +91,7 @@ def steps_between(rate: Any, step: float, name: str) -> int:
     ConfigError
         ``rate`` (named ``name`` in the message) is not a positive number.
     """
-    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0 or not np.isfinite(rate):
+    if not is_real(rate) or not rate > 0 or not np.isfinite(rate):
         raise ConfigError(f"{name}: need a positive number of samples per second, got {rate!r}")
     return max(1, int(round(1.0 / (rate * step))))
 
@@ -139,16 +136,16 @@ def outcome_of(error: BaseException | None, last_t: float | None,
     ``governed`` is the simulated time [s] during which the speed governor slowed ``v*``.
     """
     if error is None:
-        out = {"status": "completed", "t_end": last_t}
+        out = {"status": Outcome.COMPLETED.value, "t_end": last_t}
     elif isinstance(error, SingularityError):
-        out = {"status": "singularity", "t_end": last_t, "time": error.time, "link": error.link,
+        out = {"status": Outcome.SINGULARITY.value, "t_end": last_t, "time": error.time, "link": error.link,
                "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
     elif isinstance(error, CollisionError):
         c = error.contact
-        out = {"status": "collision", "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
+        out = {"status": Outcome.COLLISION.value, "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
                "value": c.value, "threshold": c.threshold, "obstacle": c.obstacle, "message": str(error)}
     else:
-        status = "interrupted" if interruption(error) is not None else "error"
+        status = (Outcome.INTERRUPTED if interruption(error) is not None else Outcome.ERROR).value
         out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
     if contacts:
         out["contacts"] = contacts
@@ -207,21 +204,32 @@ class RunLogger:
         The file cannot be created, exists (``overwrite=False``) or another run is writing it.
     """
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
+    def __init__(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
+                 log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float | None = None,
+                 compression: str = Compression.ZSTD.value, chunk_size: int | None = None, flush_interval: float = FLUSH_INTERVAL,
+                 command: list[str] | None = None, backend: str = Backend.INTERPRETED.value, library_key: str | None = None,
+                 threaded: bool = False, overwrite: bool = True) -> None:
+        with self._removed_on_failure():
+            self._open(path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,
+                       overwrite, threaded)
+            self._write_header(command, backend, library_key)
+            self._prepare_buffers(chunk_size, threaded)
+
+    @contextmanager
+    def _removed_on_failure(self):
+        """A failure or Ctrl-C before the writer is complete leaves no half-made file."""
         try:
-            self._open(*args, **kwargs)
-        except BaseException:  # a failure or Ctrl-C before the writer is complete: no half-made file left
+            yield
+        except BaseException:
             file = getattr(self, "file", None)
             if file is not None:
                 file.abandon()
                 file.path.unlink(missing_ok=True)
             raise
 
-    def _open(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
-                 log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float | None = None,
-                 compression: str = "zstd", chunk_size: int | None = None, flush_interval: float = FLUSH_INTERVAL,
-                 command: list[str] | None = None, backend: str = "interpreted", library_key: str | None = None,
-                 threaded: bool = False, overwrite: bool = True) -> None:
+    def _open(self, path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,
+              overwrite, threaded) -> None:
+        """Check the rates and compression, create the file and its channels."""
         self.ctrl = ctrl or scenario.controller()
         if type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
             scenario = scenario.with_curve(self.ctrl.curve)      # the log records a user-defined curve
@@ -255,6 +263,10 @@ class RunLogger:
             for key, (topic, schema) in FOXGLOVE_CHANNELS.items():
                 sid = self.file.add_schema(schema, "jsonschema", foxglove_schema_bytes(schema))
                 self.ids[key] = self.file.add_channel(topic, "json", sid)
+
+    def _write_header(self, command: list[str] | None, backend: str, library_key: str | None) -> None:
+        """Write the ``scenario`` and ``run`` metadata (``build`` follows with the first block)."""
+        scenario = self.scenario
         self.origin = min(0.0, scenario.t0)  # log times are ns since this simulated time (>= 0)
         self.file.add_metadata("scenario", {"json": scenario.to_json(), "source": scenario.source})
         self._build: dict[str, str] | None = None
@@ -267,6 +279,9 @@ class RunLogger:
             "platform": platform.platform(), "log_every_steps": str(self.every),
             "scene_every_steps": str(self.scene_every), "cond_every_steps": str(self.cond_every),
             "time_origin": repr(self.origin)})
+
+    def _prepare_buffers(self, chunk_size: int | None, threaded: bool) -> None:
+        """The packed sample records, the pending queues and (``threaded``) the encoding worker."""
         # One sample = one message on each per-step channel, laid out as a packed record.
         layout = []
         for key in PER_STEP:
@@ -283,7 +298,7 @@ class RunLogger:
         self._governed = 0.0    # simulated time with v_scale < 1 [s]
         self._flushed = self._received = time.monotonic()
         self._gap = 0.0  # wall time between the last two blocks
-        self.scene = SceneBuilder(self.ctrl, scenario.obstacles)
+        self.scene = SceneBuilder(self.ctrl, self.scenario.obstacles)
         self.outcome: dict[str, Any] | None = None
         #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
         self.contacts: list[dict] = []

@@ -55,7 +55,14 @@ class Obstacle:
     radius: float = 0.0
 
     def to_spec(self) -> dict:
-        """The obstacle as scenario data."""
+        """The obstacle as scenario data.
+
+        Returns
+        -------
+        dict
+            ``{"name", "a", "b"}`` (segment), ``{"name", "center", "radius"}`` (circle) or
+            ``{"name", "points"}`` (polygon); points as ``[x, y]`` lists [m].
+        """
         p = self.points.tolist()
         if self.kind == "segment":
             return {"name": self.name, "a": p[0], "b": p[1]}
@@ -71,7 +78,29 @@ def _pair(value: Any, field: str) -> list[float]:
 
 
 def obstacle_from_spec(spec: Any, index: int, field: str | None = None) -> Obstacle:
-    """Validate one ``[[obstacles]]`` table (``index`` is 0-based; the default name counts from 1)."""
+    """Validate one ``[[obstacles]]`` table (``index`` is 0-based; the default name counts from 1).
+
+    Parameters
+    ----------
+    spec : Any
+        The table: ``a``, ``b`` (segment), ``center``, ``radius`` (circle) or ``points`` (polygon),
+        points ``[x, y]`` [m], and an optional ``name``.
+    index : int
+        Its 0-based position in the array.
+    field : str or None
+        Name of the table in error messages (None: ``obstacles[index]``).
+
+    Returns
+    -------
+    Obstacle
+        The obstacle.
+
+    Raises
+    ------
+    ConfigError
+        Not a table, a bad name, unknown or missing keys, a degenerate segment or polygon, or a
+        radius that is not a positive number (the message names the field).
+    """
     field = field or f"obstacles[{index}]"
     if not isinstance(spec, dict):
         raise ConfigError(f"{field}: expected a table, got {spec!r}")
@@ -101,7 +130,23 @@ def obstacle_from_spec(spec: Any, index: int, field: str | None = None) -> Obsta
 
 
 def obstacles_from_spec(specs: Any) -> list[Obstacle]:
-    """Validate the ``[[obstacles]]`` array; names must be unique."""
+    """Validate the ``[[obstacles]]`` array; names must be unique.
+
+    Parameters
+    ----------
+    specs : Any
+        The array of tables (see :func:`obstacle_from_spec`).
+
+    Returns
+    -------
+    list of Obstacle
+        The obstacles, in order.
+
+    Raises
+    ------
+    ConfigError
+        Not an array, an invalid table, or repeated names.
+    """
     if not isinstance(specs, list):
         raise ConfigError("obstacles: expected an array of tables [[obstacles]]")
     obs = [obstacle_from_spec(s, i) for i, s in enumerate(specs)]
@@ -118,7 +163,20 @@ def _area(pts: np.ndarray) -> float:
 
 
 def outline(obstacle: Obstacle, n: int = 64) -> np.ndarray:
-    """The obstacle as a polyline [m], shape (k, 2): a segment's two ends, a closed circle or polygon."""
+    """The obstacle as a polyline [m], shape (k, 2): a segment's two ends, a closed circle or polygon.
+
+    Parameters
+    ----------
+    obstacle : Obstacle
+        The obstacle.
+    n : int
+        Segments of a circle's outline.
+
+    Returns
+    -------
+    ndarray, shape (k, 2)
+        The points [m]: 2 for a segment, ``n + 1`` for a circle, corners + 1 for a polygon.
+    """
     if obstacle.kind == "segment":
         return obstacle.points.copy()
     if obstacle.kind == "circle":
@@ -128,13 +186,37 @@ def outline(obstacle: Obstacle, n: int = 64) -> np.ndarray:
 
 
 def edges(obstacle: Obstacle) -> np.ndarray:
-    """Segments ``(a, b)`` of a segment or polygon obstacle, shape (k, 2, 2)."""
+    """Segments ``(a, b)`` of a segment or polygon obstacle, shape (k, 2, 2).
+
+    Parameters
+    ----------
+    obstacle : Obstacle
+        A segment or polygon.
+
+    Returns
+    -------
+    ndarray, shape (k, 2, 2)
+        End points of each edge [m].
+    """
     pts = outline(obstacle)
     return np.stack([pts[:-1], pts[1:]], axis=1)
 
 
 def inside_polygon(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Whether points ``p`` (..., 2) lie strictly inside the closed polygon ``poly`` (k, 2) (ray casting)."""
+    """Whether points ``p`` (..., 2) lie strictly inside the closed polygon ``poly`` (k, 2) (ray casting).
+
+    Parameters
+    ----------
+    p : ndarray, shape (..., 2)
+        Points [m].
+    poly : ndarray, shape (k, 2)
+        Corners of the polygon [m] (not repeated at the end).
+
+    Returns
+    -------
+    ndarray of bool, shape (...)
+        True inside.
+    """
     inside = np.zeros(p.shape[:-1], dtype=bool)
     x, y = p[..., 0], p[..., 1]
     for (x1, y1), (x2, y2) in zip(poly, np.roll(poly, -1, axis=0)):

@@ -3,8 +3,10 @@ from __future__ import annotations
 
 from coordarm.symbolic import CollisionError, SingularityError
 
+from .choices import Outcome
+
 #: Exit status of ``coordarm run`` per outcome (bad input is 2, Ctrl-C 130: see ``coordarm.cli``).
-EXIT_CODES = {"completed": 0, "singularity": 3, "collision": 4}
+EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.SINGULARITY: 3, Outcome.COLLISION: 4}
 
 
 def explain(error: SingularityError | CollisionError) -> list[str]:

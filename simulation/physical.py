@@ -10,6 +10,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from coordarm.symbolic import PlanarChain
 from coordarm.symbolic.geometry import self_distances, touching
@@ -49,7 +50,13 @@ class Contact:
     obstacle: str | None = None
 
     def describe(self) -> str:
-        """What happened, in words (time, links, value against threshold, geometric meaning)."""
+        """What happened, in words (time, links, value against threshold, geometric meaning).
+
+        Returns
+        -------
+        str
+            One sentence.
+        """
         t = f"t = {self.time:.3f} s"
         if self.kind == "rail_limit":
             return (f"rail limit at {t}: the rail position d = {self.value:+.4f} m is beyond its limit "
@@ -67,7 +74,13 @@ class Contact:
         return f"collision at {t}: link {self.links[0]} {what} {self.obstacle!r} (clearance {self.threshold:g} m)"
 
     def advice(self) -> str:
-        """One line of advice."""
+        """One line of advice.
+
+        Returns
+        -------
+        str
+            The advice, starting with ``advice:``.
+        """
         if self.kind == "joint_limit":
             return ("advice: start more compact only up to the limit (smaller start.beta), lower the curve's "
                     "curvature or speed, or raise chain.joint_limit if the hardware allows")
@@ -78,14 +91,34 @@ class Contact:
                 "to pass an opening, or add --allow-contact to record contacts and keep going")
 
     def to_dict(self) -> dict:
-        """JSON-ready record (the MCAP ``outcome`` and ``report.json``)."""
+        """JSON-ready record (the MCAP ``outcome`` and ``report.json``).
+
+        Returns
+        -------
+        dict
+            The fields, ``links`` as a list.
+        """
         d = asdict(self)
         d["links"] = list(self.links)
         return d
 
 
 def joint_limits(links: int, joint_limit: float | Sequence[float]) -> np.ndarray:
-    """Limits [rad] of the relative joints 2..m, shape (m-1,), from one number or a list of m-1."""
+    """Limits [rad] of the relative joints 2..m, shape (m-1,), from one number or a list of m-1.
+
+    Parameters
+    ----------
+    links : int
+        Number of links m.
+    joint_limit : float or sequence of float
+        One limit for every joint, or m-1 limits [rad].
+
+    Returns
+    -------
+    ndarray
+        The limits [rad], shape (m-1,) for one number (a sequence is converted to floats as it
+        is, its length not checked here).
+    """
     lim = np.asarray(joint_limit, dtype=float)
     if lim.ndim == 0:
         lim = np.full(links - 1, float(lim))
@@ -108,11 +141,37 @@ class Physical:
     obstacles: list[Obstacle] = field(default_factory=list)
 
     def check(self, t: np.ndarray, q: np.ndarray) -> list[Contact]:
-        """Every contact at the samples ``(t[k], q[k])``, sorted by time (then kind, links)."""
+        """Every contact at the samples ``(t[k], q[k])``, sorted by time (then kind, links).
+
+        Parameters
+        ----------
+        t : ndarray, shape (N,)
+            Times of the samples [s].
+        q : ndarray, shape (N, dof)
+            Configurations [rad] (on a rail ``d`` [m] first).
+
+        Returns
+        -------
+        list of Contact
+            The contacts.
+        """
         return check_configuration(self.chain, q, self.obstacles, t)
 
     def clearances(self, q: np.ndarray, t: np.ndarray) -> dict[str, tuple[float, float, int]]:
-        """Per obstacle: (smallest distance [m], its time [s], its 1-based link) over the samples."""
+        """Per obstacle: (smallest distance [m], its time [s], its 1-based link) over the samples.
+
+        Parameters
+        ----------
+        q : ndarray, shape (N, dof)
+            Configurations [rad] (on a rail ``d`` [m] first).
+        t : ndarray, shape (N,)
+            Times of the samples [s].
+
+        Returns
+        -------
+        dict of str to (float, float, int)
+            By obstacle name.
+        """
         joints = self.chain.joints_np(np.asarray(q, float))
         out = {}
         for ob in self.obstacles:
@@ -122,8 +181,8 @@ class Physical:
         return out
 
 
-def check_configuration(chain: PlanarChain, q, obstacles: Sequence[Obstacle] = (),
-                        t=None) -> list[Contact]:
+def check_configuration(chain: PlanarChain, q: ArrayLike, obstacles: Sequence[Obstacle] = (),
+                        t: ArrayLike | None = None) -> list[Contact]:
     """Joint limits, self-collision and obstacle contacts of configurations ``q``.
 
     Parameters
@@ -170,7 +229,18 @@ def check_configuration(chain: PlanarChain, q, obstacles: Sequence[Obstacle] = (
 
 
 def distinct(contacts: Sequence[Contact]) -> list[Contact]:
-    """The first contact of every (kind, links, obstacle), in time order (for ``--allow-contact`` records)."""
+    """The first contact of every (kind, links, obstacle), in time order (for ``--allow-contact`` records).
+
+    Parameters
+    ----------
+    contacts : sequence of Contact
+        Contacts in time order.
+
+    Returns
+    -------
+    list of Contact
+        The first of each kind, links and obstacle.
+    """
     seen, out = set(), []
     for c in contacts:
         key = (c.kind, c.links, c.obstacle)

@@ -1,25 +1,35 @@
-"""Fixed-step RK4 simulation of the closed loop ``qdot = B u(q, t)``, chunk by chunk."""
+"""Fixed-step RK4 simulation of the closed loop ``qdot = B u(q, t)``, chunk by chunk.
+
+:func:`simulate` checks its input and the start, picks the backend (:func:`select_backend`) and
+runs the chunk loop of :mod:`.stepping`; the result is a :class:`~.result.Run` (its module's
+names are re-exported here, as are :func:`~.stepping.chunk_function` and the margin checks).
+"""
 from __future__ import annotations
 
 import math
-import sys
-import time as _time
 import warnings
-from dataclasses import dataclass, field, fields
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
 from coordarm.generated import compile as compile_controller
-from coordarm.symbolic import (BuildError, CollisionError, ConfigError, CoordarmError, CoordinatingController,
-                               SingularityError, TubeError)
-from coordarm.symbolic.curves import unwrap_s
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController
+from coordarm.symbolic.checks import is_integer, is_real
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
-from coordarm.symbolic.outputs import RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS, split
 
-from .choices import BACKENDS
+from .choices import BACKENDS, Backend
 from .limits import KEEP_ROWS, check_gain_step
+from .result import ARRAYS, OPTIONAL, ExtraOutputs, Run
+from .stepping import Stepping, chunk_function, first_violation, integrate, tube_exit
+
+if TYPE_CHECKING:
+    from .progress import Progress
+
+__all__ = ["ARRAYS", "CHECK_RATE", "DEFAULT_CHUNK", "DEFAULT_THRESHOLDS", "OPTIONAL", "BackendFallbackWarning",
+           "ExtraOutputs", "Run", "check_curve_reaches_base", "check_number", "check_settings", "check_start",
+           "chunk_function", "even_indices", "first_violation", "kept_every", "progress_bar", "select_backend",
+           "simulate", "tube_exit"]
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
@@ -34,176 +44,13 @@ class BackendFallbackWarning(UserWarning):
     """``backend="auto"`` could not build the compiled controller and runs interpreted CasADi."""
 
 
-class ExtraOutputs:
-    """Mixin of :class:`Run` and :class:`~coordarm.analysis.replay.Replay`: the arrays in their
-    ``extra`` dict (law outputs that have no field of their own) read as attributes."""
-
-    def __getattr__(self, name: str) -> np.ndarray:
-        extra = self.__dict__.get("extra") or {}
-        if name in extra:
-            return extra[name]
-        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
-
-
-@dataclass
-class Run(ExtraOutputs):
-    """A simulated run, sampled at every step (row k is time ``t[k]``).
-
-    Attributes
-    ----------
-    t : (N+1,) array
-        Time [s].
-    q : (N+1, m) array
-        Joint coordinates [rad].
-    u : (N+1, m) array
-        Control at each sample [rad/s for B = I].
-    e : (N+1, m-1) array
-        Deviations ``e^2..e^m`` from the curve [m].
-    s : (N+1,) array
-        Arc length ``s^m`` of the end point [m].
-    link_margins : (N+1, m-1) array
-        Link margins of links 2..m (0 = link perpendicular to the curve).
-    longitudinal : (N+1,) array
-        Longitudinal margin (0 = end point cannot be pushed along the curve).
-    v_star : (N+1,) array
-        Commanded speed [m/s].
-    sigma, rail_margin : (N+1,) array or None
-        On a rail only: the span ``psi(y^m) - psi(y^1)`` [m] and the rail margin [-].
-    v_scale : (N+1,) array
-        The governor's factor on ``v*`` (all ones without the governor; default ones).
-    info : dict
-        Backend, wall time, stop reason, ``governed`` time [s] (steps with ``v_scale < 1``).
-    extra : dict
-        Arrays of the law's other run outputs (rows of :data:`~coordarm.symbolic.outputs.LAW_OUTPUTS`
-        with a log channel that are not fields above), also readable as attributes.
-
-    On a rail ``q`` and ``u`` have m+1 columns, the rail position ``d`` [m] and its rate first.
-    """
-
-    t: np.ndarray
-    q: np.ndarray
-    u: np.ndarray
-    e: np.ndarray
-    s: np.ndarray
-    link_margins: np.ndarray
-    longitudinal: np.ndarray
-    v_star: np.ndarray
-    sigma: np.ndarray | None = None
-    rail_margin: np.ndarray | None = None
-    info: dict = field(default_factory=dict)
-    extra: dict = field(default_factory=dict)
-
-    @classmethod
-    def from_arrays(cls, arrays: dict[str, np.ndarray], info: dict | None = None) -> "Run":
-        """A Run from arrays keyed by :data:`ARRAYS` (law outputs without a field go to ``extra``).
-
-        Raises
-        ------
-        KeyError
-            An array of :data:`ARRAYS` is missing.
-        """
-        named = {f.name for f in fields(cls)} - {"info", "extra"}
-        keys = ARRAYS + tuple(a for a in OPTIONAL if a in arrays)
-        return cls(**{a: arrays[a] for a in keys if a in named}, info=dict(info or {}),
-                   extra={a: arrays[a] for a in keys if a not in named})
-
-    def __post_init__(self) -> None:
-        # A run made without the governor's output (e.g. by a baseline) was not governed.
-        if "v_scale" not in self.extra:
-            self.extra["v_scale"] = np.ones(len(self.t))
-
-    def speed_factor(self) -> np.ndarray:
-        """The governor's factor on ``v*`` at each sample (1 where unknown, e.g. replayed from an older log).
-
-        Returns
-        -------
-        ndarray, shape (N+1,)
-            In [0, 1] (dimensionless).
-        """
-        scale = np.asarray(self.extra["v_scale"], dtype=float)
-        return np.where(np.isfinite(scale), scale, 1.0)
-
-    def s_reference(self) -> np.ndarray:
-        """``s(0) + integral of v_scale v*`` on the sample grid (trapezoidal rule).
-
-        Returns
-        -------
-        ndarray, shape (N+1,)
-            The arc length the end point should have [m] (the governed speed when governed).
-        """
-        dt = np.diff(self.t)
-        v = self.speed_factor() * self.v_star
-        return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))])
-
-    def governed_time(self) -> float:
-        """Time the governor slowed ``v*``: samples with ``v_scale < 1`` times the step.
-
-        Returns
-        -------
-        float
-            Simulated time [s].
-        """
-        step = float(self.t[1] - self.t[0]) if len(self.t) > 1 else 0.0
-        return step * int(np.count_nonzero(self.speed_factor() < 1))
-
-    def summary(self) -> dict[str, float]:
-        """Final ``max|e|``, worst ``s`` tracking error, smallest margins and where.
-
-        Returns
-        -------
-        dict
-            ``duration`` [s], ``steps``, ``final_max_abs_e`` [m], ``max_s_tracking_error`` [m],
-            ``min_link_margin`` with its ``_link`` and ``_time``, ``min_longitudinal_margin`` with
-            its ``_time``, ``max_abs_u``.
-        """
-        lm = self.link_margins
-        k, j = np.unravel_index(np.argmin(lm), lm.shape)
-        return {"duration": float(self.t[-1] - self.t[0]), "steps": int(self.info.get("steps", len(self.t) - 1)),
-                "final_max_abs_e": float(np.max(np.abs(self.e[-1]))),
-                "max_s_tracking_error": float(np.max(np.abs(self.s - self.s_reference()))),
-                "min_link_margin": float(lm[k, j]), "min_link_margin_link": int(j) + 2,
-                "min_link_margin_time": float(self.t[k]),
-                "min_longitudinal_margin": float(np.min(self.longitudinal)),
-                "min_longitudinal_margin_time": float(self.t[np.argmin(self.longitudinal)]),
-                "max_abs_u": float(np.max(np.abs(self.u)))}
-
-
 def check_number(value: Any, name: str, positive: bool = True) -> float:
     """``value`` as a float; a ConfigError naming ``name`` unless it is a finite real number (> 0 if ``positive``)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not is_real(value) or not math.isfinite(value):
         raise ConfigError(f"{name}: need a finite number, got {shown(value)}")
     if positive and value <= 0:
         raise ConfigError(f"{name}: must be > 0, got {shown(value)}")
     return float(value)
-
-
-class Progress:
-    """A one-line progress bar on stderr (redrawn in place on a terminal, every 10% otherwise)."""
-
-    def __init__(self, total: float, label: str = "run", stream=None, unit: str = "t = {done:.2f}/{total:.2f} s") -> None:
-        self.total, self.label, self.stream, self.unit = total, label, stream or sys.stderr, unit
-        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
-        self.start, self.last = _time.perf_counter(), -1
-
-    def update(self, done: float) -> None:
-        frac = min(max(done / self.total, 0.0), 1.0)
-        decile = int(frac * 10)
-        if not self.tty and decile == self.last:
-            return
-        self.last = decile
-        bar = "#" * int(frac * 30)
-        msg = f"{self.label} [{bar:<30}] {100 * frac:5.1f}%  {self.status(done, _time.perf_counter() - self.start)}"
-        self.stream.write(("\r" + msg) if self.tty else msg + "\n")
-        self.stream.flush()
-
-    def status(self, done: float, elapsed: float) -> str:
-        """The text after the bar: the progress in ``unit`` (simulated time by default) and wall time spent."""
-        return f"{self.unit.format(done=done, total=self.total)}  {elapsed:.1f} s wall"
-
-    def close(self) -> None:
-        if self.tty:
-            self.stream.write("\n")
-            self.stream.flush()
 
 
 def check_curve_reaches_base(ctrl: CoordinatingController, t0: float, t1: float, samples: int = 201) -> None:
@@ -215,43 +62,9 @@ def check_curve_reaches_base(ctrl: CoordinatingController, t0: float, t1: float,
                               f"one link length ({ctrl.chain.xi} m); the pinned base cannot follow it")
 
 
-def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
-                    thresholds: dict[str, float]) -> tuple[int, str, int | None, float] | None:
-    """First row whose margins are below threshold or not finite: ``(row, kind, link, margin)``."""
-    lm_min = np.min(link_margins, axis=1)
-    bad = ~(lm_min >= thresholds["link"]) | ~(longitudinal >= thresholds["longitudinal"])
-    if not bad.any():
-        return None
-    k = int(np.argmax(bad))
-    if not lm_min[k] >= thresholds["link"]:
-        j = int(np.nanargmin(link_margins[k])) if np.isfinite(link_margins[k]).any() else 0
-        return k, "link", j + 2, float(link_margins[k, j])
-    return k, "longitudinal", None, float(longitudinal[k])
-
-
-def tube_exit(e: np.ndarray, radius: float) -> tuple[int, int, float] | None:
-    """First row where a deviation ``|e^j|`` reaches the tube radius: ``(row, link, |e|)``, else None."""
-    if not np.isfinite(radius):
-        return None
-    bad = ~(np.abs(e) < radius)
-    if not bad.any():
-        return None
-    k = int(np.argmax(bad.any(axis=1)))
-    j = int(np.argmax(bad[k]))
-    return k, j + 2, float(abs(e[k, j]))
-
-
 def even_indices(n: int, k: int) -> np.ndarray:
     """Up to ``k`` indices evenly spread over ``range(n)``, first and last included, no repeats."""
     return np.unique(np.linspace(0, n - 1, k).round().astype(int))
-
-
-def chunk_function(ctrl: CoordinatingController, step: float, n: int):
-    """Interpreted closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, *RUN_OUTPUTS)``.
-
-    Column k of ``Q`` is the state after step k; the diagnostics are at each step's start.
-    """
-    return ctrl.memo(("chunk", float(step), n), lambda: ctrl.rk4_step(step).expand().mapaccum("chunk", n))
 
 
 def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
@@ -260,7 +73,7 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
     ``"auto"`` compiles (or takes from the cache) the generated library and falls back to
     ``"interpreted"`` with a :class:`BackendFallbackWarning` when that fails (e.g. no C
     compiler); ``"compiled"`` raises the BuildError instead. The compiled controller is
-    kept on ``ctrl`` so later runs reuse it.
+    kept by :func:`coordarm.generated.compile`, so later runs reuse it.
 
     Raises
     ------
@@ -271,12 +84,12 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
     """
     if backend not in BACKENDS:
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
-    if backend == "interpreted":
+    if backend == Backend.INTERPRETED:
         return "interpreted", None, {"backend": "interpreted"}
     try:
-        compiled = ctrl.memo(("compiled", ctrl.law_form), lambda: compile_controller(ctrl))
+        compiled = compile_controller(ctrl)
     except BuildError as exc:
-        if backend == "compiled":
+        if backend == Backend.COMPILED:
             raise
         warnings.warn(f"compiled backend unavailable, running the interpreted CasADi backend "
                       f"instead (much slower): {exc}", BackendFallbackWarning, stacklevel=3)
@@ -352,16 +165,145 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         A contact (joint limit, self-collision, obstacle) and not ``allow_contact``;
         ``err.contact`` is the first, ``err.run`` holds the run up to there.
     """
+    duration, step, t0, thr = check_settings(ctrl, duration, step, t0, chunk, backend, thresholds)
+    q0, tube = check_start(ctrl, q0, t0, duration, thr, check_every, physical)
+    backend, compiled, info = select_backend(ctrl, backend)
+    check_interrupt()
+    n_steps = int(round(duration / step))
+    every = kept_every(keep, on_chunk is not None, n_steps)
+    loop = Stepping(ctrl, compiled, t0, step, n_steps, chunk, thr, tube, every, physical, check_every, allow_contact)
+    bar = progress_bar(duration, n_steps, progress)
+    try:
+        return integrate(loop, q0, dict(info, kept_every=every), on_chunk, bar)
+    finally:
+        if bar:
+            bar.close()
+
+
+def kept_every(keep: int | None, logged: bool, n_steps: int) -> int:
+    """Keep every this many steps of a run in memory, to keep about ``keep`` rows.
+
+    ``keep`` defaults to :data:`KEEP_ROWS` when the run is logged, else to every row.
+
+    Parameters
+    ----------
+    keep : int or None
+        Asked for by the caller.
+    logged : bool
+        The run streams every row to a log (``on_chunk`` given).
+    n_steps : int
+        Steps of the run.
+
+    Returns
+    -------
+    int
+        The stride, >= 1.
+    """
+    if keep is None:
+        keep = KEEP_ROWS if logged else n_steps + 1
+    return max(1, -(-n_steps // max(1, int(keep))))
+
+
+def progress_bar(duration: float, n_steps: int, shown: bool | None) -> Progress | None:
+    """The run's progress bar on stderr if ``shown`` (by default for runs over 20,000 steps), else None.
+
+    Parameters
+    ----------
+    duration : float
+        Simulated time of the run [s] (the bar's total).
+    n_steps : int
+        Steps of the run.
+    shown : bool or None
+        Whether to show one (None: decide from ``n_steps``).
+
+    Returns
+    -------
+    Progress or None
+    """
+    if not (shown if shown is not None else n_steps > 20000):
+        return None
+    from .progress import Progress      # here: the progress library loads only when a bar is shown
+    return Progress(duration)
+
+
+def check_settings(ctrl: CoordinatingController, duration: Any, step: Any, t0: Any, chunk: Any, backend: Any,
+                   thresholds: dict[str, float] | None) -> tuple[float, float, float, dict[str, float]]:
+    """Check :func:`simulate`'s time span, chunk and backend (before anything is evaluated).
+
+    Warns (:func:`~simulation.limits.check_gain_step`) when the gain is beyond the sampled-data
+    limit of the step.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop (its gain).
+    duration, step, t0 : float
+        Simulated time, RK4 step and start time [s].
+    chunk : int
+        Steps per call of the chunk Function.
+    backend : str
+        One of :data:`~simulation.choices.BACKENDS`.
+    thresholds : dict or None
+        Margin thresholds that replace some of :data:`DEFAULT_THRESHOLDS`.
+
+    Returns
+    -------
+    duration, step, t0 : float
+        As floats [s].
+    thresholds : dict
+        ``{"link": .., "longitudinal": ..}`` [-].
+
+    Raises
+    ------
+    ConfigError
+        Not a finite number (``duration``, ``step`` not > 0), a step longer than the run, a chunk
+        that is not a positive integer, or an unknown backend.
+    """
     duration, step = check_number(duration, "duration"), check_number(step, "step")
     t0 = check_number(t0, "t0", positive=False)
     if step > duration:
         raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
-    if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
+    if not is_integer(chunk) or chunk < 1:
         raise ConfigError(f"chunk: need a positive integer, got {shown(chunk)}")
-    if backend not in BACKENDS:   # select_backend checks too, but only after the start checks below
+    if backend not in BACKENDS:   # select_backend checks too, but only after the start checks
         raise ConfigError(f"backend: expected one of {BACKENDS}, got {shown(backend)}")
     thr = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
     check_gain_step(ctrl.gain, step, refuse=False)
+    return duration, step, t0, thr
+
+
+def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: float, thr: dict[str, float],
+                check_every: Any, physical: Any) -> tuple[np.ndarray, float]:
+    """Check the start of a run: ``q0``, the curve's reach, the margins, the contacts and the tube at ``t0``.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop.
+    q0 : (dof,) array_like
+        Start configuration [rad].
+    t0, duration : float
+        Start time and simulated time [s].
+    thr : dict
+        ``{"link": .., "longitudinal": ..}`` margin thresholds [-].
+    check_every : int
+        Physical check stride [steps] (checked here, where its error has always been reported).
+    physical : Physical or None
+        Joint limits, self-collision and obstacles.
+
+    Returns
+    -------
+    q0 : (dof,) ndarray
+        The start configuration [rad].
+    tube : float
+        Tube radius of the path [m] (inf without one).
+
+    Raises
+    ------
+    ConfigError
+        A bad or (near) singular start, a curve out of the base's reach, a bad ``check_every``, a
+        start in contact or outside the path's tube.
+    """
     q0 = ctrl.chain.check_q(q0, "q0")
     if not ctrl.chain.rail:          # a rail carries the base along; its own margin guards it
         check_curve_reaches_base(ctrl, t0, t0 + duration)
@@ -372,166 +314,15 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         where = f"link {link}" if link else "the end point"
         raise ConfigError(f"q0: start configuration is (near) singular: {kind} margin of {where} is "
                           f"{margin:.3g} < {thr[kind]}")
-    if isinstance(check_every, bool) or not isinstance(check_every, int) or check_every < 1:
+    if not is_integer(check_every) or check_every < 1:
         raise ConfigError(f"check_every: need a positive integer, got {check_every!r}")
     if physical is not None:
         invalid = physical.check(np.array([t0]), q0[None])
         if invalid:
             raise ConfigError(f"q0: start configuration is not physically valid: {invalid[0].describe()}")
-
     tube = float(getattr(ctrl.curve, "tube_radius", math.inf))
     start_out = tube_exit(start["e"][None], tube)
     if start_out is not None:
         raise ConfigError(f"q0: the central point of link {start_out[1]} is {start_out[2]:.4g} m from the path, "
                           f"not inside its tube (|phi| < {tube:.4g} m, the smallest radius)")
-    backend, compiled, info = select_backend(ctrl, backend)
-    check_interrupt()
-    n_steps = int(round(duration / step))
-    if keep is None:
-        keep = KEEP_ROWS if on_chunk is not None else n_steps + 1
-    every = max(1, -(-n_steps // max(1, int(keep))))
-    info = dict(info, kept_every=every)
-    bar = Progress(duration) if (progress if progress is not None else n_steps > 20000) else None
-    parts: list[Run] = []
-    contacts: list = []
-    q, k, wall = q0, 0, _time.perf_counter()
-    prev: tuple[float, float] | None = None
-    try:
-        while k <= n_steps:
-            if k < n_steps:
-                n = min(chunk, n_steps - k)
-                times = t0 + step * np.arange(k, k + n)
-                Q, outs = _advance(ctrl, compiled, q, times, step)
-                part = Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times)))
-            else:          # the final state
-                t_end = t0 + step * n_steps
-                final = (compiled or ctrl).evaluate(q, t_end)
-                part = Run.from_arrays({a: np.asarray(v)[None] for a, v in
-                                        dict(final, t=t_end, q=q, v_star=ctrl.speed_at(t_end)).items()
-                                        if a in ARRAYS + OPTIONAL})
-            part.s = unwrap_s(ctrl.curve, part.t, part.s, prev)
-            prev = (float(part.t[-1]), float(part.s[-1]))
-            stop = _first_stop(part, k, n_steps, thr, physical, check_every, allow_contact, contacts, tube)
-            if stop is not None:
-                row, error = stop
-                part = _rows(part, slice(0, row + 1))
-                parts.append(_thin(part, k, every))
-                if on_chunk:
-                    on_chunk(part)
-                if isinstance(error, SingularityError) and error.kind == "longitudinal" and not ctrl.governor:
-                    error = SingularityError(error.time, error.link, error.margin, error.kind, error.threshold,
-                                             hint="the speed governor ([control] governor = true, --governor) "
-                                                  "slows v* instead of stopping")
-                error.run = _concat(parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
-                                                steps=k + row, wall_time=_time.perf_counter() - wall))
-                error.run.info["governed"] = error.run.governed_time()
-                raise error
-            parts.append(_thin(part, k, every))
-            if on_chunk:
-                on_chunk(part)
-            check_interrupt()
-            if k == n_steps:
-                break
-            q, k = Q[-1], k + n
-            if bar:
-                bar.update(step * k)
-    finally:
-        if bar:
-            bar.close()
-    info = dict(info, contacts=_records(contacts))
-    run = _concat(parts, dict(info, stopped="completed", steps=n_steps, wall_time=_time.perf_counter() - wall))
-    run.info["governed"] = run.governed_time()
-    return run
-
-
-_STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision"}
-
-
-def _records(contacts: list) -> list[dict]:
-    return [c.to_dict() for c in contacts]
-
-
-def _first_stop(part: Run, k: int, n_steps: int, thr: dict, physical: Any, check_every: int,
-                allow_contact: bool, contacts: list, tube: float = math.inf) -> tuple[int, CoordarmError] | None:
-    """The first row of ``part`` (global step ``k`` at row 0) where the run must stop, and why.
-
-    A contact at or before the first singular row wins. With ``allow_contact`` the first
-    contact of every (kind, links, obstacle) is appended to ``contacts`` instead.
-    """
-    stop = None
-    bad = first_violation(part.link_margins, part.longitudinal, thr)
-    if bad is not None:
-        row, kind, link, margin = bad
-        stop = row, SingularityError(part.t[row], link, margin, kind, thr[kind])
-    if part.rail_margin is not None:
-        low = np.flatnonzero(~(part.rail_margin >= thr["link"]))
-        if len(low) and (stop is None or low[0] < stop[0]):
-            row = int(low[0])
-            stop = row, SingularityError(part.t[row], 1, float(part.rail_margin[row]), "rail", thr["link"])
-    out = tube_exit(part.e, tube)
-    if out is not None and (stop is None or out[0] <= stop[0]):
-        row, link, dist = out
-        stop = row, TubeError(part.t[row], link, dist, "tube", tube)
-    if physical is not None:
-        n = len(part.t)
-        rows = np.flatnonzero(((k + np.arange(n)) % check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
-        if stop is not None:
-            rows = np.union1d(rows[rows < stop[0]], [stop[0]])
-        if len(rows):
-            found = physical.check(part.t[rows], part.q[rows])
-            if found and not allow_contact:
-                i = int(np.searchsorted(part.t[rows], found[0].time))
-                row = int(rows[i])
-                if i > 0 and rows[i - 1] + 1 < row:     # locate the first contact to the step
-                    between = np.arange(rows[i - 1] + 1, row)
-                    earlier = physical.check(part.t[between], part.q[between])
-                    if earlier:
-                        found = earlier
-                        row = int(between[np.searchsorted(part.t[between], found[0].time)])
-                return row, CollisionError(found[0])
-            seen = {(c.kind, c.links, c.obstacle) for c in contacts}
-            for c in found:
-                if (c.kind, c.links, c.obstacle) not in seen:
-                    seen.add((c.kind, c.links, c.obstacle))
-                    contacts.append(c)
-    return stop
-
-
-def _advance(ctrl, compiled, q, times, step):
-    """RK4 steps from ``q`` at each of ``times``: states after each step (rows) and the law's
-    :data:`RUN_OUTPUTS` at each start (dict of row blocks)."""
-    if compiled is not None:
-        Q, D = compiled.chunk(q, times, step)
-        d = split(D, ctrl.chain.m, ctrl.chain.rail)
-        return Q, {a: d[a] for a in ctrl.run_outputs}
-    Q, *outs = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
-    return Q.T, {a: (v.ravel() if a in SCALAR_OUTPUTS else v.T) for a, v in zip(ctrl.run_outputs, outs)}
-
-
-#: The per-sample arrays of a :class:`Run`: time, state, the law's run outputs, commanded speed.
-ARRAYS = ("t", "q", *RUN_OUTPUTS, "v_star")
-#: Arrays present only on some runs (a chain on a rail).
-OPTIONAL = RAIL_OUTPUTS
-
-
-def _arrays(run: Run) -> tuple[str, ...]:
-    return ARRAYS + tuple(a for a in OPTIONAL if getattr(run, a, None) is not None)
-
-
-def _rows(run: Run, rows: slice) -> Run:
-    return Run.from_arrays({a: getattr(run, a)[rows] for a in _arrays(run)}, run.info)
-
-
-def _thin(part: Run, k0: int, every: int) -> Run:
-    """Rows of ``part`` (steps ``k0, k0+1, ...``) kept in memory: every ``every``-th, the extremes, the last."""
-    n = len(part.t)
-    if every == 1 or n == 0:
-        return part
-    rows = np.concatenate([np.flatnonzero((k0 + np.arange(n)) % every == 0),
-                           [np.argmin(np.min(part.link_margins, axis=1)), np.argmin(part.longitudinal),
-                            np.argmax(np.max(np.abs(part.u), axis=1)), n - 1]])
-    return Run.from_arrays({a: getattr(part, a)[np.unique(rows)] for a in _arrays(part)}, part.info)
-
-
-def _concat(parts: list[Run], info: dict) -> Run:
-    return Run.from_arrays({a: np.concatenate([getattr(p, a) for p in parts]) for a in _arrays(parts[0])}, info)
+    return q0, tube

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController
+from coordarm.symbolic.checks import is_integer
 from coordarm.symbolic.outputs import OUTPUTS
 
 from .run import check_number
@@ -23,7 +24,7 @@ from .run import check_number
 
 def check_delay(delay: Any) -> None:
     """Raise ConfigError unless ``delay`` is an integer number of samples >= 0."""
-    if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)) or delay < 0:
+    if not is_integer(delay, numpy=True) or delay < 0:
         raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
 
 

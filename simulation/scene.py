@@ -38,6 +38,16 @@ def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
     The scene draws what :func:`coordarm.simulation.obstacles.outline` gives (as do the
     figures and the animation): a wall segment is its two ends, a disc and a polygon are
     closed (they repeat their first point).
+
+    Parameters
+    ----------
+    obstacles : sequence of Obstacle
+        The scenario's obstacles.
+
+    Returns
+    -------
+    list of ndarray, each shape (k, 2)
+        The polylines [m].
     """
     return [outline(ob) for ob in obstacles]
 
@@ -50,7 +60,24 @@ def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0) -> tu
 
 
 def line_json(points: np.ndarray, thickness: float, color: tuple[float, ...], kind: int = 0) -> str:
-    """A ``foxglove.LinePrimitive`` in JSON (``kind`` 0 = line strip; points formatted in one pass)."""
+    """A ``foxglove.LinePrimitive`` in JSON (``kind`` 0 = line strip; points formatted in one pass).
+
+    Parameters
+    ----------
+    points : ndarray, shape (k, 2)
+        The vertices [m] (written to 1e-6 m).
+    thickness : float
+        Line width [m] (not scale invariant).
+    color : tuple of float
+        ``(r, g, b, a)``, each in 0..1.
+    kind : int
+        ``LinePrimitive`` type: 0 line strip, 1 line loop, 2 line list.
+
+    Returns
+    -------
+    str
+        The JSON object.
+    """
     xy = np.round(np.asarray(points, float).reshape(-1, 2) * 1e6).astype(np.int64)
     head, tail = _line_parts(thickness, color, kind)
     return head + ",".join([_POINT] * len(xy)) % tuple(xy.ravel().tolist()) + tail
@@ -127,6 +154,18 @@ def frame_transforms_json(joints: np.ndarray, ns: list[int] | np.ndarray) -> lis
 
     Translations are exact to 1 nm, rotations (quaternions about z) to 1e-15; the numbers are
     written by :class:`~.json_fill.JsonTemplate` (space-padded, fixed width per batch).
+
+    Parameters
+    ----------
+    joints : ndarray, shape (n, m+1, 2)
+        Joint positions of each pose [m].
+    ns : list of int or ndarray, shape (n,)
+        Time stamp of each pose [ns].
+
+    Returns
+    -------
+    list of bytes
+        One JSON message per pose.
     """
     trans, angle = link_frames(joints)
     n, m = angle.shape
@@ -143,6 +182,20 @@ def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.
 
     Positive distances go towards the polyline's last point; a closed polyline (last point
     equal to the first) wraps around, an open one stops at its ends.
+
+    Parameters
+    ----------
+    polyline : ndarray, shape (k, 2)
+        The polyline [m], k >= 2.
+    start : ndarray, shape (2,)
+        A point [m]; the walk starts at its nearest point on the polyline.
+    distance : float
+        Signed distance along the polyline [m].
+
+    Returns
+    -------
+    ndarray, shape (2,)
+        The point [m].
     """
     p = np.asarray(polyline, float)
     a, b = p[:-1], p[1:]
@@ -201,6 +254,16 @@ class SceneBuilder:
 
         The integral is the trapezoidal rule on the step grid, summed in the same order as
         :meth:`simulation.run.Run.s_reference`, so the two agree to the last bit.
+
+        Parameters
+        ----------
+        part : Run
+            The next block of consecutive steps (``t`` [s], ``s`` [m], ``v_star`` [m/s]).
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The target arc length at each row of ``part`` [m].
         """
         t, v = np.asarray(part.t, float), np.asarray(part.v_star, float)
         if self._s0 is None:
@@ -218,7 +281,19 @@ class SceneBuilder:
         return self.s_target
 
     def curves(self, times: np.ndarray) -> list[np.ndarray]:
-        """The curve at each of ``times`` as a polyline (a straight line: one CasADi call for all times)."""
+        """The curve at each of ``times`` as a polyline (a straight line: one CasADi call for all times).
+
+        Parameters
+        ----------
+        times : ndarray, shape (k,)
+            Times [s].
+
+        Returns
+        -------
+        list of ndarray
+            One polyline [m] per time: its two ends for a straight line, else the curve's
+            ``sample(t, n=90, extent=reach)``.
+        """
         curve = self.ctrl.curve
         if self._line_params is None and isinstance(curve, Line) and len(times):
             t = ca.SX.sym("t")
@@ -241,6 +316,20 @@ class SceneBuilder:
 
         ``part`` must be the block last given to :meth:`advance`; ``ns`` are the log times of
         the rows [ns].
+
+        Parameters
+        ----------
+        part : Run
+            The block last given to :meth:`advance`.
+        ks : ndarray of int, shape (k,)
+            Its rows to draw.
+        ns : ndarray of int, shape (k,)
+            Log time of each row [ns].
+
+        Returns
+        -------
+        list of (str, int, bytes)
+            ``("scene" | "tf" | "tracking", log time [ns], message)``, three per row, in row order.
         """
         if not len(ks):
             return []

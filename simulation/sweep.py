@@ -21,16 +21,19 @@ import os
 import re
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, TextIO
 
 import numpy as np
 
 from coordarm.symbolic import ConfigError
 
-from .run import Progress
+from .progress import Progress
 from .scenario import Scenario, load_scenario
 from .sweep_points import (RESULT_COLUMNS, check_names, grid_points, integer_fields, latin_hypercube_points,
                            run_batch)
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 RESULTS = "results.parquet"
 RESULTS_CSV = "results.csv"
@@ -45,13 +48,38 @@ WRITE_INTERVAL = 5.0
 
 
 class SweepProgress(Progress):
-    """Progress bar of a sweep: points done / total and the estimated time left."""
+    """Progress bar of a sweep: points done / total and the estimated time left.
 
-    def __init__(self, total: int, already: int = 0, stream=None) -> None:
+    Parameters
+    ----------
+    total : int
+        Points of the sweep.
+    already : int
+        Points done before this call (from an earlier sweep into the same directory); the
+        time left is estimated from the others.
+    stream : file-like or None
+        Where the bar is written (None: ``sys.stderr``).
+    """
+
+    def __init__(self, total: int, already: int = 0, stream: TextIO | None = None) -> None:
         super().__init__(total, "sweep", stream)
         self.already = already
 
     def status(self, done: float, elapsed: float) -> str:
+        """Points done of all, wall time spent and the estimated time left.
+
+        Parameters
+        ----------
+        done : float
+            Points done, ``already`` included.
+        elapsed : float
+            Wall time since the start [s].
+
+        Returns
+        -------
+        str
+            The text after the bar.
+        """
         new = done - self.already
         left = (self.total - done) * elapsed / new if new > 0 else math.nan
         eta = f"{left:.0f} s" if math.isfinite(left) else "?"
@@ -59,7 +87,23 @@ class SweepProgress(Progress):
 
 
 def as_scenario(scenario: Scenario | str | os.PathLike | dict) -> Scenario:
-    """A :class:`Scenario` from a scenario, a preset name, a TOML path or a dict."""
+    """A :class:`Scenario` from a scenario, a preset name, a TOML path or a dict.
+
+    Parameters
+    ----------
+    scenario : Scenario, str, os.PathLike or dict
+        The scenario, a preset name or TOML path, or the scenario as data.
+
+    Returns
+    -------
+    Scenario
+        The scenario (validated).
+
+    Raises
+    ------
+    ConfigError
+        An invalid scenario, or no such preset or file.
+    """
     if isinstance(scenario, Scenario):
         return scenario
     if isinstance(scenario, dict):
@@ -71,8 +115,25 @@ def sweep_points(spec: dict, vary: dict[str, list], samples: int | None = None, 
                  check: bool = True) -> list[dict]:
     """The points of a sweep: the grid of ``vary``, or ``samples`` Latin-hypercube points.
 
-    ``check``: every name must be a field of the scenario (off for a custom ``point_fn``,
-    which may read names of its own).
+    Parameters
+    ----------
+    spec : dict
+        The scenario as data.
+    vary : dict of str to list
+        Values of each varied name.
+    samples : int or None
+        Number of Latin-hypercube points over each name's range of values (see
+        :func:`latin_hypercube_points`; None: the full grid).
+    seed : int
+        Seed of the Latin hypercube.
+    check : bool
+        Every name must be a field of the scenario (off for a custom ``point_fn``, which may
+        read names of its own).
+
+    Returns
+    -------
+    list of dict
+        One ``{name: value}`` per point.
 
     Raises
     ------
@@ -93,7 +154,20 @@ def sweep_points(spec: dict, vary: dict[str, list], samples: int | None = None, 
 
 
 def point_key(point: dict, names: list[str]) -> tuple:
-    """A hashable key of a point: its values in ``names`` order, numbers as floats."""
+    """A hashable key of a point: its values in ``names`` order, numbers as floats.
+
+    Parameters
+    ----------
+    point : dict
+        ``{name: value}``.
+    names : list of str
+        The varied names.
+
+    Returns
+    -------
+    tuple
+        Floats for numbers, strings for the rest.
+    """
     return tuple(float(point[n]) if isinstance(point[n], (int, float, np.number)) and not isinstance(point[n], bool)
                  else str(point[n]) for n in names)
 
@@ -103,12 +177,35 @@ def batch_size(points: int, workers: int) -> int:
 
     A 64-link, 10 s point takes ~0.2 s, so even one point a task keeps the scheduler's
     ~1 ms per task under 1 % of the work; batching matters for fast points.
+
+    Parameters
+    ----------
+    points : int
+        Points to run.
+    workers : int
+        Worker processes.
+
+    Returns
+    -------
+    int
+        Points per task, 1 to 64.
     """
     return max(1, min(64, math.ceil(points / max(1, 4 * workers))))
 
 
 def log_name(point: dict) -> str:
-    """File name of a point's MCAP log, made of its values (``chain.links=32_control.gain=2.mcap``)."""
+    """File name of a point's MCAP log, made of its values (``chain.links=32_control.gain=2.mcap``).
+
+    Parameters
+    ----------
+    point : dict
+        ``{name: value}``.
+
+    Returns
+    -------
+    str
+        The name, characters other than letters, digits and ``_.=+-`` replaced by ``-``.
+    """
     text = "_".join(f"{n}={v}" for n, v in point.items())
     return re.sub(r"[^A-Za-z0-9_.=+-]", "-", text) + ".mcap"
 
@@ -118,6 +215,22 @@ class ResultsTable:
 
     Rows are kept in the order of ``points`` (rows of earlier sweeps into the same ``out`` that
     are not among them come last), whatever order they finish in.
+
+    Parameters
+    ----------
+    out : Path or None
+        Output directory; rows already in its ``results.parquet`` are loaded (None: no files).
+    names : list of str
+        The varied names (the first columns).
+    scenario_json : str
+        The scenario as JSON (stored with the table; a table of another scenario is refused).
+    points : list of dict
+        The sweep's points, in order.
+
+    Raises
+    ------
+    ConfigError
+        ``out`` holds the results of a different sweep.
     """
 
     def __init__(self, out: Path | None, names: list[str], scenario_json: str, points: list[dict]) -> None:
@@ -141,19 +254,41 @@ class ResultsTable:
         self.rows = table.to_pandas().to_dict("records")
 
     def done(self) -> set[tuple]:
-        """Keys (:func:`point_key`) of the points that already have a row."""
+        """Keys (:func:`point_key`) of the points that already have a row.
+
+        Returns
+        -------
+        set of tuple
+            The keys.
+        """
         return {point_key(r, self.names) for r in self.rows}
 
     def add(self, rows: list[dict]) -> None:
+        """Append finished rows; the files are rewritten when the last write is older than
+        :data:`WRITE_INTERVAL`.
+
+        Parameters
+        ----------
+        rows : list of dict
+            One row per point (the varied names and :data:`RESULT_COLUMNS`).
+        """
         self.rows.extend(rows)
         self.dirty = True
         if self.out is not None and time.monotonic() - self.last_write > WRITE_INTERVAL:
             self.write()
 
-    def frame(self, rank: bool = True):
+    def frame(self, rank: bool = True) -> pd.DataFrame:
         """All rows as a DataFrame: the varied names, :data:`RESULT_COLUMNS`, extra columns, in point order.
 
-        ``rank``: add the column ``_rank`` (index of the point, ``len(points)`` for other rows).
+        Parameters
+        ----------
+        rank : bool
+            Keep the column ``_rank`` (index of the point, ``len(points)`` for other rows).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per finished point.
         """
         import pandas as pd
 
@@ -222,7 +357,7 @@ def _error_rows(points: list[dict], exc: BaseException) -> list[dict]:
 def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], client: Any = None, *,
           samples: int | None = None, seed: int = 0, out: str | os.PathLike | None = None, logs: bool = False,
           workers: int | None = None, batch: int | None = None, progress: bool = False,
-          point_fn: Callable[..., dict] | None = None):
+          point_fn: Callable[..., dict] | None = None) -> pd.DataFrame:
     """Run ``scenario`` at every point of ``vary`` on Dask and return one row per point.
 
     Parameters

@@ -7,8 +7,12 @@ import signal
 import threading
 import traceback
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from distributed.diagnostics.plugin import WorkerPlugin
+
+if TYPE_CHECKING:
+    from distributed import Worker
 
 
 class IgnoreCtrlC(WorkerPlugin):
@@ -18,7 +22,7 @@ class IgnoreCtrlC(WorkerPlugin):
     cluster, without a KeyboardInterrupt traceback from every worker.
     """
 
-    def setup(self, worker) -> None:
+    def setup(self, worker: Worker) -> None:
         """Ignore SIGINT in this worker process (its event loop runs in the main thread).
 
         Parameters
@@ -38,10 +42,27 @@ class SyncCancelRace(logging.Filter):
     tornado logs ``NameError: cannot access free variable 'future'`` with a traceback on
     ``tornado.application``. Nothing had started, so nothing is lost; the sweep's own
     "interrupted" line is the message. Every other record passes.
+
+    Parameters
+    ----------
+    name : str
+        As for :class:`logging.Filter` (the default ``""`` passes every logger's records to
+        :meth:`filter`).
     """
 
     def filter(self, record: logging.LogRecord) -> bool:
-        """False for exactly that record: a NameError raised in ``cancel`` of distributed/utils.py."""
+        """False for exactly that record: a NameError raised in ``cancel`` of distributed/utils.py.
+
+        Parameters
+        ----------
+        record : logging.LogRecord
+            A log record.
+
+        Returns
+        -------
+        bool
+            Whether to keep it.
+        """
         exc = record.exc_info[1] if record.exc_info else None
         if not isinstance(exc, NameError):
             return True

@@ -22,15 +22,16 @@ from typing import Any, Callable
 import numpy as np
 
 from coordarm.symbolic import CollisionError, ConfigError, CoordarmError, SingularityError
+from coordarm.symbolic.checks import is_integer, is_real
 
-from .choices import SWEEP_ALIASES
+from .choices import SWEEP_ALIASES, Backend, Outcome
 from .run import CHECK_RATE, even_indices, simulate
 from .scenario import Scenario
 
 #: Short names accepted by ``--vary`` (the results column keeps the name as given).
 ALIASES = SWEEP_ALIASES
 #: How a point can end, from best to worst.
-OUTCOMES = ("completed", "singularity", "collision", "error")
+OUTCOMES = tuple(o.value for o in (Outcome.COMPLETED, Outcome.SINGULARITY, Outcome.COLLISION, Outcome.ERROR))
 #: Result columns after the varied names, in order.
 RESULT_COLUMNS = ("outcome", "message", "stop_time", "min_link_margin", "min_longitudinal", "final_max_e",
                   "peak_u", "min_clearance", "wall_time", "worker")
@@ -43,6 +44,16 @@ _MAX_CONTROLLERS = 8
 
 def field_path(name: str) -> tuple[str, ...]:
     """The TOML path of a varied ``name`` (an alias or a dotted name), as a tuple of keys.
+
+    Parameters
+    ----------
+    name : str
+        A dotted name such as ``control.gain``, or an alias of :data:`ALIASES`.
+
+    Returns
+    -------
+    tuple of str
+        The keys.
 
     Raises
     ------
@@ -73,6 +84,11 @@ def _number(text: str, name: str) -> Any:
 def parse_vary(text: str) -> tuple[str, list]:
     """Parse ``NAME=v1,v2,...`` (a list) or ``NAME=a:b:n`` (``n`` values from ``a`` to ``b``).
 
+    Parameters
+    ----------
+    text : str
+        One ``--vary`` argument.
+
     Returns
     -------
     (str, list)
@@ -101,7 +117,18 @@ def parse_vary(text: str) -> tuple[str, list]:
 
 
 def grid_points(vary: dict[str, list]) -> list[dict]:
-    """Every combination of the varied values (cartesian product, last name fastest)."""
+    """Every combination of the varied values (cartesian product, last name fastest).
+
+    Parameters
+    ----------
+    vary : dict of str to list
+        Values of each varied name.
+
+    Returns
+    -------
+    list of dict
+        One ``{name: value}`` per combination.
+    """
     names = list(vary)
     return [dict(zip(names, combo)) for combo in itertools.product(*(vary[n] for n in names))]
 
@@ -136,14 +163,14 @@ def latin_hypercube_points(vary: dict[str, list], samples: int, seed: int,
     """
     from scipy.stats import qmc
 
-    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+    if not is_integer(samples) or samples < 1:
         raise ConfigError(f"--samples: need a positive integer, got {samples!r}")
     names = list(vary)
     u = qmc.LatinHypercube(d=len(names), seed=np.random.default_rng(seed)).random(samples)
     cols = {}
     for i, n in enumerate(names):
         vals = vary[n]
-        if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+        if all(is_real(v) for v in vals):
             lo, hi = min(vals), max(vals)
             x = lo + u[:, i] * (hi - lo)
             whole = n in integers if integers is not None else all(isinstance(v, int) for v in vals)
@@ -158,6 +185,18 @@ def apply_point(spec: dict, point: dict) -> Scenario:
 
     A value replaces the field whole (a motion table becomes a constant); an integer field
     (``chain.links``) takes integral floats as ints.
+
+    Parameters
+    ----------
+    spec : dict
+        The scenario as data (not modified).
+    point : dict
+        ``{name: value}`` of the varied fields.
+
+    Returns
+    -------
+    Scenario
+        The scenario of the point.
 
     Raises
     ------
@@ -174,8 +213,7 @@ def apply_point(spec: dict, point: dict) -> Scenario:
             table = table[key]
         if isinstance(value, (float, np.floating)):
             value = float(value)
-            if isinstance(table.get(path[-1]), int) and not isinstance(table.get(path[-1]), bool) \
-                    and value.is_integer():
+            if is_integer(table.get(path[-1])) and value.is_integer():
                 value = int(value)
         elif isinstance(value, np.integer):
             value = int(value)
@@ -188,8 +226,20 @@ def check_names(spec: dict, names: list[str]) -> None:
 
     Fields of the fixed sections (``[chain]``, ``[control]``, ``[start]``, ``[run]``,
     ``[thresholds]``) may be absent (their default is used); curve fields must be present.
+
+    Parameters
+    ----------
+    spec : dict
+        The scenario as data.
+    names : list of str
+        Varied names (dotted or aliases).
+
+    Raises
+    ------
+    ConfigError
+        The first name that is not a field (or is malformed).
     """
-    from .scenario import KEYS
+    from .scenario_tables import KEYS
 
     for name in names:
         path = field_path(name)
@@ -202,19 +252,32 @@ def check_names(spec: dict, names: list[str]) -> None:
 
 
 def integer_fields(spec: dict, names: list[str]) -> set[str]:
-    """The names whose field in the scenario holds an integer (e.g. ``chain.links``)."""
+    """The names whose field in the scenario holds an integer (e.g. ``chain.links``).
+
+    Parameters
+    ----------
+    spec : dict
+        The scenario as data.
+    names : list of str
+        Varied names (dotted or aliases).
+
+    Returns
+    -------
+    set of str
+        Those of ``names`` whose field is an int (not a bool).
+    """
     out = set()
     for name in names:
         value: Any = spec
         for key in field_path(name):
             value = value.get(key) if isinstance(value, dict) else None
-        if isinstance(value, int) and not isinstance(value, bool):
+        if is_integer(value):
             out.add(name)
     return out
 
 
 def _controller(sc: Scenario):
-    key = repr([sc.spec["chain"], sc.spec["curve"], sc.spec["control"]])
+    key = repr((sc.config.chain, sc.config.curve, sc.config.control))
     ctrl = _CONTROLLERS.get(key)
     if ctrl is None:
         if len(_CONTROLLERS) >= _MAX_CONTROLLERS:
@@ -224,7 +287,13 @@ def _controller(sc: Scenario):
 
 
 def worker_name() -> str:
-    """The Dask worker's address when called on one, else ``host:pid``."""
+    """The Dask worker's address when called on one, else ``host:pid``.
+
+    Returns
+    -------
+    str
+        The name of the process running a point.
+    """
     try:
         from distributed import get_worker
 
@@ -269,7 +338,7 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
         sc = apply_point(spec, point)
         ctrl = _controller(sc)
         q0 = sc.start(ctrl)
-        kw = dict(backend="auto", thresholds=sc.thresholds, progress=False, physical=sc.physical(ctrl.chain),
+        kw = dict(backend=Backend.AUTO.value, thresholds=sc.thresholds, progress=False, physical=sc.physical(ctrl.chain),
                   check_every=max(1, round(1.0 / (CHECK_RATE * sc.step))))
         try:
             if log_path:
@@ -282,11 +351,11 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
                                    keep=int(round(sc.duration / sc.step)) + 1, **kw)
             else:
                 run = simulate(ctrl, q0, sc.duration, sc.step, sc.t0, **kw)
-            row["outcome"] = "completed"
+            row["outcome"] = Outcome.COMPLETED.value
         except SingularityError as err:
-            run, row["outcome"], row["message"] = err.run, "singularity", str(err)
+            run, row["outcome"], row["message"] = err.run, Outcome.SINGULARITY.value, str(err)
         except CollisionError as err:
-            run, row["outcome"], row["message"] = err.run, "collision", str(err)
+            run, row["outcome"], row["message"] = err.run, Outcome.COLLISION.value, str(err)
         if run is not None:
             row.update(stop_time=float(run.t[-1]), min_link_margin=float(np.min(run.link_margins)),
                        min_longitudinal=float(np.min(run.longitudinal)),

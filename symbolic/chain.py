@@ -1,4 +1,4 @@
-"""Planar chain of m equal links with revolute joints (paper eqs. 1-7)."""
+"""Planar chain of m equal links with revolute joints (paper eqs. 1-7): a :class:`.ChainModel`."""
 from __future__ import annotations
 
 import math
@@ -6,7 +6,11 @@ from typing import Sequence
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
+from .carry import CARRY, Carry
+from .chain_model import ChainModel
+from .checks import is_integer, is_real
 from .errors import ConfigError
 
 #: Kinds of base: pinned at the origin, or on a rail (introduction axis).
@@ -19,12 +23,12 @@ def _joint_limits(links: int, joint_limit) -> np.ndarray:
     """Limits of joints 2..m as an (m-1,) array in (0, pi], from one number or a list of m-1."""
     if isinstance(joint_limit, (list, tuple, np.ndarray)):
         lim = np.asarray(joint_limit, dtype=float) if all(
-            isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool)
+            is_real(v, numpy=True)
             for v in np.ravel(joint_limit)) else None
         if lim is None or lim.shape != (links - 1,):
             raise ConfigError(f"joint_limit: need one number or a list of {links - 1} numbers "
                               f"(joints 2..{links}), got {joint_limit!r}")
-    elif isinstance(joint_limit, bool) or not isinstance(joint_limit, (int, float, np.floating, np.integer)):
+    elif not is_real(joint_limit, numpy=True):
         raise ConfigError(f"joint_limit: need a number [rad] or a list of them, got {joint_limit!r}")
     else:
         lim = np.full(links - 1, float(joint_limit))
@@ -34,21 +38,43 @@ def _joint_limits(links: int, joint_limit) -> np.ndarray:
     return lim
 
 
-def direction(a):
-    """Unit vector ``d(a) = (cos a, sin a)`` (CasADi or numpy)."""
+def direction(a: ca.SX | ca.MX | ca.DM | ArrayLike) -> ca.SX | ca.MX | ca.DM | np.ndarray:
+    """Unit vector ``d(a) = (cos a, sin a)`` (CasADi or numpy).
+
+    Parameters
+    ----------
+    a : casadi.SX, casadi.MX, casadi.DM, float or array_like
+        Angle(s) [rad], any shape for numpy.
+
+    Returns
+    -------
+    casadi column (2, 1) or ndarray, shape a.shape + (2,)
+        The unit vector(s) [-].
+    """
     if isinstance(a, (ca.SX, ca.MX, ca.DM)):
         return ca.vertcat(ca.cos(a), ca.sin(a))
     return np.stack([np.cos(a), np.sin(a)], axis=-1)
 
 
-def normal(a):
-    """Unit normal ``n(a) = (-sin a, cos a) = T(a)^T r`` (CasADi or numpy)."""
+def normal(a: ca.SX | ca.MX | ca.DM | ArrayLike) -> ca.SX | ca.MX | ca.DM | np.ndarray:
+    """Unit normal ``n(a) = (-sin a, cos a) = T(a)^T r`` (CasADi or numpy).
+
+    Parameters
+    ----------
+    a : casadi.SX, casadi.MX, casadi.DM, float or array_like
+        Angle(s) [rad], any shape for numpy.
+
+    Returns
+    -------
+    casadi column (2, 1) or ndarray, shape a.shape + (2,)
+        The unit normal(s) [-].
+    """
     if isinstance(a, (ca.SX, ca.MX, ca.DM)):
         return ca.vertcat(-ca.sin(a), ca.cos(a))
     return np.stack([-np.sin(a), np.cos(a)], axis=-1)
 
 
-class PlanarChain:
+class PlanarChain(ChainModel):
     """A planar chain of ``links`` links of length ``link_length``.
 
     Link 1 turns about its own centre, pinned at the origin (``y^1 = 0``); joint j
@@ -80,30 +106,30 @@ class PlanarChain:
         Allowed range of ``d`` [m] (a run leaving it stops like a collision).
     """
 
-    def __init__(self, links: int, link_length: float, B=None,
+    def __init__(self, links: int, link_length: float, B: ArrayLike | None = None,
                  joint_limit: float | Sequence[float] = None, clearance: float = 0.0,
                  base: str = "fixed", rail_angle: float = 0.0,
                  rail_limits: Sequence[float] = (-math.inf, math.inf)) -> None:
-        if isinstance(links, bool) or not isinstance(links, (int, np.integer)) or links < 2:
+        if not is_integer(links, numpy=True) or links < 2:
             raise ConfigError(f"links: need an integer of at least 2, got {links!r}")
-        if (isinstance(link_length, bool) or not isinstance(link_length, (int, float))
+        if (not is_real(link_length)
                 or not math.isfinite(link_length) or link_length <= 0):
             raise ConfigError(f"link_length: need a finite number > 0, got {link_length!r}")
         self.m, self.xi = int(links), float(link_length)
         self._bd, self._B = _input_matrix(B, self.m)
         self.joint_limits = _joint_limits(self.m, DEFAULT_JOINT_LIMIT if joint_limit is None else joint_limit)
-        if (isinstance(clearance, bool) or not isinstance(clearance, (int, float))
+        if (not is_real(clearance)
                 or not math.isfinite(clearance) or clearance < 0):
             raise ConfigError(f"clearance: need a finite number >= 0, got {clearance!r}")
         self.clearance = float(clearance)
         if base not in BASES:
             raise ConfigError(f"base: expected one of {BASES}, got {base!r}")
         self.rail = base == "rail"
-        if isinstance(rail_angle, bool) or not isinstance(rail_angle, (int, float)) or not math.isfinite(rail_angle):
+        if not is_real(rail_angle) or not math.isfinite(rail_angle):
             raise ConfigError(f"rail_angle: need a finite number [rad], got {rail_angle!r}")
         self.rail_angle = float(rail_angle)
         lim = tuple(rail_limits) if isinstance(rail_limits, (list, tuple)) else ()
-        if (len(lim) != 2 or any(isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v) for v in lim)
+        if (len(lim) != 2 or any(not is_real(v) or math.isnan(v) for v in lim)
                 or not lim[0] < lim[1]):
             raise ConfigError(f"rail_limits: need [low, high] with low < high [m], got {rail_limits!r}")
         self.rail_limits = (float(lim[0]), float(lim[1]))
@@ -128,7 +154,7 @@ class PlanarChain:
         """Diagonal of B if B is diagonal, else None (O(m): a diagonal B is stored as a vector)."""
         return None if self._bd is None else self._bd.copy()
 
-    def apply_B(self, u) -> np.ndarray:
+    def apply_B(self, u: ArrayLike) -> np.ndarray:
         """``B u``: a product by the diagonal when B is diagonal, O(m) per row.
 
         Parameters
@@ -153,7 +179,7 @@ class PlanarChain:
         """Unit vector of the rail (the direction in which ``d`` slides the base)."""
         return np.array([math.cos(self.rail_angle), math.sin(self.rail_angle)])
 
-    def revolute(self, q):
+    def revolute(self, q: np.ndarray | ca.SX | ca.MX) -> np.ndarray | ca.SX | ca.MX:
         """The revolute joint angles ``q_1..q_m`` of ``q`` (drops ``d`` on a rail), any leading axes.
 
         Parameters
@@ -168,7 +194,7 @@ class PlanarChain:
         """
         return q[..., 1:] if self.rail and isinstance(q, np.ndarray) else (q[1:] if self.rail else q)
 
-    def base_point(self, q):
+    def base_point(self, q: ArrayLike) -> np.ndarray:
         """The first central point ``y^1``: the origin, or ``d`` along the rail.
 
         Parameters
@@ -210,8 +236,98 @@ class PlanarChain:
             cols.append(cols[-1] + 0.5 * self.xi * (direction(alpha[j - 1]) + direction(alpha[j])))
         return ca.horzcat(*cols)
 
+    @property
+    def B_joints(self) -> np.ndarray:
+        """``B`` over all joints: ``diag(1, B)`` on a rail (``qdot_d = u_d``), else ``B``; shape (dof, dof)."""
+        if not self.rail:
+            return self.B
+        out = np.eye(self.dof)
+        out[1:, 1:] = self.B
+        return out
+
+    # ----------------------------------------------------- pieces of the law (ChainModel)
+    def link_direction(self, alpha: ca.SX) -> ca.SX:
+        """The direction ``d(alpha) = (cos, sin)(alpha)`` of a link at absolute angle ``alpha`` [rad].
+
+        Parameters
+        ----------
+        alpha : casadi.SX
+            Absolute angle ``alpha_j = q_1 + ... + q_j`` [rad].
+
+        Returns
+        -------
+        casadi.SX, shape (2, 1)
+        """
+        return direction(alpha)
+
+    @staticmethod
+    def link_normal(d: ca.SX) -> ca.SX:
+        """The normal ``n = (-d_2, d_1)`` of a link of direction ``d``.
+
+        Parameters
+        ----------
+        d : casadi.SX, shape (2, 1)
+            Link direction.
+
+        Returns
+        -------
+        casadi.SX, shape (2, 1)
+        """
+        return ca.vertcat(-d[1], d[0])
+
+    def centre_step(self, d_prev: ca.SX, d_j: ca.SX) -> ca.SX:
+        """``y^j - y^{j-1} = xi/2 (d_{j-1} + d_j)`` [m] (eq. 4).
+
+        Parameters
+        ----------
+        d_prev, d_j : casadi.SX, shape (2, 1)
+            Directions of links ``j-1`` and ``j``.
+
+        Returns
+        -------
+        casadi.SX, shape (2, 1)
+        """
+        return 0.5 * self.xi * (d_prev + d_j)
+
+    def first_carry(self, q1: ca.SX) -> ca.SX:
+        """The carry of link 1: centre at the base (the origin), ``w_1 = p``, ``ydot^1 + xi/2 n_1 w_1 = xi/2 n_1 p``.
+
+        Parameters
+        ----------
+        q1 : casadi.SX
+            Joint angle ``q_1`` [rad].
+
+        Returns
+        -------
+        casadi.SX, shape (CARRY.size, 1)
+            Layout :data:`~coordarm.symbolic.carry.CARRY`.
+        """
+        c, s = ca.cos(q1), ca.sin(q1)
+        h = 0.5 * self.xi
+        return CARRY.pack(Carry(y=(0, 0), alpha=q1, direction=(c, s), P=(0, 0), Q=(-h * s, h * c), a=0, b=1,
+                                sum_abs_b=1))
+
+    def controls_from_link_rates(self, w: ca.MX) -> ca.MX:
+        """The controls ``u = B^-1 qdot`` of the revolute joints from the link rates ``w_j = alpha_j'``.
+
+        Parameters
+        ----------
+        w : casadi.MX, shape (m, 1)
+            Link rates ``w_1..w_m`` [rad/s].
+
+        Returns
+        -------
+        casadi.MX, shape (m, 1)
+            ``u`` [rad/s for B = I]; ``qdot_j = w_j - w_{j-1}`` (a division when B is diagonal).
+        """
+        qdot = w - ca.vertcat(0, w[:-1])
+        bd = self.b_diagonal
+        if bd is not None:
+            return qdot / ca.DM(bd) if not np.all(bd == 1) else qdot
+        return ca.mtimes(ca.DM(np.linalg.inv(self.B)), qdot)
+
     # ------------------------------------------------------------------ numeric
-    def check_q(self, q, field: str = "q") -> np.ndarray:
+    def check_q(self, q: ArrayLike, field: str = "q") -> np.ndarray:
         """Return ``q`` as a float array of shape (dof,), or raise a ConfigError naming ``field``.
 
         Parameters
@@ -239,7 +355,7 @@ class PlanarChain:
             raise ConfigError(f"{field}: contains NaN or inf at index {int(np.flatnonzero(~np.isfinite(q))[0])}")
         return q
 
-    def centres_np(self, q) -> np.ndarray:
+    def centres_np(self, q: ArrayLike) -> np.ndarray:
         """Central points, vectorised over leading axes of ``q``.
 
         Parameters
@@ -259,7 +375,7 @@ class PlanarChain:
         base = self.base_point(q)[..., None, :]
         return np.concatenate([base, base + np.cumsum(steps, axis=-2)], axis=-2)
 
-    def joints_np(self, q) -> np.ndarray:
+    def joints_np(self, q: ArrayLike) -> np.ndarray:
         """Link end points: the chain drawn as a polyline.
 
         Parameters
@@ -279,7 +395,7 @@ class PlanarChain:
         first = y[..., :1, :] - 0.5 * self.xi * d[..., :1, :]
         return np.concatenate([first, y + 0.5 * self.xi * d], axis=-2)
 
-    def jacobians_closed_form(self, q) -> np.ndarray:
+    def jacobians_closed_form(self, q: ArrayLike) -> np.ndarray:
         """``C^j(q)`` by the closed form of eq. 7; ``C^1 = 0`` (on a rail: the rail column).
 
         Parameters
@@ -330,7 +446,7 @@ class PlanarChain:
             ``beta`` or ``heading`` not finite, or ``beta`` out of range.
         """
         for name, v in (("beta", beta), ("heading", heading)):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            if not is_real(v) or not math.isfinite(v):
                 raise ConfigError(f"{name}: need a finite number, got {v!r}")
         if not 0 < abs(beta) < math.pi / 2:
             raise ConfigError(f"beta: need 0 < |beta| < pi/2 for a zig-zag, got {beta}")

@@ -8,41 +8,14 @@ CasADi expression (the motion primitives of :mod:`symbolic.motions` are such cal
 from __future__ import annotations
 
 import math
-from typing import Any, Callable
+from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from .errors import ConfigError, shown
-from .motions import Constant, motion_from_spec, motion_to_spec
-
-Param = Any  # float | Callable[[t], expression]
-
-
-def _param(value: Param, field: str) -> Callable:
-    """A scalar parameter as a callable of time, validated."""
-    if callable(value):
-        return value
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise ConfigError(f"{field}: expected a number or a callable of t, got {shown(value)}")
-    if not math.isfinite(value):
-        raise ConfigError(f"{field}: must be finite, got {shown(value)}")
-    return Constant(float(value))
-
-
-def _point(value: Any, field: str) -> tuple[Callable, Callable]:
-    """A 2-D point parameter as two callables of time (or one callable returning 2 values)."""
-    if callable(value):
-        return (lambda t: value(t)[0], lambda t: value(t)[1])
-    if not isinstance(value, (tuple, list, np.ndarray)) or len(value) != 2:
-        raise ConfigError(f"{field}: expected a pair (x, y), got {shown(value)}")
-    return _param(value[0], f"{field}[0]"), _param(value[1], f"{field}[1]")
-
-
-def evaluate(param: Callable, t: float) -> float:
-    """Numeric value of a parameter callable at time ``t``."""
-    v = param(ca.DM(t))
-    return float(ca.DM(v)) if not isinstance(v, (int, float)) else float(v)
+from .errors import ConfigError
+from .motions import motion_to_spec
+from .params import Param, as_param, as_point, evaluate
 
 
 class Curve:
@@ -184,7 +157,7 @@ class Line(Curve):
     kind = "line"
 
     def __init__(self, point: Any = (0.0, 0.0), angle: Param = 0.0) -> None:
-        self.point, self.angle = _point(point, "curve.point"), _param(angle, "curve.angle")
+        self.point, self.angle = as_point(point, "curve.point"), as_param(angle, "curve.angle")
 
     def phi(self, y, t):
         th = self.angle(t)
@@ -234,14 +207,14 @@ class Circle(Curve):
     kind = "circle"
 
     def __init__(self, center: Any, radius: Param, reference: Param | None = None) -> None:
-        self.center, self.radius = _point(center, "curve.center"), _param(radius, "curve.radius")
+        self.center, self.radius = as_point(center, "curve.center"), as_param(radius, "curve.radius")
         r0 = evaluate(self.radius, 0.0)
         if not r0 > 0:
             raise ConfigError(f"curve.radius: must be > 0, got {r0}")
         if reference is None:
             c0 = [evaluate(c, 0.0) for c in self.center]
             reference = math.atan2(-c0[1], -c0[0])
-        self.reference = _param(reference, "curve.reference")
+        self.reference = as_param(reference, "curve.reference")
 
     def phi(self, y, t):
         r = ca.vertcat(y[0] - self.center[0](t), y[1] - self.center[1](t))
@@ -291,8 +264,8 @@ class Arc(Circle):
     kind = "arc"
 
     def __init__(self, point: Any = (0.0, 0.0), angle: Param = 0.0, radius: Param = 1.0) -> None:
-        self.point, self.angle = _point(point, "curve.point"), _param(angle, "curve.angle")
-        radius = _param(radius, "curve.radius")
+        self.point, self.angle = as_point(point, "curve.point"), as_param(angle, "curve.angle")
+        radius = as_param(radius, "curve.radius")
         center = (lambda t: self.point[0](t) - radius(t) * ca.sin(self.angle(t)),
                   lambda t: self.point[1](t) + radius(t) * ca.cos(self.angle(t)))
         super().__init__(center, radius, reference=lambda t: self.angle(t) - math.pi / 2)
@@ -339,61 +312,3 @@ for _cls in (Line, Circle, Arc):     # the subclasses' implementations carry the
         if _own is not None and not _own.__doc__:
             _own.__doc__ = getattr(Curve, _name).__doc__
 
-
-CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "radius", "reference")),
-          "arc": (Arc, ("point", "angle", "radius"))}
-
-
-#: Curve kinds built by :mod:`symbolic.paths` and their keys.
-PATH_KINDS = {"path": ("start", "heading", "segments", "offset", "rotation"),
-              "waypoints": ("points", "radius", "offset", "rotation")}
-
-
-def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
-    """Build a curve from data, e.g. ``{"kind": "line", "point": [0, 0], "angle": 0.3}``.
-
-    Kinds: ``line``, ``circle``, ``arc`` (moving curves of :mod:`symbolic.curves`) and
-    ``path``, ``waypoints`` (composite paths of :mod:`symbolic.paths`).
-
-    Parameters
-    ----------
-    spec : dict
-        ``kind`` and that curve's parameters (numbers or motions; see the kinds' classes).
-    field : str
-        Name of the table in error messages.
-
-    Returns
-    -------
-    Curve
-
-    Raises
-    ------
-    ConfigError
-        Not a table, an unknown kind or key, a missing or bad parameter.
-    """
-    if not isinstance(spec, dict):
-        raise ConfigError(f"{field}: expected a table, got {shown(spec)}")
-    kind = spec.get("kind")
-    if isinstance(kind, str) and kind in PATH_KINDS:
-        from .paths import path_from_spec   # paths builds on this module
-        return path_from_spec(spec, field)
-    if not isinstance(kind, str) or kind not in CURVES:
-        raise ConfigError(f"{field}.kind: expected one of {sorted(CURVES) + list(PATH_KINDS)}, got {shown(kind)}")
-    cls, keys = CURVES[kind]
-    unknown = set(spec) - set(keys) - {"kind"}
-    if unknown:
-        raise ConfigError(f"{field}: unknown key(s) {sorted(unknown)} for kind {shown(kind)}; allowed: {list(keys)}")
-    args = {}
-    for k, v in spec.items():
-        if k == "kind":
-            continue
-        if k in ("point", "center"):
-            if not isinstance(v, list) or len(v) != 2:
-                raise ConfigError(f"{field}.{k}: expected a pair [x, y], got {shown(v)}")
-            args[k] = tuple(motion_from_spec(c, f"{field}.{k}[{i}]") for i, c in enumerate(v))
-        else:
-            args[k] = motion_from_spec(v, f"{field}.{k}")
-    try:
-        return cls(**args)
-    except TypeError as exc:            # a missing parameter
-        raise ConfigError(f"{field}: {exc}".replace("__init__()", kind)) from None

@@ -145,6 +145,17 @@ SHOWN_LENGTH = 80
 
 
 def shown(value: object) -> str:
-    """``repr(value)`` cut to :data:`SHOWN_LENGTH` characters (with ``...``) for an error message."""
+    """``repr(value)`` cut to :data:`SHOWN_LENGTH` characters (with ``...``) for an error message.
+
+    Parameters
+    ----------
+    value : object
+        Any value.
+
+    Returns
+    -------
+    str
+        Its ``repr``, at most :data:`SHOWN_LENGTH` characters.
+    """
     text = repr(value)
     return text if len(text) <= SHOWN_LENGTH else text[:SHOWN_LENGTH - 3] + "..."

@@ -6,15 +6,40 @@ Used by the start construction (no self-intersection) and by the physical checks
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """z-component of ``(a - o) x (b - o)``, broadcast over leading axes."""
+    """z-component of ``(a - o) x (b - o)``, broadcast over leading axes.
+
+    Parameters
+    ----------
+    o, a, b : ndarray, shape (..., 2)
+        Points [m].
+
+    Returns
+    -------
+    ndarray, shape (...)
+        The cross products [m^2]; positive when ``o, a, b`` turn counter-clockwise.
+    """
     return (a[..., 0] - o[..., 0]) * (b[..., 1] - o[..., 1]) - (a[..., 1] - o[..., 1]) * (b[..., 0] - o[..., 0])
 
 
-def segments_intersect(p1, p2, q1, q2) -> np.ndarray:
-    """Whether segments ``p1p2`` and ``q1q2`` intersect (touching counts), broadcast."""
+def segments_intersect(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
+    """Whether segments ``p1p2`` and ``q1q2`` intersect (touching counts), broadcast.
+
+    Parameters
+    ----------
+    p1, p2 : ndarray, shape (..., 2)
+        End points of the first segments [m].
+    q1, q2 : ndarray, shape (..., 2)
+        End points of the second segments [m].
+
+    Returns
+    -------
+    ndarray of bool, shape (...)
+        True where the segments cross or touch.
+    """
     d1, d2 = cross(q1, q2, p1), cross(q1, q2, p2)
     d3, d4 = cross(p1, p2, q1), cross(p1, p2, q2)
     proper = (d1 * d2 < 0) & (d3 * d4 < 0)
@@ -25,8 +50,21 @@ def segments_intersect(p1, p2, q1, q2) -> np.ndarray:
     return proper | on(q1, q2, p1, d1) | on(q1, q2, p2, d2) | on(p1, p2, q1, d3) | on(p1, p2, q2, d4)
 
 
-def point_segment_distance(p, a, b) -> np.ndarray:
-    """Distance [m] from points ``p`` to segments ``ab``, broadcast over leading axes."""
+def point_segment_distance(p: ArrayLike, a: ArrayLike, b: ArrayLike) -> np.ndarray:
+    """Distance [m] from points ``p`` to segments ``ab``, broadcast over leading axes.
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 2)
+        Points [m].
+    a, b : array_like, shape (..., 2)
+        End points of the segments [m].
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Distances [m].
+    """
     p, a, b = np.asarray(p, float), np.asarray(a, float), np.asarray(b, float)
     ab = b - a
     den = np.sum(ab * ab, axis=-1)
@@ -34,15 +72,41 @@ def point_segment_distance(p, a, b) -> np.ndarray:
     return np.linalg.norm(p - (a + tpar[..., None] * ab), axis=-1)
 
 
-def segment_distance(p1, p2, q1, q2) -> np.ndarray:
-    """Distance [m] between segments ``p1p2`` and ``q1q2`` (exactly 0 when they intersect), broadcast."""
+def segment_distance(p1: ArrayLike, p2: ArrayLike, q1: ArrayLike, q2: ArrayLike) -> np.ndarray:
+    """Distance [m] between segments ``p1p2`` and ``q1q2`` (exactly 0 when they intersect), broadcast.
+
+    Parameters
+    ----------
+    p1, p2 : array_like, shape (..., 2)
+        End points of the first segments [m].
+    q1, q2 : array_like, shape (..., 2)
+        End points of the second segments [m].
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Distances [m].
+    """
     d = np.minimum(np.minimum(point_segment_distance(p1, q1, q2), point_segment_distance(p2, q1, q2)),
                    np.minimum(point_segment_distance(q1, p1, p2), point_segment_distance(q2, p1, p2)))
     return np.where(segments_intersect(p1, p2, q1, q2), 0.0, d)
 
 
 def touching(distance: np.ndarray, clearance: float) -> np.ndarray:
-    """Contact: the distance is 0 (touching or crossing) or below ``clearance`` [m]."""
+    """Contact: the distance is 0 (touching or crossing) or below ``clearance`` [m].
+
+    Parameters
+    ----------
+    distance : ndarray
+        Distances [m], any shape.
+    clearance : float
+        Smallest allowed distance [m].
+
+    Returns
+    -------
+    ndarray of bool, same shape as ``distance``
+        True where in contact.
+    """
     return (distance <= 0.0) | (distance < clearance)
 
 

@@ -45,7 +45,13 @@ def _handler(signum: int, frame) -> None:
 
 
 def received() -> int | None:
-    """The first signal received since :func:`handled` began, or None."""
+    """The first signal received since :func:`handled` began, or None.
+
+    Returns
+    -------
+    int or None
+        Its signal number, or None if none arrived.
+    """
     return _received[0] if _received else None
 
 

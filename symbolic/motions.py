@@ -12,12 +12,13 @@ from typing import Any, Callable
 
 import casadi as ca
 
+from .checks import is_real
 from .errors import ConfigError, shown
 
 
 def _finite(value: Any, field: str) -> float:
     """Return ``value`` as a finite float or raise a ConfigError naming ``field``."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if not is_real(value):
         raise ConfigError(f"{field}: expected a number, got {shown(value)}")
     if not math.isfinite(value):
         raise ConfigError(f"{field}: must be finite, got {shown(value)}")
@@ -113,7 +114,13 @@ class Smoothstep:
 
 @dataclass(frozen=True)
 class Sum:
-    """Sum of several motions."""
+    """Sum of several motions.
+
+    Attributes
+    ----------
+    terms : tuple
+        The motions added (callables of time ``t`` [s]).
+    """
     terms: tuple
 
     def __call__(self, t):
@@ -141,7 +148,7 @@ def motion_from_spec(spec: Any, field: str) -> Motion:
     Motion
         A callable of time.
     """
-    if isinstance(spec, (int, float)) and not isinstance(spec, bool):
+    if is_real(spec):
         return Constant(_finite(spec, field))
     if isinstance(spec, list):
         if not spec:
@@ -166,7 +173,24 @@ def motion_from_spec(spec: Any, field: str) -> Motion:
 
 
 def motion_to_spec(motion: Any) -> Any:
-    """Inverse of :func:`motion_from_spec` (numbers stay numbers)."""
+    """Inverse of :func:`motion_from_spec` (numbers stay numbers).
+
+    Parameters
+    ----------
+    motion : float, Constant, Ramp, Sinusoid, Smoothstep or Sum
+        A number or motion primitive.
+
+    Returns
+    -------
+    float, dict or list
+        A float for a number or :class:`Constant`, ``{"kind": ..., field: value}`` for another
+        primitive, a list of those for a :class:`Sum`.
+
+    Raises
+    ------
+    ConfigError
+        ``motion`` is not a number or motion primitive.
+    """
     if isinstance(motion, (int, float)):
         return float(motion)
     if isinstance(motion, Sum):

@@ -25,7 +25,7 @@ def _clip01(x):
     return np.clip(x, 0.0, 1.0)
 
 
-def speed_scale(margin, threshold: float):
+def speed_scale(margin: float | np.ndarray | ca.SX | ca.MX, threshold: float) -> float | np.ndarray | ca.SX | ca.MX:
     """The governor's speed factor: 0 at ``margin <= threshold``, 1 from ``3 x threshold`` up.
 
     Parameters
@@ -45,7 +45,8 @@ def speed_scale(margin, threshold: float):
     return x * x * (3 - 2 * x)
 
 
-def damping_factor(margin, lam: float, band: float):
+def damping_factor(margin: float | np.ndarray | ca.SX | ca.MX, lam: float,
+                   band: float) -> float | np.ndarray | ca.SX | ca.MX:
     """Squared damping of the variable-damping least-squares solve [same unit as ``lam^2``].
 
     Parameters

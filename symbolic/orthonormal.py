@@ -9,6 +9,7 @@ merely proportional (e.g. ``phi`` scaled by 2) changes the meaning of ``e`` and 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import casadi as ca
@@ -50,7 +51,13 @@ class OrthonormalityCheck:
     points: int
 
     def message(self) -> str:
-        """One line naming the offending point (or confirming the check)."""
+        """One line naming the offending point (or confirming the check).
+
+        Returns
+        -------
+        str
+            The message, with the point [m], time [s] and deviation.
+        """
         x, y = self.worst_point
         if self.ok:
             return (f"curve is orthonormalised: the (psi, phi) Jacobian is a rotation to "
@@ -60,7 +67,7 @@ class OrthonormalityCheck:
                 f"(|phi| there up to {self.off_curve:.3g} m)")
 
 
-def check_orthonormal(curve: Curve, times=(0.0,), points: int = 64, extent: float = 5.0,
+def check_orthonormal(curve: Curve, times: Sequence[float] = (0.0,), points: int = 64, extent: float = 5.0,
                       tol: float = 1e-6, warn: bool = True) -> OrthonormalityCheck:
     """Check that ``curve``'s description is orthonormalised at points sampled on it.
 

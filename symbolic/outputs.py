@@ -47,7 +47,18 @@ class Output:
         return self.per_link == 0 and self.extra == 1
 
     def width(self, m: int) -> int:
-        """Number of doubles of this output for ``m`` links."""
+        """Number of doubles of this output for ``m`` links.
+
+        Parameters
+        ----------
+        m : int
+            Number of links.
+
+        Returns
+        -------
+        int
+            ``per_link * m + extra``.
+        """
         return self.per_link * m + self.extra
 
 
@@ -86,6 +97,16 @@ RUN_OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS if o.channel is
 def by_name(name: str) -> Output:
     """The row of :data:`LAW_OUTPUTS` called ``name``.
 
+    Parameters
+    ----------
+    name : str
+        Output name (one of :data:`OUTPUTS`).
+
+    Returns
+    -------
+    Output
+        Its row.
+
     Raises
     ------
     KeyError
@@ -118,12 +139,38 @@ def outputs_of(rail: bool = False) -> tuple[Output, ...]:
 
 
 def packed_width(m: int, rail: bool = False) -> int:
-    """Length of the packed output vector for ``m`` links (``3 m + 2``; ``3 m + 5`` on a rail)."""
+    """Length of the packed output vector for ``m`` links (``3 m + 2``; ``3 m + 5`` on a rail).
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+    rail : bool
+        The chain's base moves on a rail.
+
+    Returns
+    -------
+    int
+        Number of doubles.
+    """
     return sum(o.width(m) for o in outputs_of(rail))
 
 
 def offsets(m: int, rail: bool = False) -> dict[str, tuple[int, int]]:
-    """``name -> (start, width)`` of each output in the packed vector for ``m`` links (on a ``rail``)."""
+    """``name -> (start, width)`` of each output in the packed vector for ``m`` links (on a ``rail``).
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+    rail : bool
+        The chain's base moves on a rail.
+
+    Returns
+    -------
+    dict of str to (int, int)
+        Start index and width of each output, in packing order.
+    """
     out, start = {}, 0
     for o in outputs_of(rail):
         out[o.name] = (start, o.width(m))

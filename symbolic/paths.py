@@ -30,9 +30,11 @@ from typing import Any, Sequence
 import casadi as ca
 import numpy as np
 
-from .curves import Curve, _param, _point, evaluate
+from .checks import is_real
+from .curves import Curve
 from .errors import ConfigError
 from .motions import motion_to_spec
+from .params import as_param, as_point, evaluate
 
 #: Length of a piece's constants with the derived ones (:func:`piece_parameters`), as the
 #: generated per-piece link steps take them.
@@ -43,8 +45,7 @@ MAX_PIECE = 2.0 * math.pi / 3.0
 
 
 def _finite(value: Any, field: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(value):
+    if not is_real(value, numpy=True) or not math.isfinite(value):
         raise ConfigError(f"{field}: need a finite number, got {value!r}")
     return float(value)
 
@@ -295,7 +296,7 @@ class Path(Curve):
         if not isinstance(segments, (list, tuple)) or not segments:
             raise ConfigError("curve.segments: need a non-empty list of segments")
         self.segments = [parse_segment(sg, f"curve.segments[{i}]") for i, sg in enumerate(segments)]
-        self.offset, self.rotation = _point(offset, "curve.offset"), _param(rotation, "curve.rotation")
+        self.offset, self.rotation = as_point(offset, "curve.offset"), as_param(rotation, "curve.rotation")
         self.pieces = build_pieces(self.start, self.heading, self.segments)
         radii = [r for kind, _, r in self.segments if kind == "arc"]
         #: Half-width of the tube in which ``phi``, ``psi`` are valid [m] (inf for lines only).
@@ -602,33 +603,3 @@ def waypoint_segments(points: Sequence[Sequence[float]], radius: float
     if not segments:
         raise ConfigError("curve.points: the filleted path has no length")
     return segments, (float(P[0, 0]), float(P[0, 1])), float(head[0])
-
-
-def path_from_spec(spec: dict, field: str = "curve") -> Path:
-    """A :class:`Path` from a ``kind = "path"`` or ``kind = "waypoints"`` table (see :func:`curve_from_spec`)."""
-    from .curves import PATH_KINDS
-    from .motions import motion_from_spec
-    kind = spec["kind"]
-    keys = PATH_KINDS[kind]
-    unknown = set(spec) - set(keys) - {"kind"}
-    if unknown:
-        raise ConfigError(f"{field}: unknown key(s) {sorted(unknown)} for kind {kind!r}; allowed: {list(keys)}")
-    required = keys[:3] if kind == "path" else keys[:2]
-    for k in required:
-        if k not in spec:
-            raise ConfigError(f"{field}.{k}: missing (kind {kind!r} needs {list(required)})")
-    motion = {}
-    if "offset" in spec:
-        v = spec["offset"]
-        if not isinstance(v, list) or len(v) != 2:
-            raise ConfigError(f"{field}.offset: expected a pair [x, y] of motions, got {v!r}")
-        motion["offset"] = tuple(motion_from_spec(c, f"{field}.offset[{i}]") for i, c in enumerate(v))
-    if "rotation" in spec:
-        motion["rotation"] = motion_from_spec(spec["rotation"], f"{field}.rotation")
-    try:
-        if kind == "waypoints":
-            return Path.from_waypoints(spec["points"], spec["radius"], **motion)
-        return Path(spec["start"], spec["heading"], spec["segments"], **motion)
-    except ConfigError as exc:
-        msg = str(exc)
-        raise ConfigError(msg.replace("curve.", f"{field}.", 1) if field != "curve" else msg) from None

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .chain import direction
 from .controller import CoordinatingController
@@ -13,7 +14,7 @@ from .geometry import self_distances, touching
 GRID = 721
 
 
-def place_on_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0) -> np.ndarray:
+def place_on_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: float = 0.0) -> np.ndarray:
     """Place the links one after the other with every central point on the curve at ``t0``.
 
     Link 1 keeps its angle ``q_guess[0]`` (its centre is the pinned base). For link j the
@@ -30,8 +31,6 @@ def place_on_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0) -> np
         Start guess [rad].
     t0 : float
         Time [s] of the curve to project onto.
-    tol : float
-        Absolute tolerance of the Newton iteration [m].
 
     Returns
     -------
@@ -51,7 +50,7 @@ def place_on_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0) -> np
     def phi_at(pts: np.ndarray) -> np.ndarray:
         n = len(pts)
         if n not in mapped:
-            mapped[n] = ctrl._geometry.map(n)
+            mapped[n] = ctrl.task.geometry.map(n)
         return np.asarray(mapped[n](pts.T, t0)[0]).ravel()
 
     q = np.empty(chain.m)
@@ -120,7 +119,7 @@ def check_start(ctrl: CoordinatingController, q: np.ndarray) -> None:
                           f"another start (beta, heading) or curve")
 
 
-def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
+def project_onto_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: float = 0.0,
                        tol: float = 1e-12) -> np.ndarray:
     """A start with ``e^j(q, t0) = 0`` for j = 2..m, inside the joint limits and without self-contact.
 
@@ -155,7 +154,7 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess, t0: float = 0.0,
     q_place = place_on_curve(ctrl, q_guess, t0)
     q = ca.SX.sym("q", chain.m)
     y = chain.centres(q)
-    geo = ctrl._geometry
+    geo = ctrl.task.geometry
     s_target = float(geo(chain.centres_np(q_place)[-1], t0)[3])
     res = [geo(y[:, chain.m - 1], t0)[3] - s_target] + [geo(y[:, j], t0)[0] for j in range(1, chain.m)]
     g = ca.Function("project_residual", [q], [ca.vertcat(*res)])
@@ -189,6 +188,8 @@ def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, d: 
         Time at which to lay the chain on the curve [s].
     d : float
         Rail position [m] (a chain on a rail only; the base is then ``d`` along the rail).
+    tol : float
+        The Newton iteration stops once its step of the link angle is below ``tol`` [rad].
 
     Returns
     -------
@@ -202,7 +203,7 @@ def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, d: 
     """
     if not 0 < abs(beta) < np.pi / 2:
         raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {beta}")
-    geo, h = ctrl._geometry, 0.5 * ctrl.chain.xi
+    geo, h = ctrl.task.geometry, 0.5 * ctrl.chain.xi
     y = ctrl.chain.base_point(np.array([float(d)]))
 
     def tangent(p):

@@ -75,7 +75,7 @@ def fast_math_checks(tmp: str) -> None:
     ctrl = expiring_controller()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        comp = ctrl.compile(build_dir=tmp_path)
+        comp = compile_controller(ctrl, build_dir=tmp_path)
     # gcc < 13 links crtfastmath.o into a library linked with -ffast-math, which flushes subnormals
     # process-wide; the library is linked in a step of its own without it, so nothing changed
     assert not flushes_subnormals() and not any("flush-to-zero" in str(w.message) for w in caught)

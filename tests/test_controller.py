@@ -94,7 +94,7 @@ def test_closed_form_decoupling_matrices_equal_the_ad_ones(kind, b_kind, m, rng)
     np.testing.assert_allclose(ctrl.speeds(T), [ctrl.speed_at(t) for t in T], rtol=1e-15)
     geo, Y = ctrl.centre_geometry(Q, T), ctrl.chain.centres_np(Q)
     for k, j in ((0, 0), (N - 1, m - 1)):   # one point at a time through the geometry Function
-        one = [np.asarray(v).ravel() for v in ctrl._geometry(Y[k, j], T[k])]
+        one = [np.asarray(v).ravel() for v in ctrl.task.geometry(Y[k, j], T[k])]
         np.testing.assert_array_equal(geo["gphi"][k, j], one[1])
         np.testing.assert_array_equal(geo["psit"][k, j], one[5][0])
     with pytest.raises(ConfigError, match="Q, T"):

@@ -18,7 +18,7 @@ MOVING = {
 
 
 def geometry(curve):
-    return CoordinatingController(PlanarChain(2, 0.1), curve, 1.0, 0.0)._geometry
+    return CoordinatingController(PlanarChain(2, 0.1), curve, 1.0, 0.0).task.geometry
 
 
 def point_on_curve(curve, t, u):

@@ -10,6 +10,7 @@ from coordarm.cli import main as cli_main
 from coordarm.generated.build import DEFAULT_FLAGS, find_compiler
 from coordarm.simulation.scenario import load_scenario
 from coordarm.symbolic.outputs import packed_width, split
+from coordarm.generated import compile as compile_controller
 from tests.test_generated import ROUNDING_FACTOR, rounding_sensitivity
 
 M, STEPS = 12, 40
@@ -58,7 +59,7 @@ def example_rows(exported):
 def test_example_loop_agrees_with_the_python_law(example_rows):
     scenario = load_scenario("line").with_overrides(M, 0.5, None)
     ctrl = scenario.controller()
-    comp = ctrl.compile()
+    comp = compile_controller(ctrl)
     rows = example_rows
     assert rows.shape == (STEPS + 1, 1 + M + packed_width(M))
     T, Q, U, OUT = rows[:, 0], rows[:, 1:M + 1], rows[:, M + 1:2 * M + 1], rows[:, 2 * M + 1:]
@@ -129,7 +130,7 @@ def test_a_rail_scenario_exports_and_its_example_loop_agrees_with_the_compiled_l
     assert rows.shape == (STEPS + 1, 1 + n + width)
     scenario = load_scenario("thread").with_overrides(M, 0.5, None)
     ctrl = scenario.controller()
-    comp = ctrl.compile()
+    comp = compile_controller(ctrl)
     T, Q, packed = rows[:, 0], rows[:, 1:n + 1], rows[:, n + 1:]
     np.testing.assert_array_equal(Q[0], scenario.start(ctrl))
     for k in range(0, STEPS + 1, 5):
@@ -183,7 +184,7 @@ def test_a_governed_rail_scenario_exports_and_its_example_loop_agrees_with_the_l
     scenario = load_scenario(str(toml))
     ctrl = scenario.controller()
     assert ctrl.governor and ctrl.chain.rail
-    comp = ctrl.compile()
+    comp = compile_controller(ctrl)
     T, Q, packed = rows[:, 0], rows[:, 1:n + 1], rows[:, n + 1:]
     scales = [split(p, m, rail=True)["v_scale"] for p in packed]
     assert 0 < min(scales) and max(scales) < 0.1 and scales[-1] < scales[0]   # slowed all along, more and more

@@ -10,8 +10,9 @@ import pytest
 from coordarm.analysis.replay import load
 from coordarm.cli import main
 from coordarm.simulation.limits import RK4_LIMIT, estimate, sampled_limit
+from coordarm.simulation.log_layout import partial_path
 from coordarm.simulation.mcap_file import McapFile
-from coordarm.simulation.mcap_writer import RunLogger, partial_path
+from coordarm.simulation.mcap_writer import RunLogger
 from coordarm.simulation.scenario import load_scenario
 from coordarm.symbolic import LogError
 from coordarm.symbolic.errors import shown
@@ -145,7 +146,6 @@ def test_a_flipped_value_in_the_scenario_metadata_is_caught_by_its_sha256(small_
 
 
 def test_outcome_metadata_that_is_not_json_is_a_log_error(small_log, tmp_path):
-    from coordarm.simulation import mcap_writer
     sc = load_scenario("line").with_overrides(links=4, duration=0.01)
     path = tmp_path / "odd.mcap"
     log = RunLogger(path, sc)
@@ -163,7 +163,7 @@ def test_outcome_metadata_that_is_not_json_is_a_log_error(small_log, tmp_path):
     deep.close()
     with pytest.raises(LogError, match="'scenario' metadata is not a valid scenario"):
         load(tmp_path / "deep.mcap")
-    assert mcap_writer.partial_path(path).exists() is False
+    assert partial_path(path).exists() is False
 
 
 def test_a_closed_log_without_samples_loads_as_an_empty_run(tmp_path, capsys):

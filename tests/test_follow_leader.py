@@ -55,7 +55,7 @@ def test_on_a_bent_path_every_central_point_stays_on_it_and_the_end_point_leads_
     run = simulate_ftl(law, 3.6, 0.01, "compiled")       # the base stays on the first, straight part
     assert run.info["stopped"] == "completed"
     Y = ctrl.chain.centres_np(run.q)                                  # forward kinematics of the logged q
-    s_end = np.array([ctrl._geometry(y, 0.0)[3] for y in Y[:, -1]], dtype=float).ravel()
+    s_end = np.array([ctrl.task.geometry(y, 0.0)[3] for y in Y[:, -1]], dtype=float).ravel()
     assert s_end[0] < 1.86 and s_end[-1] > 2.4        # from the first bend (s = 1.3..1.86) past the second (..2.4)
     dist = brute_force_distance(path, Y.reshape(-1, 2))
     sagitta = SPACING ** 2 / (8 * 0.7)

@@ -29,6 +29,7 @@ from coordarm.symbolic import (
     Line,
     PlanarChain,
 )
+from coordarm.generated import compile as compile_controller
 from tests.curves_for_tests import moving_curve
 
 REPO = Path(__file__).resolve().parents[1]
@@ -83,7 +84,7 @@ def compiled(kind, m, B=None, law="structured"):
     key = (kind, m, None if B is None else tuple(B), law)
     if key not in COMPILED:
         ctrl = controller(kind, m, B, law)
-        COMPILED[key] = (ctrl, ctrl.compile())
+        COMPILED[key] = (ctrl, compile_controller(ctrl))
     return COMPILED[key]
 
 
@@ -183,6 +184,18 @@ def test_cold_build_then_cache_hit(tmp_path):
     assert warm.cache_hit and warm.library.path == cold.library.path
     q = ctrl.chain.zigzag(1.0)
     np.testing.assert_array_equal(warm.control(q, 1.0), cold.control(q, 1.0))
+
+
+def test_compile_keeps_one_compiled_controller_per_controller_form_and_options(tmp_path):
+    ctrl = controller("line", 5)
+    first = compile_controller(ctrl, build_dir=tmp_path)
+    assert compile_controller(ctrl, build_dir=tmp_path) is first
+    assert compile_controller(ctrl, "structured", build_dir=str(tmp_path)) is first
+    forced = compile_controller(ctrl, build_dir=tmp_path, force=True)       # force builds anew, and is kept
+    assert forced is not first and not forced.cache_hit
+    assert compile_controller(ctrl, build_dir=tmp_path) is forced
+    other = compile_controller(controller("line", 5), build_dir=tmp_path)   # another controller: its own
+    assert other is not forced and other.cache_hit and other.library.path == forced.library.path
 
 
 def test_everything_that_determines_the_code_changes_the_key(tmp_path):
@@ -293,7 +306,7 @@ def test_full_b_is_refused_by_the_compiled_backend_and_auto_falls_back():
     chain = PlanarChain(4, 0.1, B=B)
     ctrl = CoordinatingController(chain, Line(angle=0.1), 2.0, 0.1)
     with pytest.raises(BuildError, match="diagonal input matrix B"):
-        ctrl.compile()
+        compile_controller(ctrl)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         run = simulate(ctrl, chain.zigzag(1.0), 0.01)
@@ -362,3 +375,22 @@ def test_run_without_a_compiler_warns_in_one_line_and_runs_interpreted(tmp_path)
     assert res.returncode == 0, res.stderr
     assert "coordarm run: warning: compiled backend unavailable" in res.stderr and "Traceback" not in res.stderr
     assert "backend interpreted" in res.stdout and not (tmp_path / "build").exists()
+
+
+@pytest.mark.parametrize("xdg", [None, "", "   ", "relative/cache", "/abs/cache"])
+def test_the_cache_directory_is_the_build_dir_the_variable_or_the_users_linux_cache(xdg, tmp_path, monkeypatch):
+    """XDG base directories: an absolute ``$XDG_CACHE_HOME``, else ``~/.cache`` (relative values are ignored)."""
+    from coordarm.generated.build import build_root
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the XDG layout is Linux's")
+    monkeypatch.delenv("COORDARM_BUILD_DIR", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    if xdg is None:
+        monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    else:
+        monkeypatch.setenv("XDG_CACHE_HOME", xdg)
+    expected = Path(xdg) if xdg and xdg.startswith("/") else tmp_path / "home" / ".cache"
+    assert build_root() == expected / "coordarm"
+    assert build_root(tmp_path / "given") == tmp_path / "given"
+    monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path / "env"))
+    assert build_root() == tmp_path / "env" and build_root(tmp_path / "given") == tmp_path / "given"

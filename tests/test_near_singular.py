@@ -5,7 +5,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-import coordarm.symbolic.controller as controller_module
+import coordarm.symbolic.recursion as recursion_module
 from coordarm.cli import main as cli_main
 from coordarm.analysis.replay import load
 from coordarm.analysis.singularity import margins
@@ -13,6 +13,7 @@ from coordarm.simulation.run import BackendFallbackWarning, simulate
 from coordarm.simulation.scenario import Scenario, load_scenario
 from coordarm.symbolic import Arc, BuildError, ConfigError, CoordinatingController, Line, PlanarChain, SingularityError
 from coordarm.symbolic.near_singular import damping_factor, speed_scale
+from coordarm.generated import compile as compile_controller
 
 K = 2.0
 
@@ -79,7 +80,7 @@ def test_governed_dense_and_structured_laws_agree_and_scale_only_the_speed(beta)
     r = r.ravel()
     r[0] -= (1 - out["v_scale"]) * 0.2                 # the s row asks for v_scale v* instead of v*
     np.testing.assert_allclose(out["u"], np.linalg.solve(M, r), rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(gov.compile().evaluate(q, 0.3)["u"], out["u"], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(compile_controller(gov).evaluate(q, 0.3)["u"], out["u"], rtol=1e-12, atol=1e-14)
 
 
 def test_governor_from_the_scenario_and_the_cli_logs_v_scale_and_governed_time(tmp_path, capsys):
@@ -133,7 +134,7 @@ def test_a_link_exactly_across_the_curve_is_re_pivoted_structured_equals_dense(t
     assert margins(ctrl, q, t)["links"][2] < 1e-15          # link 4 exactly across the (turning) line
     ref = dense_reference(ctrl, q, t)
     interp = ctrl.evaluate(q, t)
-    compiled = ctrl.compile().evaluate(q, t)
+    compiled = compile_controller(ctrl).evaluate(q, t)
     for got in (interp, compiled):
         np.testing.assert_allclose(got["u"], ref, rtol=0, atol=1e-9 * np.max(np.abs(ref)))
         assert got["link_margins"].min() > 0.02 and np.isfinite(got["longitudinal"])
@@ -151,7 +152,7 @@ def test_a_run_starting_with_a_link_across_the_curve_runs_and_every_deviation_de
 
 
 def test_without_re_pivoting_the_structured_solve_fails_at_that_link(monkeypatch):
-    monkeypatch.setattr(controller_module, "REPIVOT", 0.0)
+    monkeypatch.setattr(recursion_module, "REPIVOT", 0.0)
     ctrl, q = perpendicular(Line(angle=lambda t: 0.3 * t))
     ref = dense_reference(ctrl, q, 0.0)
     u = ctrl.evaluate(q, 0.0)["u"]
@@ -161,7 +162,7 @@ def test_without_re_pivoting_the_structured_solve_fails_at_that_link(monkeypatch
 @pytest.mark.parametrize("link", [1, 4, 6])
 def test_re_pivoting_on_an_arc_agrees_with_the_dense_law_near_and_at_the_perpendicular(link):
     ctrl, q = perpendicular(Arc(radius=1.5, angle=lambda t: 0.2 * ca.sin(t)), link=link)
-    comp = ctrl.compile()
+    comp = compile_controller(ctrl)
     for eps in (0.0, 1e-9, 1e-3, -0.02):          # at, and on both sides of, the perpendicular
         qe = q.copy()
         qe[link] += eps
@@ -204,7 +205,7 @@ def test_dls_inside_the_band_is_the_damped_solution_and_outside_it_the_exact_one
     ref = M.T @ np.linalg.solve(M @ M.T + lam2 * np.eye(10), r)
     np.testing.assert_allclose(out["u"], ref, rtol=1e-9, atol=1e-12)
     assert np.linalg.norm(out["u"]) < np.linalg.norm(plain.evaluate(q)["u"])     # damping buys smaller |u|
-    np.testing.assert_allclose(ctrl.compile(form).evaluate(q, 0.0)["u"], ref, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(compile_controller(ctrl, form).evaluate(q, 0.0)["u"], ref, rtol=1e-9, atol=1e-12)
     far = ctrl.chain.zigzag(1.2)                      # margins far outside the band: no damping
     np.testing.assert_allclose(ctrl.evaluate(far, 0.0, form=form)["u"], plain.evaluate(far)["u"], atol=1e-12)
 
@@ -294,14 +295,14 @@ def test_governed_rail_law_solves_the_decoupling_system_with_scaled_commands(bet
 
 def test_the_governed_rail_law_compiles_in_the_dense_form_and_equals_the_interpreted_one():
     ctrl = pushed_rail_chain(True)
-    fast = ctrl.compile(form="dense")
+    fast = compile_controller(ctrl, form="dense")
     for beta in (0.2, 0.3, 1.2):
         q = ctrl.chain.zigzag(beta, d=0.2)
         ref = ctrl.evaluate(q, 0.3, form="dense")
         out = fast.evaluate(q, 0.3)
         assert out["v_scale"] == pytest.approx(ref["v_scale"], abs=1e-14)
         np.testing.assert_allclose(out["u"], ref["u"], rtol=1e-12, atol=1e-14)
-    structured = ctrl.compile()                             # its C runs the recursion twice
+    structured = compile_controller(ctrl)                 # its C runs the recursion twice
     for beta in (0.2, 0.3, 1.2):
         q = ctrl.chain.zigzag(beta, d=0.2)
         ref, out = ctrl.evaluate(q, 0.3), structured.evaluate(q, 0.3)
@@ -313,10 +314,10 @@ def test_the_governed_rail_law_compiles_in_the_dense_form_and_equals_the_interpr
 def test_the_governed_rail_law_re_pivoted_in_both_passes_compiles_and_equals_the_interpreted_one(monkeypatch, span):
     """With REPIVOT above every margin the C takes its re-pivoting branch at every state (for v_scale, then
     again with the governed head); the interpreted law always uses the re-pivoting step."""
-    monkeypatch.setattr(controller_module, "REPIVOT", 2.0)
+    monkeypatch.setattr(recursion_module, "REPIVOT", 2.0)
     chain = PlanarChain(10, 0.1, base="rail", rail_limits=(-1.0, 5.0))
     ctrl = CoordinatingController(chain, Line(point=(0.0, 0.01)), K, 0.1, span=span, governor=True)
-    comp = ctrl.compile()
+    comp = compile_controller(ctrl)
     for beta in (0.2, 0.3, 1.2):
         q = chain.zigzag(beta, d=0.2)
         ref, out = ctrl.evaluate(q, 0.3), comp.evaluate(q, 0.3)

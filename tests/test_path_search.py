@@ -11,8 +11,9 @@ import pytest
 from coordarm.generated.compiled import CompiledController
 from coordarm.generated.path_search import search_tables
 from coordarm.symbolic import CoordinatingController, Path, PlanarChain, follow_curve
-from coordarm.symbolic.controller import REPIVOT
+from coordarm.symbolic.recursion import REPIVOT
 from coordarm.symbolic.motions import Ramp, Sinusoid
+from coordarm.generated import compile as compile_controller
 from tests.test_generated import ROUNDING_FACTOR, rounding_sensitivity
 
 #: Paths through the base region: an S with short pieces, a U-turn whose legs come back 0.8 m apart
@@ -35,7 +36,7 @@ def built(name, moving=False, m=24):
         motion = dict(offset=(Ramp(0.0, 0.01), Sinusoid(0.02, 0.8)), rotation=Sinusoid(0.03, 0.5)) if moving else {}
         ctrl = CoordinatingController(PlanarChain(m, 0.1), Path(start, heading, segs, **motion), 2.0,
                                       Sinusoid(0.03, 0.4, offset=0.1))
-        BUILT[key] = (ctrl, ctrl.compile(), CompiledController(ctrl, path_search=False))
+        BUILT[key] = (ctrl, compile_controller(ctrl), CompiledController(ctrl, path_search=False))
     return BUILT[key]
 
 
@@ -140,7 +141,7 @@ def test_searched_law_equals_the_full_selection_where_a_centre_is_on_a_junction(
         ctrl = CoordinatingController(chain, path, 2.0, 0.1)
         p = path.path_point(Y[j], 0.0)
         assert np.allclose(np.asarray(p).ravel(), target, atol=1e-15)
-        out = assert_same_law(ctrl, ctrl.compile(), q, 0.0)
+        out = assert_same_law(ctrl, compile_controller(ctrl), q, 0.0)
         if np.min(out["link_margins"]) > REPIVOT:
             tried += 1
     assert tried >= 2

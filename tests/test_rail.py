@@ -8,6 +8,7 @@ from coordarm import Arc, Line, Path, PlanarChain, CoordinatingController, simul
 from coordarm.symbolic import OUTPUTS, ConfigError, follow_curve
 from coordarm.symbolic.outputs import RAIL_OUTPUTS, packed_width, split
 from coordarm.symbolic.motions import Ramp, Sinusoid
+from coordarm.generated import compile as compile_controller
 
 
 def rail_chain(m=10, angle=0.0, limits=(-5.0, 5.0)):
@@ -119,7 +120,7 @@ def compiled_rail(kind, span, form="structured", governor=False):
         ctrl = CoordinatingController(chain, RAIL_CURVES[kind](), 2.0, Sinusoid(0.05, 0.3, offset=0.1), law=form,
                                       span=None if span == "held" else Sinusoid(0.05, 1.0, offset=0.5),
                                       governor=governor)
-        COMPILED[key] = (ctrl, ctrl.compile())
+        COMPILED[key] = (ctrl, compile_controller(ctrl))
     return COMPILED[key]
 
 

@@ -14,7 +14,7 @@ from coordarm.analysis.replay import load
 from coordarm.cli import main
 from coordarm.simulation.run import simulate
 from coordarm.simulation import mcap_writer
-from coordarm.simulation.mcap_writer import partial_path
+from coordarm.simulation.log_layout import partial_path
 from coordarm.symbolic import LogError
 
 SWING = """name = "swing"
@@ -65,24 +65,30 @@ def test_the_cli_writes_lz4_chunks_and_cond_at_the_chosen_rate(full_log, lz4_log
 
 
 def _start_and_wait_for_flushes(tmp_path):
-    """Start ``coordarm run`` on a long scenario; return the process once its log had a few flushes."""
+    """Start ``coordarm run`` on a long scenario; return the process once its unfinished log,
+    read back by :func:`load`, holds the scenario and more than 1000 samples (polled: no wall-time
+    guess of when the writer flushed, which a loaded machine can delay)."""
     toml = tmp_path / "swing.toml"
     toml.write_text(SWING)
     out = tmp_path / "swing.mcap"
     proc = subprocess.Popen([sys.executable, "-m", "coordarm", "run", str(toml), "--quiet", "--no-figures", "--yes",
                              "--out", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     writing = partial_path(out)  # the log's name until it is closed
-    start, grown_at = time.monotonic(), None
-    while time.monotonic() - start < 60:
+    start = time.monotonic()
+    while time.monotonic() - start < 120:
         time.sleep(0.1)
         if proc.poll() is not None:
             raise AssertionError(proc.stderr.read().decode())
-        size = writing.stat().st_size if writing.exists() else 0
-        if size > 50_000 and grown_at is None:
-            grown_at = time.monotonic()
-        if grown_at is not None and time.monotonic() - grown_at > 2.5:  # a few flushes (1 s apart)
-            break
-    return proc, out
+        if not writing.exists() or writing.stat().st_size < 50_000:
+            continue
+        try:
+            rep = load(out)
+        except LogError:  # no complete chunk or no scenario yet
+            continue
+        if rep.scenario is not None and len(rep.t) > 1000:
+            return proc, out
+    proc.kill()
+    raise AssertionError("the run's log never held 1000 samples within 120 s")
 
 
 def test_a_run_killed_with_sigkill_leaves_a_log_that_load_recovers(tmp_path):

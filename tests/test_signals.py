@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from coordarm.analysis.replay import load
-from coordarm.simulation.mcap_writer import partial_path
+from coordarm.simulation.log_layout import partial_path
 from coordarm.symbolic import LogError
 
 SWING = """name = "swing"

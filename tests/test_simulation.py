@@ -8,7 +8,8 @@ from scipy.integrate import quad
 
 from coordarm.simulation import ConfigError, SingularityError, simulate
 from coordarm.simulation.obstacles import link_distances
-from coordarm.simulation.run import DEFAULT_THRESHOLDS, Progress
+from coordarm.simulation.progress import Progress
+from coordarm.simulation.run import DEFAULT_THRESHOLDS
 from coordarm.simulation.scenario import load_scenario
 from coordarm.symbolic import Arc, CoordinatingController, Line, PlanarChain, project_onto_curve
 
@@ -133,3 +134,38 @@ def test_progress_bar_reports_each_tenth_on_a_pipe():
         bar.update(0.1 * k)
     lines = buf.getvalue().splitlines()
     assert len(lines) == 11 and "100.0%" in lines[-1] and "t = 10.00/10.00 s" in lines[-1]
+
+
+def test_the_interpreted_chunk_function_is_built_once_per_step_and_does_not_keep_its_controller_alive():
+    import gc
+    import weakref
+
+    from coordarm.simulation.run import chunk_function
+
+    chain = PlanarChain(4, 0.1)
+    ctrl = CoordinatingController(chain, Line(angle=0.1), 1.0, 0.05)
+    fn = chunk_function(ctrl, 0.01, 5)
+    assert chunk_function(ctrl, 0.01, 5) is fn and chunk_function(ctrl, 0.02, 5) is not fn
+    Q = np.asarray(fn(chain.zigzag(1.2, 0.05), 0.01 * np.arange(5)[None])[0])
+    step, q = ctrl.rk4_step(0.01), chain.zigzag(1.2, 0.05)
+    for k in range(5):                                           # the chunk is five single steps
+        q = np.asarray(step(q, 0.01 * k)[0]).ravel()
+        np.testing.assert_allclose(Q[:, k], q, rtol=1e-13, atol=1e-15)
+    alive = weakref.ref(ctrl)
+    del ctrl, fn, step
+    gc.collect()
+    assert alive() is None
+
+
+def test_a_run_from_states_has_no_law_diagnostics_and_keeps_its_rows():
+    from coordarm.simulation.run import Run
+
+    t = np.linspace(0.0, 0.3, 4)
+    q, u = np.arange(20.0).reshape(4, 5), np.ones((4, 5))
+    run = Run.from_states(t, q, u, 0.1 * np.ones(4), links=5, info={"stopped": "completed"})
+    assert run.e.shape == run.link_margins.shape == (4, 4) and run.s.shape == run.longitudinal.shape == (4,)
+    assert np.isnan(run.e).all() and np.isnan(run.s).all() and np.isnan(run.link_margins).all()
+    assert np.isnan(run.longitudinal).all() and run.sigma is None and np.array_equal(run.speed_factor(), np.ones(4))
+    head = run.rows(slice(0, 2), dict(run.info, stopped="rail_limit"))
+    assert np.array_equal(head.q, q[:2]) and np.array_equal(head.t, t[:2]) and head.info["stopped"] == "rail_limit"
+    assert run.info["stopped"] == "completed"

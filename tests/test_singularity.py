@@ -6,7 +6,7 @@ from hypothesis import given, strategies as st
 
 from coordarm.analysis.singularity import margins, run_margins
 from coordarm.simulation.run import DEFAULT_THRESHOLDS
-from coordarm.symbolic.controller import REPIVOT
+from coordarm.symbolic.recursion import REPIVOT
 from coordarm.symbolic import Arc, ConfigError, CoordinatingController, Line, PlanarChain, project_onto_curve
 
 

@@ -8,6 +8,7 @@ import pytest
 
 from coordarm.symbolic import OUTPUTS, CoordinatingController, Line, PlanarChain
 from coordarm.symbolic.outputs import packed_width
+from coordarm.generated import compile as compile_controller
 from tests.test_generated import ROUNDING_FACTOR, assert_outputs_agree, rounding_sensitivity
 
 COMPILED = {}
@@ -22,7 +23,7 @@ def compiled(m, flags=None):
     key = (m, flags)
     if key not in COMPILED:
         ctrl = COMPILED[(m, None)][0] if (m, None) in COMPILED else line_controller(m)
-        COMPILED[key] = (ctrl, ctrl.compile(flags=flags))
+        COMPILED[key] = (ctrl, compile_controller(ctrl, flags=flags))
     return COMPILED[key]
 
 

@@ -1,0 +1,5 @@
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+
+@functions@
+#pragma GCC diagnostic pop

@@ -1,0 +1,3 @@
+
+#undef CA_RK4_SCRATCH
+#define CA_RK4_SCRATCH 0

@@ -1,0 +1,325 @@
+"""The chunk loop of :func:`~coordarm.simulation.run.simulate`: fixed-step RK4 chunk by chunk, with
+the stops (margins, tube, contacts), the rows kept in memory and the chunk Functions it calls."""
+from __future__ import annotations
+
+import time as _time
+import weakref
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable
+
+import numpy as np
+
+from coordarm.symbolic import CollisionError, CoordarmError, CoordinatingController, SingularityError, TubeError
+from coordarm.symbolic.curves import unwrap_s
+from coordarm.symbolic.interrupts import check as check_interrupt
+from coordarm.symbolic.outputs import SCALAR_OUTPUTS, split
+
+from .result import ARRAYS, OPTIONAL, Run
+
+if TYPE_CHECKING:
+    import casadi
+
+    from coordarm.generated.compiled import CompiledController
+
+    from .progress import Progress
+
+
+def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
+                    thresholds: dict[str, float]) -> tuple[int, str, int | None, float] | None:
+    """First row whose margins are below threshold or not finite: ``(row, kind, link, margin)``."""
+    lm_min = np.min(link_margins, axis=1)
+    bad = ~(lm_min >= thresholds["link"]) | ~(longitudinal >= thresholds["longitudinal"])
+    if not bad.any():
+        return None
+    k = int(np.argmax(bad))
+    if not lm_min[k] >= thresholds["link"]:
+        j = int(np.nanargmin(link_margins[k])) if np.isfinite(link_margins[k]).any() else 0
+        return k, "link", j + 2, float(link_margins[k, j])
+    return k, "longitudinal", None, float(longitudinal[k])
+
+
+def tube_exit(e: np.ndarray, radius: float) -> tuple[int, int, float] | None:
+    """First row where a deviation ``|e^j|`` reaches the tube radius: ``(row, link, |e|)``, else None."""
+    if not np.isfinite(radius):
+        return None
+    bad = ~(np.abs(e) < radius)
+    if not bad.any():
+        return None
+    k = int(np.argmax(bad.any(axis=1)))
+    j = int(np.argmax(bad[k]))
+    return k, j + 2, float(abs(e[k, j]))
+
+
+#: The interpreted chunk Functions built for each controller, by ``(law form, step, steps)``;
+#: an entry goes with its controller.
+_CHUNKS: weakref.WeakKeyDictionary[CoordinatingController, dict[tuple, Any]] = weakref.WeakKeyDictionary()
+
+
+def chunk_function(ctrl: CoordinatingController, step: float, n: int) -> casadi.Function:
+    """Interpreted closed-loop Function over ``n`` RK4 steps: ``(q0, t[1 x n]) -> (Q, *RUN_OUTPUTS)``.
+
+    Column k of ``Q`` is the state after step k; the diagnostics are at each step's start.
+    Built once per controller, law form, step and ``n`` (kept while ``ctrl`` lives).
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop (its :meth:`~CoordinatingController.rk4_step`, expanded to SX).
+    step : float
+        RK4 step [s].
+    n : int
+        Steps per call.
+
+    Returns
+    -------
+    casadi.Function
+        ``(q0 (dof,), t (1, n)) -> (Q (dof, n), *RUN_OUTPUTS (one column per step))``.
+    """
+    made = _CHUNKS.setdefault(ctrl, {})
+    key = (ctrl.law_form, float(step), n)
+    if key not in made:
+        made[key] = ctrl.rk4_step(step).expand().mapaccum("chunk", n)
+    return made[key]
+
+
+@dataclass(frozen=True)
+class Stepping:
+    """The checked settings of one run's chunk loop (made by :func:`~coordarm.simulation.run.simulate`).
+
+    Attributes
+    ----------
+    ctrl : CoordinatingController
+        The closed loop.
+    compiled : CompiledController or None
+        The generated library that steps it, None for CasADi's interpreter.
+    t0, step : float
+        Start time and RK4 step [s].
+    n_steps, chunk : int
+        Steps of the run; steps per call of the chunk Function.
+    thresholds : dict
+        ``{"link": .., "longitudinal": ..}`` margins below which the run stops [-].
+    tube : float
+        Tube radius of the path [m] (inf without one).
+    every : int
+        Keep every this many rows in memory (plus each chunk's extremes and last row).
+    physical : Physical or None
+        Joint limits, self-collision and obstacles to check.
+    check_every : int
+        Physical check stride [steps].
+    allow_contact : bool
+        Keep going after a contact.
+    """
+
+    ctrl: CoordinatingController
+    compiled: CompiledController | None
+    t0: float
+    step: float
+    n_steps: int
+    chunk: int
+    thresholds: dict[str, float]
+    tube: float
+    every: int
+    physical: Any = None
+    check_every: int = 1
+    allow_contact: bool = False
+
+
+def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Run], None] | None,
+              bar: Progress | None) -> Run:
+    """Run the chunk loop of :func:`~coordarm.simulation.run.simulate` from ``q0`` at ``loop.t0`` (see there).
+
+    Parameters
+    ----------
+    loop : Stepping
+        The checked settings.
+    q0 : (dof,) ndarray
+        Start configuration [rad].
+    info : dict
+        Backend information (:func:`~coordarm.simulation.run.select_backend`) and ``kept_every``.
+    on_chunk : callable or None
+        Called with each completed chunk.
+    bar : Progress or None
+        Progress bar to update after each chunk.
+
+    Returns
+    -------
+    Run
+        The completed run (rows thinned to ``loop.every``).
+
+    Raises
+    ------
+    SingularityError, TubeError, CollisionError
+        The run stopped; ``err.run`` holds it up to there.
+    """
+    parts: list[Run] = []
+    contacts: list = []
+    q, k, wall = q0, 0, _time.perf_counter()
+    prev: tuple[float, float] | None = None
+    while k <= loop.n_steps:
+        part, Q, n = next_part(loop, q, k)
+        part.s = unwrap_s(loop.ctrl.curve, part.t, part.s, prev)
+        prev = (float(part.t[-1]), float(part.s[-1]))
+        stop = _first_stop(part, k, loop, contacts)
+        if stop is not None:
+            row, error = stop
+            part = part.rows(slice(0, row + 1))
+            parts.append(_thin(part, k, loop.every))
+            if on_chunk:
+                on_chunk(part)
+            raise stopped(loop.ctrl, error, parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
+                                                        steps=k + row, wall_time=_time.perf_counter() - wall))
+        parts.append(_thin(part, k, loop.every))
+        if on_chunk:
+            on_chunk(part)
+        check_interrupt()
+        if k == loop.n_steps:
+            break
+        q, k = Q[-1], k + n
+        if bar:
+            bar.update(loop.step * k)
+    info = dict(info, contacts=_records(contacts))
+    run = _concat(parts, dict(info, stopped="completed", steps=loop.n_steps, wall_time=_time.perf_counter() - wall))
+    run.info["governed"] = run.governed_time()
+    return run
+
+
+def next_part(loop: Stepping, q: np.ndarray, k: int) -> tuple[Run, np.ndarray | None, int]:
+    """The rows of the chunk that starts at step ``k`` in state ``q``, or the final state's row.
+
+    Parameters
+    ----------
+    loop : Stepping
+        The checked settings.
+    q : (dof,) ndarray
+        State at step ``k`` [rad].
+    k : int
+        Global step index (``loop.n_steps``: the final state).
+
+    Returns
+    -------
+    part : Run
+        One row per step of the chunk (the law at each step's start), or the final state's one row.
+    Q : (n, dof) ndarray or None
+        States after each step (None for the final state).
+    n : int
+        Steps in the chunk (0 for the final state).
+    """
+    ctrl = loop.ctrl
+    if k < loop.n_steps:
+        n = min(loop.chunk, loop.n_steps - k)
+        times = loop.t0 + loop.step * np.arange(k, k + n)
+        Q, outs = _advance(ctrl, loop.compiled, q, times, loop.step)
+        return Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times))), Q, n
+    t_end = loop.t0 + loop.step * loop.n_steps
+    final = (loop.compiled or ctrl).evaluate(q, t_end)
+    return Run.from_arrays({a: np.asarray(v)[None] for a, v in
+                            dict(final, t=t_end, q=q, v_star=ctrl.speed_at(t_end)).items()
+                            if a in ARRAYS + OPTIONAL}), None, 0
+
+
+def stopped(ctrl: CoordinatingController, error: CoordarmError, parts: list[Run], info: dict) -> CoordarmError:
+    """``error``, holding the run up to the stop (with a hint for a longitudinal stop without the governor).
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop (its ``governor`` decides the hint).
+    error : SingularityError, TubeError or CollisionError
+        Why the run stopped.
+    parts : list of Run
+        The chunks run, the last one cut at the stop.
+    info : dict
+        Info of the run up to the stop.
+
+    Returns
+    -------
+    CoordarmError
+        The error to raise, ``.run`` the run up to the stop.
+    """
+    if isinstance(error, SingularityError) and error.kind == "longitudinal" and not ctrl.governor:
+        error = SingularityError(error.time, error.link, error.margin, error.kind, error.threshold,
+                                 hint="the speed governor ([control] governor = true, --governor) "
+                                      "slows v* instead of stopping")
+    error.run = _concat(parts, info)
+    error.run.info["governed"] = error.run.governed_time()
+    return error
+
+
+_STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision"}
+
+
+def _records(contacts: list) -> list[dict]:
+    return [c.to_dict() for c in contacts]
+
+
+def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int, CoordarmError] | None:
+    """The first row of ``part`` (global step ``k`` at row 0) where the run must stop, and why.
+
+    A contact at or before the first singular row wins. With ``allow_contact`` the first
+    contact of every (kind, links, obstacle) is appended to ``contacts`` instead.
+    """
+    thr, tube, physical = loop.thresholds, loop.tube, loop.physical
+    stop = None
+    bad = first_violation(part.link_margins, part.longitudinal, thr)
+    if bad is not None:
+        row, kind, link, margin = bad
+        stop = row, SingularityError(part.t[row], link, margin, kind, thr[kind])
+    if part.rail_margin is not None:
+        low = np.flatnonzero(~(part.rail_margin >= thr["link"]))
+        if len(low) and (stop is None or low[0] < stop[0]):
+            row = int(low[0])
+            stop = row, SingularityError(part.t[row], 1, float(part.rail_margin[row]), "rail", thr["link"])
+    out = tube_exit(part.e, tube)
+    if out is not None and (stop is None or out[0] <= stop[0]):
+        row, link, dist = out
+        stop = row, TubeError(part.t[row], link, dist, "tube", tube)
+    if physical is not None:
+        n = len(part.t)
+        rows = np.flatnonzero(((k + np.arange(n)) % loop.check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
+        if stop is not None:
+            rows = np.union1d(rows[rows < stop[0]], [stop[0]])
+        if len(rows):
+            found = physical.check(part.t[rows], part.q[rows])
+            if found and not loop.allow_contact:
+                i = int(np.searchsorted(part.t[rows], found[0].time))
+                row = int(rows[i])
+                if i > 0 and rows[i - 1] + 1 < row:     # locate the first contact to the step
+                    between = np.arange(rows[i - 1] + 1, row)
+                    earlier = physical.check(part.t[between], part.q[between])
+                    if earlier:
+                        found = earlier
+                        row = int(between[np.searchsorted(part.t[between], found[0].time)])
+                return row, CollisionError(found[0])
+            seen = {(c.kind, c.links, c.obstacle) for c in contacts}
+            for c in found:
+                if (c.kind, c.links, c.obstacle) not in seen:
+                    seen.add((c.kind, c.links, c.obstacle))
+                    contacts.append(c)
+    return stop
+
+
+def _advance(ctrl, compiled, q, times, step):
+    """RK4 steps from ``q`` at each of ``times``: states after each step (rows) and the law's
+    :data:`RUN_OUTPUTS` at each start (dict of row blocks)."""
+    if compiled is not None:
+        Q, D = compiled.chunk(q, times, step)
+        d = split(D, ctrl.chain.m, ctrl.chain.rail)
+        return Q, {a: d[a] for a in ctrl.run_outputs}
+    Q, *outs = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
+    return Q.T, {a: (v.ravel() if a in SCALAR_OUTPUTS else v.T) for a, v in zip(ctrl.run_outputs, outs)}
+
+
+def _thin(part: Run, k0: int, every: int) -> Run:
+    """Rows of ``part`` (steps ``k0, k0+1, ...``) kept in memory: every ``every``-th, the extremes, the last."""
+    n = len(part.t)
+    if every == 1 or n == 0:
+        return part
+    rows = np.concatenate([np.flatnonzero((k0 + np.arange(n)) % every == 0),
+                           [np.argmin(np.min(part.link_margins, axis=1)), np.argmin(part.longitudinal),
+                            np.argmax(np.max(np.abs(part.u), axis=1)), n - 1]])
+    return part.rows(np.unique(rows))
+
+
+def _concat(parts: list[Run], info: dict) -> Run:
+    return Run.from_arrays({a: np.concatenate([getattr(p, a) for p in parts]) for a in parts[0].array_names()},
+                          info)

@@ -1,0 +1,292 @@
+"""The numeric API of the coordinating controller: the law and the decoupling matrix at numeric states.
+
+:class:`NumericAPI` is the part of :class:`~coordarm.symbolic.controller.CoordinatingController`
+that evaluates: the law's outputs, the curve's geometry at the link centres, the decoupling
+matrices in closed form (batched over N states) and their condition numbers. Its host provides
+``chain``, ``task``, ``gain``, ``outputs`` and ``fast_law(form)``.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Sequence
+
+import casadi as ca
+import numpy as np
+
+from .chain import PlanarChain, normal
+from .params import evaluate as evaluate_param
+from .errors import ConfigError
+from .outputs import SCALAR_OUTPUTS
+from .task import Task
+
+
+class NumericAPI:
+    """Numeric evaluation of a controller's law (a mixin of :class:`~.controller.CoordinatingController`).
+
+    Attributes
+    ----------
+    chain : PlanarChain
+        The manipulator.
+    task : Task
+        Curve geometry and commands (its mapped Functions are cached there).
+    gain : float
+        Error gain K [1/s].
+    outputs : tuple of str
+        Names of the law's outputs, in order.
+    """
+
+    chain: PlanarChain
+    task: Task
+    gain: float
+    outputs: Sequence[str]
+
+    def fast_law(self, form: str | None = None) -> ca.Function:
+        """The law ``(q, t) -> outputs`` as a CasADi Function (provided by the host).
+
+        Parameters
+        ----------
+        form : {"structured", "dense"}, optional
+            Law form (default: the host's).
+
+        Returns
+        -------
+        casadi.Function
+        """
+        raise NotImplementedError
+
+    def evaluate(self, q, t: float = 0.0, form: str | None = None) -> dict[str, Any]:
+        """All outputs of the law at ``(q, t)`` as numpy values, keyed by :data:`OUTPUTS`.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        dict
+            Vectors as arrays, scalars as floats (see :data:`coordarm.symbolic.outputs.LAW_OUTPUTS`).
+
+        Raises
+        ------
+        ConfigError
+            ``q`` or ``t`` not finite, or ``q`` of the wrong shape.
+        """
+        q = self.chain.check_q(q)
+        if not math.isfinite(t):
+            raise ConfigError(f"t: must be finite, got {t!r}")
+        res = self.fast_law(form)(q, t)
+        out = {}
+        for name, v in zip(self.outputs, res):
+            v = np.asarray(v, dtype=float).ravel()
+            out[name] = float(v[0]) if name in SCALAR_OUTPUTS else v
+        return out
+
+    def control(self, q, t: float = 0.0) -> np.ndarray:
+        """Control ``u(q, t)``.
+
+        Parameters
+        ----------
+        q : array_like, shape (dof,)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (dof,)
+            The control [rad/s for B = I] (``d_dot`` [m/s] first on a rail).
+        """
+        return self.evaluate(q, t)["u"]
+
+    def centre_geometry(self, Q, T) -> dict[str, np.ndarray]:
+        """The curve's ``phi``, ``psi`` and their derivatives at every link centre of N states.
+
+        Parameters
+        ----------
+        Q : (N, dof) array_like
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+        T : (N,) array_like
+            Times [s].
+
+        Returns
+        -------
+        dict
+            ``phi``, ``phit``, ``psi``, ``psit`` of shape (N, m) and the gradients ``gphi``,
+            ``gpsi`` of shape (N, m, 2), from one mapped call of the geometry Function.
+        """
+        Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
+        m, n = self.chain.m, self.chain.dof
+        if Q.shape[1:] != (n,) or T.shape != (len(Q),):
+            raise ConfigError(f"Q, T: need shapes (N, {n}) and (N,), got {Q.shape} and {T.shape}")
+        N = len(Q)
+        Y = self.chain.centres_np(Q)                                      # (N, m, 2)
+        geo = self.task.mapped("geometry", N * m)
+        values = geo(Y.reshape(-1, 2).T, np.repeat(T, m)[None])
+        out = {}
+        for name, v in zip(("phi", "gphi", "phit", "psi", "gpsi", "psit"), values):
+            v = np.asarray(v)
+            out[name] = v.T.reshape(N, m, 2) if name[0] == "g" else v.reshape(N, m)
+        return out
+
+    def speeds(self, T) -> np.ndarray:
+        """``v*(t)`` at each of the times ``T``, in one call.
+
+        Parameters
+        ----------
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Commanded speeds [m/s].
+        """
+        T = np.atleast_1d(np.asarray(T, float))
+        return np.asarray(self.task.mapped("speed", len(T))(T[None])).ravel()
+
+    def decoupling_matrices(self, Q, T, geometry: dict[str, np.ndarray] | None = None
+                            ) -> tuple[np.ndarray, np.ndarray]:
+        """Decoupling matrices (eq. 26) and right-hand sides at N states, in O(N m^2).
+
+        Numeric and batched: the Jacobians ``C^j`` by the closed form of eq. 7 through
+        prefix sums of the link normals, the curve gradients from :meth:`centre_geometry`.
+        Agrees with the AD ``decoupling_function`` of the controller to rounding, without building its
+        O(m^2) symbolic graph (which takes minutes at 1000 links).
+
+        Parameters
+        ----------
+        Q : (N, m) array_like
+            Joint coordinates [rad].
+        T : (N,) array_like
+            Times [s].
+        geometry : dict, optional
+            :meth:`centre_geometry` of ``(Q, T)``, when the caller has it already.
+
+        Returns
+        -------
+        M : (N, m, m) ndarray
+            Rows ``(s^m, e^2, ..., e^m)``, columns the controls ``u``; on a rail (N, m+1, m+1),
+            rows ``(s, sigma, e^2..e^m)``, columns ``(u_d, u)``.
+        rhs : (N, m) ndarray
+            ``(v* - dpsi/dt, -K e^j - dphi/dt)`` (on a rail with ``sigma_dot - dpsi/dt(y^m) +
+            dpsi/dt(y^1)`` second).
+        """
+        geo = geometry if geometry is not None else self.centre_geometry(Q, T)
+        Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
+        m, xi = self.chain.m, self.chain.xi
+        # C^j[:, k] = xi/2 (S_{j-1} + S_j - P_k) for k <= j, with S the prefix sums of the
+        # normals n_0..n_{m-1} and P_0 = n_0, P_k = 2 S_{k-1}  (0-based j, k; C^0 = 0).
+        S = np.cumsum(normal(np.cumsum(self.chain.revolute(Q), axis=-1)), axis=-2)   # (N, m, 2)
+        P = np.concatenate([S[:, :1], 2 * S[:, :-1]], axis=1)
+        rows = np.r_[m - 1, 1:m]                                           # target centre of each row
+        W = np.concatenate([geo["gpsi"][:, m - 1:], geo["gphi"][:, 1:]], axis=1)  # (N, m, 2) its gradient
+        Tj = S[:, rows] + S[:, rows - 1]
+        M = 0.5 * xi * (np.einsum("nri,nri->nr", W, Tj)[:, :, None] - W @ np.swapaxes(P, 1, 2))
+        M *= np.arange(m)[None, :] <= rows[:, None]
+        b = self.chain.b_diagonal
+        M = M * b if b is not None else M @ self.chain.B
+        rhs = np.concatenate([(self.speeds(T) - geo["psit"][:, m - 1])[:, None],
+                              -self.gain * geo["phi"][:, 1:] - geo["phit"][:, 1:]], axis=1)
+        if not self.chain.rail:
+            return M, rhs
+        # the rail: C^j gains the column ``rail`` (every centre slides with the base); the span
+        # row sigma = psi(y^m) - psi(y^1) is the s row minus grad psi(y^1)^T C^1 = (h_1 . rail, 0, ...)
+        rail = self.chain.rail_direction
+        col = W @ rail                                                      # (N, m)
+        M = np.concatenate([col[:, :, None], M], axis=2)
+        span = M[:, :1].copy()
+        span[:, 0, 0] -= geo["gpsi"][:, 0] @ rail
+        M = np.concatenate([M[:, :1], span, M[:, 1:]], axis=1)
+        sigma = geo["psi"][:, m - 1] - geo["psi"][:, 0]
+        rate = np.asarray(self.task.mapped("span_rate", len(T))(sigma[None], T[None])).ravel()
+        rhs = np.concatenate([rhs[:, :1], (rate - geo["psit"][:, m - 1] + geo["psit"][:, 0])[:, None], rhs[:, 1:]],
+                             axis=1)
+        return M, rhs
+
+    def decoupling_matrix(self, q, t: float = 0.0) -> np.ndarray:
+        """Numeric decoupling matrix (eq. 26); see :meth:`decoupling_matrices`.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (m, m)
+            Rows ``(s^m, e^2, ..., e^m)``, columns the controls.
+        """
+        return self.decoupling_matrices(self.chain.check_q(q)[None], [t])[0][0]
+
+    def cond(self, q, t: float = 0.0) -> float:
+        """2-norm condition number of the decoupling matrix.
+
+        Parameters
+        ----------
+        q : array_like, shape (m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            ``sigma_max / sigma_min`` (inf when singular).
+        """
+        return float(self.conds(self.chain.check_q(q)[None], [t])[0])
+
+    def conds(self, Q, T) -> np.ndarray:
+        """2-norm condition numbers of the decoupling matrices at N states.
+
+        Parameters
+        ----------
+        Q : array_like, shape (N, m)
+            Joint coordinates [rad].
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            ``sigma_max / sigma_min`` of each (inf when singular).
+        """
+        sv = np.linalg.svd(self.decoupling_matrices(Q, T)[0], compute_uv=False)
+        with np.errstate(divide="ignore"):
+            return sv[:, 0] / sv[:, -1]
+
+    def base_offset(self, t: float = 0.0) -> float:
+        """``|phi(0, t)|``: how far the curve passes from the pinned base.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            Distance [m].
+        """
+        return abs(float(self.task.geometry([0, 0], t)[0]))
+
+    def speed_at(self, t: float) -> float:
+        """The commanded speed at one time.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            ``v*(t)`` [m/s].
+        """
+        return evaluate_param(self.task.speed, t)
