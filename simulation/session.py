@@ -23,8 +23,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
-from coordarm.simulation.choices import DENSE_LINKS
+from coordarm.simulation.choices import DENSE_LINKS, Outcome
 from coordarm.symbolic.errors import CollisionError, ConfigError, LogError, SingularityError
+from coordarm.symbolic.laws import Law
 
 if TYPE_CHECKING:   # numpy, CasADi, matplotlib and foxglove load only when a run starts
     from coordarm.simulation.run import Run
@@ -172,7 +173,8 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
         compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
         allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue)
-    status = "completed" if stopped is None else ("collision" if isinstance(stopped, CollisionError) else "singularity")
+    status = (Outcome.COMPLETED if stopped is None
+              else Outcome.COLLISION if isinstance(stopped, CollisionError) else Outcome.SINGULARITY).value
     for line in report_lines(run, scenario, compiled, out):
         say(line)
     drawn = write_figures(run, scenario, ctrl, out.with_suffix(""), stages, outcome=status) if figures else []
@@ -241,8 +243,8 @@ def prepared_scenario(scenario: Scenario | str | os.PathLike, links: int | None,
     base = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     scenario = base.with_overrides(links, duration, step, law=law, governor=governor)
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, log_rate), yes)
-    m = scenario.spec["chain"]["links"]
-    if scenario.spec["control"]["law"] == "dense" and m > DENSE_LINKS and not yes:
+    m = scenario.config.chain.links
+    if scenario.config.control.law == Law.DENSE and m > DENSE_LINKS and not yes:
         raise ConfigError(f"--law dense with {m} links: generating and compiling it takes many minutes "
                           f"(its size grows as m^2); use the structured law, or pass --yes")
     return scenario

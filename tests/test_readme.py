@@ -35,7 +35,7 @@ def test_readme_replay_example_runs_on_a_real_log(tmp_path, monkeypatch):
 def test_readme_path_rail_and_user_curve_examples_run():
     blocks = {b.split("\n", 1)[0][len("# example: "):]: b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
               if b.startswith("# example:")}
-    assert set(blocks) == {"paths", "rail", "user curve"}
+    assert set(blocks) == {"paths", "rail", "user curve", "run_scenario"}
     ns: dict = {}
     exec(compile(blocks["paths"], str(README), "exec"), ns)
     assert ns["fillet"].segments == ns["same"].segments and float(ns["psi"]) > 0
@@ -56,3 +56,16 @@ def test_readme_sweep_example_runs_and_writes_its_results(tmp_path, monkeypatch)
     assert list(df.columns[:3]) == ["control.gain", "links", "run.duration"] and len(df) == 6
     assert set(df["outcome"]) == {"completed"}
     assert (tmp_path / "logs" / "gain_sweep" / "results.parquet").is_file()
+
+
+def test_readme_run_scenario_example_runs_and_writes_its_log_and_figures(tmp_path, monkeypatch):
+    block = next(b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+                 if b.startswith("# example: run_scenario"))
+    monkeypatch.chdir(tmp_path)
+    ns: dict = {}
+    exec(compile(block.replace("duration=5.0", "duration=0.2"), str(README), "exec"), ns)
+    result = ns["result"]
+    assert (result.outcome, result.exit_status, result.stopped) == ("completed", 0, None)
+    assert result.log == Path("logs/line.mcap") and (tmp_path / "logs" / "line.mcap").is_file()
+    assert len(result.figures) == 2 and all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in result.figures)
+    assert len(result.run.t) == 201
