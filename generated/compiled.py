@@ -104,6 +104,12 @@ class CompiledController:
     generate_seconds : float
         Time spent generating the C source.
 
+    Raises
+    ------
+    BuildError
+        The library cannot be built or loaded (see :func:`generated.build.build`), or it was built
+        for another link count or output width.
+
     Notes
     -----
     The buffers are shared by all calls of one object: use one object per thread.

@@ -85,7 +85,13 @@ def interruption(exc: BaseException) -> int | None:
 
 
 def check() -> None:
-    """Raise :class:`Interrupted` if a signal arrived (even one whose exception was swallowed)."""
+    """Raise :class:`Interrupted` if a signal arrived (even one whose exception was swallowed).
+
+    Raises
+    ------
+    Interrupted
+        A signal arrived since :func:`handled` began (carrying the first one received).
+    """
     if _received:
         raise Interrupted(_received[0])
 
