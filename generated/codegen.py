@@ -258,6 +258,7 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured", path
     Returns
     -------
     Source
+        The C text, with the form and the link count.
 
     Raises
     ------
@@ -304,6 +305,7 @@ def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law:
     Returns
     -------
     Source
+        The C text, with the form and the link count.
 
     Raises
     ------

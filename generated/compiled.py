@@ -48,6 +48,7 @@ def load_library(path) -> ctypes.CDLL:
     Returns
     -------
     ctypes.CDLL
+        The loaded library, its API functions typed.
 
     Raises
     ------

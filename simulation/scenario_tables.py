@@ -107,6 +107,7 @@ class ChainTable:
         Returns
         -------
         PlanarChain
+            A new chain (clearance 0 when the table leaves it out).
         """
         return PlanarChain(self.links, float(self.link_length), joint_limit=self.joint_limit,
                            clearance=float(self.clearance or 0.0), **self.base_args)

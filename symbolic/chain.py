@@ -265,6 +265,7 @@ class PlanarChain(ChainModel):
         Returns
         -------
         casadi.SX, shape (2, 1)
+            The unit direction.
         """
         return direction(alpha)
 
@@ -280,6 +281,7 @@ class PlanarChain(ChainModel):
         Returns
         -------
         casadi.SX, shape (2, 1)
+            ``d`` turned by +90 degrees.
         """
         return ca.vertcat(-d[1], d[0])
 
@@ -294,6 +296,7 @@ class PlanarChain(ChainModel):
         Returns
         -------
         casadi.SX, shape (2, 1)
+            The step from the centre of link ``j-1`` to that of link ``j`` [m].
         """
         return 0.5 * self.xi * (d_prev + d_j)
 

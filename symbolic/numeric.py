@@ -51,6 +51,7 @@ class NumericAPI:
         Returns
         -------
         casadi.Function
+            ``(q, t)`` -> the law's outputs.
         """
         raise NotImplementedError
 

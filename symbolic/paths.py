@@ -521,6 +521,7 @@ class Path(Curve):
         Returns
         -------
         casadi.Function
+            ``path_curve``: ``(y [m], t [s]) -> (phi [m], psi [m])``.
         """
         y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
         phi, psi = self.phi_psi(y, t)
@@ -632,6 +633,7 @@ class Path(Curve):
         Returns
         -------
         dict
+            Plain data that :func:`~symbolic.curve_specs.curve_from_spec` builds the same path from.
         """
         motion = {"offset": [motion_to_spec(c) for c in self.offset], "rotation": motion_to_spec(self.rotation)}
         if getattr(self, "waypoints", None):
