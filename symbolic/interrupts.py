@@ -101,6 +101,12 @@ def handled() -> Iterator[None]:
     """Install the remembering handler for SIGINT and SIGTERM inside the block (main thread only).
 
     The previous handlers come back afterwards and the record of received signals is cleared.
+    Outside the main thread (where signal handlers cannot be set) the block runs unchanged.
+
+    Yields
+    ------
+    None
+        Control to the block, with the handlers installed.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
