@@ -191,7 +191,8 @@ class Replay(ExtraOutputs):
         Returns
         -------
         Run
-            The samples (``t``, ``q``, ``u`` and the rest), with ``info`` holding the backend, the outcome's status as ``stopped`` and its contacts.
+            The samples (``t``, ``q``, ``u`` and the rest), with ``info`` holding the backend,
+            the outcome's status as ``stopped`` and its contacts.
         """
         keys = ARRAYS + tuple(a for a in OPTIONAL if a in self.extra)
         return Run.from_arrays({a: getattr(self, a) for a in keys},

@@ -157,7 +157,8 @@ def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, flo
     Returns
     -------
     RunAnalysis
-        The margins at the (refined) samples, their crossings and minima, and the blow-up; rows with a non-finite ``q`` or ``t`` are left out.
+        The margins at the (refined) samples, their crossings and minima, and the blow-up;
+        rows with a non-finite ``q`` or ``t`` are left out.
     """
     from coordarm.simulation.run import DEFAULT_THRESHOLDS
 
