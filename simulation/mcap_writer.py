@@ -133,8 +133,8 @@ def log_time_ns(t: float | np.ndarray, origin: float) -> np.ndarray:
 
     Returns
     -------
-    uint64 ndarray
-        Rounded nanoseconds, of the shape of ``t`` (0-d for a float).
+    uint64 ndarray or numpy.uint64
+        Rounded nanoseconds, of the shape of ``t`` (a numpy scalar for a float).
     """
     return np.round((np.asarray(t) - origin) * 1e9).astype(np.uint64)
 
