@@ -60,12 +60,33 @@ class Linearisation:
     free: int = 1
 
     def eigenvalues(self) -> np.ndarray:
-        """Eigenvalues of :attr:`task_matrix`, sorted by real part (descending) [1/s]."""
+        """Eigenvalues of :attr:`task_matrix`, sorted by real part (descending).
+
+        Returns
+        -------
+        (m,) complex ndarray
+            The eigenvalues [1/s], largest real part first (ties keep numpy's order).
+        """
         ev = np.linalg.eigvals(self.task_matrix)
         return ev[np.argsort(-ev.real, kind="stable")]
 
     def deviation_from_design(self, gain: float, frozen: bool = False) -> float:
-        """``max |A - diag(0, -K, ..., -K)|`` [1/s] of :attr:`task_matrix` (or :attr:`frozen_task_matrix`)."""
+        """``max |A - diag(0, -K, ..., -K)|`` of :attr:`task_matrix` (or :attr:`frozen_task_matrix`).
+
+        The design matrix has :attr:`free` leading zeros on its diagonal and ``-K`` on the rest.
+
+        Parameters
+        ----------
+        gain : float
+            The design gain ``K`` [1/s].
+        frozen : bool
+            Compare :attr:`frozen_task_matrix` instead of :attr:`task_matrix`.
+
+        Returns
+        -------
+        float
+            Largest entry-wise deviation from the design matrix [1/s].
+        """
         target = np.diag([0.0] * self.free + [-gain] * (len(self.q) - self.free))
         return float(np.max(np.abs((self.frozen_task_matrix if frozen else self.task_matrix) - target)))
 
@@ -84,6 +105,12 @@ def linearisation_function(ctrl: CoordinatingController, form: str | None = None
         The controller; its law (``form``) is the one differentiated.
     form : {"structured", "dense"}, optional
         Form of the law (default: the controller's).
+
+    Returns
+    -------
+    casadi.Function
+        ``(q (dof,), t) -> (H (dof, dof), F (dof, dof) [1/s], Hdot (dof, dof) [1/s], task_rate (dof,))``,
+        built once per controller and form and cached while the controller lives.
     """
     form = form or ctrl.law_form
     per_ctrl = _linearisations.setdefault(ctrl, {})
@@ -126,6 +153,14 @@ def linearise(ctrl: CoordinatingController, q, t: float = 0.0, form: str | None 
     Returns
     -------
     Linearisation
+        The matrices at ``(q, t)``.
+
+    Raises
+    ------
+    ConfigError
+        ``q`` has the wrong shape or is not finite.
+    numpy.linalg.LinAlgError
+        The task map's Jacobian ``H`` is singular at ``q``.
     """
     q = ctrl.chain.check_q(q)
     H, F, Hdot, rate = (np.asarray(x) for x in linearisation_function(ctrl, form)(q, float(t)))
@@ -136,7 +171,26 @@ def linearise(ctrl: CoordinatingController, q, t: float = 0.0, form: str | None 
 
 def linearise_run(ctrl: CoordinatingController, t, q, points: int = 5,
                   form: str | None = None) -> list[Linearisation]:
-    """Linearise at ``points`` samples spread evenly over a trajectory ``(t, q)``."""
+    """Linearise at ``points`` samples spread evenly over a trajectory ``(t, q)``.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller that produced the trajectory.
+    t : (N,) array_like
+        Sample times [s].
+    q : (N, dof) array
+        Configurations [rad] (``d`` [m] first on a rail), row k at ``t[k]``.
+    points : int
+        How many samples, evenly spread with the first and last included (fewer if ``N < points``).
+    form : {"structured", "dense"}, optional
+        Form of the law to differentiate (default: the controller's).
+
+    Returns
+    -------
+    list of Linearisation
+        One per sample, in time order.
+    """
     t = np.asarray(t, dtype=float)
     idx = even_indices(len(t), points)
     return [linearise(ctrl, q[k], float(t[k]), form) for k in idx]

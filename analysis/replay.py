@@ -191,6 +191,8 @@ class Replay(ExtraOutputs):
         Returns
         -------
         Run
+            The samples (``t``, ``q``, ``u`` and the rest), with ``info`` holding the backend,
+            the outcome's status as ``stopped`` and its contacts.
         """
         keys = ARRAYS + tuple(a for a in OPTIONAL if a in self.extra)
         return Run.from_arrays({a: getattr(self, a) for a in keys},
@@ -203,6 +205,7 @@ class Replay(ExtraOutputs):
         Returns
         -------
         CoordinatingController
+            A new controller from :attr:`scenario` (not cached).
         """
         return self.scenario.controller()
 
@@ -303,6 +306,7 @@ def load(path: str | Path, curve: Any = None) -> Replay:
     Returns
     -------
     Replay
+        The samples, the scenario and the metadata of the log.
 
     Raises
     ------

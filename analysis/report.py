@@ -32,8 +32,26 @@ def simulate_through(ctrl: CoordinatingController, q0, duration: float, step: fl
                      backend: str = "auto") -> Any:
     """Simulate without singularity stops; a run that ends in non-finite margins is kept up to there.
 
-    ``backend`` is :func:`~coordarm.simulation.run.simulate`'s (past a blow-up the trajectory
-    depends on rounding, so the compiled and interpreted laws part there).
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller.
+    q0 : (dof,) array_like
+        Start configuration [rad] (``d`` [m] first on a rail).
+    duration : float
+        Simulated time span [s].
+    step : float
+        RK4 step [s].
+    t0 : float
+        Start time [s].
+    backend : {"auto", "compiled", "interpreted"}
+        :func:`~coordarm.simulation.run.simulate`'s backend (past a blow-up the trajectory
+        depends on rounding, so the compiled and interpreted laws part there).
+
+    Returns
+    -------
+    Run
+        The whole run, or, when non-finite margins stopped it, the rows computed until then.
     """
     from coordarm.simulation.run import simulate
 
@@ -48,7 +66,29 @@ def _fmt(x: float | None, unit: str = " s") -> str:
 
 def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController, step: float | None,
              figures: list[Path], checks: dict) -> str:
-    """The report as Markdown text (tables of margins, predictions, linearisation, sampled-data limits)."""
+    """The report as Markdown text (tables of margins, predictions, linearisation, sampled-data limits).
+
+    Parameters
+    ----------
+    analysis : RunAnalysis
+        The analysis of the run (:func:`.run_analysis.analyse_run`).
+    scenario : Scenario
+        Its scenario (``name`` and ``source`` are printed).
+    ctrl : CoordinatingController
+        Its controller (link count and length, gain ``K`` [1/s]).
+    step : float or None
+        The run's step [s]; None leaves out the sampled-data lines.
+    figures : list of Path
+        Figure files, linked by file name (they sit next to the report).
+    checks : dict
+        ``"orthonormal"``: the curve check's message (str); ``"linearisations"``: a list of
+        :class:`.linearise.Linearisation` along the run.
+
+    Returns
+    -------
+    str
+        The Markdown text, ending in a newline.
+    """
     a = analysis
     m, K = ctrl.chain.m, ctrl.gain
     lines = [f"# Singularity report: {scenario.name}", "",

@@ -21,7 +21,24 @@ def _mark_blowup(ax, a: RunAnalysis) -> None:
 
 
 def plot_margins(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
-    """Three panels over time: link and longitudinal margins; matrix margins; ``|u|`` and amplification."""
+    """Three panels over time: link and longitudinal margins; matrix margins; ``|u|`` and amplification.
+
+    Margins are drawn with their thresholds and first crossings, and the blow-up time when there is one.
+
+    Parameters
+    ----------
+    a : RunAnalysis
+        The analysis of the run.
+    path : str or Path
+        The PNG file to write.
+    title : str
+        Prefix of the top panel's title (scenario and link count).
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
     fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
     floor = 1e-12
     for ax, names in ((axes[0], ("links", "longitudinal")),
@@ -54,7 +71,22 @@ def plot_margins(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
 
 
 def plot_links(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
-    """Worst link over time (top) and every link margin as a heat map over time x link (bottom)."""
+    """Worst link over time (top) and every link margin as a heat map over time x link (bottom).
+
+    Parameters
+    ----------
+    a : RunAnalysis
+        The analysis of the run.
+    path : str or Path
+        The PNG file to write.
+    title : str
+        Prefix of the top panel's title (scenario and link count).
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
     fig, axes = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [1, 2]},
                              layout="constrained")
     axes[0].step(a.t, a.margins["worst_link"], where="post", color="tab:blue", label="worst link (smallest margin)")
@@ -75,7 +107,27 @@ def plot_links(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
 
 def plot_step_responses(gain: float, period: float, path: str | Path, title: str = "",
                         delays=(0, 1, 2)) -> Path:
-    """Step responses of one deviation loop: continuous and digital (ZOH) with delays."""
+    """Step responses of one deviation loop: continuous and digital (ZOH) with delays.
+
+    Parameters
+    ----------
+    gain : float
+        Error gain K > 0 [1/s].
+    period : float
+        Sampling period h [s]; when ``gain * period < 0.05`` (too fine to show the sampling effect)
+        the figure uses half the 2-sample-delay limit instead and says so in its title.
+    path : str or Path
+        The PNG file to write.
+    title : str
+        Prefix of the title.
+    delays : sequence of int
+        Control delays [samples], one sampled response each.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
     fig, ax = plt.subplots(figsize=(8, 4.5))
     h = period
     if gain * h < 0.05:          # the run's own step is too fine to show the effect: use a telling one

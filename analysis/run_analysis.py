@@ -69,11 +69,29 @@ class RunAnalysis:
     minima: dict
 
     def smallest(self, name: str) -> np.ndarray:
-        """Margin ``name`` per sample (the smallest link margin for ``"links"``)."""
+        """Margin ``name`` per sample (the smallest link margin for ``"links"``).
+
+        Parameters
+        ----------
+        name : str
+            A margin, one of :data:`~analysis.singularity.MARGINS`.
+
+        Returns
+        -------
+        (n,) ndarray
+            Its value at each of the samples :attr:`t` [-]; for ``"links"`` the smallest over the links.
+        """
         return _smallest(self.margins, name)
 
     def predicted(self) -> dict[str, bool | None]:
-        """Margin -> crossed its threshold before the blow-up (None when there was no blow-up)."""
+        """Margin -> crossed its threshold before the blow-up (None when there was no blow-up).
+
+        Returns
+        -------
+        dict of str to bool or None
+            For every margin of :attr:`crossings`: True when its first crossing is strictly before
+            :attr:`blowup_time`, False when later or never, None for all when there was no blow-up.
+        """
         if self.blowup_time is None:
             return {k: None for k in self.crossings}
         return {k: (c is not None and c < self.blowup_time) for k, c in self.crossings.items()}
@@ -92,6 +110,16 @@ def default_samples(links: int) -> int:
     """Margin samples of a report before refinement: 1200 up to 64 links, then ``* (64/m)^2``, at least 100.
 
     Each sample costs SVDs and a QR of the m x m decoupling matrix, O(m^3).
+
+    Parameters
+    ----------
+    links : int
+        Number of links m (> 0).
+
+    Returns
+    -------
+    int
+        Samples, between 100 and 1200.
     """
     return max(100, min(1200, round(1200 * (64 / links) ** 2)))
 
@@ -129,6 +157,8 @@ def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, flo
     Returns
     -------
     RunAnalysis
+        The margins at the (refined) samples, their crossings and minima, and the blow-up;
+        rows with a non-finite ``q`` or ``t`` are left out.
     """
     from coordarm.simulation.run import DEFAULT_THRESHOLDS
 
@@ -174,6 +204,22 @@ def nominal_u(ctrl: CoordinatingController, t: np.ndarray, q: np.ndarray, u_norm
     The larger of the median of ``|u|_inf`` over the whole run and ``(max v* + K max|e(0)|) / xi``,
     the joint rate the commanded motion asks of a link (end point speed and the decay of the
     initial deviations, over one link length).
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller of the run (speed ``v*`` [m/s], gain ``K`` [1/s], link length ``xi`` [m]).
+    t : (N,) ndarray
+        Sample times [s], N >= 1.
+    q : (N, dof) ndarray
+        Configurations [rad] (``d`` [m] first on a rail); only the first row is read (``e(0)``).
+    u_norm : (N,) ndarray
+        ``|u|_inf`` at each sample [rad/s]; non-finite values are left out of the median.
+
+    Returns
+    -------
+    float
+        The nominal ``|u|_inf`` [rad/s].
     """
     e0 = float(np.max(np.abs(ctrl.evaluate(q[0], float(t[0]))["e"])))
     commanded = (float(np.max(np.abs(ctrl.speeds(t)))) + ctrl.gain * e0) / ctrl.chain.xi

@@ -139,8 +139,8 @@ def run_margins(controller: CoordinatingController, t: ArrayLike, q: ArrayLike, 
         The controller the run used.
     t : (N,) array_like
         Sample times [s].
-    q : (N, m) array_like
-        Configurations [rad].
+    q : (N, dof) array_like
+        Configurations [rad] (``d`` [m] first on a rail).
     batch : int, optional
         Samples evaluated together (default: as many as keep one stack of m x m matrices
         near 128 MiB, at most 500; a few such stacks are alive at once).
@@ -149,6 +149,11 @@ def run_margins(controller: CoordinatingController, t: ArrayLike, q: ArrayLike, 
     -------
     dict
         Same keys as :func:`margins`; ``links`` has shape (N, m-1), the others (N,).
+
+    Raises
+    ------
+    ConfigError
+        ``q`` is not of shape (N, dof).
     """
     t = np.asarray(t, dtype=float).ravel()
     q = np.asarray(q, dtype=float)

@@ -138,6 +138,22 @@ def private_root(root: Path) -> Path:
     Group write permission is accepted when the group is the user's own (:func:`own_group`), as
     ``umask 002`` leaves it. A library is loaded into this process: one that others can replace
     must never be loaded.
+
+    Parameters
+    ----------
+    root : Path
+        The wanted cache directory (:func:`build_root`); created with its parents when missing.
+
+    Returns
+    -------
+    Path
+        ``root``, or the process's private temporary directory when ``root`` is unusable, owned by
+        another user or writable by others.
+
+    Warns
+    -----
+    CacheWarning
+        When the private temporary directory is returned.
     """
     try:
         root.mkdir(mode=0o700, parents=True, exist_ok=True)
@@ -160,6 +176,11 @@ def private_root(root: Path) -> Path:
 def compile_timeout() -> float:
     """Seconds a compilation may take: ``$COORDARM_COMPILE_TIMEOUT``, else :data:`COMPILE_TIMEOUT`.
 
+    Returns
+    -------
+    float
+        The time limit [s], positive and finite.
+
     Raises
     ------
     BuildError
@@ -178,7 +199,17 @@ def compile_timeout() -> float:
 
 
 def find_compiler(cc: str | None = None) -> str:
-    """Absolute path of the C compiler: ``cc``, else ``$CC``, else ``cc`` or ``gcc`` on the PATH.
+    """Absolute path of the C compiler: ``cc``, else ``$CC``, else ``cc``, ``gcc`` or ``clang`` on the PATH.
+
+    Parameters
+    ----------
+    cc : str, optional
+        Compiler name or path (looked up on the PATH when it is a bare name).
+
+    Returns
+    -------
+    str
+        The compiler's absolute path (as :func:`shutil.which` gives it).
 
     Raises
     ------
@@ -208,6 +239,16 @@ def _compiler_version(path: str) -> str:
 
 def compile_flags(flags: tuple[str, ...] | list[str] | str | None = None) -> tuple[str, ...]:
     """Optimisation flags: ``flags``, else ``$COORDARM_CFLAGS``, else :data:`DEFAULT_FLAGS`.
+
+    Parameters
+    ----------
+    flags : sequence of str or str, optional
+        The flags; a string is split like a shell command line.
+
+    Returns
+    -------
+    tuple of str
+        The flags, one per element.
 
     Raises
     ------
@@ -246,7 +287,27 @@ def cpu_identity() -> str:
 def cache_key(source: Source, cc: str, flags: tuple[str, ...]) -> str:
     """SHA-256 over source, compiler path and version, flags, CasADi version, codegen options,
     the CPU when a flag asks for ``native`` code (a shared cache then never serves another CPU), and
-    with a flag of :data:`PROCESS_MODE_FLAGS` the separate link (older entries were linked with it)."""
+    with a flag of :data:`PROCESS_MODE_FLAGS` the separate link (older entries were linked with it).
+
+    Parameters
+    ----------
+    source : Source
+        The generated C source.
+    cc : str
+        Absolute path of the compiler (:func:`find_compiler`); it is run once for ``--version``.
+    flags : tuple of str
+        The optimisation flags (:func:`compile_flags`).
+
+    Returns
+    -------
+    str
+        The key, 64 hex digits.
+
+    Raises
+    ------
+    BuildError
+        The compiler does not run or does not answer ``--version`` in time.
+    """
     h = hashlib.sha256()
     cpu = cpu_identity() if any("native" in f for f in flags) else ""
     # Libraries of such flags were linked with them before compile_and_link: never serve those again.
@@ -274,7 +335,20 @@ def _write_atomic(path: Path, data: bytes) -> None:
 
 
 def cached(entry: Path, key: str) -> bool:
-    """True if ``entry`` holds a complete library for ``key`` whose checksum matches its metadata."""
+    """True if ``entry`` holds a complete library for ``key`` whose checksum matches its metadata.
+
+    Parameters
+    ----------
+    entry : Path
+        A cache entry directory.
+    key : str
+        The full cache key (:func:`cache_key`).
+
+    Returns
+    -------
+    bool
+        False when the metadata or the library is missing or unreadable, or either does not match.
+    """
     try:
         meta = json.loads((entry / META).read_text())
         return meta.get("key") == key and meta.get("sha256") == _sha256(entry / LIBRARY)
@@ -282,7 +356,8 @@ def cached(entry: Path, key: str) -> bool:
         return False
 
 
-def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
+def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | list[str] | str | None = None,
+          build_dir: str | os.PathLike | None = None,
           force: bool = False, timeout: float | None = None) -> Library:
     """Compile ``source`` (or take it from the cache) and return the library.
 
@@ -299,12 +374,19 @@ def build(source: Source, *, cc: str | None = None, flags=None, build_dir=None,
     force : bool
         Recompile even if the cache holds the library.
     timeout : float, optional
-        Give up (and stop the compiler) after this many seconds.
+        Give up (and stop the compiler) after this many seconds [s] (default
+        :func:`compile_timeout`).
+
+    Returns
+    -------
+    Library
+        The library's path and key, whether it came from the cache, and the compile time.
 
     Raises
     ------
     BuildError
-        No compiler, it failed (its message included) or it exceeded ``timeout``.
+        No compiler, it failed (its message included) or it exceeded ``timeout``; a bad
+        ``$COORDARM_COMPILE_TIMEOUT`` or flags; an unwritable build directory.
     """
     cc_path = find_compiler(cc)
     flags = compile_flags(flags)
@@ -422,8 +504,19 @@ def kill_process_tree(pid: int) -> None:
             pass
 
 
-def clean(build_dir=None) -> int:
-    """Delete every cached library under the cache directory; return how many entries went."""
+def clean(build_dir: str | os.PathLike | None = None) -> int:
+    """Delete every cached library under the cache directory; return how many entries went.
+
+    Parameters
+    ----------
+    build_dir : path, optional
+        The cache directory (default :func:`build_root`).
+
+    Returns
+    -------
+    int
+        Entries (directories with a 16-character name) removed; 0 when the directory does not exist.
+    """
     root = build_root(build_dir)
     if not root.is_dir():
         return 0

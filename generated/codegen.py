@@ -143,6 +143,22 @@ def functions(ctrl: CoordinatingController, form: str, path_search: bool = True)
     The structured form adds the re-pivoting step and its time terms (called only at a state
     with a small link pivot); with damping, the whole law is one Function. With the governor
     on a rail, the head takes ``v_scale`` (the C calls it twice, see :func:`structured_law`).
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller.
+    form : {"structured", "dense"}
+        Form of the law; only the undamped structured form is split into per-link Functions.
+    path_search : bool
+        On a path, the C searches the closest piece itself (the piece step Functions of
+        :mod:`.link_variants`); False: the piece is selected inside the generated link step,
+        over every piece (the reference form, slower).
+
+    Returns
+    -------
+    list of casadi.Function
+        In the order the C glue calls them; the whole law alone when it is not split.
     """
     if _split(ctrl, form):
         rec = ctrl.recursion
@@ -242,6 +258,7 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured", path
     Returns
     -------
     Source
+        The C text, with the form and the link count.
 
     Raises
     ------
@@ -288,6 +305,7 @@ def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law:
     Returns
     -------
     Source
+        The C text, with the form and the link count.
 
     Raises
     ------

@@ -48,6 +48,7 @@ def load_library(path) -> ctypes.CDLL:
     Returns
     -------
     ctypes.CDLL
+        The loaded library, its API functions typed.
 
     Raises
     ------
@@ -85,8 +86,12 @@ class CompiledController:
         The controller to compile (its chain needs a diagonal B).
     form : {"structured", "dense"}
         Law form.
-    cc, flags, build_dir :
-        Compiler, optimisation flags and cache directory (see :func:`generated.build.build`).
+    cc : str, optional
+        C compiler (see :func:`generated.build.build`).
+    flags : sequence of str or str, optional
+        Optimisation flags (see :func:`generated.build.build`).
+    build_dir : path, optional
+        Cache directory (see :func:`generated.build.build`).
     force : bool
         Recompile even on a cache hit.
     path_search : bool
@@ -99,6 +104,12 @@ class CompiledController:
         Path, cache key, whether the build hit the cache, compile time.
     generate_seconds : float
         Time spent generating the C source.
+
+    Raises
+    ------
+    BuildError
+        The library cannot be built or loaded (see :func:`generated.build.build`), or it was built
+        for another link count or output width.
 
     Notes
     -----
@@ -196,6 +207,11 @@ class CompiledController:
         out : (n,) float64 ndarray, optional
             Write ``u`` [rad/s per unit of B] here, in place, and return it (no copies).
 
+        Returns
+        -------
+        (n,) ndarray
+            ``u`` [rad/s] (``d_dot`` [m/s] first on a rail): ``out`` itself when given, else a new array.
+
         Raises
         ------
         ConfigError
@@ -221,6 +237,21 @@ class CompiledController:
         With ``out`` (a float64 array of the packed width, see :mod:`coordarm.symbolic.outputs`),
         the packed outputs are written there in place and the dict holds views of it.
 
+        Parameters
+        ----------
+        q : (n,) array_like
+            Joint coordinates [rad] (``d`` [m] first on a rail); a float64 C-contiguous array is read in place.
+        t : float
+            Time [s].
+        out : (n_out,) float64 ndarray, optional
+            Writeable C-contiguous buffer of the packed width ``n_out``.
+
+        Returns
+        -------
+        dict
+            Output name -> value (``u``, ``e``, ``s``, ...: :func:`coordarm.symbolic.outputs.split`);
+            views of ``out`` when given, else of a fresh copy.
+
         Raises
         ------
         ConfigError
@@ -240,6 +271,20 @@ class CompiledController:
     def step(self, q, t: float, h: float) -> np.ndarray:
         """One closed-loop RK4 step of length ``h`` [s] from ``(q, t)``: the next state [rad] (``d`` [m] first on a rail).
 
+        Parameters
+        ----------
+        q : (n,) array_like
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+        t : float
+            Time at the start of the step [s].
+        h : float
+            Step length [s].
+
+        Returns
+        -------
+        (n,) ndarray
+            The state after the step (a new array).
+
         Raises
         ------
         ConfigError
@@ -257,13 +302,29 @@ class CompiledController:
     def chunk(self, q0, times: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
         """RK4 steps of length ``h`` starting at each of ``times``, all in one call of C.
 
+        Parameters
+        ----------
+        q0 : (n,) array_like
+            State at ``times[0]`` [rad] (``d`` [m] first on a rail).
+        times : (N,) array_like
+            Start time of each step [s] (step k runs from ``times[k]`` to ``times[k] + h``).
+        h : float
+            Step length [s].
+
         Returns
         -------
-        Q : (len(times), n) array
+        Q : (N, n) ndarray
             State after each step.
-        D : (n, packed_width(m)) array
+        D : (N, n_out) ndarray
             The law at each step's start, packed (split it with
             :func:`coordarm.symbolic.outputs.split`).
+
+        Raises
+        ------
+        ConfigError
+            ``q0`` of the wrong shape or not finite, or a time not finite.
+        NonFiniteError
+            The law produced NaN or inf.
         """
         self._load_q(q0)
         times = np.ascontiguousarray(times, dtype=float)

@@ -121,6 +121,7 @@ def export_law(ctrl: CoordinatingController, q0: np.ndarray, directory: str | Pa
     Returns
     -------
     Export
+        The written files.
 
     Raises
     ------

@@ -247,6 +247,7 @@ def rail_head_from_end(ctrl: CoordinatingController, governed: bool = False) -> 
     Returns
     -------
     casadi.Function
+        ``rail_head_from_end``; outputs ``carry``, ``d_dot`` [m/s], ``rail_margin`` [-] and ``psi_1`` [m].
     """
     geometry = ctrl.task.geometry
     d, q1, t, y_m = ca.SX.sym("d"), ca.SX.sym("q_1"), ca.SX.sym("t"), ca.SX.sym("y_m", 2)

@@ -193,13 +193,17 @@ def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages
     Parameters
     ----------
     run : Run
+        The run (its ``t`` and ``q`` give the chain at each stage).
     ctrl : CoordinatingController
+        Its controller (chain and curve to draw).
     path : str or Path
         PNG to write.
     stages : int
         Number of evenly spread stages when ``times`` is not given.
     obstacles : sequence of Obstacle
+        Obstacles to draw.
     title : str
+        Figure title (default: the link count and "stages of the motion").
     times : sequence of float, optional
         Stage times [s] (the nearest samples are drawn; times outside the run are skipped).
 

@@ -49,6 +49,7 @@ def int_text(values: np.ndarray, width: int) -> np.ndarray:
     Returns
     -------
     uint8 array, shape ``values.shape + (width,)``
+        ASCII codes, one row of ``width`` characters per value.
     """
     v = np.asarray(values, np.int64)
     rest = np.abs(v)

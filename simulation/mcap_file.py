@@ -322,7 +322,12 @@ class McapFile:
             uint8 array, which must not change afterwards (it may be compressed later, on the chunk thread).
         index : dict
             Channel id -> ``(log_times, offsets)`` (uint64 arrays) of that channel's messages
-            inside ``records``.
+            inside ``records``; empty: nothing is written.
+
+        Raises
+        ------
+        Exception
+            The error with which the chunk thread failed on an earlier chunk, raised again.
         """
         if not index:
             return

@@ -77,6 +77,16 @@ def default_cond_rate(links: int) -> float:
 
     One ``cond`` is an SVD of the m x m decoupling matrix, O(m^3), against O(m) for a step
     of the law, so this keeps its share of a run's time about what it is at 64 links.
+
+    Parameters
+    ----------
+    links : int
+        Number of links m (> 0).
+
+    Returns
+    -------
+    float
+        The rate [Hz]; 0 above :data:`COND_LINK_LIMIT` links.
     """
     if links > COND_LINK_LIMIT:
         return 0.0
@@ -85,6 +95,21 @@ def default_cond_rate(links: int) -> float:
 
 def steps_between(rate: Any, step: float, name: str) -> int:
     """Steps between two samples at ``rate`` samples per simulated second (at least 1).
+
+    Parameters
+    ----------
+    rate : float
+        Samples per simulated second [Hz]; anything else (not a real number, not positive, not
+        finite) is refused.
+    step : float
+        The simulation step [s].
+    name : str
+        The rate's name in the error message.
+
+    Returns
+    -------
+    int
+        ``round(1 / (rate * step))``, at least 1.
 
     Raises
     ------
@@ -97,7 +122,20 @@ def steps_between(rate: Any, step: float, name: str) -> int:
 
 
 def log_time_ns(t: float | np.ndarray, origin: float) -> np.ndarray:
-    """Log times [ns] of simulated times ``t`` [s]: nanoseconds since ``origin`` (<= every t)."""
+    """Log times [ns] of simulated times ``t`` [s]: nanoseconds since ``origin`` (<= every t).
+
+    Parameters
+    ----------
+    t : float or (N,) ndarray
+        Simulated times [s].
+    origin : float
+        The log's time origin [s]; a ``t`` before it wraps around (unsigned result).
+
+    Returns
+    -------
+    uint64 ndarray or numpy.uint64
+        Rounded nanoseconds, of the shape of ``t`` (a numpy scalar for a float).
+    """
     return np.round((np.asarray(t) - origin) * 1e9).astype(np.uint64)
 
 
@@ -109,7 +147,13 @@ def _version(dist: str) -> str:
 
 
 def code_hash() -> str:
-    """SHA-256 over the Python sources of the ``symbolic`` and ``simulation`` packages (sorted by path)."""
+    """SHA-256 over the Python sources of the ``symbolic`` and ``simulation`` packages (sorted by path).
+
+    Returns
+    -------
+    str
+        The digest, 64 hex digits (``generated`` and ``analysis`` are not part of it).
+    """
     digest = hashlib.sha256()
     root = Path(__file__).resolve().parent.parent
     for pkg in ("symbolic", "simulation"):
@@ -120,7 +164,19 @@ def code_hash() -> str:
 
 
 def build_info(scenario: Scenario) -> dict[str, str]:
-    """The ``build`` metadata: code and scenario hashes and the versions that made the run."""
+    """The ``build`` metadata: code and scenario hashes and the versions that made the run.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario of the run (hashed as its JSON).
+
+    Returns
+    -------
+    dict of str to str
+        ``code_hash``, ``scenario_hash`` and the versions of coordarm, casadi, numpy, mcap,
+        zstandard, lz4 and python (``"unknown"`` for a package that is not installed).
+    """
     import casadi
     return {"code_hash": code_hash(), "scenario_hash": hashlib.sha256(scenario.to_json().encode()).hexdigest(),
             "coordarm": _version("coordarm"), "casadi": casadi.__version__, "numpy": np.__version__,
@@ -132,8 +188,23 @@ def outcome_of(error: BaseException | None, last_t: float | None,
                contacts: list[dict] | None = None, governed: float = 0.0) -> dict[str, Any]:
     """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``.
 
-    ``contacts`` (the records of an ``--allow-contact`` run) are added when there are any;
-    ``governed`` is the simulated time [s] during which the speed governor slowed ``v*``.
+    Parameters
+    ----------
+    error : BaseException or None
+        Why the run ended: None (completed), a SingularityError, a CollisionError, an
+        interruption (Ctrl-C or a termination signal) or any other error.
+    last_t : float or None
+        Time of the last simulated step [s] (None: no step).
+    contacts : list of dict, optional
+        The contact records of an ``--allow-contact`` run, added when there are any.
+    governed : float
+        Simulated time during which the speed governor slowed ``v*`` [s].
+
+    Returns
+    -------
+    dict
+        ``status`` (an :class:`Outcome` value), ``t_end``, the details of the singularity, the
+        collision or the error (``message`` among them), ``contacts`` when any, and ``governed``.
     """
     if error is None:
         out = {"status": Outcome.COMPLETED.value, "t_end": last_t}
@@ -353,6 +424,11 @@ class RunLogger:
     def on_chunk(self, part: Run) -> None:
         """Log a block of consecutive steps (a :class:`Run` of their rows; its arrays must not change later).
 
+        Parameters
+        ----------
+        part : Run
+            The block's rows, following the previous block's.
+
         Raises
         ------
         LogError
@@ -480,7 +556,20 @@ class RunLogger:
 
     # ---------------------------------------------------------------- closing
     def finish(self, error: BaseException | None = None) -> None:
-        """Log the last step if decimation skipped it, write ``outcome``, close the file."""
+        """Log the last step if decimation skipped it, write ``outcome``, close the file.
+
+        Does nothing when the file is closed already.
+
+        Parameters
+        ----------
+        error : BaseException, optional
+            Why the run ended (None: it completed); recorded by :func:`outcome_of`.
+
+        Raises
+        ------
+        LogError
+            Writing the log failed, now or on the worker thread (the partial file is abandoned).
+        """
         if self.file.closed:
             return
         worker, self._worker = self._worker, None

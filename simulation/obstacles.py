@@ -234,8 +234,9 @@ def link_distances(joints: np.ndarray, obstacle: Obstacle) -> np.ndarray:
     Parameters
     ----------
     joints : (N, m+1, 2) array
-        Link end points (``PlanarChain.joints_np``).
+        Link end points (``PlanarChain.joints_np``) [m].
     obstacle : Obstacle
+        A segment, circle or polygon.
 
     Returns
     -------

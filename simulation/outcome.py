@@ -10,7 +10,19 @@ EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.SINGULARITY: 3, Outcome.COLLISION: 4
 
 
 def explain(error: SingularityError | CollisionError) -> list[str]:
-    """What happened (margin or contact, link, time, value against threshold, geometric meaning) and one line of advice."""
+    """What happened (margin or contact, link, time, value against threshold, geometric meaning) and one line of advice.
+
+    Parameters
+    ----------
+    error : SingularityError or CollisionError
+        The error that stopped the run; a SingularityError whose ``kind`` is not ``"longitudinal"``
+        is explained as a link margin.
+
+    Returns
+    -------
+    list of str
+        Two lines: what happened, then one line of advice (starting ``advice:``).
+    """
     if isinstance(error, CollisionError):
         return [error.contact.describe(), error.contact.advice()]
     t, v, thr = f"t = {error.time:.3f} s", f"{error.margin:.3g}", f"{error.threshold:.3g}"

@@ -194,6 +194,7 @@ def check_configuration(chain: PlanarChain, q: ArrayLike, obstacles: Sequence[Ob
     q : (N, dof) or (dof,) array
         Configurations [rad] (on a rail ``d`` [m] first, checked against ``chain.rail_limits``).
     obstacles : sequence of Obstacle
+        Obstacles each link must keep ``chain.clearance`` from.
     t : (N,) array, optional
         Times of the samples [s] (default: the sample index).
 

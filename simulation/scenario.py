@@ -110,6 +110,7 @@ class Scenario:
         Returns
         -------
         Scenario
+            The copy; this scenario is unchanged.
         """
         named = {"kind": USER_DEFINED, "class": f"{type(curve).__module__}.{type(curve).__qualname__}"}
         return Scenario(dataclasses.replace(self.config, curve=named, curve_object=None), self.source, curve)
@@ -209,6 +210,7 @@ class Scenario:
         Returns
         -------
         PlanarChain
+            A new chain, built from the ``[chain]`` table.
         """
         return self.config.chain.build()
 
@@ -223,6 +225,7 @@ class Scenario:
         Returns
         -------
         Physical
+            The checks of a run.
         """
         return Physical(chain or self.chain(), self.obstacles)
 
@@ -232,6 +235,7 @@ class Scenario:
         Returns
         -------
         CoordinatingController
+            A new controller; its ``governor_threshold`` is the longitudinal stop threshold.
         """
         c = self.config.control
         curve = self.curve if self.curve is not None else self.config.curve_object
@@ -299,6 +303,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     Returns
     -------
     Scenario
+        The validated scenario; its ``source`` is ``preset '<name>'`` or the path.
 
     Raises
     ------

@@ -107,12 +107,19 @@ class ChainTable:
         Returns
         -------
         PlanarChain
+            A new chain (clearance 0 when the table leaves it out).
         """
         return PlanarChain(self.links, float(self.link_length), joint_limit=self.joint_limit,
                            clearance=float(self.clearance or 0.0), **self.base_args)
 
     def to_dict(self) -> dict:
-        """The table as the file writes it (keys left out stay out)."""
+        """The table as the file writes it (keys left out stay out).
+
+        Returns
+        -------
+        dict
+            ``links``, ``link_length``, and ``joint_limit``, ``clearance``, ``base`` when given.
+        """
         return {"links": self.links, "link_length": self.link_length,
                 **_present(joint_limit=self.joint_limit, clearance=self.clearance, base=self.base)}
 
@@ -151,7 +158,14 @@ class ControlTable:
     span_motion: Any = field(default=None, compare=False, repr=False)
 
     def to_dict(self) -> dict:
-        """The table as the file writes it (keys left out stay out)."""
+        """The table as the file writes it (keys left out stay out).
+
+        Returns
+        -------
+        dict
+            ``gain``, ``law``, ``governor``, and ``speed``, ``span``, ``damping`` when given
+            (as given: numbers or motion specs, not the built motions).
+        """
         return {"gain": self.gain, "law": self.law, "governor": self.governor,
                 **_present(speed=self.speed, span=self.span, damping=self.damping)}
 
@@ -181,7 +195,13 @@ class StartTable:
     curve_object: Curve | None = field(default=None, compare=False, repr=False)
 
     def to_dict(self) -> dict:
-        """The table as the file writes it (keys left out stay out)."""
+        """The table as the file writes it (keys left out stay out).
+
+        Returns
+        -------
+        dict
+            ``kind``, ``beta`` [rad], ``heading`` [rad], and ``curve`` (its spec) when given.
+        """
         return {"kind": self.kind, "beta": self.beta, "heading": self.heading, **_present(curve=self.curve)}
 
 
@@ -204,7 +224,13 @@ class RunTable:
     t0: float = 0.0
 
     def to_dict(self) -> dict:
-        """The table as the file writes it."""
+        """The table as the file writes it.
+
+        Returns
+        -------
+        dict
+            ``duration``, ``step`` and ``t0`` [s].
+        """
         return {"duration": self.duration, "step": self.step, "t0": self.t0}
 
 
@@ -224,7 +250,13 @@ class Thresholds:
     longitudinal: float = DEFAULT_THRESHOLDS["longitudinal"]
 
     def to_dict(self) -> dict:
-        """The table as the file writes it."""
+        """The table as the file writes it.
+
+        Returns
+        -------
+        dict
+            ``link`` and ``longitudinal`` [-].
+        """
         return {"link": self.link, "longitudinal": self.longitudinal}
 
 
@@ -260,7 +292,13 @@ class FiguresTable:
     panels: list[Panel] | None = None
 
     def to_dict(self) -> dict:
-        """The table as the file writes it (keys left out stay out)."""
+        """The table as the file writes it (keys left out stay out).
+
+        Returns
+        -------
+        dict
+            ``stages`` [s] and ``panels`` (each ``{title, stages}``) when given; may be empty.
+        """
         panels = None if self.panels is None else [{"title": p.title, "stages": p.stages} for p in self.panels]
         return _present(stages=self.stages, panels=panels)
 

@@ -79,6 +79,7 @@ class CarryLayout:
         Returns
         -------
         int or slice
+            Row(s) of the field in the carry column.
         """
         return self._index[name]
 
@@ -88,6 +89,7 @@ class CarryLayout:
         Returns
         -------
         casadi.SX, shape (size, 1)
+            A fresh symbol named ``carry``.
         """
         return ca.SX.sym("carry", self.size)
 
@@ -118,6 +120,7 @@ class CarryLayout:
         Returns
         -------
         casadi.SX or casadi.MX, shape (size, 1)
+            The fields stacked in order.
         """
         parts: list = []
         for value in fields:

@@ -104,10 +104,18 @@ class PlanarChain(ChainModel):
         Direction of the rail [rad].
     rail_limits : (float, float)
         Allowed range of ``d`` [m] (a run leaving it stops like a collision).
+
+    Raises
+    ------
+    ConfigError
+        Fewer than 2 links, a link length that is not a finite number > 0, a ``B`` of the wrong
+        shape, not finite or singular, joint limits outside ``(0, pi]`` or of the wrong count, a
+        negative or non-finite clearance, an unknown base, a non-finite rail angle, or rail
+        limits that are not ``[low, high]`` with ``low < high``.
     """
 
     def __init__(self, links: int, link_length: float, B: ArrayLike | None = None,
-                 joint_limit: float | Sequence[float] = None, clearance: float = 0.0,
+                 joint_limit: float | Sequence[float] | None = None, clearance: float = 0.0,
                  base: str = "fixed", rail_angle: float = 0.0,
                  rail_limits: Sequence[float] = (-math.inf, math.inf)) -> None:
         if not is_integer(links, numpy=True) or links < 2:
@@ -257,6 +265,7 @@ class PlanarChain(ChainModel):
         Returns
         -------
         casadi.SX, shape (2, 1)
+            The unit direction.
         """
         return direction(alpha)
 
@@ -272,6 +281,7 @@ class PlanarChain(ChainModel):
         Returns
         -------
         casadi.SX, shape (2, 1)
+            ``d`` turned by +90 degrees.
         """
         return ca.vertcat(-d[1], d[0])
 
@@ -286,6 +296,7 @@ class PlanarChain(ChainModel):
         Returns
         -------
         casadi.SX, shape (2, 1)
+            The step from the centre of link ``j-1`` to that of link ``j`` [m].
         """
         return 0.5 * self.xi * (d_prev + d_j)
 

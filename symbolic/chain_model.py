@@ -79,6 +79,7 @@ class ChainModel(Protocol):
         Returns
         -------
         ndarray, shape (dof,)
+            ``q`` as floats.
         """
 
     # ---------------------------------------------------------------------------- kinematics
@@ -136,6 +137,7 @@ class ChainModel(Protocol):
         Returns
         -------
         casadi.SX
+            ``d`` turned by +90 degrees.
         """
 
     def centre_step(self, d_prev: Any, d_j: Any) -> Any:
@@ -163,6 +165,7 @@ class ChainModel(Protocol):
         Returns
         -------
         casadi.SX, shape (CARRY.size, 1)
+            The packed carry.
         """
 
     def controls_from_link_rates(self, w: Any) -> Any:

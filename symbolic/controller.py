@@ -85,8 +85,25 @@ def check_controller(chain: Any, curve: Any, gain: Any, speed: Any, law: Any, sp
 
     Parameters
     ----------
-    chain, curve, gain, speed, law, span, governor, governor_threshold, damping
-        As :class:`CoordinatingController` takes them.
+    chain : PlanarChain
+        The manipulator (anything else is refused).
+    curve : Curve
+        The goal curve (anything else is refused; a user-defined one is checked orthonormalised).
+    gain : float
+        Error gain K > 0 [1/s].
+    speed : float or callable
+        Commanded end-point speed ``v*(t)`` [m/s].
+    law : {"structured", "dense"}
+        Form of the law.
+    span : float or callable or None
+        Commanded span ``sigma*(t)`` [m] of a chain on a rail; None: held.
+    governor : bool
+        Whether the speed governor is on.
+    governor_threshold : float
+        Longitudinal margin at which the governed speed reaches 0 (in (0, 1), checked only with the
+        governor on).
+    damping : dict or None
+        Damped least squares settings (:func:`check_damping`), or None for none.
 
     Returns
     -------

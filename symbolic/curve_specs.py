@@ -37,6 +37,7 @@ def path_from_spec(spec: dict, field: str = "curve") -> Path:
     Returns
     -------
     Path
+        A new path.
 
     Raises
     ------
@@ -85,6 +86,7 @@ def curve_from_spec(spec: Any, field: str = "curve") -> Curve:
     Returns
     -------
     Curve
+        A new curve of the kind's class.
 
     Raises
     ------

@@ -85,7 +85,13 @@ def interruption(exc: BaseException) -> int | None:
 
 
 def check() -> None:
-    """Raise :class:`Interrupted` if a signal arrived (even one whose exception was swallowed)."""
+    """Raise :class:`Interrupted` if a signal arrived (even one whose exception was swallowed).
+
+    Raises
+    ------
+    Interrupted
+        A signal arrived since :func:`handled` began (carrying the first one received).
+    """
     if _received:
         raise Interrupted(_received[0])
 
@@ -95,6 +101,12 @@ def handled() -> Iterator[None]:
     """Install the remembering handler for SIGINT and SIGTERM inside the block (main thread only).
 
     The previous handlers come back afterwards and the record of received signals is cleared.
+    Outside the main thread (where signal handlers cannot be set) the block runs unchanged.
+
+    Yields
+    ------
+    None
+        Control to the block, with the handlers installed.
     """
     if threading.current_thread() is not threading.main_thread():
         yield

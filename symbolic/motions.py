@@ -147,6 +147,12 @@ def motion_from_spec(spec: Any, field: str) -> Motion:
     -------
     Motion
         A callable of time.
+
+    Raises
+    ------
+    ConfigError
+        A value that is not a finite number, an empty list, an unknown ``kind``, an unknown key
+        for that kind, or a missing parameter.
     """
     if is_real(spec):
         return Constant(_finite(spec, field))

@@ -51,6 +51,7 @@ class NumericAPI:
         Returns
         -------
         casadi.Function
+            ``(q, t)`` -> the law's outputs.
         """
         raise NotImplementedError
 
@@ -118,6 +119,11 @@ class NumericAPI:
         dict
             ``phi``, ``phit``, ``psi``, ``psit`` of shape (N, m) and the gradients ``gphi``,
             ``gpsi`` of shape (N, m, 2), from one mapped call of the geometry Function.
+
+        Raises
+        ------
+        ConfigError
+            ``Q`` and ``T`` not of shapes (N, dof) and (N,).
         """
         Q, T = np.atleast_2d(np.asarray(Q, float)), np.atleast_1d(np.asarray(T, float))
         m, n = self.chain.m, self.chain.dof

@@ -89,6 +89,18 @@ def check_orthonormal(curve: Curve, times: Sequence[float] = (0.0,), points: int
     Returns
     -------
     OrthonormalityCheck
+        Whether the worst deviation is within ``tol``, the deviation, where and when it occurs,
+        the largest ``|phi|`` at the sampled points and how many were checked.
+
+    Raises
+    ------
+    ConfigError
+        ``curve`` is not a :class:`~symbolic.Curve`.
+
+    Warns
+    -----
+    OrthonormalityWarning
+        With ``warn``, when the check fails.
     """
     if not isinstance(curve, Curve):
         raise ConfigError(f"curve: expected a Curve, got {type(curve).__name__}")

@@ -130,6 +130,7 @@ def outputs_of(rail: bool = False) -> tuple[Output, ...]:
     Returns
     -------
     tuple of Output
+        In packed order.
     """
     if not rail:
         return LAW_OUTPUTS

@@ -54,9 +54,20 @@ def _finite(value: Any, field: str) -> float:
 class Piece:
     """One segment in the path frame: start ``p0``, unit tangent ``d0`` there, curvature ``k``.
 
-    ``k = 0`` for a line; an arc has ``k = sign(A) / R``. ``s0`` is the arc length at ``p0``,
-    ``length`` the piece's length (``inf`` for the rays); ``ray_before`` marks a piece whose
-    line extends backwards without limit.
+    Attributes
+    ----------
+    p0 : (2,) ndarray
+        Start point [m].
+    d0 : (2,) ndarray
+        Unit tangent at ``p0``.
+    k : float
+        Curvature [1/m]: 0 for a line; an arc has ``k = sign(A) / R``.
+    s0 : float
+        Arc length at ``p0`` [m].
+    length : float
+        The piece's length [m] (``inf`` for the ray after the last segment).
+    ray_before : bool
+        The piece's line extends backwards without limit (the ray before the first segment).
     """
 
     p0: np.ndarray
@@ -75,7 +86,15 @@ class Piece:
         return self.p0 + self.n0 / self.k
 
     def end(self) -> tuple[np.ndarray, np.ndarray]:
-        """End point and end tangent."""
+        """End point and end tangent.
+
+        Returns
+        -------
+        point : (2,) ndarray
+            End point [m] (non-finite for the final ray).
+        tangent : (2,) ndarray
+            Unit tangent there.
+        """
         if self.k == 0:
             return self.p0 + self.length * self.d0, self.d0.copy()
         a = self.k * self.length
@@ -85,7 +104,27 @@ class Piece:
 
 
 def parse_segment(seg: Any, field: str) -> tuple[str, float, float]:
-    """``{line = L}`` or ``{arc = A, radius = R}`` (a dict, or a tuple ``("line", L)``, ``("arc", A, R)``)."""
+    """``{line = L}`` or ``{arc = A, radius = R}`` (a dict, or a tuple ``("line", L)``, ``("arc", A, R)``).
+
+    Parameters
+    ----------
+    seg : dict or tuple
+        One segment of a path's ``segments``.
+    field : str
+        Its name in error messages (e.g. ``"curve.segments[0]"``).
+
+    Returns
+    -------
+    tuple of (str, float, float)
+        ``("line", L, 0.0)`` with the length L [m], or ``("arc", A, R)`` with the turning angle
+        A [rad] (+ = left) and the radius R [m].
+
+    Raises
+    ------
+    ConfigError
+        Not a segment of either form, a value that is not a finite number, a length or radius
+        that is not > 0, or a turning angle that is 0 or at least 2 pi in size.
+    """
     if isinstance(seg, (tuple, list)) and seg and seg[0] in ("line", "arc"):
         seg = {"line": seg[1]} if seg[0] == "line" else {"arc": seg[1], "radius": seg[2] if len(seg) > 2 else None}
     if not isinstance(seg, dict):
@@ -108,7 +147,25 @@ def parse_segment(seg: Any, field: str) -> tuple[str, float, float]:
 
 def build_pieces(start: Sequence[float], heading: float, segments: Sequence[tuple[str, float, float]]
                  ) -> list[Piece]:
-    """The path's pieces (arcs over :data:`MAX_PIECE` split), with rays at both ends."""
+    """The path's pieces (arcs over :data:`MAX_PIECE` split), with rays at both ends.
+
+    A line at either end becomes the ray there; an arc at an end gets a ray added (before the
+    first arc: a piece of length 0 marked ``ray_before``; after the last: one of length ``inf``).
+
+    Parameters
+    ----------
+    start : (2,) sequence of float
+        Start point [m].
+    heading : float
+        Tangent direction at the start [rad].
+    segments : sequence of (str, float, float)
+        Parsed segments (:func:`parse_segment`), at least one.
+
+    Returns
+    -------
+    list of Piece
+        In order along the path.
+    """
     p = np.asarray(start, float)
     d = np.array([math.cos(heading), math.sin(heading)])
     s, pieces = 0.0, []
@@ -161,6 +218,18 @@ def closest_piece_formulas(pieces: list[Piece], p):
     Among the pieces whose closest-point range holds ``p`` (shared junction tests), the one
     with the smallest ``|phi|``; its constants are selected and one line and one arc formula
     evaluated with them.
+
+    Parameters
+    ----------
+    pieces : list of Piece
+        The path's pieces (:func:`build_pieces`).
+    p : casadi.SX, shape (2,)
+        A point in the path's frame [m].
+
+    Returns
+    -------
+    tuple of casadi.SX
+        Signed distance ``phi`` and arc length ``psi`` [m].
     """
     g = _junction_tests(pieces, p)
     params = [ca.DM(piece_parameters(pc)) for pc in pieces]
@@ -314,15 +383,23 @@ class Path(Curve):
             At least two waypoints [m]; the path starts at the first and ends at the last.
         radius : float
             Fillet radius [m].
-        offset, rotation :
-            Rigid motion, as for :class:`Path` (rotation about the first point).
+        offset : (float | motion, float | motion), optional
+            Translation ``o(t)`` of the whole path [m], as for :class:`Path`.
+        rotation : float or motion, optional
+            Rotation ``th(t)`` of the whole path about the first point [rad].
+
+        Returns
+        -------
+        Path
+            The path, with ``waypoints`` set to ``(points, radius)``.
 
         Raises
         ------
         ConfigError
-            Fewer than two points, two consecutive points that coincide, or a fillet that does
-            not fit between its neighbours (the trims ``r tan(|a|/2)`` of two corners exceed the
-            line between them).
+            Fewer than two points, a value that is not a finite number, a radius that is not > 0,
+            two consecutive points that coincide, a corner that turns back (180 degrees), or a
+            fillet that does not fit between its neighbours (the trims ``r tan(|a|/2)`` of two
+            corners exceed the line between them).
         """
         segments, start, heading = waypoint_segments(points, radius)
         path = cls(start, heading, segments, offset=offset, rotation=rotation)
@@ -444,6 +521,7 @@ class Path(Curve):
         Returns
         -------
         casadi.Function
+            ``path_curve``: ``(y [m], t [s]) -> (phi [m], psi [m])``.
         """
         y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
         phi, psi = self.phi_psi(y, t)
@@ -555,6 +633,7 @@ class Path(Curve):
         Returns
         -------
         dict
+            Plain data that :func:`~symbolic.curve_specs.curve_from_spec` builds the same path from.
         """
         motion = {"offset": [motion_to_spec(c) for c in self.offset], "rotation": motion_to_spec(self.rotation)}
         if getattr(self, "waypoints", None):
@@ -565,7 +644,31 @@ class Path(Curve):
 
 def waypoint_segments(points: Sequence[Sequence[float]], radius: float
                       ) -> tuple[list[dict], tuple[float, float], float]:
-    """Segments, start and heading of the filleted polyline through ``points`` (see :meth:`Path.from_waypoints`)."""
+    """Segments, start and heading of the filleted polyline through ``points`` (see :meth:`Path.from_waypoints`).
+
+    Parameters
+    ----------
+    points : (N, 2) sequence of float
+        At least two waypoints [m].
+    radius : float
+        Fillet radius [m] (> 0).
+
+    Returns
+    -------
+    segments : list of dict
+        ``{"line": L}`` [m] and ``{"arc": A, "radius": R}`` ([rad], [m]); a leg used up by its
+        fillets and a straight corner (turn 0) give no segment.
+    start : (float, float)
+        The first point [m].
+    heading : float
+        Direction of the first leg [rad].
+
+    Raises
+    ------
+    ConfigError
+        As :meth:`Path.from_waypoints` (named ``curve.points`` and ``curve.radius``), or a path of
+        no length.
+    """
     if not isinstance(points, (list, tuple, np.ndarray)) or len(points) < 2:
         raise ConfigError(f"curve.points: need at least two points [x, y], got {points!r}")
     pts = []

@@ -108,6 +108,7 @@ class StructuredRecursion:
         Returns
         -------
         LinkGeometry
+            Normal ``n_j``, centre ``y_j`` [m], ``phi`` [m], its gradient and time derivative [m/s] at ``y_j``.
         """
         n_j = self.chain.link_normal(d_j)
         y_j = c.y + self.chain.centre_step(c.direction, d_j)
@@ -284,6 +285,7 @@ class StructuredRecursion:
         Returns
         -------
         casadi.Function
+            ``rail_head``; outputs ``carry``, ``d_dot`` [m/s], ``rail_margin`` [-] and ``psi_1`` [m].
         """
         d, q1, t, sigma = ca.SX.sym("d"), ca.SX.sym("q_1"), ca.SX.sym("t"), ca.SX.sym("sigma")
         scale = ca.SX.sym("v_scale") if governed else None

@@ -4,6 +4,7 @@ documented (PR01), no unknown ones (PR02), each with a type (PR04), and a Return
 is returned (RT01). A class's ``__init__`` parameters are documented in the class docstring (numpydoc
 convention); dataclasses document their fields as Attributes."""
 import dataclasses
+import enum
 import fnmatch
 import functools
 import importlib
@@ -21,21 +22,15 @@ PACKAGES = ["coordarm", "coordarm.symbolic", "coordarm.generated", "coordarm.sim
 
 CHECKS = {"GL08", "PR01", "PR02", "PR04", "RT01"}
 
-# TEMPORARY (issue 21): modules being restructured on other branches while their docstrings were fixed
-# here; the test checks in them only what it checked before (the facade, ``coordarm.__all__``, with the
-# checks of FACADE_CHECKS) until the coordinator's second pass. Delete this list, FACADE_CHECKS and their
-# uses below.
+# TEMPORARY (issue 21): modules still being restructured on other branches during the docstring second
+# pass (and any module those branches add); the test checks in them only what it checked before (the
+# facade, ``coordarm.__all__``, with the checks of FACADE_CHECKS). After the merge, document them, then
+# delete this list, FACADE_CHECKS and their uses below.
 FACADE_CHECKS = {"GL08", "PR01", "PR02", "RT01"}
 PENDING_MODULES = [
     "coordarm", "coordarm.cli", "coordarm.commands", "coordarm.commands.*",
-    "coordarm.symbolic.controller", "coordarm.symbolic.curves", "coordarm.symbolic.paths",
-    "coordarm.symbolic.laws",
-    "coordarm.simulation.run", "coordarm.simulation.sampled", "coordarm.simulation.scenario",
-    "coordarm.simulation.choices", "coordarm.simulation.outcome", "coordarm.simulation.mcap_writer",
-    "coordarm.generated.codegen", "coordarm.generated.templates", "coordarm.generated.export_templates",
-    "coordarm.generated.export", "coordarm.generated.build", "coordarm.generated.compiled",
-    "coordarm.analysis.baselines", "coordarm.analysis.follow_leader", "coordarm.analysis.linearise",
-    "coordarm.analysis.report", "coordarm.analysis.report_figures",
+    "coordarm.simulation.run", "coordarm.simulation.sampled",
+    "coordarm.analysis.baselines", "coordarm.analysis.follow_leader",
 ]
 
 
@@ -97,6 +92,10 @@ def numpydoc_errors(path, obj, checks):
         errors = [e for e in errors if not e.startswith(("PR01", "PR04"))] + dataclass_errors(obj)
     if inspect.isclass(obj) and getattr(obj, "_is_protocol", False):
         # an interface (typing.Protocol) is never constructed: its __init__ is Protocol's (*args, **kwargs)
+        errors = [e for e in errors if not e.startswith("PR01")]
+    if inspect.isclass(obj) and issubclass(obj, enum.Enum):
+        # an enumeration is looked up by value, never constructed: its signature is EnumType.__call__'s
+        # functional API (value, names, module, qualname, type, start, boundary)
         errors = [e for e in errors if not e.startswith("PR01")]
     return errors
 
