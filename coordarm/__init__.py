@@ -23,6 +23,7 @@ from coordarm.symbolic.lazy import lazy_exports
 #: Public name -> module that defines it (loaded on first attribute access).
 _EXPORTS = {
     "PlanarChain": "coordarm.symbolic.chain",
+    "ChainModel": "coordarm.symbolic.chain_model",
     "CoordinatingController": "coordarm.symbolic.controller",
     "Curve": "coordarm.symbolic.curves",
     "Line": "coordarm.symbolic.curves",
