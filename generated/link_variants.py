@@ -22,7 +22,7 @@ import numpy as np
 
 from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.carry import CARRY, Carry
-from coordarm.symbolic.paths import PIECE_CONSTANTS
+from coordarm.symbolic.path_pieces import PIECE_CONSTANTS
 from coordarm.symbolic.recursion import TAIL_OUTPUTS, split_time_terms
 
 _CACHE: "weakref.WeakKeyDictionary[CoordinatingController, dict]" = weakref.WeakKeyDictionary()
@@ -190,7 +190,7 @@ def piece_steps(ctrl: CoordinatingController) -> tuple[ca.Function, dict[str, ca
     geometry : dict
         ``{"line": link_geometry_line, "arc": link_geometry_arc}``: ``(carry, q_j, cos_alpha_j,
         sin_alpha_j, w, piece) -> geometry``, ``piece`` the ten constants
-        (:func:`~coordarm.symbolic.paths.piece_parameters` with ``derived=True``) of the closest
+        (:func:`~coordarm.symbolic.path_pieces.piece_parameters` with ``derived=True``) of the closest
         piece, which is of that kind; ``geometry = (1 / (xi/2 pivot_j) [1/m], phi [m], link
         margin, grad phi, -K phi - dphi/dt [m/s])``.
     step : casadi.Function
@@ -207,7 +207,7 @@ def piece_steps(ctrl: CoordinatingController) -> tuple[ca.Function, dict[str, ca
 
 def tail_piece(ctrl: CoordinatingController, kind: str) -> ca.Function:
     """The tail by the formulas of one piece of a path: ``(carry_m, t, piece) -> (s, p, longitudinal,
-    longitudinal_pivot, v_scale)``, ``piece`` the ten constants (:func:`~coordarm.symbolic.paths.piece_parameters`,
+    longitudinal_pivot, v_scale)``, ``piece`` the ten constants (:func:`~coordarm.symbolic.path_pieces.piece_parameters`,
     ``derived=True``) of the closest piece to ``y^m``, which the generated C searches.
 
     Parameters

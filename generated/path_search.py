@@ -6,7 +6,7 @@ whose closest-point range holds the point (its ``|phi| = delta``) bounds every o
 because a piece ``k`` can only be closer if the two pieces come within ``2 delta`` of each other.
 Each piece lists the others by a lower bound of that distance (discs around finite pieces,
 half-lines for the rays), sorted, so the search tests only the pieces that may be closer and
-returns the same piece as the full selection of :func:`coordarm.symbolic.paths.closest_piece_formulas`
+returns the same piece as the full selection of :func:`coordarm.symbolic.path_pieces.closest_piece_formulas`
 (the first, in order, of the candidates with the smallest ``|phi|``; pieces that tie to rounding give
 the same law, ``phi`` being C1 across a junction). The link step then takes that piece's constants
 (:func:`coordarm.generated.link_variants.piece_steps`).
@@ -17,7 +17,8 @@ import math
 
 import numpy as np
 
-from coordarm.symbolic.paths import PIECE_CONSTANTS, Path, Piece, piece_parameters
+from coordarm.symbolic.path_pieces import PIECE_CONSTANTS, Piece, piece_parameters
+from coordarm.symbolic.paths import Path
 
 #: Relative slack on the lower bounds (rounding of the tables and of ``|phi|`` in the search).
 SLACK = 1e-9

@@ -40,15 +40,15 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import CollisionError, ConfigError, CoordinatingController, LogError, SingularityError
+from coordarm.symbolic import ConfigError, CoordinatingController, LogError
 from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.task import BUILT_IN_CURVES
-from coordarm.symbolic.interrupts import interruption
 
-from .choices import Backend, Compression, Outcome
+from .choices import Backend, Compression
 from .log_layout import partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
+from .outcome import outcome_of
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
 from .scenario import Scenario
@@ -182,46 +182,6 @@ def build_info(scenario: Scenario) -> dict[str, str]:
             "coordarm": _version("coordarm"), "casadi": casadi.__version__, "numpy": np.__version__,
             "mcap": _version("mcap"), "zstandard": _version("zstandard"), "lz4": _version("lz4"),
             "python": platform.python_version()}
-
-
-def outcome_of(error: BaseException | None, last_t: float | None,
-               contacts: list[dict] | None = None, governed: float = 0.0) -> dict[str, Any]:
-    """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``.
-
-    Parameters
-    ----------
-    error : BaseException or None
-        Why the run ended: None (completed), a SingularityError, a CollisionError, an
-        interruption (Ctrl-C or a termination signal) or any other error.
-    last_t : float or None
-        Time of the last simulated step [s] (None: no step).
-    contacts : list of dict, optional
-        The contact records of an ``--allow-contact`` run, added when there are any.
-    governed : float
-        Simulated time during which the speed governor slowed ``v*`` [s].
-
-    Returns
-    -------
-    dict
-        ``status`` (an :class:`Outcome` value), ``t_end``, the details of the singularity, the
-        collision or the error (``message`` among them), ``contacts`` when any, and ``governed``.
-    """
-    if error is None:
-        out = {"status": Outcome.COMPLETED.value, "t_end": last_t}
-    elif isinstance(error, SingularityError):
-        out = {"status": Outcome.SINGULARITY.value, "t_end": last_t, "time": error.time, "link": error.link,
-               "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
-    elif isinstance(error, CollisionError):
-        c = error.contact
-        out = {"status": Outcome.COLLISION.value, "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
-               "value": c.value, "threshold": c.threshold, "obstacle": c.obstacle, "message": str(error)}
-    else:
-        status = (Outcome.INTERRUPTED if interruption(error) is not None else Outcome.ERROR).value
-        out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
-    if contacts:
-        out["contacts"] = contacts
-    out["governed"] = governed
-    return out
 
 
 class RunLogger:

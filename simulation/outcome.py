@@ -1,12 +1,55 @@
 """How a run ended, in words a user can act on, and the exit status of ``coordarm run``."""
 from __future__ import annotations
 
+from typing import Any
+
 from coordarm.symbolic import CollisionError, SingularityError
+from coordarm.symbolic.interrupts import interruption
 
 from .choices import Outcome
 
 #: Exit status of ``coordarm run`` per outcome (bad input is 2, Ctrl-C 130: see ``coordarm.cli``).
 EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.SINGULARITY: 3, Outcome.COLLISION: 4}
+
+
+def outcome_of(error: BaseException | None, last_t: float | None,
+               contacts: list[dict] | None = None, governed: float = 0.0) -> dict[str, Any]:
+    """The ``outcome`` record for a run that ended normally (``error`` None) or with ``error``.
+
+    Parameters
+    ----------
+    error : BaseException or None
+        Why the run ended: None (completed), a SingularityError, a CollisionError, an
+        interruption (Ctrl-C or a termination signal) or any other error.
+    last_t : float or None
+        Time of the last simulated step [s] (None: no step).
+    contacts : list of dict, optional
+        The contact records of an ``--allow-contact`` run, added when there are any.
+    governed : float
+        Simulated time during which the speed governor slowed ``v*`` [s].
+
+    Returns
+    -------
+    dict
+        ``status`` (an :class:`Outcome` value), ``t_end``, the details of the singularity, the
+        collision or the error (``message`` among them), ``contacts`` when any, and ``governed``.
+    """
+    if error is None:
+        out = {"status": Outcome.COMPLETED.value, "t_end": last_t}
+    elif isinstance(error, SingularityError):
+        out = {"status": Outcome.SINGULARITY.value, "t_end": last_t, "time": error.time, "link": error.link,
+               "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
+    elif isinstance(error, CollisionError):
+        c = error.contact
+        out = {"status": Outcome.COLLISION.value, "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
+               "value": c.value, "threshold": c.threshold, "obstacle": c.obstacle, "message": str(error)}
+    else:
+        status = (Outcome.INTERRUPTED if interruption(error) is not None else Outcome.ERROR).value
+        out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
+    if contacts:
+        out["contacts"] = contacts
+    out["governed"] = governed
+    return out
 
 
 def explain(error: SingularityError | CollisionError) -> list[str]:

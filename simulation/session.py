@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
-from coordarm.simulation.choices import DENSE_LINKS, Outcome
+from coordarm.simulation.choices import DENSE_LINKS
 from coordarm.symbolic.errors import CollisionError, ConfigError, LogError, SingularityError
 from coordarm.symbolic.laws import Law
 
@@ -156,7 +156,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         Ctrl-C or SIGTERM (the log is closed with outcome ``interrupted``).
     """
     from coordarm.simulation.figure_files import write_figures
-    from coordarm.simulation.outcome import EXIT_CODES
+    from coordarm.simulation.outcome import EXIT_CODES, outcome_of
 
     lines: list[str] = []
 
@@ -173,8 +173,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
         compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
         allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue)
-    status = (Outcome.COMPLETED if stopped is None
-              else Outcome.COLLISION if isinstance(stopped, CollisionError) else Outcome.SINGULARITY).value
+    status = outcome_of(stopped, None)["status"]
     for line in report_lines(run, scenario, compiled, out):
         say(line)
     drawn = write_figures(run, scenario, ctrl, out.with_suffix(""), stages, outcome=status) if figures else []

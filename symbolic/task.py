@@ -13,7 +13,8 @@ import casadi as ca
 
 from .curves import Arc, Circle, Curve, Line
 from .errors import ConfigError
-from .paths import PIECE_CONSTANTS, Path
+from .path_pieces import PIECE_CONSTANTS
+from .paths import Path
 
 #: The curve classes of coordarm; any other Curve (a subclass too) is user-defined.
 BUILT_IN_CURVES = (Line, Circle, Arc, Path)
@@ -119,7 +120,7 @@ class Task:
         -------
         casadi.Function
             Inputs ``y`` [m], ``t`` [s] and ``piece`` (the ten constants of
-            :func:`~coordarm.symbolic.paths.piece_parameters` with ``derived=True``).
+            :func:`~coordarm.symbolic.path_pieces.piece_parameters` with ``derived=True``).
         """
         key = ("piece_geometry", kind)
         if key not in self._cache:

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from coordarm.simulation.choices import BACKENDS, COMPRESSIONS, Backend, Compression, Outcome
-from coordarm.simulation.mcap_writer import RunLogger, outcome_of
+from coordarm.simulation.mcap_writer import RunLogger
+from coordarm.simulation.outcome import outcome_of
 from coordarm.simulation.scenario import load_scenario, presets
 from coordarm.symbolic import ConfigError, SingularityError
 from coordarm.symbolic.checks import is_integer, is_real
