@@ -74,8 +74,16 @@ def pack_carry(R: Any, y: Any, Y0: Any, Y1: Any, H0: Any, H1: Any, total: Any) -
 
     Parameters
     ----------
-    R : (3, 3) link frame; y : (3,) centre [m]; Y0, Y1 : (3,), (3, 2) ``y' = Y0 + Y1 p`` [m/s];
-    H0, H1 : (3,), (3, 2) ``xi/2 E w = H0 + H1 p`` [m/s]; total : running ``sum ||W1||``.
+    R : casadi.SX, shape (3, 3)
+        The link frame.
+    y : casadi.SX, shape (3,)
+        The link's centre [m].
+    Y0, Y1 : casadi.SX, shapes (3,) and (3, 2)
+        ``y' = Y0 + Y1 p`` [m/s].
+    H0, H1 : casadi.SX, shapes (3,) and (3, 2)
+        ``xi/2 E w = H0 + H1 p`` [m/s].
+    total : casadi.SX
+        The running ``sum ||W1||``.
 
     Returns
     -------
