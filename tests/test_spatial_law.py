@@ -69,6 +69,16 @@ def test_the_structured_solve_equals_the_dense_law(m, curve):
         assert fast["end_margin"] > 0 and fast["link_margins"].min() > 0
 
 
+@pytest.mark.parametrize("m", [3, 8, 19])
+def test_the_structured_solve_equals_the_dense_law_at_arbitrary_states(m):
+    rng, chain = np.random.default_rng(100 + m), SpatialChain(m, 0.1)
+    for curve in sorted(CURVES):
+        ctrl = SpatialController(chain, CURVES[curve](), 2.0, 0.1, roll=Sinusoid(0.2, 1.3))
+        q, t = rng.uniform(-1.2, 1.2, chain.dof), float(rng.uniform(0, 2))     # far from any zig-zag
+        dense = ctrl.evaluate(q, t, "dense")["u"]
+        np.testing.assert_allclose(ctrl.control(q, t), dense, rtol=0, atol=1e-9 * np.abs(dense).max())
+
+
 @pytest.mark.parametrize("curve", sorted(CURVES))
 def test_the_law_gives_the_commanded_output_rates_by_finite_differences(curve):
     rng, chain = np.random.default_rng(11), SpatialChain(6, 0.1)
