@@ -11,11 +11,12 @@ from .lazy import lazy_exports
 #: Public name -> submodule that defines it.
 _EXPORTS = {
     "PlanarChain": "chain",
-    "ChainModel": "chain_model",
+    "ChainModel": "chain_model", "KinematicChain": "chain_model",
+    "SpatialChain": "spatial_chain", "SpatialController": "spatial_controller",
     "CoordinatingController": "controller",
     "LAWS": "laws",
     "OUTPUTS": "outputs", "SCALAR_OUTPUTS": "outputs", "RUN_OUTPUTS": "outputs", "LAW_OUTPUTS": "outputs",
-    "RAIL_OUTPUTS": "outputs",
+    "RAIL_OUTPUTS": "outputs", "SPATIAL_OUTPUTS": "outputs",
     "Curve": "curves", "Line": "curves", "Circle": "curves", "Arc": "curves", "curve_from_spec": "curve_specs",
     "Path": "paths",
     "Constant": "motions", "Ramp": "motions", "Sinusoid": "motions", "Smoothstep": "motions",

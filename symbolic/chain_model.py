@@ -1,10 +1,14 @@
-"""What the law builder needs from a chain: the interface a chain kind implements.
+"""What the law builders need from a chain: the interfaces a chain kind implements.
 
-:class:`~coordarm.symbolic.chain.PlanarChain` implements it; a second kind of chain (a spatial chain
-with two-axis joints, DESIGN.md section 10) implements the same members, so the task outputs, the
-law's assembly, the numeric API and the code generator need no copy of their own.
+:class:`KinematicChain` is the kinematic part every kind implements (the planar
+:class:`~coordarm.symbolic.chain.PlanarChain` and the spatial
+:class:`~coordarm.symbolic.spatial_chain.SpatialChain`, DESIGN.md section 10): joint layout, the
+check of ``q`` and the link centres. :class:`ChainModel` adds the pieces of the planar law (the link
+frames, the first carry, link rates to controls), so the planar task outputs, the law's assembly,
+the numeric API and the code generator need no copy of their own.
 
-Shapes: ``m`` links, ``dof`` joints (``m``, plus the rail's prismatic joint first on a rail).
+Shapes: ``m`` links, ``dof`` joints (``m`` for revolute joints, ``2 m`` for universal ones, plus the
+rail's prismatic joint first on a rail), ``dim`` = 2 (planar) or 3 (spatial).
 """
 from __future__ import annotations
 
@@ -14,9 +18,76 @@ import numpy as np
 
 
 @runtime_checkable
-class ChainModel(Protocol):
-    """A chain of ``m`` equal links driven by ``qdot = B u``: kinematics, joint layout, base and the
-    chain-specific pieces of the law (the link frames, the first carry, link rates to controls).
+class KinematicChain(Protocol):
+    """A chain of ``m`` equal links: its joint layout, the check of ``q`` and the link centres.
+
+    Attributes
+    ----------
+    m : int
+        Number of links.
+    xi : float
+        Link length [m].
+    dof : int
+        Number of joint coordinates (length of ``q`` and ``u``).
+    rail : bool
+        Whether the base slides on a rail (``q`` then holds ``d`` [m] first).
+    """
+
+    m: int
+    xi: float
+    dof: int
+    rail: bool
+
+    def check_q(self, q: Any, field: str = "q") -> np.ndarray:
+        """``q`` as floats, or a ConfigError naming ``field``.
+
+        Parameters
+        ----------
+        q : array_like, shape (dof,)
+            Joint coordinates.
+        field : str
+            Name used in the error message.
+
+        Returns
+        -------
+        ndarray, shape (dof,)
+        """
+
+    # ---------------------------------------------------------------------------- kinematics
+    def centres(self, q: Any) -> Any:
+        """Link centres of symbolic joint coordinates.
+
+        Parameters
+        ----------
+        q : casadi.SX or casadi.MX, shape (dof,)
+            Joint coordinates.
+
+        Returns
+        -------
+        casadi expression, shape (dim, m)
+            Column j is the centre of link j+1 [m].
+        """
+
+    def centres_np(self, q: Any) -> np.ndarray:
+        """Link centres, vectorised over leading axes.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., dof)
+            Joint coordinates.
+
+        Returns
+        -------
+        ndarray, shape (..., m, dim)
+            Link centres [m].
+        """
+
+
+@runtime_checkable
+class ChainModel(KinematicChain, Protocol):
+    """A planar chain of ``m`` equal links driven by ``qdot = B u``: the :class:`KinematicChain` members,
+    the base and the chain-specific pieces of the planar law (the link frames, the first carry, link
+    rates to controls).
 
     Attributes
     ----------
@@ -64,51 +135,6 @@ class ChainModel(Protocol):
         -------
         same type, shape (..., m)
             Revolute joint angles [rad].
-        """
-
-    def check_q(self, q: Any, field: str = "q") -> np.ndarray:
-        """``q`` as floats, or a ConfigError naming ``field``.
-
-        Parameters
-        ----------
-        q : array_like, shape (dof,)
-            Joint coordinates.
-        field : str
-            Name used in the error message.
-
-        Returns
-        -------
-        ndarray, shape (dof,)
-            ``q`` as floats.
-        """
-
-    # ---------------------------------------------------------------------------- kinematics
-    def centres(self, q: Any) -> Any:
-        """Link centres of symbolic joint coordinates.
-
-        Parameters
-        ----------
-        q : casadi.SX or casadi.MX, shape (dof,)
-            Joint coordinates.
-
-        Returns
-        -------
-        casadi expression, shape (2, m)
-            Column j is the centre of link j+1 [m].
-        """
-
-    def centres_np(self, q: Any) -> np.ndarray:
-        """Link centres, vectorised over leading axes.
-
-        Parameters
-        ----------
-        q : array_like, shape (..., dof)
-            Joint coordinates.
-
-        Returns
-        -------
-        ndarray, shape (..., m, 2)
-            Link centres [m].
         """
 
     # ----------------------------------------------------------------- pieces of the law

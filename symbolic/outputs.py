@@ -83,6 +83,20 @@ RAIL_LAW_OUTPUTS: tuple[Output, ...] = (
            "rail margin |grad psi(y^1) . rail| / |grad psi(y^1)| (0: the rail stands across the path)"),
 )
 
+#: The outputs of the spatial law (:class:`~coordarm.symbolic.spatial_controller.SpatialController`,
+#: universal joints), in order; a layout of their own (the planar tables above are unchanged). ``u`` holds
+#: ``(a_1', b_1', ..., a_m', b_m')``, ``e`` the deviations ``(e^2_1, e^2_2, e^3_1, ...)``.
+SPATIAL_LAW_OUTPUTS: tuple[Output, ...] = (
+    Output("u", 2, 0, "rad/s", "joint_state", "joint rates (a_1', b_1', ..., a_m', b_m') (B = I)"),
+    Output("e", 2, -2, "m", "task_state", "normal deviations e^2_1, e^2_2, ..., e^m_2 of the link centres"),
+    Output("s", 0, 1, "m", "task_state", "arc length s of the end point along the curve"),
+    Output("roll", 0, 1, "rad", "task_state", "roll of the first link about the curve, atan2(n_2.d_1, n_1.d_1)"),
+    Output("link_margins", 1, -1, "-", "margins",
+           "smallest singular value of each link pivot over xi/2, links 2..m (0: link across the curve)"),
+    Output("end_margin", 0, 1, "-", "margins", "smallest singular value of the scaled 2x2 end solve (s and roll)"),
+    Output("joint_margins", 1, 0, "-", "margins", "|cos b_j| of each joint (0: the joint's own singularity)"),
+)
+
 #: Names of the law's outputs, in order.
 OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS)
 #: Names of the rail's extra outputs.
@@ -92,6 +106,12 @@ SCALAR_OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS + RAIL_LAW_O
 #: The outputs kept at every sample of a run and logged (those with a channel); the closed-loop RK4
 #: step returns them (the law at the step's start) after ``q_next``.
 RUN_OUTPUTS: tuple[str, ...] = tuple(o.name for o in LAW_OUTPUTS if o.channel is not None)
+#: Names of the spatial law's outputs, in order.
+SPATIAL_OUTPUTS: tuple[str, ...] = tuple(o.name for o in SPATIAL_LAW_OUTPUTS)
+#: The spatial outputs that are scalars.
+SPATIAL_SCALAR_OUTPUTS: tuple[str, ...] = tuple(o.name for o in SPATIAL_LAW_OUTPUTS if o.scalar)
+#: The spatial outputs kept at every sample of a run (those with a channel).
+SPATIAL_RUN_OUTPUTS: tuple[str, ...] = tuple(o.name for o in SPATIAL_LAW_OUTPUTS if o.channel is not None)
 
 
 def by_name(name: str) -> Output:

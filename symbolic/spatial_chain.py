@@ -1,0 +1,384 @@
+"""Spatial chain of m equal links with universal (two-axis) joints (DESIGN.md section 10): a :class:`.KinematicChain`.
+
+Joint j has the angles ``(a_j, b_j)``; ``q = (a_1, b_1, ..., a_m, b_m)``. Link frames ``R_0 = I``,
+``R_j = R_{j-1} Rz(a_j) Ry(b_j)``, link directions ``d_j = R_j e_x``, centres ``y^1 = 0`` (the base,
+pinned at the origin) and ``y^j = y^{j-1} + xi/2 (d_{j-1} + d_j)``. With every ``b_j = 0`` it is the
+planar chain with ``q_j = a_j``. The base is fixed in this version (no rail).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import casadi as ca
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .chain_model import KinematicChain
+from .checks import is_integer, is_real
+from .errors import ConfigError
+
+
+def rot_z(a: Any) -> Any:
+    """``Rz(a) = [[c, -s, 0], [s, c, 0], [0, 0, 1]]`` (CasADi).
+
+    Parameters
+    ----------
+    a : casadi.SX or casadi.MX
+        Angle [rad].
+
+    Returns
+    -------
+    casadi expression, shape (3, 3)
+    """
+    c, s = ca.cos(a), ca.sin(a)
+    return ca.vertcat(ca.horzcat(c, -s, 0), ca.horzcat(s, c, 0), ca.horzcat(0, 0, 1))
+
+
+def rot_y(b: Any) -> Any:
+    """``Ry(b) = [[c, 0, s], [0, 1, 0], [-s, 0, c]]`` (CasADi).
+
+    Parameters
+    ----------
+    b : casadi.SX or casadi.MX
+        Angle [rad].
+
+    Returns
+    -------
+    casadi expression, shape (3, 3)
+    """
+    c, s = ca.cos(b), ca.sin(b)
+    return ca.vertcat(ca.horzcat(c, 0, s), ca.horzcat(0, 1, 0), ca.horzcat(-s, 0, c))
+
+
+def joint_rotation_np(a: ArrayLike, b: ArrayLike) -> np.ndarray:
+    """``Rz(a) Ry(b)``, vectorised over the shape of ``a`` and ``b``.
+
+    Parameters
+    ----------
+    a, b : array_like, same shape
+        Joint angles [rad].
+
+    Returns
+    -------
+    ndarray, shape a.shape + (3, 3)
+    """
+    a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+    ca_, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
+    zero = np.zeros_like(a)
+    rows = [[ca_ * cb, -sa, ca_ * sb], [sa * cb, ca_, sa * sb], [-sb, zero, cb]]
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+def joint_angles_of_direction(R_prev: np.ndarray, d: np.ndarray) -> tuple[float, float]:
+    """The joint angles ``(a, b)`` that turn the frame ``R_prev`` so that its x axis becomes ``d``.
+
+    In the frame of the previous link ``l = R_prev^T d = (cos a cos b, sin a cos b, -sin b)``:
+    ``a = atan2(l_y, l_x)``, ``b = atan2(-l_z, |(l_x, l_y)|)`` (so ``|b| <= pi/2``).
+
+    Parameters
+    ----------
+    R_prev : ndarray, shape (3, 3)
+        Frame of the previous link.
+    d : ndarray, shape (3,)
+        Unit direction of the link.
+
+    Returns
+    -------
+    (float, float)
+        ``(a, b)`` [rad].
+    """
+    lx, ly, lz = R_prev.T @ d
+    return math.atan2(ly, lx), math.atan2(-lz, math.hypot(lx, ly))
+
+
+def rotate_about(v: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
+    """``v`` turned by ``angle`` about the unit ``axis`` (Rodrigues).
+
+    Parameters
+    ----------
+    v, axis : ndarray, shape (3,)
+        Vector, unit axis.
+    angle : float
+        Angle [rad], right-handed about ``axis``.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+    """
+    c, s = math.cos(angle), math.sin(angle)
+    return c * v + s * np.cross(axis, v) + (1 - c) * np.dot(axis, v) * axis
+
+
+def unit_vector(v: Any, name: str) -> np.ndarray:
+    """``v`` as a unit 3-vector, or a ConfigError naming ``name``.
+
+    Parameters
+    ----------
+    v : array_like, shape (3,)
+        A non-zero finite vector.
+    name : str
+        Name used in the error message.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+
+    Raises
+    ------
+    ConfigError
+        Not three finite numbers, or zero.
+    """
+    arr = np.asarray(v, dtype=float) if np.shape(v) == (3,) and all(is_real(x, numpy=True) for x in v) else None
+    if arr is None or not np.all(np.isfinite(arr)) or np.linalg.norm(arr) == 0:
+        raise ConfigError(f"{name}: need three finite numbers, not all zero, got {v!r}")
+    return arr / np.linalg.norm(arr)
+
+
+class SpatialChain(KinematicChain):
+    """A spatial chain of ``links`` links of length ``link_length`` with universal joints.
+
+    Parameters
+    ----------
+    links : int
+        Number of links m >= 2.
+    link_length : float
+        Link length xi > 0 [m].
+
+    Attributes
+    ----------
+    m : int
+        Number of links.
+    xi : float
+        Link length [m].
+    dof : int
+        ``2 m``: the joint coordinates ``(a_1, b_1, ..., a_m, b_m)``.
+    rail : bool
+        Always False (fixed base at the origin).
+
+    Raises
+    ------
+    ConfigError
+        ``links`` or ``link_length`` of the wrong type or out of range.
+    """
+
+    kind = "universal"
+
+    def __init__(self, links: int, link_length: float) -> None:
+        if not is_integer(links) or links < 2:
+            raise ConfigError(f"links: need an integer >= 2, got {links!r}")
+        if not is_real(link_length) or not math.isfinite(link_length) or link_length <= 0:
+            raise ConfigError(f"link_length: need a finite number > 0 [m], got {link_length!r}")
+        self.m, self.xi = int(links), float(link_length)
+        self.dof, self.rail = 2 * self.m, False
+
+    @property
+    def links(self) -> int:
+        """Number of links m."""
+        return self.m
+
+    @property
+    def link_length(self) -> float:
+        """Link length xi [m]."""
+        return self.xi
+
+    def __repr__(self) -> str:
+        return f"SpatialChain(links={self.m}, link_length={self.xi})"
+
+    # ---------------------------------------------------------------------------- CasADi
+    def frames(self, q: Any) -> list[Any]:
+        """The link frames ``R_1..R_m`` of symbolic joint coordinates.
+
+        Parameters
+        ----------
+        q : casadi.SX or casadi.MX, shape (2 m,)
+            Joint coordinates ``(a_1, b_1, ...)`` [rad].
+
+        Returns
+        -------
+        list of casadi expression, each (3, 3)
+        """
+        R, out = None, []
+        for j in range(self.m):
+            J = ca.mtimes(rot_z(q[2 * j]), rot_y(q[2 * j + 1]))
+            R = J if R is None else ca.mtimes(R, J)
+            out.append(R)
+        return out
+
+    def directions(self, q: Any) -> Any:
+        """Link directions ``d_j = R_j e_x`` of symbolic joint coordinates.
+
+        Parameters
+        ----------
+        q : casadi.SX or casadi.MX, shape (2 m,)
+            Joint coordinates [rad].
+
+        Returns
+        -------
+        casadi expression, shape (3, m)
+            Column j is the unit direction of link j+1.
+        """
+        return ca.horzcat(*[R[:, 0] for R in self.frames(q)])
+
+    def centres(self, q: Any) -> Any:
+        """Link centres of symbolic joint coordinates.
+
+        Parameters
+        ----------
+        q : casadi.SX or casadi.MX, shape (2 m,)
+            Joint coordinates [rad].
+
+        Returns
+        -------
+        casadi expression, shape (3, m)
+            Column j is the centre of link j+1 [m] (column 0 the origin).
+        """
+        d = self.directions(q)
+        cols = [ca.DM.zeros(3, 1) + 0 * q[0]]
+        for j in range(1, self.m):
+            cols.append(cols[-1] + 0.5 * self.xi * (d[:, j - 1] + d[:, j]))
+        return ca.horzcat(*cols)
+
+    # ----------------------------------------------------------------------------- numpy
+    def check_q(self, q: ArrayLike, field: str = "q") -> np.ndarray:
+        """Return ``q`` as a float array of shape (2 m,), or raise a ConfigError naming ``field``.
+
+        Parameters
+        ----------
+        q : array_like, shape (2 m,)
+            Joint coordinates ``(a_1, b_1, ..., a_m, b_m)`` [rad].
+        field : str
+            Name used in the error message.
+
+        Returns
+        -------
+        ndarray, shape (2 m,)
+            ``q`` as floats.
+
+        Raises
+        ------
+        ConfigError
+            Wrong shape, NaN or inf.
+        """
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.dof,):
+            raise ConfigError(f"{field}: need shape ({self.dof},) (a_1, b_1, ..., a_m, b_m), got {q.shape}")
+        if not np.all(np.isfinite(q)):
+            raise ConfigError(f"{field}: contains NaN or inf at index {int(np.flatnonzero(~np.isfinite(q))[0])}")
+        return q
+
+    def frames_np(self, q: ArrayLike) -> np.ndarray:
+        """Link frames ``R_j``, vectorised over leading axes of ``q``.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., 2 m)
+            Joint coordinates [rad].
+
+        Returns
+        -------
+        ndarray, shape (..., m, 3, 3)
+        """
+        q = np.asarray(q, float)
+        J = joint_rotation_np(q[..., 0::2], q[..., 1::2])
+        R = np.empty_like(J)
+        R[..., 0, :, :] = J[..., 0, :, :]
+        for j in range(1, self.m):
+            R[..., j, :, :] = R[..., j - 1, :, :] @ J[..., j, :, :]
+        return R
+
+    def directions_np(self, q: ArrayLike) -> np.ndarray:
+        """Link directions ``d_j``, vectorised over leading axes of ``q``.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., 2 m)
+            Joint coordinates [rad].
+
+        Returns
+        -------
+        ndarray, shape (..., m, 3)
+        """
+        return self.frames_np(q)[..., :, 0]
+
+    def centres_np(self, q: ArrayLike) -> np.ndarray:
+        """Link centres, vectorised over leading axes of ``q``.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., 2 m)
+            Joint coordinates [rad].
+
+        Returns
+        -------
+        ndarray, shape (..., m, 3)
+            Link centres [m], the first at the origin.
+        """
+        d = self.directions_np(q)
+        steps = 0.5 * self.xi * (d[..., :-1, :] + d[..., 1:, :])
+        base = np.zeros(d.shape[:-2] + (1, 3))
+        return np.concatenate([base, np.cumsum(steps, axis=-2)], axis=-2)
+
+    def joint_angles(self, directions: ArrayLike) -> np.ndarray:
+        """The joint coordinates of given link directions (each joint with ``|b_j| <= pi/2``).
+
+        Parameters
+        ----------
+        directions : array_like, shape (m, 3)
+            Unit link directions ``d_1..d_m`` (normalised here).
+
+        Returns
+        -------
+        ndarray, shape (2 m,)
+            ``(a_1, b_1, ..., a_m, b_m)`` [rad].
+        """
+        d = np.asarray(directions, float)
+        d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+        q, R = np.empty(self.dof), np.eye(3)
+        for j in range(self.m):
+            a, b = joint_angles_of_direction(R, d[j])
+            q[2 * j:2 * j + 2] = a, b
+            R = R @ joint_rotation_np(a, b)
+        return q
+
+    def zigzag(self, beta: float, axis: ArrayLike = (1.0, 0.0, 0.0), fold: ArrayLike = (0.0, 1.0, 0.0),
+               roll: float = 0.0) -> np.ndarray:
+        """Uniform spatial zig-zag ``d_j = cos(beta) axis + (-1)^(j+1) sin(beta) fold_rolled``.
+
+        ``fold`` is orthogonalised against ``axis`` and turned by ``roll`` about it; the centres lie
+        on the line through the origin along ``axis``, spaced ``xi cos(beta)``.
+
+        Parameters
+        ----------
+        beta : float
+            Fold angle [rad], ``0 < |beta| < pi/2``.
+        axis : array_like, shape (3,)
+            Direction of the line of centres.
+        fold : array_like, shape (3,)
+            Direction of the fold (not parallel to ``axis``).
+        roll : float
+            Turn of the fold direction about ``axis`` [rad].
+
+        Returns
+        -------
+        ndarray, shape (2 m,)
+            Joint coordinates [rad].
+
+        Raises
+        ------
+        ConfigError
+            A value not finite, ``beta`` out of range, or ``fold`` parallel to ``axis``.
+        """
+        for name, v in (("beta", beta), ("roll", roll)):
+            if not is_real(v) or not math.isfinite(v):
+                raise ConfigError(f"{name}: need a finite number, got {v!r}")
+        if not 0 < abs(beta) < math.pi / 2:
+            raise ConfigError(f"beta: need 0 < |beta| < pi/2 for a zig-zag, got {beta}")
+        ax, fo = unit_vector(axis, "axis"), unit_vector(fold, "fold")
+        fo = fo - np.dot(fo, ax) * ax
+        if np.linalg.norm(fo) < 1e-9:
+            raise ConfigError("fold: must not be parallel to axis")
+        fo = rotate_about(fo / np.linalg.norm(fo), ax, float(roll))
+        signs = (-1.0) ** np.arange(self.m)                  # (-1)^(j+1) for j = 1..m
+        d = math.cos(beta) * ax + math.sin(beta) * signs[:, None] * fo
+        return self.joint_angles(d)

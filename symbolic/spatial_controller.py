@@ -1,0 +1,267 @@
+"""The coordinating law of a spatial chain (universal joints) along a 3-D curve: a thin face (DESIGN.md section 10).
+
+Outputs ``s = psi(y^m)``, ``e^j = Phi(y^j)`` (j = 2..m) and the roll ``theta = atan2(n_2 . d_1,
+n_1 . d_1)``; law ``s' = v*``, ``e' = -K e``, ``theta' = theta*' - K (theta - theta*)``. Two forms
+agree to rounding: ``"structured"`` (the O(m) solve of :mod:`.spatial_recursion`, default) and
+``"dense"`` (the AD decoupling matrix of :mod:`.spatial_dense`). The commanded roll ``theta*`` is a
+number, a motion (callable of ``t``) or None: held at the roll of the ``start`` configuration at
+``t0``, a constant fixed when the controller is built (:attr:`SpatialController.roll_target`).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from .checks import is_real
+from .errors import ConfigError
+from .integrator import rk4
+from .laws import LAWS
+from .motions import Constant
+from .outputs import SPATIAL_OUTPUTS, SPATIAL_RUN_OUTPUTS, SPATIAL_SCALAR_OUTPUTS
+from .params import as_param
+from .spatial_chain import SpatialChain
+from .spatial_dense import spatial_decoupling_expr, spatial_law_function
+from .spatial_recursion import SpatialRecursion
+from .spatial_task import SpatialTask, roll_expr
+
+
+def check_spatial_curve(curve: Any) -> None:
+    """Check ``curve`` has the 3-D curve interface (``psi``, ``Phi``, ``frame``; see ``curves3d.SpatialCurve``).
+
+    Parameters
+    ----------
+    curve : object
+        The goal curve.
+
+    Raises
+    ------
+    ConfigError
+        A member is missing.
+    """
+    missing = [name for name in ("psi", "Phi", "frame") if not callable(getattr(curve, name, None))]
+    if missing:
+        raise ConfigError(f"curve: expected a 3-D curve (SpatialCurve) with psi, Phi and frame; "
+                          f"{type(curve).__name__} lacks {', '.join(missing)}")
+
+
+def start_roll(chain: SpatialChain, curve: Any, q: Any, t: float) -> float:
+    """The roll ``atan2(n_2 . d_1, n_1 . d_1)`` of a configuration (frame at the closest point of ``y^1``).
+
+    Parameters
+    ----------
+    chain : SpatialChain
+        The manipulator.
+    curve : SpatialCurve
+        The goal curve.
+    q : array_like, shape (2 m,)
+        Joint coordinates [rad].
+    t : float
+        Time [s].
+
+    Returns
+    -------
+    float
+        The roll [rad].
+    """
+    q = chain.check_q(q, "start")
+    y, d, ts = ca.SX.sym("y", 3), ca.SX.sym("d", 3), ca.SX.sym("t")
+    f = ca.Function("roll", [y, d, ts], [roll_expr(curve, y, d, ts)])
+    return float(f(chain.centres_np(q)[0], chain.directions_np(q)[0], t))
+
+
+class SpatialController:
+    """Coordinating controller of a spatial chain along a time-varying 3-D curve.
+
+    Parameters
+    ----------
+    chain : SpatialChain
+        The manipulator (fixed base at the origin).
+    curve : SpatialCurve
+        The goal curve (``psi``, ``Phi``, ``frame``); it must pass near the base.
+    gain : float
+        Error gain K > 0 [1/s]: every ``e^j`` and the roll error decay like ``exp(-K t)``.
+    speed : float or callable
+        Commanded end-point speed ``v*(t)`` along the curve [m/s].
+    roll : None, float or callable
+        Commanded roll ``theta*(t)`` [rad]. None (default): held at the roll of ``start`` at ``t0``.
+    law : {"structured", "dense"}
+        Form of the law used by :meth:`control` and :meth:`rk4_step`.
+    start : array_like, shape (2 m,), optional
+        The start configuration; required when ``roll`` is None.
+    t0 : float
+        Start time [s] (for ``roll=None``).
+
+    Attributes
+    ----------
+    roll_target : callable
+        ``t -> theta*(t)`` [rad] (a :class:`~.motions.Constant` when held).
+    task : SpatialTask
+        The curve's geometry and the commands.
+    recursion : SpatialRecursion
+        The O(m) solve's Functions.
+    outputs, run_outputs : tuple of str
+        :data:`~.outputs.SPATIAL_OUTPUTS` and :data:`~.outputs.SPATIAL_RUN_OUTPUTS`.
+
+    Raises
+    ------
+    ConfigError
+        A value of the wrong type or out of range, or ``roll=None`` without ``start``.
+    """
+
+    def __init__(self, chain: SpatialChain, curve: Any, gain: float, speed: Any, roll: Any = None,
+                 law: str = "structured", start: Any = None, t0: float = 0.0) -> None:
+        if not isinstance(chain, SpatialChain):
+            raise ConfigError(f"chain: expected a SpatialChain, got {type(chain).__name__}")
+        check_spatial_curve(curve)
+        if not is_real(gain) or not math.isfinite(gain) or gain <= 0:
+            raise ConfigError(f"gain: K must be a finite number > 0, got {gain!r}")
+        if law not in LAWS:
+            raise ConfigError(f"law: expected one of {LAWS}, got {law!r}")
+        if roll is None and start is None:
+            raise ConfigError("roll: None holds the start's roll; give the start configuration (start=q0)")
+        self.chain, self.curve, self.gain, self.law_form = chain, curve, float(gain), law
+        self.speed = as_param(speed, "speed")
+        self.roll_target = (Constant(start_roll(chain, curve, start, t0)) if roll is None
+                            else as_param(roll, "roll"))
+        self.outputs, self.run_outputs = SPATIAL_OUTPUTS, SPATIAL_RUN_OUTPUTS
+        self.task = SpatialTask(curve, self.speed, self.gain, self.roll_target)
+        self.recursion = SpatialRecursion(chain, self.task)
+        self._cache: dict = {}
+
+    def law(self, form: str | None = None) -> ca.Function:
+        """The control law ``(q, t) -> outputs``, named and ordered as :data:`~.outputs.SPATIAL_OUTPUTS`.
+
+        Parameters
+        ----------
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        casadi.Function
+            An MX Function (cached per form); the structured form loops over links (``mapaccum``).
+
+        Raises
+        ------
+        ConfigError
+            Unknown form.
+        """
+        form = form or self.law_form
+        if form not in LAWS:
+            raise ConfigError(f"law: expected one of {LAWS}, got {form!r}")
+        if ("law", form) not in self._cache:
+            self._cache[("law", form)] = spatial_law_function(self.recursion, form, self.outputs)
+        return self._cache[("law", form)]
+
+    def fast_law(self, form: str | None = None) -> ca.Function:
+        """:meth:`law` expanded to a flat SX Function (fastest in CasADi's interpreter; structured form only).
+
+        Parameters
+        ----------
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        casadi.Function
+        """
+        form = form or self.law_form
+        if ("fast", form) not in self._cache:
+            law = self.law(form)
+            self._cache[("fast", form)] = law.expand() if form == "structured" else law
+        return self._cache[("fast", form)]
+
+    def evaluate(self, q: Any, t: float = 0.0, form: str | None = None) -> dict[str, Any]:
+        """All outputs of the law at ``(q, t)`` as numpy values, keyed by :data:`~.outputs.SPATIAL_OUTPUTS`.
+
+        Parameters
+        ----------
+        q : array_like, shape (2 m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        dict
+            Vectors as arrays, scalars as floats.
+
+        Raises
+        ------
+        ConfigError
+            ``q`` or ``t`` not finite, or ``q`` of the wrong shape.
+        """
+        q = self.chain.check_q(q)
+        if not is_real(t) or not math.isfinite(t):
+            raise ConfigError(f"t: must be finite, got {t!r}")
+        res = self.fast_law(form)(q, t)
+        out: dict[str, Any] = {}
+        for name, v in zip(self.outputs, res):
+            v = np.asarray(v, dtype=float).ravel()
+            out[name] = float(v[0]) if name in SPATIAL_SCALAR_OUTPUTS else v
+        return out
+
+    def control(self, q: Any, t: float = 0.0) -> np.ndarray:
+        """Control ``u(q, t) = q'`` (``B = I``).
+
+        Parameters
+        ----------
+        q : array_like, shape (2 m,)
+            Joint coordinates [rad].
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray, shape (2 m,)
+            ``(a_1', b_1', ..., a_m', b_m')`` [rad/s].
+        """
+        return self.evaluate(q, t)["u"]
+
+    def rk4_step(self, h: float, form: str | None = None) -> ca.Function:
+        """Closed-loop RK4 step of ``q' = u(q, t)``: ``(q, t) -> (q_next, *run_outputs)`` (law at the step's start).
+
+        Parameters
+        ----------
+        h : float
+            Step length [s].
+        form : {"structured", "dense"}, optional
+            Law form (default: the controller's).
+
+        Returns
+        -------
+        casadi.Function
+            Cached per form and ``h``.
+        """
+        form = form or self.law_form
+        key = ("rk4", form, float(h))
+        if key not in self._cache:
+            law = self.fast_law(form)
+            q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")
+            out1 = law(q, t)
+            q_next = rk4(lambda x, s: law(x, s)[0], q, t, h, k1=out1[0])
+            kept = [out1[self.outputs.index(name)] for name in self.run_outputs]
+            self._cache[key] = ca.Function("spatial_rk4_step", [q, t], [q_next, *kept],
+                                           ["q", "t"], ["q_next", *self.run_outputs])
+        return self._cache[key]
+
+    def decoupling_function(self) -> ca.Function:
+        """``(q, t) -> (M, rhs)``: the dense decoupling matrix (rows ``s, roll, e^2_1, e^2_2, ...``) and right-hand side.
+
+        Returns
+        -------
+        casadi.Function
+        """
+        if "M" not in self._cache:
+            q, t = ca.SX.sym("q", self.chain.dof), ca.SX.sym("t")
+            M, r = spatial_decoupling_expr(self.chain, self.task, q, t)
+            self._cache["M"] = ca.Function("spatial_decoupling", [q, t], [M, r], ["q", "t"], ["M", "rhs"])
+        return self._cache["M"]
+
+    def __repr__(self) -> str:
+        return f"SpatialController({self.chain!r}, {type(self.curve).__name__}, gain={self.gain}, law={self.law_form!r})"

@@ -1,0 +1,144 @@
+"""The spatial task: a 3-D curve's geometry to task outputs, and the commands on them (DESIGN.md section 10).
+
+A :class:`SpatialCurve`-like object (``psi(y, t)``, ``Phi(y, t)``, ``frame(y, t)``, see
+/work/wt/SPATIAL.md and ``symbolic/curves3d.py``) gives, at the closest point of a centre ``y``, the
+arc length ``psi`` and the normal coordinates ``Phi = (phi_1, phi_2)`` in the transported frame
+``(t, n_1, n_2)``. The outputs of a spatial chain are ``s = psi(y^m)``, ``e^j = Phi(y^j)`` (j = 2..m)
+and the roll ``theta = atan2(n_2 . d_1, n_1 . d_1)`` with the frame at the closest point of ``y^1``.
+The commands: ``s' = v*``, ``e' = -K e``, ``theta' = theta*' - K (theta - theta*)``.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import casadi as ca
+
+from .errors import ConfigError
+
+#: Output names of :func:`spatial_geometry_function`, in order.
+SPATIAL_GEOMETRY_OUTPUTS = ("Phi", "JPhi", "Phit", "psi", "gpsi", "psit")
+#: Output names of :func:`roll_function`, in order.
+ROLL_OUTPUTS = ("theta", "gtheta_d", "theta_t", "gtheta_y")
+
+
+def roll_expr(curve: Any, y: Any, d: Any, t: Any) -> Any:
+    """The roll ``atan2(n_2 . d, n_1 . d)`` of a direction ``d`` in the curve's frame at the closest point of ``y``.
+
+    Parameters
+    ----------
+    curve : SpatialCurve
+        The goal curve.
+    y : casadi.SX, shape (3,)
+        Point whose closest point gives the frame [m].
+    d : casadi.SX, shape (3,)
+        Direction (the first link's).
+    t : casadi.SX
+        Time [s].
+
+    Returns
+    -------
+    casadi.SX
+        The roll [rad], in (-pi, pi].
+    """
+    _, n1, n2 = curve.frame(y, t)
+    return ca.atan2(ca.dot(n2, d), ca.dot(n1, d))
+
+
+def spatial_geometry_function(curve: Any) -> ca.Function:
+    """``(y, t) -> (Phi, dPhi/dy, dPhi/dt, psi, grad psi, dpsi/dt)`` of a 3-D curve, by AD.
+
+    Parameters
+    ----------
+    curve : SpatialCurve
+        The goal curve.
+
+    Returns
+    -------
+    casadi.Function
+        Inputs ``y`` (3,) [m] and ``t`` [s]; outputs :data:`SPATIAL_GEOMETRY_OUTPUTS`: ``Phi`` (2,)
+        [m], ``JPhi`` (2, 3) [-], ``Phit`` (2,) [m/s], ``psi`` [m], ``gpsi`` (3,) [-], ``psit`` [m/s].
+
+    Raises
+    ------
+    ConfigError
+        ``Phi`` is not a 2-vector or ``psi`` not a scalar.
+    """
+    y, t = ca.SX.sym("y", 3), ca.SX.sym("t")
+    Phi, psi = ca.SX(curve.Phi(y, t)), ca.SX(curve.psi(y, t))
+    if Phi.numel() != 2 or psi.numel() != 1:
+        raise ConfigError("curve: Phi must be a 2-vector and psi a scalar")
+    Phi = ca.reshape(Phi, 2, 1)
+    return ca.Function("spatial_geometry", [y, t],
+                       [Phi, ca.jacobian(Phi, y), ca.jacobian(Phi, t),
+                        psi, ca.gradient(psi, y), ca.jacobian(psi, t)],
+                       ["y", "t"], list(SPATIAL_GEOMETRY_OUTPUTS))
+
+
+def roll_function(curve: Any) -> ca.Function:
+    """``(y, d, t) -> (theta, dtheta/dd, dtheta/dt, dtheta/dy)``: the roll of :func:`roll_expr` and its derivatives, by AD.
+
+    Parameters
+    ----------
+    curve : SpatialCurve
+        The goal curve.
+
+    Returns
+    -------
+    casadi.Function
+        Inputs ``y`` (3,) [m], ``d`` (3,) and ``t`` [s]; outputs :data:`ROLL_OUTPUTS` ([rad], [rad],
+        [rad/s], [rad/m]).
+    """
+    y, d, t = ca.SX.sym("y", 3), ca.SX.sym("d", 3), ca.SX.sym("t")
+    theta = roll_expr(curve, y, d, t)
+    return ca.Function("roll", [y, d, t], [theta, ca.gradient(theta, d), ca.jacobian(theta, t),
+                                           ca.gradient(theta, y)],
+                       ["y", "d", "t"], list(ROLL_OUTPUTS))
+
+
+class SpatialTask:
+    """The task outputs of a 3-D curve and their commands.
+
+    Parameters
+    ----------
+    curve : SpatialCurve
+        The goal curve ``S(t)``.
+    speed : callable
+        Commanded end-point speed ``t -> v*(t)`` [m/s] (CasADi in, CasADi out).
+    gain : float
+        Error gain K > 0 [1/s].
+    roll : callable
+        Commanded roll ``t -> theta*(t)`` [rad] (CasADi in, CasADi out).
+
+    Attributes
+    ----------
+    geometry : casadi.Function
+        :func:`spatial_geometry_function` of ``curve``.
+    roll_geometry : casadi.Function
+        :func:`roll_function` of ``curve``.
+    """
+
+    def __init__(self, curve: Any, speed: Callable[[Any], Any], gain: float, roll: Callable[[Any], Any]) -> None:
+        self.curve, self.speed, self.gain, self.roll = curve, speed, gain, roll
+        self.geometry = spatial_geometry_function(curve)
+        self.roll_geometry = roll_function(curve)
+
+    def roll_rate(self, theta: Any, t: Any) -> Any:
+        """Commanded roll rate ``theta*' - K (theta - theta*)``.
+
+        Parameters
+        ----------
+        theta : casadi.SX or casadi.MX
+            The roll now [rad].
+        t : casadi.SX or casadi.MX
+            Time [s].
+
+        Returns
+        -------
+        casadi expression
+            ``theta'`` commanded [rad/s].
+        """
+        ts = ca.SX.sym("ts")
+        target = ca.SX(self.roll(ts))
+        target_and_rate = ca.Function("roll_target", [ts], [target, ca.jacobian(target, ts)])
+        th_star, th_star_dot = target_and_rate(t)
+        return th_star_dot - self.gain * (theta - th_star)
