@@ -48,6 +48,31 @@ def as_point3(value: Any, field: str) -> tuple[Callable, Callable, Callable]:
     return tuple(as_param(v, f"{field}[{i}]") for i, v in enumerate(value))
 
 
+def finite(value: Any, field: str) -> float:
+    """``value`` as a finite float.
+
+    Parameters
+    ----------
+    value : float
+        A number.
+    field : str
+        Name of the value in error messages.
+
+    Returns
+    -------
+    float
+        The number.
+
+    Raises
+    ------
+    ConfigError
+        Not a finite real number.
+    """
+    if not is_real(value, numpy=True) or not math.isfinite(value):
+        raise ConfigError(f"{field}: need a finite number, got {shown(value)}")
+    return float(value)
+
+
 def finite_vector(value: Any, field: str) -> np.ndarray:
     """A constant 3-vector of finite numbers.
 
