@@ -16,6 +16,7 @@ import casadi as ca
 import numpy as np
 
 from .errors import ConfigError, shown
+from .motions import motion_to_spec
 from .params import Param, as_param, evaluate
 from .vectors3d import any_normal, as_point3, orthogonal_normal, rotate, unit_vector
 
@@ -34,6 +35,24 @@ def column(values) -> Any:
         The column.
     """
     return ca.vertcat(*values)
+
+
+def as_column(y) -> Any:
+    """A point as a CasADi column: symbols pass through, numbers become a ``DM``.
+
+    Parameters
+    ----------
+    y : casadi.SX, casadi.MX, casadi.DM or array_like, shape (3,)
+        A point [m].
+
+    Returns
+    -------
+    casadi.SX, casadi.MX or casadi.DM, shape (3, 1)
+        The same point.
+    """
+    if isinstance(y, (ca.SX, ca.MX, ca.DM)):
+        return y
+    return ca.DM(np.asarray(y, float).reshape(3, 1))
 
 
 class SpatialCurve:
@@ -133,6 +152,21 @@ class SpatialCurve:
         """
         raise NotImplementedError
 
+    def to_spec(self) -> dict:
+        """The curve as data (for parameters built from motion primitives).
+
+        Returns
+        -------
+        dict
+            ``{"kind": ..., <keys>}``, accepted by :func:`~.curve3d_specs.curve3d_from_spec`.
+
+        Raises
+        ------
+        ConfigError
+            A parameter is a Python callable, not a motion primitive.
+        """
+        raise NotImplementedError
+
     def period(self, t):
         """Jump of ``psi`` across its branch cut (a closed curve's length), or None.
 
@@ -222,7 +256,7 @@ class Line3D(SpatialCurve):
         return tuple(rotate(self.axis, angle, ca.DM(v)) for v in vectors)
 
     def coordinates(self, y, t):
-        v = y - column([c(t) for c in self.point])
+        v = as_column(y) - column([c(t) for c in self.point])
         tan, n1, n2 = self.basis(t)
         return ca.dot(tan, v), ca.vertcat(ca.dot(n1, v), ca.dot(n2, v)), (tan, n1, n2)
 
@@ -262,6 +296,13 @@ class Line3D(SpatialCurve):
         """
         p = np.array([evaluate(c, t) for c in self.point])
         return p + s * self.numeric_basis(t)[0]
+
+    def to_spec(self) -> dict:
+        spec = {"kind": "line", "point": [motion_to_spec(c) for c in self.point],
+                "direction": self.direction.tolist(), "normal": self.normal.tolist()}
+        if self.axis is not None:
+            spec["rotation"] = {"axis": self.axis.tolist(), "angle": motion_to_spec(self.angle)}
+        return spec
 
     def sample(self, t: float, n: int = 200, extent: float | None = None) -> np.ndarray:
         half = 10.0 if extent is None else float(extent)
@@ -315,7 +356,7 @@ class Circle3D(SpatialCurve):
 
     def coordinates(self, y, t):
         w, ref, R = ca.DM(self.normal), ca.DM(self.reference), self.radius(t)
-        full = y - column([c(t) for c in self.centre])
+        full = as_column(y) - column([c(t) for c in self.centre])
         z = ca.dot(full, w)
         r = full - z * w
         rho = ca.norm_2(r)
@@ -346,6 +387,11 @@ class Circle3D(SpatialCurve):
         c = np.array([evaluate(v, t) for v in self.centre])
         return c + R * rotate(self.normal, s / R, self.reference)
 
+    def to_spec(self) -> dict:
+        return {"kind": self.kind, "centre": [motion_to_spec(c) for c in self.centre],
+                "radius": motion_to_spec(self.radius), "normal": self.normal.tolist(),
+                "reference": self.reference.tolist()}
+
     def sample(self, t: float, n: int = 200, extent: float | None = None) -> np.ndarray:
         R = evaluate(self.radius, t)
         return np.array([self.point_at(s, t) for s in np.linspace(-math.pi * R, math.pi * R, n)])
@@ -370,7 +416,7 @@ class Arc3D(Circle3D):
 
 
 for _cls in (Line3D, Circle3D):     # the subclasses' implementations carry the base class's documentation
-    for _name in ("coordinates", "sample", "period"):
+    for _name in ("coordinates", "sample", "period", "to_spec"):
         _own = vars(_cls).get(_name)
         if _own is not None and not _own.__doc__:
             _own.__doc__ = getattr(SpatialCurve, _name).__doc__

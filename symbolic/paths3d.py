@@ -25,7 +25,7 @@ from typing import Any, Sequence
 import casadi as ca
 import numpy as np
 
-from .curves3d import SpatialCurve
+from .curves3d import SpatialCurve, as_column
 from .errors import ConfigError, shown
 from .vectors3d import finite, finite_vector, orthogonal_normal, rotate, unit_vector
 from .waypoints3d import waypoint_segments3d
@@ -249,6 +249,7 @@ def piece_formulas3d(sel, y):
     frame : tuple of 3 casadi.SX, shape (3, 1)
         Tangent, ``n_1``, ``n_2`` at the closest point.
     """
+    y = as_column(y)
     p0, t0, n1, n2 = sel[0:3], sel[3:6], sel[6:9], sel[9:12]
     s0, is_arc, R, C, w, u0 = sel[12], sel[13] != 0, sel[14], sel[15:18], sel[18:21], sel[21:24]
     c11, c12, c21, c22 = sel[24], sel[25], sel[26], sel[27]
@@ -287,6 +288,7 @@ def closest_piece3d(pieces: list[Piece3D], y):
     tuple
         As :func:`piece_formulas3d`.
     """
+    y = as_column(y)
     g = [ca.dot(ca.DM(pc.tangent), y) - float(pc.tangent @ pc.p0) for pc in pieces]
     best, sel, last = ca.inf, ca.DM(piece_constants(pieces[0])), len(pieces) - 1
     for i, pc in enumerate(pieces):

@@ -191,3 +191,20 @@ def test_bad_tables_name_the_field(spec, message):
     with pytest.raises(ConfigError, match=None) as err:
         curve3d_from_spec(spec)
     assert message in str(err.value)
+
+
+def test_to_spec_round_trips_and_numbers_mx_and_sx_points_give_the_same_values():
+    line = curve3d_from_spec({"kind": "line", "point": [0.1, {"kind": "ramp", "rate": 0.2}, 0.0],
+                              "direction": [1.0, 1.0, 0.0], "normal": [0.0, 0.0, 1.0],
+                              "rotation": {"axis": [0.0, 1.0, 0.0], "angle": {"kind": "ramp", "rate": 0.3}}})
+    circle = curve3d_from_spec({"kind": "arc", "centre": [1.0, 0.0, 0.5], "radius": 2.0, "normal": [1.0, 0.0, 1.0]})
+    y, t = np.array([0.4, -0.7, 1.1]), 2.5
+    for curve in (line, circle):
+        expected = evaluate(outputs(curve), y, t)[0].ravel()
+        np.testing.assert_allclose(evaluate(outputs(curve3d_from_spec(curve.to_spec())), y, t)[0].ravel(),
+                                   expected, atol=1e-14)
+        ym, tm = ca.MX.sym("y", 3), ca.MX.sym("t")
+        fm = ca.Function("fm", [ym, tm], [ca.vertcat(curve.psi(ym, tm), curve.Phi(ym, tm))])
+        np.testing.assert_allclose(np.asarray(fm(y, t)).ravel(), expected, atol=1e-14)
+        numeric = ca.vertcat(curve.psi(y, t), curve.Phi(y.tolist(), t))
+        np.testing.assert_allclose(np.asarray(ca.evalf(numeric)).ravel(), expected, atol=1e-14)

@@ -246,3 +246,14 @@ def test_path_table_and_bad_segments_name_the_field():
         curve3d_from_spec({"kind": "waypoints", "points": [[0, 0, 0], [0.1, 0, 0], [0.1, 0.1, 0]], "radius": 1.0})
     with pytest.raises(ConfigError, match=r"curve.points\[1\]: the path turns back"):
         Path3D.from_waypoints([[0, 0, 0], [1, 0, 0], [0, 0, 0]], 0.1)
+
+
+def test_mx_points_give_the_same_values_as_sx():
+    path = corkscrew()
+    ym = ca.MX.sym("y", 3)
+    psi, Phi, frame = path.coordinates(ym, 0.0)
+    fm = ca.Function("fm", [ym], [ca.vertcat(psi, Phi, *frame)])
+    fs = outputs(path)
+    for y in ([0.7, 0.4, 0.9], [2.0, 0.5, 1.0], [-0.3, -0.4, 0.2]):
+        out, _, _, frame = evaluate(fs, y)
+        np.testing.assert_allclose(np.asarray(fm(y)).ravel(), np.r_[out.ravel(), frame.T.ravel()], atol=1e-14)
