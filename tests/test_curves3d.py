@@ -208,3 +208,13 @@ def test_to_spec_round_trips_and_numbers_mx_and_sx_points_give_the_same_values()
         np.testing.assert_allclose(np.asarray(fm(y, t)).ravel(), expected, atol=1e-14)
         numeric = ca.vertcat(curve.psi(y, t), curve.Phi(y.tolist(), t))
         np.testing.assert_allclose(np.asarray(ca.evalf(numeric)).ravel(), expected, atol=1e-14)
+
+
+def test_unwrap_s_makes_psi_continuous_around_a_circle_in_3d():
+    from coordarm.symbolic.curves import unwrap_s
+    curve = Circle3D(centre=(0.5, 0.0, 0.2), radius=0.8, normal=(0.0, 1.0, 1.0))
+    f = outputs(curve)
+    angles = np.linspace(0, 4 * math.pi, 301)                 # two turns, crossing the branch cut
+    s = np.array([evaluate(f, curve.point_at(0.8 * a), 0.0)[0][0, 0] for a in angles])
+    assert np.max(np.abs(np.diff(s))) > 4.0                    # psi jumps by 2 pi R at the cut
+    np.testing.assert_allclose(unwrap_s(curve, np.zeros_like(s), s), 0.8 * angles, atol=1e-9)
