@@ -71,6 +71,18 @@ class Run(ExtraOutputs):
     def from_arrays(cls, arrays: dict[str, np.ndarray], info: dict | None = None) -> "Run":
         """A Run from arrays keyed by :data:`ARRAYS` (law outputs without a field go to ``extra``).
 
+        Parameters
+        ----------
+        arrays : dict of str to ndarray
+            Every array of :data:`ARRAYS` (``t`` ``(N,)`` [s], ``q`` ``(N, m)`` [rad], the law outputs,
+            ``v_star`` [m/s]) and any of :data:`OPTIONAL` (rail outputs); other keys are ignored.
+        info : dict, optional
+            The run's ``info`` (copied).
+
+        Returns
+        -------
+        Run
+
         Raises
         ------
         KeyError

@@ -23,7 +23,18 @@ from .run import check_number
 
 
 def check_delay(delay: Any) -> None:
-    """Raise ConfigError unless ``delay`` is an integer number of samples >= 0."""
+    """Raise ConfigError unless ``delay`` is an integer number of samples >= 0.
+
+    Parameters
+    ----------
+    delay : int
+        Control delay [samples] (a Python or numpy integer).
+
+    Raises
+    ------
+    ConfigError
+        ``delay`` is not an integer or is negative.
+    """
     if not is_integer(delay, numpy=True) or delay < 0:
         raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
 
@@ -56,7 +67,13 @@ class SampledRun:
     info: dict = field(default_factory=dict)
 
     def error_norm(self) -> np.ndarray:
-        """``max_j |e^j|`` at every sample [m]."""
+        """``max_j |e^j|`` at every sample [m].
+
+        Returns
+        -------
+        (N+1,) ndarray
+            The largest deviation of each row [m].
+        """
         return np.max(np.abs(self.e), axis=1)
 
 
