@@ -252,6 +252,13 @@ def simulate_ftl(law: FollowTheLeader, duration: float, step: float, backend: st
     Returns
     -------
     Run
+
+    Raises
+    ------
+    ConfigError
+        Unknown ``backend``.
+    BuildError
+        ``backend="compiled"`` and the C code cannot be built.
     """
     ctrl, chain = law.ctrl, law.ctrl.chain
     n = int(round(duration / step)) + 1

@@ -41,6 +41,12 @@ def build_parser() -> argparse.ArgumentParser:
     -------
     argparse.ArgumentParser
         With ``--version`` and one sub-parser per entry of :data:`COMMANDS` that is installed.
+
+    Raises
+    ------
+    ModuleNotFoundError
+        A command's module is there but something it imports is not (a missing command module
+        itself is left out).
     """
     parser = argparse.ArgumentParser(prog="coordarm", description=(
         "Coordinating control of hyper-redundant planar manipulators: run scenarios, "

@@ -50,7 +50,7 @@ def check_number(value: Any, name: str, positive: bool = True) -> float:
     Parameters
     ----------
     value : Any
-        The number to check (a real number, not a bool).
+        The number to check (an ``int`` or ``float``, not a ``bool``).
     name : str
         The setting's name, for the error message.
     positive : bool, optional

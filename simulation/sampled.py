@@ -101,6 +101,12 @@ def simulate_sampled(ctrl: CoordinatingController, q0, duration: float, period: 
     Returns
     -------
     SampledRun
+
+    Raises
+    ------
+    ConfigError
+        ``duration``, ``period`` or ``diverge_at`` not a finite number > 0, a bad ``delay``, a period
+        longer than the duration, or a bad ``q0``.
     """
     for name, v in (("duration", duration), ("period", period), ("diverge_at", diverge_at)):
         check_number(v, name)
