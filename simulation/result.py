@@ -27,10 +27,10 @@ class Run(ExtraOutputs):
     ----------
     t : (N+1,) array
         Time [s].
-    q : (N+1, m) array
-        Joint coordinates [rad].
-    u : (N+1, m) array
-        Control at each sample [rad/s for B = I].
+    q : (N+1, dof) array
+        Joint coordinates [rad] (on a rail, ``d`` [m] first; ``dof = m + 1``).
+    u : (N+1, dof) array
+        Control at each sample [rad/s for B = I; on a rail, ``d_dot`` [m/s] first].
     e : (N+1, m-1) array
         Deviations ``e^2..e^m`` from the curve [m].
     s : (N+1,) array
@@ -74,7 +74,7 @@ class Run(ExtraOutputs):
         Parameters
         ----------
         arrays : dict of str to ndarray
-            Every array of :data:`ARRAYS` (``t`` ``(N,)`` [s], ``q`` ``(N, m)`` [rad], the law outputs,
+            Every array of :data:`ARRAYS` (``t`` ``(N,)`` [s], ``q`` ``(N, dof)`` [rad], the law outputs,
             ``v_star`` [m/s]) and any of :data:`OPTIONAL` (rail outputs); other keys are ignored.
         info : dict, optional
             The run's ``info`` (copied).

@@ -176,8 +176,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     ----------
     ctrl : CoordinatingController
         The controller (chain, curve, gain, speed).
-    q0 : (m,) array_like
-        Start configuration [rad].
+    q0 : (dof,) array_like
+        Start configuration [rad] (on a rail, ``d`` [m] first).
     duration, step, t0 : float
         Simulated time span, RK4 step and start time [s].
     backend : {"auto", "compiled", "interpreted"}

@@ -47,9 +47,9 @@ class SampledRun:
     ----------
     t : (N+1,) array
         Sample times [s].
-    q : (N+1, m) array
-        Configurations [rad].
-    u : (N+1, m) array
+    q : (N+1, dof) array
+        Configurations [rad] (on a rail, ``d`` [m] first).
+    u : (N+1, dof) array
         Input held on ``[t_k, t_{k+1})`` [rad/s for B = I] (last row: the next input).
     e : (N+1, m-1) array
         Deviations ``e^2..e^m`` [m].
@@ -85,8 +85,8 @@ def simulate_sampled(ctrl: CoordinatingController, q0, duration: float, period: 
     ----------
     ctrl : CoordinatingController
         The controller (its ``fast_law`` is evaluated once per sample).
-    q0 : (m,) array_like
-        Start configuration [rad].
+    q0 : (dof,) array_like
+        Start configuration [rad] (on a rail, ``d`` [m] first).
     duration : float
         Simulated time [s].
     period : float

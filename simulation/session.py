@@ -42,7 +42,7 @@ class ScenarioResult:
     scenario : Scenario
         The scenario as run (with the overrides applied).
     run : Run
-        The simulated run, up to the stop when it stopped (``t`` [s] ``(n,)``, ``q`` ``(n, m)``, ...).
+        The simulated run, up to the stop when it stopped (``t`` [s] ``(n,)``, ``q`` ``(n, dof)``, ...).
     outcome : str
         ``"completed"``, ``"singularity"`` or ``"collision"``.
     exit_status : int
