@@ -324,7 +324,8 @@ def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: f
     Returns
     -------
     Run
-        ``t`` ``(N,)`` [s], ``q`` and ``u`` ``(N, dof)``, up to the first non-finite row.
+        ``t`` ``(N,)`` [s], ``q`` and ``u`` ``(N, dof)``; after a singularity, up to the start of the
+        first step whose state or control is not finite (that row's ``u`` may be the non-finite one).
 
     Raises
     ------
