@@ -47,7 +47,7 @@ _EXPORT = '#define CASADI_SYMBOL_EXPORT __attribute__((visibility("default")))\n
 class EndPointRate:
     """End-point resolved-rate control of a chain (``pinv`` or ``dls``) as CasADi Functions.
 
-    Parameters
+    Attributes
     ----------
     ctrl : CoordinatingController
         Supplies the chain, the curve's geometry, the gain ``K`` [1/s] and ``v*(t)`` [m/s].
@@ -58,6 +58,11 @@ class EndPointRate:
         ``{"lambda": [m/rad], "band": [-]}`` for ``dls``; None for the pseudoinverse.
     centering : float
         Gain of the null-space joint-centering term [1/s].
+
+    Raises
+    ------
+    ConfigError
+        The chain's ``B`` is not the identity, or ``centre`` is not of shape ``(dof,)``.
     """
 
     ctrl: CoordinatingController
@@ -107,14 +112,44 @@ class EndPointRate:
         return q, t, y, A, r, u
 
     def law(self) -> ca.Function:
-        """``(q, t) -> u`` (dof,) [rad/s; ``d_dot`` m/s first on a rail]; not finite where ``A A^T`` is singular (pinv)."""
+        """``(q, t) -> u`` (dof,) [rad/s; ``d_dot`` m/s first on a rail]; not finite where ``A A^T`` is singular (pinv).
+
+        Built once, then kept.
+
+        Returns
+        -------
+        casadi.Function
+            ``(q (dof,) [rad], t [s]) -> u (dof,)``.
+        """
         if "law" not in self._cache:
             q, t, _, _, _, u = self._expressions()
             self._cache["law"] = ca.Function("baseline_law", [q, t], [u], ["q", "t"], ["u"])
         return self._cache["law"]
 
     def task(self, q, t: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``y^m`` (2,) [m], the task Jacobian ``A`` (2, dof) [m/rad] and the commanded rates ``r`` (2,) [m/s]."""
+        """``y^m`` (2,) [m], the task Jacobian ``A`` (2, dof) [m/rad] and the commanded rates ``r`` (2,) [m/s].
+
+        Parameters
+        ----------
+        q : (dof,) array_like
+            Configuration [rad] (on a rail, ``d`` [m] first).
+        t : float, optional
+            Time [s].
+
+        Returns
+        -------
+        y : (2,) ndarray
+            Central point ``y^m`` of the last link [m].
+        A : (2, dof) ndarray
+            Task Jacobian (along, across the curve) [m/rad].
+        r : (2,) ndarray
+            Commanded rates ``(v* - psi_t, -K phi - phi_t)`` [m/s].
+
+        Raises
+        ------
+        ConfigError
+            ``q`` is not a finite configuration of the chain.
+        """
         if "task" not in self._cache:
             qs, ts, y, A, r, _ = self._expressions()
             self._cache["task"] = ca.Function("baseline_task", [qs, ts], [y, A, r])
@@ -122,7 +157,26 @@ class EndPointRate:
         return np.asarray(y).ravel(), np.asarray(A), np.asarray(r).ravel()
 
     def control(self, q, t: float = 0.0) -> np.ndarray:
-        """``u = qdot`` (dof,) [rad/s]."""
+        """``u = qdot`` (dof,) [rad/s].
+
+        Parameters
+        ----------
+        q : (dof,) array_like
+            Configuration [rad] (on a rail, ``d`` [m] first).
+        t : float, optional
+            Time [s].
+
+        Returns
+        -------
+        (dof,) ndarray
+            The input [rad/s] (on a rail, ``d_dot`` [m/s] first); not finite where ``A A^T`` is
+            singular (pinv).
+
+        Raises
+        ------
+        ConfigError
+            ``q`` is not a finite configuration of the chain.
+        """
         return np.asarray(self.law()(self.ctrl.chain.check_q(q), t)).ravel()
 
     def chunk(self, step: float, n: int, backend: str = "interpreted") -> ca.Function:
@@ -130,9 +184,26 @@ class EndPointRate:
 
         ``backend="compiled"``: the same Function as generated C, built (or taken from the
         build cache, see :func:`generated.build.build`) and loaded with ``casadi.external``.
+        Built once per ``(step, n, backend)``, then kept.
+
+        Parameters
+        ----------
+        step : float
+            RK4 step [s].
+        n : int
+            Steps per call.
+        backend : {"interpreted", "compiled"}, optional
+            CasADi's virtual machine (the expanded SX Function) or generated C.
+
+        Returns
+        -------
+        casadi.Function
+            ``(q0 (dof,), t (1, n) [s]) -> (Q (dof, n), U (dof, n))``.
 
         Raises
         ------
+        ConfigError
+            Unknown ``backend``.
         BuildError
             ``backend="compiled"`` and the C code cannot be built.
         """
@@ -210,6 +281,18 @@ def rk4_function(law: ca.Function, h: float) -> ca.Function:
 
     An MX Function calling ``law`` four times (generated C keeps one copy of the law);
     ``.expand()`` it for CasADi's virtual machine.
+
+    Parameters
+    ----------
+    law : casadi.Function
+        ``(q (dof,), t) -> u (dof,)``, the right-hand side ``qdot`` (``B = I``).
+    h : float
+        Step length [s].
+
+    Returns
+    -------
+    casadi.Function
+        ``(q, t) -> (q_next, u)``: the state after the step and ``u`` at its start.
     """
     q, t = ca.MX.sym("q", law.size1_in(0)), ca.MX.sym("t")
     u = law(q, t)
@@ -225,9 +308,31 @@ def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: f
     NaN (score runs from ``q`` with :mod:`analysis.compare`); ``info["wall_time"]`` is the
     time of the stepping loop [s] and ``info["steps"]`` its number of steps.
 
+    Parameters
+    ----------
+    law : EndPointRate
+        The baseline.
+    q0 : (dof,) array_like
+        Start configuration [rad] (on a rail, ``d`` [m] first).
+    duration, step, t0 : float
+        Simulated time, RK4 step and start time [s].
+    chunk : int, optional
+        Steps per call of the chunk Function (at most the run's steps).
+    backend : {"interpreted", "compiled"}, optional
+        How the chunk Function runs.
+
     Returns
     -------
     Run
+        ``t`` ``(N,)`` [s], ``q`` and ``u`` ``(N, dof)``; after a singularity, up to the start of the
+        first step whose state or control is not finite (that row's ``u`` may be the non-finite one).
+
+    Raises
+    ------
+    ConfigError
+        A bad ``q0`` or ``backend``.
+    BuildError
+        ``backend="compiled"`` and the C code cannot be built.
     """
     n_steps = int(round(duration / step))
     q = law.ctrl.chain.check_q(q0, "q0")

@@ -46,7 +46,7 @@ TOLERANCE = 1e-9
 class FollowTheLeader:
     """Follow-the-leader of a chain on a rail along the controller's path.
 
-    Parameters
+    Attributes
     ----------
     ctrl : CoordinatingController
         A chain on a rail (``ctrl.chain.rail``), the path and ``v*(t)`` [m/s].
@@ -121,7 +121,13 @@ class FollowTheLeader:
         """``(t, s*, guess of y^m) -> (q (m+1,), |s - s*|, worst |phi| or offset from the rail)``.
 
         The commanded configuration at ``t``; ``worst`` also counts ``psi`` going forwards while
-        laying backwards (a link that found the path ahead of its successor).
+        laying backwards (a link that found the path ahead of its successor). Built once, then kept.
+
+        Returns
+        -------
+        casadi.Function
+            ``(t [s], s_target [m], guess (2,) [m]) -> (q (m+1,) [m, rad], s_error [m], worst [m])``,
+            as in :meth:`configuration`.
         """
         if "fn" not in self._cache:
             chain, geo, m = self.ctrl.chain, self.ctrl.task.geometry, self.ctrl.chain.m
@@ -171,14 +177,49 @@ class FollowTheLeader:
         return np.asarray(q).ravel(), float(err), float(worst)
 
     def guess(self, t: float, s_target: float) -> np.ndarray:
-        """A first guess of the path's point at ``s_target`` (``curve.point_at``, else the start's end point) [m]."""
+        """A first guess of the path's point at ``s_target`` (``curve.point_at``, else the start's end point) [m].
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        s_target : float
+            Arc length of the end point [m].
+
+        Returns
+        -------
+        (2,) ndarray
+            The guess of ``y^m`` [m].
+        """
         try:
             return np.asarray(self.ctrl.curve.point_at(float(s_target), float(t)), float)
         except NotImplementedError:
             return self._y0
 
     def mapped(self, n: int, backend: str) -> ca.Function:
-        """:meth:`function` over ``n`` times in one call (generated C for ``backend="compiled"``)."""
+        """:meth:`function` over ``n`` times in one call (generated C for ``backend="compiled"``).
+
+        Built once per ``(n, backend)``, then kept.
+
+        Parameters
+        ----------
+        n : int
+            Number of samples.
+        backend : {"compiled", "interpreted"}
+            Generated C (built or taken from the build cache), or CasADi's virtual machine.
+
+        Returns
+        -------
+        casadi.Function
+            ``(t (1, n), s_target (1, n), guess (2, n)) -> (q (m+1, n), s_error (1, n), worst (1, n))``.
+
+        Raises
+        ------
+        ConfigError
+            Unknown ``backend``.
+        BuildError
+            ``backend="compiled"`` and the C code cannot be built.
+        """
         if backend not in BACKENDS:
             raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
         key = ("map", n, backend)
@@ -211,6 +252,13 @@ def simulate_ftl(law: FollowTheLeader, duration: float, step: float, backend: st
     Returns
     -------
     Run
+
+    Raises
+    ------
+    ConfigError
+        Unknown ``backend``.
+    BuildError
+        ``backend="compiled"`` and the C code cannot be built.
     """
     ctrl, chain = law.ctrl, law.ctrl.chain
     n = int(round(duration / step)) + 1

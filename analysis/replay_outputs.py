@@ -24,7 +24,7 @@ FPS_RANGE = (0.1, 60.0)
 class ReplayOutputs(NamedTuple):
     """What :func:`replay_log` read and wrote.
 
-    Attributes
+    Parameters
     ----------
     replay : Replay
         The run read back from the log.

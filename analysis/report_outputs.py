@@ -26,7 +26,7 @@ SAMPLES_RANGE = (2, 100_000)
 class ReportOutputs(NamedTuple):
     """What :func:`report_of` analysed and wrote.
 
-    Attributes
+    Parameters
     ----------
     scenario : Scenario
         The scenario of the report (rebuilt from the log, or as simulated).

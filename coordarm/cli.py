@@ -35,7 +35,19 @@ class _Version(argparse.Action):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The full ``coordarm`` argument parser."""
+    """The full ``coordarm`` argument parser.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        With ``--version`` and one sub-parser per entry of :data:`COMMANDS` that is installed.
+
+    Raises
+    ------
+    ModuleNotFoundError
+        A command's module is there but something it imports is not (a missing command module
+        itself is left out).
+    """
     parser = argparse.ArgumentParser(prog="coordarm", description=(
         "Coordinating control of hyper-redundant planar manipulators: run scenarios, "
         "regenerate the compiled controller, replay logs, write singularity reports, "
@@ -54,11 +66,21 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``coordarm`` console script; returns the exit status.
 
-    0 done, 2 bad input or an unwritable/unreadable file (one line on stderr, no traceback),
-    3 stopped ahead of a singularity, 130 interrupted (Ctrl-C or SIGTERM, at any moment,
-    also while the first modules are imported). The sub-commands write
-    figures to files, so matplotlib (imported later, if at all) gets the non-interactive Agg
-    backend; library users keep their own backend.
+    The sub-commands write figures to files, so matplotlib (imported later, if at all) gets the
+    non-interactive Agg backend; library users keep their own backend.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 done, 2 bad input or an unwritable/unreadable file (one line on stderr, no traceback),
+        3 stopped ahead of a singularity, 4 stopped at a collision, 130 interrupted (Ctrl-C or
+        SIGTERM, at any moment, also while the first modules are imported). ``--help``,
+        ``--version`` and an argparse usage error exit through :class:`SystemExit` (0 or 2).
     """
     previous = _early_handlers()
     try:

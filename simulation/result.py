@@ -27,10 +27,10 @@ class Run(ExtraOutputs):
     ----------
     t : (N+1,) array
         Time [s].
-    q : (N+1, m) array
-        Joint coordinates [rad].
-    u : (N+1, m) array
-        Control at each sample [rad/s for B = I].
+    q : (N+1, dof) array
+        Joint coordinates [rad] (on a rail, ``d`` [m] first; ``dof = m + 1``).
+    u : (N+1, dof) array
+        Control at each sample [rad/s for B = I; on a rail, ``d_dot`` [m/s] first].
     e : (N+1, m-1) array
         Deviations ``e^2..e^m`` from the curve [m].
     s : (N+1,) array
@@ -70,6 +70,18 @@ class Run(ExtraOutputs):
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], info: dict | None = None) -> "Run":
         """A Run from arrays keyed by :data:`ARRAYS` (law outputs without a field go to ``extra``).
+
+        Parameters
+        ----------
+        arrays : dict of str to ndarray
+            Every array of :data:`ARRAYS` (``t`` ``(N,)`` [s], ``q`` ``(N, dof)`` [rad], the law outputs,
+            ``v_star`` [m/s]) and any of :data:`OPTIONAL` (rail outputs); other keys are ignored.
+        info : dict, optional
+            The run's ``info`` (copied).
+
+        Returns
+        -------
+        Run
 
         Raises
         ------

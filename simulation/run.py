@@ -45,7 +45,27 @@ class BackendFallbackWarning(UserWarning):
 
 
 def check_number(value: Any, name: str, positive: bool = True) -> float:
-    """``value`` as a float; a ConfigError naming ``name`` unless it is a finite real number (> 0 if ``positive``)."""
+    """``value`` as a float; a ConfigError naming ``name`` unless it is a finite real number (> 0 if ``positive``).
+
+    Parameters
+    ----------
+    value : Any
+        The number to check (an ``int`` or ``float``, not a ``bool``).
+    name : str
+        The setting's name, for the error message.
+    positive : bool, optional
+        Also require ``value > 0`` (default True).
+
+    Returns
+    -------
+    float
+        ``value`` as a float.
+
+    Raises
+    ------
+    ConfigError
+        ``value`` is not a finite real number, or not > 0 when ``positive``.
+    """
     if not is_real(value) or not math.isfinite(value):
         raise ConfigError(f"{name}: need a finite number, got {shown(value)}")
     if positive and value <= 0:
@@ -54,7 +74,23 @@ def check_number(value: Any, name: str, positive: bool = True) -> float:
 
 
 def check_curve_reaches_base(ctrl: CoordinatingController, t0: float, t1: float, samples: int = 201) -> None:
-    """Raise a ConfigError if the curve passes farther than one link length from the base."""
+    """Raise a ConfigError if the curve passes farther than one link length from the base.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop (its curve and chain, :meth:`~CoordinatingController.base_offset`).
+    t0, t1 : float
+        Time span checked [s].
+    samples : int, optional
+        Times checked, evenly spread over ``[t0, t1]`` (ends included).
+
+    Raises
+    ------
+    ConfigError
+        At a sampled time the curve is farther than one link length ``xi`` [m] from the base
+        (or its distance is not a number).
+    """
     for t in np.linspace(t0, t1, samples):
         off = ctrl.base_offset(float(t))
         if not off <= ctrl.chain.xi:
@@ -63,17 +99,47 @@ def check_curve_reaches_base(ctrl: CoordinatingController, t0: float, t1: float,
 
 
 def even_indices(n: int, k: int) -> np.ndarray:
-    """Up to ``k`` indices evenly spread over ``range(n)``, first and last included, no repeats."""
+    """Up to ``k`` indices evenly spread over ``range(n)``, first and last included, no repeats.
+
+    Parameters
+    ----------
+    n : int
+        Length of the range (>= 1).
+    k : int
+        Indices wanted (>= 1; fewer are returned when ``k > n``).
+
+    Returns
+    -------
+    (<= k,) ndarray of int
+        Sorted, unique indices in ``[0, n - 1]``.
+    """
     return np.unique(np.linspace(0, n - 1, k).round().astype(int))
 
 
-def select_backend(ctrl: CoordinatingController, backend: str = "auto"):
+def select_backend(ctrl: CoordinatingController, backend: str = "auto") -> tuple[str, Any, dict[str, Any]]:
     """Resolve ``backend`` to ``(name, compiled controller or None, info)``.
 
     ``"auto"`` compiles (or takes from the cache) the generated library and falls back to
     ``"interpreted"`` with a :class:`BackendFallbackWarning` when that fails (e.g. no C
     compiler); ``"compiled"`` raises the BuildError instead. The compiled controller is
     kept by :func:`coordarm.generated.compile`, so later runs reuse it.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop to run.
+    backend : {"auto", "compiled", "interpreted"}, optional
+        The backend asked for.
+
+    Returns
+    -------
+    name : str
+        ``"compiled"`` or ``"interpreted"``: the backend that will run.
+    compiled : CompiledController or None
+        The compiled law, None with the interpreted backend.
+    info : dict
+        ``{"backend": name}`` plus ``cache_hit`` and ``library`` (compiled) or
+        ``fallback_reason`` (``"auto"`` fell back).
 
     Raises
     ------
@@ -110,8 +176,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     ----------
     ctrl : CoordinatingController
         The controller (chain, curve, gain, speed).
-    q0 : (m,) array_like
-        Start configuration [rad].
+    q0 : (dof,) array_like
+        Start configuration [rad] (on a rail, ``d`` [m] first).
     duration, step, t0 : float
         Simulated time span, RK4 step and start time [s].
     backend : {"auto", "compiled", "interpreted"}

@@ -23,7 +23,18 @@ from .run import check_number
 
 
 def check_delay(delay: Any) -> None:
-    """Raise ConfigError unless ``delay`` is an integer number of samples >= 0."""
+    """Raise ConfigError unless ``delay`` is an integer number of samples >= 0.
+
+    Parameters
+    ----------
+    delay : int
+        Control delay [samples] (a Python or numpy integer).
+
+    Raises
+    ------
+    ConfigError
+        ``delay`` is not an integer or is negative.
+    """
     if not is_integer(delay, numpy=True) or delay < 0:
         raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
 
@@ -36,9 +47,9 @@ class SampledRun:
     ----------
     t : (N+1,) array
         Sample times [s].
-    q : (N+1, m) array
-        Configurations [rad].
-    u : (N+1, m) array
+    q : (N+1, dof) array
+        Configurations [rad] (on a rail, ``d`` [m] first).
+    u : (N+1, dof) array
         Input held on ``[t_k, t_{k+1})`` [rad/s for B = I] (last row: the next input).
     e : (N+1, m-1) array
         Deviations ``e^2..e^m`` [m].
@@ -56,7 +67,13 @@ class SampledRun:
     info: dict = field(default_factory=dict)
 
     def error_norm(self) -> np.ndarray:
-        """``max_j |e^j|`` at every sample [m]."""
+        """``max_j |e^j|`` at every sample [m].
+
+        Returns
+        -------
+        (N+1,) ndarray
+            The largest deviation of each row [m].
+        """
         return np.max(np.abs(self.e), axis=1)
 
 
@@ -68,8 +85,8 @@ def simulate_sampled(ctrl: CoordinatingController, q0, duration: float, period: 
     ----------
     ctrl : CoordinatingController
         The controller (its ``fast_law`` is evaluated once per sample).
-    q0 : (m,) array_like
-        Start configuration [rad].
+    q0 : (dof,) array_like
+        Start configuration [rad] (on a rail, ``d`` [m] first).
     duration : float
         Simulated time [s].
     period : float
@@ -84,6 +101,12 @@ def simulate_sampled(ctrl: CoordinatingController, q0, duration: float, period: 
     Returns
     -------
     SampledRun
+
+    Raises
+    ------
+    ConfigError
+        ``duration``, ``period`` or ``diverge_at`` not a finite number > 0, a bad ``delay``, a period
+        longer than the duration, or a bad ``q0``.
     """
     for name, v in (("duration", duration), ("period", period), ("diverge_at", diverge_at)):
         check_number(v, name)

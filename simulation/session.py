@@ -42,7 +42,7 @@ class ScenarioResult:
     scenario : Scenario
         The scenario as run (with the overrides applied).
     run : Run
-        The simulated run, up to the stop when it stopped (``t`` [s] ``(n,)``, ``q`` ``(n, m)``, ...).
+        The simulated run, up to the stop when it stopped (``t`` [s] ``(n,)``, ``q`` ``(n, dof)``, ...).
     outcome : str
         ``"completed"``, ``"singularity"`` or ``"collision"``.
     exit_status : int
@@ -288,7 +288,38 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
                                                                     str, Any]:
     """Simulate ``scenario`` into the log ``out`` (and the live view); the log is closed with the outcome.
 
-    Parameters are those of :func:`run_scenario`; ``say`` gets the live view's address line.
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (with its overrides).
+    ctrl : CoordinatingController
+        Its controller.
+    out : Path
+        The MCAP log (see :func:`checked_log_path`).
+    overwrite : bool
+        Replace an existing ``out``.
+    backend : {"auto", "compiled", "interpreted"}
+        How the law runs.
+    log_rate, cond_rate : float or None
+        Log samples and condition number samples per simulated second [Hz] (None: the defaults).
+    compression : str
+        Chunk compression of the log (zstd, lz4, none).
+    live : bool
+        Serve the run to Foxglove too.
+    port : int
+        Port of the live view (0 = any).
+    live_speed : float
+        Simulated seconds per wall-clock second on the live view [-].
+    live_wait : bool
+        Start once a live client subscribed.
+    allow_contact : bool
+        Record contacts instead of stopping.
+    progress : bool
+        Show a progress bar on standard error.
+    say : callable
+        Gets the live view's address line.
+    on_warning : callable
+        Gets each warning of building or loading the law.
 
     Returns
     -------
@@ -300,6 +331,17 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         The backend that ran.
     compiled : CompiledController or None
         The compiled law, with the compiled backend.
+
+    Raises
+    ------
+    ConfigError
+        A bad option, or a live port in use.
+    LogError
+        The log cannot be written.
+    BuildError
+        ``backend="compiled"`` and the law cannot be built.
+    Interrupted
+        Ctrl-C or SIGTERM (the log is closed with outcome ``interrupted``).
     """
     from coordarm.simulation.limits import GainStepWarning, check_gain_step
     from coordarm.simulation.live import LiveView

@@ -26,7 +26,24 @@ if TYPE_CHECKING:
 
 def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
                     thresholds: dict[str, float]) -> tuple[int, str, int | None, float] | None:
-    """First row whose margins are below threshold or not finite: ``(row, kind, link, margin)``."""
+    """First row whose margins are below threshold or not finite: ``(row, kind, link, margin)``.
+
+    Parameters
+    ----------
+    link_margins : (n, m-1) ndarray
+        Link margins of links 2..m at each row [-].
+    longitudinal : (n,) ndarray
+        Longitudinal margin at each row [-].
+    thresholds : dict
+        ``{"link": .., "longitudinal": ..}`` margin thresholds [-].
+
+    Returns
+    -------
+    tuple or None
+        ``(row, kind, link, margin)``: the first offending row, ``"link"`` (checked first) or
+        ``"longitudinal"``, the link number (2..m; None for the longitudinal margin) and its margin
+        [-]; None when every row is above both thresholds.
+    """
     lm_min = np.min(link_margins, axis=1)
     bad = ~(lm_min >= thresholds["link"]) | ~(longitudinal >= thresholds["longitudinal"])
     if not bad.any():
@@ -39,7 +56,21 @@ def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
 
 
 def tube_exit(e: np.ndarray, radius: float) -> tuple[int, int, float] | None:
-    """First row where a deviation ``|e^j|`` reaches the tube radius: ``(row, link, |e|)``, else None."""
+    """First row where a deviation ``|e^j|`` reaches the tube radius: ``(row, link, |e|)``, else None.
+
+    Parameters
+    ----------
+    e : (n, m-1) ndarray
+        Deviations of the central points of links 2..m from the curve at each row [m].
+    radius : float
+        Tube radius of the path [m] (inf: no tube, never left).
+
+    Returns
+    -------
+    tuple or None
+        ``(row, link, |e|)``: the first row where some ``|e^j| >= radius`` (or is not a number), the
+        first such link (2..m) and its ``|e^j|`` [m]; None when there is none.
+    """
     if not np.isfinite(radius):
         return None
     bad = ~(np.abs(e) < radius)

@@ -5,8 +5,6 @@ is returned (RT01). A class's ``__init__`` parameters are documented in the clas
 convention); dataclasses document their fields as Attributes."""
 import dataclasses
 import enum
-import fnmatch
-import functools
 import importlib
 import inspect
 import pkgutil
@@ -14,25 +12,11 @@ import pkgutil
 from numpydoc.docscrape import ClassDoc
 from numpydoc.validate import validate
 
-import coordarm
-
 # The top-level folders symbolic/, generated/, simulation/, analysis/ install as sub-packages of `coordarm`
 # through package-dir, so they are not under `coordarm.__path__`: each is walked from its own __path__.
 PACKAGES = ["coordarm", "coordarm.symbolic", "coordarm.generated", "coordarm.simulation", "coordarm.analysis"]
 
 CHECKS = {"GL08", "PR01", "PR02", "PR04", "RT01"}
-
-# TEMPORARY (issue 21): modules still being restructured on other branches during the docstring second
-# pass (and any module those branches add); the test checks in them only what it checked before (the
-# facade, ``coordarm.__all__``, with the checks of FACADE_CHECKS). After the merge, document them, then
-# delete this list, FACADE_CHECKS and their uses below.
-FACADE_CHECKS = {"GL08", "PR01", "PR02", "RT01"}
-PENDING_MODULES = [
-    "coordarm", "coordarm.cli", "coordarm.commands", "coordarm.commands.*",
-    "coordarm.simulation.run", "coordarm.simulation.sampled",
-    "coordarm.analysis.baselines", "coordarm.analysis.follow_leader",
-]
-
 
 def unimportable(name):
     """walk_packages ignores a sub-package that fails to import; here that fails the test."""
@@ -48,10 +32,6 @@ def public_modules():
     for name in sorted(names):
         if not any(part.startswith("_") for part in name.split(".")):
             yield importlib.import_module(name)
-
-
-def is_pending(module_name):
-    return any(fnmatch.fnmatchcase(module_name, pattern) for pattern in PENDING_MODULES)
 
 
 def routine(value):
@@ -100,22 +80,6 @@ def numpydoc_errors(path, obj, checks):
     return errors
 
 
-@functools.cache
-def facade_paths():
-    """What this test checked before it walked every module: the functions and classes of
-    ``coordarm.__all__`` and the plain public methods of those classes."""
-    paths = set()
-    for name in coordarm.__all__:
-        obj = getattr(coordarm, name)
-        if inspect.isclass(obj) or inspect.isfunction(obj):
-            path = f"{obj.__module__}.{obj.__qualname__}"
-            paths.add(path)
-            if inspect.isclass(obj):
-                paths.update(f"{path}.{member}" for member, value in vars(obj).items()
-                             if not member.startswith("_") and inspect.isfunction(value))
-    return paths
-
-
 def test_every_public_module_is_walked():
     names = {module.__name__ for module in public_modules()}
     assert {"coordarm.cli", "coordarm.commands.run", "coordarm.symbolic.chain", "coordarm.generated.path_search",
@@ -126,12 +90,7 @@ def test_every_public_module_is_walked():
 def test_every_public_function_class_and_method_has_numpydoc_parameters():
     offenders = []
     for module_name, path, obj in targets():
-        checks = CHECKS
-        if is_pending(module_name):
-            if path not in facade_paths():
-                continue
-            checks = FACADE_CHECKS
-        errors = numpydoc_errors(path, obj, checks)
+        errors = numpydoc_errors(path, obj, CHECKS)
         if errors:
             qualname = path[len(module_name) + 1:]
             offenders.append(f"{module_name}:{qualname}\n    " + "\n    ".join(errors))

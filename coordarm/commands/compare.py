@@ -10,7 +10,13 @@ from coordarm.simulation.choices import presets
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``compare`` sub-command."""
+    """Add the ``compare`` sub-command.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parsers of the ``coordarm`` parser; the added parser sets ``func`` to :func:`main`.
+    """
     p = sub.add_parser("compare", help="run a scenario under coordinating control and the baselines, score them",
                        description=f"Run a scenario (a preset: {', '.join(presets())}, or a TOML file) under "
                                    "coordarm's coordinating law and the classic baselines (pinv: end-point "
@@ -29,7 +35,27 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Compare the methods on ``args.scenario``; return 0."""
+    """Compare the methods on ``args.scenario``; return 0.
+
+    Prints the table and writes ``compare.md``, ``compare.json`` and ``compare.png`` to ``--out``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of the ``compare`` sub-command.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    ConfigError
+        A bad scenario, override or ``--methods`` list.
+    BuildError
+        ``--backend compiled`` and a method cannot be built.
+    """
     from coordarm.analysis.compare import compare, parse_methods, text_table, write_outputs
     from coordarm.simulation.scenario import load_scenario
 

@@ -8,7 +8,13 @@ from coordarm.simulation.choices import presets
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``export`` sub-command."""
+    """Add the ``export`` sub-command.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parsers of the ``coordarm`` parser; the added parser sets ``func`` to :func:`main`.
+    """
     p = sub.add_parser("export", help="write a scenario's law as standalone C",
                        description="Write the coordinating law of a scenario (a preset: "
                                    f"{', '.join(presets())}, or a TOML file) as plain C that needs nothing of "
@@ -23,7 +29,25 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Export the law of the scenario named in ``args``; return 0."""
+    """Export the law of the scenario named in ``args``; return 0.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of the ``export`` sub-command.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    ConfigError
+        A bad scenario or override.
+    BuildError
+        A non-diagonal ``B``, or the output directory cannot be written.
+    """
     from coordarm.generated.export import export_law
     from coordarm.simulation.scenario import load_scenario
     scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step)

@@ -9,12 +9,24 @@ from coordarm.symbolic import ConfigError
 
 
 def layout_path() -> Path:
-    """Path of the Foxglove layout shipped with coordarm (3D top view of ``/scene`` and four plots)."""
+    """Path of the Foxglove layout shipped with coordarm (3D top view of ``/scene`` and four plots).
+
+    Returns
+    -------
+    Path
+        ``coordarm/data/foxglove_layout.json`` in the installed package.
+    """
     return Path(str(resources.files("coordarm") / "data" / "foxglove_layout.json"))
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``layout`` sub-command."""
+    """Add the ``layout`` sub-command.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parsers of the ``coordarm`` parser; the added parser sets ``func`` to :func:`main`.
+    """
     p = sub.add_parser("layout", help="print the path of the Foxglove layout, or write a copy of it",
                        description="The Foxglove layout for coordarm logs and the live view: a 3D panel (top "
                                    "view of frame world with /scene) and plots of max|e|, s and its target, the "
@@ -26,6 +38,16 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Print the layout's path (or write it to ``args.out`` and print that); return 0.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of the ``layout`` sub-command.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
 
     Raises
     ------

@@ -10,7 +10,13 @@ from coordarm.symbolic.laws import LAWS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``regen`` sub-command."""
+    """Add the ``regen`` sub-command.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parsers of the ``coordarm`` parser; the added parser sets ``func`` to :func:`main`.
+    """
     p = sub.add_parser("regen", help="regenerate and recompile the C controller of scenarios",
                        description="Generate the C code of each scenario's control law, RK4 step and chunk "
                                    "loop, compile it and store it in the build cache (default: every preset). "
@@ -26,7 +32,28 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Regenerate and recompile the libraries of ``args.scenarios``; print where each went; return 0."""
+    """Regenerate and recompile the libraries of ``args.scenarios``; print where each went; return 0.
+
+    With ``--print-cache-dir``, print the build cache directory only. Every scenario is loaded (and
+    checked) before anything is removed or built.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of the ``regen`` sub-command.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    ConfigError
+        A bad scenario or override.
+    BuildError
+        A library cannot be built.
+    """
     from coordarm.generated.build import build, build_root, clean
     from coordarm.generated.codegen import generate_source
     from coordarm.simulation.scenario import load_scenario

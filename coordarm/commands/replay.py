@@ -10,7 +10,13 @@ from coordarm.commands.run import stage_list
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``replay`` sub-command."""
+    """Add the ``replay`` sub-command.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parsers of the ``coordarm`` parser; the added parser sets ``func`` to :func:`main`.
+    """
     p = sub.add_parser("replay", help="re-draw figures and an animation from a run log",
                        description="Read an MCAP run log (also one left by a killed run), print its summary, "
                                    "and write the stage and tracking figures and a GIF animation.")
@@ -28,10 +34,21 @@ def main(args: argparse.Namespace) -> int:
     """Replay the log named in ``args`` (:func:`~coordarm.analysis.replay_outputs.replay_log`): summary, figures,
     animation; returns 0.
 
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of the ``replay`` sub-command.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
     Raises
     ------
     LogError
-        The log cannot be read (named, with what could be recovered), or ``--out`` is a file.
+        The log cannot be read (named, with what could be recovered), ``--out`` is a file, or a
+        file cannot be written.
     ConfigError
         ``--fps`` outside :data:`FPS_RANGE`.
     """

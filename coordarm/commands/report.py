@@ -9,7 +9,13 @@ from coordarm.analysis.report_outputs import SAMPLES_RANGE
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``report`` sub-command."""
+    """Add the ``report`` sub-command.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parsers of the ``coordarm`` parser; the added parser sets ``func`` to :func:`main`.
+    """
     p = sub.add_parser("report", help="singularity/condition report of a log (.mcap) or a scenario",
                        description="Write a Markdown report with PNG plots of every singularity margin over a "
                                    "run: a log (LOG.mcap) or a scenario (preset or TOML), simulated first without "
@@ -28,7 +34,24 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Write the report for ``args.source`` (:func:`~coordarm.analysis.report_outputs.report_of`); print where
-    it went; return 0."""
+    it went; return 0.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of the ``report`` sub-command.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    ConfigError, LogError
+        As :func:`~coordarm.analysis.report_outputs.report_of` raises them (a bad source, option or
+        ``--samples``, an unreadable log, an unwritable output).
+    """
     from coordarm.analysis.report_outputs import report_of
 
     result = report_of(args.source, args.out, links=args.links, duration=args.duration, samples=args.samples,

@@ -11,7 +11,13 @@ from coordarm.symbolic.laws import LAWS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``run`` sub-command."""
+    """Add the ``run`` sub-command.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parsers of the ``coordarm`` parser; the added parser sets ``func`` to :func:`main`.
+    """
     p = sub.add_parser("run", help="simulate a scenario (preset or TOML file)",
                        description=f"Simulate a scenario: a preset ({', '.join(presets())}) or a TOML file. "
                                    "Prints a summary and writes the log and PNG figures next to it.")
@@ -59,7 +65,23 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def stage_list(text: str) -> list[float]:
-    """``"0,4,8,12"`` -> ``[0.0, 4.0, 8.0, 12.0]`` (argparse type of ``--stages``: finite times >= 0, sorted)."""
+    """``"0,4,8,12"`` -> ``[0.0, 4.0, 8.0, 12.0]`` (argparse type of ``--stages``: finite times >= 0, sorted).
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated times [s].
+
+    Returns
+    -------
+    list of float
+        The times [s], sorted.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        A value that is not a number, not finite or negative.
+    """
     try:
         times = [float(v) for v in text.split(",")]
     except ValueError:
@@ -75,6 +97,21 @@ def main(args: argparse.Namespace) -> int:
     The lines of :func:`~coordarm.simulation.session.run_scenario` are printed as they come
     (the live view's address before the run, the summary before the figures are drawn); its
     warnings and the reason of a stop go to standard error.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of the ``run`` sub-command.
+
+    Returns
+    -------
+    int
+        The exit status: 0 completed, 3 singularity, 4 collision.
+
+    Raises
+    ------
+    ConfigError, LogError, BuildError, Interrupted
+        As :func:`~coordarm.simulation.session.run_scenario` raises them.
     """
     from coordarm.simulation.session import run_scenario
 
@@ -90,10 +127,22 @@ def main(args: argparse.Namespace) -> int:
 
 
 def echo(line: str) -> None:
-    """Print a line of the run on standard output at once (a live client waits for the address)."""
+    """Print a line of the run on standard output at once (a live client waits for the address).
+
+    Parameters
+    ----------
+    line : str
+        A line of the run (``echo`` of :func:`~coordarm.simulation.session.run_scenario`).
+    """
     print(line, flush=True)
 
 
 def warn(warning: Warning) -> None:
-    """Print a warning of building or loading the law on standard error."""
+    """Print a warning of building or loading the law on standard error.
+
+    Parameters
+    ----------
+    warning : Warning
+        The warning (``on_warning`` of :func:`~coordarm.simulation.session.run_scenario`).
+    """
     print(f"coordarm run: warning: {warning}", file=sys.stderr)

@@ -9,7 +9,13 @@ from coordarm.symbolic.errors import ConfigError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``sweep`` sub-command."""
+    """Add the ``sweep`` sub-command.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The sub-parsers of the ``coordarm`` parser; the added parser sets ``func`` to :func:`main`.
+    """
     p = sub.add_parser("sweep", help="run a scenario over a grid of parameters (Dask: all cores or a cluster)",
                        description=f"Run a scenario (a preset: {', '.join(presets())}, or a TOML file) at every "
                                    "point of a parameter grid, on a local Dask cluster (one worker process per "
@@ -34,7 +40,26 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Run the sweep; 0 when every point has a row (whatever its outcome), 130 on Ctrl-C (rows kept)."""
+    """Run the sweep, print the outcome counts and where the results and figures went.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of the ``sweep`` sub-command.
+
+    Returns
+    -------
+    int
+        The exit status: 0 once every point has a row, whatever its outcome.
+
+    Raises
+    ------
+    ConfigError
+        A ``--vary`` name given twice, ``--workers`` or ``--batch`` < 1, or what
+        :func:`~coordarm.simulation.sweep.sweep` refuses before any work.
+    KeyboardInterrupt
+        Ctrl-C (every finished row is written first; ``coordarm`` then exits with 130).
+    """
     from coordarm.simulation.sweep import RESULTS, RESULTS_CSV, as_scenario, sweep
     from coordarm.simulation.sweep_points import OUTCOMES, parse_vary
 
