@@ -296,14 +296,16 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         Its controller.
     out : Path
         The MCAP log (see :func:`checked_log_path`).
-    overwrite : bool
-        Replace an existing ``out``.
+    overwrite, allow_contact, progress : bool
+        As for :func:`logged_run`.
     backend : {"auto", "compiled", "interpreted"}
         How the law runs.
     log_rate, cond_rate : float or None
-        Log samples and condition number samples per simulated second [Hz] (None: the defaults).
+        As for :func:`logged_run` [Hz].
     compression : str
-        Chunk compression of the log (zstd, lz4, none).
+        As for :func:`logged_run`.
+    on_warning : callable
+        As for :func:`logged_run`.
     live : bool
         Serve the run to Foxglove too.
     port : int
@@ -312,14 +314,8 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         Simulated seconds per wall-clock second on the live view [-].
     live_wait : bool
         Start once a live client subscribed.
-    allow_contact : bool
-        Record contacts instead of stopping.
-    progress : bool
-        Show a progress bar on standard error.
     say : callable
         Gets the live view's address line.
-    on_warning : callable
-        Gets each warning of building or loading the law.
 
     Returns
     -------
@@ -336,6 +332,69 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
     ------
     ConfigError
         A bad option, or a live port in use.
+    LogError, BuildError, Interrupted
+        As for :func:`logged_run`.
+    """
+    from coordarm.simulation.live import LiveView
+
+    with ExitStack() as stack:
+        view = None
+        if live:
+            view = stack.enter_context(LiveView(scenario, ctrl, port=port, speed=live_speed))
+            say(f"live          {view.url} (Foxglove: Open connection, Foxglove WebSocket)")
+            if live_wait:
+                view.wait_for_client()
+        holder: dict[str, Any] = {"backend": backend, "compiled": None}
+        try:
+            run = logged_run(scenario, ctrl, out, view, holder, overwrite=overwrite, log_rate=log_rate,
+                             cond_rate=cond_rate, compression=compression, allow_contact=allow_contact,
+                             progress=progress, on_warning=on_warning)
+            stopped = None
+        except (SingularityError, CollisionError) as err:
+            run, stopped = err.run, err
+    return run, stopped, holder["backend"], holder["compiled"]
+
+
+def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view: Any, holder: dict[str, Any], *,
+               overwrite: bool, log_rate: float | None, cond_rate: float | None, compression: str,
+               allow_contact: bool, progress: bool, on_warning: Callable[[Warning], None]) -> Run:
+    """Build or load the law and simulate ``scenario`` into the log ``out``, closed with the outcome.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (with its overrides).
+    ctrl : CoordinatingController
+        Its controller.
+    out : Path
+        The MCAP log (see :func:`checked_log_path`).
+    view : LiveView or None
+        The live view that also gets every chunk.
+    holder : dict
+        ``{"backend": requested}`` in; ``backend`` (the one that ran) and ``compiled`` (the compiled
+        law or None) are set in it as soon as known, so they survive a stop.
+    overwrite : bool
+        Replace an existing ``out``.
+    log_rate, cond_rate : float or None
+        Log samples and condition number samples per simulated second [Hz] (None: the defaults).
+    compression : str
+        Chunk compression of the log (zstd, lz4, none).
+    allow_contact : bool
+        Record contacts instead of stopping.
+    progress : bool
+        Show a progress bar on standard error.
+    on_warning : callable
+        Gets each warning of building or loading the law.
+
+    Returns
+    -------
+    Run
+        The completed run.
+
+    Raises
+    ------
+    SingularityError, CollisionError
+        The run stopped (the error holds the run so far).
     LogError
         The log cannot be written.
     BuildError
@@ -344,45 +403,33 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         Ctrl-C or SIGTERM (the log is closed with outcome ``interrupted``).
     """
     from coordarm.simulation.limits import GainStepWarning, check_gain_step
-    from coordarm.simulation.live import LiveView
     from coordarm.simulation.mcap_writer import RunLogger
     from coordarm.simulation.run import CHECK_RATE, BackendFallbackWarning, select_backend, simulate
 
-    stopped: SingularityError | CollisionError | None = None
-    compiled = None
-    with ExitStack() as stack:
-        view = None
-        if live:
-            view = stack.enter_context(LiveView(scenario, ctrl, port=port, speed=live_speed))
-            say(f"live          {view.url} (Foxglove: Open connection, Foxglove WebSocket)")
-            if live_wait:
-                view.wait_for_client()
-        try:
-            # The log is closed with its outcome however the run ends (singularity, collision, error, Ctrl-C).
-            # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
-            with RunLogger(out, scenario, ctrl, log_rate=log_rate, cond_rate=cond_rate,
-                           compression=compression, overwrite=overwrite,
-                           threaded=(os.cpu_count() or 1) > 1) as logger:
-                q0 = scenario.start(ctrl)
-                with warnings.catch_warnings(record=True) as caught:   # builds or loads the library
-                    warnings.simplefilter("always", BackendFallbackWarning)
-                    check_gain_step(ctrl.gain, scenario.step)
-                    backend, compiled, _ = select_backend(ctrl, backend)
-                for w in caught:
-                    on_warning(w.message)
-                logger.set_backend(backend, compiled.library.key if compiled else None)
-                on_chunk = logger.on_chunk if view is None else both(logger.on_chunk, view.on_chunk)
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore", GainStepWarning)   # said above already
-                    run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
-                                   thresholds=scenario.thresholds, progress=progress, on_chunk=on_chunk,
-                                   physical=scenario.physical(ctrl.chain),
-                                   check_every=max(logger.every, round(1.0 / (CHECK_RATE * scenario.step))),
-                                   allow_contact=allow_contact)
-                logger.contacts = run.info["contacts"]
-        except (SingularityError, CollisionError) as err:
-            run, stopped = err.run, err
-    return run, stopped, backend, compiled
+    # The log is closed with its outcome however the run ends (singularity, collision, error, Ctrl-C).
+    # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
+    with RunLogger(out, scenario, ctrl, log_rate=log_rate, cond_rate=cond_rate,
+                   compression=compression, overwrite=overwrite,
+                   threaded=(os.cpu_count() or 1) > 1) as logger:
+        q0 = scenario.start(ctrl)
+        with warnings.catch_warnings(record=True) as caught:   # builds or loads the library
+            warnings.simplefilter("always", BackendFallbackWarning)
+            check_gain_step(ctrl.gain, scenario.step)
+            backend, compiled, _ = select_backend(ctrl, holder["backend"])
+        holder.update(backend=backend, compiled=compiled)
+        for w in caught:
+            on_warning(w.message)
+        logger.set_backend(backend, compiled.library.key if compiled else None)
+        on_chunk = logger.on_chunk if view is None else both(logger.on_chunk, view.on_chunk)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", GainStepWarning)   # said above already
+            run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
+                           thresholds=scenario.thresholds, progress=progress, on_chunk=on_chunk,
+                           physical=scenario.physical(ctrl.chain),
+                           check_every=max(logger.every, round(1.0 / (CHECK_RATE * scenario.step))),
+                           allow_contact=allow_contact)
+        logger.contacts = run.info["contacts"]
+    return run
 
 
 def both(first: Callable[[Run], None], second: Callable[[Run], None]) -> Callable[[Run], None]:
