@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from coordarm.symbolic import ConfigError, motion_from_spec
 from coordarm.symbolic.chain import DEFAULT_JOINT_LIMIT
 from coordarm.symbolic.curve3d_specs import curve3d_from_spec
@@ -177,8 +179,8 @@ def spatial_start(st: dict) -> dict:
         raise ConfigError(f"start.kind: a universal chain starts as one of {SPATIAL_START_KINDS}, "
                           f"got {shown(st['kind'])}")
     for key in ("axis", "fold"):
-        if key in st:
-            unit_vector(st[key], f"start.{key}")
+        if key in st and not abs(np.linalg.norm(unit_vector(st[key], f"start.{key}")) - 1) < 1e-9:
+            raise ConfigError(f"start.{key}: too large or too small to normalise, got {shown(st[key])}")
     if "roll" in st:
         check_number(st["roll"], "start.roll", positive=False)
     return {k: st.get(k) for k in ("axis", "fold", "roll")}
