@@ -5,7 +5,8 @@ field by field, and returns a :class:`ScenarioConfig`; every error is a ConfigEr
 field (``chain.links``, ``control.speed``, ...). A table keeps its values as the file wrote them
 (an integer gain stays an integer), so :meth:`ScenarioConfig.to_dict` gives back the validated
 scenario, defaults filled in, exactly as a log stores it. The layout is described in
-:mod:`coordarm.simulation.scenario`.
+:mod:`coordarm.simulation.scenario`; the keys of a spatial chain (``[chain] joints = "universal"``)
+are checked by :mod:`coordarm.simulation.spatial_tables`.
 """
 from __future__ import annotations
 
@@ -351,14 +352,15 @@ class ScenarioConfig:
         As written ("" when left out).
     chain : ChainTable
     curve : dict
-        ``[curve]`` as written (its kinds and parameters: :func:`coordarm.symbolic.curve_from_spec`).
+        ``[curve]`` as written (its kinds and parameters: :func:`coordarm.symbolic.curve_from_spec`;
+        for a universal chain :func:`coordarm.symbolic.curve3d_specs.curve3d_from_spec`).
     control : ControlTable
     start : StartTable
     run : RunTable
     thresholds : Thresholds
     obstacles : tuple of Obstacle
     figures : FiguresTable
-    curve_object : Curve or None
+    curve_object : Curve or SpatialCurve or None
         ``curve`` built (once, when read); None for a user-defined curve.
     """
 
