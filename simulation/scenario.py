@@ -8,7 +8,8 @@ Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
     name = "line"
     description = "..."
     [chain]     links = 64, link_length = 0.1, joint_limit = 2.8 (or a list of m-1 [rad]),
-                clearance = 0.0 [m], base = "fixed" | {kind = "rail", angle = 0.0, limits = [0, 5]}
+                clearance = 0.0 [m], base = "fixed" | {kind = "rail", angle = 0.0, limits = [0, 5]},
+                joints = "revolute" | "universal"
     [curve]     kind = "line" | "circle" | "arc" | "path" | "waypoints", with its parameters
                 (path: start, heading, segments = [{line = L}, {arc = A, radius = R}, ...];
                 waypoints: points, radius; both: offset, rotation optional)
@@ -24,6 +25,16 @@ Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
                 (disc), or points = [[x, y], ...] (closed polygon); name = "..." optional
     [figures]   stages = [0, 4, 8, 12]         (times of the stage figure [s]), or
                 panels = [{title = "(a) ...", stages = [0, 2.5, 5]}, ...]  (one labelled panel each)
+
+A spatial chain (``[chain] joints = "universal"``: two angles per joint, q = (a_1, b_1, ...)) reads
+``joint_limit`` as the bend limit (default 2.8 rad, as planar) between consecutive links and takes::
+
+    [curve]     kind = "line": point = [x, y, z] (motions), direction, normal, rotation = {axis, angle}
+                kind = "arc" | "circle": centre, radius, normal; kind = "path": start, direction,
+                normal, segments = [{line = L}, {arc = A, radius = R, bank = b}]; kind = "waypoints"
+    [control]   roll = motion [rad] (default: held at the start's roll); no span, governor, damping
+    [start]     kind = "zigzag" | "follow", beta, axis = [x, y, z] (default: the curve's tangent at
+                the base), fold = [x, y, z] (default: its n_1), roll = 0.0 [rad]
 """
 from __future__ import annotations
 
@@ -37,14 +48,15 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import (ConfigError, CoordinatingController, Curve, PlanarChain, follow_curve,
-                               project_onto_curve)
+from coordarm.symbolic import (ConfigError, CoordinatingController, Curve, PlanarChain, SpatialChain,
+                               SpatialController, follow_curve, project_onto_curve)
 from coordarm.symbolic.start import check_start
 
 from .choices import presets
 from .obstacles import Obstacle
 from .physical import Physical
 from .scenario_tables import USER_DEFINED, ScenarioConfig, check_stages, parse_scenario
+from .spatial_scenario import BendLimits, spatial_controller, spatial_start
 
 
 @dataclass(frozen=True)
@@ -204,58 +216,69 @@ class Scenario:
         st = self.config.figures.stages
         return None if st is None else check_stages(st)
 
-    def chain(self) -> PlanarChain:
+    @property
+    def universal(self) -> bool:
+        """Whether the chain has universal joints (``[chain] joints = "universal"``: a spatial chain)."""
+        return self.config.chain.universal
+
+    def chain(self) -> PlanarChain | SpatialChain:
         """The manipulator this scenario describes (joint limits, clearance, base: fixed or rail).
 
         Returns
         -------
-        PlanarChain
-            A new chain, built from the ``[chain]`` table.
+        PlanarChain or SpatialChain
+            A new chain, built from the ``[chain]`` table (a SpatialChain for universal joints).
         """
         return self.config.chain.build()
 
-    def physical(self, chain: PlanarChain | None = None) -> Physical:
+    def physical(self, chain: PlanarChain | SpatialChain | None = None) -> Physical | BendLimits:
         """What a run checks: the chain's joint limits and clearance, and the obstacles.
 
         Parameters
         ----------
-        chain : PlanarChain, optional
+        chain : PlanarChain or SpatialChain, optional
             The scenario's chain, when the caller has it (built otherwise).
 
         Returns
         -------
-        Physical
-            The checks of a run.
+        Physical or BendLimits
+            The checks of a run (a universal chain's: the bend limit of every joint only).
         """
+        if self.universal:
+            return BendLimits(chain or self.chain(), self.config.chain.bend_limit)
         return Physical(chain or self.chain(), self.obstacles)
 
-    def controller(self) -> CoordinatingController:
+    def controller(self) -> CoordinatingController | SpatialController:
         """The coordinating controller this scenario describes.
 
         Returns
         -------
-        CoordinatingController
-            A new controller; its ``governor_threshold`` is the longitudinal stop threshold.
+        CoordinatingController or SpatialController
+            A new controller; its ``governor_threshold`` is the longitudinal stop threshold
+            (a universal chain's: a SpatialController, roll held at the start's unless commanded).
         """
         c = self.config.control
         curve = self.curve if self.curve is not None else self.config.curve_object
+        if self.universal:
+            return spatial_controller(self.config, curve)
         return CoordinatingController(self.chain(), curve, float(c.gain), c.speed_motion, law=c.law,
                                       span=c.span_motion, governor=c.governor,
                                       governor_threshold=float(self.config.thresholds.longitudinal),
                                       damping=c.damping)
 
-    def start(self, ctrl: CoordinatingController | None = None) -> np.ndarray:
+    def start(self, ctrl: CoordinatingController | SpatialController | None = None) -> np.ndarray:
         """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked).
 
         Parameters
         ----------
-        ctrl : CoordinatingController, optional
+        ctrl : CoordinatingController or SpatialController, optional
             The scenario's controller, when the caller has it (built otherwise).
 
         Returns
         -------
         ndarray, shape (dof,)
-            Joint coordinates [rad] (``d`` [m] first on a rail).
+            Joint coordinates [rad] (``d`` [m] first on a rail; ``(a_1, b_1, ..., a_m, b_m)`` for
+            universal joints).
 
         Raises
         ------
@@ -265,6 +288,8 @@ class Scenario:
         """
         st = self.config.start
         ctrl = ctrl or self.controller()
+        if self.universal:
+            return spatial_start(self.config, ctrl.chain, ctrl.curve)
         d0 = max(ctrl.chain.rail_limits[0], 0.0) if ctrl.chain.rail else 0.0
         if st.kind == "follow":
             q = follow_curve(ctrl, float(st.beta), self.t0, d=d0)

@@ -5,7 +5,8 @@ field by field, and returns a :class:`ScenarioConfig`; every error is a ConfigEr
 field (``chain.links``, ``control.speed``, ...). A table keeps its values as the file wrote them
 (an integer gain stays an integer), so :meth:`ScenarioConfig.to_dict` gives back the validated
 scenario, defaults filled in, exactly as a log stores it. The layout is described in
-:mod:`coordarm.simulation.scenario`.
+:mod:`coordarm.simulation.scenario`; the keys of a spatial chain (``[chain] joints = "universal"``)
+are checked by :mod:`coordarm.simulation.spatial_tables`.
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from coordarm.symbolic import ConfigError, Curve, PlanarChain, curve_from_spec, motion_from_spec
+from coordarm.symbolic import ConfigError, Curve, PlanarChain, SpatialChain, curve_from_spec, motion_from_spec
 from coordarm.symbolic.checks import is_integer, is_real
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
@@ -23,12 +24,15 @@ from coordarm.symbolic.laws import LAWS, Law
 from .limits import check_bounds, check_gain_step
 from .obstacles import Obstacle, obstacles_from_spec
 from .run import DEFAULT_THRESHOLDS, check_number
+from .spatial_tables import (BEND_LIMIT, check_curve_kind, check_joints, check_kind_keys, roll_motion, spatial_curve,
+                             spatial_start)
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
             "obstacles", "figures"}
-KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base"}, "figures": {"stages", "panels"},
-        "control": {"gain", "speed", "law", "span", "governor", "damping"},
-        "start": {"kind", "beta", "heading", "curve"}, "run": {"duration", "step", "t0"},
+KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base", "joints"},
+        "figures": {"stages", "panels"},
+        "control": {"gain", "speed", "law", "span", "governor", "damping", "roll"},
+        "start": {"kind", "beta", "heading", "curve", "axis", "fold", "roll"}, "run": {"duration", "step", "t0"},
         "thresholds": {"link", "longitudinal"}}
 START_KINDS = ("zigzag", "projected", "follow")
 #: ``[curve] kind`` of a scenario whose curve is a Python object (recorded in logs by class name).
@@ -87,6 +91,9 @@ class ChainTable:
     base_args : dict
         ``base`` as :class:`PlanarChain` keyword arguments (``base``, ``rail_angle`` [rad],
         ``rail_limits`` [m]), checked when read.
+    joints : str
+        ``"revolute"`` (a planar chain) or ``"universal"`` (a spatial chain, two angles per joint;
+        its ``joint_limit`` bounds the bend ``acos(d_{j-1} . d_j)`` between consecutive links).
     """
 
     links: int
@@ -95,20 +102,33 @@ class ChainTable:
     clearance: float | None = None
     base: str | dict | None = None
     base_args: dict = field(default_factory=lambda: {"base": "fixed"}, compare=False, repr=False)
+    joints: str = "revolute"
+
+    @property
+    def universal(self) -> bool:
+        """Whether the joints are universal (a spatial chain)."""
+        return self.joints == "universal"
+
+    @property
+    def bend_limit(self) -> float | list[float]:
+        """Bend limit [rad] of a universal chain's joints 2..m (``joint_limit``, default 2.8 rad as planar)."""
+        return BEND_LIMIT if self.joint_limit is None else self.joint_limit
 
     @property
     def rail(self) -> bool:
         """Whether the base slides on a rail."""
         return self.base_args["base"] == "rail"
 
-    def build(self) -> PlanarChain:
+    def build(self) -> PlanarChain | SpatialChain:
         """The chain this table describes.
 
         Returns
         -------
-        PlanarChain
-            A new chain (clearance 0 when the table leaves it out).
+        PlanarChain or SpatialChain
+            A new chain (clearance 0 when the table leaves it out); a SpatialChain for universal joints.
         """
+        if self.universal:
+            return SpatialChain(self.links, float(self.link_length))
         return PlanarChain(self.links, float(self.link_length), joint_limit=self.joint_limit,
                            clearance=float(self.clearance or 0.0), **self.base_args)
 
@@ -118,10 +138,12 @@ class ChainTable:
         Returns
         -------
         dict
-            ``links``, ``link_length``, and ``joint_limit``, ``clearance``, ``base`` when given.
+            ``links``, ``link_length``, and ``joint_limit``, ``clearance``, ``base`` when given
+            (and ``joints`` for a universal chain only: a planar scenario's stays as it was).
         """
         return {"links": self.links, "link_length": self.link_length,
-                **_present(joint_limit=self.joint_limit, clearance=self.clearance, base=self.base)}
+                **_present(joint_limit=self.joint_limit, clearance=self.clearance, base=self.base,
+                           joints=self.joints if self.universal else None)}
 
 
 @dataclass(frozen=True)
@@ -146,6 +168,10 @@ class ControlTable:
         ``speed`` as a motion of time (built once, when read).
     span_motion : callable or None
         ``span`` as a motion of time.
+    roll : float or list or dict or None
+        Commanded roll [rad] of a universal chain (a motion); None: held at the start's roll.
+    roll_motion : callable or None
+        ``roll`` as a motion of time.
     """
 
     gain: float
@@ -156,6 +182,8 @@ class ControlTable:
     damping: dict | None = None
     speed_motion: Any = field(default=None, compare=False, repr=False)
     span_motion: Any = field(default=None, compare=False, repr=False)
+    roll: Any = None
+    roll_motion: Any = field(default=None, compare=False, repr=False)
 
     def to_dict(self) -> dict:
         """The table as the file writes it (keys left out stay out).
@@ -163,11 +191,11 @@ class ControlTable:
         Returns
         -------
         dict
-            ``gain``, ``law``, ``governor``, and ``speed``, ``span``, ``damping`` when given
+            ``gain``, ``law``, ``governor``, and ``speed``, ``span``, ``damping``, ``roll`` when given
             (as given: numbers or motion specs, not the built motions).
         """
         return {"gain": self.gain, "law": self.law, "governor": self.governor,
-                **_present(speed=self.speed, span=self.span, damping=self.damping)}
+                **_present(speed=self.speed, span=self.span, damping=self.damping, roll=self.roll)}
 
 
 @dataclass(frozen=True)
@@ -180,19 +208,28 @@ class StartTable:
         ``"zigzag"``, ``"projected"`` or ``"follow"``.
     beta : float
         Zig-zag half angle [rad], ``0 < |beta| < pi/2``.
-    heading : float
-        Heading of the zig-zag [rad].
+    heading : float or None
+        Heading of the zig-zag [rad]; None for a universal chain (which has ``axis`` and ``fold``).
     curve : dict or None
         ``projected``: the curve to project onto instead of the scenario's.
     curve_object : Curve or None
         ``curve`` built (once, when read).
+    axis : list of float or None
+        Universal chain: the zig-zag's axis (3,); None: the curve's tangent at the base at t0.
+    fold : list of float or None
+        Universal chain: the fold direction (3,); None: the curve's ``n_1`` there.
+    roll : float or None
+        Universal chain: turn of the fold direction about the axis [rad]; None: 0.
     """
 
     kind: str = "zigzag"
     beta: float = 1.3
-    heading: float = 0.0
+    heading: float | None = 0.0
     curve: dict | None = None
     curve_object: Curve | None = field(default=None, compare=False, repr=False)
+    axis: list[float] | None = None
+    fold: list[float] | None = None
+    roll: float | None = None
 
     def to_dict(self) -> dict:
         """The table as the file writes it (keys left out stay out).
@@ -200,9 +237,11 @@ class StartTable:
         Returns
         -------
         dict
-            ``kind``, ``beta`` [rad], ``heading`` [rad], and ``curve`` (its spec) when given.
+            ``kind``, ``beta`` [rad], ``heading`` [rad] (planar), and ``curve`` (its spec), ``axis``,
+            ``fold``, ``roll`` [rad] when given.
         """
-        return {"kind": self.kind, "beta": self.beta, "heading": self.heading, **_present(curve=self.curve)}
+        return {"kind": self.kind, "beta": self.beta,
+                **_present(heading=self.heading, curve=self.curve, axis=self.axis, fold=self.fold, roll=self.roll)}
 
 
 @dataclass(frozen=True)
@@ -313,14 +352,15 @@ class ScenarioConfig:
         As written ("" when left out).
     chain : ChainTable
     curve : dict
-        ``[curve]`` as written (its kinds and parameters: :func:`coordarm.symbolic.curve_from_spec`).
+        ``[curve]`` as written (its kinds and parameters: :func:`coordarm.symbolic.curve_from_spec`;
+        for a universal chain :func:`coordarm.symbolic.curve3d_specs.curve3d_from_spec`).
     control : ControlTable
     start : StartTable
     run : RunTable
     thresholds : Thresholds
     obstacles : tuple of Obstacle
     figures : FiguresTable
-    curve_object : Curve or None
+    curve_object : Curve or SpatialCurve or None
         ``curve`` built (once, when read); None for a user-defined curve.
     """
 
@@ -424,7 +464,7 @@ def _chain(ch: dict) -> ChainTable:
             except ConfigError as exc:
                 raise ConfigError(f"chain.{exc}") from None
     return ChainTable(ch["links"], ch["link_length"], ch.get("joint_limit"), ch.get("clearance"), ch.get("base"),
-                      base_args(ch.get("base", "fixed")))
+                      base_args(ch.get("base", "fixed")), check_joints(ch.get("joints", "revolute")))
 
 
 def _span(control: dict, chain: ChainTable) -> Any:
@@ -463,20 +503,28 @@ def _control(c: dict, span_motion: Any) -> ControlTable:
     except ConfigError as exc:
         raise ConfigError(f"control.{exc}") from None
     return ControlTable(c["gain"], c["law"], c["governor"], c.get("speed"), c.get("span"), c.get("damping"),
-                        speed_motion, span_motion)
+                        speed_motion, span_motion, c.get("roll"), roll_motion(c))
 
 
-def _curve(spec: dict, curve: Curve | None) -> Curve | None:
+def _curve(spec: dict, curve: Curve | None, chain: ChainTable) -> Curve | None:
     """``[curve]`` built (None for a user-defined curve, which must then be given as ``curve``)."""
+    if chain.universal:
+        return spatial_curve(spec, curve)
     if spec.get("kind") == USER_DEFINED:
         if not isinstance(curve, Curve):
             raise ConfigError(f"curve: the run used a user-defined curve ({spec.get('class', '?')}), "
                               f"which data cannot describe: pass the curve object in (curve=...)")
         return None
+    check_curve_kind(spec, chain.joints)
     return curve_from_spec(spec, "curve")
 
 
-def _start(st: dict) -> StartTable:
+def _start(st: dict, chain: ChainTable) -> StartTable:
+    if chain.universal:
+        b = check_number(st["beta"], "start.beta", positive=False)
+        if not 0 < abs(b) < math.pi / 2:
+            raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {b}")
+        return StartTable(st["kind"], st["beta"], None, **spatial_start(st))
     if st["kind"] not in START_KINDS:
         raise ConfigError(f"start.kind: expected one of {START_KINDS}, got {shown(st['kind'])}")
     b = check_number(st["beta"], "start.beta", positive=False)
@@ -529,12 +577,13 @@ def parse_scenario(data: Any, curve: Curve | None = None) -> ScenarioConfig:
         The first invalid field, named (``chain.links: ...``); the caller adds the file.
     """
     spec = _tables(data)
+    check_kind_keys(data, check_joints(spec["chain"].get("joints", "revolute")))
     chain = _chain(spec["chain"])
     span_motion = _span(spec["control"], chain)
     figures = _figures(spec["figures"])
     control = _control(spec["control"], span_motion)
-    curve_object = _curve(spec["curve"], curve)
-    start = _start(spec["start"])
+    curve_object = _curve(spec["curve"], curve, chain)
+    start = _start(spec["start"], chain)
     run = _run(spec["run"], chain, control)
     thresholds = _thresholds(spec["thresholds"], control)
     obstacles = tuple(obstacles_from_spec(spec.setdefault("obstacles", [])))

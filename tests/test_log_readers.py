@@ -26,7 +26,7 @@ def held_span(scenario):
     return Scenario.from_dict(spec, scenario.source)
 
 
-@pytest.fixture(scope="module", params=presets())
+@pytest.fixture(scope="module", params=[p for p in presets() if not load_scenario(p).universal])
 def preset_log(request, tmp_path_factory):
     scenario = held_span(load_scenario(request.param)).with_overrides(links=LINKS, duration=DURATION)
     ctrl = scenario.controller()

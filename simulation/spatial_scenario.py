@@ -1,0 +1,129 @@
+"""The parts of a scenario with a universal chain: its controller, its start and its physical checks.
+
+:class:`~coordarm.simulation.scenario.Scenario` calls these when ``[chain] joints = "universal"``:
+:func:`spatial_start` lays the zig-zag (``[start] kind = "zigzag"`` or ``"follow"``, with ``axis``,
+``fold`` and ``roll``), :func:`spatial_controller` builds the :class:`~coordarm.symbolic.SpatialController`
+(the roll held at the start's when ``[control] roll`` is left out) and :class:`BendLimits` checks the
+bend limit of every joint during a run.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from coordarm.symbolic import SpatialChain, SpatialController
+from coordarm.symbolic.start3d import bend_angles, check_bends, follow_curve3d, zigzag_start
+
+from .physical import Contact
+from .scenario_tables import ScenarioConfig
+
+
+def spatial_start(config: ScenarioConfig, chain: SpatialChain, curve: Any) -> np.ndarray:
+    """The start configuration ``q0`` of a universal chain, checked against the bend limit.
+
+    Parameters
+    ----------
+    config : ScenarioConfig
+        The scenario (``[start]``, ``[run] t0`` and the bend limit ``[chain] joint_limit``).
+    chain : SpatialChain
+        The manipulator.
+    curve : SpatialCurve
+        The goal curve.
+
+    Returns
+    -------
+    ndarray, shape (2 m,)
+        Joint coordinates ``(a_1, b_1, ..., a_m, b_m)`` [rad].
+
+    Raises
+    ------
+    ConfigError
+        A vector out of range, a link that cannot be laid on the curve, or a bend beyond the limit.
+    """
+    st, t0 = config.start, float(config.run.t0)
+    lay = follow_curve3d if st.kind == "follow" else zigzag_start
+    q = lay(chain, curve, float(st.beta), t0, st.axis, st.fold, float(st.roll or 0.0))
+    check_bends(chain, q, config.chain.bend_limit)
+    return q
+
+
+def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:
+    """The spatial coordinating controller of a scenario with ``[chain] joints = "universal"``.
+
+    Parameters
+    ----------
+    config : ScenarioConfig
+        The scenario.
+    curve : SpatialCurve
+        The goal curve.
+
+    Returns
+    -------
+    SpatialController
+        Its roll command is ``[control] roll``, or held at the start's roll at ``[run] t0``.
+
+    Raises
+    ------
+    ConfigError
+        The start cannot be laid (see :func:`spatial_start`).
+    """
+    chain, c = config.chain.build(), config.control
+    q0 = spatial_start(config, chain, curve) if c.roll_motion is None else None
+    return SpatialController(chain, curve, float(c.gain), c.speed_motion, roll=c.roll_motion, law=c.law,
+                             start=q0, t0=float(config.run.t0))
+
+
+@dataclass(frozen=True)
+class BendLimits:
+    """What a run of a universal chain checks: the bend of every joint against its limit.
+
+    Attributes
+    ----------
+    chain : SpatialChain
+        The manipulator.
+    limit : float or list of float
+        Bend limit [rad] of joints 2..m (one, or one per joint).
+    """
+
+    chain: SpatialChain
+    limit: Any
+
+    def check(self, t: np.ndarray, q: np.ndarray) -> list[Contact]:
+        """Every joint bent beyond its limit at the samples ``(t[k], q[k])``, sorted by time.
+
+        Parameters
+        ----------
+        t : ndarray, shape (N,)
+            Times of the samples [s].
+        q : ndarray, shape (N, 2 m)
+            Configurations [rad].
+
+        Returns
+        -------
+        list of Contact
+            ``joint_limit`` contacts (``links`` = the two links the joint joins, ``value`` the bend [rad]).
+        """
+        bends = bend_angles(self.chain, np.asarray(q, float).reshape(len(t), -1))
+        lim = np.broadcast_to(np.asarray(self.limit, float), bends.shape[-1:])
+        k, j = np.nonzero(~(bends <= lim))
+        return [Contact("joint_limit", float(t[a]), (int(b) + 1, int(b) + 2), float(bends[a, b]), float(lim[b]))
+                for a, b in zip(k, j)]
+
+    def clearances(self, q: np.ndarray, t: np.ndarray) -> dict[str, tuple[float, float, int]]:
+        """Per obstacle: none (a universal chain has no obstacles yet).
+
+        Parameters
+        ----------
+        q : ndarray, shape (N, 2 m)
+            Configurations [rad].
+        t : ndarray, shape (N,)
+            Times of the samples [s].
+
+        Returns
+        -------
+        dict
+            Empty.
+        """
+        return {}
