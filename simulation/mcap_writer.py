@@ -45,7 +45,7 @@ from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.task import BUILT_IN_CURVES
 
 from .choices import Backend, Compression
-from .log_layout import partial_path
+from .log_layout import PLANAR, ChainLayout, layout_of_chain, partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
 from .outcome import outcome_of
@@ -184,6 +184,24 @@ def build_info(scenario: Scenario) -> dict[str, str]:
             "python": platform.python_version()}
 
 
+def scene_draws(layout: ChainLayout) -> bool:
+    """Whether the Foxglove scene (:class:`~.scene.SceneBuilder`) draws a chain of this layout.
+
+    The scene draws planar chains; a spatial chain only once the builder says it can
+    (``SceneBuilder.draws_spatial``); until then ``/scene``, ``/tf`` and ``/tracking`` are off for it.
+
+    Parameters
+    ----------
+    layout : ChainLayout
+        The chain kind's layout.
+
+    Returns
+    -------
+    bool
+    """
+    return layout is PLANAR or bool(getattr(SceneBuilder, "draws_spatial", False))
+
+
 class RunLogger:
     """Writes one run to an MCAP file; pass :meth:`on_chunk` to :func:`simulation.run.simulate`.
 
@@ -201,10 +219,12 @@ class RunLogger:
     log_rate : float, optional
         Samples per simulated second on the per-step channels (default: every step).
     scene_rate : float
-        Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off.
+        Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off (so does a chain the
+        scene cannot draw, :func:`scene_draws`).
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz]; 0 switches it off. Default :func:`default_cond_rate`:
-        5 Hz up to 64 links, then falling as ``1/m^2`` (an SVD costs O(m^3), a step O(m)).
+        5 Hz up to 64 links, then falling as ``1/m^2`` (an SVD costs O(m^3), a step O(m)); 0 for a
+        spatial chain (the ``run`` metadata's ``chain_kind`` is ``"universal"``).
     compression : {"zstd", "lz4", "none"}
         Chunk compression (see :class:`~simulation.mcap_file.McapFile`).
     chunk_size : int, optional
@@ -262,21 +282,24 @@ class RunLogger:
               overwrite, threaded) -> None:
         """Check the rates and compression, create the file and its channels."""
         self.ctrl = ctrl or scenario.controller()
-        if type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
+        self.layout = layout_of_chain(self.ctrl.chain)
+        if not scene_draws(self.layout):
+            scene_rate = 0      # no scene of this kind of chain: /scene, /tf and /tracking off
+        if self.layout is PLANAR and type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
             scenario = scenario.with_curve(self.ctrl.curve)      # the log records a user-defined curve
         self.scenario = scenario
         self.step = scenario.step
         self.every = self._decimation(log_rate, "log_rate") if log_rate is not None else 1
         m = self.ctrl.chain.m
         if cond_rate is None:
-            cond_rate = default_cond_rate(m)
+            cond_rate = default_cond_rate(m) if self.layout is PLANAR else 0.0   # spatial: a dense SVD, off
         self.scene_every = self._decimation(scene_rate, "scene_rate") if scene_rate else 0
         self.cond_every = self._decimation(cond_rate, "cond_rate") if cond_rate else 0
         if compression not in COMPRESSIONS:
             raise ConfigError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
         self.flush_interval = float(flush_interval)
         self.path = Path(path)
-        self.channels: dict[str, NumericChannel] = numeric_channels(m, self.ctrl.chain.rail)
+        self.channels: dict[str, NumericChannel] = numeric_channels(m, self.ctrl.chain.rail, self.layout)
         if not overwrite and self.path.exists():
             raise LogError(f"{self.path}: exists; choose another --out or pass --overwrite")
         try:
@@ -309,7 +332,8 @@ class RunLogger:
             "started": datetime.now(timezone.utc).isoformat(timespec="seconds"), "host": socket.gethostname(),
             "platform": platform.platform(), "log_every_steps": str(self.every),
             "scene_every_steps": str(self.scene_every), "cond_every_steps": str(self.cond_every),
-            "time_origin": repr(self.origin)})
+            "time_origin": repr(self.origin),
+            **({} if self.layout is PLANAR else {"chain_kind": self.layout.kind})})
 
     def _prepare_buffers(self, chunk_size: int | None, threaded: bool) -> None:
         """The packed sample records, the pending queues and (``threaded``) the encoding worker."""
