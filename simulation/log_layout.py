@@ -74,6 +74,25 @@ class ChainLayout:
     deviations_per_link: int
     margins: tuple[MarginCheck, ...]
 
+    def threshold_key(self, kind: str) -> str:
+        """The key in ``simulate(thresholds=...)`` of the margin check ``kind`` (``"link"`` or ``"longitudinal"``).
+
+        Parameters
+        ----------
+        kind : str
+            A :attr:`MarginCheck.kind` of :attr:`margins`.
+
+        Returns
+        -------
+        str
+
+        Raises
+        ------
+        StopIteration
+            No margin check of that kind.
+        """
+        return next(c.threshold for c in self.margins if c.kind == kind)
+
     @property
     def arrays(self) -> tuple[str, ...]:
         """The per-sample arrays of a run and of its log: ``t``, ``q``, the run outputs, the commands."""

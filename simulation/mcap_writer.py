@@ -45,7 +45,7 @@ from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.task import BUILT_IN_CURVES
 
 from .choices import Backend, Compression
-from .log_layout import PLANAR, ChainLayout, layout_of_chain, partial_path
+from .log_layout import PLANAR, layout_of_chain, partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
 from .outcome import outcome_of
@@ -184,24 +184,6 @@ def build_info(scenario: Scenario) -> dict[str, str]:
             "python": platform.python_version()}
 
 
-def scene_draws(layout: ChainLayout) -> bool:
-    """Whether the Foxglove scene (:class:`~.scene.SceneBuilder`) draws a chain of this layout.
-
-    The scene draws planar chains; a spatial chain only once the builder says it can
-    (``SceneBuilder.draws_spatial``); until then ``/scene``, ``/tf`` and ``/tracking`` are off for it.
-
-    Parameters
-    ----------
-    layout : ChainLayout
-        The chain kind's layout.
-
-    Returns
-    -------
-    bool
-    """
-    return layout is PLANAR or bool(getattr(SceneBuilder, "draws_spatial", False))
-
-
 class RunLogger:
     """Writes one run to an MCAP file; pass :meth:`on_chunk` to :func:`simulation.run.simulate`.
 
@@ -219,8 +201,8 @@ class RunLogger:
     log_rate : float, optional
         Samples per simulated second on the per-step channels (default: every step).
     scene_rate : float
-        Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off (so does a chain the
-        scene cannot draw, :func:`scene_draws`).
+        Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off (so does a spatial
+        chain, until ``SceneBuilder.draws_spatial``).
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz]; 0 switches it off. Default :func:`default_cond_rate`:
         5 Hz up to 64 links, then falling as ``1/m^2`` (an SVD costs O(m^3), a step O(m)); 0 for a
@@ -283,8 +265,8 @@ class RunLogger:
         """Check the rates and compression, create the file and its channels."""
         self.ctrl = ctrl or scenario.controller()
         self.layout = layout_of_chain(self.ctrl.chain)
-        if not scene_draws(self.layout):
-            scene_rate = 0      # no scene of this kind of chain: /scene, /tf and /tracking off
+        if self.layout is not PLANAR and not getattr(SceneBuilder, "draws_spatial", False):
+            scene_rate = 0      # the scene cannot draw this chain: /scene, /tf and /tracking off
         if self.layout is PLANAR and type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
             scenario = scenario.with_curve(self.ctrl.curve)      # the log records a user-defined curve
         self.scenario = scenario

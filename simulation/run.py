@@ -381,7 +381,7 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
         _, kind, link, margin = bad
         where = f"{'joint' if kind == 'joint' else 'link'} {link}" if link else "the end point"
         raise ConfigError(f"q0: start configuration is (near) singular: {kind} margin of {where} is "
-                          f"{margin:.3g} < {thr[kind]}")
+                          f"{margin:.3g} < {thr[layout.threshold_key(kind)]}")
     if not is_integer(check_every) or check_every < 1:
         raise ConfigError(f"check_every: need a positive integer, got {check_every!r}")
     if physical is not None:

@@ -356,7 +356,7 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
     bad = margin_violation(part, loop.layout.margins, thr)
     if bad is not None:
         row, kind, link, margin = bad
-        stop = row, SingularityError(part.t[row], link, margin, kind, thr[kind])
+        stop = row, SingularityError(part.t[row], link, margin, kind, thr[loop.layout.threshold_key(kind)])
     if part.rail_margin is not None:
         low = np.flatnonzero(~(part.rail_margin >= thr["link"]))
         if len(low) and (stop is None or low[0] < stop[0]):
