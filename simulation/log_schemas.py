@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from importlib import resources
 from typing import Any
 
-from coordarm.symbolic.outputs import by_name, outputs_of
+from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name, outputs_of
 
 from .log_layout import PLANAR, SPATIAL, ChainLayout
 
@@ -179,7 +179,7 @@ def numeric_channels(links: int, rail: bool = False, layout: ChainLayout = PLANA
     out = {}
     spatial = layout is SPATIAL
     for key, (topic, schema, lead) in (SPATIAL_CHANNEL_LAYOUT if spatial else CHANNEL_LAYOUT).items():
-        rows = outputs_of(True) if rail else layout.outputs
+        rows = outputs_of(True) if rail else layout.outputs if spatial else LAW_OUTPUTS
         names = list(lead) + [o.name for o in rows if o.channel == key and o.name not in lead]
         comment = SPATIAL_COMMENTS[key] if spatial else RAIL_COMMENT if rail and key == "joint_state" else ""
         out[key] = NumericChannel(topic, schema, tuple(_field(n, m, rail, layout) for n in names), comment)
