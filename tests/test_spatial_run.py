@@ -20,6 +20,7 @@ from coordarm.simulation.scenario import load_scenario
 from coordarm.simulation.summary import summary_lines
 from coordarm.symbolic import ConfigError, SingularityError
 from coordarm.symbolic.curves3d import Circle3D, Line3D
+from coordarm.symbolic.paths3d import Path3D
 from coordarm.symbolic.spatial_chain import SpatialChain
 from coordarm.symbolic.spatial_controller import SpatialController
 
@@ -167,6 +168,22 @@ def test_s_is_unwrapped_on_a_circle():
     run = simulate(ctrl, q0, 0.4, 0.01, backend="interpreted", chunk=7)
     assert run.s[0] < np.pi * radius < run.s[-1] - 0.05
     assert np.allclose(np.diff(run.s), speed * 0.01, rtol=0, atol=1e-5)
+
+
+def test_a_start_outside_a_paths_tube_is_refused():
+    """A straight zig-zag past a banked arc of radius 0.1 m: the first centre 0.1 m or more from the path
+    (brute force over dense samples of it) is named."""
+    chain = SpatialChain(LINKS, XI)
+    path = Path3D((0, 0, 0), (1, 0, 0), (0, 1, 0), [("line", 0.3), ("arc", np.pi / 2, 0.1, np.pi / 2)])
+    q0 = chain.zigzag(1.0, (1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    points = path.sample(0.0, 20001, extent=1.0)
+    y = chain.centres_np(q0)
+    dist = np.min(np.linalg.norm(y[:, None, :] - points[None], axis=2), axis=1)
+    j = int(np.argmax(dist >= path.tube_radius))
+    assert path.tube_radius == 0.1 and j > 1
+    ctrl = SpatialController(chain, path, K, SPEED, start=q0)
+    with pytest.raises(ConfigError, match=rf"central point of link {j + 1} is {dist[j]:.3f}\d* m from the path"):
+        simulate(ctrl, q0, 0.1, 0.01, backend="interpreted")
 
 
 @pytest.fixture(scope="module")
