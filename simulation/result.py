@@ -96,8 +96,8 @@ class Run(ExtraOutputs):
         named = {f.name for f in fields(cls)} - {"info", "extra"}
         keys = layout_of_arrays(arrays).arrays + tuple(a for a in OPTIONAL if a in arrays)
         given = {a: arrays[a] for a in keys if a in named}
-        return cls(**{a: given.get(a) for a in ("longitudinal", "v_star") if a not in given}, **given,
-                   info=dict(info or {}), extra={a: arrays[a] for a in keys if a not in named})
+        given.setdefault("longitudinal", None)          # a spatial chain has none (its end_margin instead)
+        return cls(**given, info=dict(info or {}), extra={a: arrays[a] for a in keys if a not in named})
 
     @classmethod
     def from_states(cls, t: np.ndarray, q: np.ndarray, u: np.ndarray, v_star: np.ndarray, links: int,
