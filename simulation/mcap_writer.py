@@ -10,6 +10,10 @@ Channels (timestamps: ns of simulated time)
   ``/tracking`` (``s`` and its target, ``max|e|``, the smallest link margin, ``|u|``), ~20 Hz
   (:mod:`.scene`).
 
+A spatial chain (universal joints) has the same per-step topics with fields of its own
+(:data:`~.log_schemas.SPATIAL_CHANNEL_LAYOUT`), ``chain_kind = "universal"`` in the ``run`` metadata,
+``/margins/cond`` off by default and no scene until the scene builder draws one.
+
 Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, versions),
 ``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
 ``outcome``; each carries the SHA-256 of its entries (key ``sha256``), checked by

@@ -256,3 +256,21 @@ def test_a_planar_log_has_no_chain_kind(tmp_path):
         meta = {r.name: dict(r.metadata) for r in make_reader(f).iter_metadata()}
     assert "chain_kind" not in meta["run"]
     assert load(path).longitudinal is not None
+
+
+def test_a_logged_stop_at_a_joint_margin_is_the_logs_outcome(tmp_path):
+    from coordarm.simulation.outcome import explain
+
+    ctrl, q0 = rolling()
+    scenario = load_scenario("line").with_overrides(links=LINKS, duration=1.0, step=0.01)
+    path = tmp_path / "stop.mcap"
+    with pytest.raises(SingularityError) as info:
+        with RunLogger(path, scenario, ctrl, cond_rate=10.0) as log:
+            simulate(ctrl, q0, 1.0, 0.01, backend="interpreted", thresholds={"link": 0.5}, on_chunk=log.on_chunk)
+    err = info.value
+    rep = load(path)
+    assert (rep.outcome["status"], rep.outcome["kind"], rep.outcome["link"]) == ("singularity", "joint", err.link)
+    for name in err.run.array_names():
+        assert np.array_equal(getattr(rep, name), getattr(err.run, name)), name
+    assert len(rep.cond) == 1 + int(err.time / 0.1 + 1e-9) and np.all(np.isfinite(rep.cond)) and np.all(rep.cond >= 1)
+    assert f"joint margin |cos b| of joint {err.link}" in explain(err)[0]
