@@ -35,7 +35,8 @@ from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
 from coordarm.simulation.choices import Compression, lz4_frame
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
-from coordarm.simulation.log_layout import ARRAYS, DIGEST_KEY, OPTIONAL, metadata_digest, partial_path
+from coordarm.simulation.log_layout import (DIGEST_KEY, OPTIONAL, PLANAR, ChainLayout, layout_of, layout_of_arrays,
+                                           metadata_digest, partial_path)
 from coordarm.simulation.result import ExtraOutputs, Run
 from coordarm.simulation.scenario import USER_DEFINED, Scenario
 from coordarm.symbolic import ConfigError, CoordinatingController, LogError
@@ -119,11 +120,14 @@ class Replay(ExtraOutputs):
     path : Path
         The log file.
     t, s, v_star, longitudinal : (N,) arrays
-        Time [s], arc length of the end point [m], commanded speed [m/s], longitudinal margin.
+        Time [s], arc length of the end point [m], commanded speed [m/s], longitudinal margin
+        (None for a spatial chain).
     q, u : (N, m) arrays
-        Joint coordinates [rad] and control (N, m+1 on a rail: ``d`` [m] and its rate first).
+        Joint coordinates [rad] and control (N, m+1 on a rail: ``d`` [m] and its rate first; N, 2m
+        for a spatial chain: ``(a_1, b_1, ...)``).
     e, link_margins : (N, m-1) arrays
-        Deviations ``e^2..e^m`` [m] and link margins of links 2..m.
+        Deviations ``e^2..e^m`` [m] (N, 2(m-1) for a spatial chain: ``e^2_1, e^2_2, e^3_1, ...``) and
+        link margins of links 2..m.
     cond_t, cond : (K,) arrays
         Times and values of the decoupling matrix condition number (reduced rate).
     scenario : Scenario
@@ -144,7 +148,8 @@ class Replay(ExtraOutputs):
     problems : list of str
         What was dropped while reading (incomplete trailing samples, a damaged tail).
     extra : dict
-        Logged law outputs that are not fields above (see :attr:`coordarm.simulation.run.Run.extra`).
+        Logged law outputs that are not fields above (see :attr:`coordarm.simulation.run.Run.extra`;
+        for a spatial chain ``roll``, ``roll_star``, ``end_margin``, ``joint_margins``).
     """
 
     path: Path
@@ -155,7 +160,7 @@ class Replay(ExtraOutputs):
     s: np.ndarray
     v_star: np.ndarray
     link_margins: np.ndarray
-    longitudinal: np.ndarray
+    longitudinal: np.ndarray | None
     cond_t: np.ndarray
     cond: np.ndarray
     scenario: Scenario
@@ -194,10 +199,15 @@ class Replay(ExtraOutputs):
             The samples (``t``, ``q``, ``u`` and the rest), with ``info`` holding the backend,
             the outcome's status as ``stopped`` and its contacts.
         """
-        keys = ARRAYS + tuple(a for a in OPTIONAL if a in self.extra)
+        keys = self.layout.arrays + tuple(a for a in OPTIONAL if a in self.extra)
         return Run.from_arrays({a: getattr(self, a) for a in keys},
                                info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?"),
                                      "contacts": self.outcome.get("contacts", [])})
+
+    @property
+    def layout(self) -> ChainLayout:
+        """The layout of the logged arrays (planar or spatial, :mod:`coordarm.simulation.log_layout`)."""
+        return layout_of_arrays({f.name for f in fields(self)} | set(self.extra))
 
     def controller(self) -> CoordinatingController:
         """The controller that made the run, rebuilt from the scenario.
@@ -335,7 +345,11 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         raise LogError(f"{path}: the 'scenario' metadata is not a valid scenario: {exc}") from None
     m = scenario.config.chain.links
     rail = scenario.chain().rail
-    specs = numeric_channels(m, True) if rail else numeric_channels(m)
+    try:
+        layout = layout_of(meta.get("run", {}).get("chain_kind"))
+    except KeyError as exc:
+        raise LogError(f"{path}: the 'run' metadata names {exc.args[0]}") from None
+    specs = _channels(m, rail, layout)
     by_topic = {ch.topic: cid for cid, ch in channels.items()}
     per_channel: dict[str, np.ndarray] = {}
     grouped: dict[int, list[RawMessage]] = {}
@@ -381,7 +395,7 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         data = data[np.isin(data[:, 0], common)]
         for name, sl in specs[key].slices().items():
             cols.setdefault(name, data[:, sl])
-    current = numeric_channels(m, True) if rail else numeric_channels(m)
+    current = _channels(m, rail, layout)
     for key in PER_STEP:      # fields added after the log was written: NaN, said in problems
         for name, n in current[key].fields:
             if name not in cols:
@@ -391,11 +405,19 @@ def load(path: str | Path, curve: Any = None) -> Replay:
     cond = per_channel["cond"]
     outcome = _json_values(meta["outcome"], "outcome", path) if "outcome" in meta else {"status": "unknown"}
     named = {f.name for f in fields(Replay)}
-    return Replay(path=path, **{a: v for a, v in cols.items() if a in named}, cond_t=cond[:, 0].copy(),
+    given = {a: v for a, v in cols.items() if a in named}
+    return Replay(path=path, **given, **{a: None for a in ("longitudinal",) if a not in given}, cond_t=cond[:, 0].copy(),
                   cond=cond[:, 1].copy(), scenario=scenario, scenario_dict=spec,
                   build=_strip(meta.get("build", {})), run_info=_strip(meta.get("run", {})), outcome=outcome,
                   recovered=not complete, messages=len(messages), problems=problems,
                   extra={a: v for a, v in cols.items() if a not in named}, damaged=bool(skipped))
+
+
+def _channels(m: int, rail: bool, layout: ChainLayout) -> dict[str, NumericChannel]:
+    """The numeric channels of a log of ``m`` links (on a ``rail``) of the chain kind ``layout``."""
+    if layout is not PLANAR:
+        return numeric_channels(m, rail, layout)
+    return numeric_channels(m, True) if rail else numeric_channels(m)
 
 
 def _strip(record: dict[str, str]) -> dict[str, str]:

@@ -19,7 +19,8 @@ def write_figures(run: Run, scenario: Scenario, ctrl: CoordinatingController, st
 
     ``stages`` (times [s]) overrides the scenario's ``[figures] stages``; a scenario with
     ``[figures] panels`` draws one labelled panel per phase instead (paper Fig. 4). The
-    figures are drawn with whatever matplotlib backend is selected (none is chosen here).
+    figures are drawn with whatever matplotlib backend is selected (none is chosen here). A spatial
+    chain's figures are :func:`coordarm.simulation.figures3d.spatial_figures` (3-D stages, tracking).
 
     Parameters
     ----------
@@ -27,7 +28,7 @@ def write_figures(run: Run, scenario: Scenario, ctrl: CoordinatingController, st
         The run to draw.
     scenario : Scenario
         Its scenario (name, obstacles, thresholds, ``[figures]``).
-    ctrl : CoordinatingController
+    ctrl : CoordinatingController or SpatialController
         Its controller (chain, curve, gain).
     stem : Path
         Path of the figures without suffix, e.g. ``logs/line`` for ``logs/line_stages.png``.
@@ -46,6 +47,11 @@ def write_figures(run: Run, scenario: Scenario, ctrl: CoordinatingController, st
     LogError
         A figure cannot be written (a full disk, a directory in the way), naming the file.
     """
+    from coordarm.simulation.log_layout import PLANAR, layout_of_chain
+
+    if layout_of_chain(ctrl.chain) is not PLANAR:    # a spatial chain: 3-D figures (matplotlib loads there)
+        from coordarm.simulation.figures3d import spatial_figures
+        return spatial_figures(run, scenario, ctrl, stem, stages, outcome)
     from coordarm.simulation.figures import plot_panels, plot_stages, plot_tracking
 
     title = f"{scenario.name}: {ctrl.chain.m} links" + (f" ({outcome})" if outcome else "")

@@ -27,6 +27,7 @@ from coordarm.symbolic import ConfigError
 from coordarm.symbolic.checks import is_integer
 
 from .choices import DENSE_LINKS  # noqa: F401 (re-exported)
+from .log_layout import PLANAR, ChainLayout
 from .log_schemas import PER_STEP, numeric_channels
 
 #: Largest number of links of a chain.
@@ -201,7 +202,7 @@ def _size(n: float) -> str:
 
 
 def estimate(links: int, step: float, duration: float, log_rate: float | None = None, logged: bool = True,
-             block: int = 2000) -> Cost:
+             block: int = 2000, layout: ChainLayout = PLANAR) -> Cost:
     """Cost of a run of ``links`` links for ``duration`` s at ``step`` (see :class:`Cost`).
 
     Parameters
@@ -216,6 +217,8 @@ def estimate(links: int, step: float, duration: float, log_rate: float | None = 
         Whether a log is written; without one every row stays in memory.
     block : int
         Steps per simulated block (one block is in flight at a time).
+    layout : ChainLayout, optional
+        The chain kind (:data:`~.log_layout.SPATIAL`: twice the values per link); default planar.
 
     Returns
     -------
@@ -223,7 +226,7 @@ def estimate(links: int, step: float, duration: float, log_rate: float | None = 
         Steps, uncompressed log bytes and bytes of run data in memory.
     """
     steps = int(math.ceil(duration / step))
-    widths = numeric_channels(links)
+    widths = numeric_channels(links) if layout is PLANAR else numeric_channels(links, layout=layout)
     row = sum(widths[k].width for k in PER_STEP) * 8          # float64 values of one sample
     record = row + len(PER_STEP) * (31 + 4)                    # + message headers and CDR headers
     every = max(1, int(round(1.0 / (log_rate * step)))) if log_rate else 1

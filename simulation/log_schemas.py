@@ -19,6 +19,8 @@ from typing import Any
 
 from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name, outputs_of
 
+from .log_layout import PLANAR, SPATIAL, ChainLayout
+
 #: CDR encapsulation header: representation identifier CDR_LE (0x0001), options 0.
 CDR_HEADER = b"\x00\x01\x00\x00"
 
@@ -112,9 +114,31 @@ CHANNEL_LAYOUT = {
 RAIL_COMMENT = ("q[0]: rail position d [m] (introduction axis); q[1..m]: revolute joints q_1..q_m [rad]\n"
                 "u[0]: rail rate d_dot [m/s]; u[1..m]: revolute controls")
 
+#: The per-step channels of a spatial chain (universal joints): the same topics and style, fields of
+#: their own (``q``, ``u`` 2m wide, ``e`` 2(m-1) wide, the roll and its command, the spatial margins).
+SPATIAL_RUN_FIELDS = {"t": (0, 1), "q": (2, 0), "v_star": (0, 1), "roll_star": (0, 1)}
+SPATIAL_CHANNEL_LAYOUT = {
+    "joint_state": ("/joint_state", "coordarm_msgs/msg/SpatialJointState", ("t", "q", "u")),
+    "task_state": ("/task_state", "coordarm_msgs/msg/SpatialTaskState", ("t", "s", "v_star", "e", "roll", "roll_star")),
+    "margins": ("/margins", "coordarm_msgs/msg/SpatialMargins", ("t", "link_margins", "end_margin", "joint_margins")),
+}
+#: The comments of the spatial channels: what the columns of the vectors are.
+SPATIAL_COMMENTS = {
+    "joint_state": "q = (a_1, b_1, ..., a_m, b_m) [rad]: R_j = R_{j-1} Rz(a_j) Ry(b_j)\nu = q' [rad/s] (B = I)",
+    "task_state": "e = (e^2_1, e^2_2, e^3_1, ..., e^m_2) [m]: normal coordinates of the link centres 2..m\n"
+                  "roll = atan2(n_2.d_1, n_1.d_1) [rad], roll_star its command [rad]",
+    "margins": "link_margins: links 2..m; end_margin: the 2x2 end solve; joint_margins = |cos b_j|, joints 1..m",
+}
 
-def _field(name: str, m: int, rail: bool = False) -> tuple[str, int]:
+
+def _field(name: str, m: int, rail: bool = False, layout: ChainLayout = PLANAR) -> tuple[str, int]:
     """``(name, length)`` of a channel field for ``m`` links (length 0 = a scalar)."""
+    if layout is SPATIAL:
+        if name in SPATIAL_RUN_FIELDS:
+            per_link, extra = SPATIAL_RUN_FIELDS[name]
+            return name, 0 if (per_link, extra) == (0, 1) else per_link * m + extra
+        out = next(o for o in layout.outputs if o.name == name)
+        return name, 0 if out.scalar else out.width(m)
     if name in RUN_FIELDS:
         per_link, extra = RUN_FIELDS[name]
         extra += int(rail and name == "q")                  # d first on a rail
@@ -123,7 +147,7 @@ def _field(name: str, m: int, rail: bool = False) -> tuple[str, int]:
     return name, 0 if out.scalar else out.width(m)
 
 
-def numeric_channels(links: int, rail: bool = False) -> dict[str, NumericChannel]:
+def numeric_channels(links: int, rail: bool = False, layout: ChainLayout = PLANAR) -> dict[str, NumericChannel]:
     """The per-step channels and the condition-number channel for a chain of ``links`` links.
 
     Keys are short names (``joint_state``, ``task_state``, ``margins``, ``cond``, ``tracking``);
@@ -132,7 +156,10 @@ def numeric_channels(links: int, rail: bool = False) -> dict[str, NumericChannel
     length ``s``, its target ``s_target = s(0) + integral of v*`` [m], the target point on the
     curve [m], ``max|e|`` [m], the smallest link margin and the Euclidean norm of ``u``. On a
     ``rail`` ``q``, ``u`` hold ``d``, ``d_dot`` first (m+1 entries, said in the schema's comment),
-    ``/task_state`` adds the span ``sigma`` and ``/margins`` the ``rail_margin``.
+    ``/task_state`` adds the span ``sigma`` and ``/margins`` the ``rail_margin``. A spatial chain
+    (``layout`` :data:`~.log_layout.SPATIAL`) has the per-step channels of
+    :data:`SPATIAL_CHANNEL_LAYOUT` (``q``, ``u`` of 2m, ``e`` of 2(m-1), ``roll``, ``roll_star``,
+    ``end_margin``, ``joint_margins``).
 
     Parameters
     ----------
@@ -140,6 +167,8 @@ def numeric_channels(links: int, rail: bool = False) -> dict[str, NumericChannel
         Number of links m.
     rail : bool
         The chain's base moves on a rail.
+    layout : ChainLayout, optional
+        The chain kind's layout (default planar).
 
     Returns
     -------
@@ -148,11 +177,12 @@ def numeric_channels(links: int, rail: bool = False) -> dict[str, NumericChannel
     """
     m = links
     out = {}
-    for key, (topic, schema, lead) in CHANNEL_LAYOUT.items():
-        rows = outputs_of(True) if rail else LAW_OUTPUTS
+    spatial = layout is SPATIAL
+    for key, (topic, schema, lead) in (SPATIAL_CHANNEL_LAYOUT if spatial else CHANNEL_LAYOUT).items():
+        rows = outputs_of(True) if rail else layout.outputs if spatial else LAW_OUTPUTS
         names = list(lead) + [o.name for o in rows if o.channel == key and o.name not in lead]
-        comment = RAIL_COMMENT if rail and key == "joint_state" else ""
-        out[key] = NumericChannel(topic, schema, tuple(_field(n, m, rail) for n in names), comment)
+        comment = SPATIAL_COMMENTS[key] if spatial else RAIL_COMMENT if rail and key == "joint_state" else ""
+        out[key] = NumericChannel(topic, schema, tuple(_field(n, m, rail, layout) for n in names), comment)
     out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", (("t", 0), ("cond", 0)))
     out["tracking"] = NumericChannel("/tracking", "coordarm_msgs/msg/Tracking",
                                      (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0),

@@ -10,6 +10,10 @@ Channels (timestamps: ns of simulated time)
   ``/tracking`` (``s`` and its target, ``max|e|``, the smallest link margin, ``|u|``), ~20 Hz
   (:mod:`.scene`).
 
+A spatial chain (universal joints) has the same per-step topics with fields of its own
+(:data:`~.log_schemas.SPATIAL_CHANNEL_LAYOUT`), ``chain_kind = "universal"`` in the ``run`` metadata,
+``/margins/cond`` off by default and no scene until the scene builder draws one.
+
 Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, versions),
 ``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
 ``outcome``; each carries the SHA-256 of its entries (key ``sha256``), checked by
@@ -45,7 +49,7 @@ from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.task import BUILT_IN_CURVES
 
 from .choices import Backend, Compression
-from .log_layout import partial_path
+from .log_layout import PLANAR, layout_of_chain, partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
 from .outcome import outcome_of
@@ -201,10 +205,12 @@ class RunLogger:
     log_rate : float, optional
         Samples per simulated second on the per-step channels (default: every step).
     scene_rate : float
-        Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off.
+        Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off (so does a spatial
+        chain, until ``SceneBuilder.draws_spatial``).
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz]; 0 switches it off. Default :func:`default_cond_rate`:
-        5 Hz up to 64 links, then falling as ``1/m^2`` (an SVD costs O(m^3), a step O(m)).
+        5 Hz up to 64 links, then falling as ``1/m^2`` (an SVD costs O(m^3), a step O(m)); 0 for a
+        spatial chain (the ``run`` metadata's ``chain_kind`` is ``"universal"``).
     compression : {"zstd", "lz4", "none"}
         Chunk compression (see :class:`~simulation.mcap_file.McapFile`).
     chunk_size : int, optional
@@ -262,21 +268,24 @@ class RunLogger:
               overwrite, threaded) -> None:
         """Check the rates and compression, create the file and its channels."""
         self.ctrl = ctrl or scenario.controller()
-        if type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
+        self.layout = layout_of_chain(self.ctrl.chain)
+        if self.layout is not PLANAR and not getattr(SceneBuilder, "draws_spatial", False):
+            scene_rate = 0      # the scene cannot draw this chain: /scene, /tf and /tracking off
+        if self.layout is PLANAR and type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
             scenario = scenario.with_curve(self.ctrl.curve)      # the log records a user-defined curve
         self.scenario = scenario
         self.step = scenario.step
         self.every = self._decimation(log_rate, "log_rate") if log_rate is not None else 1
         m = self.ctrl.chain.m
         if cond_rate is None:
-            cond_rate = default_cond_rate(m)
+            cond_rate = default_cond_rate(m) if self.layout is PLANAR else 0.0   # spatial: a dense SVD, off
         self.scene_every = self._decimation(scene_rate, "scene_rate") if scene_rate else 0
         self.cond_every = self._decimation(cond_rate, "cond_rate") if cond_rate else 0
         if compression not in COMPRESSIONS:
             raise ConfigError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
         self.flush_interval = float(flush_interval)
         self.path = Path(path)
-        self.channels: dict[str, NumericChannel] = numeric_channels(m, self.ctrl.chain.rail)
+        self.channels: dict[str, NumericChannel] = numeric_channels(m, self.ctrl.chain.rail, self.layout)
         if not overwrite and self.path.exists():
             raise LogError(f"{self.path}: exists; choose another --out or pass --overwrite")
         try:
@@ -309,7 +318,8 @@ class RunLogger:
             "started": datetime.now(timezone.utc).isoformat(timespec="seconds"), "host": socket.gethostname(),
             "platform": platform.platform(), "log_every_steps": str(self.every),
             "scene_every_steps": str(self.scene_every), "cond_every_steps": str(self.cond_every),
-            "time_origin": repr(self.origin)})
+            "time_origin": repr(self.origin),
+            **({} if self.layout is PLANAR else {"chain_kind": self.layout.kind})})
 
     def _prepare_buffers(self, chunk_size: int | None, threaded: bool) -> None:
         """The packed sample records, the pending queues and (``threaded``) the encoding worker."""

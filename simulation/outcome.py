@@ -58,8 +58,8 @@ def explain(error: SingularityError | CollisionError) -> list[str]:
     Parameters
     ----------
     error : SingularityError or CollisionError
-        The error that stopped the run; a SingularityError whose ``kind`` is not ``"longitudinal"``
-        is explained as a link margin.
+        The error that stopped the run; a SingularityError whose ``kind`` is not ``"longitudinal"``,
+        ``"end"`` or ``"joint"`` (a spatial chain's) is explained as a link margin.
 
     Returns
     -------
@@ -75,6 +75,14 @@ def explain(error: SingularityError | CollisionError) -> list[str]:
                 "advice: lower the speed v*, use more links, a shorter duration, or a more compact start "
                 "(larger start.beta)" + ("; or turn on the speed governor ([control] governor = true, "
                                          "--governor), which slows v* down instead of stopping" if error.hint else "")]
+    if error.kind == "end":
+        return [f"singularity ahead at {t}: the end margin fell to {v} (threshold {thr}): the body is stretched "
+                "along the curve or its fold plane is lost, so the end point's advance and the roll can hardly be set",
+                "advice: lower the speed v* or the roll rate, use more links, or a more compact start (larger start.beta)"]
+    if error.kind == "joint":
+        return [f"singularity ahead at {t}: the joint margin |cos b| of joint {error.link} fell to {v} (threshold "
+                f"{thr}): its second angle nears ±90°, where the two angles cannot express the link's turn",
+                "advice: roll the fold plane more slowly or less, or start with smaller bends (smaller start.beta)"]
     return [f"singularity ahead at {t}: the link margin of link {error.link} fell to {v} (threshold {thr}): "
             f"link {error.link} stands almost across the curve",
             "advice: move the curve more slowly (angle, radius), raise the gain K, or start with links more "

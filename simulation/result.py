@@ -5,7 +5,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from .log_layout import ARRAYS, OPTIONAL
+from .log_layout import ARRAYS, OPTIONAL, ChainLayout, layout_of_arrays
 
 
 class ExtraOutputs:
@@ -28,17 +28,19 @@ class Run(ExtraOutputs):
     t : (N+1,) array
         Time [s].
     q : (N+1, dof) array
-        Joint coordinates [rad] (on a rail, ``d`` [m] first; ``dof = m + 1``).
+        Joint coordinates [rad] (on a rail, ``d`` [m] first; ``dof = m + 1``; a spatial chain
+        ``(a_1, b_1, ..., a_m, b_m)``, ``dof = 2 m``).
     u : (N+1, dof) array
         Control at each sample [rad/s for B = I; on a rail, ``d_dot`` [m/s] first].
     e : (N+1, m-1) array
-        Deviations ``e^2..e^m`` from the curve [m].
+        Deviations ``e^2..e^m`` from the curve [m] (spatial: ``(N+1, 2(m-1))``, ``e^2_1, e^2_2, e^3_1, ...``).
     s : (N+1,) array
         Arc length ``s^m`` of the end point [m].
     link_margins : (N+1, m-1) array
         Link margins of links 2..m (0 = link perpendicular to the curve).
-    longitudinal : (N+1,) array
-        Longitudinal margin (0 = end point cannot be pushed along the curve).
+    longitudinal : (N+1,) array or None
+        Longitudinal margin (0 = end point cannot be pushed along the curve); None for a spatial chain
+        (its ``end_margin``, ``joint_margins``, ``roll`` and ``roll_star`` are in ``extra``).
     v_star : (N+1,) array
         Commanded speed [m/s].
     sigma, rail_margin : (N+1,) array or None
@@ -49,7 +51,9 @@ class Run(ExtraOutputs):
         Backend, wall time, stop reason, ``governed`` time [s] (steps with ``v_scale < 1``).
     extra : dict
         Arrays of the law's other run outputs (rows of :data:`~coordarm.symbolic.outputs.LAW_OUTPUTS`
-        with a log channel that are not fields above), also readable as attributes.
+        with a log channel that are not fields above; for a spatial chain the rows of ``SPATIAL_LAW_OUTPUTS``
+        and the commanded roll ``roll_star``), also readable as attributes. The arrays of each kind of
+        chain are those of its :class:`~.log_layout.ChainLayout` (:attr:`layout`).
 
     On a rail ``q`` and ``u`` have m+1 columns, the rail position ``d`` [m] and its rate first.
     """
@@ -60,7 +64,7 @@ class Run(ExtraOutputs):
     e: np.ndarray
     s: np.ndarray
     link_margins: np.ndarray
-    longitudinal: np.ndarray
+    longitudinal: np.ndarray | None
     v_star: np.ndarray
     sigma: np.ndarray | None = None
     rail_margin: np.ndarray | None = None
@@ -75,7 +79,8 @@ class Run(ExtraOutputs):
         ----------
         arrays : dict of str to ndarray
             Every array of :data:`ARRAYS` (``t`` ``(N,)`` [s], ``q`` ``(N, dof)`` [rad], the law outputs,
-            ``v_star`` [m/s]) and any of :data:`OPTIONAL` (rail outputs); other keys are ignored.
+            ``v_star`` [m/s]) and any of :data:`OPTIONAL` (rail outputs), or every array of the spatial
+            layout (:data:`~.log_layout.SPATIAL`); other keys are ignored.
         info : dict, optional
             The run's ``info`` (copied).
 
@@ -89,9 +94,10 @@ class Run(ExtraOutputs):
             An array of :data:`ARRAYS` is missing.
         """
         named = {f.name for f in fields(cls)} - {"info", "extra"}
-        keys = ARRAYS + tuple(a for a in OPTIONAL if a in arrays)
-        return cls(**{a: arrays[a] for a in keys if a in named}, info=dict(info or {}),
-                   extra={a: arrays[a] for a in keys if a not in named})
+        keys = layout_of_arrays(arrays).arrays + tuple(a for a in OPTIONAL if a in arrays)
+        given = {a: arrays[a] for a in keys if a in named}
+        given.setdefault("longitudinal", None)          # a spatial chain has none (its end_margin instead)
+        return cls(**given, info=dict(info or {}), extra={a: arrays[a] for a in keys if a not in named})
 
     @classmethod
     def from_states(cls, t: np.ndarray, q: np.ndarray, u: np.ndarray, v_star: np.ndarray, links: int,
@@ -150,7 +156,12 @@ class Run(ExtraOutputs):
         -------
         tuple of str
         """
-        return ARRAYS + tuple(a for a in OPTIONAL if getattr(self, a, None) is not None)
+        return self.layout.arrays + tuple(a for a in OPTIONAL if getattr(self, a, None) is not None)
+
+    @property
+    def layout(self) -> ChainLayout:
+        """The layout of this run's arrays (planar or spatial, :mod:`.log_layout`)."""
+        return layout_of_arrays({f.name for f in fields(self)} | set(self.extra))
 
     def __post_init__(self) -> None:
         # A run made without the governor's output (e.g. by a baseline) was not governed.
@@ -199,8 +210,10 @@ class Run(ExtraOutputs):
         dict
             ``duration`` [s], ``steps``, ``final_max_abs_e`` [m], ``max_s_tracking_error`` [m],
             ``min_link_margin`` with its ``_link`` and ``_time``, ``min_longitudinal_margin`` with
-            its ``_time``, ``max_abs_u``.
+            its ``_time``, ``max_abs_u`` (a spatial run: :meth:`spatial_summary`).
         """
+        if self.layout.kind != "revolute":
+            return self.spatial_summary()
         lm = self.link_margins
         k, j = np.unravel_index(np.argmin(lm), lm.shape)
         return {"duration": float(self.t[-1] - self.t[0]), "steps": int(self.info.get("steps", len(self.t) - 1)),
@@ -211,3 +224,51 @@ class Run(ExtraOutputs):
                 "min_longitudinal_margin": float(np.min(self.longitudinal)),
                 "min_longitudinal_margin_time": float(self.t[np.argmin(self.longitudinal)]),
                 "max_abs_u": float(np.max(np.abs(self.u)))}
+
+    def spatial_summary(self) -> dict[str, float]:
+        """The summary of a spatial run: final ``max|e^j|``, ``s`` and roll tracking, smallest margins and where.
+
+        Returns
+        -------
+        dict
+            ``duration`` [s], ``steps``, ``final_max_abs_e`` (largest distance ``|(e^j_1, e^j_2)|`` at the
+            end) [m], ``max_s_tracking_error`` [m], ``max_roll_tracking_error`` (largest ``|roll - roll*|``,
+            wrapped to (-pi, pi]) [rad], ``min_link_margin`` with its ``_link`` and ``_time``,
+            ``min_end_margin`` with its ``_time``, ``min_joint_margin`` with its ``_joint`` and ``_time``,
+            ``max_abs_u`` [rad/s].
+        """
+        lm, jm, end = self.link_margins, self.extra["joint_margins"], self.extra["end_margin"]
+        k, j = np.unravel_index(np.argmin(lm), lm.shape)
+        kj, jj = np.unravel_index(np.argmin(jm), jm.shape)
+        roll_error = np.angle(np.exp(1j * (self.extra["roll"] - self.extra["roll_star"])))
+        return {"duration": float(self.t[-1] - self.t[0]), "steps": int(self.info.get("steps", len(self.t) - 1)),
+                "final_max_abs_e": float(np.max(deviation_norms(self.e[-1:], 2))),
+                "max_s_tracking_error": float(np.max(np.abs(self.s - self.s_reference()))),
+                "max_roll_tracking_error": float(np.max(np.abs(roll_error))),
+                "min_link_margin": float(lm[k, j]), "min_link_margin_link": int(j) + 2,
+                "min_link_margin_time": float(self.t[k]),
+                "min_end_margin": float(np.min(end)), "min_end_margin_time": float(self.t[np.argmin(end)]),
+                "min_joint_margin": float(jm[kj, jj]), "min_joint_margin_joint": int(jj) + 1,
+                "min_joint_margin_time": float(self.t[kj]),
+                "max_abs_u": float(np.max(np.abs(self.u)))}
+
+
+def deviation_norms(e: np.ndarray, per_link: int) -> np.ndarray:
+    """The distance of each central point from the curve: ``|e^j|`` per link.
+
+    Parameters
+    ----------
+    e : ndarray, shape (n, per_link * (m-1))
+        Deviations [m]: ``e^j`` (planar, ``per_link = 1``) or ``(e^j_1, e^j_2)`` pairs (spatial, 2).
+    per_link : int
+        Columns per link.
+
+    Returns
+    -------
+    ndarray, shape (n, m-1)
+        ``|e^j|`` [m] (for ``per_link = 1`` exactly ``abs(e)``).
+    """
+    e = np.asarray(e)
+    if per_link == 1:
+        return np.abs(e)
+    return np.linalg.norm(e.reshape(*e.shape[:-1], -1, per_link), axis=-1)

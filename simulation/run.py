@@ -21,7 +21,8 @@ from coordarm.symbolic.interrupts import check as check_interrupt
 from .choices import BACKENDS, Backend
 from .limits import KEEP_ROWS, check_gain_step
 from .result import ARRAYS, OPTIONAL, ExtraOutputs, Run
-from .stepping import Stepping, chunk_function, first_violation, integrate, tube_exit
+from .log_layout import layout_of_chain
+from .stepping import Stepping, chunk_function, first_violation, integrate, margin_violation, tube_exit
 
 if TYPE_CHECKING:
     from .progress import Progress
@@ -374,12 +375,13 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
     if not ctrl.chain.rail:          # a rail carries the base along; its own margin guards it
         check_curve_reaches_base(ctrl, t0, t0 + duration)
     start = ctrl.evaluate(q0, t0)
-    bad = first_violation(start["link_margins"][None], np.array([start["longitudinal"]]), thr)
+    layout = layout_of_chain(ctrl.chain)
+    bad = margin_violation({c.array: np.asarray(start[c.array])[None] for c in layout.margins}, layout.margins, thr)
     if bad is not None:
         _, kind, link, margin = bad
-        where = f"link {link}" if link else "the end point"
+        where = f"{'joint' if kind == 'joint' else 'link'} {link}" if link else "the end point"
         raise ConfigError(f"q0: start configuration is (near) singular: {kind} margin of {where} is "
-                          f"{margin:.3g} < {thr[kind]}")
+                          f"{margin:.3g} < {thr[layout.threshold_key(kind)]}")
     if not is_integer(check_every) or check_every < 1:
         raise ConfigError(f"check_every: need a positive integer, got {check_every!r}")
     if physical is not None:
@@ -387,7 +389,7 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
         if invalid:
             raise ConfigError(f"q0: start configuration is not physically valid: {invalid[0].describe()}")
     tube = float(getattr(ctrl.curve, "tube_radius", math.inf))
-    start_out = tube_exit(start["e"][None], tube)
+    start_out = tube_exit(np.asarray(start["e"])[None], tube, layout.deviations_per_link)
     if start_out is not None:
         raise ConfigError(f"q0: the central point of link {start_out[1]} is {start_out[2]:.4g} m from the path, "
                           f"not inside its tube (|phi| < {tube:.4g} m, the smallest radius)")

@@ -12,9 +12,10 @@ import numpy as np
 from coordarm.symbolic import CollisionError, CoordarmError, CoordinatingController, SingularityError, TubeError
 from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.interrupts import check as check_interrupt
-from coordarm.symbolic.outputs import SCALAR_OUTPUTS, split
+from coordarm.symbolic.outputs import spatial_split, split
 
-from .result import ARRAYS, OPTIONAL, Run
+from .log_layout import PLANAR, ChainLayout, MarginCheck, layout_of_chain
+from .result import OPTIONAL, Run, deviation_norms
 
 if TYPE_CHECKING:
     import casadi
@@ -44,26 +45,58 @@ def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
         ``"longitudinal"``, the link number (2..m; None for the longitudinal margin) and its margin
         [-]; None when every row is above both thresholds.
     """
-    lm_min = np.min(link_margins, axis=1)
-    bad = ~(lm_min >= thresholds["link"]) | ~(longitudinal >= thresholds["longitudinal"])
+    return margin_violation({"link_margins": link_margins, "longitudinal": longitudinal}, PLANAR.margins, thresholds)
+
+
+def margin_violation(arrays: Any, checks: tuple[MarginCheck, ...],
+                     thresholds: dict[str, float]) -> tuple[int, str, int | None, float] | None:
+    """First row where a margin of ``checks`` is below its threshold or not finite: ``(row, kind, index, margin)``.
+
+    Parameters
+    ----------
+    arrays : mapping of str to ndarray
+        The margin arrays by name, ``(n,)`` or ``(n, k)`` [-] (a Run's attributes or a dict).
+    checks : tuple of MarginCheck
+        The margins to check (:attr:`~.log_layout.ChainLayout.margins`); at the first bad row the
+        first bad one in this order is reported.
+    thresholds : dict
+        ``{"link": .., "longitudinal": ..}`` margin thresholds [-].
+
+    Returns
+    -------
+    tuple or None
+        ``(row, kind, index, margin)``: the first offending row, the check's ``kind``, the link or joint
+        number (``first`` + column; None for a scalar margin) and its margin [-]; None when every row
+        is above every threshold.
+    """
+    get = arrays.get if isinstance(arrays, dict) else lambda name: getattr(arrays, name)
+    lows = []
+    for c in checks:
+        values = np.asarray(get(c.array))
+        low = np.min(values, axis=1) if values.ndim == 2 else values
+        lows.append((c, values, ~(low >= thresholds[c.threshold])))
+    bad = np.logical_or.reduce([b for _, _, b in lows])
     if not bad.any():
         return None
     k = int(np.argmax(bad))
-    if not lm_min[k] >= thresholds["link"]:
-        j = int(np.nanargmin(link_margins[k])) if np.isfinite(link_margins[k]).any() else 0
-        return k, "link", j + 2, float(link_margins[k, j])
-    return k, "longitudinal", None, float(longitudinal[k])
+    c, values, _ = next(x for x in lows if x[2][k])
+    if values.ndim == 1:
+        return k, c.kind, None, float(values[k])
+    j = int(np.nanargmin(values[k])) if np.isfinite(values[k]).any() else 0
+    return k, c.kind, j + c.first, float(values[k, j])
 
 
-def tube_exit(e: np.ndarray, radius: float) -> tuple[int, int, float] | None:
+def tube_exit(e: np.ndarray, radius: float, per_link: int = 1) -> tuple[int, int, float] | None:
     """First row where a deviation ``|e^j|`` reaches the tube radius: ``(row, link, |e|)``, else None.
 
     Parameters
     ----------
-    e : (n, m-1) ndarray
+    e : (n, per_link * (m-1)) ndarray
         Deviations of the central points of links 2..m from the curve at each row [m].
     radius : float
         Tube radius of the path [m] (inf: no tube, never left).
+    per_link : int, optional
+        Columns of ``e`` per link (2 for a spatial chain: ``|e^j|`` is the norm of the pair).
 
     Returns
     -------
@@ -73,12 +106,13 @@ def tube_exit(e: np.ndarray, radius: float) -> tuple[int, int, float] | None:
     """
     if not np.isfinite(radius):
         return None
-    bad = ~(np.abs(e) < radius)
+    dist = deviation_norms(e, per_link)
+    bad = ~(dist < radius)
     if not bad.any():
         return None
     k = int(np.argmax(bad.any(axis=1)))
     j = int(np.argmax(bad[k]))
-    return k, j + 2, float(abs(e[k, j]))
+    return k, j + 2, float(dist[k, j])
 
 
 #: The interpreted chunk Functions built for each controller, by ``(law form, step, steps)``;
@@ -153,6 +187,11 @@ class Stepping:
     physical: Any = None
     check_every: int = 1
     allow_contact: bool = False
+
+    @property
+    def layout(self) -> ChainLayout:
+        """The layout of the run's arrays and its stops (planar or spatial)."""
+        return layout_of_chain(self.ctrl.chain)
 
 
 def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Run], None] | None,
@@ -239,13 +278,36 @@ def next_part(loop: Stepping, q: np.ndarray, k: int) -> tuple[Run, np.ndarray | 
     if k < loop.n_steps:
         n = min(loop.chunk, loop.n_steps - k)
         times = loop.t0 + loop.step * np.arange(k, k + n)
-        Q, outs = _advance(ctrl, loop.compiled, q, times, loop.step)
-        return Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), v_star=ctrl.speeds(times))), Q, n
+        Q, outs = _advance(ctrl, loop.compiled, q, times, loop.step, loop.layout)
+        return Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), **commands(ctrl, times))), Q, n
     t_end = loop.t0 + loop.step * loop.n_steps
     final = (loop.compiled or ctrl).evaluate(q, t_end)
     return Run.from_arrays({a: np.asarray(v)[None] for a, v in
-                            dict(final, t=t_end, q=q, v_star=ctrl.speed_at(t_end)).items()
-                            if a in ARRAYS + OPTIONAL}), None, 0
+                            dict(final, t=t_end, q=q, **commands(ctrl, t_end)).items()
+                            if a in loop.layout.arrays + OPTIONAL}), None, 0
+
+
+def commands(ctrl: Any, times: np.ndarray | float) -> dict[str, Any]:
+    """The commanded values a run keeps beside the law's outputs: ``v_star`` and, for a spatial chain, ``roll_star``.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController or SpatialController
+        The closed loop (``speeds``/``speed_at``; ``roll_targets``/``roll_at`` for a spatial chain).
+    times : (n,) ndarray or float
+        Times [s] (a float: the values at one time).
+
+    Returns
+    -------
+    dict
+        ``v_star`` [m/s] (and ``roll_star`` [rad]), arrays for an array of times, floats for one time.
+    """
+    spatial = "roll_star" in layout_of_chain(ctrl.chain).commands
+    if np.ndim(times) == 0:
+        out = {"v_star": ctrl.speed_at(times)}
+        return dict(out, roll_star=ctrl.roll_at(times)) if spatial else out
+    out = {"v_star": ctrl.speeds(times)}
+    return dict(out, roll_star=ctrl.roll_targets(times)) if spatial else out
 
 
 def stopped(ctrl: CoordinatingController, error: CoordarmError, parts: list[Run], info: dict) -> CoordarmError:
@@ -291,16 +353,16 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
     """
     thr, tube, physical = loop.thresholds, loop.tube, loop.physical
     stop = None
-    bad = first_violation(part.link_margins, part.longitudinal, thr)
+    bad = margin_violation(part, loop.layout.margins, thr)
     if bad is not None:
         row, kind, link, margin = bad
-        stop = row, SingularityError(part.t[row], link, margin, kind, thr[kind])
+        stop = row, SingularityError(part.t[row], link, margin, kind, thr[loop.layout.threshold_key(kind)])
     if part.rail_margin is not None:
         low = np.flatnonzero(~(part.rail_margin >= thr["link"]))
         if len(low) and (stop is None or low[0] < stop[0]):
             row = int(low[0])
             stop = row, SingularityError(part.t[row], 1, float(part.rail_margin[row]), "rail", thr["link"])
-    out = tube_exit(part.e, tube)
+    out = tube_exit(part.e, tube, loop.layout.deviations_per_link)
     if out is not None and (stop is None or out[0] <= stop[0]):
         row, link, dist = out
         stop = row, TubeError(part.t[row], link, dist, "tube", tube)
@@ -329,15 +391,15 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
     return stop
 
 
-def _advance(ctrl, compiled, q, times, step):
+def _advance(ctrl, compiled, q, times, step, layout):
     """RK4 steps from ``q`` at each of ``times``: states after each step (rows) and the law's
-    :data:`RUN_OUTPUTS` at each start (dict of row blocks)."""
+    run outputs (``layout.run_outputs``) at each start (dict of row blocks)."""
     if compiled is not None:
         Q, D = compiled.chunk(q, times, step)
-        d = split(D, ctrl.chain.m, ctrl.chain.rail)
+        d = split(D, ctrl.chain.m, ctrl.chain.rail) if layout is PLANAR else spatial_split(D, ctrl.chain.m)
         return Q, {a: d[a] for a in ctrl.run_outputs}
     Q, *outs = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
-    return Q.T, {a: (v.ravel() if a in SCALAR_OUTPUTS else v.T) for a, v in zip(ctrl.run_outputs, outs)}
+    return Q.T, {a: (v.ravel() if a in layout.scalars else v.T) for a, v in zip(ctrl.run_outputs, outs)}
 
 
 def _thin(part: Run, k0: int, every: int) -> Run:
@@ -345,9 +407,10 @@ def _thin(part: Run, k0: int, every: int) -> Run:
     n = len(part.t)
     if every == 1 or n == 0:
         return part
+    lowest = [np.argmin(np.min(v, axis=1) if v.ndim == 2 else v)
+              for v in (np.asarray(getattr(part, c.array)) for c in part.layout.margins)]
     rows = np.concatenate([np.flatnonzero((k0 + np.arange(n)) % every == 0),
-                           [np.argmin(np.min(part.link_margins, axis=1)), np.argmin(part.longitudinal),
-                            np.argmax(np.max(np.abs(part.u), axis=1)), n - 1]])
+                           [*lowest, np.argmax(np.max(np.abs(part.u), axis=1)), n - 1]])
     return part.rows(np.unique(rows))
 
 

@@ -23,10 +23,13 @@ def summary_lines(run: Run, scenario: Scenario) -> list[str]:
     list of str
         Scenario and link count; simulated time and steps, stop reason and backend; final max|e| [m];
         s tracking [m]; the smallest link and longitudinal margins; max|u|; the governor's slowing and
-        the rail's travel when used; then :func:`physical_lines` for a full configuration.
+        the rail's travel when used; then :func:`physical_lines` for a full configuration. A spatial
+        run: :func:`spatial_summary_lines`.
     """
     import numpy as np
 
+    if run.layout.kind != "revolute":
+        return spatial_summary_lines(run, scenario)
     s = run.summary()
     lines = [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1] - int(scenario.chain().rail)} links"
              + (" on a rail" if scenario.chain().rail else ""),
@@ -46,6 +49,37 @@ def summary_lines(run: Run, scenario: Scenario) -> list[str]:
     if run.q.shape[1] == scenario.chain().dof:
         lines += physical_lines(run, scenario)
     return lines
+
+
+def spatial_summary_lines(run: Run, scenario: Scenario) -> list[str]:
+    """The summary of a spatial run (universal joints), one string per line.
+
+    Parameters
+    ----------
+    run : Run
+        The simulated (or replayed) run; ``run.q`` is ``(n, 2 m)`` [rad].
+    scenario : Scenario
+        The scenario it ran (name, source).
+
+    Returns
+    -------
+    list of str
+        Scenario and link count; simulated time and steps, stop reason and backend; final max|e^j| [m];
+        s tracking [m]; roll tracking [rad]; the smallest link, end and joint margins; max|u| [rad/s].
+    """
+    s = run.summary()
+    return [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1] // 2} links, universal joints",
+            f"simulated     {s['duration']:.3f} s in {s['steps']} steps ({run.info.get('stopped', '?')}, "
+            f"backend {run.info.get('backend', '?')})",
+            f"final max|e|  {s['final_max_abs_e']:.3e} m",
+            f"s tracking    max |s - (s0 + ∫v*)| = {s['max_s_tracking_error']:.3e} m",
+            f"roll tracking max |roll - roll*| = {s['max_roll_tracking_error']:.3e} rad",
+            f"link margin   min {s['min_link_margin']:.4f} (link {s['min_link_margin_link']}, "
+            f"t = {s['min_link_margin_time']:.2f} s)",
+            f"end margin    min {s['min_end_margin']:.4f} (t = {s['min_end_margin_time']:.2f} s)",
+            f"joint margin  min |cos b_j| = {s['min_joint_margin']:.4f} (joint {s['min_joint_margin_joint']}, "
+            f"t = {s['min_joint_margin_time']:.2f} s)",
+            f"max|u|        {s['max_abs_u']:.4g}"]
 
 
 def physical_lines(run: Run, scenario: Scenario) -> list[str]:

@@ -33,11 +33,13 @@ class SingularityError(CoordarmError):
     time : float
         Simulated time [s] of the first state whose margin is below threshold.
     link : int or None
-        1-based index of the offending link, or None for the longitudinal margin.
+        1-based index of the offending link (of the joint for ``"joint"``), or None for the
+        longitudinal or end margin.
     margin : float
         The margin (dimensionless) at that time.
     kind : str
-        ``"link"`` or ``"longitudinal"``.
+        ``"link"`` or ``"longitudinal"``; for a spatial chain also ``"end"`` (the 2x2 end solve) and
+        ``"joint"`` (``|cos b_j|``).
     threshold : float
         The threshold it fell below.
     run : object, optional
@@ -67,7 +69,8 @@ class SingularityError(CoordarmError):
                  threshold: float, run: object | None = None, hint: str | None = None) -> None:
         self.time, self.link, self.margin = float(time), link, float(margin)
         self.kind, self.threshold, self.run, self.hint = kind, float(threshold), run, hint
-        where = f"link {link}" if link is not None else "the end point (longitudinal)"
+        where = (f"{'joint' if kind == 'joint' else 'link'} {link}" if link is not None
+                 else "the end point (longitudinal)" if kind == "longitudinal" else "the end point")
         super().__init__(
             f"singularity ahead at t = {self.time:.4f} s: {kind} margin of {where} "
             f"is {self.margin:.3g} < threshold {self.threshold:.3g}; run stopped"

@@ -234,3 +234,62 @@ def split(packed: Any, m: int, rail: bool = False) -> dict[str, Any]:
         else:
             result[o.name] = packed[..., start:start + width]
     return result
+
+
+def spatial_offsets(m: int) -> dict[str, tuple[int, int]]:
+    """``name -> (start, width)`` of each spatial run output in the packed vector of a compiled chunk.
+
+    The packed order is :data:`SPATIAL_RUN_OUTPUTS`, the widths those of :data:`SPATIAL_LAW_OUTPUTS`
+    (``u`` 2m, ``e`` 2(m-1), ``s`` 1, ``roll`` 1, ``link_margins`` m-1, ``end_margin`` 1,
+    ``joint_margins`` m).
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+
+    Returns
+    -------
+    dict of str to (int, int)
+        Start index and width of each output, in packing order.
+    """
+    rows = {o.name: o for o in SPATIAL_LAW_OUTPUTS}
+    out, start = {}, 0
+    for name in SPATIAL_RUN_OUTPUTS:
+        out[name] = (start, rows[name].width(m))
+        start += rows[name].width(m)
+    return out
+
+
+def spatial_split(packed: Any, m: int) -> dict[str, Any]:
+    """Split packed spatial run outputs (:func:`spatial_offsets`) into a dict keyed by :data:`SPATIAL_RUN_OUTPUTS`.
+
+    Parameters
+    ----------
+    packed : ndarray, shape (..., width)
+        Packed rows, ``width`` the sum of the widths of :func:`spatial_offsets` (views are returned).
+    m : int
+        Number of links.
+
+    Returns
+    -------
+    dict
+        Vectors as ``(..., width)`` slices; scalars as a float (one row) or an ``(n,)`` array.
+
+    Raises
+    ------
+    ValueError
+        The last axis has the wrong length.
+    """
+    offs = spatial_offsets(m)
+    width = sum(w for _, w in offs.values())
+    if packed.shape[-1] != width:
+        raise ValueError(f"packed spatial outputs: last axis of {packed.shape[-1]}, expected {width} for {m} links")
+    result: dict[str, Any] = {}
+    for name, (start, w) in offs.items():
+        if name in SPATIAL_SCALAR_OUTPUTS:
+            v = packed[..., start]
+            result[name] = float(v) if v.ndim == 0 else v
+        else:
+            result[name] = packed[..., start:start + w]
+    return result

@@ -263,5 +263,115 @@ class SpatialController:
             self._cache["M"] = ca.Function("spatial_decoupling", [q, t], [M, r], ["q", "t"], ["M", "rhs"])
         return self._cache["M"]
 
+    def _command_function(self, name: str) -> ca.Function:
+        """``t -> command(t)`` as a CasADi Function (``"speed"`` or ``"roll"``), cached."""
+        key = ("command", name)
+        if key not in self._cache:
+            t = ca.SX.sym("t")
+            param = self.speed if name == "speed" else self.roll_target
+            self._cache[key] = ca.Function(name, [t], [ca.SX(param(t)) + 0 * t])
+        return self._cache[key]
+
+    def speeds(self, T: Any) -> np.ndarray:
+        """``v*(t)`` at each of the times ``T``, in one call.
+
+        Parameters
+        ----------
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Commanded speeds [m/s].
+        """
+        T = np.atleast_1d(np.asarray(T, float))
+        return np.asarray(self._command_function("speed").map(len(T))(T[None])).ravel()
+
+    def speed_at(self, t: float) -> float:
+        """The commanded speed at one time.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            ``v*(t)`` [m/s].
+        """
+        return float(self.speeds([t])[0])
+
+    def roll_targets(self, T: Any) -> np.ndarray:
+        """The commanded roll ``theta*(t)`` at each of the times ``T``.
+
+        Parameters
+        ----------
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            ``theta*`` [rad].
+        """
+        T = np.atleast_1d(np.asarray(T, float))
+        return np.asarray(self._command_function("roll").map(len(T))(T[None])).ravel()
+
+    def roll_at(self, t: float) -> float:
+        """The commanded roll at one time.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            ``theta*(t)`` [rad].
+        """
+        return float(self.roll_targets([t])[0])
+
+    def base_offset(self, t: float = 0.0) -> float:
+        """``|Phi(0, t)|``: how far the curve passes from the fixed base (the origin).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            Distance [m].
+        """
+        if "base" not in self._cache:
+            ts = ca.SX.sym("t")
+            self._cache["base"] = ca.Function("base_offset", [ts], [ca.norm_2(self.curve.Phi(ca.SX.zeros(3), ts))])
+        return float(self._cache["base"](t))
+
+    def conds(self, Q: Any, T: Any) -> np.ndarray:
+        """2-norm condition numbers of the dense decoupling matrices at N states (an SVD each, O(m^3)).
+
+        Parameters
+        ----------
+        Q : array_like, shape (N, 2 m)
+            Joint coordinates [rad].
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            ``sigma_max / sigma_min`` of each (inf when singular).
+        """
+        f = self.decoupling_function()
+        M = np.array([np.asarray(f(q, t)[0]) for q, t in zip(np.atleast_2d(Q), np.atleast_1d(T))])
+        sv = np.linalg.svd(M, compute_uv=False)
+        with np.errstate(divide="ignore"):
+            return sv[:, 0] / sv[:, -1]
+
     def __repr__(self) -> str:
         return f"SpatialController({self.chain!r}, {type(self.curve).__name__}, gain={self.gain}, law={self.law_form!r})"
