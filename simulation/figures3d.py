@@ -9,7 +9,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Sequence
 
-import casadi as ca
 import matplotlib
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
@@ -17,7 +16,7 @@ from matplotlib.ticker import LogFormatter, MaxNLocator, NullFormatter
 import numpy as np
 
 from .figures import envelope_indices, stage_indices
-from .spatial_view import clip_to_box, spatial_joints, view_box
+from .spatial_view import clip_to_box, roll_command, spatial_joints, view_box
 
 #: The floor of the logarithmic error plots [m or rad]: below it lie only rounding errors.
 FLOOR = 1e-17
@@ -46,27 +45,6 @@ def reference_arc_length(run: Any) -> np.ndarray:
     if scale is not None:
         v = np.where(np.isfinite(scale), scale, 1.0) * v
     return float(run.s[0]) + np.concatenate([[0.0], np.cumsum(0.5 * np.diff(t) * (v[1:] + v[:-1]))])
-
-
-def roll_command(ctrl: Any, times: np.ndarray) -> np.ndarray:
-    """The commanded roll ``theta*(t)`` of a spatial controller at ``times`` (one mapped CasADi call).
-
-    Parameters
-    ----------
-    ctrl : SpatialController
-        The controller (its ``roll_target``, a callable of ``t``).
-    times : ndarray, shape (k,)
-        Times [s].
-
-    Returns
-    -------
-    ndarray, shape (k,)
-        ``theta*`` [rad].
-    """
-    times = np.asarray(times, float).ravel()
-    t = ca.SX.sym("t")
-    f = ca.Function("roll_command", [t], [0 * t + ctrl.roll_target(t)])
-    return np.asarray(f.map(len(times))(ca.DM(times).T), float).ravel() if len(times) else np.empty(0)
 
 
 def target_points3d(ctrl: Any, s_ref: np.ndarray, times: np.ndarray) -> np.ndarray | None:

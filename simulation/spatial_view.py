@@ -1,8 +1,9 @@
-"""What the figures and the Foxglove scene draw of a spatial chain: its joints, a view box, the clipped curve."""
+"""What the figures and the Foxglove scene draw of a spatial chain: its joints, a view box, the clipped curve, the roll command."""
 from __future__ import annotations
 
 from typing import Any
 
+import casadi as ca
 import numpy as np
 
 from coordarm.symbolic.spatial_chain import SpatialChain
@@ -82,3 +83,24 @@ def clip_to_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarra
     outside = np.any((pts < lo) | (pts > hi), axis=1)
     pts[outside] = np.nan
     return pts
+
+
+def roll_command(ctrl: Any, times: np.ndarray) -> np.ndarray:
+    """The commanded roll ``theta*(t)`` of a spatial controller at ``times`` (one mapped CasADi call).
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (its ``roll_target``, a callable of ``t``).
+    times : ndarray, shape (k,)
+        Times [s].
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        ``theta*`` [rad].
+    """
+    times = np.asarray(times, float).ravel()
+    t = ca.SX.sym("t")
+    f = ca.Function("roll_command", [t], [0 * t + ctrl.roll_target(t)])
+    return np.asarray(f.map(len(times))(ca.DM(times).T), float).ravel() if len(times) else np.empty(0)
