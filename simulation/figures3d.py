@@ -127,7 +127,8 @@ def draw_stage(ax: Any, scene: dict[str, Any], i: int, colour: Any, label: str, 
     """
     J, cur = scene["joints"][i], scene["curves"][i]
     ax.plot(*(cur[:, a] for a in axes), "--", color=colour, lw=1.0, alpha=0.8, gid="curve")
-    ax.plot(*(J[:, a] for a in axes), "-", color=colour, lw=3.0, solid_capstyle="round", label=label, gid="links")
+    width = 3.0 if len(J) <= 25 else 2.0
+    ax.plot(*(J[:, a] for a in axes), "-", color=colour, lw=width, solid_capstyle="round", label=label, gid="links")
     ax.plot(*(J[1:-1, a] for a in axes), "o", color="white", mec=colour, ms=2.6, mew=0.8, gid="joints")
     ax.plot(*(J[-1:, a] for a in axes), "o", color=colour, ms=6, mec="k", mew=0.6, gid="end")
     if scene["targets"] is not None:
@@ -168,11 +169,11 @@ def draw_view3d(ax: Any, scene: dict[str, Any], colours: np.ndarray, labels: Seq
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
-    ax.set_box_aspect(tuple(hi - lo), zoom=0.95)
+    ax.set_box_aspect(tuple(hi - lo), zoom=1.08)
     ax.set_proj_type("persp", focal_length=1.6)
     ax.view_init(elev=24, azim=-58)
     for name, setter in zip(AXIS_NAMES, (ax.set_xlabel, ax.set_ylabel, ax.set_zlabel)):
-        setter(f"{name} [m]", labelpad=4)
+        setter(f"{name} [m]", labelpad=2)
     for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
         axis.set_major_locator(MaxNLocator(5))
     ax.tick_params(labelsize=7, pad=1)
@@ -238,10 +239,10 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
     labels = [f"t = {run.t[k]:.2f} s" for k in idx]
     fig = Figure(figsize=(13.0, 7.0))
     grid = fig.add_gridspec(2, 2, width_ratios=(1.5, 1.0), left=0.0, right=0.84, bottom=0.07, top=0.92,
-                            wspace=0.08, hspace=0.28)
+                            wspace=0.22, hspace=0.28)
     ax3 = fig.add_subplot(grid[:, 0], projection="3d")
     draw_view3d(ax3, scene, colours, labels)
-    ax3.set_title("perspective", fontsize=10)
+    ax3.text2D(0.5, 0.97, "perspective", transform=ax3.transAxes, ha="center", fontsize=10)
     for (name, axes), cell in zip(PROJECTIONS, (grid[0, 1], grid[1, 1])):
         draw_projection(fig.add_subplot(cell), scene, colours, name, axes)
     handles, names = ax3.get_legend_handles_labels()
