@@ -73,6 +73,31 @@ def target_points3d(ctrl: Any, s_ref: np.ndarray, times: np.ndarray) -> np.ndarr
         return None
 
 
+def curve_points(curve: Any, t: float, reach: float, n: int = 600) -> np.ndarray:
+    """``n`` points of the curve at time ``t``, a line's within ``reach`` [m] of its point (from its two ends).
+
+    Parameters
+    ----------
+    curve : SpatialCurve
+        The curve (``sample``; ``kind`` ``"line"`` for a straight line).
+    t : float
+        Time [s].
+    reach : float
+        Half-length of a line's drawn piece, or the rays drawn beyond a path's ends [m].
+    n : int
+        Number of points.
+
+    Returns
+    -------
+    ndarray, shape (n, 3)
+        Points [m].
+    """
+    if getattr(curve, "kind", "") == "line":
+        a, b = curve.sample(t, n=2, extent=reach)
+        return a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    return curve.sample(t, n=n, extent=reach)
+
+
 def stage_scene(run: Any, ctrl: Any, idx: np.ndarray) -> dict[str, Any]:
     """What the stage figure draws: joints and curve per stage, the target points and the view box.
 
@@ -100,7 +125,7 @@ def stage_scene(run: Any, ctrl: Any, idx: np.ndarray) -> dict[str, Any]:
         frame.append(curve.sample(float(run.t[idx[0]]), n=400, extent=0.0))
     lo, hi = view_box(np.concatenate(frame), chain.xi)
     reach = float(np.linalg.norm(hi - lo)) + float(np.max(np.abs(np.concatenate([lo, hi]))))
-    curves = [clip_to_box(curve.sample(float(run.t[k]), n=600, extent=reach), lo, hi) for k in idx]
+    curves = [clip_to_box(curve_points(curve, float(run.t[k]), reach), lo, hi) for k in idx]
     targets = target_points3d(ctrl, reference_arc_length(run)[idx], run.t[idx])
     return dict(joints=spatial_joints(chain, run.q[idx]), curves=curves, targets=targets, lo=lo, hi=hi)
 
