@@ -1,0 +1,313 @@
+"""What Foxglove draws of a spatial run (universal joints): ``/scene``, ``/tf`` and ``/tracking`` messages.
+
+The scene, in frame ``world``, follows the official ``foxglove.SceneUpdate`` schema as the planar
+one (:mod:`.scene`): each link a cylinder (centre ``y^j``, axis along ``d_j``, length ``xi``), each
+link end a sphere (the joints), the base a cube, the curve at its current pose a 3-D line strip, the
+end point's target (the point of the curve at arc length ``s(0) + integral of v*``) a red sphere and
+the obstacles as in the planar scene (in the plane z = 0). The frame transforms
+(``foxglove.FrameTransforms``) give a frame ``link1`` .. ``linkm`` per link, origin at the link's
+centre, x along the link and the orientation ``R_j`` of the chain, each parented to the previous one
+(``link1`` to ``world``): link j relative to link j-1 is ``Rz(a_j) Ry(b_j)``.
+"""
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+
+from coordarm.symbolic.spatial_chain import SpatialChain
+
+from .log_schemas import CDR_HEADER
+from .scene import ARM_COLOR, CURVE_COLOR, TARGET_COLOR, WALL_COLOR, SceneBuilder, obstacle_outlines
+from .spatial_view import roll_command, spatial_joints
+
+#: Colour of the joint spheres and the base (r, g, b, a).
+JOINT_COLOR = (0.1, 0.1, 0.1, 1.0)
+#: The quaternion (x, y, z, w) of ``Ry(pi/2)``: it turns a cylinder's axis (z) onto the link's x axis.
+_Z_TO_X = np.array([0.0, np.sin(np.pi / 4), 0.0, np.cos(np.pi / 4)])
+
+
+def quaternions(R: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``(x, y, z, w)`` of rotation matrices (Shepperd's method, ``w >= 0``).
+
+    Parameters
+    ----------
+    R : ndarray, shape (..., 3, 3)
+        Rotation matrices.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        The quaternions.
+    """
+    R = np.asarray(R, float)
+    m00, m11, m22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
+    cand = np.stack([  # 4 * (x^2, y^2, z^2, w^2) candidates: the largest gives the best-conditioned row
+        1 + m00 - m11 - m22, 1 - m00 + m11 - m22, 1 - m00 - m11 + m22, 1 + m00 + m11 + m22], axis=-1)
+    k = np.argmax(cand, axis=-1)
+    r = np.sqrt(np.maximum(np.take_along_axis(cand, k[..., None], -1)[..., 0], 1e-300)) * 0.5
+    a, b, c = R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]
+    s01, s02, s12 = R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1]
+    rows = np.stack([np.stack([r, s01 / (4 * r), s02 / (4 * r), a / (4 * r)], -1),
+                     np.stack([s01 / (4 * r), r, s12 / (4 * r), b / (4 * r)], -1),
+                     np.stack([s02 / (4 * r), s12 / (4 * r), r, c / (4 * r)], -1),
+                     np.stack([a / (4 * r), b / (4 * r), c / (4 * r), r], -1)], axis=-2)
+    q = np.take_along_axis(rows, k[..., None, None], -2)[..., 0, :]
+    return q * np.where(q[..., 3:] < 0, -1.0, 1.0)
+
+
+def quaternion_product(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product ``p q`` of quaternions ``(x, y, z, w)`` (the rotation ``q`` first, then ``p``).
+
+    Parameters
+    ----------
+    p, q : ndarray, shape (..., 4)
+        Quaternions.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        The product.
+    """
+    px, py, pz, pw = np.moveaxis(np.asarray(p, float), -1, 0)
+    qx, qy, qz, qw = np.moveaxis(np.asarray(q, float), -1, 0)
+    return np.stack([pw * qx + px * qw + py * qz - pz * qy, pw * qy - px * qz + py * qw + pz * qx,
+                     pw * qz + px * qy - py * qx + pz * qw, pw * qw - px * qx - py * qy - pz * qz], axis=-1)
+
+
+def spatial_link_frames(chain: SpatialChain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each link's frame relative to its parent (link j-1; ``world`` for link 1).
+
+    Parameters
+    ----------
+    chain : SpatialChain
+        The manipulator.
+    q : ndarray, shape (n, 2 m)
+        Joint coordinates [rad].
+
+    Returns
+    -------
+    translation : ndarray, shape (n, m, 3)
+        Origin of frame j (link j's centre) in frame j-1 [m].
+    rotation : ndarray, shape (n, m, 4)
+        Quaternion ``(x, y, z, w)`` of frame j in frame j-1 (``Rz(a_j) Ry(b_j)``).
+    """
+    R = chain.frames_np(q)
+    c = chain.centres_np(q)
+    parent_R = np.concatenate([np.broadcast_to(np.eye(3), R[:, :1].shape), R[:, :-1]], axis=1)
+    parent_c = np.concatenate([np.zeros_like(c[:, :1]), c[:, :-1]], axis=1)
+    trans = np.einsum("nkji,nkj->nki", parent_R, c - parent_c)
+    return trans, quaternions(np.swapaxes(parent_R, -1, -2) @ R)
+
+
+def _vec(v: Any) -> dict[str, float]:
+    return {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
+
+
+def _pose(p: Any, quat: Any = (0.0, 0.0, 0.0, 1.0)) -> dict[str, Any]:
+    return {"position": _vec(p), "orientation": dict(zip("xyzw", (float(x) for x in quat)))}
+
+
+def _colour(c: tuple[float, ...]) -> dict[str, float]:
+    return dict(zip("rgba", c))
+
+
+def _line(points: np.ndarray, thickness: float, colour: tuple[float, ...]) -> dict[str, Any]:
+    """A ``foxglove.LinePrimitive`` line strip through ``points`` (k, 3) [m] (non-finite points dropped)."""
+    pts = np.asarray(points, float)
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    return {"type": 0, "pose": _pose((0, 0, 0)), "thickness": thickness, "scale_invariant": False,
+            "points": [_vec(p) for p in pts], "color": _colour(colour), "colors": [], "indices": []}
+
+
+class SpatialSceneBuilder(SceneBuilder):
+    """Builds the ``/scene``, ``/tf`` and ``/tracking`` messages of a spatial run, block by block.
+
+    The same interface as :class:`~.scene.SceneBuilder`: feed every block of steps to :meth:`advance`,
+    then ask :meth:`messages` for the rows to draw.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The run's controller (chain and 3-D curve).
+    obstacles : array_like
+        The scenario's obstacles (drawn in the plane z = 0).
+
+    Attributes
+    ----------
+    TRACKING_FIELDS : tuple of (str, int)
+        The fields of the ``/tracking`` record (all scalars, float64, in order): the planar ones with
+        the target's ``z`` after its ``y``, then the roll and its command [rad].
+    """
+
+    TRACKING_FIELDS = (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0), ("target_z", 0),
+                       ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0), ("roll", 0), ("roll_target", 0))
+
+    def __init__(self, ctrl: Any, obstacles: Any) -> None:
+        super().__init__(ctrl, obstacles)
+        self._walls = [_line(np.column_stack([p, np.zeros(len(p))]), 0.02, WALL_COLOR)
+                       for p in obstacle_outlines(obstacles)]
+        self.radius = 0.12 * ctrl.chain.xi      # of the link cylinders [m]
+        self._path_points: np.ndarray | None = None     # a path's polyline (it does not move)
+
+    def curves(self, times: np.ndarray) -> list[np.ndarray]:
+        """The curve at each of ``times`` as a 3-D polyline (a line: its two ends; a path, which does not
+        move, sampled once).
+
+        Parameters
+        ----------
+        times : ndarray, shape (k,)
+            Times [s].
+
+        Returns
+        -------
+        list of ndarray, each shape (n, 3)
+            One polyline [m] per time.
+        """
+        curve = self.ctrl.curve
+        if getattr(curve, "kind", "") == "line":
+            return [curve.sample(float(t), n=2, extent=self.reach) for t in times]
+        if getattr(curve, "kind", "") in ("path", "waypoints"):
+            if self._path_points is None:
+                self._path_points = curve.sample(0.0, n=300, extent=0.25 * self.reach)
+            return [self._path_points] * len(times)
+        return [curve.sample(float(t), n=300, extent=0.25 * self.reach) for t in times]
+
+    def targets(self, part: Any, ks: np.ndarray) -> np.ndarray:
+        """The end point's target on the curve at rows ``ks`` of ``part`` (its end point's centre if the
+        curve cannot map an arc length to a point).
+
+        Parameters
+        ----------
+        part : Run
+            The block last given to :meth:`advance`.
+        ks : ndarray of int, shape (k,)
+            Its rows.
+
+        Returns
+        -------
+        ndarray, shape (k, 3)
+            The target points [m].
+        """
+        point_at = getattr(self.ctrl.curve, "point_at", None)
+        try:
+            return np.array([point_at(float(self.s_target[k]), float(part.t[k])) for k in ks]).reshape(-1, 3)
+        except (TypeError, NotImplementedError):
+            return self.ctrl.chain.centres_np(part.q[ks])[:, -1]
+
+    def scene_entity(self, pose: dict[str, np.ndarray], curve: np.ndarray, target: np.ndarray,
+                     ns: int) -> dict[str, Any]:
+        """The ``foxglove.SceneEntity`` of one pose.
+
+        Parameters
+        ----------
+        pose : dict of str to ndarray
+            ``centres`` (m, 3) [m], ``axes`` (m, 4) (quaternions turning z onto ``d_j``) and ``joints``
+            (m+1, 3) [m] of the chain (see :meth:`poses`).
+        curve : ndarray, shape (n, 3)
+            The curve's polyline [m].
+        target : ndarray, shape (3,)
+            The end point's target [m].
+        ns : int
+            Time stamp [ns].
+
+        Returns
+        -------
+        dict
+            The entity (id ``"coordarm"``, frame ``world``).
+        """
+        xi, r = self.ctrl.chain.xi, self.radius
+        cylinders = [{"pose": _pose(c, a), "size": {"x": 2 * r, "y": 2 * r, "z": xi}, "bottom_scale": 1,
+                      "top_scale": 1, "color": _colour(ARM_COLOR)} for c, a in zip(pose["centres"], pose["axes"])]
+        d = 2.6 * r
+        spheres = [{"pose": _pose(p), "size": {"x": d, "y": d, "z": d}, "color": _colour(JOINT_COLOR)}
+                   for p in pose["joints"]]
+        spheres.append({"pose": _pose(target), "size": {"x": 0.04, "y": 0.04, "z": 0.04},
+                        "color": _colour(TARGET_COLOR)})
+        base = {"pose": _pose((0, 0, 0)), "size": {"x": 2 * d, "y": 2 * d, "z": 2 * d}, "color": _colour(JOINT_COLOR)}
+        return {"timestamp": {"sec": int(ns // 10**9), "nsec": int(ns % 10**9)}, "frame_id": "world",
+                "id": "coordarm", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
+                "arrows": [], "cubes": [base], "spheres": spheres, "cylinders": cylinders,
+                "lines": [_line(curve, 0.005, CURVE_COLOR)] + self._walls, "triangles": [], "texts": [],
+                "models": []}
+
+    def poses(self, q: np.ndarray) -> list[dict[str, np.ndarray]]:
+        """The chain's drawn geometry at each row of ``q`` (computed for all rows at once).
+
+        Parameters
+        ----------
+        q : ndarray, shape (k, 2 m)
+            Joint coordinates [rad].
+
+        Returns
+        -------
+        list of dict
+            Per row: ``centres`` (m, 3) [m] (the cylinders' centres ``y^j``), ``axes`` (m, 4) (quaternions
+            ``(x, y, z, w)`` of ``R_j Ry(pi/2)``: the cylinder's z axis along ``d_j``) and ``joints`` (m+1, 3) [m].
+        """
+        chain = self.ctrl.chain
+        centres, axes = chain.centres_np(q), quaternion_product(quaternions(chain.frames_np(q)), _Z_TO_X)
+        joints = spatial_joints(chain, q)
+        return [{"centres": c, "axes": a, "joints": j} for c, a, j in zip(centres, axes, joints)]
+
+    def frame_transforms(self, q: np.ndarray, ns: np.ndarray) -> list[bytes]:
+        """The ``foxglove.FrameTransforms`` of poses ``q`` (k, 2m) stamped ``ns`` [ns], one JSON each.
+
+        Parameters
+        ----------
+        q : ndarray, shape (k, 2 m)
+            Joint coordinates [rad].
+        ns : ndarray of int, shape (k,)
+            Time stamps [ns].
+
+        Returns
+        -------
+        list of bytes
+            One message per pose.
+        """
+        trans, rot = spatial_link_frames(self.ctrl.chain, q)
+        out = []
+        for n, tr, ro in zip(np.asarray(ns).tolist(), trans, rot):
+            stamp = {"sec": int(n // 10**9), "nsec": int(n % 10**9)}
+            out.append(json.dumps({"transforms": [
+                {"timestamp": stamp, "parent_frame_id": "world" if j == 0 else f"link{j}",
+                 "child_frame_id": f"link{j + 1}", "translation": _vec(tr[j]),
+                 "rotation": dict(zip("xyzw", ro[j].tolist()))} for j in range(len(tr))]},
+                separators=(",", ":")).encode())
+        return out
+
+    def messages(self, part: Any, ks: np.ndarray, ns: np.ndarray) -> list[tuple[str, int, bytes]]:
+        """``(channel key, log time, data)`` of the scene, frame transforms and tracking at rows ``ks``.
+
+        Parameters
+        ----------
+        part : Run
+            The block last given to :meth:`advance` (``q`` (N, 2m), ``e``, ``s``, ``roll``, ``link_margins``, ``u``).
+        ks : ndarray of int, shape (k,)
+            Its rows to draw.
+        ns : ndarray of int, shape (k,)
+            Log time of each row [ns].
+
+        Returns
+        -------
+        list of (str, int, bytes)
+            ``("scene" | "tf" | "tracking", log time [ns], message)``, three per row, in row order; the
+            tracking record holds :attr:`TRACKING_FIELDS`.
+        """
+        ks = np.asarray(ks, int)
+        if not len(ks):
+            return []
+        q, t = part.q[ks], np.asarray(part.t, float)[ks]
+        curves, targets, poses = self.curves(t), self.targets(part, ks), self.poses(q)
+        roll_target = roll_command(self.ctrl, t)
+        tracking = np.column_stack([t, part.s[ks], self.s_target[ks], targets, np.max(np.abs(part.e[ks]), axis=1),
+                                    np.min(part.link_margins[ks], axis=1), np.linalg.norm(part.u[ks], axis=1),
+                                    part.roll[ks], roll_target])
+        out = []
+        for i, (n, tf) in enumerate(zip(np.asarray(ns).tolist(), self.frame_transforms(q, ns))):
+            scene = {"deletions": [], "entities": [self.scene_entity(poses[i], curves[i], targets[i], n)]}
+            out.append(("scene", n, json.dumps(scene, separators=(",", ":")).encode()))
+            out.append(("tf", n, tf))
+            out.append(("tracking", n, CDR_HEADER + tracking[i].astype("<f8").tobytes()))
+        return out

@@ -1,0 +1,106 @@
+"""What the figures and the Foxglove scene draw of a spatial chain: its joints, a view box, the clipped curve, the roll command."""
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from coordarm.symbolic.spatial_chain import SpatialChain
+
+
+def spatial_joints(chain: SpatialChain, q: Any) -> np.ndarray:
+    """Link end points of a spatial chain: the chain drawn as a polyline.
+
+    Link j spans ``y^j -+ xi/2 d_j``; the polyline starts at the first link's free end
+    ``y^1 - xi/2 d_1`` and then runs through ``y^j + xi/2 d_j`` (j = 1..m), the last the end point.
+
+    Parameters
+    ----------
+    chain : SpatialChain
+        The manipulator.
+    q : array_like, shape (..., 2 m)
+        Joint coordinates ``(a_1, b_1, ...)`` [rad].
+
+    Returns
+    -------
+    ndarray, shape (..., m+1, 3)
+        Joint positions [m].
+    """
+    d = chain.directions_np(q)
+    y = chain.centres_np(q)
+    first = y[..., :1, :] - 0.5 * chain.xi * d[..., :1, :]
+    return np.concatenate([first, y + 0.5 * chain.xi * d], axis=-2)
+
+
+def view_box(points: np.ndarray, margin: float, flat: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+    """An axis-aligned box around ``points`` for an equal-scale 3-D view.
+
+    The box holds every point with ``10 %`` of the largest extent plus ``margin`` on each side; an
+    axis whose extent is below ``flat`` times the largest one is widened about its middle to that
+    (a planar run gets a readable flat box, not a sheet).
+
+    Parameters
+    ----------
+    points : ndarray, shape (k, 3)
+        Points to hold [m] (non-finite rows are ignored).
+    margin : float
+        Extra room on each side [m] (e.g. a link length).
+    flat : float
+        Smallest extent of an axis relative to the largest [-].
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (3,)
+        Corners of the box [m].
+    """
+    pts = np.asarray(points, float).reshape(-1, 3)
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.1 * float(np.max(hi - lo)) + margin
+    lo, hi = lo - pad, hi + pad
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    half = np.maximum(half, flat * float(np.max(half)))
+    return mid - half, mid + half
+
+
+def clip_to_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """``points`` with every point outside the box ``[lo, hi]`` replaced by NaN (a break in a drawn line).
+
+    Parameters
+    ----------
+    points : ndarray, shape (k, 3)
+        Polyline vertices [m].
+    lo, hi : ndarray, shape (3,)
+        Corners of the box [m].
+
+    Returns
+    -------
+    ndarray, shape (k, 3)
+        The clipped polyline [m].
+    """
+    pts = np.array(points, float)
+    outside = np.any((pts < lo) | (pts > hi), axis=1)
+    pts[outside] = np.nan
+    return pts
+
+
+def roll_command(ctrl: Any, times: np.ndarray) -> np.ndarray:
+    """The commanded roll ``theta*(t)`` of a spatial controller at ``times`` (one mapped CasADi call).
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (its ``roll_target``, a callable of ``t``).
+    times : ndarray, shape (k,)
+        Times [s].
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        ``theta*`` [rad].
+    """
+    times = np.asarray(times, float).ravel()
+    t = ca.SX.sym("t")
+    f = ca.Function("roll_command", [t], [0 * t + ctrl.roll_target(t)])
+    return np.asarray(f.map(len(times))(ca.DM(times).T), float).ravel() if len(times) else np.empty(0)

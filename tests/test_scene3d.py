@@ -1,0 +1,155 @@
+"""The Foxglove scene of a spatial run: link cylinders and frames against the chain's own geometry, the schemas."""
+import json
+from types import SimpleNamespace
+
+import jsonschema
+import numpy as np
+import pytest
+
+from coordarm.simulation.log_schemas import CDR_HEADER, foxglove_schema
+from coordarm.simulation.scene import link_frames
+from coordarm.simulation.scene3d import SpatialSceneBuilder, quaternions, spatial_link_frames
+from coordarm.symbolic.chain import PlanarChain
+from coordarm.symbolic.curves3d import Line3D
+from coordarm.symbolic.motions import Sinusoid
+from coordarm.symbolic.paths3d import Path3D
+from coordarm.symbolic.spatial_chain import SpatialChain
+from coordarm.symbolic.spatial_controller import SpatialController
+
+M, XI = 5, 0.1
+
+
+def rotate(quat, v):
+    """``v`` turned by the unit quaternion ``(x, y, z, w)``: v + 2w (u x v) + 2 u x (u x v)."""
+    u, w = np.asarray(quat[:3], float), float(quat[3])
+    return v + 2 * w * np.cross(u, v) + 2 * np.cross(u, np.cross(u, v))
+
+
+def xyz(d):
+    return np.array([d["x"], d["y"], d["z"]])
+
+
+def xyzw(d):
+    return np.array([d["x"], d["y"], d["z"], d["w"]])
+
+
+def block(n=7, seed=0):
+    """A block of steps: random joint coordinates and plausible law outputs."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 0.05
+    return SimpleNamespace(t=t, q=0.7 * rng.standard_normal((n, 2 * M)), u=rng.standard_normal((n, 2 * M)),
+                           e=rng.standard_normal((n, 2 * (M - 1))), s=0.3 + 0.1 * t, roll=0.01 * t,
+                           link_margins=rng.uniform(0.2, 1, (n, M - 1)), v_star=np.full(n, 0.1))
+
+
+@pytest.fixture(scope="module")
+def ctrl():
+    curve = Line3D((0.0, 0.0, 0.0), (1, 0, 0), (0, 1, 0), rotation=((0, 1, 0), Sinusoid(0.5, 0.4)))
+    return SpatialController(SpatialChain(M, XI), curve, 2.0, 0.1, roll=Sinusoid(0.3, 0.7))
+
+
+@pytest.fixture(scope="module")
+def drawn(ctrl):
+    part = block()
+    builder = SpatialSceneBuilder(ctrl, [])
+    builder.advance(part)
+    ks = np.array([0, 3, 6])
+    return part, ks, builder.messages(part, ks, (part.t[ks] * 1e9).round().astype(np.int64))
+
+
+def test_quaternions_turn_vectors_as_the_matrices(ctrl):
+    R = ctrl.chain.frames_np(block(20, seed=4).q).reshape(-1, 3, 3)
+    for Rk, qk in zip(R, quaternions(R)):
+        assert abs(np.linalg.norm(qk) - 1) < 1e-14
+        for v in np.eye(3):
+            np.testing.assert_allclose(rotate(qk, v), Rk @ v, atol=1e-14)
+
+
+def test_link_cylinders_sit_on_the_centres_along_the_link_directions(ctrl, drawn):
+    part, ks, msgs = drawn
+    scenes = [json.loads(data) for key, _, data in msgs if key == "scene"]
+    assert len(scenes) == len(ks)
+    centres, dirs = ctrl.chain.centres_np(part.q[ks]), ctrl.chain.directions_np(part.q[ks])
+    for scene, c, d in zip(scenes, centres, dirs):
+        entity, = scene["entities"]
+        cylinders = entity["cylinders"]
+        assert len(cylinders) == M
+        for j, cyl in enumerate(cylinders):
+            np.testing.assert_allclose(xyz(cyl["pose"]["position"]), c[j], atol=1e-15)
+            np.testing.assert_allclose(rotate(xyzw(cyl["pose"]["orientation"]), np.array([0.0, 0, 1])), d[j],
+                                       atol=1e-14)
+            assert cyl["size"]["z"] == XI
+        joints = np.array([xyz(s["pose"]["position"]) for s in entity["spheres"][:-1]])
+        np.testing.assert_allclose(joints[:-1], c - 0.5 * XI * d, atol=1e-15)
+        np.testing.assert_allclose(joints[1:], c + 0.5 * XI * d, atol=1e-15)
+
+
+def test_frames_composed_from_world_give_each_link_centre_and_orientation(ctrl, drawn):
+    part, ks, msgs = drawn
+    tfs = [json.loads(data)["transforms"] for key, _, data in msgs if key == "tf"]
+    R_all = ctrl.chain.frames_np(part.q[ks])
+    for transforms, R, c in zip(tfs, R_all, ctrl.chain.centres_np(part.q[ks])):
+        assert [(x["parent_frame_id"], x["child_frame_id"]) for x in transforms] == \
+            [("world", "link1")] + [(f"link{j}", f"link{j + 1}") for j in range(1, M)]
+        pos, quat = np.zeros(3), np.array([0.0, 0, 0, 1])
+        for j, x in enumerate(transforms):
+            pos = pos + rotate(quat, xyz(x["translation"]))
+            rel = xyzw(x["rotation"])
+            axes = np.array([rotate(rel, v) for v in np.eye(3)]).T
+            world = np.array([rotate(quat, v) for v in axes.T]).T          # parent's rotation after rel
+            quat = quaternions(world)
+            np.testing.assert_allclose(pos, c[j], atol=1e-14)
+            np.testing.assert_allclose(world, R[j], atol=1e-13)
+
+
+def test_a_planar_pose_gives_the_planar_frames():
+    rng = np.random.default_rng(1)
+    qp = rng.uniform(-1, 1, (4, M))
+    qs = np.zeros((4, 2 * M))
+    qs[:, 0::2] = qp
+    trans, rot = spatial_link_frames(SpatialChain(M, XI), qs)
+    trans2, angle = link_frames(PlanarChain(M, XI).joints_np(qp))
+    np.testing.assert_allclose(trans[..., :2], trans2, atol=1e-15)
+    assert np.all(trans[..., 2] == 0)
+    np.testing.assert_allclose(rot, np.stack([0 * angle, 0 * angle, np.sin(angle / 2), np.cos(angle / 2)], -1),
+                               atol=1e-15)
+
+
+def test_messages_validate_and_the_tracking_record(ctrl, drawn):
+    part, ks, msgs = drawn
+    assert [k for k, _, _ in msgs] == ["scene", "tf", "tracking"] * len(ks)
+    assert [n for _, n, _ in msgs][::3] == (part.t[ks] * 1e9).round().astype(int).tolist()
+    scene_v = jsonschema.Draft7Validator(foxglove_schema("foxglove.SceneUpdate"))
+    tf_v = jsonschema.Draft7Validator(foxglove_schema("foxglove.FrameTransforms"))
+    for key, _, data in msgs:
+        if key == "scene":
+            scene_v.validate(json.loads(data))
+        elif key == "tf":
+            tf_v.validate(json.loads(data))
+    records = np.array([np.frombuffer(d[len(CDR_HEADER):], "<f8") for k, _, d in msgs if k == "tracking"])
+    names = [n for n, _ in SpatialSceneBuilder.TRACKING_FIELDS]
+    assert records.shape == (len(ks), len(names))
+    rec = dict(zip(names, records.T))
+    t = part.t[ks]
+    np.testing.assert_array_equal(rec["t"], t)
+    np.testing.assert_allclose(rec["s_target"], part.s[0] + 0.1 * t, atol=1e-15)
+    target = np.array([ctrl.curve.point_at(s, tt) for s, tt in zip(rec["s_target"], t)])
+    np.testing.assert_allclose(np.column_stack([rec["target_x"], rec["target_y"], rec["target_z"]]), target,
+                               atol=1e-15)
+    np.testing.assert_allclose(rec["roll_target"], 0.3 * np.sin(0.7 * t), atol=1e-15)
+    np.testing.assert_array_equal(rec["max_abs_e"], np.abs(part.e[ks]).max(axis=1))
+
+
+def test_a_path_is_drawn_whole_in_3d():
+    chain = SpatialChain(M, XI)
+    curve = Path3D((0, 0, 0), (1, 0, 0), (0, 1, 0), [("line", 0.3), ("arc", 1.5, 0.4, 1.2)])
+    ctrl = SpatialController(chain, curve, 2.0, 0.1, roll=0.0)
+    builder = SpatialSceneBuilder(ctrl, [])
+    part = block(3)
+    builder.advance(part)
+    msgs = builder.messages(part, np.array([0, 2]), np.array([0, 10**8]))
+    line = json.loads(msgs[0][2])["entities"][0]["lines"][0]
+    pts = np.array([xyz(p) for p in line["points"]])
+    assert np.ptp(pts[:, 2]) > 0.1                        # the banked arc leaves the plane z = 0
+    dist = np.min(np.linalg.norm(pts[:, None] - curve.sample(0.0, 40, extent=0.0)[None], axis=2), axis=0)
+    assert dist.max() < 0.02                              # every part of the path is drawn
