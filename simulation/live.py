@@ -19,17 +19,18 @@ from coordarm.symbolic import ConfigError, CoordinatingController
 from coordarm.symbolic.checks import is_real
 
 from .log_schemas import CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, foxglove_schema_bytes, numeric_channels
+from .log_layout import PLANAR, ChainLayout, layout_of_chain
 from .mcap_file import Worker
 from .mcap_writer import SCENE_RATE, log_time_ns, steps_between
 from .run import Run
 from .scenario import Scenario
-from .scene import SceneBuilder
+from .scene3d import scene_builder
 
 #: Default rate of the per-step channels on the live view [Hz].
 LIVE_RATE = 50.0
 
 
-def sdk_channels(context: Any, links: int, scenes: bool = True) -> dict[str, Any]:
+def sdk_channels(context: Any, links: int, scenes: bool = True, layout: ChainLayout = PLANAR) -> dict[str, Any]:
     """foxglove-sdk channels on ``context`` for the log's topics: the per-step ones and, if ``scenes``,
     ``/tracking``, ``/scene`` and ``/tf`` (same schemas and encodings as the log; keys as in the log).
 
@@ -41,6 +42,8 @@ def sdk_channels(context: Any, links: int, scenes: bool = True) -> dict[str, Any
         Number of links (sets the array lengths of the schemas).
     scenes : bool
         Also the ``/tracking``, ``/scene`` and ``/tf`` channels.
+    layout : ChainLayout
+        The chain kind's layout (:data:`~.log_layout.PLANAR` or :data:`~.log_layout.SPATIAL`).
 
     Returns
     -------
@@ -49,7 +52,7 @@ def sdk_channels(context: Any, links: int, scenes: bool = True) -> dict[str, Any
     """
     import foxglove
 
-    numeric = numeric_channels(links)
+    numeric = numeric_channels(links, layout=layout)
     out = {}
     for key in (*PER_STEP, "tracking") if scenes else PER_STEP:
         ch = numeric[key]
@@ -113,8 +116,9 @@ class LiveView:
         self.every = steps_between(rate, scenario.step, "live rate")
         self.scene_every = steps_between(scene_rate, scenario.step, "scene_rate")
         self.origin = min(0.0, scenario.t0)
-        self.scene = SceneBuilder(ctrl, scenario.obstacles)
-        self.numeric = numeric_channels(ctrl.chain.m)
+        self.scene = scene_builder(ctrl, scenario.obstacles)
+        layout = layout_of_chain(ctrl.chain)
+        self.numeric = numeric_channels(ctrl.chain.m, layout=layout)
         self.context = foxglove.Context()
         self._listener = _Subscribed()
         try:
@@ -123,7 +127,7 @@ class LiveView:
                                                 capabilities=[Capability.Time])
         except Exception as exc:  # foxglove raises its own error types for a port in use, a bad host, ...
             raise ConfigError(f"--port {port}: cannot start the live server on {host}: {exc}") from None
-        self.channels = sdk_channels(self.context, ctrl.chain.m)
+        self.channels = sdk_channels(self.context, ctrl.chain.m, layout=layout)
         self.host = host
         self._seen = 0
         self._clock: tuple[float, int] | None = None  # (wall time, log time) of the first message

@@ -147,6 +147,15 @@ def _field(name: str, m: int, rail: bool = False, layout: ChainLayout = PLANAR) 
     return name, 0 if out.scalar else out.width(m)
 
 
+#: The fields of a planar run's ``/tracking`` record (all float64 scalars, in order).
+TRACKING_FIELDS = (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0),
+                   ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0))
+#: The fields of a spatial run's ``/tracking`` record: the planar ones with the target's ``z`` after its
+#: ``y``, then the roll and its command [rad].
+SPATIAL_TRACKING_FIELDS = (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0), ("target_z", 0),
+                           ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0), ("roll", 0), ("roll_target", 0))
+
+
 def numeric_channels(links: int, rail: bool = False, layout: ChainLayout = PLANAR) -> dict[str, NumericChannel]:
     """The per-step channels and the condition-number channel for a chain of ``links`` links.
 
@@ -185,8 +194,7 @@ def numeric_channels(links: int, rail: bool = False, layout: ChainLayout = PLANA
         out[key] = NumericChannel(topic, schema, tuple(_field(n, m, rail, layout) for n in names), comment)
     out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", (("t", 0), ("cond", 0)))
     out["tracking"] = NumericChannel("/tracking", "coordarm_msgs/msg/Tracking",
-                                     (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0),
-                                      ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0)))
+                                     SPATIAL_TRACKING_FIELDS if spatial else TRACKING_FIELDS)
     return out
 
 

@@ -56,7 +56,7 @@ from .outcome import outcome_of
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
 from .scenario import Scenario
-from .scene import SceneBuilder
+from .scene3d import scene_builder
 
 #: Wall time between pushes of the log to the operating system [s] (a kill loses at most ~2x this).
 FLUSH_INTERVAL = 0.5
@@ -205,8 +205,7 @@ class RunLogger:
     log_rate : float, optional
         Samples per simulated second on the per-step channels (default: every step).
     scene_rate : float
-        Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off (so does a spatial
-        chain, until ``SceneBuilder.draws_spatial``).
+        Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off.
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz]; 0 switches it off. Default :func:`default_cond_rate`:
         5 Hz up to 64 links, then falling as ``1/m^2`` (an SVD costs O(m^3), a step O(m)); 0 for a
@@ -269,8 +268,6 @@ class RunLogger:
         """Check the rates and compression, create the file and its channels."""
         self.ctrl = ctrl or scenario.controller()
         self.layout = layout_of_chain(self.ctrl.chain)
-        if self.layout is not PLANAR and not getattr(SceneBuilder, "draws_spatial", False):
-            scene_rate = 0      # the scene cannot draw this chain: /scene, /tf and /tracking off
         if self.layout is PLANAR and type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
             scenario = scenario.with_curve(self.ctrl.curve)      # the log records a user-defined curve
         self.scenario = scenario
@@ -339,7 +336,7 @@ class RunLogger:
         self._governed = 0.0    # simulated time with v_scale < 1 [s]
         self._flushed = self._received = time.monotonic()
         self._gap = 0.0  # wall time between the last two blocks
-        self.scene = SceneBuilder(self.ctrl, self.scenario.obstacles)
+        self.scene = scene_builder(self.ctrl, self.scenario.obstacles)
         self.outcome: dict[str, Any] | None = None
         #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
         self.contacts: list[dict] = []

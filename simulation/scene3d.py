@@ -18,7 +18,7 @@ import numpy as np
 
 from coordarm.symbolic.spatial_chain import SpatialChain
 
-from .log_schemas import CDR_HEADER
+from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .scene import ARM_COLOR, CURVE_COLOR, TARGET_COLOR, WALL_COLOR, SceneBuilder, obstacle_outlines
 from .spatial_view import roll_command, spatial_joints
 
@@ -141,8 +141,7 @@ class SpatialSceneBuilder(SceneBuilder):
         the target's ``z`` after its ``y``, then the roll and its command [rad].
     """
 
-    TRACKING_FIELDS = (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0), ("target_z", 0),
-                       ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0), ("roll", 0), ("roll_target", 0))
+    TRACKING_FIELDS = SPATIAL_TRACKING_FIELDS
 
     def __init__(self, ctrl: Any, obstacles: Any) -> None:
         super().__init__(ctrl, obstacles)
@@ -311,3 +310,22 @@ class SpatialSceneBuilder(SceneBuilder):
             out.append(("tf", n, tf))
             out.append(("tracking", n, CDR_HEADER + tracking[i].astype("<f8").tobytes()))
         return out
+
+
+def scene_builder(ctrl: Any, obstacles: Any) -> SceneBuilder:
+    """The scene builder of ``ctrl``'s chain kind: :class:`SpatialSceneBuilder` for a spatial chain.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController or SpatialController
+        The controller of the run.
+    obstacles : list
+        The scenario's obstacles.
+
+    Returns
+    -------
+    SceneBuilder
+        A planar :class:`~.scene.SceneBuilder` or a :class:`SpatialSceneBuilder`.
+    """
+    builder = SpatialSceneBuilder if isinstance(ctrl.chain, SpatialChain) else SceneBuilder
+    return builder(ctrl, obstacles)
