@@ -234,3 +234,78 @@ def split(packed: Any, m: int, rail: bool = False) -> dict[str, Any]:
         else:
             result[o.name] = packed[..., start:start + width]
     return result
+
+
+def spatial_packed_width(m: int) -> int:
+    """Length of the packed output vector of the spatial law for ``m`` links (``6 m``).
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+
+    Returns
+    -------
+    int
+        Number of doubles: the widths of :data:`SPATIAL_LAW_OUTPUTS` summed.
+    """
+    return sum(o.width(m) for o in SPATIAL_LAW_OUTPUTS)
+
+
+def spatial_offsets(m: int) -> dict[str, tuple[int, int]]:
+    """``name -> (start, width)`` of each spatial output in the packed vector for ``m`` links.
+
+    The generated C of a :class:`~coordarm.symbolic.spatial_controller.SpatialController` packs the law
+    (and each row ``D[k]`` of a chunk) in this layout: the rows of :data:`SPATIAL_LAW_OUTPUTS` in order,
+    which are also :data:`SPATIAL_RUN_OUTPUTS` (every spatial output is logged).
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+
+    Returns
+    -------
+    dict of str to (int, int)
+        Start index and width of each output, in packing order.
+    """
+    out, start = {}, 0
+    for o in SPATIAL_LAW_OUTPUTS:
+        out[o.name] = (start, o.width(m))
+        start += o.width(m)
+    return out
+
+
+def spatial_split(packed: Any, m: int) -> dict[str, Any]:
+    """Split packed spatial output rows into a dict keyed by :data:`SPATIAL_OUTPUTS`.
+
+    Parameters
+    ----------
+    packed : ndarray, shape (spatial_packed_width(m),) or (n, spatial_packed_width(m))
+        One packed row or a block of rows (views are returned into it).
+    m : int
+        Number of links.
+
+    Returns
+    -------
+    dict
+        Vectors as ``(..., width)`` slices; scalars as a float (one row) or an ``(n,)`` array.
+
+    Raises
+    ------
+    ValueError
+        The last axis is not ``spatial_packed_width(m)`` long.
+    """
+    width = spatial_packed_width(m)
+    if packed.shape[-1] != width:
+        raise ValueError(f"packed spatial outputs: last axis of {packed.shape[-1]}, expected {width} for {m} links")
+    result: dict[str, Any] = {}
+    offs = spatial_offsets(m)
+    for o in SPATIAL_LAW_OUTPUTS:
+        start, w = offs[o.name]
+        if o.scalar:
+            v = packed[..., start]
+            result[o.name] = float(v) if v.ndim == 0 else v
+        else:
+            result[o.name] = packed[..., start:start + w]
+    return result
