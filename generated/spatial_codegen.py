@@ -20,7 +20,8 @@ from coordarm.symbolic.spatial_recursion import SPATIAL_CARRY
 
 from .codegen import CODEGEN_OPTIONS, Source
 from .render import render
-from .spatial_variants import JOINT_CARRY, spatial_joint_step_trig, spatial_link_step_trig, spatial_time_features
+from .spatial_variants import (JOINT_CARRY, spatial_joint_step_trig, spatial_link_inv_det, spatial_link_step_trig,
+                               spatial_time_features)
 
 
 def spatial_layout_macros(m: int) -> str:
@@ -54,12 +55,12 @@ def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
     Returns
     -------
     list of casadi.Function
-        Structured: time features, head, link step, end solve, joint step; dense: the whole law.
+        Structured: time features, head, link step, end solve, joint step, link pivot's 1/det; dense: the whole law.
     """
     if form == Law.STRUCTURED:
         rec = ctrl.recursion
         return [spatial_time_features(ctrl), rec.head(), spatial_link_step_trig(ctrl), rec.tail(),
-                spatial_joint_step_trig()]
+                spatial_joint_step_trig(), spatial_link_inv_det(ctrl)]
     return [ctrl.law(form)]
 
 

@@ -24,8 +24,8 @@ _CACHE: "weakref.WeakKeyDictionary[SpatialController, dict]" = weakref.WeakKeyDi
 LINK_INPUTS = ["carry", "cos_a", "sin_a", "cos_b", "sin_b", "w"]
 #: Size of the per-link step's second output: ``(e^j (2), link margin, W0_j (2), vec W1_j (4))``.
 LINK_OUT = 9
-#: Size of the joint loop's carry: ``vec R_{j-1}`` (9) and ``omega_{j-1}`` (3).
-JOINT_CARRY = 12
+#: Size of the joint loop's carry: the previous link's angular velocity in its own frame.
+JOINT_CARRY = 3
 
 
 def joint_rotation(ca_: Any, sa: Any, cb: Any, sb: Any) -> tuple[Any, Any]:
@@ -46,10 +46,16 @@ def joint_rotation(ca_: Any, sa: Any, cb: Any, sb: Any) -> tuple[Any, Any]:
     return rz, ry
 
 
-def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ca.Function]:
-    """``(time_features, link_step_trig)``: the link step of ``SpatialRecursion.link_step`` with trig inputs."""
+def _link_expressions(ctrl: SpatialController):
+    """Symbolic inputs ``(carry, trig, t, inv_det)`` and ``(carry_next, out_j, 1 / det P_j)`` of one link step.
+
+    As :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` with the joint's cosines and
+    sines as inputs and the reciprocal of the link pivot's determinant as an input too (its expression is
+    returned for :func:`spatial_link_inv_det`): one division per link instead of six (CasADi would fold
+    ``x * (1/y)`` back into a division).
+    """
     xi, K = ctrl.chain.xi, ctrl.gain
-    carry, t = ca.SX.sym("carry", SPATIAL_CARRY), ca.SX.sym("t")
+    carry, t, inv = ca.SX.sym("carry", SPATIAL_CARRY), ca.SX.sym("t"), ca.SX.sym("inv_det")
     trig = [ca.SX.sym(name) for name in LINK_INPUTS[1:5]]
     R_prev, y_prev, Y0, Y1, H0, H1, total = unpack_carry(carry)
     R = ca.mtimes(R_prev, ca.mtimes(*joint_rotation(*trig)))
@@ -57,21 +63,30 @@ def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ca.Function]:
     y = y_prev + 0.5 * xi * (R_prev[:, 0] + R[:, 0])
     Phi, J, Phit, *_ = ctrl.task.geometry(y, t)
     P = 0.5 * xi * ca.mtimes(J, E)                       # the link pivot
+    adj = ca.vertcat(ca.horzcat(P[1, 1], -P[0, 1]), ca.horzcat(-P[1, 0], P[0, 0]))
     A0, A1 = Y0 + H0, Y1 + H1
-    W0 = solve_2x2(P, -K * Phi - Phit - ca.mtimes(J, A0))
-    W1 = solve_2x2(P, -ca.mtimes(J, A1))
+    W0 = ca.mtimes(adj, -K * Phi - Phit - ca.mtimes(J, A0)) * inv
+    W1 = ca.mtimes(adj, -ca.mtimes(J, A1)) * inv
     H0n, H1n = 0.5 * xi * ca.mtimes(E, W0), 0.5 * xi * ca.mtimes(E, W1)
     new = pack_carry(R, y, A0 + H0n, A1 + H1n, H0n, H1n, total + singular_values_2x2(W1)[1])
     out = ca.vertcat(Phi, singular_values_2x2(P)[0] / (0.5 * xi), W0, ca.vec(W1))
-    expr, wsym, wexpr = split_time_terms(ca.vertcat(new, out), t)
-    expr = ca.cse(expr)
+    return (carry, trig, t, inv), (new, out, 1 / (P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0]))
+
+
+def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ca.Function, ca.Function]:
+    """``(time_features, link_step_trig, link_inv_det)`` of ``ctrl``."""
+    (carry, trig, t, inv), (new, out, inv_expr) = _link_expressions(ctrl)
+    expr, wsym, wexpr = split_time_terms(ca.vertcat(new, out, inv_expr), t)
+    n = SPATIAL_CARRY + LINK_OUT
     tf = ca.Function("spatial_time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
-    step = ca.Function("spatial_link_step_trig", [carry, *trig, wsym], [expr[:SPATIAL_CARRY], expr[SPATIAL_CARRY:]],
-                       LINK_INPUTS, ["carry_next", "out"])
-    return tf, step
+    body = ca.cse(expr[:n])
+    step = ca.Function("spatial_link_step_trig", [carry, *trig, wsym, inv], [body[:SPATIAL_CARRY], body[SPATIAL_CARRY:]],
+                       LINK_INPUTS + ["inv_det"], ["carry_next", "out"])
+    inv_det = ca.Function("spatial_link_inv_det", [carry, *trig, wsym], [ca.cse(expr[n])], LINK_INPUTS, ["inv_det"])
+    return tf, step, inv_det
 
 
-def _cached(ctrl: SpatialController) -> tuple[ca.Function, ca.Function]:
+def _cached(ctrl: SpatialController) -> tuple[ca.Function, ca.Function, ca.Function]:
     per_ctrl = _CACHE.setdefault(ctrl, {})
     if "link" not in per_ctrl:
         per_ctrl["link"] = _link_functions(ctrl)
@@ -97,8 +112,9 @@ def spatial_time_features(ctrl: SpatialController) -> ca.Function:
 def spatial_link_step_trig(ctrl: SpatialController) -> ca.Function:
     """One link ``j >= 2`` of the spatial solve with the joint's cosines and sines as inputs.
 
-    ``(carry, cos a_j, sin a_j, cos b_j, sin b_j, w) -> (carry_next, out_j)``, the operations of
-    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` without trigonometry.
+    ``(carry, cos a_j, sin a_j, cos b_j, sin b_j, w, inv_det) -> (carry_next, out_j)``, the operations of
+    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` without trigonometry and with
+    the reciprocal of the link pivot's determinant from :func:`spatial_link_inv_det`.
 
     Parameters
     ----------
@@ -114,27 +130,44 @@ def spatial_link_step_trig(ctrl: SpatialController) -> ca.Function:
     return _cached(ctrl)[1]
 
 
+def spatial_link_inv_det(ctrl: SpatialController) -> ca.Function:
+    """``(carry, cos a_j, sin a_j, cos b_j, sin b_j, w) -> 1 / det P_j`` for :func:`spatial_link_step_trig`.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+
+    Returns
+    -------
+    casadi.Function
+        Output ``inv_det`` [-]: the reciprocal of the determinant of the link pivot ``P_j``
+        (``xi/2 dPhi/dy E_j``, 2x2, [m/rad]) [rad^2/m^2].
+    """
+    return _cached(ctrl)[2]
+
+
 def spatial_joint_step_trig() -> ca.Function:
     """Link rates to joint rates, one joint, with the joint's cosines and sines as inputs.
 
-    ``(carry, x) -> (carry_next, out)``, ``x = (cos a_j, sin a_j, cos b_j, sin b_j, w_j1, w_j2)``,
-    ``out = (a_j', b_j', |cos b_j|)``; the carry is ``(vec R_{j-1}, omega_{j-1})`` (12), as in
-    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.joint_step`.
+    ``(carry, x) -> (carry_next, out)``, ``x = (cos a_j, sin a_j, cos b_j, sin b_j, 1 / cos b_j, w_j1, w_j2)``,
+    ``out = (a_j', b_j', |cos b_j|)``. The carry is the angular velocity of link ``j - 1`` in its own
+    frame, ``R_{j-1}^T omega_{j-1}`` (3) [rad/s], zero before the first joint: the rates of
+    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.joint_step` (which carries ``R_{j-1}`` and
+    ``omega_{j-1}`` in the base frame) without a frame product.
 
     Returns
     -------
     casadi.Function
         Rates in [rad/s].
     """
-    carry, x = ca.SX.sym("carry", JOINT_CARRY), ca.SX.sym("x", 6)
-    R_prev, omega = ca.reshape(carry[0:9], 3, 3), carry[9:12]
-    rz, ry = joint_rotation(x[0], x[1], x[2], x[3])
-    Ra = ca.mtimes(R_prev, rz)
-    R = ca.mtimes(Ra, ry)
-    local = ca.mtimes(R.T, omega)
-    b_dot = -x[5] - local[1]
-    a_dot = (x[4] - local[2]) / x[2]
-    omega = omega + a_dot * R_prev[:, 2] + b_dot * Ra[:, 1]
-    new = ca.cse(ca.vertcat(ca.vec(R), omega, a_dot, b_dot, ca.fabs(x[2])))
-    return ca.Function("spatial_joint_step_trig", [carry, x], [new[:JOINT_CARRY], new[JOINT_CARRY:]],
+    omega, x = ca.SX.sym("carry", JOINT_CARRY), ca.SX.sym("x", 7)
+    ca_, sa, cb, sb, inv_cb, w1, w2 = (x[k] for k in range(7))
+    v0, v1 = ca_ * omega[0] + sa * omega[1], ca_ * omega[1] - sa * omega[0]     # Rz(a)^T omega
+    local = ca.vertcat(cb * v0 - sb * omega[2], v1, sb * v0 + cb * omega[2])       # Ry(b)^T Rz(a)^T omega
+    b_dot = -w2 - local[1]
+    a_dot = (w1 - local[2]) * inv_cb
+    # R_j^T (omega + a_dot R_{j-1} e_z + b_dot R_{j-1} Rz(a) e_y), with Ry^T Rz^T e_z = (-sb, 0, cb)
+    new = ca.vertcat(local[0] - a_dot * sb, local[1] + b_dot, local[2] + a_dot * cb)
+    return ca.Function("spatial_joint_step_trig", [omega, x], [new, ca.vertcat(a_dot, b_dot, ca.fabs(cb))],
                        ["carry", "x"], ["carry_next", "out"])
