@@ -69,7 +69,7 @@ def _link_expressions(ctrl: SpatialController):
     W1 = ca.mtimes(adj, -ca.mtimes(J, A1)) * inv
     H0n, H1n = 0.5 * xi * ca.mtimes(E, W0), 0.5 * xi * ca.mtimes(E, W1)
     new = pack_carry(R, y, A0 + H0n, A1 + H1n, H0n, H1n, total + singular_values_2x2(W1)[1])
-    out = ca.vertcat(Phi, singular_values_2x2(P)[0] / (0.5 * xi), W0, ca.vec(W1))
+    out = ca.vertcat(Phi, singular_values_2x2(P)[0] * (2 / xi), W0, ca.vec(W1))    # no division by xi/2
     return (carry, trig, t, inv), (new, out, 1 / (P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0]))
 
 
