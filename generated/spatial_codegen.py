@@ -64,6 +64,23 @@ def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
     return [ctrl.law(form)]
 
 
+def spatial_law(ctrl: SpatialController) -> str:
+    """The C of the structured spatial law: its size macros and ``templates/spatial_law.c``.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (its time features set ``CA_NW``).
+
+    Returns
+    -------
+    str
+        ``CA_NW``, ``CA_NC``, ``CA_NJC`` definitions followed by the law's C (``ca_law``, ``CA_LAW_SCRATCH``).
+    """
+    return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NC {SPATIAL_CARRY}\n"
+            f"#define CA_NJC {JOINT_CARRY}\n" + render("spatial_law.c"))
+
+
 def generate_spatial_source(ctrl: SpatialController, form: str = "structured") -> Source:
     """The C source of a spatial controller's law (``form``), RK4 step and chunk loop.
 
@@ -88,18 +105,44 @@ def generate_spatial_source(ctrl: SpatialController, form: str = "structured") -
         raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
     funcs = spatial_functions(ctrl, form)
     if form == Law.STRUCTURED:
-        law = (f"#define CA_NW {int(funcs[0].numel_out(0))}\n#define CA_NC {SPATIAL_CARRY}\n"
-               f"#define CA_NJC {JOINT_CARRY}\n" + render("spatial_law.c"))
+        law = spatial_law(ctrl)
     else:
         results = "\n".join(f"  res[{i}] = {'u' if name == 'u' else 'out + CA_OUT_' + name.upper()};"
                             for i, name in enumerate(ctrl.outputs))
         law = render("dense_law.c", law_name=funcs[0].name(), results=results)
-    cg = ca.CodeGenerator("coordarm", dict(CODEGEN_OPTIONS))
+    return assemble_spatial_source(ctrl, funcs, law, form)
+
+
+def assemble_spatial_source(ctrl: SpatialController, funcs: list[ca.Function], law: str, form: str, *,
+                            name: str = "coordarm", api: str | None = None) -> Source:
+    """One translation unit: the generated ``funcs``, the prelude (spatial layout, ``B = I``), ``law`` and ``api``.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (its chain sets the sizes).
+    funcs : list of casadi.Function
+        The Functions the C calls.
+    law : str
+        C defining ``ca_law`` and ``CA_LAW_SCRATCH``.
+    form : str
+        ``"structured"`` or ``"dense"``.
+    name : str
+        Prefix of CasADi's helper symbols.
+    api : str, optional
+        C of the entry points (default: the library's, ``library_api.c``).
+
+    Returns
+    -------
+    Source
+        The C text, with the form and the link count.
+    """
+    cg = ca.CodeGenerator(name, dict(CODEGEN_OPTIONS))
     for f in funcs:
         cg.add(f)
     sizes = {f"sz_{k}": max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1 for k in ("arg", "res", "iw", "w")}
     m = ctrl.chain.m
     prelude = render("prelude.c", m=m, nq=ctrl.chain.dof, half_xi=repr(0.5 * ctrl.chain.xi), rail=0,
                      layout=spatial_layout_macros(m), b_macros=render("b_identity.h"), **sizes)
-    parts = [render("casadi.c", functions=cg.dump()), prelude, law, render("library_api.c")]
+    parts = [render("casadi.c", functions=cg.dump()), prelude, law, render("library_api.c") if api is None else api]
     return Source("\n".join(parts), form, m)

@@ -1,12 +1,16 @@
 """The spatial law compiled (generated/spatial_codegen.py, templates/spatial_law.c): the same outputs as the
 interpreted law at random states on a moving line, a tilted circle and a banked 3-D path; the C chunk loop as
 repeated interpreted RK4 steps; warning-free C; the build cache; the packed layout."""
+import shutil
+import subprocess
+
 import numpy as np
 import pytest
 
 from coordarm.generated import compile as compile_controller
 from coordarm.generated.build import build
 from coordarm.generated.compiled import CompiledController
+from coordarm.generated.export import export_law
 from coordarm.generated.spatial_codegen import generate_spatial_source
 from coordarm.symbolic import ConfigError
 from coordarm.symbolic.curves3d import Circle3D, Line3D
@@ -135,3 +139,22 @@ def test_a_non_finite_state_is_refused():
         comp.control(q, 0.0)
     with pytest.raises(ConfigError):
         comp.control(q[:5], 0.0)
+
+
+@pytest.mark.skipif(shutil.which("make") is None or shutil.which("cc") is None, reason="needs make and cc")
+def test_the_export_of_a_spatial_law_builds_warning_free_and_its_example_computes_the_law(tmp_path):
+    ctrl = controller(5, "line")
+    q0 = random_state(ctrl.chain, np.random.default_rng(3))
+    export_law(ctrl, q0, tmp_path, step=0.01, duration=0.05, scenario="test")
+    header = (tmp_path / "coordarm_law.h").read_text()
+    assert "spatial chain (universal joints)" in header and "COORDARM_LAW_OUT_JOINT_MARGINS" in header
+    subprocess.run(["make", "-C", str(tmp_path), "WARN=-std=c99 -Wall -Wextra -Werror"], check=True,
+                   capture_output=True)
+    first = subprocess.run([str(tmp_path / "example"), "1"], check=True, capture_output=True, text=True)
+    row = np.array(first.stdout.splitlines()[0].split(), dtype=float)   # t, q (10), u (10), outputs
+    want = ctrl.evaluate(q0, 0.0)
+    assert row[0] == 0.0 and np.array_equal(row[1:11], q0)
+    assert_close(row[11:21], want["u"], rtol=1e-10)
+    rest = np.concatenate([want["e"], [want["s"], want["roll"]], want["link_margins"], [want["end_margin"]],
+                           want["joint_margins"]])
+    assert_close(row[21:], rest, rtol=1e-10)

@@ -68,6 +68,8 @@ def test_every_template_is_rendered_by_the_generator_or_the_export_with_nothing_
     texts.append(generate_source(diagonal, "dense").text)
     spatial = SpatialController(SpatialChain(4, 0.1), Line3D(), 2.0, 0.05, roll=0.0)
     texts.append(generate_spatial_source(spatial, "structured").text)
+    spatial_export = export_law(spatial, spatial.chain.zigzag(1.0), tmp_path / "spatial", step=0.01, duration=0.1)
+    texts += [f.read_text() for f in spatial_export.files]
     export = export_law(ctrl, scenario.start(ctrl), tmp_path, step=scenario.step, duration=0.1)
     texts += [f.read_text() for f in export.files]
     assert rendered == template_files()
