@@ -42,8 +42,8 @@ def cases(m: int, scalar_trig: bool) -> dict[str, tuple[CompiledController, np.n
     out = {"planar": (CompiledController(planar), planar.chain.zigzag(1.0)),
            "spatial": (CompiledController(spatial), q3)}
     if scalar_trig:
-        out["spatial, scalar trig"] = (CompiledController(spatial, flags=list(DEFAULT_FLAGS) + ["-DCOORDARM_SCALAR_TRIG"]),
-                                       q3)
+        scalar = CompiledController(spatial, flags=list(DEFAULT_FLAGS) + ["-DCOORDARM_SCALAR_TRIG"])
+        out["spatial, scalar trig"] = (scalar, q3)
     return out
 
 

@@ -80,7 +80,8 @@ def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ca.Function, 
     n = SPATIAL_CARRY + LINK_OUT
     tf = ca.Function("spatial_time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
     body = ca.cse(expr[:n])
-    step = ca.Function("spatial_link_step_trig", [carry, *trig, wsym, inv], [body[:SPATIAL_CARRY], body[SPATIAL_CARRY:]],
+    step = ca.Function("spatial_link_step_trig", [carry, *trig, wsym, inv],
+                       [body[:SPATIAL_CARRY], body[SPATIAL_CARRY:]],
                        LINK_INPUTS + ["inv_det"], ["carry_next", "out"])
     inv_det = ca.Function("spatial_link_inv_det", [carry, *trig, wsym], [ca.cse(expr[n])], LINK_INPUTS, ["inv_det"])
     return tf, step, inv_det
