@@ -16,8 +16,7 @@ import casadi as ca
 
 from coordarm.symbolic import SpatialController
 from coordarm.symbolic.recursion import split_time_terms
-from coordarm.symbolic.spatial_recursion import (SPATIAL_CARRY, pack_carry, singular_values_2x2, solve_2x2,
-                                                 unpack_carry)
+from coordarm.symbolic.spatial_recursion import SPATIAL_CARRY, pack_carry, unpack_carry
 
 _CACHE: "weakref.WeakKeyDictionary[SpatialController, dict]" = weakref.WeakKeyDictionary()
 #: Inputs of the per-link step: the carry, the joint's four cosines and sines, the time features.
@@ -46,6 +45,27 @@ def joint_rotation(ca_: Any, sa: Any, cb: Any, sb: Any) -> tuple[Any, Any]:
     return rz, ry
 
 
+def singular_values_2x2_select(A: Any) -> tuple[Any, Any]:
+    """``(smallest, largest)`` singular value of a 2x2 matrix, with ``fmax(x, 0)`` written as a select.
+
+    As :func:`~coordarm.symbolic.spatial_recursion.singular_values_2x2`; C's ``fmax`` is a library call unless NaN may be ignored; ``x > 0 ? x : 0`` is one instruction and
+    gives the same value, NaN included (``fmax(NaN, 0) = 0``).
+
+    Parameters
+    ----------
+    A : casadi.SX, shape (2, 2)
+
+    Returns
+    -------
+    (casadi.SX, casadi.SX)
+    """
+    F = ca.sumsqr(A)
+    D = ca.fabs(A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0])
+    gap = F - 2 * D
+    plus, minus = ca.sqrt(F + 2 * D), ca.sqrt(ca.if_else(gap > 0, gap, 0))
+    return 0.5 * (plus - minus), 0.5 * (plus + minus)
+
+
 def _link_expressions(ctrl: SpatialController):
     """Symbolic inputs ``(carry, trig, t, inv_det)`` and ``(carry_next, out_j, 1 / det P_j)`` of one link step.
 
@@ -68,8 +88,8 @@ def _link_expressions(ctrl: SpatialController):
     W0 = ca.mtimes(adj, -K * Phi - Phit - ca.mtimes(J, A0)) * inv
     W1 = ca.mtimes(adj, -ca.mtimes(J, A1)) * inv
     H0n, H1n = 0.5 * xi * ca.mtimes(E, W0), 0.5 * xi * ca.mtimes(E, W1)
-    new = pack_carry(R, y, A0 + H0n, A1 + H1n, H0n, H1n, total + singular_values_2x2(W1)[1])
-    out = ca.vertcat(Phi, singular_values_2x2(P)[0] * (2 / xi), W0, ca.vec(W1))    # no division by xi/2
+    new = pack_carry(R, y, A0 + H0n, A1 + H1n, H0n, H1n, total + singular_values_2x2_select(W1)[1])
+    out = ca.vertcat(Phi, singular_values_2x2_select(P)[0] * (2 / xi), W0, ca.vec(W1))    # no division by xi/2
     return (carry, trig, t, inv), (new, out, 1 / (P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0]))
 
 

@@ -10,6 +10,12 @@ __attribute__((simd("notinbranch"))) double sin(double);
 #endif
 #endif
 
+#if defined(__GNUC__)
+#define CA_NOINLINE __attribute__((noinline))
+#else
+#define CA_NOINLINE
+#endif
+
 /* scratch: the angles (a_1..a_m, b_1..b_m), their cosines and sines, 1 / cos b_j, each link's
    (W0_j, vec W1_j) */
 #define CA_LAW_SCRATCH (13 * CA_M)
@@ -36,34 +42,37 @@ static void ca_spatial_trig(const casadi_real* restrict q, casadi_real* restrict
 }
 
 /* Links 2..m: carry -> carry_m; writes e^j and the link margins to out and (W0_j, vec W1_j) to W + 6 j.
-   The carry is copied back and the step has one call site (flatten), so it stays in registers. */
-CA_FLATTEN static int ca_spatial_recursion(const casadi_real* c, const casadi_real* s, const casadi_real* wt,
+   The step has one call site and is inlined here (flatten; this function is not itself inlined into
+   ca_law, where gcc would not inline the large step). The carry (31 doubles, more than the registers)
+   alternates between two arrays: copying it back would be a memcpy call per link. */
+CA_FLATTEN CA_NOINLINE static int ca_spatial_recursion(const casadi_real* c, const casadi_real* s, const casadi_real* wt,
                                            casadi_real* carry, casadi_real* out, casadi_real* W, casadi_int* iw,
                                            casadi_real* w) {
   casadi_real c0[CA_NC], c1[CA_NC], o[9], inv;
+  casadi_real *cur = c0, *nxt = c1, *tmp;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int j, k;
   for (k = 0; k < CA_NC; ++k) c0[k] = carry[k];
   for (j = 1; j < CA_M; ++j) {
-    arg[0] = c0; arg[1] = c + j; arg[2] = s + j; arg[3] = c + CA_M + j; arg[4] = s + CA_M + j; arg[5] = wt;
+    arg[0] = cur; arg[1] = c + j; arg[2] = s + j; arg[3] = c + CA_M + j; arg[4] = s + CA_M + j; arg[5] = wt;
     res[0] = &inv;
     if (spatial_link_inv_det(arg, res, iw, w, 0)) return 2;
-    arg[6] = &inv; res[0] = c1; res[1] = o;
+    arg[6] = &inv; res[0] = nxt; res[1] = o;
     if (spatial_link_step_trig(arg, res, iw, w, 0)) return 2;
     out[CA_OUT_E + 2 * (j - 1)] = o[0];
     out[CA_OUT_E + 2 * (j - 1) + 1] = o[1];
     out[CA_OUT_LINK_MARGINS + j - 1] = o[2];
     for (k = 0; k < 6; ++k) W[6 * j + k] = o[3 + k];
-    for (k = 0; k < CA_NC; ++k) c0[k] = c1[k];
+    tmp = cur; cur = nxt; nxt = tmp;
   }
-  for (k = 0; k < CA_NC; ++k) carry[k] = c0[k];
+  for (k = 0; k < CA_NC; ++k) carry[k] = cur[k];
   return 0;
 }
 
 /* Joint rates from the link rates w_1 = p, w_j = W0_j + W1_j p (the frame and the angular
    velocity carried from joint to joint); writes u and the joint margins |cos b_j|. */
-CA_FLATTEN static int ca_spatial_joints(const casadi_real* c, const casadi_real* s, const casadi_real* ic,
+CA_FLATTEN CA_NOINLINE static int ca_spatial_joints(const casadi_real* c, const casadi_real* s, const casadi_real* ic,
                                         const casadi_real* W, const casadi_real* p, casadi_real* u, casadi_real* out,
                                         casadi_int* iw, casadi_real* w) {
   casadi_real c0[CA_NJC] = {0}, c1[CA_NJC], x[7], o[3];
