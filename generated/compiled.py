@@ -230,7 +230,7 @@ class CompiledController:
         raise BuildError(f"generated library {self.library.path}: a generated Function failed (code {rc})")
 
     def control(self, q, t: float = 0.0, out: np.ndarray | None = None) -> np.ndarray:
-        """Control ``u(q, t)``, shape (n,) (``n = m``; on a rail ``m + 1``, ``d_dot`` [m/s] first).
+        """Control ``u(q, t)``, shape (n,) (``n = m``; on a rail ``m + 1``, ``d_dot`` [m/s] first; spatial ``2 m``).
 
         Parameters
         ----------
@@ -351,7 +351,8 @@ class CompiledController:
             State after each step.
         D : (N, n_out) ndarray
             The law at each step's start, packed (split it with
-            :func:`coordarm.symbolic.outputs.split`).
+            :func:`coordarm.symbolic.outputs.split`; a spatial law's with
+            :func:`~coordarm.symbolic.outputs.spatial_split`, layout :func:`~coordarm.symbolic.outputs.spatial_offsets`).
 
         Raises
         ------
