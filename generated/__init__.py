@@ -1,6 +1,7 @@
 """Generated C for the coordinating law and the simulation loop: emitted, compiled, cached, loaded.
 
-* :mod:`coordarm.generated.codegen` emits the C source from the symbolic Functions,
+* :mod:`coordarm.generated.codegen` emits the C source from the symbolic Functions (a spatial
+  controller's: :mod:`coordarm.generated.spatial_codegen`),
 * ``templates/*.c`` hold the hand-written C glue (loops over links and steps), filled by
   :mod:`coordarm.generated.render`,
 * :mod:`coordarm.generated.build` compiles it into a content-addressed cache,
@@ -16,22 +17,26 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from coordarm.generated.compiled import CompiledController
     from coordarm.symbolic.controller import CoordinatingController
+    from coordarm.symbolic.spatial_controller import SpatialController
 
 #: How many compiled controllers :func:`compile` keeps (the most recently used).
 KEEP_COMPILED = 8
 # (id(ctrl), form, options) -> (ctrl, compiled); holding ctrl keeps its id from being reused. Not a
 # WeakKeyDictionary: a compiled controller refers to its controller, so a weakly keyed entry would
 # never be released.
-_compiled: "OrderedDict[tuple, tuple[CoordinatingController, CompiledController]]" = OrderedDict()
+_compiled: "OrderedDict[tuple, tuple[CoordinatingController | SpatialController, CompiledController]]" = OrderedDict()
 
 
-def compile(ctrl: "CoordinatingController", form: str | None = None, **build_options: Any) -> "CompiledController":
+def compile(ctrl: "CoordinatingController | SpatialController", form: str | None = None,
+            **build_options: Any) -> "CompiledController":
     """Generate, compile (or take from the build cache) and load the C code of ``ctrl``'s law.
 
     Parameters
     ----------
-    ctrl : CoordinatingController
-        Chain (with a diagonal B), curve, gain [1/s] and speed [m/s].
+    ctrl : CoordinatingController or SpatialController
+        Chain (with a diagonal B), curve, gain [1/s] and speed [m/s]; or a spatial chain (universal
+        joints, ``B = I``) with its 3-D curve and roll command, whose packed outputs follow
+        :func:`coordarm.symbolic.outputs.spatial_offsets`.
     form : {"structured", "dense"}, optional
         Law form (default: the controller's ``law_form``).
     **build_options

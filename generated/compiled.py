@@ -13,11 +13,12 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError
-from coordarm.symbolic.outputs import packed_width, split
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError, SpatialController
+from coordarm.symbolic.outputs import packed_width, spatial_packed_width, spatial_split, split
 
 from .build import Library, build
-from .codegen import generate_source
+from .codegen import Source, generate_source
+from .spatial_codegen import generate_spatial_source
 
 _P, _D, _I = ctypes.c_void_p, ctypes.c_double, ctypes.c_longlong
 _SIGNATURES = {"coordarm_law": [_P, _D, _P, _P, _P],
@@ -77,13 +78,42 @@ def load_library(path) -> ctypes.CDLL:
     return lib
 
 
+def controller_source(ctrl: CoordinatingController | SpatialController, form: str,
+                      path_search: bool = True) -> Source:
+    """The C source of a planar or a spatial controller's law.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController or SpatialController
+        The controller.
+    form : {"structured", "dense"}
+        Law form.
+    path_search : bool
+        See :func:`generated.codegen.structured_law` (planar paths only).
+
+    Returns
+    -------
+    Source
+        The C text.
+
+    Raises
+    ------
+    BuildError
+        A non-diagonal B or an unknown form.
+    """
+    if isinstance(ctrl, SpatialController):
+        return generate_spatial_source(ctrl, form)
+    return generate_source(ctrl, form, path_search)
+
+
 class CompiledController:
     """A :class:`~symbolic.CoordinatingController`'s law, RK4 step and chunk loop as compiled C.
 
     Parameters
     ----------
-    ctrl : CoordinatingController
-        The controller to compile (its chain needs a diagonal B).
+    ctrl : CoordinatingController or SpatialController
+        The controller to compile (a planar chain needs a diagonal B); a spatial controller's
+        outputs are packed as :func:`coordarm.symbolic.outputs.spatial_offsets` says.
     form : {"structured", "dense"}
         Law form.
     cc : str, optional
@@ -116,11 +146,12 @@ class CompiledController:
     The buffers are shared by all calls of one object: use one object per thread.
     """
 
-    def __init__(self, ctrl: CoordinatingController, form: str = "structured", *, cc: str | None = None,
+    def __init__(self, ctrl: CoordinatingController | SpatialController, form: str = "structured", *,
+                 cc: str | None = None,
                  flags=None, build_dir=None, force: bool = False, path_search: bool = True) -> None:
         self.ctrl, self.form, self.chain = ctrl, form, ctrl.chain
         start = time.perf_counter()
-        source = generate_source(ctrl, form, path_search)
+        source = controller_source(ctrl, form, path_search)
         self.generate_seconds = time.perf_counter() - start
         self.library: Library = build(source, cc=cc, flags=flags, build_dir=build_dir, force=force)
         self._lib = load_library(self.library.path)
@@ -128,7 +159,10 @@ class CompiledController:
         self._lib.coordarm_sizes(sizes.ctypes.data)
         m, self.n_out, n_iw, n_w = (int(v) for v in sizes)
         self.rail = self.chain.rail
-        width = packed_width(self.chain.m, self.rail)
+        spatial = isinstance(ctrl, SpatialController)
+        width = spatial_packed_width(self.chain.m) if spatial else packed_width(self.chain.m, self.rail)
+        self._split = ((lambda packed: spatial_split(packed, self.m)) if spatial
+                       else (lambda packed: split(packed, self.m, self.rail)))
         if m != self.chain.m or self.n_out != width:
             raise BuildError(f"generated library {self.library.path} is for {m} links and {self.n_out} outputs, "
                              f"not {self.chain.m} and {width}")
@@ -196,7 +230,7 @@ class CompiledController:
         raise BuildError(f"generated library {self.library.path}: a generated Function failed (code {rc})")
 
     def control(self, q, t: float = 0.0, out: np.ndarray | None = None) -> np.ndarray:
-        """Control ``u(q, t)``, shape (n,) (``n = m``; on a rail ``m + 1``, ``d_dot`` [m/s] first).
+        """Control ``u(q, t)``, shape (n,) (``n = m``; on a rail ``m + 1``, ``d_dot`` [m/s] first; spatial ``2 m``).
 
         Parameters
         ----------
@@ -261,12 +295,12 @@ class CompiledController:
         """
         if out is None:
             self.control(q, t)
-            return split(self._out.copy(), self.m, self.rail)
+            return self._split(self._out.copy())
         qp = self._q_pointer(q)
         rc = self._law_c(qp, t, self._out_pointer(out, self.n_out, "out"), self._ptr[2], self._ptr[3])
         if rc:
             self._fail(rc, t, q)
-        return split(out, self.m, self.rail)
+        return self._split(out)
 
     def step(self, q, t: float, h: float) -> np.ndarray:
         """One closed-loop RK4 step of length ``h`` [s] from ``(q, t)``: the next state [rad] (``d`` [m] first on a rail).
@@ -317,7 +351,8 @@ class CompiledController:
             State after each step.
         D : (N, n_out) ndarray
             The law at each step's start, packed (split it with
-            :func:`coordarm.symbolic.outputs.split`).
+            :func:`coordarm.symbolic.outputs.split`; a spatial law's with
+            :func:`~coordarm.symbolic.outputs.spatial_split`, layout :func:`~coordarm.symbolic.outputs.spatial_offsets`).
 
         Raises
         ------

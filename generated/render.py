@@ -9,8 +9,9 @@ stands for whole lines (a value ending in a newline) is written at the start of 
 Templates (``name`` relative to ``templates/``): ``casadi.c`` wraps CasADi's generated Functions,
 ``prelude.c`` holds the sizes and the finiteness helpers (with ``b_identity.h`` or
 ``b_diagonal.h``), ``trig_passes.c``, ``structured_law.c`` and ``path_search.c`` the structured
-law, ``dense_law.c`` the dense one, ``library_api.c`` the library's entry points; ``export/`` holds
-the files of ``coordarm export``.
+law, ``spatial_law.c`` the structured law of a spatial chain, ``dense_law.c`` the dense one,
+``library_api.c`` the library's entry points; ``export/`` holds the files of ``coordarm export``
+(``export/singular_planar.c`` or ``export/singular_spatial.c`` fill its singularity checks).
 """
 from __future__ import annotations
 

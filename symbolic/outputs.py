@@ -236,12 +236,28 @@ def split(packed: Any, m: int, rail: bool = False) -> dict[str, Any]:
     return result
 
 
-def spatial_offsets(m: int) -> dict[str, tuple[int, int]]:
-    """``name -> (start, width)`` of each spatial run output in the packed vector of a compiled chunk.
+def spatial_packed_width(m: int) -> int:
+    """Length of the packed output vector of the spatial law for ``m`` links (``6 m``).
 
-    The packed order is :data:`SPATIAL_RUN_OUTPUTS`, the widths those of :data:`SPATIAL_LAW_OUTPUTS`
-    (``u`` 2m, ``e`` 2(m-1), ``s`` 1, ``roll`` 1, ``link_margins`` m-1, ``end_margin`` 1,
-    ``joint_margins`` m).
+    Parameters
+    ----------
+    m : int
+        Number of links.
+
+    Returns
+    -------
+    int
+        Number of doubles: the widths of :data:`SPATIAL_LAW_OUTPUTS` summed.
+    """
+    return sum(o.width(m) for o in SPATIAL_LAW_OUTPUTS)
+
+
+def spatial_offsets(m: int) -> dict[str, tuple[int, int]]:
+    """``name -> (start, width)`` of each spatial output in the packed vector for ``m`` links.
+
+    The generated C of a :class:`~coordarm.symbolic.spatial_controller.SpatialController` packs the law
+    (and each row ``D[k]`` of a chunk) in this layout: the rows of :data:`SPATIAL_LAW_OUTPUTS` in order,
+    which are also :data:`SPATIAL_RUN_OUTPUTS` (every spatial output is logged).
 
     Parameters
     ----------
@@ -253,21 +269,20 @@ def spatial_offsets(m: int) -> dict[str, tuple[int, int]]:
     dict of str to (int, int)
         Start index and width of each output, in packing order.
     """
-    rows = {o.name: o for o in SPATIAL_LAW_OUTPUTS}
     out, start = {}, 0
-    for name in SPATIAL_RUN_OUTPUTS:
-        out[name] = (start, rows[name].width(m))
-        start += rows[name].width(m)
+    for o in SPATIAL_LAW_OUTPUTS:
+        out[o.name] = (start, o.width(m))
+        start += o.width(m)
     return out
 
 
 def spatial_split(packed: Any, m: int) -> dict[str, Any]:
-    """Split packed spatial run outputs (:func:`spatial_offsets`) into a dict keyed by :data:`SPATIAL_RUN_OUTPUTS`.
+    """Split packed spatial output rows into a dict keyed by :data:`SPATIAL_OUTPUTS`.
 
     Parameters
     ----------
-    packed : ndarray, shape (..., width)
-        Packed rows, ``width`` the sum of the widths of :func:`spatial_offsets` (views are returned).
+    packed : ndarray, shape (spatial_packed_width(m),) or (n, spatial_packed_width(m))
+        One packed row or a block of rows (views are returned into it).
     m : int
         Number of links.
 
@@ -279,17 +294,18 @@ def spatial_split(packed: Any, m: int) -> dict[str, Any]:
     Raises
     ------
     ValueError
-        The last axis has the wrong length.
+        The last axis is not ``spatial_packed_width(m)`` long.
     """
-    offs = spatial_offsets(m)
-    width = sum(w for _, w in offs.values())
+    width = spatial_packed_width(m)
     if packed.shape[-1] != width:
         raise ValueError(f"packed spatial outputs: last axis of {packed.shape[-1]}, expected {width} for {m} links")
     result: dict[str, Any] = {}
-    for name, (start, w) in offs.items():
-        if name in SPATIAL_SCALAR_OUTPUTS:
+    offs = spatial_offsets(m)
+    for o in SPATIAL_LAW_OUTPUTS:
+        start, w = offs[o.name]
+        if o.scalar:
             v = packed[..., start]
-            result[name] = float(v) if v.ndim == 0 else v
+            result[o.name] = float(v) if v.ndim == 0 else v
         else:
-            result[name] = packed[..., start:start + w]
+            result[o.name] = packed[..., start:start + w]
     return result

@@ -220,10 +220,16 @@ def test_the_plain_mcap_reader_sees_the_spatial_channels_and_metadata(logged):
         summary = reader.get_summary()
         topics = {c.topic: c for c in summary.channels.values()}
         schemas = {s.id: s for s in summary.schemas.values()}
-        # no 3-D scene yet (/scene, /tf, /tracking off); /margins/cond declared, off (no message)
-        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond"}
+        # the 3-D scene (/scene, /tf, /tracking) is drawn; /margins/cond declared, off (no message)
+        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene", "/tf", "/tracking"}
         assert summary.statistics.channel_message_counts.get(topics["/margins/cond"].id, 0) == 0
-        text = {t: schemas[c.schema_id].data.decode() for t, c in topics.items() if t != "/margins/cond"}
+        assert summary.statistics.channel_message_counts[topics["/scene"].id] > 0
+        tracking = schemas[topics["/tracking"].schema_id].data.decode()
+        assert [x.split()[1] for x in tracking.splitlines() if x and not x.startswith("#")] == [
+            "t", "s", "s_target", "target_x", "target_y", "target_z", "max_abs_e", "min_link_margin", "norm_u",
+            "roll", "roll_target"]
+        text = {t: schemas[c.schema_id].data.decode() for t, c in topics.items()
+                if t in ("/joint_state", "/task_state", "/margins")}
         body = {t: "".join(x + "\n" for x in s.splitlines() if not x.startswith("#")) for t, s in text.items()}
         m, n = LINKS, 2 * LINKS
         assert body["/joint_state"] == f"float64 t\nfloat64[{n}] q\nfloat64[{n}] u\n"

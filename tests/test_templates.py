@@ -14,8 +14,10 @@ import coordarm.generated.render as render_module
 from coordarm.generated.build import build
 from coordarm.generated.codegen import generate_source
 from coordarm.generated.export import export_law
+from coordarm.generated.spatial_codegen import generate_spatial_source
 from coordarm.generated.render import TemplateError, render
-from coordarm.symbolic import Circle, CoordinatingController, PlanarChain
+from coordarm.symbolic import Circle, CoordinatingController, PlanarChain, SpatialChain, SpatialController
+from coordarm.symbolic.curves3d import Line3D
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Any leftover ``@name@`` (the renderer's placeholder syntax), written out here independently.
@@ -64,6 +66,10 @@ def test_every_template_is_rendered_by_the_generator_or_the_export_with_nothing_
     diagonal = CoordinatingController(PlanarChain(4, 0.1, np.diag([1.0, 2.0, 0.5, 1.5])), Circle((0.0, 2.0), 2.0),
                                       2.0, 0.05)
     texts.append(generate_source(diagonal, "dense").text)
+    spatial = SpatialController(SpatialChain(4, 0.1), Line3D(), 2.0, 0.05, roll=0.0)
+    texts.append(generate_spatial_source(spatial, "structured").text)
+    spatial_export = export_law(spatial, spatial.chain.zigzag(1.0), tmp_path / "spatial", step=0.01, duration=0.1)
+    texts += [f.read_text() for f in spatial_export.files]
     export = export_law(ctrl, scenario.start(ctrl), tmp_path, step=scenario.step, duration=0.1)
     texts += [f.read_text() for f in export.files]
     assert rendered == template_files()

@@ -55,7 +55,7 @@ def main(args: argparse.Namespace) -> int:
         A library cannot be built.
     """
     from coordarm.generated.build import build, build_root, clean
-    from coordarm.generated.codegen import generate_source
+    from coordarm.generated.compiled import controller_source
     from coordarm.simulation.scenario import load_scenario
 
     if args.print_cache_dir:
@@ -69,7 +69,7 @@ def main(args: argparse.Namespace) -> int:
     for scenario in scenarios:
         ctrl = scenario.controller()
         start = time.perf_counter()
-        source = generate_source(ctrl, ctrl.law_form)
+        source = controller_source(ctrl, ctrl.law_form)     # planar or spatial
         gen = time.perf_counter() - start
         lib = build(source, force=True)
         print(f"{scenario.name}: {ctrl.law_form} law, {ctrl.chain.m} links, {len(source.text) / 1e3:.0f} kB of C "

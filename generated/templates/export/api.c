@@ -26,11 +26,6 @@ int coordarm_law(const double* q, double t, double* u, double* outputs, double* 
   /* every output but u, in table order */
   memcpy(outputs, packed, CA_OUT_U * sizeof *outputs);
   memcpy(outputs + CA_OUT_U, packed + CA_OUT_U + CA_NQ, (CA_NOUT - CA_OUT_U - CA_NQ) * sizeof *outputs);
-  for (j = 0; j < CA_M - 1; ++j) if (packed[CA_OUT_LINK_MARGINS + j] == 0) return COORDARM_LAW_ESINGULAR;
-  if (packed[CA_OUT_LONGITUDINAL_PIVOT] == 0) return COORDARM_LAW_ESINGULAR;
-#if CA_RAIL
-  if (packed[CA_OUT_RAIL_MARGIN] == 0) return COORDARM_LAW_ESINGULAR;
-#endif
-  if (!ca_all_finite(u, CA_NQ) || !ca_all_finite(outputs, CA_NOUT - CA_NQ)) return COORDARM_LAW_ENONFINITE;
+@singular_checks@  if (!ca_all_finite(u, CA_NQ) || !ca_all_finite(outputs, CA_NOUT - CA_NQ)) return COORDARM_LAW_ENONFINITE;
   return COORDARM_LAW_OK;
 }

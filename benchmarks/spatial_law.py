@@ -1,0 +1,86 @@
+"""Compiled spatial law (universal joints) vs the compiled planar law, per link (issue 22: within 2x).
+
+Times the compiled closed-loop chunk (RK4 steps inside C, 4 law calls each, so the Python call
+overhead is spread over the steps) of the planar law (a line swinging as ``0.6 sin(0.2 t)``,
+the RESULTS.md case) and of the spatial law (a 3-D line through the base turning about a tilted
+axis, roll command ``0.2 sin(1.3 t)``), both with links of 0.1 m, K = 2, v* = 0.1 m/s, from a
+zig-zag (beta = 1.0). Interleaved: every repetition times each case once; the ratio is the
+median (with min-max) of the per-repetition ratios spatial / planar of the time per link.
+
+Also times the spatial chunk with ``-DCOORDARM_SCALAR_TRIG`` (the trig passes not vectorised)
+with ``--scalar-trig``, to see what the vector passes give.
+
+Run: ``python benchmarks/spatial_law.py [--reps N] [--links 64 256 1024] [--steps S] [--scalar-trig]``.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+
+import numpy as np
+
+from coordarm import CoordinatingController, Line, PlanarChain
+from coordarm.generated.build import DEFAULT_FLAGS
+from coordarm.generated.compiled import CompiledController
+from coordarm.symbolic.curves3d import Line3D
+from coordarm.symbolic.motions import Sinusoid
+from coordarm.symbolic.spatial_chain import SpatialChain
+from coordarm.symbolic.spatial_controller import SpatialController
+
+AXIS = np.array([1.0, 0.2, 0.1]) / np.linalg.norm([1.0, 0.2, 0.1])
+
+
+def cases(m: int, scalar_trig: bool) -> dict[str, tuple[CompiledController, np.ndarray]]:
+    """``name -> (compiled controller, start state)`` of the planar and the spatial law at ``m`` links."""
+    planar = CoordinatingController(PlanarChain(m, 0.1), Line(angle=Sinusoid(0.6, 0.2)), 2.0, 0.1)
+    chain = SpatialChain(m, 0.1)
+    curve = Line3D((0.0, 0.0, 0.0), AXIS, (0.0, 1.0, 0.0), rotation=((0.0, 0.3, 1.0), Sinusoid(0.3, 0.7)))
+    spatial = SpatialController(chain, curve, 2.0, 0.1, roll=Sinusoid(0.2, 1.3))
+    q3 = chain.zigzag(1.0, axis=AXIS, fold=(0.0, 1.0, 0.0))
+    out = {"planar": (CompiledController(planar), planar.chain.zigzag(1.0)),
+           "spatial": (CompiledController(spatial), q3)}
+    if scalar_trig:
+        scalar = CompiledController(spatial, flags=list(DEFAULT_FLAGS) + ["-DCOORDARM_SCALAR_TRIG"])
+        out["spatial, scalar trig"] = (scalar, q3)
+    return out
+
+
+def per_link_ns(comp: CompiledController, q0: np.ndarray, steps: int, m: int) -> float:
+    """Wall time of one law call per link [ns], from a chunk of ``steps`` RK4 steps (4 law calls each)."""
+    T = np.arange(steps) * 1e-4
+    start = time.perf_counter()
+    comp.chunk(q0, T, 1e-4)
+    return (time.perf_counter() - start) / (4 * steps * m) * 1e9
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--reps", type=int, default=15)
+    ap.add_argument("--links", type=int, nargs="+", default=[64, 256, 1024])
+    ap.add_argument("--steps", type=int, default=0, help="RK4 steps per chunk (default: about 130,000 links)")
+    ap.add_argument("--scalar-trig", action="store_true")
+    args = ap.parse_args()
+    print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, load {os.getloadavg()}")
+    print("| m | planar [ns/link] | spatial [ns/link] | spatial / planar: median (min-max) |"
+          + (" scalar trig / vector trig |" if args.scalar_trig else ""))
+    for m in args.links:
+        runs = cases(m, args.scalar_trig)
+        steps = args.steps or max(8, 131072 // (4 * m))
+        times: dict[str, list[float]] = {name: [] for name in runs}
+        for _ in range(args.reps):
+            for name, (comp, q0) in runs.items():
+                times[name].append(per_link_ns(comp, q0, steps, m))
+        ratios = np.array(times["spatial"]) / np.array(times["planar"])
+        row = (f"| {m} | {np.median(times['planar']):.1f} | {np.median(times['spatial']):.1f} | "
+               f"{np.median(ratios):.2f} ({ratios.min():.2f}-{ratios.max():.2f}) |")
+        if args.scalar_trig:
+            scal = np.array(times["spatial, scalar trig"]) / np.array(times["spatial"])
+            row += f" {np.median(scal):.2f} |"
+        print(row, flush=True)
+    print(f"# load after: {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,148 @@
+"""Emit the C source of a :class:`~coordarm.symbolic.spatial_controller.SpatialController`'s law.
+
+The structured form is four small generated Functions (the time features and the per-link step of
+:mod:`.spatial_variants`, the head and the end solve of
+:class:`~coordarm.symbolic.spatial_recursion.SpatialRecursion`) and the joint step, called by the C
+loops of ``templates/spatial_law.c``: the code size does not grow with the number of links. The
+dense form is the whole law as one Function (``templates/dense_law.c``). Both end with the
+library's API of ``templates/library_api.c`` (law, control, RK4 step, chunk, sizes), the same entry
+points as the planar library; the packed outputs follow
+:func:`coordarm.symbolic.outputs.spatial_offsets` (``CA_OUT_<NAME>`` macros).
+"""
+from __future__ import annotations
+
+import casadi as ca
+
+from coordarm.symbolic import LAWS, BuildError, SpatialController
+from coordarm.symbolic.laws import Law
+from coordarm.symbolic.outputs import spatial_offsets, spatial_packed_width
+from coordarm.symbolic.spatial_recursion import SPATIAL_CARRY
+
+from .codegen import CODEGEN_OPTIONS, Source
+from .render import render
+from .spatial_variants import (JOINT_CARRY, spatial_joint_step_trig, spatial_link_inv_det, spatial_link_step_trig,
+                               spatial_time_features)
+
+
+def spatial_layout_macros(m: int) -> str:
+    """C macros of the spatial packed output vector: ``CA_NOUT`` and ``CA_OUT_<NAME>`` offsets.
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+
+    Returns
+    -------
+    str
+        One ``#define`` per line, from :data:`coordarm.symbolic.outputs.SPATIAL_LAW_OUTPUTS`.
+    """
+    lines = [f"#define CA_NOUT {spatial_packed_width(m)}"]
+    lines += [f"#define CA_OUT_{name.upper()} {start}" for name, (start, _) in spatial_offsets(m).items()]
+    return "\n".join(lines) + "\n"
+
+
+def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
+    """The CasADi Functions the C of ``form`` calls (the structured form's time features first).
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+    form : {"structured", "dense"}
+        Form of the law.
+
+    Returns
+    -------
+    list of casadi.Function
+        Structured: time features, head, link step, end solve, joint step, link pivot's 1/det; dense: the whole law.
+    """
+    if form == Law.STRUCTURED:
+        rec = ctrl.recursion
+        return [spatial_time_features(ctrl), rec.head(), spatial_link_step_trig(ctrl), rec.tail(),
+                spatial_joint_step_trig(), spatial_link_inv_det(ctrl)]
+    return [ctrl.law(form)]
+
+
+def spatial_law(ctrl: SpatialController) -> str:
+    """The C of the structured spatial law: its size macros and ``templates/spatial_law.c``.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (its time features set ``CA_NW``).
+
+    Returns
+    -------
+    str
+        ``CA_NW``, ``CA_NC``, ``CA_NJC`` definitions followed by the law's C (``ca_law``, ``CA_LAW_SCRATCH``).
+    """
+    return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NC {SPATIAL_CARRY}\n"
+            f"#define CA_NJC {JOINT_CARRY}\n" + render("spatial_law.c"))
+
+
+def generate_spatial_source(ctrl: SpatialController, form: str = "structured") -> Source:
+    """The C source of a spatial controller's law (``form``), RK4 step and chunk loop.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        Spatial chain (``B = I``), 3-D curve, gain, speed and roll command.
+    form : {"structured", "dense"}
+        Law form.
+
+    Returns
+    -------
+    Source
+        The C text, with the form and the link count.
+
+    Raises
+    ------
+    BuildError
+        An unknown form.
+    """
+    if form not in LAWS:
+        raise BuildError(f"law: expected one of {LAWS}, got {form!r}")
+    funcs = spatial_functions(ctrl, form)
+    if form == Law.STRUCTURED:
+        law = spatial_law(ctrl)
+    else:
+        results = "\n".join(f"  res[{i}] = {'u' if name == 'u' else 'out + CA_OUT_' + name.upper()};"
+                            for i, name in enumerate(ctrl.outputs))
+        law = render("dense_law.c", law_name=funcs[0].name(), results=results)
+    return assemble_spatial_source(ctrl, funcs, law, form)
+
+
+def assemble_spatial_source(ctrl: SpatialController, funcs: list[ca.Function], law: str, form: str, *,
+                            name: str = "coordarm", api: str | None = None) -> Source:
+    """One translation unit: the generated ``funcs``, the prelude (spatial layout, ``B = I``), ``law`` and ``api``.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (its chain sets the sizes).
+    funcs : list of casadi.Function
+        The Functions the C calls.
+    law : str
+        C defining ``ca_law`` and ``CA_LAW_SCRATCH``.
+    form : str
+        ``"structured"`` or ``"dense"``.
+    name : str
+        Prefix of CasADi's helper symbols.
+    api : str, optional
+        C of the entry points (default: the library's, ``library_api.c``).
+
+    Returns
+    -------
+    Source
+        The C text, with the form and the link count.
+    """
+    cg = ca.CodeGenerator(name, dict(CODEGEN_OPTIONS))
+    for f in funcs:
+        cg.add(f)
+    sizes = {f"sz_{k}": max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1 for k in ("arg", "res", "iw", "w")}
+    m = ctrl.chain.m
+    prelude = render("prelude.c", m=m, nq=ctrl.chain.dof, half_xi=repr(0.5 * ctrl.chain.xi), rail=0,
+                     layout=spatial_layout_macros(m), b_macros=render("b_identity.h"), **sizes)
+    parts = [render("casadi.c", functions=cg.dump()), prelude, law, render("library_api.c") if api is None else api]
+    return Source("\n".join(parts), form, m)

@@ -1,0 +1,194 @@
+"""The C-only variants of the spatial law's Functions (:mod:`coordarm.symbolic.spatial_recursion`).
+
+The interpreted spatial solve builds each joint's rotation ``Rz(a_j) Ry(b_j)`` from its angles. The
+generated C computes the cosines and sines of every joint angle in vectorised loops first and passes
+them in, so the per-link step (:func:`spatial_link_step_trig`) and the per-joint step
+(:func:`spatial_joint_step_trig`) have no trigonometry; the time-only terms of the curve's geometry
+are computed once per law call (:func:`spatial_time_features`). The head and the end solve are the
+interpreted ones (called once per law call). The Functions are cached per controller here.
+"""
+from __future__ import annotations
+
+import weakref
+from typing import Any
+
+import casadi as ca
+
+from coordarm.symbolic import SpatialController
+from coordarm.symbolic.recursion import split_time_terms
+from coordarm.symbolic.spatial_recursion import SPATIAL_CARRY, pack_carry, unpack_carry
+
+_CACHE: "weakref.WeakKeyDictionary[SpatialController, dict]" = weakref.WeakKeyDictionary()
+#: Inputs of the per-link step: the carry, the joint's four cosines and sines, the time features.
+LINK_INPUTS = ["carry", "cos_a", "sin_a", "cos_b", "sin_b", "w"]
+#: Size of the per-link step's second output: ``(e^j (2), link margin, W0_j (2), vec W1_j (4))``.
+LINK_OUT = 9
+#: Size of the joint loop's carry: the previous link's angular velocity in its own frame.
+JOINT_CARRY = 3
+
+
+def joint_rotation(ca_: Any, sa: Any, cb: Any, sb: Any) -> tuple[Any, Any]:
+    """``(Rz(a), Ry(b))`` from the cosines and sines of ``a`` and ``b``.
+
+    Parameters
+    ----------
+    ca_, sa, cb, sb : casadi.SX
+        ``cos a``, ``sin a``, ``cos b``, ``sin b``.
+
+    Returns
+    -------
+    (casadi.SX, casadi.SX)
+        Both (3, 3).
+    """
+    rz = ca.vertcat(ca.horzcat(ca_, -sa, 0), ca.horzcat(sa, ca_, 0), ca.horzcat(0, 0, 1))
+    ry = ca.vertcat(ca.horzcat(cb, 0, sb), ca.horzcat(0, 1, 0), ca.horzcat(-sb, 0, cb))
+    return rz, ry
+
+
+def singular_values_2x2_select(A: Any) -> tuple[Any, Any]:
+    """``(smallest, largest)`` singular value of a 2x2 matrix, with ``fmax(x, 0)`` written as a select.
+
+    As :func:`~coordarm.symbolic.spatial_recursion.singular_values_2x2`; C's ``fmax`` is a library call unless NaN may be ignored; ``x > 0 ? x : 0`` is one instruction and
+    gives the same value, NaN included (``fmax(NaN, 0) = 0``).
+
+    Parameters
+    ----------
+    A : casadi.SX, shape (2, 2)
+
+    Returns
+    -------
+    (casadi.SX, casadi.SX)
+    """
+    F = ca.sumsqr(A)
+    D = ca.fabs(A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0])
+    gap = F - 2 * D
+    plus, minus = ca.sqrt(F + 2 * D), ca.sqrt(ca.if_else(gap > 0, gap, 0))
+    return 0.5 * (plus - minus), 0.5 * (plus + minus)
+
+
+def _link_expressions(ctrl: SpatialController):
+    """Symbolic inputs ``(carry, trig, t, inv_det)`` and ``(carry_next, out_j, 1 / det P_j)`` of one link step.
+
+    As :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` with the joint's cosines and
+    sines as inputs and the reciprocal of the link pivot's determinant as an input too (its expression is
+    returned for :func:`spatial_link_inv_det`): one division per link instead of six (CasADi would fold
+    ``x * (1/y)`` back into a division).
+    """
+    xi, K = ctrl.chain.xi, ctrl.gain
+    carry, t, inv = ca.SX.sym("carry", SPATIAL_CARRY), ca.SX.sym("t"), ca.SX.sym("inv_det")
+    trig = [ca.SX.sym(name) for name in LINK_INPUTS[1:5]]
+    R_prev, y_prev, Y0, Y1, H0, H1, total = unpack_carry(carry)
+    R = ca.mtimes(R_prev, ca.mtimes(*joint_rotation(*trig)))
+    E = R[:, 1:3]
+    y = y_prev + 0.5 * xi * (R_prev[:, 0] + R[:, 0])
+    Phi, J, Phit, *_ = ctrl.task.geometry(y, t)
+    P = 0.5 * xi * ca.mtimes(J, E)                       # the link pivot
+    adj = ca.vertcat(ca.horzcat(P[1, 1], -P[0, 1]), ca.horzcat(-P[1, 0], P[0, 0]))
+    A0, A1 = Y0 + H0, Y1 + H1
+    W0 = ca.mtimes(adj, -K * Phi - Phit - ca.mtimes(J, A0)) * inv
+    W1 = ca.mtimes(adj, -ca.mtimes(J, A1)) * inv
+    H0n, H1n = 0.5 * xi * ca.mtimes(E, W0), 0.5 * xi * ca.mtimes(E, W1)
+    new = pack_carry(R, y, A0 + H0n, A1 + H1n, H0n, H1n, total + singular_values_2x2_select(W1)[1])
+    out = ca.vertcat(Phi, singular_values_2x2_select(P)[0] * (2 / xi), W0, ca.vec(W1))    # no division by xi/2
+    return (carry, trig, t, inv), (new, out, 1 / (P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0]))
+
+
+def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ca.Function, ca.Function]:
+    """``(time_features, link_step_trig, link_inv_det)`` of ``ctrl``."""
+    (carry, trig, t, inv), (new, out, inv_expr) = _link_expressions(ctrl)
+    expr, wsym, wexpr = split_time_terms(ca.vertcat(new, out, inv_expr), t)
+    n = SPATIAL_CARRY + LINK_OUT
+    tf = ca.Function("spatial_time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
+    body = ca.cse(expr[:n])
+    step = ca.Function("spatial_link_step_trig", [carry, *trig, wsym, inv],
+                       [body[:SPATIAL_CARRY], body[SPATIAL_CARRY:]],
+                       LINK_INPUTS + ["inv_det"], ["carry_next", "out"])
+    inv_det = ca.Function("spatial_link_inv_det", [carry, *trig, wsym], [ca.cse(expr[n])], LINK_INPUTS, ["inv_det"])
+    return tf, step, inv_det
+
+
+def _cached(ctrl: SpatialController) -> tuple[ca.Function, ca.Function, ca.Function]:
+    per_ctrl = _CACHE.setdefault(ctrl, {})
+    if "link" not in per_ctrl:
+        per_ctrl["link"] = _link_functions(ctrl)
+    return per_ctrl["link"]
+
+
+def spatial_time_features(ctrl: SpatialController) -> ca.Function:
+    """``t -> w``: the time-only terms of :func:`spatial_link_step_trig`, computed once per law call.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+
+    Returns
+    -------
+    casadi.Function
+        Input ``t`` [s], output ``w`` (one 0 for a static curve).
+    """
+    return _cached(ctrl)[0]
+
+
+def spatial_link_step_trig(ctrl: SpatialController) -> ca.Function:
+    """One link ``j >= 2`` of the spatial solve with the joint's cosines and sines as inputs.
+
+    ``(carry, cos a_j, sin a_j, cos b_j, sin b_j, w, inv_det) -> (carry_next, out_j)``, the operations of
+    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` without trigonometry and with
+    the reciprocal of the link pivot's determinant from :func:`spatial_link_inv_det`.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+
+    Returns
+    -------
+    casadi.Function
+        Carry layout of :data:`~coordarm.symbolic.spatial_recursion.SPATIAL_CARRY` (31);
+        ``out_j = (e^j [m] (2), link margin [-], W0_j [rad/s] (2), vec W1_j [-] (4))``.
+    """
+    return _cached(ctrl)[1]
+
+
+def spatial_link_inv_det(ctrl: SpatialController) -> ca.Function:
+    """``(carry, cos a_j, sin a_j, cos b_j, sin b_j, w) -> 1 / det P_j`` for :func:`spatial_link_step_trig`.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+
+    Returns
+    -------
+    casadi.Function
+        Output ``inv_det`` [-]: the reciprocal of the determinant of the link pivot ``P_j``
+        (``xi/2 dPhi/dy E_j``, 2x2, [m/rad]) [rad^2/m^2].
+    """
+    return _cached(ctrl)[2]
+
+
+def spatial_joint_step_trig() -> ca.Function:
+    """Link rates to joint rates, one joint, with the joint's cosines and sines as inputs.
+
+    ``(carry, x) -> (carry_next, out)``, ``x = (cos a_j, sin a_j, cos b_j, sin b_j, 1 / cos b_j, w_j1, w_j2)``,
+    ``out = (a_j', b_j', |cos b_j|)``. The carry is the angular velocity of link ``j - 1`` in its own
+    frame, ``R_{j-1}^T omega_{j-1}`` (3) [rad/s], zero before the first joint: the rates of
+    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.joint_step` (which carries ``R_{j-1}`` and
+    ``omega_{j-1}`` in the base frame) without a frame product.
+
+    Returns
+    -------
+    casadi.Function
+        Rates in [rad/s].
+    """
+    omega, x = ca.SX.sym("carry", JOINT_CARRY), ca.SX.sym("x", 7)
+    ca_, sa, cb, sb, inv_cb, w1, w2 = (x[k] for k in range(7))
+    v0, v1 = ca_ * omega[0] + sa * omega[1], ca_ * omega[1] - sa * omega[0]     # Rz(a)^T omega
+    local = ca.vertcat(cb * v0 - sb * omega[2], v1, sb * v0 + cb * omega[2])       # Ry(b)^T Rz(a)^T omega
+    b_dot = -w2 - local[1]
+    a_dot = (w1 - local[2]) * inv_cb
+    # R_j^T (omega + a_dot R_{j-1} e_z + b_dot R_{j-1} Rz(a) e_y), with Ry^T Rz^T e_z = (-sb, 0, cb)
+    new = ca.vertcat(local[0] - a_dot * sb, local[1] + b_dot, local[2] + a_dot * cb)
+    return ca.Function("spatial_joint_step_trig", [omega, x], [new, ca.vertcat(a_dot, b_dot, ca.fabs(cb))],
+                       ["carry", "x"], ["carry_next", "out"])
