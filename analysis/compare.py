@@ -78,7 +78,15 @@ def available_methods(scenario: Scenario) -> tuple[str, ...]:
     -------
     tuple of str
         Names from :data:`METHODS`, in that order.
+
+    Raises
+    ------
+    ConfigError
+        A spatial scenario (the baselines are planar).
     """
+    if scenario.universal:
+        raise ConfigError("chain.joints: 'universal': the baselines (pinv, dls, ftl) and the comparison are "
+                          "planar; a spatial scenario is not compared yet")
     rail = scenario.chain().rail
     return tuple(m for m in METHODS if m != "ftl" or rail)
 

@@ -140,10 +140,32 @@ def source_run(src: str, links: int | None, duration: float | None, yes: bool,
                 on_problem(problem)
         if not len(run.t):
             raise LogError(f"{src}: the log holds no samples; nothing to report")
+        spatial_not_yet(run.scenario, src)
         return run, run.scenario
     scenario = load_scenario(src).with_overrides(links, duration)
+    spatial_not_yet(scenario, src)
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, logged=False), yes)
     return simulate_scenario(scenario), scenario
+
+
+def spatial_not_yet(scenario: Scenario, src: str) -> None:
+    """Refuse a spatial scenario or log: the report's margins and linearisation are planar so far.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario of the log or the one to simulate.
+    src : str
+        The log or scenario named on the command line (for the message).
+
+    Raises
+    ------
+    ConfigError
+        ``scenario`` has universal joints.
+    """
+    if scenario.universal:
+        raise ConfigError(f"{src}: a spatial chain (joints = 'universal'): the report (margins, linearised "
+                          f"error dynamics) covers planar chains only so far; coordarm replay draws its figures")
 
 
 def simulate_scenario(scenario: Scenario) -> Run:

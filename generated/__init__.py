@@ -52,7 +52,7 @@ def compile(ctrl: "CoordinatingController | SpatialController", form: str | None
     Raises
     ------
     BuildError
-        No C compiler, a non-diagonal B, a spatial chain, or the generated code did not compile or load.
+        No C compiler, a non-diagonal B, or the generated code did not compile or load.
 
     Notes
     -----
@@ -62,11 +62,6 @@ def compile(ctrl: "CoordinatingController | SpatialController", form: str | None
     :class:`~coordarm.generated.compiled.CompiledController` of its own.
     """
     from coordarm.generated.compiled import CompiledController
-    from coordarm.symbolic import BuildError
-    from coordarm.symbolic.spatial_controller import SpatialController
-
-    if isinstance(ctrl, SpatialController):
-        raise BuildError("no generated C for a spatial chain (universal joints) yet")
     form = form or ctrl.law_form
     options = {k: v for k, v in build_options.items() if k != "force"}
     try:

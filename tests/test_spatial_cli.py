@@ -1,0 +1,29 @@
+"""The command line on spatial scenarios: a run logs and draws; what is planar only says so (exit 2)."""
+import json
+
+from mcap.reader import make_reader
+
+from coordarm.cli import main
+
+
+def test_run_line3d_logs_a_universal_chain_and_writes_both_figures(tmp_path, capsys):
+    out = tmp_path / "l3.mcap"
+    assert main(["run", "line3d", "--links", "12", "--duration", "0.2", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "12 links, universal joints" in text and "roll tracking" in text
+    with open(out, "rb") as f:
+        reader = make_reader(f)
+        meta = {r.name: dict(r.metadata) for r in reader.iter_metadata()}
+        topics = {c.topic for c in reader.get_summary().channels.values()}
+    assert meta["run"]["chain_kind"] == "universal" and json.loads(meta["outcome"]["status"]) == "completed"
+    assert {"/joint_state", "/task_state", "/margins", "/scene", "/tf", "/tracking"} <= topics
+    for name in ("l3_stages.png", "l3_tracking.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_compare_and_report_refuse_a_spatial_scenario_with_a_clear_error(capsys):
+    assert main(["compare", "line3d", "--duration", "0.1"]) == 2
+    assert "baselines (pinv, dls, ftl) and the comparison are planar" in capsys.readouterr().err
+    assert main(["report", "line3d"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("coordarm report: error: line3d: a spatial chain") and "Traceback" not in err
