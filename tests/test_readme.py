@@ -35,7 +35,7 @@ def test_readme_replay_example_runs_on_a_real_log(tmp_path, monkeypatch):
 def test_readme_path_rail_and_user_curve_examples_run():
     blocks = {b.split("\n", 1)[0][len("# example: "):]: b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
               if b.startswith("# example:")}
-    assert set(blocks) == {"paths", "rail", "user curve", "run_scenario"}
+    assert set(blocks) == {"paths", "rail", "user curve", "run_scenario", "spatial"}
     ns: dict = {}
     exec(compile(blocks["paths"], str(README), "exec"), ns)
     assert ns["fillet"].segments == ns["same"].segments and float(ns["psi"]) > 0
@@ -69,3 +69,14 @@ def test_readme_run_scenario_example_runs_and_writes_its_log_and_figures(tmp_pat
     assert result.log == Path("logs/line.mcap") and (tmp_path / "logs" / "line.mcap").is_file()
     assert len(result.figures) == 2 and all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in result.figures)
     assert len(result.run.t) == 201
+
+
+def test_readme_spatial_example_runs_and_its_end_point_tracks_v_star():
+    block = next(b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S)
+                 if b.startswith("# example: spatial"))
+    ns: dict = {}
+    exec(compile(block, str(README), "exec"), ns)
+    out, run = ns["out"], ns["run"]
+    assert out["u"].shape == (24,) and out["e"].shape == (22,) and out["link_margins"].shape == (11,)
+    assert run.q.shape == (501, 24) and run.info["stopped"] == "completed"
+    np.testing.assert_allclose(run.s - run.s[0], 0.05 * run.t, atol=1e-12)
