@@ -1,4 +1,4 @@
-"""coordarm: coordinating control of hyper-redundant planar manipulators.
+"""coordarm: coordinating control of hyper-redundant manipulators, planar and spatial.
 
 The public face of the package. Names load on first use, so ``import coordarm`` (and the
 command line) start at once; CasADi, matplotlib and python-control are imported only by
@@ -24,6 +24,12 @@ from coordarm.symbolic.lazy import lazy_exports
 _EXPORTS = {
     "PlanarChain": "coordarm.symbolic.chain",
     "ChainModel": "coordarm.symbolic.chain_model",
+    "SpatialChain": "coordarm.symbolic.spatial_chain",
+    "SpatialController": "coordarm.symbolic.spatial_controller",
+    "Line3D": "coordarm.symbolic.curves3d",
+    "Circle3D": "coordarm.symbolic.curves3d",
+    "Arc3D": "coordarm.symbolic.curves3d",
+    "Path3D": "coordarm.symbolic.paths3d",
     "CoordinatingController": "coordarm.symbolic.controller",
     "Curve": "coordarm.symbolic.curves",
     "Line": "coordarm.symbolic.curves",
