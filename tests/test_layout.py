@@ -7,21 +7,13 @@ from mcap.reader import make_reader
 
 from coordarm.cli import main
 from coordarm.commands.layout import layout_path
-from coordarm.simulation.mcap_writer import RunLogger
-from coordarm.simulation.run import simulate
-from coordarm.simulation.scenario import load_scenario
 
-LINKS = 5
+LINKS = 8
 
 
-@pytest.fixture(scope="module")
-def log(tmp_path_factory):
-    scenario = load_scenario("hole").with_overrides(links=LINKS, duration=0.2)
-    ctrl = scenario.controller()
-    path = tmp_path_factory.mktemp("layout") / "hole.mcap"
-    with RunLogger(path, scenario, ctrl) as logger:
-        simulate(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, backend="interpreted",
-                 on_chunk=logger.on_chunk)
+def _channel_fields(path):
+    """``{topic: {field: length (0 = scalar)}}`` of a log's ros2msg channels (None for JSON ones), the first
+    ``/tf`` and ``/scene`` messages."""
     with open(path, "rb") as f:
         reader = make_reader(f)
         summary = reader.get_summary()
@@ -38,10 +30,31 @@ def log(tmp_path_factory):
     return fields, tf, scene
 
 
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    """Short real logs of both chain kinds, written by ``coordarm run``: planar ``line`` and spatial ``line3d``."""
+    out = {}
+    for kind, preset in (("planar", "line"), ("spatial", "line3d")):
+        path = tmp_path_factory.mktemp("layout") / f"{preset}.mcap"
+        assert main(["run", preset, "--links", str(LINKS), "--duration", "0.2", "--backend", "interpreted",
+                     "--no-figures", "--quiet", "--out", str(path)]) == 0
+        out[kind] = _channel_fields(path)
+    return out
+
+
 def _panels(node):
     if isinstance(node, str):
         return [node]
     return _panels(node["first"]) + _panels(node["second"])
+
+
+def _resolves(value, fields):
+    """Whether the message path ``/topic.field`` or ``/topic.field[i]`` names a field of a logged channel."""
+    topic, field, index = re.fullmatch(r"(/[\w/]+)\.(\w+)(?:\[(\d+)\])?", value).groups()
+    if fields.get(topic) is None or field not in fields[topic]:
+        return False
+    length = fields[topic][field]
+    return (index is None) == (length == 0) and (index is None or int(index) < length)
 
 
 def test_coordarm_layout_prints_the_shipped_file_and_copies_it(tmp_path, capsys):
@@ -53,28 +66,42 @@ def test_coordarm_layout_prints_the_shipped_file_and_copies_it(tmp_path, capsys)
     assert main(["layout", "--out", str(tmp_path / "missing" / "x.json")]) == 2
 
 
-def test_every_plotted_path_names_a_field_of_a_logged_channel(log):
-    fields, _, _ = log
+def test_every_plotted_path_names_a_field_of_a_planar_or_a_spatial_log(logs):
     layout = json.loads(layout_path().read_text())
     assert sorted(_panels(layout["layout"])) == sorted(layout["configById"])
-    plots = [c for k, c in layout["configById"].items() if k.startswith("Plot!")]
-    assert len(plots) == 4
-    for config in plots:
-        for series in config["paths"]:
-            topic, field, index = re.fullmatch(r"(/[\w/]+)\.(\w+)(?:\[(\d+)\])?", series["value"]).groups()
-            assert topic in fields and fields[topic] is not None, series["value"]
-            assert field in fields[topic], series["value"]
-            length = fields[topic][field]
-            assert (index is None) == (length == 0) and (index is None or int(index) < length), series["value"]
+    plots = {k: c for k, c in layout["configById"].items() if k.startswith(("Plot!", "Indicator!"))}
+    assert len(plots) == 5
+    shown = {kind: set() for kind in logs}     # the plots that draw something in a log of each kind
+    for key, config in plots.items():
+        series = config["paths"] if key.startswith("Plot!") else [{"value": config["path"], "enabled": True}]
+        for s in series:
+            found = {kind for kind, (fields, _, _) in logs.items() if _resolves(s["value"], fields)}
+            assert found, s["value"]           # no path that neither kind logs
+            if s["enabled"]:
+                for kind in found:
+                    shown[kind].add(key)
+    # every plot but the roll draws in both kinds; the roll (a spatial output) draws in a spatial log
+    assert shown["planar"] == set(plots) - {"Plot!roll"} and shown["spatial"] == set(plots)
+    # the planar-only and spatial-only margins are in the same plot, beside the smallest link margin of both
+    margins = [s["value"] for s in plots["Plot!margins"]["paths"]]
+    assert _resolves(margins[0], logs["planar"][0]) and _resolves(margins[0], logs["spatial"][0])
+    assert [_resolves(v, logs["spatial"][0]) for v in margins[1:]] == [False, True]
+    assert [_resolves(v, logs["planar"][0]) for v in margins[1:]] == [True, False]
 
 
-def test_the_3d_panel_looks_down_on_world_where_the_scene_and_the_link_frames_are(log):
-    fields, tf, scene = log
+def test_the_3d_panel_views_world_in_perspective_where_the_scene_and_the_link_frames_are(logs):
     three_d = json.loads(layout_path().read_text())["configById"]["3D!coordarm"]
-    assert three_d["followTf"] == "world" and three_d["cameraState"]["perspective"] is False
-    assert set(three_d["topics"]) <= set(fields) and three_d["topics"]["/scene"]["visible"]
-    assert tf["transforms"][0]["parent_frame_id"] == "world"
-    assert {e["frame_id"] for e in scene["entities"]} == {"world"}
+    camera = three_d["cameraState"]
+    # a perspective view from above (not a flat top view, which hides the spatial chain's z) and not edge-on
+    assert three_d["followTf"] == "world" and camera["perspective"] is True and 20 <= camera["phi"] <= 70
+    assert three_d["scene"]["transforms"]["visible"] and 0 < three_d["scene"]["transforms"]["axisSize"] < 0.1
+    for fields, tf, scene in logs.values():
+        assert set(three_d["topics"]) <= set(fields) and three_d["topics"]["/scene"]["visible"]
+        assert tf["transforms"][0]["parent_frame_id"] == "world"
+        assert {e["frame_id"] for e in scene["entities"]} == {"world"}
+    # the spatial scene is drawn in 3-D: a cylinder per link, a sphere per joint and one for the target
+    entity = logs["spatial"][2]["entities"][0]
+    assert len(entity["cylinders"]) == LINKS and len(entity["spheres"]) == LINKS + 2
 
 
 def _keys(cls):

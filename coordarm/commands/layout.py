@@ -9,7 +9,7 @@ from coordarm.symbolic import ConfigError
 
 
 def layout_path() -> Path:
-    """Path of the Foxglove layout shipped with coordarm (3D top view of ``/scene`` and four plots).
+    """Path of the Foxglove layout shipped with coordarm (3D view of ``/scene`` and five plots).
 
     Returns
     -------
@@ -28,10 +28,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         The sub-parsers of the ``coordarm`` parser; the added parser sets ``func`` to :func:`main`.
     """
     p = sub.add_parser("layout", help="print the path of the Foxglove layout, or write a copy of it",
-                       description="The Foxglove layout for coordarm logs and the live view: a 3D panel (top "
-                                   "view of frame world with /scene) and plots of max|e|, s and its target, the "
-                                   "link and longitudinal margins and |u|. In Foxglove: open the log (Open local "
-                                   "file), then Layouts > Import layout and pick this file.")
+                       description="The Foxglove layout for coordarm logs and the live view, planar or spatial: "
+                                   "a 3D panel (perspective view of frame world with /scene and the link frames) "
+                                   "and plots of max|e|, s and its target, the link margins with the longitudinal "
+                                   "(planar) or end (spatial) margin, |u| and the roll (spatial). In Foxglove: open "
+                                   "the log (Open local file), then Layouts > Import layout and pick this file.")
     p.add_argument("--out", type=Path, metavar="FILE", help="write a copy of the layout to FILE")
     p.set_defaults(func=main)
 
