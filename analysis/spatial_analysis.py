@@ -24,7 +24,7 @@ SPATIAL_MARGINS = {"link": ("link_margins", "link", 2), "end": ("end_margin", "l
                    "joint": ("joint_margins", "link", 1)}
 #: Descriptions of the spatial margins, for tables and legends.
 SPATIAL_LABELS = {"link": "smallest link margin (2x2 link pivots)", "end": "end margin (2x2 end solve: s, roll)",
-                  "joint": "smallest joint margin |cos b_j|"}
+                  "joint": "smallest joint margin abs(cos b_j)"}
 #: Largest chain (links) whose decoupling matrix's condition number is sampled (an SVD of 2m x 2m each).
 COND_LINKS = 32
 #: Samples of the condition number over the run.

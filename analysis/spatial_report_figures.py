@@ -39,15 +39,18 @@ def plot_spatial_margins(a: SpatialAnalysis, path: str | Path, title: str = "") 
     fig, axes = plt.subplots(2, 1, figsize=(8, 7.5), sharex=True, layout="constrained")
     floor = 1e-12
     ax = axes[0]
+    for value in sorted(set(a.thresholds.values())):      # one line per threshold, naming its margins
+        names = [n for n in SPATIAL_MARGINS if a.thresholds[n] == value]
+        ax.axhline(value, color=COLORS[names[0]] if len(names) == 1 else "0.4", ls=":", lw=1,
+                   label=f"threshold {value:g} ({', '.join(names)})")
     for name in SPATIAL_MARGINS:
         ax.semilogy(a.t, np.maximum(a.smallest(name), floor), color=COLORS[name], label=SPATIAL_LABELS[name])
-        ax.axhline(a.thresholds[name], color=COLORS[name], ls=":", lw=1, label=f"threshold {a.thresholds[name]:g}")
         if a.crossings[name] is not None:
             ax.plot(a.crossings[name], a.thresholds[name], "v", color=COLORS[name], ms=8)
     _mark_blowup(ax, a)
     ax.set_ylabel("margin [-] (0 = singular)")
     ax.legend(fontsize=7, loc="lower right", ncol=2)
-    ax.set_title(title + ": singularity margins (triangles: first below threshold)", fontsize=10)
+    ax.set_title(title + "\nsingularity margins (triangles: first below threshold)", fontsize=10)
     ax = axes[1]
     ax.semilogy(a.t, np.maximum(a.u_norm, floor), color="tab:blue", label="|u|$_\\infty$ [rad/s]")
     ax.axhline(BLOWUP_FACTOR * a.nominal_u, color="tab:blue", ls=":", lw=1,
@@ -88,12 +91,12 @@ def plot_spatial_links(a: SpatialAnalysis, path: str | Path, title: str = "") ->
         im = ax.imshow(v.T, aspect="auto", origin="lower", cmap="viridis", vmin=0, vmax=1,
                        extent=(t0, t1, first - 0.5, first + v.shape[1] - 0.5), interpolation="nearest")
         value, when, j = a.minima[name]
-        ax.plot(when, j, "x", color="tab:red", ms=9, mew=2, label=f"smallest {value:.3g} (t = {when:.2f} s, {j})")
+        ax.plot(when, j, "x", color="tab:red", ms=9, mew=2, clip_on=False,
+                label=f"smallest {value:.3g}: {what.split()[0]} {j} at t = {when:.2f} s")
         ax.set_ylabel(what)
         ax.legend(fontsize=8, loc="upper right")
         fig.colorbar(im, ax=ax, label="margin [-]")
-    axes[0].set_title(title + ": link margins (2x2 link pivots; 0 = the link cannot move its next centre)",
-                      fontsize=10)
-    axes[1].set_title("joint margins |cos b_j| (0 = the joint's own singularity, b_j = +-pi/2)", fontsize=10)
+    axes[0].set_title(title + "\nlink margins: 2x2 link pivots (0 = singular)", fontsize=10)
+    axes[1].set_title("joint margins |cos b_j| (0 = the joint's own singularity, b_j = $\\pm\\pi$/2)", fontsize=10)
     axes[1].set_xlabel("t [s]")
     return save_figure(fig, path)
