@@ -58,6 +58,8 @@ def plot_spatial_margins(a: SpatialAnalysis, path: str | Path, title: str = "") 
     if len(a.cond):
         ax.semilogy(a.cond_t, a.cond, ".-", color="tab:gray", label="cond(M), decoupling matrix [-]")
     _mark_blowup(ax, a)
+    if a.nominal_u > 0:           # a run starting at rest: keep |u| ~ 0 from squeezing the scale
+        ax.set_ylim(bottom=max(ax.get_ylim()[0], 1e-3 * a.nominal_u))
     ax.set_ylabel("|u|, cond")
     ax.set_xlabel("t [s]")
     ax.legend(fontsize=7, loc="best")
