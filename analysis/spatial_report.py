@@ -118,6 +118,40 @@ def linearisation_lines(lins: list[Linearisation], K: float) -> list[str]:
     return lines
 
 
+def findings_lines(a: SpatialAnalysis, lins: list[Linearisation], K: float) -> list[str]:
+    """The report's summary: which margins crossed their thresholds (or the closest one), the blow-up, the
+    linearisation's distance from the design.
+
+    Parameters
+    ----------
+    a : SpatialAnalysis
+        The analysis of the run.
+    lins : list of Linearisation
+        The closed loop linearised along the run.
+    K : float
+        The design gain [1/s].
+
+    Returns
+    -------
+    list of str
+        Markdown bullet lines.
+    """
+    crossed = [f"{SPATIAL_LABELS[n]} at {c:.3f} s" for n, c in a.crossings.items() if c is not None]
+    if crossed:
+        lines = ["* below threshold: " + "; ".join(crossed)]
+    else:
+        ratio = {n: a.minima[n][0] / a.thresholds[n] for n in SPATIAL_MARGINS}
+        n = min(ratio, key=ratio.get)
+        lines = [f"* every margin stayed above its threshold; the closest: {SPATIAL_LABELS[n]}, "
+                 f"{a.minima[n][0]:.3g} = {ratio[n]:.3g} x its threshold, at t = {a.minima[n][1]:.3f} s"]
+    lines.append(f"* blow-up (|u|_inf > {BLOWUP_FACTOR:g} x nominal): {_when(a.blowup_time)}")
+    if lins:
+        worst = max(L.deviation_from_design(K) for L in lins)
+        lines.append(f"* linearised error dynamics at {len(lins)} points: the design diag(0, -K, ..., -K) to "
+                     f"{worst:.1e} 1/s (every task error but s decays like exp(-{K:g} t))")
+    return lines
+
+
 def spatial_markdown(a: SpatialAnalysis, scenario: Any, ctrl: Any, run: Any, step: float | None,
                      figures: list[Path], lins: list[Linearisation]) -> str:
     """The spatial report as Markdown text.
@@ -149,7 +183,7 @@ def spatial_markdown(a: SpatialAnalysis, scenario: Any, ctrl: Any, run: Any, ste
              f"* scenario: `{scenario.source}`, {m} links of {ctrl.chain.xi} m with universal joints "
              f"({2 * m} joint angles a_j, b_j), K = {K:g} 1/s",
              f"* run: t = {a.t[0]:.3f} .. {a.t[-1]:.3f} s, {len(a.t)} samples; outcome: {outcome_of(run)['status']}",
-             ""]
+             "", "## Findings", ""] + findings_lines(a, lins, K) + [""]
     lines += margin_lines(a) + [""] + effort_lines(a) + [""] + linearisation_lines(lins, K)
     lines += sampled_data_lines(K, step)
     lines += ["", "## Figures", ""] + [f"![{p.stem}]({p.name})" for p in figures]
