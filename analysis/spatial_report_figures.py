@@ -60,7 +60,7 @@ def plot_spatial_margins(a: SpatialAnalysis, path: str | Path, title: str = "") 
     _mark_blowup(ax, a)
     if a.nominal_u > 0:           # a run starting at rest: keep |u| ~ 0 from squeezing the scale
         ax.set_ylim(bottom=max(ax.get_ylim()[0], 1e-3 * a.nominal_u))
-    ax.set_ylabel("|u|, cond")
+    ax.set_ylabel("|u| [rad/s], cond [-]" if len(a.cond) else "|u| [rad/s]")
     ax.set_xlabel("t [s]")
     ax.legend(fontsize=7, loc="best")
     ax.set_title("control effort" + ("" if len(a.cond) else " (cond(M) not sampled above 32 links)"), fontsize=10)
