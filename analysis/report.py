@@ -133,7 +133,27 @@ def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController,
         far = ev[np.argmax(np.abs(ev - target))]
         frozen = L.deviation_from_design(K, frozen=True)
         lines.append(f"| {L.t:.3f} | {L.deviation_from_design(K):.2e} | {far.real:.6g}{far.imag:+.2g}j | {frozen:.3g} |")
-    lines += ["", "## Sampled-data and delay limits (per deviation, python-control model)", ""]
+    lines += sampled_data_lines(K, step)
+    lines += ["", "## Figures", ""] + [f"![{p.stem}]({p.name})" for p in figures]
+    return "\n".join(lines) + "\n"
+
+
+def sampled_data_lines(K: float, step: float | None) -> list[str]:
+    """The report's section on sampled-data and delay limits of one deviation loop ``e' = -K e``.
+
+    Parameters
+    ----------
+    K : float
+        Error gain [1/s].
+    step : float or None
+        The run's step [s]; None leaves out the sampled-data lines (the delay margin stays).
+
+    Returns
+    -------
+    list of str
+        Markdown lines, starting with an empty line and the section heading.
+    """
+    lines = ["", "## Sampled-data and delay limits (per deviation, python-control model)", ""]
     if step:
         lines.append(f"* RK4 step h = {step:g} s: K h = {K * step:.4g} (RK4 stable for K h < {RK4_LIMIT:.4f})")
         lines.append(f"* as a digital controller with period h and zero-order hold: stable for K h < "
@@ -141,8 +161,7 @@ def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController,
                      f"(n = 1: {sampled_limit(1):.4g}, n = 2: {sampled_limit(2):.4g}); "
                      f"at this h up to {max_stable_delay(K, step)} samples of delay")
     lines.append(f"* continuous loop: delay margin pi/(2K) = {delay_margin(K):.4g} s")
-    lines += ["", "## Figures", ""] + [f"![{p.stem}]({p.name})" for p in figures]
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def write_report(run: Any, scenario: Any, out_dir: str | Path, ctrl: CoordinatingController | None = None,

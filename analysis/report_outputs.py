@@ -51,7 +51,8 @@ def report_of(source: str | os.PathLike, out: str | os.PathLike | None = None, *
     """Write the singularity and condition report of a log (``*.mcap``) or of a scenario.
 
     A scenario (preset or TOML) is simulated first without singularity stops, so that a blow-up
-    is visible (:func:`simulate_scenario`).
+    is visible (:func:`simulate_scenario`). A spatial chain (universal joints) gets the report of
+    :func:`~coordarm.analysis.spatial_report.write_spatial_report` (its logged margins; ``samples`` unused).
 
     Parameters
     ----------
@@ -91,6 +92,11 @@ def report_of(source: str | os.PathLike, out: str | os.PathLike | None = None, *
         raise ConfigError(f"--samples: need {SAMPLES_RANGE[0]} to {SAMPLES_RANGE[1]}, got {shown(samples)}")
     run, scenario = source_run(str(source), links, duration, yes, on_problem)
     out = output_directory(Path("logs") / f"{scenario.name}_report" if out is None else Path(out))
+    if scenario.universal:     # a spatial chain: its logged margins, read as they are (``samples`` unused)
+        from coordarm.analysis.spatial_report import write_spatial_report
+
+        path = write_spatial_report(run, scenario, out)
+        return ReportOutputs(scenario, run, path, tuple(sorted(path.parent.glob("*.png"))))
     m = np.shape(run.q)[1]
     if m > 128 and on_note is not None:  # about a second per 1000 samples at 64 links, a second per sample at 1024
         on_note(f"report: margins at {samples or default_samples(m)} samples of a {m}-link chain "
@@ -140,32 +146,10 @@ def source_run(src: str, links: int | None, duration: float | None, yes: bool,
                 on_problem(problem)
         if not len(run.t):
             raise LogError(f"{src}: the log holds no samples; nothing to report")
-        spatial_not_yet(run.scenario, src)
         return run, run.scenario
     scenario = load_scenario(src).with_overrides(links, duration)
-    spatial_not_yet(scenario, src)
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, logged=False), yes)
     return simulate_scenario(scenario), scenario
-
-
-def spatial_not_yet(scenario: Scenario, src: str) -> None:
-    """Refuse a spatial scenario or log: the report's margins and linearisation are planar so far.
-
-    Parameters
-    ----------
-    scenario : Scenario
-        The scenario of the log or the one to simulate.
-    src : str
-        The log or scenario named on the command line (for the message).
-
-    Raises
-    ------
-    ConfigError
-        ``scenario`` has universal joints.
-    """
-    if scenario.universal:
-        raise ConfigError(f"{src}: a spatial chain (joints = 'universal'): the report (margins, linearised "
-                          f"error dynamics) covers planar chains only so far; coordarm replay draws its figures")
 
 
 def simulate_scenario(scenario: Scenario) -> Run:

@@ -25,6 +25,7 @@ from coordarm.symbolic import CollisionError, ConfigError, CoordarmError, Singul
 from coordarm.symbolic.checks import is_integer, is_real
 
 from .choices import SWEEP_ALIASES, Backend, Outcome
+from .result import deviation_norms
 from .run import CHECK_RATE, even_indices, simulate
 from .scenario import Scenario
 
@@ -310,6 +311,36 @@ def _walls(sc: Scenario, ctrl, t: np.ndarray, q: np.ndarray) -> float:
     return min(d for d, _, _ in sc.physical(ctrl.chain).clearances(q[rows], t[rows]).values())
 
 
+def run_columns(run: Any) -> dict[str, float]:
+    """The margin and tracking columns of a row from its run (planar or spatial).
+
+    A spatial run (universal joints) has no longitudinal margin: ``min_longitudinal`` holds its end
+    margin (the 2x2 end solve of ``s`` and roll, checked against the same threshold), ``final_max_e``
+    the largest distance ``|(e^j_1, e^j_2)|``, and three columns of its own follow the others:
+    ``min_end_margin``, ``min_joint_margin`` (``|cos b_j|``) [-] and ``max_roll_error`` [rad].
+
+    Parameters
+    ----------
+    run : Run
+        The simulated run (up to its stop), at least one row.
+
+    Returns
+    -------
+    dict
+        ``min_link_margin``, ``min_longitudinal`` [-], ``final_max_e`` [m], ``peak_u`` [rad/s], and for a
+        spatial run the three columns above.
+    """
+    cols = {"min_link_margin": float(np.min(run.link_margins)), "peak_u": float(np.max(np.abs(run.u)))}
+    if run.layout.kind == "revolute":
+        return {**cols, "min_longitudinal": float(np.min(run.longitudinal)),
+                "final_max_e": float(np.max(np.abs(run.e[-1])))}
+    end = float(np.min(run.end_margin))
+    roll_error = np.angle(np.exp(1j * (run.roll - run.roll_star)))
+    return {**cols, "min_longitudinal": end, "final_max_e": float(np.max(deviation_norms(run.e[-1:], 2))),
+            "min_end_margin": end, "min_joint_margin": float(np.min(run.joint_margins)),
+            "max_roll_error": float(np.max(np.abs(roll_error)))}
+
+
 def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
     """Simulate one sweep point and summarise it as a row (never raises on a failed point).
 
@@ -357,9 +388,7 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
         except CollisionError as err:
             run, row["outcome"], row["message"] = err.run, Outcome.COLLISION.value, str(err)
         if run is not None:
-            row.update(stop_time=float(run.t[-1]), min_link_margin=float(np.min(run.link_margins)),
-                       min_longitudinal=float(np.min(run.longitudinal)),
-                       final_max_e=float(np.max(np.abs(run.e[-1]))), peak_u=float(np.max(np.abs(run.u))))
+            row.update(stop_time=float(run.t[-1]), **run_columns(run))
             row["min_clearance"] = _walls(sc, ctrl, run.t, run.q)
     except CoordarmError as exc:
         row["message"] = f"{type(exc).__name__}: {exc}"
