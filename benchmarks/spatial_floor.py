@@ -131,7 +131,8 @@ def main() -> None:
         law = CompiledController(SpatialController(chain, curve, 2.0, 0.1, roll=Sinusoid(0.2, 1.3)))
         q = chain.zigzag(1.0, axis=AXIS, fold=(0.0, 1.0, 0.0))
         steps = max(8, 131072 // (4 * m))
-        timers = [lambda: per_link_ns(law, q, steps, m), floor_timer(m, False, q, steps), floor_timer(m, True, q, steps)]
+        timers = [lambda: per_link_ns(law, q, steps, m),
+                  floor_timer(m, False, q, steps), floor_timer(m, True, q, steps)]
         times = np.array([[timer() for timer in timers] for _ in range(args.rounds)])
         per = np.median(times, axis=0)
         r1, r2 = np.median(times[:, 0] / times[:, 1]), np.median(times[:, 0] / times[:, 2])
