@@ -21,7 +21,7 @@ from coordarm.symbolic.spatial_recursion import SPATIAL_CARRY, pack_carry, unpac
 _CACHE: "weakref.WeakKeyDictionary[SpatialController, dict]" = weakref.WeakKeyDictionary()
 #: Inputs of the per-link step: the carry, the joint's four cosines and sines, the time features.
 LINK_INPUTS = ["carry", "cos_a", "sin_a", "cos_b", "sin_b", "w"]
-#: Size of the per-link step's second output: ``(e^j (2), link margin, W0_j (2), vec W1_j (4))``.
+#: Size of the per-link step's second output: ``(e^j (2), link margin, xi/2 W0_j (2), xi/2 vec W1_j (4))``.
 LINK_OUT = 9
 #: Size of the joint loop's carry: the previous link's angular velocity in its own frame.
 JOINT_CARRY = 3
@@ -72,7 +72,10 @@ def _link_expressions(ctrl: SpatialController):
     As :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` with the joint's cosines and
     sines as inputs and the reciprocal of the link pivot's determinant as an input too (its expression is
     returned for :func:`spatial_link_inv_det`): one division per link instead of six (CasADi would fold
-    ``x * (1/y)`` back into a division).
+    ``x * (1/y)`` back into a division). The pivot is taken over ``xi/2`` (``J E_j``): the carried
+    ``xi/2 E_j w_j`` is then ``E_j V_j`` with ``V_j = xi/2 w_j``, so neither the pivot nor the carried
+    rates are scaled by ``xi/2`` (the joint loop scales ``V_j`` back); ``-P^-1`` is formed once from
+    the frame (off the carried rates) and applied to both right-hand sides.
     """
     xi, K = ctrl.chain.xi, ctrl.gain
     carry, t, inv = ca.SX.sym("carry", SPATIAL_CARRY), ca.SX.sym("t"), ca.SX.sym("inv_det")
@@ -82,15 +85,16 @@ def _link_expressions(ctrl: SpatialController):
     E = R[:, 1:3]
     y = y_prev + 0.5 * xi * (R_prev[:, 0] + R[:, 0])
     Phi, J, Phit, *_ = ctrl.task.geometry(y, t)
-    P = 0.5 * xi * ca.mtimes(J, E)                       # the link pivot
-    adj = ca.vertcat(ca.horzcat(P[1, 1], -P[0, 1]), ca.horzcat(-P[1, 0], P[0, 0]))
+    P = ca.mtimes(J, E)                  # the link pivot over xi/2 (the xi/2 cancels from xi/2 E w_j)
+    neg_inv = ca.vertcat(ca.horzcat(-P[1, 1], P[0, 1]), ca.horzcat(P[1, 0], -P[0, 0])) * inv   # -P^-1
     A0, A1 = Y0 + H0, Y1 + H1
-    W0 = ca.mtimes(adj, -K * Phi - Phit - ca.mtimes(J, A0)) * inv
-    W1 = ca.mtimes(adj, -ca.mtimes(J, A1)) * inv
-    H0n, H1n = 0.5 * xi * ca.mtimes(E, W0), 0.5 * xi * ca.mtimes(E, W1)
-    new = pack_carry(R, y, A0 + H0n, A1 + H1n, H0n, H1n, total + singular_values_2x2_select(W1)[1])
-    out = ca.vertcat(Phi, singular_values_2x2_select(P)[0] * (2 / xi), W0, ca.vec(W1))    # no division by xi/2
-    return (carry, trig, t, inv), (new, out, 1 / (P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0]))
+    V0 = ca.mtimes(neg_inv, K * Phi + Phit + ca.mtimes(J, A0))      # xi/2 W0_j
+    V1 = ca.mtimes(neg_inv, ca.mtimes(J, A1))                        # xi/2 W1_j
+    H0n, H1n = ca.mtimes(E, V0), ca.mtimes(E, V1)
+    new = pack_carry(R, y, A0 + H0n, A1 + H1n, H0n, H1n, total + singular_values_2x2_select(V1)[1] * (2 / xi))
+    out = ca.vertcat(Phi, singular_values_2x2_select(P)[0], V0, ca.vec(V1))
+    inv_expr = 1 / (P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0])
+    return (carry, trig, t, inv), (new, out, inv_expr)
 
 
 def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ca.Function, ca.Function]:
@@ -146,7 +150,8 @@ def spatial_link_step_trig(ctrl: SpatialController) -> ca.Function:
     -------
     casadi.Function
         Carry layout of :data:`~coordarm.symbolic.spatial_recursion.SPATIAL_CARRY` (31);
-        ``out_j = (e^j [m] (2), link margin [-], W0_j [rad/s] (2), vec W1_j [-] (4))``.
+        ``out_j = (e^j [m] (2), link margin [-], xi/2 W0_j [m/s] (2), xi/2 vec W1_j [m] (4))``
+        (the link rates ``w_j = W0_j + W1_j p`` times ``xi/2``).
     """
     return _cached(ctrl)[1]
 
@@ -162,8 +167,8 @@ def spatial_link_inv_det(ctrl: SpatialController) -> ca.Function:
     Returns
     -------
     casadi.Function
-        Output ``inv_det`` [-]: the reciprocal of the determinant of the link pivot ``P_j``
-        (``xi/2 dPhi/dy E_j``, 2x2, [m/rad]) [rad^2/m^2].
+        Output ``inv_det`` [-]: the reciprocal of the determinant of the link pivot over ``xi/2``,
+        ``dPhi/dy E_j`` (2x2, [1/rad]) [rad^2].
     """
     return _cached(ctrl)[2]
 

@@ -17,7 +17,7 @@ __attribute__((simd("notinbranch"))) double sin(double);
 #endif
 
 /* scratch: the angles (a_1..a_m, b_1..b_m), their cosines and sines, 1 / cos b_j, each link's
-   (W0_j, vec W1_j) */
+   xi/2 (W0_j, vec W1_j) */
 #define CA_LAW_SCRATCH (13 * CA_M)
 
 /* ang = (a_1..a_m, b_1..b_m), then c = cos(ang), s = sin(ang), ic = 1 / cos(b): independent iterations.
@@ -41,7 +41,7 @@ static void ca_spatial_trig(const casadi_real* restrict q, casadi_real* restrict
   for (j = 0; j < CA_M; ++j) ic[j] = 1 / c[CA_M + j];
 }
 
-/* Links 2..m: carry -> carry_m; writes e^j and the link margins to out and (W0_j, vec W1_j) to W + 6 j.
+/* Links 2..m: carry -> carry_m; writes e^j and the link margins to out and xi/2 (W0_j, vec W1_j) to W + 6 j.
    The step has one call site and is inlined here (flatten; this function is not itself inlined into
    ca_law, where gcc would not inline the large step). The carry (31 doubles, more than the registers)
    alternates between two arrays: copying it back would be a memcpy call per link. */
@@ -70,8 +70,8 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_recursion(const casadi_real* c, con
   return 0;
 }
 
-/* Joint rates from the link rates w_1 = p, w_j = W0_j + W1_j p (the frame and the angular
-   velocity carried from joint to joint); writes u and the joint margins |cos b_j|. */
+/* Joint rates from the link rates w_1 = p, w_j = W0_j + W1_j p (W holds W0_j, W1_j times xi/2; the
+   frame and the angular velocity carried from joint to joint); writes u and the joint margins |cos b_j|. */
 CA_FLATTEN CA_NOINLINE static int ca_spatial_joints(const casadi_real* c, const casadi_real* s, const casadi_real* ic,
                                         const casadi_real* W, const casadi_real* p, casadi_real* u, casadi_real* out,
                                         casadi_int* iw, casadi_real* w) {
@@ -84,8 +84,8 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_joints(const casadi_real* c, const 
     if (j == 0) {
       x[5] = p[0]; x[6] = p[1];
     } else {
-      x[5] = W[6 * j] + W[6 * j + 2] * p[0] + W[6 * j + 4] * p[1];
-      x[6] = W[6 * j + 1] + W[6 * j + 3] * p[0] + W[6 * j + 5] * p[1];
+      x[5] = (W[6 * j] + W[6 * j + 2] * p[0] + W[6 * j + 4] * p[1]) * (1 / CA_HALF_XI);
+      x[6] = (W[6 * j + 1] + W[6 * j + 3] * p[0] + W[6 * j + 5] * p[1]) * (1 / CA_HALF_XI);
     }
     arg[0] = c0; arg[1] = x; res[0] = c1; res[1] = o;
     if (spatial_joint_step_trig(arg, res, iw, w, 0)) return 2;
