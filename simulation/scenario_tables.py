@@ -119,11 +119,6 @@ class ChainTable:
         return BEND_LIMIT if self.joint_limit is None else self.joint_limit
 
     @property
-    def capsule_radius(self) -> float:
-        """Capsule radius [m] of a universal chain's links (``radius``, default ``link_length / 10``)."""
-        return float(self.link_length) / 10 if self.radius is None else float(self.radius)
-
-    @property
     def rail(self) -> bool:
         """Whether the base slides on a rail."""
         return self.base_args["base"] == "rail"

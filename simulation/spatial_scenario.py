@@ -72,7 +72,8 @@ def spatial_physical(config: ScenarioConfig, chain: SpatialChain) -> Physical3D:
         The checks (capsule radius ``link_length / 10`` and clearance 0 when left out).
     """
     ch = config.chain
-    return Physical3D(chain, ch.bend_limit, ch.capsule_radius, float(ch.clearance or 0.0), list(config.obstacles))
+    radius = float(ch.link_length) / 10 if ch.radius is None else float(ch.radius)
+    return Physical3D(chain, ch.bend_limit, radius, float(ch.clearance or 0.0), list(config.obstacles))
 
 
 def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:
