@@ -360,3 +360,23 @@ def wireframe(obstacle: Obstacle3D) -> list[np.ndarray]:
             centre = face + cu * e1 + cv * e2
             out.append(_circle(centre, e1, e2, p) if kind == "circle" else _loop(centre, e1, e2, p, q))
     return out
+
+
+def densified(points: np.ndarray, n: int = 16) -> np.ndarray:
+    """A polyline with ``n`` equal steps per segment (so that clipping to a box keeps what is inside).
+
+    Parameters
+    ----------
+    points : ndarray, shape (k, 3)
+        Vertices [m].
+    n : int
+        Steps per segment.
+
+    Returns
+    -------
+    ndarray, shape ((k - 1) n + 1, 3)
+        The same polyline [m].
+    """
+    s = np.linspace(0.0, 1.0, n + 1)[:-1, None]
+    parts = [a + s * (b - a) for a, b in zip(points[:-1], points[1:])]
+    return np.vstack(parts + [points[-1:]])

@@ -65,7 +65,8 @@ def spatial_summary_lines(run: Run, scenario: Scenario) -> list[str]:
     -------
     list of str
         Scenario and link count; simulated time and steps, stop reason and backend; final max|e^j| [m];
-        s tracking [m]; roll tracking [rad]; the smallest link, end and joint margins; max|u| [rad/s].
+        s tracking [m]; roll tracking [rad]; the smallest link, end and joint margins; max|u| [rad/s];
+        the clearance to every obstacle (:func:`spatial_clearance_lines`).
     """
     s = run.summary()
     return [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1] // 2} links, universal joints",
@@ -79,7 +80,31 @@ def spatial_summary_lines(run: Run, scenario: Scenario) -> list[str]:
             f"end margin    min {s['min_end_margin']:.4f} (t = {s['min_end_margin_time']:.2f} s)",
             f"joint margin  min |cos b_j| = {s['min_joint_margin']:.4f} (joint {s['min_joint_margin_joint']}, "
             f"t = {s['min_joint_margin_time']:.2f} s)",
-            f"max|u|        {s['max_abs_u']:.4g}"]
+            f"max|u|        {s['max_abs_u']:.4g}"] + spatial_clearance_lines(run, scenario)
+
+
+def spatial_clearance_lines(run: Run, scenario: Scenario) -> list[str]:
+    """One line per obstacle of a spatial run: the smallest gap between a link's capsule and it.
+
+    Parameters
+    ----------
+    run : Run
+        The run (``run.q`` is ``(n, 2 m)`` [rad]).
+    scenario : Scenario
+        Its scenario (obstacles, capsule radius).
+
+    Returns
+    -------
+    list of str
+        ``clearance 'name': min gap [m] (link, t)`` from at most 2000 evenly spread samples; none without obstacles.
+    """
+    from coordarm.simulation.run import even_indices
+
+    if not scenario.obstacles:
+        return []
+    rows = even_indices(len(run.t), 2000)
+    return [f"clearance     {name!r}: min {d:.4f} m (link {link}, t = {t:.2f} s)"
+            for name, (d, t, link) in scenario.physical().clearances(run.q[rows], run.t[rows]).items()]
 
 
 def physical_lines(run: Run, scenario: Scenario) -> list[str]:

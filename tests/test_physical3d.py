@@ -184,6 +184,10 @@ def test_a_segment_through_a_hole_is_at_the_holes_radius_and_a_tilted_one_at_its
     # a segment along w offset by 0.05 in u, ending 0.01 above the face over the hole: nearest the rim point
     top = capsule_gaps(np.array([1.03, 0.0, 0.25]), np.array([1.3, 0.0, 0.25]), 0.0, ob)
     assert abs(top - math.hypot(0.01, 0.08 - 0.05)) < 1e-9
+    # leaving the slab inside the hole towards the rim: v = 0.2 + 0.2 s, w = 0.1 s; the nearest point is on
+    # the rim at s = 0.36 (d/ds of (0.08 - 0.2 s)^2 + (0.1 s - 0.02)^2 = 0), below both ends' 0.04 and 0.08
+    rim = capsule_gaps(np.array([1.0, 0.0, 0.2]), np.array([1.1, 0.0, 0.4]), 0.0, ob)
+    assert abs(rim - math.sqrt(0.008 ** 2 + 0.016 ** 2)) < 1e-9
 
 
 def test_bad_plates_are_errors_naming_the_field():
@@ -303,3 +307,30 @@ def test_the_command_line_exits_2_for_a_bad_start_and_4_for_a_contact(tmp_path, 
     assert main(["run", str(path), "--backend", "interpreted", "--no-figures", "--out", str(out)]) == code
     text = capsys.readouterr()
     assert words in text.out + text.err
+
+
+def test_wireframes_lie_on_the_obstacles_and_the_scene_and_figure_draw_them(tmp_path):
+    from coordarm.simulation.obstacles3d import wireframe
+    from coordarm.simulation.scene3d import SpatialSceneBuilder
+
+    ball = obstacle3d_from_spec(BALL, 0)
+    for p in wireframe(ball):
+        np.testing.assert_allclose(np.linalg.norm(p - [0.75, 0.0, 0.0], axis=1), 0.05, atol=1e-12)
+    plate = obstacle3d_from_spec(PLATE, 0)
+    lines = wireframe(plate)
+    assert len(lines) == 2 * (1 + len(HOLES))
+    rim = lines[1]                                        # the circular hole's rim on the face x = 0.98
+    np.testing.assert_allclose(np.hypot(rim[:, 1], rim[:, 2] - 0.2), 0.08, atol=1e-12)
+    np.testing.assert_allclose(rim[:, 0], 0.98, atol=1e-12)
+    box = obstacle3d_from_spec({"kind": "box", "centre": [0.1, 0.2, 0.3], "size": [0.2, 0.4, 0.6]}, 0)
+    corners = np.vstack(wireframe(box))
+    np.testing.assert_allclose(np.abs(corners - [0.1, 0.2, 0.3]), np.broadcast_to([0.1, 0.2, 0.3], corners.shape),
+                               atol=1e-12)
+    sc = Scenario.from_dict(spatial([BALL]))
+    ctrl = sc.controller()
+    assert len(SpatialSceneBuilder(ctrl, sc.obstacles)._walls) == 3
+    done = run(Scenario.from_dict(spatial([BALL])), allow_contact=True)
+    from coordarm.simulation.figures3d import spatial_figures
+    import matplotlib.image
+    stages, _ = spatial_figures(done, sc, ctrl, tmp_path / "ball")
+    assert matplotlib.image.imread(stages).shape[2] in (3, 4)
