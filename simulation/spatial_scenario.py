@@ -5,20 +5,17 @@
 ``fold`` and ``roll``), :func:`spatial_controller` builds the :class:`~coordarm.symbolic.SpatialController`
 (the roll held at the start's when ``[control] roll`` is left out) and :func:`spatial_physical` gives
 what a run checks (:class:`~coordarm.simulation.physical3d.Physical3D`: bend limits, capsules of
-``[chain] radius`` apart and clear of the obstacles by ``[chain] clearance``); :class:`BendLimits`
-checks the bend limits alone.
+``[chain] radius`` apart and clear of the obstacles by ``[chain] clearance``).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from coordarm.symbolic import ConfigError, SpatialChain, SpatialController
-from coordarm.symbolic.start3d import bend_angles, check_bends, follow_curve3d, zigzag_start
+from coordarm.symbolic.start3d import check_bends, follow_curve3d, zigzag_start
 
-from .physical import Contact
 from .physical3d import Physical3D
 from .scenario_tables import ScenarioConfig
 
@@ -100,57 +97,3 @@ def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:
     q0 = spatial_start(config, chain, curve) if c.roll_motion is None else None
     return SpatialController(chain, curve, float(c.gain), c.speed_motion, roll=c.roll_motion, law=c.law,
                              start=q0, t0=float(config.run.t0))
-
-
-@dataclass(frozen=True)
-class BendLimits:
-    """What a run of a universal chain checks: the bend of every joint against its limit.
-
-    Attributes
-    ----------
-    chain : SpatialChain
-        The manipulator.
-    limit : float or list of float
-        Bend limit [rad] of joints 2..m (one, or one per joint).
-    """
-
-    chain: SpatialChain
-    limit: Any
-
-    def check(self, t: np.ndarray, q: np.ndarray) -> list[Contact]:
-        """Every joint bent beyond its limit at the samples ``(t[k], q[k])``, sorted by time.
-
-        Parameters
-        ----------
-        t : ndarray, shape (N,)
-            Times of the samples [s].
-        q : ndarray, shape (N, 2 m)
-            Configurations [rad].
-
-        Returns
-        -------
-        list of Contact
-            ``joint_limit`` contacts (``links`` = the two links the joint joins, ``value`` the bend [rad]).
-        """
-        bends = bend_angles(self.chain, np.asarray(q, float).reshape(len(t), -1))
-        lim = np.broadcast_to(np.asarray(self.limit, float), bends.shape[-1:])
-        k, j = np.nonzero(~(bends <= lim))
-        return [Contact("joint_limit", float(t[a]), (int(b) + 1, int(b) + 2), float(bends[a, b]), float(lim[b]))
-                for a, b in zip(k, j)]
-
-    def clearances(self, q: np.ndarray, t: np.ndarray) -> dict[str, tuple[float, float, int]]:
-        """Per obstacle: none (a universal chain has no obstacles yet).
-
-        Parameters
-        ----------
-        q : ndarray, shape (N, 2 m)
-            Configurations [rad].
-        t : ndarray, shape (N,)
-            Times of the samples [s].
-
-        Returns
-        -------
-        dict
-            Empty.
-        """
-        return {}

@@ -334,3 +334,23 @@ def test_wireframes_lie_on_the_obstacles_and_the_scene_and_figure_draw_them(tmp_
     import matplotlib.image
     stages, _ = spatial_figures(done, sc, ctrl, tmp_path / "ball")
     assert matplotlib.image.imread(stages).shape[2] in (3, 4)
+
+
+def test_allow_contact_records_the_contact_and_the_summary_shows_it_and_the_clearance(tmp_path, capsys):
+    path = tmp_path / "ball.toml"
+    path.write_text(TOML.replace("CX", "0.75"))
+    args = ["run", str(path), "--backend", "interpreted", "--no-figures", "--out", str(tmp_path / "b.mcap")]
+    assert main(args + ["--allow-contact"]) == 0
+    out = capsys.readouterr().out
+    assert "contacts      1 distinct (allowed), first: wall at t = 0.700 s, links [8]" in out
+    gap = float(out.split("clearance     'ball': min ")[1].split()[0])
+    ball = obstacle3d_from_spec(BALL, 0)
+    assert gap < 0 and gap == pytest.approx(float(capsule_gaps(*tip_at_end(path), 0.01, ball)), abs=1e-4)
+
+
+def tip_at_end(path):
+    """The last link's axis at the end of the allowed run, from a run of the same scenario here."""
+    sc = Scenario.from_dict(__import__("tomllib").loads(path.read_text()))
+    done = run(sc, allow_contact=True)
+    a, b, _ = link_ends(sc.chain(), done.q[-1:])
+    return a[0, -1], b[0, -1]
