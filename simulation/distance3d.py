@@ -6,9 +6,11 @@ piecewise quadratic with at most six breakpoints, minimised piece by piece). A p
 product of its in-plane region (a square or the whole plane, minus the holes) and the slab
 ``|w| <= T/2``, so the distance of a point is ``sqrt(delta_Q^2 + (|w| - T/2)_+^2)``; along a
 segment it is minimised on every piece between the parameters where the segment enters or
-leaves the slab, the square or a hole: in closed form at the pieces' ends, and by a
-golden-section search inside (the only curved piece is above or below a hole, where the
-nearest point is on the hole's rim).
+leaves the slab, the square or a hole (and crosses a rectangular hole's diagonals): the pieces'
+ends exactly, and inside each piece a golden-section search. On every piece the distance is
+linear, concave (inside a hole, within the slab) or convex, except above or below a circular
+hole, where the nearest point is on the rim and the search assumes one minimum per piece
+(the exact line-circle distance would need a quartic).
 """
 from __future__ import annotations
 
@@ -156,7 +158,8 @@ def plate_point_distance(x: np.ndarray, half_thickness: float, extent: float,
 
 def _plate_breaks(pa: np.ndarray, pd: np.ndarray, half_thickness: float, extent: float,
                   holes: tuple) -> np.ndarray:
-    """Parameters in [0, 1] where segments cross the slab's faces, the square's edges or a hole's rim, (..., k)."""
+    """Parameters in [0, 1] where segments cross the slab's faces, the square's edges, a hole's rim or a
+    rectangle's diagonals (where its nearest edge changes), (..., k)."""
     planes = [(2, half_thickness), (2, -half_thickness)]
     if math.isfinite(extent):
         planes += [(0, extent), (0, -extent), (1, extent), (1, -extent)]
@@ -170,6 +173,12 @@ def _plate_breaks(pa: np.ndarray, pd: np.ndarray, half_thickness: float, extent:
     with np.errstate(divide="ignore", invalid="ignore"):
         for k, level in planes:
             out.append((level - pa[..., k]) / pd[..., k])
+        for kind, cu, cv, p, q in holes:      # a rectangle's diagonals: where its nearest edge changes
+            if kind == "rectangle":
+                for sv in (1.0, -1.0):
+                    for level in (p - q, q - p):
+                        du, dv = pa[..., 0] - cu, pa[..., 1] - cv
+                        out.append((level - du + sv * dv) / (pd[..., 0] - sv * pd[..., 1]))
         for cu, cv, rho in quad:           # |(u, v)(s) - c|^2 = rho^2
             ou, ov = pa[..., 0] - cu, pa[..., 1] - cv
             A = pd[..., 0] ** 2 + pd[..., 1] ** 2

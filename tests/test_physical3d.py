@@ -354,3 +354,17 @@ def tip_at_end(path):
     done = run(sc, allow_contact=True)
     a, b, _ = link_ends(sc.chain(), done.q[-1:])
     return a[0, -1], b[0, -1]
+
+
+def test_segments_just_above_a_rectangular_hole_against_the_sampled_face():
+    ob = obstacle3d_from_spec({"kind": "plate", "point": [0, 0, 0], "normal": [0, 0, 1.0], "thickness": 0.02,
+                               "holes": [{"centre": [0, 0, 0], "size": [0.3, 0.1]}]}, 0)
+    g = np.linspace(-0.4, 0.4, 801)
+    U, V = (x.ravel() for x in np.meshgrid(g, g))
+    keep = ~((np.abs(U) < 0.15) & (np.abs(V) < 0.05))
+    tree = cKDTree(np.column_stack([U[keep], V[keep], np.full(keep.sum(), 0.01)]))
+    for _ in range(100):
+        a, b = (np.r_[RNG.uniform(-0.2, 0.2, 2), RNG.uniform(0.011, 0.05)] for _ in range(2))
+        got = float(capsule_gaps(a, b, 0.0, ob))
+        want = float(tree.query(sampled(a, b, 3001))[0].min())
+        assert got <= want + 1e-9 and want - got < 2e-3, (got, want)
