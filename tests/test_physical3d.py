@@ -368,3 +368,20 @@ def test_segments_just_above_a_rectangular_hole_against_the_sampled_face():
         got = float(capsule_gaps(a, b, 0.0, ob))
         want = float(tree.query(sampled(a, b, 3001))[0].min())
         assert got <= want + 1e-9 and want - got < 2e-3, (got, want)
+
+
+def test_a_spatial_scenario_with_obstacles_round_trips_through_its_spec():
+    data = spatial([PLATE, BALL, {"kind": "box", "centre": [0, 1, 0], "size": [0.1, 0.1, 0.1],
+                                  "rotation": {"axis": [0, 0, 1], "angle": 0.3}}], radius=0.02, clearance=0.005)
+    sc = Scenario.from_dict(data)
+    again = Scenario.from_dict(sc.spec)
+    assert again.spec == sc.spec and [o.name for o in again.obstacles] == ["casing", "ball", "box 3"]
+    ph = again.physical()
+    assert (ph.radius, ph.clearance, ph.limit) == (0.02, 0.005, 1.4)
+    assert Scenario.from_dict(spatial()).physical().radius == pytest.approx(0.01)
+    with pytest.raises(ConfigError, match=r"^bad.toml: obstacles\[1\].holes\[0\].radius"):
+        Scenario.from_dict(spatial([BALL, dict(PLATE, holes=[{"centre": [1.0, 0.0, 0.2], "radius": "big"}])]),
+                           "bad.toml")
+    with pytest.raises(ConfigError, match=r"^bad.toml: chain.radius: only a universal chain"):
+        Scenario.from_dict({**data, "chain": {"links": 6, "link_length": 0.1, "radius": 0.01}, "obstacles": []},
+                           "bad.toml")
