@@ -16,6 +16,7 @@ from matplotlib.ticker import LogFormatter, MaxNLocator, NullFormatter
 import numpy as np
 
 from .figures import envelope_indices, stage_indices
+from .obstacles3d import densified, wireframe
 from .spatial_view import clip_to_box, roll_command, spatial_joints, view_box
 
 #: The floor of the logarithmic error plots [m or rad]: below it lie only rounding errors.
@@ -173,6 +174,22 @@ def draw_base(ax: Any, axes: Sequence[int]) -> None:
     ax.plot(*([0.0] for _ in axes), "s", color="k", ms=7, label="base", gid="base")
 
 
+def draw_obstacles(ax: Any, scene: dict[str, Any], axes: Sequence[int]) -> None:
+    """The obstacles' wireframes (grey, gid ``"obstacle"``), as clipped in ``scene["obstacles"]`` (none if absent).
+
+    Parameters
+    ----------
+    ax : matplotlib Axes or Axes3D
+        Where to draw.
+    scene : dict
+        From :func:`stage_scene`, with ``obstacles``: a list of (n, 3) polylines [m].
+    axes : sequence of int
+        The coordinates shown (0 = x, 1 = y, 2 = z).
+    """
+    for p in scene.get("obstacles", ()):
+        ax.plot(*(p[:, a] for a in axes), "-", color="0.4", lw=0.8, gid="obstacle")
+
+
 def draw_view3d(ax: Any, scene: dict[str, Any], colours: np.ndarray, labels: Sequence[str]) -> None:
     """The stages in perspective on a 3-D axes, equal scales on x, y, z (box aspect = the box's extents).
 
@@ -191,6 +208,7 @@ def draw_view3d(ax: Any, scene: dict[str, Any], colours: np.ndarray, labels: Seq
     for i, (c, label) in enumerate(zip(colours, labels)):
         draw_stage(ax, scene, i, c, label, (0, 1, 2))
     draw_base(ax, (0, 1, 2))
+    draw_obstacles(ax, scene, (0, 1, 2))
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
@@ -224,6 +242,7 @@ def draw_projection(ax: Any, scene: dict[str, Any], colours: np.ndarray, title: 
     for i, c in enumerate(colours):
         draw_stage(ax, scene, i, c, "", axes)
     draw_base(ax, axes)
+    draw_obstacles(ax, scene, axes)
     ax.set_xlim(lo[axes[0]], hi[axes[0]])
     ax.set_ylim(lo[axes[1]], hi[axes[1]])
     ax.set_aspect("equal")
@@ -235,7 +254,7 @@ def draw_projection(ax: Any, scene: dict[str, Any], colours: np.ndarray, title: 
 
 
 def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[float] | None = None,
-                        stages: int = 4, title: str = "") -> Path:
+                        stages: int = 4, title: str = "", obstacles: Sequence[Any] = ()) -> Path:
     """The chain at several times with the curve at those times: a perspective view and two projections; a PNG.
 
     Parameters
@@ -252,6 +271,8 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
         Number of evenly spread stages when ``times`` is None.
     title : str
         Figure title (empty: a default naming the link count).
+    obstacles : sequence of Obstacle3D
+        Drawn as wireframes, clipped to the view box.
 
     Returns
     -------
@@ -260,6 +281,7 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
     """
     idx = stage_indices(run, stages, times)
     scene = stage_scene(run, ctrl, idx)
+    scene["obstacles"] = [clip_to_box(densified(p), scene["lo"], scene["hi"]) for ob in obstacles for p in wireframe(ob)]
     colours = matplotlib.colormaps["viridis"](np.linspace(0, 0.9, len(idx)))
     labels = [f"t = {run.t[k]:.2f} s" for k in idx]
     fig = Figure(figsize=(13.0, 7.0))
@@ -427,6 +449,6 @@ def spatial_figures(run: Any, scenario: Any, ctrl: Any, stem: str | Path, stages
     times = stages if stages is not None else getattr(scenario, "stages", None)
     thresholds = getattr(scenario, "thresholds", None)
     return [plot_spatial_stages(run, ctrl, stem.with_name(stem.name + "_stages.png"), times=times,
-                                title=f"{title}: stages of the motion"),
+                                title=f"{title}: stages of the motion", obstacles=getattr(scenario, "obstacles", ())),
             plot_spatial_tracking(run, ctrl, stem.with_name(stem.name + "_tracking.png"), thresholds=thresholds,
                                   title=f"{title}: tracking and margins")]

@@ -35,6 +35,8 @@ A spatial chain (``[chain] joints = "universal"``: two angles per joint, q = (a_
     [control]   roll = motion [rad] (default: held at the start's roll); no span, governor, damping
     [start]     kind = "zigzag" | "follow", beta, axis = [x, y, z] (default: the curve's tangent at
                 the base), fold = [x, y, z] (default: its n_1), roll = 0.0 [rad]
+    [chain]     radius = link_length / 10 [m] (links are capsules), clearance = 0.0 [m] (extra distance)
+    [[obstacles]] kind = "plate" | "sphere" | "cylinder" | "box" (keys: :mod:`.obstacles3d`)
 """
 from __future__ import annotations
 
@@ -54,9 +56,11 @@ from coordarm.symbolic.start import check_start
 
 from .choices import presets
 from .obstacles import Obstacle
+from .obstacles3d import Obstacle3D
 from .physical import Physical
 from .scenario_tables import USER_DEFINED, ScenarioConfig, check_stages, parse_scenario
-from .spatial_scenario import BendLimits, spatial_controller, spatial_start
+from .physical3d import Physical3D
+from .spatial_scenario import spatial_controller, spatial_physical, spatial_start
 
 
 @dataclass(frozen=True)
@@ -134,8 +138,8 @@ class Scenario:
         return self.config.to_dict()
 
     @property
-    def obstacles(self) -> list[Obstacle]:
-        """Named wall segments, discs and polygons (:mod:`coordarm.simulation.obstacles`)."""
+    def obstacles(self) -> list[Obstacle | Obstacle3D]:
+        """Named wall segments, discs and polygons (:mod:`coordarm.simulation.obstacles`), or 3-D obstacles."""
         return list(self.config.obstacles)
 
     @property
@@ -231,7 +235,7 @@ class Scenario:
         """
         return self.config.chain.build()
 
-    def physical(self, chain: PlanarChain | SpatialChain | None = None) -> Physical | BendLimits:
+    def physical(self, chain: PlanarChain | SpatialChain | None = None) -> Physical | Physical3D:
         """What a run checks: the chain's joint limits and clearance, and the obstacles.
 
         Parameters
@@ -241,11 +245,11 @@ class Scenario:
 
         Returns
         -------
-        Physical or BendLimits
-            The checks of a run (a universal chain's: the bend limit of every joint only).
+        Physical or Physical3D
+            The checks of a run (a universal chain's: bend limits, capsules apart, obstacles in 3-D).
         """
         if self.universal:
-            return BendLimits(chain or self.chain(), self.config.chain.bend_limit)
+            return spatial_physical(self.config, chain or self.chain())
         return Physical(chain or self.chain(), self.obstacles)
 
     def controller(self) -> CoordinatingController | SpatialController:

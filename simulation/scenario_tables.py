@@ -23,13 +23,14 @@ from coordarm.symbolic.laws import LAWS, Law
 
 from .limits import check_bounds, check_gain_step
 from .obstacles import Obstacle, obstacles_from_spec
+from .obstacles3d import Obstacle3D, obstacles3d_from_spec
 from .run import DEFAULT_THRESHOLDS, check_number
 from .spatial_tables import (BEND_LIMIT, check_curve_kind, check_joints, check_kind_keys, roll_motion, spatial_curve,
                              spatial_start)
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
             "obstacles", "figures"}
-KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base", "joints"},
+KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base", "joints", "radius"},
         "figures": {"stages", "panels"},
         "control": {"gain", "speed", "law", "span", "governor", "damping", "roll"},
         "start": {"kind", "beta", "heading", "curve", "axis", "fold", "roll"}, "run": {"duration", "step", "t0"},
@@ -94,6 +95,8 @@ class ChainTable:
     joints : str
         ``"revolute"`` (a planar chain) or ``"universal"`` (a spatial chain, two angles per joint;
         its ``joint_limit`` bounds the bend ``acos(d_{j-1} . d_j)`` between consecutive links).
+    radius : float or None
+        Capsule radius of a universal chain's links [m]; None: ``link_length / 10``.
     """
 
     links: int
@@ -103,6 +106,7 @@ class ChainTable:
     base: str | dict | None = None
     base_args: dict = field(default_factory=lambda: {"base": "fixed"}, compare=False, repr=False)
     joints: str = "revolute"
+    radius: float | None = None
 
     @property
     def universal(self) -> bool:
@@ -143,7 +147,7 @@ class ChainTable:
         """
         return {"links": self.links, "link_length": self.link_length,
                 **_present(joint_limit=self.joint_limit, clearance=self.clearance, base=self.base,
-                           joints=self.joints if self.universal else None)}
+                           joints=self.joints if self.universal else None, radius=self.radius)}
 
 
 @dataclass(frozen=True)
@@ -358,7 +362,7 @@ class ScenarioConfig:
     start : StartTable
     run : RunTable
     thresholds : Thresholds
-    obstacles : tuple of Obstacle
+    obstacles : tuple of Obstacle (Obstacle3D for a universal chain)
     figures : FiguresTable
     curve_object : Curve or SpatialCurve or None
         ``curve`` built (once, when read); None for a user-defined curve.
@@ -372,7 +376,7 @@ class ScenarioConfig:
     start: StartTable
     run: RunTable
     thresholds: Thresholds
-    obstacles: tuple[Obstacle, ...]
+    obstacles: tuple[Obstacle | Obstacle3D, ...]
     figures: FiguresTable
     curve_object: Curve | None = field(default=None, compare=False, repr=False)
 
@@ -463,8 +467,10 @@ def _chain(ch: dict) -> ChainTable:
                 PlanarChain(ch["links"], 1.0, **{k: ch[k]})
             except ConfigError as exc:
                 raise ConfigError(f"chain.{exc}") from None
+    if "radius" in ch:
+        check_number(ch["radius"], "chain.radius")
     return ChainTable(ch["links"], ch["link_length"], ch.get("joint_limit"), ch.get("clearance"), ch.get("base"),
-                      base_args(ch.get("base", "fixed")), check_joints(ch.get("joints", "revolute")))
+                      base_args(ch.get("base", "fixed")), check_joints(ch.get("joints", "revolute")), ch.get("radius"))
 
 
 def _span(control: dict, chain: ChainTable) -> Any:
@@ -586,6 +592,7 @@ def parse_scenario(data: Any, curve: Curve | None = None) -> ScenarioConfig:
     start = _start(spec["start"], chain)
     run = _run(spec["run"], chain, control)
     thresholds = _thresholds(spec["thresholds"], control)
-    obstacles = tuple(obstacles_from_spec(spec.setdefault("obstacles", [])))
+    read = obstacles3d_from_spec if chain.universal else obstacles_from_spec
+    obstacles = tuple(read(spec.setdefault("obstacles", [])))
     return ScenarioConfig(spec["name"], spec["description"], chain, spec["curve"], control, start, run,
                           thresholds, obstacles, figures, curve_object)

@@ -4,7 +4,7 @@ The scene, in frame ``world``, follows the official ``foxglove.SceneUpdate`` sch
 one (:mod:`.scene`): each link a cylinder (centre ``y^j``, axis along ``d_j``, length ``xi``), each
 link end a sphere (the joints), the base a cube, the curve at its current pose a 3-D line strip, the
 end point's target (the point of the curve at arc length ``s(0) + integral of v*``) a red sphere and
-the obstacles as in the planar scene (in the plane z = 0). The frame transforms
+the 3-D obstacles as wireframes (:func:`.obstacles3d.wireframe`). The frame transforms
 (``foxglove.FrameTransforms``) give a frame ``link1`` .. ``linkm`` per link, origin at the link's
 centre, x along the link and the orientation ``R_j`` of the chain, each parented to the previous one
 (``link1`` to ``world``): link j relative to link j-1 is ``Rz(a_j) Ry(b_j)``.
@@ -19,7 +19,8 @@ import numpy as np
 from coordarm.symbolic.spatial_chain import SpatialChain
 
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
-from .scene import ARM_COLOR, CURVE_COLOR, TARGET_COLOR, WALL_COLOR, SceneBuilder, obstacle_outlines
+from .obstacles3d import wireframe
+from .scene import ARM_COLOR, CURVE_COLOR, TARGET_COLOR, WALL_COLOR, SceneBuilder
 from .spatial_view import roll_command, spatial_joints
 
 #: Colour of the joint spheres and the base (r, g, b, a).
@@ -132,7 +133,7 @@ class SpatialSceneBuilder(SceneBuilder):
     ctrl : SpatialController
         The run's controller (chain and 3-D curve).
     obstacles : array_like
-        The scenario's obstacles (drawn in the plane z = 0).
+        The scenario's 3-D obstacles (drawn as wireframes, :func:`~.obstacles3d.wireframe`).
 
     Attributes
     ----------
@@ -144,9 +145,8 @@ class SpatialSceneBuilder(SceneBuilder):
     TRACKING_FIELDS = SPATIAL_TRACKING_FIELDS
 
     def __init__(self, ctrl: Any, obstacles: Any) -> None:
-        super().__init__(ctrl, obstacles)
-        self._walls = [_line(np.column_stack([p, np.zeros(len(p))]), 0.02, WALL_COLOR)
-                       for p in obstacle_outlines(obstacles)]
+        super().__init__(ctrl, [])
+        self._walls = [_line(p, 0.005, WALL_COLOR) for ob in obstacles for p in wireframe(ob)]
         self.radius = 0.12 * ctrl.chain.xi      # of the link cylinders [m]
         self._path_points: np.ndarray | None = None     # a path's polyline (it does not move)
 

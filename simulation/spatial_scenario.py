@@ -3,20 +3,20 @@
 :class:`~coordarm.simulation.scenario.Scenario` calls these when ``[chain] joints = "universal"``:
 :func:`spatial_start` lays the zig-zag (``[start] kind = "zigzag"`` or ``"follow"``, with ``axis``,
 ``fold`` and ``roll``), :func:`spatial_controller` builds the :class:`~coordarm.symbolic.SpatialController`
-(the roll held at the start's when ``[control] roll`` is left out) and :class:`BendLimits` checks the
-bend limit of every joint during a run.
+(the roll held at the start's when ``[control] roll`` is left out) and :func:`spatial_physical` gives
+what a run checks (:class:`~coordarm.simulation.physical3d.Physical3D`: bend limits, capsules of
+``[chain] radius`` apart and clear of the obstacles by ``[chain] clearance``).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import SpatialChain, SpatialController
-from coordarm.symbolic.start3d import bend_angles, check_bends, follow_curve3d, zigzag_start
+from coordarm.symbolic import ConfigError, SpatialChain, SpatialController
+from coordarm.symbolic.start3d import check_bends, follow_curve3d, zigzag_start
 
-from .physical import Contact
+from .physical3d import Physical3D
 from .scenario_tables import ScenarioConfig
 
 
@@ -40,13 +40,37 @@ def spatial_start(config: ScenarioConfig, chain: SpatialChain, curve: Any) -> np
     Raises
     ------
     ConfigError
-        A vector out of range, a link that cannot be laid on the curve, or a bend beyond the limit.
+        A vector out of range, a link that cannot be laid on the curve, a bend beyond the limit, two
+        links' capsules overlapping or a capsule touching an obstacle (the links and obstacle named).
     """
     st, t0 = config.start, float(config.run.t0)
     lay = follow_curve3d if st.kind == "follow" else zigzag_start
     q = lay(chain, curve, float(st.beta), t0, st.axis, st.fold, float(st.roll or 0.0))
     check_bends(chain, q, config.chain.bend_limit)
+    hits = spatial_physical(config, chain).check(np.array([t0]), q[None])
+    if hits:
+        raise ConfigError(f"start: {hits[0].describe().split(': ', 1)[1]}; move the obstacle or the start")
     return q
+
+
+def spatial_physical(config: ScenarioConfig, chain: SpatialChain) -> Physical3D:
+    """What a run of a universal chain checks: bend limits, self-collision of the capsules, the obstacles.
+
+    Parameters
+    ----------
+    config : ScenarioConfig
+        The scenario (``[chain] joint_limit``, ``radius``, ``clearance`` and ``[[obstacles]]``).
+    chain : SpatialChain
+        The manipulator.
+
+    Returns
+    -------
+    Physical3D
+        The checks (capsule radius ``link_length / 10`` and clearance 0 when left out).
+    """
+    ch = config.chain
+    radius = float(ch.link_length) / 10 if ch.radius is None else float(ch.radius)
+    return Physical3D(chain, ch.bend_limit, radius, float(ch.clearance or 0.0), list(config.obstacles))
 
 
 def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:
@@ -73,57 +97,3 @@ def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:
     q0 = spatial_start(config, chain, curve) if c.roll_motion is None else None
     return SpatialController(chain, curve, float(c.gain), c.speed_motion, roll=c.roll_motion, law=c.law,
                              start=q0, t0=float(config.run.t0))
-
-
-@dataclass(frozen=True)
-class BendLimits:
-    """What a run of a universal chain checks: the bend of every joint against its limit.
-
-    Attributes
-    ----------
-    chain : SpatialChain
-        The manipulator.
-    limit : float or list of float
-        Bend limit [rad] of joints 2..m (one, or one per joint).
-    """
-
-    chain: SpatialChain
-    limit: Any
-
-    def check(self, t: np.ndarray, q: np.ndarray) -> list[Contact]:
-        """Every joint bent beyond its limit at the samples ``(t[k], q[k])``, sorted by time.
-
-        Parameters
-        ----------
-        t : ndarray, shape (N,)
-            Times of the samples [s].
-        q : ndarray, shape (N, 2 m)
-            Configurations [rad].
-
-        Returns
-        -------
-        list of Contact
-            ``joint_limit`` contacts (``links`` = the two links the joint joins, ``value`` the bend [rad]).
-        """
-        bends = bend_angles(self.chain, np.asarray(q, float).reshape(len(t), -1))
-        lim = np.broadcast_to(np.asarray(self.limit, float), bends.shape[-1:])
-        k, j = np.nonzero(~(bends <= lim))
-        return [Contact("joint_limit", float(t[a]), (int(b) + 1, int(b) + 2), float(bends[a, b]), float(lim[b]))
-                for a, b in zip(k, j)]
-
-    def clearances(self, q: np.ndarray, t: np.ndarray) -> dict[str, tuple[float, float, int]]:
-        """Per obstacle: none (a universal chain has no obstacles yet).
-
-        Parameters
-        ----------
-        q : ndarray, shape (N, 2 m)
-            Configurations [rad].
-        t : ndarray, shape (N,)
-            Times of the samples [s].
-
-        Returns
-        -------
-        dict
-            Empty.
-        """
-        return {}

@@ -4,7 +4,8 @@
 its ``[curve]`` is 3-D (:func:`~coordarm.symbolic.curve3d_specs.curve3d_from_spec`), ``[control]``
 may command a ``roll`` and ``[start]`` takes ``axis``, ``fold`` and ``roll``. A planar
 (``"revolute"``) scenario refuses those keys, and a spatial one the planar options its law does
-not have (rail, span, governor, damping, clearance, obstacles, a projected start).
+not have (rail, span, governor, damping, a projected start); its obstacles are 3-D
+(:mod:`coordarm.simulation.obstacles3d`) and its links capsules of ``[chain] radius``.
 """
 from __future__ import annotations
 
@@ -34,10 +35,10 @@ PLANAR_CURVE_KEYS = ("angle", "center", "heading", "offset")
 #: Keys of a 3-D ``[curve]`` that a planar curve does not have.
 SPATIAL_CURVE_KEYS = ("direction", "normal", "centre")
 #: Keys a spatial scenario refuses (its law has no such option yet), by section.
-PLANAR_ONLY = {"chain": ("clearance", "base"), "control": ("span", "governor", "damping"),
+PLANAR_ONLY = {"chain": ("base",), "control": ("span", "governor", "damping"),
                "start": ("heading", "curve")}
 #: Keys only a spatial scenario has, by section.
-SPATIAL_ONLY = {"control": ("roll",), "start": ("axis", "fold", "roll")}
+SPATIAL_ONLY = {"chain": ("radius",), "control": ("roll",), "start": ("axis", "fold", "roll")}
 CURVE_HINT = ("line: point [x, y, z], direction, normal, rotation = {axis, angle}; arc/circle: centre, radius, "
               "normal; path: start, direction, normal, segments; waypoints: points, radius")
 
@@ -92,8 +93,6 @@ def check_kind_keys(data: dict, joints: str) -> None:
                 raise ConfigError(f"{sec}.{key}: not available for a universal chain (chain.joints = "
                                   f"\"universal\") yet; leave it out")
             raise ConfigError(f"{sec}.{key}: only a universal chain (chain.joints = \"universal\") has it")
-    if universal and data.get("obstacles"):
-        raise ConfigError("obstacles: not available for a universal chain (chain.joints = \"universal\") yet")
 
 
 def check_curve_kind(spec: dict, joints: str) -> None:

@@ -65,7 +65,8 @@ def spatial_summary_lines(run: Run, scenario: Scenario) -> list[str]:
     -------
     list of str
         Scenario and link count; simulated time and steps, stop reason and backend; final max|e^j| [m];
-        s tracking [m]; roll tracking [rad]; the smallest link, end and joint margins; max|u| [rad/s].
+        s tracking [m]; roll tracking [rad]; the smallest link, end and joint margins; max|u| [rad/s];
+        the clearance to every obstacle (:func:`spatial_physical_lines`).
     """
     s = run.summary()
     return [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1] // 2} links, universal joints",
@@ -79,7 +80,36 @@ def spatial_summary_lines(run: Run, scenario: Scenario) -> list[str]:
             f"end margin    min {s['min_end_margin']:.4f} (t = {s['min_end_margin_time']:.2f} s)",
             f"joint margin  min |cos b_j| = {s['min_joint_margin']:.4f} (joint {s['min_joint_margin_joint']}, "
             f"t = {s['min_joint_margin_time']:.2f} s)",
-            f"max|u|        {s['max_abs_u']:.4g}"]
+            f"max|u|        {s['max_abs_u']:.4g}"] + spatial_physical_lines(run, scenario)
+
+
+def spatial_physical_lines(run: Run, scenario: Scenario) -> list[str]:
+    """The contacts an ``--allow-contact`` spatial run recorded, and per obstacle the smallest gap to a link's capsule.
+
+    Parameters
+    ----------
+    run : Run
+        The run (``run.q`` is ``(n, 2 m)`` [rad]).
+    scenario : Scenario
+        Its scenario (obstacles, capsule radius).
+
+    Returns
+    -------
+    list of str
+        A contacts line when the run recorded any, then ``clearance 'name': min gap [m] (link, t)`` from at
+        most 2000 evenly spread samples per obstacle.
+    """
+    from coordarm.simulation.run import even_indices
+
+    contacts = run.info.get("contacts") or []
+    lines = [f"contacts      {len(contacts)} distinct (allowed), first: {contacts[0]['kind']} at "
+             f"t = {contacts[0]['time']:.3f} s, links {contacts[0]['links']}"] if contacts else []
+    if not scenario.obstacles:
+        return lines
+    rows = even_indices(len(run.t), 2000)
+    gaps = scenario.physical().clearances(run.q[rows], run.t[rows])
+    return lines + [f"clearance     {name!r}: min {d:.4f} m (link {link}, t = {t:.2f} s)"
+                    for name, (d, t, link) in gaps.items()]
 
 
 def physical_lines(run: Run, scenario: Scenario) -> list[str]:

@@ -124,7 +124,8 @@ def test_planar_specs_gain_no_keys(name):
     ({"control": {"span": 1.0}}, "control.span"),
     ({"control": {"roll": "x"}}, "control.roll"),
     ({"control": {"law": "sparse"}}, "control.law"),
-    ({"chain": {"clearance": 0.01}}, "chain.clearance"),
+    ({"chain": {"clearance": -0.01}}, "chain.clearance"),
+    ({"chain": {"radius": 0.0}}, "chain.radius"),
     ({"chain": {"base": {"kind": "rail"}}}, "chain.base"),
     ({"chain": {"joint_limit": 4.0}}, "chain.joint_limit"),
     ({"start": {"kind": "projected"}}, "start.kind"),
@@ -133,7 +134,7 @@ def test_planar_specs_gain_no_keys(name):
     ({"start": {"fold": [1.0, "y", 0.0]}}, "start.fold"),
     ({"start": {"roll": math.inf}}, "start.roll"),
     ({"start": {"beta": 1.6}}, "start.beta"),
-    ({"obstacles": [{"center": [1.0, 1.0], "radius": 0.1}]}, "obstacles"),
+    ({"obstacles": [{"center": [1.0, 1.0], "radius": 0.1}]}, "obstacles[0].kind"),
 ])
 def test_a_bad_spatial_key_is_an_error_naming_the_file_and_field(tables, field):
     with pytest.raises(ConfigError) as err:

@@ -1,0 +1,204 @@
+"""Physical validity of a spatial chain: bend limits, capsules apart, capsules clear of obstacles.
+
+:class:`Physical3D` is what a run of a universal chain checks (the interface of
+:class:`~coordarm.simulation.physical.Physical`: ``check(t, q)`` and ``clearances(q, t)``):
+link j is a capsule about the segment ``y^j -+ xi/2 d_j`` of ``radius``; two non-adjacent
+capsules closer than ``2 radius + clearance`` are a ``self`` contact, a capsule closer than
+``clearance`` to an obstacle a ``wall`` contact, a bend ``acos(d_{j-1} . d_j)`` beyond the
+limit a ``joint_limit`` contact. :func:`close_pairs` is the broad phase (sort and sweep on the
+links' bounding boxes), so a check costs O(m log m) per sample on a chain that is not piled
+onto itself.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from coordarm.symbolic import SpatialChain
+from coordarm.symbolic.geometry import touching
+
+from .distance3d import plate_point_distance, segment_segment_distance
+from .obstacles3d import Obstacle3D, capsule_gaps
+from .physical import Contact
+
+
+def link_ends(chain: SpatialChain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ends of every link's axis, ``y^j - xi/2 d_j`` and ``y^j + xi/2 d_j``, and the directions ``d_j``.
+
+    Parameters
+    ----------
+    chain : SpatialChain
+        The manipulator.
+    q : ndarray, shape (N, 2 m)
+        Configurations [rad].
+
+    Returns
+    -------
+    a, b, d : ndarray, each shape (N, m, 3)
+        The ends [m] and the unit directions.
+    """
+    d = chain.directions_np(q)
+    half = 0.5 * chain.xi * d
+    a = np.concatenate([-half[:, :1], np.cumsum(2 * half[:, :-1], axis=1) - half[:, :1]], axis=1)
+    return a, a + 2 * half, d
+
+
+def close_pairs(lo: np.ndarray, hi: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs of non-adjacent links whose bounding boxes come within ``reach`` of each other (sort and sweep).
+
+    Per sample the boxes are sorted by their low end along the axis of the body's largest
+    extent; the box k places further on is compared while any still overlaps along that axis
+    (none further can then), and kept when the boxes overlap along all three axes.
+
+    Parameters
+    ----------
+    lo, hi : ndarray, each shape (N, m, 3)
+        Corners of the links' axis-aligned bounding boxes [m].
+    reach : float
+        Gap [m] up to which two boxes count as close.
+
+    Returns
+    -------
+    sample, link_a, link_b : int ndarray, each shape (K,)
+        0-based sample and 0-based links, ``link_a < link_b - 1``.
+    """
+    n, m = lo.shape[:2]
+    ax = np.argmax(hi.max(axis=1) - lo.min(axis=1), axis=-1)                     # (N,)
+    key = np.take_along_axis(lo, ax[:, None, None], axis=2)[..., 0]
+    order = np.argsort(key, axis=1)
+    los = np.take_along_axis(lo, order[..., None], axis=1)
+    his = np.take_along_axis(hi, order[..., None], axis=1)
+    klo = np.take_along_axis(key, order, axis=1)
+    khi = np.take_along_axis(np.take_along_axis(hi, ax[:, None, None], axis=2)[..., 0], order, axis=1)
+    found = []
+    for k in range(1, m):
+        if not np.any(klo[:, k:] <= khi[:, :-k] + reach):
+            break
+        near = np.all((los[:, k:] <= his[:, :-k] + reach) & (los[:, :-k] <= his[:, k:] + reach), axis=-1)
+        s, i = np.nonzero(near)
+        la, lb = order[s, i], order[s, i + k]
+        keep = np.abs(la - lb) > 1
+        found.append((s[keep], np.minimum(la, lb)[keep], np.maximum(la, lb)[keep]))
+    if not found:
+        empty = np.zeros(0, dtype=int)
+        return empty, empty, empty
+    return tuple(np.concatenate(x) for x in zip(*found))
+
+
+def self_gaps(a: np.ndarray, b: np.ndarray, radius: float, clearance: float
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Gaps between the capsules of non-adjacent links that may be within ``clearance`` of each other.
+
+    Parameters
+    ----------
+    a, b : ndarray, each shape (N, m, 3)
+        Link axis ends [m].
+    radius : float
+        Capsule radius [m].
+    clearance : float
+        Gap of interest [m] (>= 0).
+
+    Returns
+    -------
+    sample, link_a, link_b : int ndarray, each shape (K,)
+        0-based sample and 0-based links of each compared pair; every pair within ``clearance``
+        is among them.
+    gap : ndarray, shape (K,)
+        Axis distance minus ``2 radius`` [m].
+    """
+    reach = (2 * radius + clearance) * (1 + 1e-9) + 1e-12
+    s, i, j = close_pairs(np.minimum(a, b), np.maximum(a, b), reach)
+    gap = segment_segment_distance(a[s, i], b[s, i], a[s, j], b[s, j]) - 2 * radius
+    return s, i, j, gap
+
+
+@dataclass
+class Physical3D:
+    """What a run of a universal chain checks at every checked sample.
+
+    Attributes
+    ----------
+    chain : SpatialChain
+        The manipulator.
+    limit : float or list of float
+        Bend limit [rad] of joints 2..m (one, or one per joint).
+    radius : float
+        Capsule radius of every link [m].
+    clearance : float
+        Extra distance kept between capsules and from obstacles [m] (0: touching is contact).
+    obstacles : list of Obstacle3D
+        Plates, spheres, cylinders and boxes.
+    """
+
+    chain: SpatialChain
+    limit: Any
+    radius: float
+    clearance: float = 0.0
+    obstacles: list[Obstacle3D] = field(default_factory=list)
+
+    def check(self, t: np.ndarray, q: np.ndarray) -> list[Contact]:
+        """Every contact at the samples ``(t[k], q[k])``, sorted by time (then kind, links).
+
+        Parameters
+        ----------
+        t : ndarray, shape (N,)
+            Times of the samples [s].
+        q : ndarray, shape (N, 2 m)
+            Configurations [rad].
+
+        Returns
+        -------
+        list of Contact
+            ``joint_limit`` (value: the bend [rad]), ``self`` (value: the gap between the two
+            capsules [m]) and ``wall`` contacts (value: the gap to the obstacle [m]).
+        """
+        t = np.atleast_1d(np.asarray(t, float))
+        q = np.asarray(q, float).reshape(len(t), -1)
+        c, found = float(self.clearance), []
+        a, b, d = link_ends(self.chain, q)
+        bends = np.arccos(np.clip(np.sum(d[:, :-1] * d[:, 1:], axis=-1), -1.0, 1.0))
+        lim = np.broadcast_to(np.asarray(self.limit, float), bends.shape[-1:])
+        for k, j in zip(*np.nonzero(~(bends <= lim))):
+            found.append((k, 0, Contact("joint_limit", float(t[k]), (int(j) + 1, int(j) + 2), float(bends[k, j]),
+                                        float(lim[j]))))
+        s, i, j, gap = self_gaps(a, b, self.radius, c)
+        hit = touching(gap, c)
+        for k, la, lb, g in zip(s[hit], i[hit], j[hit], gap[hit]):
+            found.append((k, 1, Contact("self", float(t[k]), (int(la) + 1, int(lb) + 1), float(g), c)))
+        for ob in self.obstacles:
+            g = capsule_gaps(a, b, self.radius, ob, within=c)
+            for k, j in zip(*np.nonzero(touching(g, c))):
+                found.append((k, 2, Contact("wall", float(t[k]), (int(j) + 1,), float(g[k, j]), c, ob.name)))
+        found.sort(key=lambda x: (int(x[0]), x[1], x[2].links))
+        return [x[2] for x in found]
+
+    def clearances(self, q: np.ndarray, t: np.ndarray) -> dict[str, tuple[float, float, int]]:
+        """Per obstacle: (smallest gap [m], its time [s], its 1-based link) over the samples.
+
+        Parameters
+        ----------
+        q : ndarray, shape (N, 2 m)
+            Configurations [rad].
+        t : ndarray, shape (N,)
+            Times of the samples [s].
+
+        Returns
+        -------
+        dict of str to (float, float, int)
+            By obstacle name; the gap is between the link's capsule and the obstacle.
+        """
+        t = np.atleast_1d(np.asarray(t, float))
+        a, b, _ = link_ends(self.chain, np.asarray(q, float).reshape(len(t), -1))
+        out = {}
+        for ob in self.obstacles:
+            within = math.inf
+            if ob.kind == "plate":          # an upper bound: the nearest link end's distance
+                ends = plate_point_distance((a - ob.centre) @ ob.axes.T, ob.half[2], ob.extent, ob.holes)
+                within = float(np.min(ends)) - self.radius
+            g = capsule_gaps(a, b, self.radius, ob, within=within)
+            k, j = np.unravel_index(int(np.argmin(g)), g.shape)
+            out[ob.name] = (float(g[k, j]), float(t[k]), int(j) + 1)
+        return out
