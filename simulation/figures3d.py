@@ -6,6 +6,8 @@ whatever the caller selected.
 """
 from __future__ import annotations
 
+import math
+
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -99,11 +101,12 @@ def curve_points(curve: Any, t: float, reach: float, n: int = 600) -> np.ndarray
     return curve.sample(t, n=n, extent=reach)
 
 
-def stage_scene(run: Any, ctrl: Any, idx: np.ndarray) -> dict[str, Any]:
+def stage_scene(run: Any, ctrl: Any, idx: np.ndarray, obstacles: Sequence[Any] = ()) -> dict[str, Any]:
     """What the stage figure draws: joints and curve per stage, the target points and the view box.
 
-    The box holds the chain over the whole run (so that it does not depend on the stages drawn) and
-    a bounded path whole; the curves are clipped to it.
+    The box holds the chain over the whole run (so that it does not depend on the stages drawn), a
+    bounded path whole and every bounded obstacle (an unbounded plate is cut to the box); the curves
+    and the obstacles are clipped to it.
 
     Parameters
     ----------
@@ -113,22 +116,28 @@ def stage_scene(run: Any, ctrl: Any, idx: np.ndarray) -> dict[str, Any]:
         The controller (chain and curve).
     idx : ndarray of int, shape (k,)
         Rows of the stages.
+    obstacles : sequence of Obstacle3D
+        The scenario's obstacles.
 
     Returns
     -------
     dict
-        ``joints`` (k, m+1, 3), ``curves`` list of (n, 3), ``targets`` (k, 3) or None, ``lo``, ``hi`` (3,) [m].
+        ``joints`` (k, m+1, 3), ``curves`` list of (n, 3), ``targets`` (k, 3) or None, ``lo``, ``hi`` (3,) [m],
+        ``obstacles`` list of (n, 3) polylines (clipped to the box).
     """
     chain, curve = ctrl.chain, ctrl.curve
     every = np.unique(np.linspace(0, len(run.t) - 1, 60).round().astype(int))
     frame = [spatial_joints(chain, run.q[every]).reshape(-1, 3)]
     if getattr(curve, "kind", "") in ("path", "waypoints"):       # a bounded path is shown whole
         frame.append(curve.sample(float(run.t[idx[0]]), n=400, extent=0.0))
+    lines = [densified(p) for ob in obstacles for p in wireframe(ob)]
+    frame += [p for ob in obstacles if ob.kind != "plate" or math.isfinite(ob.extent) for p in wireframe(ob)]
     lo, hi = view_box(np.concatenate(frame), chain.xi)
     reach = float(np.linalg.norm(hi - lo)) + float(np.max(np.abs(np.concatenate([lo, hi]))))
     curves = [clip_to_box(curve_points(curve, float(run.t[k]), reach), lo, hi) for k in idx]
     targets = target_points3d(ctrl, reference_arc_length(run)[idx], run.t[idx])
-    return dict(joints=spatial_joints(chain, run.q[idx]), curves=curves, targets=targets, lo=lo, hi=hi)
+    return dict(joints=spatial_joints(chain, run.q[idx]), curves=curves, targets=targets, lo=lo, hi=hi,
+                obstacles=[clip_to_box(p, lo, hi) for p in lines])
 
 
 def draw_stage(ax: Any, scene: dict[str, Any], i: int, colour: Any, label: str, axes: Sequence[int]) -> None:
@@ -280,8 +289,7 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
         The file written.
     """
     idx = stage_indices(run, stages, times)
-    scene = stage_scene(run, ctrl, idx)
-    scene["obstacles"] = [clip_to_box(densified(p), scene["lo"], scene["hi"]) for ob in obstacles for p in wireframe(ob)]
+    scene = stage_scene(run, ctrl, idx, obstacles)
     colours = matplotlib.colormaps["viridis"](np.linspace(0, 0.9, len(idx)))
     labels = [f"t = {run.t[k]:.2f} s" for k in idx]
     fig = Figure(figsize=(13.0, 7.0))

@@ -161,3 +161,21 @@ def test_a_bounded_path_is_in_the_view_box(tmp_path, recorded):
     for cur in drawn(ax3, "curve"):                       # drawn curves stay inside the box
         inside = cur[np.all(np.isfinite(cur), axis=1)]
         assert len(inside) and np.all(inside >= lo) and np.all(inside <= hi)
+
+
+def test_a_bounded_obstacle_away_from_the_arm_is_in_the_view_box_and_drawn(swing, tmp_path, recorded):
+    from coordarm.simulation.obstacles3d import obstacles3d_from_spec
+
+    ctrl, run = swing
+    ball = {"name": "ball", "kind": "sphere", "centre": [0.3, 1.5, 0.4], "radius": 0.1}
+    plate = {"name": "wall", "kind": "plate", "point": [0.5, 0, 0], "normal": [1, 0, 0], "thickness": 0.02}
+    obstacles = obstacles3d_from_spec([ball, plate])
+    figures3d.plot_spatial_stages(run, ctrl, tmp_path / "o.png", obstacles=obstacles)
+    ax3 = recorded[0].axes[0]
+    lo, hi = np.array([ax3.get_xlim(), ax3.get_ylim(), ax3.get_zlim()]).T
+    far = np.array(ball["centre"]) + np.array([[0, 0.1, 0], [0, 0, 0.1], [0, -0.1, 0]])   # points of the sphere
+    assert np.all(far >= lo) and np.all(far <= hi)
+    lines = [p[np.all(np.isfinite(p), axis=1)] for p in drawn(ax3, "obstacle")]
+    assert lines and all(np.all(p >= lo - 1e-12) and np.all(p <= hi + 1e-12) for p in lines if len(p))
+    # the unbounded plate is cut to the box, not drawn at its nominal extent
+    assert hi[1] - lo[1] < 10
