@@ -156,6 +156,11 @@ class SpatialController(LawFace):
             self._cache[key] = ca.Function(name, [t], [ca.SX(param(t)) + 0 * t])
         return self._cache[key]
 
+    def _commands(self, name: str, T: Any) -> np.ndarray:
+        """The command ``name`` (``"speed"`` or ``"roll"``) at each of the times ``T``, in one mapped call."""
+        T = np.atleast_1d(np.asarray(T, float))
+        return np.asarray(self._command_function(name).map(len(T))(T[None])).ravel()
+
     def speeds(self, T: Any) -> np.ndarray:
         """``v*(t)`` at each of the times ``T``, in one call.
 
@@ -169,8 +174,7 @@ class SpatialController(LawFace):
         ndarray, shape (N,)
             Commanded speeds [m/s].
         """
-        T = np.atleast_1d(np.asarray(T, float))
-        return np.asarray(self._command_function("speed").map(len(T))(T[None])).ravel()
+        return self._commands("speed", T)
 
     def speed_at(self, t: float) -> float:
         """The commanded speed at one time.
@@ -200,8 +204,7 @@ class SpatialController(LawFace):
         ndarray, shape (N,)
             ``theta*`` [rad].
         """
-        T = np.atleast_1d(np.asarray(T, float))
-        return np.asarray(self._command_function("roll").map(len(T))(T[None])).ravel()
+        return self._commands("roll", T)
 
     def roll_at(self, t: float) -> float:
         """The commanded roll at one time.
