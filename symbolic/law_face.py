@@ -19,6 +19,24 @@ from .integrator import rk4
 from .laws import LAWS, Law
 
 
+def condition_numbers(M: np.ndarray) -> np.ndarray:
+    """2-norm condition numbers of a stack of square matrices.
+
+    Parameters
+    ----------
+    M : ndarray, shape (N, n, n)
+        The matrices.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ``sigma_max / sigma_min`` of each (inf when singular).
+    """
+    sv = np.linalg.svd(M, compute_uv=False)
+    with np.errstate(divide="ignore"):
+        return sv[:, 0] / sv[:, -1]
+
+
 class LawFace:
     """The law of a coordinating controller, cached per form, and its numeric evaluation.
 

@@ -14,6 +14,7 @@ import numpy as np
 from .chain import PlanarChain, normal
 from .params import evaluate as evaluate_param
 from .errors import ConfigError
+from .law_face import condition_numbers
 from .task import Task
 
 
@@ -196,9 +197,7 @@ class NumericAPI:
         ndarray, shape (N,)
             ``sigma_max / sigma_min`` of each (inf when singular).
         """
-        sv = np.linalg.svd(self.decoupling_matrices(Q, T)[0], compute_uv=False)
-        with np.errstate(divide="ignore"):
-            return sv[:, 0] / sv[:, -1]
+        return condition_numbers(self.decoupling_matrices(Q, T)[0])
 
     def base_offset(self, t: float = 0.0) -> float:
         """``|phi(0, t)|``: how far the curve passes from the pinned base.

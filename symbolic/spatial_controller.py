@@ -17,7 +17,7 @@ import numpy as np
 
 from .checks import is_real
 from .errors import ConfigError
-from .law_face import LawFace
+from .law_face import LawFace, condition_numbers
 from .laws import LAWS
 from .motions import Constant
 from .outputs import SPATIAL_OUTPUTS, SPATIAL_RUN_OUTPUTS, SPATIAL_SCALAR_OUTPUTS
@@ -256,9 +256,7 @@ class SpatialController(LawFace):
         """
         f = self.decoupling_function()
         M = np.array([np.asarray(f(q, t)[0]) for q, t in zip(np.atleast_2d(Q), np.atleast_1d(T))])
-        sv = np.linalg.svd(M, compute_uv=False)
-        with np.errstate(divide="ignore"):
-            return sv[:, 0] / sv[:, -1]
+        return condition_numbers(M)
 
     def __repr__(self) -> str:
         return f"SpatialController({self.chain!r}, {type(self.curve).__name__}, gain={self.gain}, law={self.law_form!r})"
