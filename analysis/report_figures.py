@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -15,9 +16,39 @@ from .stability import sampled_limit, step_responses
 COLORS = dict(zip(MARGINS, ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:olive")))
 
 
-def _mark_blowup(ax, a: RunAnalysis) -> None:
+def mark_blowup(ax: Any, a: Any) -> None:
+    """Draw the blow-up time of a run (when there is one) as a dashed vertical line.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The panel.
+    a : RunAnalysis or SpatialAnalysis
+        The analysis of the run (its ``blowup_time`` [s] or None).
+    """
     if a.blowup_time is not None:
         ax.axvline(a.blowup_time, color="k", ls="--", lw=1, label=f"|u| > {BLOWUP_FACTOR:g}x nominal")
+
+
+def plot_effort(ax: Any, t: np.ndarray, u_norm: np.ndarray, nominal_u: float, floor: float) -> None:
+    """Draw ``|u|_inf`` over time (floored at ``floor`` for the log scale) and the blow-up level.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The panel (log scale).
+    t : ndarray, shape (N,)
+        Times [s].
+    u_norm : ndarray, shape (N,)
+        ``|u|_inf`` [rad/s].
+    nominal_u : float
+        The nominal ``|u|_inf`` [rad/s]; the blow-up level is :data:`BLOWUP_FACTOR` times it.
+    floor : float
+        Smallest value drawn.
+    """
+    ax.semilogy(t, np.maximum(u_norm, floor), color="tab:blue", label="|u|$_\\infty$ [rad/s]")
+    ax.axhline(BLOWUP_FACTOR * nominal_u, color="tab:blue", ls=":", lw=1,
+               label=f"{BLOWUP_FACTOR:g} x nominal |u| [rad/s]")
 
 
 def plot_margins(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
@@ -48,19 +79,17 @@ def plot_margins(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
             ax.axhline(a.thresholds[n], color=COLORS[n], ls=":", lw=1, label=f"threshold {a.thresholds[n]:g}")
             if a.crossings[n] is not None:
                 ax.plot(a.crossings[n], a.thresholds[n], "v", color=COLORS[n], ms=8)
-        _mark_blowup(ax, a)
+        mark_blowup(ax, a)
         ax.set_ylabel("margin [-] (0 = singular)")
         ax.legend(fontsize=7, loc="lower left", ncol=2)
     axes[0].set_title(title + ": singularity margins (triangles: first below threshold)")
     axes[1].set_title("margins of the decoupling matrix M", fontsize=10)
-    axes[2].semilogy(a.t_all, np.maximum(a.u_norm, floor), color="tab:blue", label="|u|$_\\infty$ [rad/s]")
-    axes[2].axhline(BLOWUP_FACTOR * a.nominal_u, color="tab:blue", ls=":", lw=1,
-                    label=f"{BLOWUP_FACTOR:g} x nominal |u| [rad/s]")
+    plot_effort(axes[2], a.t_all, a.u_norm, a.nominal_u, floor)
     amp = a.margins["amplification"]
     if np.isfinite(amp).any():
         axes[2].semilogy(a.t, amp, color="tab:orange", label="amplification $\\xi$|u|/|v*| [-]")
     axes[2].semilogy(a.t, a.margins["cond"], color="tab:gray", label="cond(M) [-]")
-    _mark_blowup(axes[2], a)
+    mark_blowup(axes[2], a)
     axes[2].set_ylabel("|u|, amplification, cond")
     axes[2].set_xlabel("t [s]")
     axes[2].legend(fontsize=7, loc="upper left")
@@ -90,7 +119,7 @@ def plot_links(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
     fig, axes = plt.subplots(2, 1, figsize=(8, 7), sharex=True, gridspec_kw={"height_ratios": [1, 2]},
                              layout="constrained")
     axes[0].step(a.t, a.margins["worst_link"], where="post", color="tab:blue", label="worst link (smallest margin)")
-    _mark_blowup(axes[0], a)
+    mark_blowup(axes[0], a)
     axes[0].set_ylabel("link index [-]")
     axes[0].legend(fontsize=8, loc="best")
     axes[0].set_title(title + ": which link is closest to perpendicular")

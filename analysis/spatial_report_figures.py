@@ -8,15 +8,10 @@ import numpy as np
 
 from coordarm.simulation.figures import save_figure
 
-from .run_analysis import BLOWUP_FACTOR
+from .report_figures import mark_blowup, plot_effort
 from .spatial_analysis import SPATIAL_LABELS, SPATIAL_MARGINS, SpatialAnalysis
 
 COLORS = {"link": "tab:blue", "end": "tab:red", "joint": "tab:green"}
-
-
-def _mark_blowup(ax, a: SpatialAnalysis) -> None:
-    if a.blowup_time is not None:
-        ax.axvline(a.blowup_time, color="k", ls="--", lw=1, label=f"|u| > {BLOWUP_FACTOR:g}x nominal")
 
 
 def plot_spatial_margins(a: SpatialAnalysis, path: str | Path, title: str = "") -> Path:
@@ -47,17 +42,15 @@ def plot_spatial_margins(a: SpatialAnalysis, path: str | Path, title: str = "") 
         ax.semilogy(a.t, np.maximum(a.smallest(name), floor), color=COLORS[name], label=SPATIAL_LABELS[name])
         if a.crossings[name] is not None:
             ax.plot(a.crossings[name], a.thresholds[name], "v", color=COLORS[name], ms=8)
-    _mark_blowup(ax, a)
+    mark_blowup(ax, a)
     ax.set_ylabel("margin [-] (0 = singular)")
     ax.legend(fontsize=7, loc="lower right", ncol=2)
     ax.set_title(title + "\nsingularity margins (triangles: first below threshold)", fontsize=10)
     ax = axes[1]
-    ax.semilogy(a.t, np.maximum(a.u_norm, floor), color="tab:blue", label="|u|$_\\infty$ [rad/s]")
-    ax.axhline(BLOWUP_FACTOR * a.nominal_u, color="tab:blue", ls=":", lw=1,
-               label=f"{BLOWUP_FACTOR:g} x nominal |u| [rad/s]")
+    plot_effort(ax, a.t, a.u_norm, a.nominal_u, floor)
     if len(a.cond):
         ax.semilogy(a.cond_t, a.cond, ".-", color="tab:gray", label="cond(M), decoupling matrix [-]")
-    _mark_blowup(ax, a)
+    mark_blowup(ax, a)
     if a.nominal_u > 0:           # a run starting at rest: keep |u| ~ 0 from squeezing the scale
         ax.set_ylim(bottom=max(ax.get_ylim()[0], 1e-3 * a.nominal_u))
     ax.set_ylabel("|u| [rad/s], cond [-]" if len(a.cond) else "|u| [rad/s]")

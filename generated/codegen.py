@@ -31,6 +31,7 @@ finiteness checks test the IEEE bits, so they hold under ``-ffast-math`` too.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import casadi as ca
 import numpy as np
@@ -243,6 +244,51 @@ def layout_macros(m: int, rail: bool = False) -> str:
     return "\n".join(lines) + "\n"
 
 
+def dense_law(law: ca.Function, outputs: Sequence[str]) -> str:
+    """C of ``ca_law`` for the dense form: one call of the generated ``law``, its results packed.
+
+    Parameters
+    ----------
+    law : casadi.Function
+        The generated law ``(q, t) -> outputs``.
+    outputs : sequence of str
+        Its output names, in order (``u`` first, the others packed at ``CA_OUT_<NAME>``).
+
+    Returns
+    -------
+    str
+        ``dense_law.c`` rendered.
+    """
+    results = "\n".join(f"  res[{i}] = {'u' if name == 'u' else 'out + CA_OUT_' + name.upper()};"
+                        for i, name in enumerate(outputs))
+    return render("dense_law.c", law_name=law.name(), results=results)
+
+
+def casadi_code(funcs: list[ca.Function], name: str) -> tuple[str, dict[str, int]]:
+    """CasADi's C of ``funcs`` (wrapped in ``casadi.c``) and the work sizes the glue needs.
+
+    Parameters
+    ----------
+    funcs : list of casadi.Function
+        The Functions the C calls.
+    name : str
+        Prefix of CasADi's helper symbols.
+
+    Returns
+    -------
+    code : str
+        ``casadi.c`` rendered around the generated Functions.
+    sizes : dict
+        ``arg``, ``res``, ``iw``, ``w``: the largest of each over ``funcs``, plus one.
+    """
+    cg = ca.CodeGenerator(name, dict(CODEGEN_OPTIONS))
+    for f in funcs:
+        cg.add(f)
+    sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
+             for k in ("arg", "res", "iw", "w")}
+    return render("casadi.c", functions=cg.dump()), sizes
+
+
 def generate_source(ctrl: CoordinatingController, form: str = "structured", path_search: bool = True) -> Source:
     """The C source of ``ctrl``'s law (``form``), RK4 step and chunk loop.
 
@@ -276,9 +322,7 @@ def generate_source(ctrl: CoordinatingController, form: str = "structured", path
     if _split(ctrl, form):
         law = structured_law(ctrl, path_search)
     else:
-        results = "\n".join(f"  res[{i}] = {'u' if name == 'u' else 'out + CA_OUT_' + name.upper()};"
-                            for i, name in enumerate(ctrl.outputs))
-        law = render("dense_law.c", law_name=funcs[0].name(), results=results)
+        law = dense_law(funcs[0], ctrl.outputs)
     return assemble_source(ctrl, funcs, law, form)
 
 
@@ -318,13 +362,9 @@ def assemble_source(ctrl: CoordinatingController, funcs: list[ca.Function], law:
     Function with the full signature ``(arg, res, iw, w, mem)``); the glue compiles with every warning.
     """
     b_macros = _b_macros(ctrl)
-    cg = ca.CodeGenerator(name, dict(CODEGEN_OPTIONS))
-    for f in funcs:
-        cg.add(f)
-    sizes = {k: max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1
-             for k in ("arg", "res", "iw", "w")}
+    code, sizes = casadi_code(funcs, name)
     m, rail = ctrl.chain.m, ctrl.chain.rail
-    parts = [render("casadi.c", functions=cg.dump()),
+    parts = [code,
              render("prelude.c", m=m, nq=ctrl.chain.dof, half_xi=repr(0.5 * ctrl.chain.xi), rail=int(rail),
                     layout=layout_macros(m, rail), b_macros=b_macros, **{f"sz_{k}": v for k, v in sizes.items()})]
     if _split(ctrl, form):

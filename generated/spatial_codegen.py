@@ -18,7 +18,7 @@ from coordarm.symbolic.laws import Law
 from coordarm.symbolic.outputs import spatial_offsets, spatial_packed_width
 from coordarm.symbolic.spatial_recursion import SPATIAL_CARRY
 
-from .codegen import CODEGEN_OPTIONS, Source
+from .codegen import Source, casadi_code, dense_law
 from .render import render
 from .spatial_variants import (JOINT_CARRY, spatial_joint_step_trig, spatial_link_inv_det, spatial_link_step_trig,
                                spatial_time_features)
@@ -107,9 +107,7 @@ def generate_spatial_source(ctrl: SpatialController, form: str = "structured") -
     if form == Law.STRUCTURED:
         law = spatial_law(ctrl)
     else:
-        results = "\n".join(f"  res[{i}] = {'u' if name == 'u' else 'out + CA_OUT_' + name.upper()};"
-                            for i, name in enumerate(ctrl.outputs))
-        law = render("dense_law.c", law_name=funcs[0].name(), results=results)
+        law = dense_law(funcs[0], ctrl.outputs)
     return assemble_spatial_source(ctrl, funcs, law, form)
 
 
@@ -137,12 +135,10 @@ def assemble_spatial_source(ctrl: SpatialController, funcs: list[ca.Function], l
     Source
         The C text, with the form and the link count.
     """
-    cg = ca.CodeGenerator(name, dict(CODEGEN_OPTIONS))
-    for f in funcs:
-        cg.add(f)
-    sizes = {f"sz_{k}": max(int(getattr(f, "sz_" + k)()) for f in funcs) + 1 for k in ("arg", "res", "iw", "w")}
+    code, sizes = casadi_code(funcs, name)
     m = ctrl.chain.m
     prelude = render("prelude.c", m=m, nq=ctrl.chain.dof, half_xi=repr(0.5 * ctrl.chain.xi), rail=0,
-                     layout=spatial_layout_macros(m), b_macros=render("b_identity.h"), **sizes)
-    parts = [render("casadi.c", functions=cg.dump()), prelude, law, render("library_api.c") if api is None else api]
+                     layout=spatial_layout_macros(m), b_macros=render("b_identity.h"),
+                     **{f"sz_{k}": v for k, v in sizes.items()})
+    parts = [code, prelude, law, render("library_api.c") if api is None else api]
     return Source("\n".join(parts), form, m)

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .carry import CARRY, Carry
-from .chain_model import ChainModel
+from .chain_model import ChainModel, check_joint_vector
 from .checks import is_integer, is_real
 from .errors import ConfigError
 
@@ -358,13 +358,7 @@ class PlanarChain(ChainModel):
         ConfigError
             Wrong shape, NaN or inf.
         """
-        q = np.asarray(q, dtype=float)
-        if q.shape != (self.dof,):
-            what = " (d, then the m revolute joints)" if self.rail else ""
-            raise ConfigError(f"{field}: need shape ({self.dof},){what}, got {q.shape}")
-        if not np.all(np.isfinite(q)):
-            raise ConfigError(f"{field}: contains NaN or inf at index {int(np.flatnonzero(~np.isfinite(q))[0])}")
-        return q
+        return check_joint_vector(q, self.dof, field, " (d, then the m revolute joints)" if self.rail else "")
 
     def centres_np(self, q: ArrayLike) -> np.ndarray:
         """Central points, vectorised over leading axes of ``q``.

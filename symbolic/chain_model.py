@@ -16,6 +16,40 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from .errors import ConfigError
+
+
+def check_joint_vector(q: Any, dof: int, field: str, layout: str = "") -> np.ndarray:
+    """Return ``q`` as a float array of shape (dof,), or raise a ConfigError naming ``field``.
+
+    Parameters
+    ----------
+    q : array_like, shape (dof,)
+        Joint coordinates.
+    dof : int
+        Number of joint coordinates.
+    field : str
+        Name used in the error message.
+    layout : str
+        What the coordinates are, appended to the shape in the error message (e.g. ``" (d, ...)"``).
+
+    Returns
+    -------
+    ndarray, shape (dof,)
+        ``q`` as floats.
+
+    Raises
+    ------
+    ConfigError
+        Wrong shape, NaN or inf.
+    """
+    q = np.asarray(q, dtype=float)
+    if q.shape != (dof,):
+        raise ConfigError(f"{field}: need shape ({dof},){layout}, got {q.shape}")
+    if not np.all(np.isfinite(q)):
+        raise ConfigError(f"{field}: contains NaN or inf at index {int(np.flatnonzero(~np.isfinite(q))[0])}")
+    return q
+
 
 @runtime_checkable
 class KinematicChain(Protocol):

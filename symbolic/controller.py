@@ -22,7 +22,7 @@ API (:mod:`.numeric`); the C-only variants of the link step belong to ``coordarm
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Callable
 
 import casadi as ca
 import numpy as np
@@ -33,10 +33,11 @@ from .curves import Curve
 from .dense import decoupling_matrix_expr
 from .errors import ConfigError
 from .law import law_function
+from .law_face import LawFace
 from .laws import LAWS, Law
 from .numeric import NumericAPI
 from .params import as_param
-from .outputs import OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS
+from .outputs import OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS
 from .recursion import StructuredRecursion
 from .task import BUILT_IN_CURVES, Task, check_user_curve
 
@@ -139,7 +140,7 @@ def check_controller(chain: Any, curve: Any, gain: Any, speed: Any, law: Any, sp
     return checked
 
 
-class CoordinatingController(NumericAPI):
+class CoordinatingController(NumericAPI, LawFace):
     """Coordinating controller of a planar chain along a time-varying curve.
 
     Parameters
@@ -222,107 +223,29 @@ class CoordinatingController(NumericAPI):
         """
         return self.task.speed_function()
 
-    def law(self, form: str | None = None) -> ca.Function:
-        """The control law ``(q, t) -> outputs``, named and ordered as :data:`~coordarm.symbolic.outputs.OUTPUTS`.
+    SCALAR_OUTPUTS = SCALAR_OUTPUTS
 
-        ``form="structured"`` is an MX Function with a loop over links (for code
-        generation); ``form="dense"`` solves the dense eq. 27 and takes its margins
-        from the structured recursion. With ``damping``, ``u`` is the damped least-squares
-        solution wherever the smallest margin is inside the band.
+    def _build_law(self, form: str) -> ca.Function:
+        """The law of ``form`` (:func:`.law.law_function`; with ``damping`` the damped least-squares
+        solution wherever the smallest margin is inside the band); the dense form takes its margins
+        from the structured recursion."""
+        return law_function(self.recursion, form, self.damping, self.outputs)
 
-        Parameters
-        ----------
-        form : {"structured", "dense"}, optional
-            Law form (default: the controller's).
+    def _expands(self, form: str) -> bool:
+        """Whether :meth:`fast_law` expands the law: the structured form without damping."""
+        return form == Law.STRUCTURED and not self.damping
 
-        Returns
-        -------
-        casadi.Function
-            ``(q, t) -> outputs`` (cached per form).
+    def _input_matrix(self) -> Callable[[Any], Any]:
+        """``u -> qdot``: ``B u`` (``qdot_d = u_d`` on a rail)."""
+        bd = self.chain.b_diagonal
+        if bd is not None and self.chain.rail:
+            bd = np.r_[1.0, bd]                       # qdot_d = u_d on a rail
+        return ((lambda u: ca.DM(bd) * u) if bd is not None
+                else (lambda u: ca.mtimes(ca.DM(self.B_joints), u)))
 
-        Raises
-        ------
-        ConfigError
-            Unknown form.
-        """
-        form = form or self.law_form
-        if form not in LAWS:
-            raise ConfigError(f"law: expected one of {LAWS}, got {form!r}")
-        key = ("law", form)
-        if key not in self._cache:
-            self._cache[key] = law_function(self.recursion, form, self.damping, self.outputs)
-        return self._cache[key]
-
-    def fast_law(self, form: str | None = None) -> ca.Function:
-        """:meth:`law` expanded to a flat SX Function: fastest in CasADi's interpreter.
-
-        Parameters
-        ----------
-        form : {"structured", "dense"}, optional
-            Law form (default: the controller's).
-
-        Returns
-        -------
-        casadi.Function
-            Same inputs and outputs as :meth:`law`.
-        """
-        form = form or self.law_form
-        key = ("fast", form)
-        if key not in self._cache:
-            self._cache[key] = (self.law(form).expand() if form == Law.STRUCTURED and not self.damping
-                               else self.law(form))
-        return self._cache[key]
-
-    def rk4_step(self, h: float, form: str | None = None) -> ca.Function:
-        """Closed-loop RK4 step of ``qdot = B u(q, t)``: ``(q, t) -> (q_next, *RUN_OUTPUTS)``.
-
-        The diagnostics (:data:`~coordarm.symbolic.outputs.RUN_OUTPUTS`) are those of the law
-        at the step's start ``(q, t)``.
-
-        Parameters
-        ----------
-        h : float
-            Step length [s].
-        form : {"structured", "dense"}, optional
-            Law form (default: the controller's).
-
-        Returns
-        -------
-        casadi.Function
-            ``(q, t) -> (q_next, *RUN_OUTPUTS)`` (cached per form and ``h``).
-        """
-        from .integrator import rk4
-
-        form = form or self.law_form
-        key = ("rk4", form, float(h))
-        if key not in self._cache:
-            law = self.fast_law(form)
-            bd = self.chain.b_diagonal
-            if bd is not None and self.chain.rail:
-                bd = np.r_[1.0, bd]                       # qdot_d = u_d on a rail
-            apply_B = ((lambda u: ca.DM(bd) * u) if bd is not None
-                       else (lambda u: ca.mtimes(ca.DM(self.B_joints), u)))
-            q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")
-            out1 = law(q, t)                              # kept: the diagnostics at the step's start
-            q_next = rk4(lambda x, s: apply_B(law(x, s)[0]), q, t, h, k1=apply_B(out1[0]))
-            kept = [out1[self.outputs.index(name)] for name in self.run_outputs]
-            self._cache[key] = ca.Function("rk4_step", [q, t], [q_next, *kept],
-                                           ["q", "t"], ["q_next", *self.run_outputs])
-        return self._cache[key]
-
-    def decoupling_function(self) -> ca.Function:
-        """``(q, t) -> (M, rhs)``: the dense decoupling matrix of eq. 26 and its right-hand side.
-
-        Returns
-        -------
-        casadi.Function
-            The AD form of :func:`.dense.decoupling_matrix_expr` (O(m^2) graph).
-        """
-        if "M" not in self._cache:
-            q, t = ca.SX.sym("q", self.chain.dof), ca.SX.sym("t")
-            M, r = decoupling_matrix_expr(self.chain, self.task, q, t)
-            self._cache["M"] = ca.Function("decoupling", [q, t], [M, r], ["q", "t"], ["M", "rhs"])
-        return self._cache["M"]
+    def _decoupling_expr(self, q: ca.SX, t: ca.SX) -> tuple[ca.SX, ca.SX]:
+        """The dense decoupling matrix of eq. 26 (:func:`.dense.decoupling_matrix_expr`) and its right-hand side."""
+        return decoupling_matrix_expr(self.chain, self.task, q, t)
 
     def __repr__(self) -> str:
         extra = (", governor=True" if self.governor else "") + (f", damping={self.damping!r}" if self.damping else "")

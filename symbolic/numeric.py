@@ -1,22 +1,20 @@
-"""The numeric API of the coordinating controller: the law and the decoupling matrix at numeric states.
+"""The numeric API of the planar coordinating controller: the decoupling matrix at numeric states.
 
 :class:`NumericAPI` is the part of :class:`~coordarm.symbolic.controller.CoordinatingController`
-that evaluates: the law's outputs, the curve's geometry at the link centres, the decoupling
-matrices in closed form (batched over N states) and their condition numbers. Its host provides
-``chain``, ``task``, ``gain``, ``outputs`` and ``fast_law(form)``.
+that evaluates the curve's geometry at the link centres, the commanded speed, the decoupling
+matrices in closed form (batched over N states) and their condition numbers (the law's outputs
+are evaluated by :class:`~.law_face.LawFace`). Its host provides ``chain``, ``task`` and ``gain``.
 """
 from __future__ import annotations
 
-import math
-from typing import Any, Sequence
+from typing import Sequence
 
-import casadi as ca
 import numpy as np
 
 from .chain import PlanarChain, normal
 from .params import evaluate as evaluate_param
 from .errors import ConfigError
-from .outputs import SCALAR_OUTPUTS
+from .law_face import condition_numbers
 from .task import Task
 
 
@@ -39,70 +37,6 @@ class NumericAPI:
     task: Task
     gain: float
     outputs: Sequence[str]
-
-    def fast_law(self, form: str | None = None) -> ca.Function:
-        """The law ``(q, t) -> outputs`` as a CasADi Function (provided by the host).
-
-        Parameters
-        ----------
-        form : {"structured", "dense"}, optional
-            Law form (default: the host's).
-
-        Returns
-        -------
-        casadi.Function
-            ``(q, t)`` -> the law's outputs.
-        """
-        raise NotImplementedError
-
-    def evaluate(self, q, t: float = 0.0, form: str | None = None) -> dict[str, Any]:
-        """All outputs of the law at ``(q, t)`` as numpy values, keyed by :data:`OUTPUTS`.
-
-        Parameters
-        ----------
-        q : array_like, shape (m,)
-            Joint coordinates [rad].
-        t : float
-            Time [s].
-        form : {"structured", "dense"}, optional
-            Law form (default: the controller's).
-
-        Returns
-        -------
-        dict
-            Vectors as arrays, scalars as floats (see :data:`coordarm.symbolic.outputs.LAW_OUTPUTS`).
-
-        Raises
-        ------
-        ConfigError
-            ``q`` or ``t`` not finite, or ``q`` of the wrong shape.
-        """
-        q = self.chain.check_q(q)
-        if not math.isfinite(t):
-            raise ConfigError(f"t: must be finite, got {t!r}")
-        res = self.fast_law(form)(q, t)
-        out = {}
-        for name, v in zip(self.outputs, res):
-            v = np.asarray(v, dtype=float).ravel()
-            out[name] = float(v[0]) if name in SCALAR_OUTPUTS else v
-        return out
-
-    def control(self, q, t: float = 0.0) -> np.ndarray:
-        """Control ``u(q, t)``.
-
-        Parameters
-        ----------
-        q : array_like, shape (dof,)
-            Joint coordinates [rad] (``d`` [m] first on a rail).
-        t : float
-            Time [s].
-
-        Returns
-        -------
-        ndarray, shape (dof,)
-            The control [rad/s for B = I] (``d_dot`` [m/s] first on a rail).
-        """
-        return self.evaluate(q, t)["u"]
 
     def centre_geometry(self, Q, T) -> dict[str, np.ndarray]:
         """The curve's ``phi``, ``psi`` and their derivatives at every link centre of N states.
@@ -263,9 +197,7 @@ class NumericAPI:
         ndarray, shape (N,)
             ``sigma_max / sigma_min`` of each (inf when singular).
         """
-        sv = np.linalg.svd(self.decoupling_matrices(Q, T)[0], compute_uv=False)
-        with np.errstate(divide="ignore"):
-            return sv[:, 0] / sv[:, -1]
+        return condition_numbers(self.decoupling_matrices(Q, T)[0])
 
     def base_offset(self, t: float = 0.0) -> float:
         """``|phi(0, t)|``: how far the curve passes from the pinned base.

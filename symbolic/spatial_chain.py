@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .chain_model import KinematicChain
+from .chain_model import KinematicChain, check_joint_vector
 from .checks import is_integer, is_real
 from .errors import ConfigError
 
@@ -260,12 +260,7 @@ class SpatialChain(KinematicChain):
         ConfigError
             Wrong shape, NaN or inf.
         """
-        q = np.asarray(q, dtype=float)
-        if q.shape != (self.dof,):
-            raise ConfigError(f"{field}: need shape ({self.dof},) (a_1, b_1, ..., a_m, b_m), got {q.shape}")
-        if not np.all(np.isfinite(q)):
-            raise ConfigError(f"{field}: contains NaN or inf at index {int(np.flatnonzero(~np.isfinite(q))[0])}")
-        return q
+        return check_joint_vector(q, self.dof, field, " (a_1, b_1, ..., a_m, b_m)")
 
     def frames_np(self, q: ArrayLike) -> np.ndarray:
         """Link frames ``R_j``, vectorised over leading axes of ``q``.

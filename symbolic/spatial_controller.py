@@ -17,7 +17,7 @@ import numpy as np
 
 from .checks import is_real
 from .errors import ConfigError
-from .integrator import rk4
+from .law_face import LawFace, condition_numbers
 from .laws import LAWS
 from .motions import Constant
 from .outputs import SPATIAL_OUTPUTS, SPATIAL_RUN_OUTPUTS, SPATIAL_SCALAR_OUTPUTS
@@ -72,7 +72,7 @@ def start_roll(chain: SpatialChain, curve: Any, q: Any, t: float) -> float:
     return float(f(chain.centres_np(q)[0], chain.directions_np(q)[0], t))
 
 
-class SpatialController:
+class SpatialController(LawFace):
     """Coordinating controller of a spatial chain along a time-varying 3-D curve.
 
     Parameters
@@ -131,137 +131,21 @@ class SpatialController:
         self.recursion = SpatialRecursion(chain, self.task)
         self._cache: dict = {}
 
-    def law(self, form: str | None = None) -> ca.Function:
-        """The control law ``(q, t) -> outputs``, named and ordered as :data:`~.outputs.SPATIAL_OUTPUTS`.
+    SCALAR_OUTPUTS = SPATIAL_SCALAR_OUTPUTS
+    RK4_NAME, DECOUPLING_NAME = "spatial_rk4_step", "spatial_decoupling"
 
-        Parameters
-        ----------
-        form : {"structured", "dense"}, optional
-            Law form (default: the controller's).
+    def _build_law(self, form: str) -> ca.Function:
+        """The law of ``form`` (:func:`.spatial_dense.spatial_law_function`)."""
+        return spatial_law_function(self.recursion, form, self.outputs)
 
-        Returns
-        -------
-        casadi.Function
-            An MX Function (cached per form); the structured form loops over links (``mapaccum``).
+    def _decoupling_expr(self, q: ca.SX, t: ca.SX) -> tuple[ca.SX, ca.SX]:
+        """The dense decoupling matrix (rows ``s, roll, e^2_1, e^2_2, ...``) and right-hand side."""
+        return spatial_decoupling_expr(self.chain, self.task, q, t)
 
-        Raises
-        ------
-        ConfigError
-            Unknown form.
-        """
-        form = form or self.law_form
-        if form not in LAWS:
-            raise ConfigError(f"law: expected one of {LAWS}, got {form!r}")
-        if ("law", form) not in self._cache:
-            self._cache[("law", form)] = spatial_law_function(self.recursion, form, self.outputs)
-        return self._cache[("law", form)]
-
-    def fast_law(self, form: str | None = None) -> ca.Function:
-        """:meth:`law` expanded to a flat SX Function (fastest in CasADi's interpreter; structured form only).
-
-        Parameters
-        ----------
-        form : {"structured", "dense"}, optional
-            Law form (default: the controller's).
-
-        Returns
-        -------
-        casadi.Function
-        """
-        form = form or self.law_form
-        if ("fast", form) not in self._cache:
-            law = self.law(form)
-            self._cache[("fast", form)] = law.expand() if form == "structured" else law
-        return self._cache[("fast", form)]
-
-    def evaluate(self, q: Any, t: float = 0.0, form: str | None = None) -> dict[str, Any]:
-        """All outputs of the law at ``(q, t)`` as numpy values, keyed by :data:`~.outputs.SPATIAL_OUTPUTS`.
-
-        Parameters
-        ----------
-        q : array_like, shape (2 m,)
-            Joint coordinates [rad].
-        t : float
-            Time [s].
-        form : {"structured", "dense"}, optional
-            Law form (default: the controller's).
-
-        Returns
-        -------
-        dict
-            Vectors as arrays, scalars as floats.
-
-        Raises
-        ------
-        ConfigError
-            ``q`` or ``t`` not finite, or ``q`` of the wrong shape.
-        """
-        q = self.chain.check_q(q)
+    def _check_time(self, t: Any) -> None:
+        """Raise :class:`ConfigError` unless ``t`` is a finite real number (``int`` or ``float``)."""
         if not is_real(t) or not math.isfinite(t):
             raise ConfigError(f"t: must be finite, got {t!r}")
-        res = self.fast_law(form)(q, t)
-        out: dict[str, Any] = {}
-        for name, v in zip(self.outputs, res):
-            v = np.asarray(v, dtype=float).ravel()
-            out[name] = float(v[0]) if name in SPATIAL_SCALAR_OUTPUTS else v
-        return out
-
-    def control(self, q: Any, t: float = 0.0) -> np.ndarray:
-        """Control ``u(q, t) = q'`` (``B = I``).
-
-        Parameters
-        ----------
-        q : array_like, shape (2 m,)
-            Joint coordinates [rad].
-        t : float
-            Time [s].
-
-        Returns
-        -------
-        ndarray, shape (2 m,)
-            ``(a_1', b_1', ..., a_m', b_m')`` [rad/s].
-        """
-        return self.evaluate(q, t)["u"]
-
-    def rk4_step(self, h: float, form: str | None = None) -> ca.Function:
-        """Closed-loop RK4 step of ``q' = u(q, t)``: ``(q, t) -> (q_next, *run_outputs)`` (law at the step's start).
-
-        Parameters
-        ----------
-        h : float
-            Step length [s].
-        form : {"structured", "dense"}, optional
-            Law form (default: the controller's).
-
-        Returns
-        -------
-        casadi.Function
-            Cached per form and ``h``.
-        """
-        form = form or self.law_form
-        key = ("rk4", form, float(h))
-        if key not in self._cache:
-            law = self.fast_law(form)
-            q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")
-            out1 = law(q, t)
-            q_next = rk4(lambda x, s: law(x, s)[0], q, t, h, k1=out1[0])
-            kept = [out1[self.outputs.index(name)] for name in self.run_outputs]
-            self._cache[key] = ca.Function("spatial_rk4_step", [q, t], [q_next, *kept],
-                                           ["q", "t"], ["q_next", *self.run_outputs])
-        return self._cache[key]
-
-    def decoupling_function(self) -> ca.Function:
-        """``(q, t) -> (M, rhs)``: the dense decoupling matrix (rows ``s, roll, e^2_1, e^2_2, ...``) and right-hand side.
-
-        Returns
-        -------
-        casadi.Function
-        """
-        if "M" not in self._cache:
-            q, t = ca.SX.sym("q", self.chain.dof), ca.SX.sym("t")
-            M, r = spatial_decoupling_expr(self.chain, self.task, q, t)
-            self._cache["M"] = ca.Function("spatial_decoupling", [q, t], [M, r], ["q", "t"], ["M", "rhs"])
-        return self._cache["M"]
 
     def _command_function(self, name: str) -> ca.Function:
         """``t -> command(t)`` as a CasADi Function (``"speed"`` or ``"roll"``), cached."""
@@ -271,6 +155,11 @@ class SpatialController:
             param = self.speed if name == "speed" else self.roll_target
             self._cache[key] = ca.Function(name, [t], [ca.SX(param(t)) + 0 * t])
         return self._cache[key]
+
+    def _commands(self, name: str, T: Any) -> np.ndarray:
+        """The command ``name`` (``"speed"`` or ``"roll"``) at each of the times ``T``, in one mapped call."""
+        T = np.atleast_1d(np.asarray(T, float))
+        return np.asarray(self._command_function(name).map(len(T))(T[None])).ravel()
 
     def speeds(self, T: Any) -> np.ndarray:
         """``v*(t)`` at each of the times ``T``, in one call.
@@ -285,8 +174,7 @@ class SpatialController:
         ndarray, shape (N,)
             Commanded speeds [m/s].
         """
-        T = np.atleast_1d(np.asarray(T, float))
-        return np.asarray(self._command_function("speed").map(len(T))(T[None])).ravel()
+        return self._commands("speed", T)
 
     def speed_at(self, t: float) -> float:
         """The commanded speed at one time.
@@ -316,8 +204,7 @@ class SpatialController:
         ndarray, shape (N,)
             ``theta*`` [rad].
         """
-        T = np.atleast_1d(np.asarray(T, float))
-        return np.asarray(self._command_function("roll").map(len(T))(T[None])).ravel()
+        return self._commands("roll", T)
 
     def roll_at(self, t: float) -> float:
         """The commanded roll at one time.
@@ -369,9 +256,7 @@ class SpatialController:
         """
         f = self.decoupling_function()
         M = np.array([np.asarray(f(q, t)[0]) for q, t in zip(np.atleast_2d(Q), np.atleast_1d(T))])
-        sv = np.linalg.svd(M, compute_uv=False)
-        with np.errstate(divide="ignore"):
-            return sv[:, 0] / sv[:, -1]
+        return condition_numbers(M)
 
     def __repr__(self) -> str:
         return f"SpatialController({self.chain!r}, {type(self.curve).__name__}, gain={self.gain}, law={self.law_form!r})"
