@@ -130,9 +130,14 @@ def unit_vector(v: Any, name: str) -> np.ndarray:
         Not three finite numbers, or zero.
     """
     arr = np.asarray(v, dtype=float) if np.shape(v) == (3,) and all(is_real(x, numpy=True) for x in v) else None
-    if arr is None or not np.all(np.isfinite(arr)) or np.linalg.norm(arr) == 0:
+    if arr is None or not np.all(np.isfinite(arr)) or not np.any(arr):
         raise ConfigError(f"{name}: need three finite numbers, not all zero, got {v!r}")
-    return arr / np.linalg.norm(arr)
+    with np.errstate(over="ignore"):
+        norm = np.linalg.norm(arr)
+    if not np.isfinite(norm) or norm == 0:  # a length that overflows or underflows: scale first
+        arr = arr / np.max(np.abs(arr))
+        norm = np.linalg.norm(arr)
+    return arr / norm
 
 
 class SpatialChain(KinematicChain):

@@ -122,7 +122,11 @@ def unit_vector(value: Any, field: str) -> np.ndarray:
         Not three finite numbers, or the zero vector.
     """
     v = finite_vector(value, field)
-    norm = float(np.linalg.norm(v))
+    with np.errstate(over="ignore"):
+        norm = float(np.linalg.norm(v))
+    if not math.isfinite(norm):            # finite entries whose length overflows: scale first
+        v = v / float(np.max(np.abs(v)))
+        norm = float(np.linalg.norm(v))
     if not norm > MIN_NORM:
         raise ConfigError(f"{field}: must be a non-zero vector, got {v.tolist()}")
     return v / norm
