@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike
 from .chain_model import KinematicChain, check_joint_vector
 from .checks import is_integer, is_real
 from .errors import ConfigError
+from .vectors3d import vector_norm
 
 
 def rot_z(a: Any) -> Any:
@@ -130,13 +131,11 @@ def unit_vector(v: Any, name: str) -> np.ndarray:
         Not three finite numbers, or zero.
     """
     arr = np.asarray(v, dtype=float) if np.shape(v) == (3,) and all(is_real(x, numpy=True) for x in v) else None
-    if arr is None or not np.all(np.isfinite(arr)) or not np.any(arr):
+    norm = 0.0
+    if arr is not None and np.all(np.isfinite(arr)):
+        arr, norm = vector_norm(arr)
+    if norm == 0:
         raise ConfigError(f"{name}: need three finite numbers, not all zero, got {v!r}")
-    with np.errstate(over="ignore"):
-        norm = np.linalg.norm(arr)
-    if not np.isfinite(norm) or norm == 0:  # a length that overflows or underflows: scale first
-        arr = arr / np.max(np.abs(arr))
-        norm = np.linalg.norm(arr)
     return arr / norm
 
 

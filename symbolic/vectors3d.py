@@ -101,6 +101,30 @@ def finite_vector(value: Any, field: str) -> np.ndarray:
     return np.array([float(v) for v in value])
 
 
+def vector_norm(v: np.ndarray) -> tuple[np.ndarray, float]:
+    """A finite vector and its Euclidean length, the vector first divided by its largest entry when
+    the length of finite entries overflows (so the length is finite and the direction unchanged).
+
+    Parameters
+    ----------
+    v : ndarray, shape (k,)
+        Finite entries.
+
+    Returns
+    -------
+    v : ndarray, shape (k,)
+        ``v``, or ``v / max|v_i|`` when ``|v|`` overflows.
+    norm : float
+        The length of the returned ``v``.
+    """
+    with np.errstate(over="ignore"):
+        norm = float(np.linalg.norm(v))
+    if not math.isfinite(norm):
+        v = v / float(np.max(np.abs(v)))
+        norm = float(np.linalg.norm(v))
+    return v, norm
+
+
 def unit_vector(value: Any, field: str) -> np.ndarray:
     """A constant direction, normalised.
 
@@ -121,12 +145,7 @@ def unit_vector(value: Any, field: str) -> np.ndarray:
     ConfigError
         Not three finite numbers, or the zero vector.
     """
-    v = finite_vector(value, field)
-    with np.errstate(over="ignore"):
-        norm = float(np.linalg.norm(v))
-    if not math.isfinite(norm):            # finite entries whose length overflows: scale first
-        v = v / float(np.max(np.abs(v)))
-        norm = float(np.linalg.norm(v))
+    v, norm = vector_norm(finite_vector(value, field))
     if not norm > MIN_NORM:
         raise ConfigError(f"{field}: must be a non-zero vector, got {v.tolist()}")
     return v / norm
