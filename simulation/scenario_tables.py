@@ -20,6 +20,7 @@ from coordarm.symbolic.checks import is_integer, is_real
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.laws import LAWS, Law
+from coordarm.symbolic.spatial_chain import unit_vector
 
 from .limits import check_bounds, check_gain_step
 from .obstacles import Obstacle, obstacles_from_spec
@@ -88,10 +89,11 @@ class ChainTable:
     clearance : float or None
         Least distance kept between non-adjacent links [m]; None: 0.
     base : str or dict or None
-        ``"fixed"`` or ``{kind = "rail", angle [rad], limits [m]}``; None: fixed.
+        ``"fixed"`` or ``{kind = "rail", angle [rad], limits [m]}`` (a universal chain's rail:
+        ``{kind = "rail", direction = [x, y, z], limits [m]}``); None: fixed.
     base_args : dict
-        ``base`` as :class:`PlanarChain` keyword arguments (``base``, ``rail_angle`` [rad],
-        ``rail_limits`` [m]), checked when read.
+        ``base`` as chain keyword arguments (``base``, ``rail_angle`` [rad] or ``rail_direction``,
+        ``rail_limits`` [m]; :func:`base_args`), checked when read.
     joints : str
         ``"revolute"`` (a planar chain) or ``"universal"`` (a spatial chain, two angles per joint;
         its ``joint_limit`` bounds the bend ``acos(d_{j-1} . d_j)`` between consecutive links).
@@ -132,7 +134,7 @@ class ChainTable:
             A new chain (clearance 0 when the table leaves it out); a SpatialChain for universal joints.
         """
         if self.universal:
-            return SpatialChain(self.links, float(self.link_length))
+            return SpatialChain(self.links, float(self.link_length), **self.base_args)
         return PlanarChain(self.links, float(self.link_length), joint_limit=self.joint_limit,
                            clearance=float(self.clearance or 0.0), **self.base_args)
 
@@ -395,18 +397,25 @@ class ScenarioConfig:
             "obstacles": [o.to_spec() for o in self.obstacles], "figures": self.figures.to_dict()})
 
 
-def base_args(spec: Any) -> dict:
-    """``[chain] base``: ``"fixed"`` or ``{kind = "rail", angle = 0.0, limits = [0.0, 5.0]}`` as PlanarChain arguments.
+def base_args(spec: Any, universal: bool = False) -> dict:
+    """``[chain] base``: ``"fixed"`` or a rail table, as chain keyword arguments.
+
+    A planar chain's rail is ``{kind = "rail", angle = 0.0, limits = [0.0, 5.0]}`` (:class:`PlanarChain`
+    arguments ``rail_angle`` [rad], ``rail_limits`` [m]); a universal chain's is ``{kind = "rail",
+    direction = [x, y, z], limits = [lo, hi]}`` (:class:`SpatialChain` arguments ``rail_direction``,
+    normalised, and ``rail_limits`` [m]).
 
     Parameters
     ----------
     spec : str or dict
         The ``base`` entry as written.
+    universal : bool
+        The chain has universal joints (its rail has a 3-D ``direction``, not an ``angle``).
 
     Returns
     -------
     dict
-        ``base`` and, on a rail, ``rail_angle`` [rad] and ``rail_limits`` [m].
+        ``base`` and, on a rail, the rail's direction (``rail_angle`` or ``rail_direction``) and ``rail_limits``.
 
     Raises
     ------
@@ -415,18 +424,23 @@ def base_args(spec: Any) -> dict:
     """
     if spec == "fixed":
         return {"base": "fixed"}
+    aim = "direction" if universal else "angle"
     if not isinstance(spec, dict) or spec.get("kind") != "rail":
-        raise ConfigError(f"chain.base: expected \"fixed\" or a table {{kind = \"rail\", angle, limits}}, got {spec!r}")
-    unknown = set(spec) - {"kind", "angle", "limits"}
+        raise ConfigError(f"chain.base: expected \"fixed\" or a table {{kind = \"rail\", {aim}, limits}}, got {spec!r}")
+    unknown = set(spec) - {"kind", aim, "limits"}
     if unknown:
-        raise ConfigError(f"chain.base: unknown key(s) {sorted(unknown)}; allowed: ['kind', 'angle', 'limits']")
-    angle = check_number(spec.get("angle", 0.0), "chain.base.angle", positive=False)
+        raise ConfigError(f"chain.base: unknown key(s) {sorted(unknown)}; allowed: ['kind', '{aim}', 'limits']")
     limits = spec.get("limits", [-math.inf, math.inf])
     if (not isinstance(limits, list) or len(limits) != 2
             or not all(is_real(v) for v in limits)
             or not limits[0] < limits[1]):
         raise ConfigError(f"chain.base.limits: need [low, high] with low < high [m], got {limits!r}")
-    return {"base": "rail", "rail_angle": angle, "rail_limits": tuple(float(v) for v in limits)}
+    lim = tuple(float(v) for v in limits)
+    if universal:
+        direction = unit_vector(spec.get("direction", [1.0, 0.0, 0.0]), "chain.base.direction")
+        return {"base": "rail", "rail_direction": tuple(float(v) for v in direction), "rail_limits": lim}
+    angle = check_number(spec.get("angle", 0.0), "chain.base.angle", positive=False)
+    return {"base": "rail", "rail_angle": angle, "rail_limits": lim}
 
 
 def _tables(data: Any) -> dict:
@@ -469,8 +483,9 @@ def _chain(ch: dict) -> ChainTable:
                 raise ConfigError(f"chain.{exc}") from None
     if "radius" in ch:
         check_number(ch["radius"], "chain.radius")
+    joints = check_joints(ch.get("joints", "revolute"))
     return ChainTable(ch["links"], ch["link_length"], ch.get("joint_limit"), ch.get("clearance"), ch.get("base"),
-                      base_args(ch.get("base", "fixed")), check_joints(ch.get("joints", "revolute")), ch.get("radius"))
+                      base_args(ch.get("base", "fixed"), joints == "universal"), joints, ch.get("radius"))
 
 
 def _span(control: dict, chain: ChainTable) -> Any:

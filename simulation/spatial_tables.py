@@ -2,9 +2,10 @@
 
 ``[chain] joints = "universal"`` makes a spatial chain (:class:`~coordarm.symbolic.SpatialChain`):
 its ``[curve]`` is 3-D (:func:`~coordarm.symbolic.curve3d_specs.curve3d_from_spec`), ``[control]``
-may command a ``roll`` and ``[start]`` takes ``axis``, ``fold`` and ``roll``. A planar
-(``"revolute"``) scenario refuses those keys, and a spatial one the planar options its law does
-not have (rail, span, governor, damping, a projected start); its obstacles are 3-D
+may command a ``roll`` and ``[start]`` takes ``axis``, ``fold`` and ``roll``; its rail (``[chain] base =
+{kind = "rail", direction = [x, y, z], limits = [lo, hi]}``) has a 3-D direction and its ``[control] span``
+is the planar one. A planar (``"revolute"``) scenario refuses those keys, and a spatial one the planar
+options its law does not have (governor, damping, a projected start); its obstacles are 3-D
 (:mod:`coordarm.simulation.obstacles3d`) and its links capsules of ``[chain] radius``.
 """
 from __future__ import annotations
@@ -35,8 +36,7 @@ PLANAR_CURVE_KEYS = ("angle", "center", "heading", "offset")
 #: Keys of a 3-D ``[curve]`` that a planar curve does not have.
 SPATIAL_CURVE_KEYS = ("direction", "normal", "centre")
 #: Keys a spatial scenario refuses (its law has no such option yet), by section.
-PLANAR_ONLY = {"chain": ("base",), "control": ("span", "governor", "damping"),
-               "start": ("heading", "curve")}
+PLANAR_ONLY = {"control": ("governor", "damping"), "start": ("heading", "curve")}
 #: Keys only a spatial scenario has, by section.
 SPATIAL_ONLY = {"chain": ("radius",), "control": ("roll",), "start": ("axis", "fold", "roll")}
 CURVE_HINT = ("line: point [x, y, z], direction, normal, rotation = {axis, angle}; arc/circle: centre, radius, "
