@@ -2,7 +2,8 @@
 
 The scene, in frame ``world``, follows the official ``foxglove.SceneUpdate`` schema as the planar
 one (:mod:`.scene`): each link a cylinder (centre ``y^j``, axis along ``d_j``, length ``xi``), each
-link end a sphere (the joints), the base a cube, the curve at its current pose a 3-D line strip, the
+link end a sphere (the joints), the base a cube (on a rail: at ``d`` along it, the rail a grey line
+between its limits), the curve at its current pose a 3-D line strip, the
 end point's target (the point of the curve at arc length ``s(0) + integral of v*``) a red sphere and
 the 3-D obstacles as wireframes (:func:`.obstacles3d.wireframe`). The frame transforms
 (``foxglove.FrameTransforms``) give a frame ``link1`` .. ``linkm`` per link, origin at the link's
@@ -21,10 +22,12 @@ from coordarm.symbolic.spatial_chain import SpatialChain
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
 from .scene import ARM_COLOR, CURVE_COLOR, TARGET_COLOR, WALL_COLOR, SceneBuilder
-from .spatial_view import roll_command, spatial_joints
+from .spatial_view import rail_ends, roll_command, spatial_joints
 
 #: Colour of the joint spheres and the base (r, g, b, a).
 JOINT_COLOR = (0.1, 0.1, 0.1, 1.0)
+#: Colour of the rail (feed axis) (r, g, b, a).
+RAIL_COLOR = (0.45, 0.45, 0.45, 0.8)
 #: The quaternion (x, y, z, w) of ``Ry(pi/2)``: it turns a cylinder's axis (z) onto the link's x axis.
 _Z_TO_X = np.array([0.0, np.sin(np.pi / 4), 0.0, np.cos(np.pi / 4)])
 
@@ -149,6 +152,9 @@ class SpatialSceneBuilder(SceneBuilder):
         self._walls = [_line(p, 0.005, WALL_COLOR) for ob in obstacles for p in wireframe(ob)]
         self.radius = 0.12 * ctrl.chain.xi      # of the link cylinders [m]
         self._path_points: np.ndarray | None = None     # a path's polyline (it does not move)
+        ends = rail_ends(ctrl.chain, self.reach)
+        if ends is not None:                             # the rail between its limits, under the walls
+            self._walls = [_line(ends, 0.02 * ctrl.chain.xi + 0.004, RAIL_COLOR)] + self._walls
 
     def curves(self, times: np.ndarray) -> list[np.ndarray]:
         """The curve at each of ``times`` as a 3-D polyline (a line: its two ends; a path, which does not
@@ -202,8 +208,8 @@ class SpatialSceneBuilder(SceneBuilder):
         Parameters
         ----------
         pose : dict of str to ndarray
-            ``centres`` (m, 3) [m], ``axes`` (m, 4) (quaternions turning z onto ``d_j``) and ``joints``
-            (m+1, 3) [m] of the chain (see :meth:`poses`).
+            ``centres`` (m, 3) [m], ``axes`` (m, 4) (quaternions turning z onto ``d_j``), ``joints``
+            (m+1, 3) [m] and ``base`` (3,) [m] of the chain (see :meth:`poses`).
         curve : ndarray, shape (n, 3)
             The curve's polyline [m].
         target : ndarray, shape (3,)
@@ -224,7 +230,7 @@ class SpatialSceneBuilder(SceneBuilder):
                    for p in pose["joints"]]
         spheres.append({"pose": _pose(target), "size": {"x": 0.04, "y": 0.04, "z": 0.04},
                         "color": _colour(TARGET_COLOR)})
-        base = {"pose": _pose((0, 0, 0)), "size": {"x": 2 * d, "y": 2 * d, "z": 2 * d}, "color": _colour(JOINT_COLOR)}
+        base = {"pose": _pose(pose["base"]), "size": {"x": 2 * d, "y": 2 * d, "z": 2 * d}, "color": _colour(JOINT_COLOR)}
         return {"timestamp": {"sec": int(ns // 10**9), "nsec": int(ns % 10**9)}, "frame_id": "world",
                 "id": "coordarm", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
                 "arrows": [], "cubes": [base], "spheres": spheres, "cylinders": cylinders,
@@ -236,19 +242,20 @@ class SpatialSceneBuilder(SceneBuilder):
 
         Parameters
         ----------
-        q : ndarray, shape (k, 2 m)
-            Joint coordinates [rad].
+        q : ndarray, shape (k, dof)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
 
         Returns
         -------
         list of dict
             Per row: ``centres`` (m, 3) [m] (the cylinders' centres ``y^j``), ``axes`` (m, 4) (quaternions
-            ``(x, y, z, w)`` of ``R_j Ry(pi/2)``: the cylinder's z axis along ``d_j``) and ``joints`` (m+1, 3) [m].
+            ``(x, y, z, w)`` of ``R_j Ry(pi/2)``: the cylinder's z axis along ``d_j``), ``joints`` (m+1, 3) [m]
+            and ``base`` (3,) [m] (the origin, or ``d`` along the rail).
         """
         chain = self.ctrl.chain
         centres, axes = chain.centres_np(q), quaternion_product(quaternions(chain.frames_np(q)), _Z_TO_X)
-        joints = spatial_joints(chain, q)
-        return [{"centres": c, "axes": a, "joints": j} for c, a, j in zip(centres, axes, joints)]
+        joints, bases = spatial_joints(chain, q), chain.base_point(q)
+        return [{"centres": c, "axes": a, "joints": j, "base": b} for c, a, j, b in zip(centres, axes, joints, bases)]
 
     def frame_transforms(self, q: np.ndarray, ns: np.ndarray) -> list[bytes]:
         """The ``foxglove.FrameTransforms`` of poses ``q`` (k, 2m) stamped ``ns`` [ns], one JSON each.

@@ -8,6 +8,10 @@ if TYPE_CHECKING:   # numpy and the run module load only when a summary is writt
     from coordarm.simulation.scenario import Scenario
 
 
+#: Most obstacles a spatial summary lists one by one (the closest; one line sums up the others).
+CLEARANCE_LINES = 6
+
+
 def summary_lines(run: Run, scenario: Scenario) -> list[str]:
     """The summary of ``run`` that ``coordarm run`` and ``coordarm replay`` print, one string per line.
 
@@ -104,7 +108,8 @@ def spatial_physical_lines(run: Run, scenario: Scenario) -> list[str]:
     -------
     list of str
         The largest bend against its limit (a full configuration only), a contacts line when the run recorded
-        any, then ``clearance 'name': min gap [m] (link, t)`` from at most 2000 evenly spread samples per obstacle.
+        any, then ``clearance 'name': min gap [m] (link, t)`` from at most 2000 evenly spread samples per obstacle
+        (more than :data:`CLEARANCE_LINES` obstacles: the closest ones, in file order, then one line for the rest).
     """
     import numpy as np
 
@@ -126,8 +131,14 @@ def spatial_physical_lines(run: Run, scenario: Scenario) -> list[str]:
     if not scenario.obstacles:
         return lines
     gaps = scenario.physical().clearances(run.q[rows], run.t[rows])
-    return lines + [f"clearance     {name!r}: min {d:.4f} m (link {link}, t = {t:.2f} s)"
-                    for name, (d, t, link) in gaps.items()]
+    shown_gaps = dict(sorted(gaps.items(), key=lambda kv: kv[1][0])[:CLEARANCE_LINES]) \
+        if len(gaps) > CLEARANCE_LINES else gaps
+    lines += [f"clearance     {name!r}: min {d:.4f} m (link {link}, t = {t:.2f} s)"
+              for name, (d, t, link) in gaps.items() if name in shown_gaps]
+    if len(gaps) > len(shown_gaps):
+        rest = min(d for name, (d, _, _) in gaps.items() if name not in shown_gaps)
+        lines.append(f"clearance     {len(gaps) - len(shown_gaps)} more obstacles, each at least {rest:.4f} m away")
+    return lines
 
 
 def physical_lines(run: Run, scenario: Scenario) -> list[str]:
