@@ -16,18 +16,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from coordarm.symbolic import ConfigError, Curve, PlanarChain, SpatialChain, curve_from_spec, motion_from_spec
-from coordarm.symbolic.checks import is_integer, is_real
+from coordarm.symbolic.checks import is_integer
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.laws import LAWS, Law
-from coordarm.symbolic.spatial_chain import unit_vector
 
 from .limits import check_bounds, check_gain_step
 from .obstacles import Obstacle, obstacles_from_spec
 from .obstacles3d import Obstacle3D, obstacles3d_from_spec
 from .run import DEFAULT_THRESHOLDS, check_number
-from .spatial_tables import (BEND_LIMIT, check_curve_kind, check_joints, check_kind_keys, roll_motion, spatial_curve,
-                             spatial_start)
+from .spatial_tables import (BEND_LIMIT, base_args, check_curve_kind, check_joints, check_kind_keys, roll_motion,
+                             spatial_curve, spatial_start)
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
             "obstacles", "figures"}
@@ -395,52 +394,6 @@ class ScenarioConfig:
             "curve": self.curve, "control": self.control.to_dict(), "start": self.start.to_dict(),
             "run": self.run.to_dict(), "thresholds": self.thresholds.to_dict(),
             "obstacles": [o.to_spec() for o in self.obstacles], "figures": self.figures.to_dict()})
-
-
-def base_args(spec: Any, universal: bool = False) -> dict:
-    """``[chain] base``: ``"fixed"`` or a rail table, as chain keyword arguments.
-
-    A planar chain's rail is ``{kind = "rail", angle = 0.0, limits = [0.0, 5.0]}`` (:class:`PlanarChain`
-    arguments ``rail_angle`` [rad], ``rail_limits`` [m]); a universal chain's is ``{kind = "rail",
-    direction = [x, y, z], limits = [lo, hi]}`` (:class:`SpatialChain` arguments ``rail_direction``,
-    normalised, and ``rail_limits`` [m]).
-
-    Parameters
-    ----------
-    spec : str or dict
-        The ``base`` entry as written.
-    universal : bool
-        The chain has universal joints (its rail has a 3-D ``direction``, not an ``angle``).
-
-    Returns
-    -------
-    dict
-        ``base`` and, on a rail, the rail's direction (``rail_angle`` or ``rail_direction``) and ``rail_limits``.
-
-    Raises
-    ------
-    ConfigError
-        Neither ``"fixed"`` nor a valid rail table.
-    """
-    if spec == "fixed":
-        return {"base": "fixed"}
-    aim = "direction" if universal else "angle"
-    if not isinstance(spec, dict) or spec.get("kind") != "rail":
-        raise ConfigError(f"chain.base: expected \"fixed\" or a table {{kind = \"rail\", {aim}, limits}}, got {spec!r}")
-    unknown = set(spec) - {"kind", aim, "limits"}
-    if unknown:
-        raise ConfigError(f"chain.base: unknown key(s) {sorted(unknown)}; allowed: ['kind', '{aim}', 'limits']")
-    limits = spec.get("limits", [-math.inf, math.inf])
-    if (not isinstance(limits, list) or len(limits) != 2
-            or not all(is_real(v) for v in limits)
-            or not limits[0] < limits[1]):
-        raise ConfigError(f"chain.base.limits: need [low, high] with low < high [m], got {limits!r}")
-    lim = tuple(float(v) for v in limits)
-    if universal:
-        direction = unit_vector(spec.get("direction", [1.0, 0.0, 0.0]), "chain.base.direction")
-        return {"base": "rail", "rail_direction": tuple(float(v) for v in direction), "rail_limits": lim}
-    angle = check_number(spec.get("angle", 0.0), "chain.base.angle", positive=False)
-    return {"base": "rail", "rail_angle": angle, "rail_limits": lim}
 
 
 def _tables(data: Any) -> dict:

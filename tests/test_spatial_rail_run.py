@@ -19,7 +19,6 @@ from coordarm.simulation.scene3d import SpatialSceneBuilder
 from coordarm.simulation.summary import summary_lines
 from coordarm.simulation.sweep_points import run_point
 from coordarm.symbolic import ConfigError, SpatialChain
-from coordarm.symbolic.curves3d import Line3D
 from coordarm.symbolic.spatial_controller import SpatialController
 
 RAIL = [1.0, 0.5, 0.0]
