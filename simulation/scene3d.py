@@ -137,6 +137,10 @@ class SpatialSceneBuilder(SceneBuilder):
         The run's controller (chain and 3-D curve).
     obstacles : array_like
         The scenario's 3-D obstacles (drawn as wireframes, :func:`~.obstacles3d.wireframe`).
+    radius : float, optional
+        The links' capsule radius [m] (``[chain] radius``): each link is drawn as the capsule the physical
+        checks use, a cylinder of that radius with a sphere of that radius at each end. None: thin
+        cylinders (``0.12 xi``) with larger joint spheres.
 
     Attributes
     ----------
@@ -147,10 +151,11 @@ class SpatialSceneBuilder(SceneBuilder):
 
     TRACKING_FIELDS = SPATIAL_TRACKING_FIELDS
 
-    def __init__(self, ctrl: Any, obstacles: Any) -> None:
+    def __init__(self, ctrl: Any, obstacles: Any, radius: float | None = None) -> None:
         super().__init__(ctrl, [])
         self._walls = [_line(p, 0.005, WALL_COLOR) for ob in obstacles for p in wireframe(ob)]
-        self.radius = 0.12 * ctrl.chain.xi      # of the link cylinders [m]
+        self.radius = 0.12 * ctrl.chain.xi if radius is None else float(radius)     # of the link cylinders [m]
+        self._joint_size = 2.6 * self.radius if radius is None else 2 * self.radius  # capsules: caps of the radius
         self._path_points: np.ndarray | None = None     # a path's polyline (it does not move)
         ends = rail_ends(ctrl.chain, self.reach)
         if ends is not None:                             # the rail between its limits, under the walls
@@ -225,7 +230,7 @@ class SpatialSceneBuilder(SceneBuilder):
         xi, r = self.ctrl.chain.xi, self.radius
         cylinders = [{"pose": _pose(c, a), "size": {"x": 2 * r, "y": 2 * r, "z": xi}, "bottom_scale": 1,
                       "top_scale": 1, "color": _colour(ARM_COLOR)} for c, a in zip(pose["centres"], pose["axes"])]
-        d = 2.6 * r
+        d = self._joint_size
         spheres = [{"pose": _pose(p), "size": {"x": d, "y": d, "z": d}, "color": _colour(JOINT_COLOR)}
                    for p in pose["joints"]]
         spheres.append({"pose": _pose(target), "size": {"x": 0.04, "y": 0.04, "z": 0.04},
@@ -319,7 +324,7 @@ class SpatialSceneBuilder(SceneBuilder):
         return out
 
 
-def scene_builder(ctrl: Any, obstacles: Any) -> SceneBuilder:
+def scene_builder(ctrl: Any, obstacles: Any, radius: float | None = None) -> SceneBuilder:
     """The scene builder of ``ctrl``'s chain kind: :class:`SpatialSceneBuilder` for a spatial chain.
 
     Parameters
@@ -328,11 +333,14 @@ def scene_builder(ctrl: Any, obstacles: Any) -> SceneBuilder:
         The controller of the run.
     obstacles : list
         The scenario's obstacles.
+    radius : float, optional
+        A spatial chain's capsule radius [m] (its links drawn as those capsules); unused for a planar chain.
 
     Returns
     -------
     SceneBuilder
         A planar :class:`~.scene.SceneBuilder` or a :class:`SpatialSceneBuilder`.
     """
-    builder = SpatialSceneBuilder if isinstance(ctrl.chain, SpatialChain) else SceneBuilder
-    return builder(ctrl, obstacles)
+    if isinstance(ctrl.chain, SpatialChain):
+        return SpatialSceneBuilder(ctrl, obstacles, radius)
+    return SceneBuilder(ctrl, obstacles)

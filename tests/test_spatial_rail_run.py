@@ -151,6 +151,13 @@ def test_the_stage_figure_and_the_scene_draw_the_rail_and_the_base_on_it(logged)
                                    atol=1e-15)
         ends = [[p["x"], p["y"], p["z"]] for p in entity["lines"][1]["points"]]
         np.testing.assert_allclose(ends, np.outer([0.1, 1.0], ctrl.chain.rail_direction), atol=1e-15)
+    # with the capsule radius the links are drawn as the checked capsules: cylinders and caps of that radius
+    r = scenario.physical(ctrl.chain).radius
+    capsules = SpatialSceneBuilder(ctrl, [], r)
+    capsules.advance(run)
+    entity = json.loads(capsules.messages(run, ks[:1], np.array([0]))[0][2])["entities"][0]
+    assert r == 0.005 and {c["size"]["x"] for c in entity["cylinders"]} == {2 * r}
+    assert {s["size"]["x"] for s in entity["spheres"][:-1]} == {2 * r}
 
 
 def test_a_sweep_over_the_start_roll_and_the_links_holds_each_points_roll():
