@@ -18,7 +18,7 @@ from coordarm.simulation.scenario import Scenario, load_scenario
 from coordarm.simulation.scene3d import SpatialSceneBuilder
 from coordarm.simulation.summary import summary_lines
 from coordarm.simulation.sweep_points import run_point
-from coordarm.symbolic import ConfigError, SpatialChain
+from coordarm.symbolic import ConfigError, SingularityError, SpatialChain
 from coordarm.symbolic.spatial_controller import SpatialController
 
 RAIL = [1.0, 0.5, 0.0]
@@ -179,3 +179,16 @@ def test_port_and_pipe3d_start_valid_and_run_on_the_command_line(tmp_path, capsy
         assert sc.config.chain.joint_limit == 1.4 and sc.chain().rail and math.isclose(sc.chain().rail_direction[0], 1.0)
     port = load_scenario("port").spec["obstacles"][0]
     assert port["kind"] == "plate" and port["holes"] == [{"centre": [1.65, 0.0, 0.0], "radius": 0.05}]     # 0.1 m
+
+
+def test_a_rail_margin_below_the_link_threshold_stops_the_run_as_a_singularity():
+    data = rail_scenario(chain={"base": {"kind": "rail", "direction": [0.3, 1.0, 0.0], "limits": [0.1, 1.0]}},
+                         thresholds={"link": 0.5})
+    data["curve"].update(direction=[1.0, 0.0, 0.0], normal=[0.0, 1.0, 0.0])
+    data["start"] = {"kind": "zigzag", "beta": 0.6, "axis": [1.0, 0.0, 0.0], "fold": [0.0, 1.0, 0.0]}
+    sc = Scenario.from_dict(data, "across.toml")
+    ctrl = sc.controller()
+    with pytest.raises(SingularityError) as err:
+        simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, thresholds=sc.thresholds, backend="interpreted")
+    assert err.value.kind == "rail" and err.value.margin == pytest.approx(0.3 / math.hypot(0.3, 1.0), abs=1e-12)
+    assert err.value.run.info["stopped"] == "singularity"
