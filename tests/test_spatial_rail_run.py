@@ -10,15 +10,17 @@ import pytest
 from coordarm.analysis.linearise import linearise
 from coordarm.analysis.replay import load
 from coordarm.cli import main
-from coordarm.simulation.figures3d import stage_scene
+from coordarm.simulation.figures3d import plot_spatial_tracking, stage_scene, tracking_series
 from coordarm.simulation.mcap_writer import RunLogger
 from coordarm.simulation.physical3d import link_ends
 from coordarm.simulation.run import simulate
 from coordarm.simulation.scenario import Scenario, load_scenario
 from coordarm.simulation.scene3d import SpatialSceneBuilder
+from coordarm.simulation.spatial_view import span_command
 from coordarm.simulation.summary import summary_lines
 from coordarm.simulation.sweep_points import run_point
 from coordarm.symbolic import ConfigError, SingularityError, SpatialChain
+from coordarm.symbolic.motions import Sinusoid
 from coordarm.symbolic.spatial_controller import SpatialController
 
 RAIL = [1.0, 0.5, 0.0]
@@ -130,6 +132,17 @@ def test_the_linearised_rail_loop_is_the_design(logged):
     commanded = SpatialController(ctrl.chain, ctrl.curve, 2.0, 0.1, roll=0.2, span=0.5)
     lin = linearise(commanded, run.q[-1], float(run.t[-1]))
     assert lin.free == 1 and lin.deviation_from_design(2.0) < 1e-9
+
+
+def test_the_tracking_figure_shows_the_span_error_and_the_rail_margin(logged, tmp_path):
+    _, ctrl, run, _ = logged
+    ser = tracking_series(run, ctrl)
+    np.testing.assert_array_equal(ser["span_err"], run.sigma - run.sigma[0])
+    np.testing.assert_array_equal(ser["rail"], run.rail_margin)
+    commanded = SpatialController(ctrl.chain, ctrl.curve, 2.0, 0.1, roll=0.2, span=Sinusoid(0.1, 2.0, 0.5))
+    np.testing.assert_allclose(span_command(commanded, run.t), 0.5 + 0.1 * np.sin(2.0 * run.t), atol=1e-15)
+    assert span_command(ctrl, run.t) is None
+    assert plot_spatial_tracking(run, ctrl, tmp_path / "t.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_the_stage_figure_and_the_scene_draw_the_rail_and_the_base_on_it(logged):
