@@ -9,6 +9,7 @@ import pytest
 
 from coordarm.analysis.linearise import linearise
 from coordarm.analysis.replay import load
+from coordarm import sweep
 from coordarm.cli import main
 from coordarm.simulation.figures3d import plot_spatial_tracking, stage_scene, tracking_series
 from coordarm.simulation.mcap_writer import RunLogger
@@ -178,6 +179,13 @@ def test_a_sweep_over_the_start_roll_and_the_links_holds_each_points_roll():
     rows = [run_point(spec, {"start.roll": r, "chain.links": m}) for r in (0.0, 0.4) for m in (8, 10)]
     assert [r["outcome"] for r in rows] == ["completed"] * 4, [r["message"] for r in rows]
     assert max(r["max_roll_error"] for r in rows) < 1e-9
+
+
+def test_a_sweep_of_the_port_preset_over_the_start_roll(tmp_path):
+    df = sweep("port", {"start.roll": [0.0, 0.3], "run.duration": [0.1]}, client="serial", out=tmp_path)
+    assert list(df["outcome"]) == ["completed"] * 2, list(df["message"])
+    assert df["max_roll_error"].max() < 1e-9 and (df["min_clearance"] > 0.02).all()
+    assert (df["min_end_margin"] > 0.15).all() and (df["min_joint_margin"] > 0.9).all()
 
 
 def test_port_and_pipe3d_start_valid_and_run_on_the_command_line(tmp_path, capsys):
