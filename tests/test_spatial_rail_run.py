@@ -213,3 +213,13 @@ def test_a_rail_margin_below_the_link_threshold_stops_the_run_as_a_singularity()
         simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, thresholds=sc.thresholds, backend="interpreted")
     assert err.value.kind == "rail" and err.value.margin == pytest.approx(0.3 / math.hypot(0.3, 1.0), abs=1e-12)
     assert err.value.run.info["stopped"] == "singularity"
+
+
+def test_a_commanded_span_in_the_scenario_decays_to_its_command_like_exp_minus_K_t():
+    sc = Scenario.from_dict(rail_scenario(control={"span": [0.4, {"kind": "ramp", "rate": 0.02}]}), "span.toml")
+    ctrl = sc.controller()
+    run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted")
+    target = 0.4 + 0.02 * run.t
+    np.testing.assert_allclose(run.sigma - target, (run.sigma[0] - 0.4) * np.exp(-2.0 * run.t), rtol=0, atol=1e-9)
+    assert abs(run.sigma[0] - 0.4) > 1e-2                  # not vacuous: the start's span is not the command
+    np.testing.assert_allclose(run.s, run.s[0] + 0.1 * run.t, rtol=0, atol=1e-9)
