@@ -340,7 +340,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
     with ExitStack() as stack:
         view = None
         if live:
-            view = stack.enter_context(LiveView(scenario, ctrl, port=port, speed=live_speed))
+            view = stack.enter_context(LiveView(scenario, ctrl, port=port, speed=live_speed, cond_rate=cond_rate))
             say(f"live          {view.url} (Foxglove: Open connection, Foxglove WebSocket)")
             if live_wait:
                 view.wait_for_client()
