@@ -126,6 +126,8 @@ class LiveView:
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz], 0 = off (default: the log's default,
         :func:`~.mcap_writer.default_cond_rate` on a planar chain, off on a spatial one).
+    frames : {"ends", "all"}
+        The frames of ``/tf``: ``base`` and ``tip``, or one per link (as the log's).
 
     Raises
     ------
@@ -135,7 +137,7 @@ class LiveView:
 
     def __init__(self, scenario: Scenario, ctrl: CoordinatingController | None = None, *, port: int = 8765,
                  host: str = "127.0.0.1", speed: float = 1.0, rate: float = LIVE_RATE,
-                 scene_rate: float = SCENE_RATE, cond_rate: float | None = None) -> None:
+                 scene_rate: float = SCENE_RATE, cond_rate: float | None = None, frames: str = "ends") -> None:
         import foxglove
         from foxglove.websocket import Capability
 
@@ -146,7 +148,7 @@ class LiveView:
         self.every = steps_between(rate, scenario.step, "live rate")
         self.scene_every = steps_between(scene_rate, scenario.step, "scene_rate")
         self.origin = min(0.0, scenario.t0)
-        self.scene = scene_builder(ctrl, scenario.obstacles)
+        self.scene = scene_builder(ctrl, scenario.obstacles, frames)
         layout = layout_of_chain(ctrl.chain)
         self.numeric = numeric_channels(ctrl.chain.m, layout=layout)
         if cond_rate is None:

@@ -149,11 +149,13 @@ def _field(name: str, m: int, rail: bool = False, layout: ChainLayout = PLANAR) 
 
 #: The fields of a planar run's ``/tracking`` record (all float64 scalars, in order).
 TRACKING_FIELDS = (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0),
-                   ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0))
+                   ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0),
+                   ("log10_max_abs_e", 0), ("s_error", 0), ("log10_abs_s_error", 0))
 #: The fields of a spatial run's ``/tracking`` record: the planar ones with the target's ``z`` after its
 #: ``y``, then the roll and its command [rad].
 SPATIAL_TRACKING_FIELDS = (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0), ("target_z", 0),
-                           ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0), ("roll", 0), ("roll_target", 0))
+                           ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0), ("roll", 0), ("roll_target", 0),
+                           ("log10_max_abs_e", 0), ("s_error", 0), ("log10_abs_s_error", 0))
 
 
 def numeric_channels(links: int, rail: bool = False, layout: ChainLayout = PLANAR) -> dict[str, NumericChannel]:

@@ -134,11 +134,11 @@ def test_a_live_spatial_run_serves_the_spatial_channels_and_its_3d_scene(tmp_pat
     # a joint-state message holds the 2m angles (CDR: 4-byte header, then float64 t, q, u)
     _, data = received["/joint_state"][0]
     assert len(data) == 4 + 8 * (1 + 4 * links)
-    # the scene is the 3-D one: a cylinder per link, a sphere per joint (m+1) and the target, a frame per link
+    # the scene is the 3-D one: a cylinder per link, a sphere per joint (m+1) and the target
     entity = json.loads(received["/scene"][-1][1])["entities"][0]
     assert len(entity["cylinders"]) == links and len(entity["spheres"]) == links + 2
     frames = json.loads(received["/tf"][-1][1])["transforms"]
-    assert [f["child_frame_id"] for f in frames] == [f"link{j}" for j in range(1, links + 1)]
+    assert [f["child_frame_id"] for f in frames] == ["base", "tip"]      # the default --log-frames ends
 
 
 def test_a_client_that_stops_reading_never_slows_the_run(tmp_path):

@@ -54,7 +54,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--live-speed", type=float, default=1.0, metavar="X",
                    help="simulated seconds per wall-clock second on the live view (default 1)")
     p.add_argument("--live-wait", action="store_true",
-                   help="with --live: start simulating only once a client has subscribed")
+                   help="with --live: start simulating only once a client has subscribed and its subscriptions "
+                        "settled (1 s without a new one): import the layout first, then connect")
+    p.add_argument("--log-frames", choices=("ends", "all"), default="ends",
+                   help="frames on /tf (log and live view): ends = base and tip (default), all = one per link")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
     p.add_argument("--stages", type=stage_list, metavar="T1,T2,...",
                    help="times [s] of the stage figure, e.g. 0,4,8,12 (default: [figures] stages, else 5 evenly)")
@@ -120,7 +123,8 @@ def main(args: argparse.Namespace) -> int:
                           overwrite=args.overwrite, yes=args.yes, log_rate=args.log_rate, cond_rate=args.cond_rate,
                           compression=args.compression, live=args.live, port=args.port, live_speed=args.live_speed,
                           live_wait=args.live_wait, figures=not args.no_figures, stages=args.stages,
-                          allow_contact=args.allow_contact, progress=not args.quiet, echo=echo, on_warning=warn)
+                          allow_contact=args.allow_contact, progress=not args.quiet, echo=echo, on_warning=warn,
+                          log_frames=args.log_frames)
     if result.stopped is not None:
         print(f"coordarm run: {result.stop_message()}", file=sys.stderr)
     return result.exit_status
