@@ -126,8 +126,9 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         The MCAP log (default ``logs/<name>.mcap``, replaced if there); figures go beside it.
     overwrite, yes : bool, optional
         Replace an existing ``log``; run above the cost limits or a dense law over ``DENSE_LINKS`` links.
-    log_rate, cond_rate, compression : optional
-        Log samples [Hz], condition number samples [Hz] (0 = off), chunk compression (zstd, lz4, none).
+    log_rate, cond_rate, compression, log_frames : optional
+        Log samples [Hz], condition number samples [Hz] (0 = off), chunk compression (zstd, lz4, none),
+        the frames of ``/tf`` (log and live view: ``"ends"``, base and tip, or ``"all"``, one per link).
     live, port, live_speed, live_wait : optional
         Serve the run to Foxglove on ``port`` (0 = any) at ``live_speed`` simulated seconds per second
         [-], starting once a client subscribed if ``live_wait``.
@@ -138,8 +139,6 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     echo, on_warning : callable, optional
         Get each line ``coordarm run`` prints on stdout, once known; each warning of building the law
         (default: issued again by :mod:`warnings`).
-    log_frames : {"ends", "all"}, optional
-        The frames of ``/tf`` in the log and the live view: ``base`` and ``tip``, or one per link.
 
     Returns
     -------
@@ -174,8 +173,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     run, stopped, chosen, compiled = simulate_logged(
         scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
         compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
-        allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue,
-        log_frames=log_frames)
+        allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue, log_frames=log_frames)
     status = outcome_of(stopped, None)["status"]
     for line in report_lines(run, scenario, compiled, out):
         say(line)
