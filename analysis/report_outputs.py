@@ -167,4 +167,4 @@ def simulate_scenario(scenario: Scenario) -> Run:
     from coordarm.analysis.report import simulate_through
 
     ctrl = scenario.controller()
-    return simulate_through(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0)
+    return simulate_through(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0, progress=True)

@@ -423,7 +423,7 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
         with warnings.catch_warnings(record=True) as caught:   # builds or loads the library
             warnings.simplefilter("always", BackendFallbackWarning)
             check_gain_step(ctrl.gain, scenario.step)
-            backend, compiled, _ = select_backend(ctrl, holder["backend"])
+            backend, compiled, _ = select_backend(ctrl, holder["backend"], progress=progress)
         holder.update(backend=backend, compiled=compiled)
         for w in caught:
             on_warning(w.message)
