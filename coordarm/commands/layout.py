@@ -6,7 +6,6 @@ import json
 from importlib import resources
 from pathlib import Path
 
-from coordarm.simulation.scene_view import fitted_layout, scene_points
 from coordarm.symbolic import ConfigError
 
 
@@ -66,6 +65,8 @@ def main(args: argparse.Namespace) -> int:
     if args.fit is not None:
         if args.out is None:
             raise ConfigError("--for: give --out FILE for the fitted layout")
+        from coordarm.simulation.scene_view import fitted_layout
+
         text = json.dumps(fitted_layout(json.loads(source.read_text()), _scene_points(args.fit)), indent=2) + "\n"
         data = text.encode()
     elif args.out is None:
@@ -84,6 +85,7 @@ def main(args: argparse.Namespace) -> int:
 def _scene_points(name: str):
     """The points of the scene of a preset, scenario file or log (every logged pose) [m], shape (k, 3)."""
     from coordarm.simulation.scenario import load_scenario
+    from coordarm.simulation.scene_view import scene_points
 
     if name.endswith(".mcap"):
         from coordarm.analysis.replay import load

@@ -56,6 +56,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--live-wait", action="store_true",
                    help="with --live: start simulating only once a client has subscribed and its subscriptions "
                         "settled (1 s without a new one): import the layout first, then connect")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a field of the scenario, e.g. --set control.speed=0.05 (dotted TOML name or a "
+                        "sweep alias; one value, parsed as coordarm sweep --vary parses one; repeatable)")
     p.add_argument("--log-frames", choices=("ends", "all"), default="ends",
                    help="frames on /tf (log and live view): ends = base and tip (default), all = one per link")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
@@ -118,7 +121,13 @@ def main(args: argparse.Namespace) -> int:
     """
     from coordarm.simulation.session import run_scenario
 
-    result = run_scenario(args.scenario, links=args.links, duration=args.duration, step=args.step, law=args.law,
+    scenario = args.scenario
+    if args.set:
+        from coordarm.simulation.overrides import with_settings
+        from coordarm.simulation.scenario import load_scenario
+
+        scenario = with_settings(load_scenario(args.scenario), args.set)
+    result = run_scenario(scenario, links=args.links, duration=args.duration, step=args.step, law=args.law,
                           governor=True if args.governor else None, backend=args.backend, log=args.out,
                           overwrite=args.overwrite, yes=args.yes, log_rate=args.log_rate, cond_rate=args.cond_rate,
                           compression=args.compression, live=args.live, port=args.port, live_speed=args.live_speed,
