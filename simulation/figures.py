@@ -467,7 +467,8 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True,
                              gridspec_kw=dict(left=0.13, right=0.97, bottom=0.06, top=0.95, hspace=0.08))
     axes[0].semilogy(t, np.maximum(emax[keep], 1e-17), label="max$_j$ |e$^j$|")
-    if emax[0] > 0:
+    if emax[0] > 1e-14:
+        # only when there is a decay to see (a start on the curve, e(0) at the rounding floor, has none);
         # held at the same 1e-17 m floor as the data: below it lie only rounding errors, not a decay to compare
         axes[0].semilogy(t, np.maximum(emax[0] * np.exp(-gain * (t - t[0])), 1e-17), "--",
                          label=f"e(0) exp(-{gain:g} t)")
