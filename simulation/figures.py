@@ -464,8 +464,9 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     t = run.t[keep]
     # Fixed margins (room for the tick labels, axis labels and title of these three panels): tight_layout
     # would measure every text first, which took longer than drawing the figure.
-    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True,
-                             gridspec_kw=dict(left=0.13, right=0.97, bottom=0.06, top=0.95, hspace=0.08))
+    # the legends stand right of the panels, off the data
+    fig, axes = plt.subplots(3, 1, figsize=(9.2, 8), sharex=True,
+                             gridspec_kw=dict(left=0.1, right=0.74, bottom=0.06, top=0.95, hspace=0.16))
     axes[0].semilogy(t, np.maximum(emax[keep], 1e-17), label="max$_j$ |e$^j$|")
     if emax[0] > 1e-14:
         # only when there is a decay to see (a start on the curve, e(0) at the rounding floor, has none);
@@ -476,10 +477,10 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     axes[0].yaxis.set_major_formatter(LogFormatter())
     axes[0].yaxis.set_minor_formatter(NullFormatter())
     axes[0].set_ylabel("deviation [m]")
-    axes[0].legend(fontsize=8)
+    axes[0].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     axes[1].plot(t, s_err[keep], label="s - (s(0) + ∫v*)")
     axes[1].set_ylabel("s tracking error [m]")
-    axes[1].legend(fontsize=8)
+    axes[1].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     axes[2].plot(t, link[keep], label="smallest link margin")
     axes[2].plot(t, longitudinal[keep], label="longitudinal margin")
     for name, thr in (thresholds or {}).items():
@@ -488,7 +489,7 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     axes[2].set_ylabel("margin [-]")
     axes[2].set_xlabel("t [s]")
     axes[2].set_ylim(bottom=0)
-    axes[2].legend(fontsize=8)
+    axes[2].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     for ax in axes:
         ax.grid(alpha=0.3)
     axes[0].set_title(title or "tracking and singularity margins")
