@@ -136,6 +136,12 @@ def main(args: argparse.Namespace) -> int:
                           log_frames=args.log_frames)
     if result.stopped is not None:
         print(f"coordarm run: {result.stop_message()}", file=sys.stderr)
+    late = [t for t in args.stages or () if len(result.run.t) and t > result.run.t[-1] + 1e-9]
+    if late and not args.no_figures:
+        end = "stop" if result.stopped is not None else "end"
+        print(f"coordarm run: note: --stages {', '.join(f'{t:g}' for t in late)} s after the run's {end} "
+              f"(t = {result.run.t[-1]:.2f} s): not drawn" + (" (the stop is)" if end == "stop" else ""),
+              file=sys.stderr)
     return result.exit_status
 
 
