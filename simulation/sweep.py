@@ -459,8 +459,6 @@ def _run(spec, todo, client, workers, batch, point_fn, log_dir, table, bar):
     with Phase("sweep: starting the Dask workers" if client is None else f"sweep: connecting to {client}",
                enabled=bar is not None):
         dask_client, owned = _open_client(client, workers)
-    if bar:
-        bar.update(n_done)      # the bar at its start, while the workers load the law
     try:
         n_workers = sum(dask_client.nthreads().values()) or (workers or 1)
         size = batch or batch_size(len(todo), n_workers)
