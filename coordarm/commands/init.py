@@ -18,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("init", help="write a preset scenario to a TOML file, to edit and run",
                        description="Write the TOML of a preset scenario (with its comments) to FILE, to edit "
                                    "and run with coordarm run FILE.")
-    p.add_argument("preset", metavar="PRESET", help="a preset name (coordarm run --help lists them)")
+    p.add_argument("preset", metavar="PRESET", help="a preset name, e.g. hole (an unknown name is answered with the list)")
     p.add_argument("file", type=Path, metavar="FILE.toml", help="the file to write")
     p.add_argument("--overwrite", action="store_true", help="replace FILE if it exists")
     p.set_defaults(func=main)

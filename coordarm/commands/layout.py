@@ -30,10 +30,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     """
     p = sub.add_parser("layout", help="print the path of the Foxglove layout, or write a copy of it",
                        description="The Foxglove layout for coordarm logs and the live view, planar or spatial: "
-                                   "a 3D panel (perspective view of frame world with /scene and the link frames) "
-                                   "and plots of max|e|, s and its target, the link margins with the longitudinal "
-                                   "(planar) or end (spatial) margin, |u| and the roll (spatial). In Foxglove: open "
-                                   "the log (Open local file), then Layouts > Import layout and pick this file.")
+                                   "a 3D panel (perspective view of frame world with /scene and the frames base "
+                                   "and tip) and plots of log10 max|e| and log10 |s - target|, s and its target, "
+                                   "the link margins with the longitudinal (planar) or end (spatial) margin, |u| "
+                                   "and the roll (spatial). In Foxglove or Lichtblick: open the log (Open local "
+                                   "file), then Layouts > Import layout and pick this file.")
     p.add_argument("--out", type=Path, metavar="FILE", help="write a copy of the layout to FILE")
     p.add_argument("--for", dest="fit", metavar="SCENARIO|LOG",
                    help="aim the 3D panel's camera at this scene: a preset name, a scenario TOML or a run log "
