@@ -183,3 +183,54 @@ def test_a_client_that_stops_reading_never_slows_the_run(tmp_path):
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def test_live_wait_returns_only_once_the_subscriptions_have_settled():
+    """A viewer subscribes panel by panel: the wait ends ``settle`` seconds after the last subscription, not at
+    the first one (a real client, in two steps 0.6 s apart)."""
+    import threading
+    import time
+
+    from coordarm.simulation.live import LiveView
+    from coordarm.simulation.scenario import load_scenario
+
+    scenario = load_scenario("hole").with_overrides(links=5, duration=0.1)
+    with LiveView(scenario, port=0) as view:
+        def client():
+            with connect(view.url, subprotocols=[LEGACY_SUBPROTOCOL], open_timeout=30) as ws:
+                channels = {}
+                while len(channels) < 7:
+                    msg = json.loads(ws.recv(timeout=30))
+                    if msg["op"] == "advertise":
+                        channels.update({c["id"]: c for c in msg["channels"]})
+                ids = sorted(channels)
+                ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 0, "channelId": ids[0]}]}))
+                time.sleep(0.6)
+                ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 1, "channelId": ids[1]}]}))
+                time.sleep(2.0)
+
+        thread = threading.Thread(target=client)
+        start = time.monotonic()
+        thread.start()
+        assert view.wait_for_client(timeout=30, settle=1.0)
+        waited = time.monotonic() - start
+        thread.join()
+    assert waited >= 1.6 - 0.05, waited
+
+
+def test_the_bridge_renames_only_a_request_offering_the_former_name_alone():
+    from coordarm.simulation.ws_bridge import offered_subprotocols, rewrite_answer, rewrite_request
+
+    head = ("GET / HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nSec-WebSocket-Key: abc==\r\n"
+            "Sec-WebSocket-Protocol: {}\r\n\r\n")
+    legacy = head.format("foxglove.websocket.v1").encode()
+    sent, restore = rewrite_request(legacy)
+    assert sent == head.format("foxglove.sdk.v1").encode() and restore == "foxglove.websocket.v1"
+    for offer in ("foxglove.sdk.v1", "foxglove.websocket.v1, foxglove.sdk.v1", "other"):
+        request = head.format(offer).encode()
+        assert rewrite_request(request) == (request, None)
+    two_lines = (b"GET / HTTP/1.1\r\nsec-websocket-protocol: a\r\nSec-WebSocket-Protocol: b, c\r\n\r\n")
+    assert offered_subprotocols(two_lines) == ["a", "b", "c"]
+    answer = b"HTTP/1.1 101 Switching Protocols\r\nSec-WebSocket-Accept: xyz=\r\nSec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n"
+    assert rewrite_answer(answer, "foxglove.websocket.v1") == answer.replace(b"foxglove.sdk.v1", b"foxglove.websocket.v1")
+    assert rewrite_answer(answer, None) == answer
