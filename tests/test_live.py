@@ -234,3 +234,15 @@ def test_the_bridge_renames_only_a_request_offering_the_former_name_alone():
     answer = b"HTTP/1.1 101 Switching Protocols\r\nSec-WebSocket-Accept: xyz=\r\nSec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n"
     assert rewrite_answer(answer, "foxglove.websocket.v1") == answer.replace(b"foxglove.sdk.v1", b"foxglove.websocket.v1")
     assert rewrite_answer(answer, None) == answer
+
+
+def test_a_port_in_use_is_one_error_naming_the_port(tmp_path):
+    import socket
+
+    with socket.create_server(("127.0.0.1", 0)) as taken:
+        port = taken.getsockname()[1]
+        res = subprocess.run([sys.executable, "-m", "coordarm", "run", "hole", "--links", "5", "--duration", "0.1",
+                              "--live", "--port", str(port), "--no-figures", "--quiet", "--out",
+                              str(tmp_path / "x.mcap")], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 2 and f"--port {port}: cannot start the live server" in res.stderr, res.stderr
+    assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
