@@ -20,8 +20,8 @@ from coordarm.symbolic.spatial_chain import SpatialChain
 
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
-from .scene import (CURVE_COLOR, CURVE_PX, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder, log10_floored,
-                    margin_colours)
+from .scene import CURVE_COLOR, CURVE_PX, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder, margin_colours
+from .tracking_record import log10_floored
 from .spatial_view import roll_command, spatial_joints
 
 #: Colour of the joint spheres and the base (r, g, b, a).
