@@ -235,7 +235,8 @@ def _mark_contacts(ax, run: Run, ctrl: CoordinatingController) -> None:
         pts = centres[[j - 1 for j in c["links"] if 1 <= j <= len(centres)]]
         what = c.get("obstacle") or c["kind"].replace("_", " ")
         ax.plot(pts[:, 0], pts[:, 1], "o", mfc="none", mec=STOP_COLOR, ms=11, mew=1.8, zorder=31,
-                label=f"contact ({what}), t = {float(c['time']):.2f} s" if i < 3 else None)
+                label=f"contacts: {len(contacts)}, first {float(c['time']):.2f} s" if i == 0 else None)
+        ax.annotate(what, pts[0], xytext=(8, 6), textcoords="offset points", fontsize=7, color=STOP_COLOR, zorder=31)
 
 
 def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages: int = 5,

@@ -55,7 +55,9 @@ def test_contacts_are_marked_on_their_links_at_their_time(short_run, captured, t
         figures.plot_stages(run, ctrl, tmp_path / "s.png", obstacles=scenario.obstacles)
     finally:
         run.info.pop("contacts")
-    mark, = [ln for ln in captured[0].axes[0].get_lines() if ln.get_label().startswith("contact (wall 5)")]
+    ax = captured[0].axes[0]
+    mark, = [ln for ln in ax.get_lines() if ln.get_label() == f"contacts: 1, first {run.t[k]:.2f} s"]
+    assert "wall 5" in [t.get_text() for t in ax.texts]
     np.testing.assert_allclose(np.column_stack(mark.get_data()), ctrl.chain.centres_np(run.q[k])[[2]], atol=1e-12)
 
 
