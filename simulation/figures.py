@@ -229,6 +229,7 @@ def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, ob
 def _mark_contacts(ax, run: Run, ctrl: CoordinatingController) -> None:
     """A red ring on each link of the first contacts in ``run.info["contacts"]`` (at most 10), at its time."""
     contacts = list((getattr(run, "info", None) or {}).get("contacts") or [])[:10]
+    named: set[str] = set()
     for i, c in enumerate(contacts):
         k = int(np.argmin(np.abs(run.t - float(c["time"]))))
         centres = ctrl.chain.centres_np(run.q[k])
@@ -236,7 +237,10 @@ def _mark_contacts(ax, run: Run, ctrl: CoordinatingController) -> None:
         what = c.get("obstacle") or c["kind"].replace("_", " ")
         ax.plot(pts[:, 0], pts[:, 1], "o", mfc="none", mec=STOP_COLOR, ms=11, mew=1.8, zorder=31,
                 label=f"contacts: {len(contacts)}, first {float(c['time']):.2f} s" if i == 0 else None)
-        ax.annotate(what, pts[0], xytext=(8, 6), textcoords="offset points", fontsize=7, color=STOP_COLOR, zorder=31)
+        if what not in named:      # each obstacle (or kind) named once, at its first contact
+            named.add(what)
+            ax.annotate(what, pts[0], xytext=(8, 6), textcoords="offset points", fontsize=7, color=STOP_COLOR,
+                        zorder=31)
 
 
 def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages: int = 5,
