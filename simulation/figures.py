@@ -273,6 +273,9 @@ def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages
         The written file.
     """
     idx, stop = _with_stop(run, stage_indices(run, stages, times), stopped)
+    contacts = (getattr(run, "info", None) or {}).get("contacts") or []
+    if contacts:                         # the body at its first contact, where the rings are
+        idx = np.union1d(idx, [int(np.argmin(np.abs(run.t - float(contacts[0]["time"]))))]).astype(int)
     lo, hi = _view_box(run, ctrl, idx, list(obstacles), None)
     flat = (hi[1] - lo[1]) < FLAT * (hi[0] - lo[0])
     if flat and len(idx) >= 3 and stage_overlap(ctrl.chain.joints_np(run.q[idx]), ctrl.chain.xi) > OVERLAP:
