@@ -1,7 +1,8 @@
 """Animation of a replayed run: the chain, the curve at that time and the obstacles, as a GIF.
 
-Each frame is labelled with the scenario, the time and the outcome; a progress bar on
-stderr follows the rendering.
+Each frame is labelled with the scenario, the time and the outcome, has its axes labelled in
+metres, and shows the rail and the moving base of a rail robot; a bar under the axes shows how far
+into the run the frame is, and a progress bar on stderr follows the rendering.
 """
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from PIL import Image
 
-from coordarm.simulation.figures import draw_obstacles
+from coordarm.simulation.figures import draw_obstacles, draw_rail
 from coordarm.simulation.obstacles import outline
 from coordarm.simulation.progress import Progress
 from coordarm.symbolic import CoordinatingController
@@ -107,9 +108,17 @@ def animate(replay: Replay, path: str | Path, fps: float = 15.0, max_frames: int
     pad = ctrl.chain.xi + 0.05 * float(np.ptp(pts, axis=0).max())
     lo, hi = pts.min(axis=0) - pad, pts.max(axis=0) + pad
     extent = float(np.linalg.norm(hi - lo))
-    fig, ax = plt.subplots(figsize=(5, 5))
+    rail = ctrl.chain.rail
+    bases = ctrl.chain.base_point(replay.q[idx]) if rail else np.zeros((len(idx), 2))
+    width, left, right, below, above = 5.5, 0.8, 0.2, 0.8, 0.4        # inches: the axes fit the scene's shape
+    height = float(np.clip((width - left - right) * (hi[1] - lo[1]) / (hi[0] - lo[0]), 1.6, 6.0)) + below + above
+    fig, ax = plt.subplots(figsize=(width, height))
+    fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=below / height, top=1 - above / height)
+    x0, x1, y_bar = left / width, 1 - right / width, 0.12 / height
     draw_obstacles(ax, obstacles)
-    ax.plot(0, 0, "ks", ms=5)
+    if rail:
+        draw_rail(ax, ctrl.chain, lo, hi)
+    (base,) = ax.plot([], [], "ks", ms=5, animated=True, zorder=5)
     (curve,) = ax.plot([], [], "--", color="tab:orange", lw=1, animated=True)
     (arm,) = ax.plot([], [], "-o", color="tab:blue", lw=1.5, ms=1.5, animated=True)
     label = ax.set_title("", fontsize=9)
@@ -117,22 +126,28 @@ def animate(replay: Replay, path: str | Path, fps: float = 15.0, max_frames: int
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
+    ax.set_xlabel("y$_1$ [m]")
+    ax.set_ylabel("y$_2$ [m]")
     ax.grid(alpha=0.3)
     name, outcome = replay.scenario.name, replay.outcome.get("status", "?")
     t_end = float(replay.t[-1])
-    ax.plot([0, 1], [0.008, 0.008], "-", color="0.85", lw=5, transform=ax.transAxes, solid_capstyle="butt")
-    (bar,) = ax.plot([], [], "-", color="tab:green", lw=5, transform=ax.transAxes, solid_capstyle="butt",
+    # how far into the run: a bar along the bottom edge of the figure, under the axes and their labels
+    fig.add_artist(plt.Line2D([x0, x1], [y_bar, y_bar], color="0.85", lw=4, transform=fig.transFigure,
+                              solid_capstyle="butt"))
+    bar = plt.Line2D([], [], color="tab:green", lw=4, transform=fig.transFigure, solid_capstyle="butt",
                      animated=True)
+    fig.add_artist(bar)
 
     def draw(i: int):
         k = idx[i]
         c = ctrl.curve.sample(float(replay.t[k]), n=200, extent=extent)
         curve.set_data(c[:, 0], c[:, 1])
         arm.set_data(joints[i, :, 0], joints[i, :, 1])
+        base.set_data(bases[i, :1], bases[i, 1:])
         label.set_text(f"{name}: t = {replay.t[k]:.2f} / {t_end:.2f} s ({outcome})")
         frac = (replay.t[k] - replay.t[0]) / max(t_end - replay.t[0], 1e-12)
-        bar.set_data([0, frac], [0.008, 0.008])
-        return curve, arm, label, bar
+        bar.set_data([x0, x0 + (x1 - x0) * frac], [y_bar, y_bar])
+        return curve, arm, base, label, bar
 
     # Blitting: the axes, grid and obstacles are rendered once; each frame redraws only the
     # moving artists on a copy of that background (the full redraw cost 0.2 s a frame).

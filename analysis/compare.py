@@ -230,7 +230,8 @@ def score(run: Run, scenario: Scenario) -> dict[str, Any]:
     return out
 
 
-def compare(scenario: Scenario, methods: list[str] | None = None, backend: str = "compiled") -> list[MethodRun]:
+def compare(scenario: Scenario, methods: list[str] | None = None, backend: str = "compiled",
+            progress: bool = False) -> list[MethodRun]:
     """Run and score ``scenario`` under each of ``methods`` (default: all that apply) on ``backend``.
 
     Parameters
@@ -241,16 +242,26 @@ def compare(scenario: Scenario, methods: list[str] | None = None, backend: str =
         Names from :data:`METHODS` (None or empty: :func:`available_methods`).
     backend : str
         ``"compiled"`` or ``"interpreted"`` (see :func:`run_method`).
+    progress : bool
+        A bar on stderr, a step per method done.
 
     Returns
     -------
     list of MethodRun
         One per method, in order.
     """
+    from coordarm.simulation.progress import Progress
+
     out = []
-    for method in methods or available_methods(scenario):
+    todo = methods or available_methods(scenario)
+    bar = Progress(len(todo), label="compare", unit="{done:.0f}/{total:.0f} methods") if progress else None
+    for i, method in enumerate(todo):
         run = run_method(method, scenario, backend)
         out.append(MethodRun(method, run, score(run, scenario)))
+        if bar:
+            bar.update(i + 1)
+    if bar:
+        bar.close()
     return out
 
 
@@ -450,7 +461,7 @@ def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, 
     Path
         The file written.
     """
-    from coordarm.simulation.figures import plt, save_figure
+    from coordarm.simulation.figures import draw_obstacles, plt, save_figure
 
     ctrl = scenario.controller()
     chain = ctrl.chain
@@ -465,29 +476,35 @@ def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, 
     shape, size = ((len(times), 1), (13.0, 0.6 + 13.0 * (hi - lo)[1] / (hi - lo)[0] * len(times))) if wide else \
         ((1, len(times)), (4.2 * len(times), 4.4))
     fig, axes = plt.subplots(*shape, figsize=size, squeeze=False, layout="constrained")
+    # each method its own colour, width and dash, widest first, so a body drawn on top of another shows both
+    widths = dict(zip(METHODS, (4.0, 2.8, 1.6, 1.0)))
+    dashes = dict(zip(METHODS, ("-", "-", (0, (4, 2)), (0, (1, 1.5)))))
     for ax, t in zip(axes.ravel(), times):
         cur = ctrl.curve.sample(float(t), extent=extent)
-        ax.plot(cur[:, 0], cur[:, 1], "k--", lw=0.8, alpha=0.6)
+        ax.plot(cur[:, 0], cur[:, 1], "k--", lw=0.8, alpha=0.6, label="curve")
         if chain.rail:
             rail = rail_segment(chain, lo, hi)
             ax.plot(rail[:, 0], rail[:, 1], "-", color="0.6", lw=5, alpha=0.5, solid_capstyle="butt",
                     label="rail", zorder=0)
-        for w in walls:
-            ax.plot(w[:, 0], w[:, 1], "k-", lw=3, solid_capstyle="butt")
+        draw_obstacles(ax, scenario.obstacles, labels=False)
         for r in results:
             k = int(np.argmin(np.abs(r.run.t - t)))
             late = r.run.t[-1] < t - 0.5 * scenario.step
             J = chain.joints_np(r.run.q[k])
-            ax.plot(J[:, 0], J[:, 1], "-", color=colours[r.method], lw=1.4, alpha=0.35 if late else 1.0,
+            ax.plot(J[:, 0], J[:, 1], linestyle=dashes[r.method], color=colours[r.method], lw=widths[r.method],
+                    alpha=0.35 if late else 0.9, zorder=3,
                     label=r.method + (f" (stopped at {r.run.t[-1]:.2f} s)" if late else ""))
             base = chain.base_point(r.run.q[k])
-            ax.plot(base[0], base[1], "s", color=colours[r.method] if chain.rail else "k", ms=5)
+            ax.plot(base[0], base[1], "s", color=colours[r.method] if chain.rail else "k", ms=5, zorder=4)
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
+        ax.set_xlabel("y$_1$ [m]")
+        ax.set_ylabel("y$_2$ [m]")
         ax.set_title(f"t = {t:.1f} s")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
+    handles, labels = axes.ravel()[-1].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=8, frameon=False)
     what = "the curve" + (", grey: the rail, squares: the bases" if chain.rail else "")
     fig.suptitle(f"{scenario.name}: {chain.m} links, the same task under each method (dashed: {what})")
     return save_figure(fig, path)

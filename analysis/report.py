@@ -29,7 +29,7 @@ NO_STOP = {"link": 0.0, "longitudinal": 0.0}
 
 
 def simulate_through(ctrl: CoordinatingController, q0, duration: float, step: float, t0: float = 0.0,
-                     backend: str = "auto") -> Any:
+                     backend: str = "auto", progress: bool = False) -> Any:
     """Simulate without singularity stops; a run that ends in non-finite margins is kept up to there.
 
     Parameters
@@ -47,6 +47,8 @@ def simulate_through(ctrl: CoordinatingController, q0, duration: float, step: fl
     backend : {"auto", "compiled", "interpreted"}
         :func:`~coordarm.simulation.run.simulate`'s backend (past a blow-up the trajectory
         depends on rounding, so the compiled and interpreted laws part there).
+    progress : bool
+        A progress bar on stderr (the simulation of a ``coordarm report SCENARIO``).
 
     Returns
     -------
@@ -56,7 +58,7 @@ def simulate_through(ctrl: CoordinatingController, q0, duration: float, step: fl
     from coordarm.simulation.run import simulate
 
     try:
-        return simulate(ctrl, q0, duration, step, t0, thresholds=NO_STOP, progress=False, backend=backend)
+        return simulate(ctrl, q0, duration, step, t0, thresholds=NO_STOP, progress=progress, backend=backend)
     except SingularityError as err:        # only non-finite margins stop it: keep what was computed
         return err.run
 

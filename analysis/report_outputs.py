@@ -101,7 +101,9 @@ def report_of(source: str | os.PathLike, out: str | os.PathLike | None = None, *
     if m > 128 and on_note is not None:  # about a second per 1000 samples at 64 links, a second per sample at 1024
         on_note(f"report: margins at {samples or default_samples(m)} samples of a {m}-link chain "
                 "(an SVD and a QR of the m x m decoupling matrix each) ...")
-    path = write_report(run, scenario, out, samples=samples)
+    from coordarm.simulation.progress import Phase
+    with Phase("report: margins along the run, stability, figures"):
+        path = write_report(run, scenario, out, samples=samples)
     return ReportOutputs(scenario, run, path, tuple(sorted(path.parent.glob("*.png"))))
 
 
@@ -167,4 +169,4 @@ def simulate_scenario(scenario: Scenario) -> Run:
     from coordarm.analysis.report import simulate_through
 
     ctrl = scenario.controller()
-    return simulate_through(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0)
+    return simulate_through(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0, progress=True)

@@ -18,6 +18,7 @@ COMMANDS = {
     "sweep": "coordarm.commands.sweep",
     "layout": "coordarm.commands.layout",
     "export": "coordarm.commands.export",
+    "init": "coordarm.commands.init",
 }
 
 

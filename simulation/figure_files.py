@@ -54,16 +54,20 @@ def write_figures(run: Run, scenario: Scenario, ctrl: CoordinatingController, st
         return spatial_figures(run, scenario, ctrl, stem, stages, outcome)
     from coordarm.simulation.figures import plot_panels, plot_stages, plot_tracking
 
-    title = f"{scenario.name}: {ctrl.chain.m} links" + (f" ({outcome})" if outcome else "")
+    contacts = len(run.info.get("contacts") or []) if getattr(run, "info", None) else 0
+    ended = ", ".join([outcome] * bool(outcome) + [f"{contacts} contact{'s' * (contacts != 1)}"] * bool(contacts))
+    title = f"{scenario.name}: {ctrl.chain.m} links" + (f" ({ended})" if ended else "")
+    stopped = outcome not in ("", "completed")
     stages_png = stem.with_name(stem.name + "_stages.png")
     panels = scenario.spec["figures"].get("panels")
     tracking_png = stem.with_name(stem.name + "_tracking.png")
     with writing(stages_png):
         if panels and stages is None:
-            first = plot_panels(run, ctrl, stages_png, panels, obstacles=scenario.obstacles, title=title)
+            first = plot_panels(run, ctrl, stages_png, panels, obstacles=scenario.obstacles, title=title,
+                                stopped=stopped)
         else:
             first = plot_stages(run, ctrl, stages_png, obstacles=scenario.obstacles, times=stages or scenario.stages,
-                                title=f"{title}, stages of the motion")
+                                title=f"{title}, stages of the motion", stopped=stopped)
     with writing(tracking_png):
         return [first, plot_tracking(run, ctrl.gain, tracking_png, thresholds=scenario.thresholds, title=title)]
 

@@ -72,6 +72,10 @@ def stage_indices(run: Run, stages: int = 5, times: Sequence[float] | None = Non
 def draw_obstacles(ax: plt.Axes, obstacles: Sequence[Obstacle], labels: bool = True) -> None:
     """Draw every obstacle from its :func:`~coordarm.simulation.obstacles.outline` (discs and polygons filled).
 
+    A wall (a segment, no thickness) is a thin line with a dot at each end, so that a narrow opening
+    between two walls stays visible at any scale; labels stand beside their obstacle (off a wall, across
+    from its middle) on a white box, never struck through.
+
     Parameters
     ----------
     ax : matplotlib.axes.Axes
@@ -79,18 +83,28 @@ def draw_obstacles(ax: plt.Axes, obstacles: Sequence[Obstacle], labels: bool = T
     obstacles : sequence of Obstacle
         The obstacles.
     labels : bool
-        Write each obstacle's name at its centre.
+        Write each obstacle's name beside it.
     """
     for ob in obstacles:
         pts = outline(ob)
+        c = pts.mean(axis=0)
+        offset = np.array([0.0, 10.0])
         if ob.kind == "segment":
-            ax.plot(pts[:, 0], pts[:, 1], "k-", lw=3, solid_capstyle="butt")
+            ax.plot(pts[:, 0], pts[:, 1], "-", color="k", lw=1.6, solid_capstyle="butt", zorder=2)
+            ax.plot(pts[:, 0], pts[:, 1], "o", color="k", ms=3, zorder=2)
+            d = pts[-1] - pts[0]
+            n = np.array([-d[1], d[0]]) / max(float(np.hypot(*d)), 1e-300)
+            offset = 12.0 * (n if n[1] >= 0 else -n)       # beside the wall, on its upper side
         else:
-            ax.fill(pts[:, 0], pts[:, 1], color="0.35", alpha=0.8, lw=1.5, edgecolor="k")
+            ax.fill(pts[:, 0], pts[:, 1], color="0.35", alpha=0.8, lw=1.5, edgecolor="k", zorder=2)
+            if len(obstacles) > 1 and c[1] < np.mean([outline(o).mean(axis=0)[1] for o in obstacles]):
+                c, offset = pts[np.argmin(pts[:, 1])], np.array([0.0, -9.0])   # a lower wall: label below it
+            else:
+                c, offset = pts[np.argmax(pts[:, 1])], np.array([0.0, 9.0])    # else above its top
         if labels:
-            c = pts.mean(axis=0)
-            ax.annotate(ob.name, c, fontsize=7, color="0.2", ha="center", va="center",
-                        xytext=(0, 8), textcoords="offset points")
+            ax.annotate(ob.name, c, fontsize=7, color="0.15", ha="center", va="center", xytext=tuple(offset),
+                        textcoords="offset points", zorder=6,
+                        bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))
 
 
 def target_points(run: Run, ctrl: CoordinatingController, idx: np.ndarray) -> np.ndarray | None:
@@ -138,14 +152,14 @@ def draw_rail(ax: plt.Axes, chain: PlanarChain, lo: np.ndarray, hi: np.ndarray) 
             label="rail", zorder=0)
 
 
-def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, obstacles: Sequence[Obstacle],
-                 frame: np.ndarray | None = None, legend_outside: bool = False) -> float:
-    """The chain at rows ``idx`` with the curve at those times, the obstacles and the base, on ``ax``.
+#: Colour of the stage at which a run stopped, and of contact marks.
+STOP_COLOR = "#d62728"
 
-    Returns the height-to-width ratio of the drawn extent (the axes' equal-aspect shape)."""
-    joints = ctrl.chain.joints_np(run.q[idx])
-    colors = plt.cm.viridis(np.linspace(0, 0.9, len(idx)))
-    pts = joints.reshape(-1, 2) if frame is None else frame
+
+def _view_box(run: Run, ctrl: CoordinatingController, idx: np.ndarray, obstacles: Sequence[Obstacle],
+              frame: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Corners ``lo, hi`` [m] of the view: the drawn poses (or ``frame``), the obstacles, a bounded path."""
+    pts = ctrl.chain.joints_np(run.q[idx]).reshape(-1, 2) if frame is None else frame
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     if obstacles and frame is None:
         w = np.concatenate([outline(ob) for ob in obstacles])
@@ -154,40 +168,84 @@ def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, ob
         w = ctrl.curve.sample(float(run.t[idx[0]]), extent=1.0)
         lo, hi = np.minimum(lo, w.min(axis=0)), np.maximum(hi, w.max(axis=0))
     pad = 0.1 * max(hi - lo) + ctrl.chain.xi
-    lo, hi = lo - pad, hi + pad
+    return lo - pad, hi + pad
+
+
+def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, obstacles: Sequence[Obstacle],
+                 frame: np.ndarray | None = None, legend: str = "right", stop: int | None = None,
+                 palette: np.ndarray | None = None) -> float:
+    """The chain at rows ``idx`` with the curve at those times, the obstacles, the rail and the base, on ``ax``.
+
+    Earlier stages fade (lighter, thinner) under later ones so that a body moving along itself does not
+    smear into one line; each stage's time is written at its end point. Row ``stop`` (in ``idx``) is
+    the configuration at which the run stopped, drawn red and marked; contacts recorded in
+    ``run.info["contacts"]`` are marked on their links. ``legend``: ``"right"`` (beside the axes) or
+    ``"none"``; ``palette``: the stages' colours (default viridis). Returns the height-to-width ratio of
+    the drawn extent (the axes' equal-aspect shape)."""
+    joints = ctrl.chain.joints_np(run.q[idx])
+    colors = plt.cm.viridis(np.linspace(0, 0.9, len(idx))) if palette is None else palette
+    lo, hi = _view_box(run, ctrl, idx, obstacles, frame)
     extent = float(np.linalg.norm(hi - lo))
     targets = target_points(run, ctrl, idx)
+    n = len(idx)
     for i, (k, c, J) in enumerate(zip(idx, colors, joints)):
+        last = k == stop
+        c = STOP_COLOR if last else c
+        alpha = 1.0 if last or n == 1 else 0.35 + 0.65 * i / (n - 1)
         cur = ctrl.curve.sample(float(run.t[k]), extent=extent)
-        ax.plot(cur[:, 0], cur[:, 1], "--", color=c, lw=0.8, alpha=0.7)
-        ax.plot(J[:, 0], J[:, 1], "-", color=c, lw=1.4, label=f"t = {run.t[k]:.1f} s")
-        ax.plot(J[-1, 0], J[-1, 1], "o", color=c, ms=4)
+        ax.plot(cur[:, 0], cur[:, 1], "--", color=c, lw=0.8, alpha=0.6 * alpha, zorder=1)
+        ax.plot(J[:, 0], J[:, 1], "-", color=c, lw=1.0 + 1.2 * alpha, alpha=alpha, zorder=3 + i,
+                label=f"stop at t = {run.t[k]:.2f} s" if last else None)
+        ax.plot(J[-1, 0], J[-1, 1], "o", color=c, ms=4, zorder=3 + i)
+        ax.annotate(f"{run.t[k]:.{2 if last else 1}f} s", J[-1], xytext=(4, -10 if i % 2 else 4),
+                    textcoords="offset points", fontsize=7, color=c, zorder=20)
         if targets is not None:
-            ax.plot(*targets[i], "x", color=c, ms=7, mew=1.5, label="target s*(t)" if i == len(idx) - 1 else None)
+            ax.plot(*targets[i], "x", color=c, ms=7, mew=1.5, zorder=3 + i)
+    if stop is not None:
+        ax.plot(*joints[list(idx).index(stop)][-1], "*", color=STOP_COLOR, ms=14, mec="k", mew=0.6, zorder=30)
+    _mark_contacts(ax, run, ctrl)
     draw_obstacles(ax, obstacles)
     if ctrl.chain.rail:
         draw_rail(ax, ctrl.chain, lo, hi)
         base = ctrl.chain.base_point(run.q[idx])
-        ax.plot(base[:, 0], base[:, 1], "ks", ms=5, label="base (on the rail)")
+        ax.plot(base[:, 0], base[:, 1], "ks", ms=5, zorder=25, label="base (on the rail)")
     else:
-        ax.plot(0, 0, "ks", ms=6, label="base")
+        ax.plot(0, 0, "ks", ms=6, zorder=25, label="base")
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
     ax.set_xlabel("y$_1$ [m]")
     ax.set_ylabel("y$_2$ [m]")
+    ax.plot([], [], "-", color=colors[-1], lw=2, label="body (earlier: lighter)" if n > 1 else "body")
     ax.plot([], [], "--", color="gray", lw=0.8, label="curve at that time")
-    if legend_outside:
+    if targets is not None:
+        ax.plot([], [], "x", color="gray", ms=7, mew=1.5, label="target s*(t)")
+    if legend == "right":
         ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0)
-    else:
-        ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
     return float((hi[1] - lo[1]) / (hi[0] - lo[0]))
 
 
+def _mark_contacts(ax, run: Run, ctrl: CoordinatingController) -> None:
+    """A red ring on each link of the first contacts in ``run.info["contacts"]`` (at most 10), at its time."""
+    contacts = list((getattr(run, "info", None) or {}).get("contacts") or [])[:10]
+    named: set[str] = set()
+    for i, c in enumerate(contacts):
+        k = int(np.argmin(np.abs(run.t - float(c["time"]))))
+        centres = ctrl.chain.centres_np(run.q[k])
+        pts = centres[[j - 1 for j in c["links"] if 1 <= j <= len(centres)]]
+        what = c.get("obstacle") or c["kind"].replace("_", " ")
+        ax.plot(pts[:, 0], pts[:, 1], "o", mfc="none", mec=STOP_COLOR, ms=11, mew=1.8, zorder=31,
+                label=f"contacts: {len(contacts)}, first {float(c['time']):.2f} s" if i == 0 else None)
+        if what not in named:      # each obstacle (or kind) named once, at its first contact
+            named.add(what)
+            ax.annotate(what, pts[0], xytext=(8, 6), textcoords="offset points", fontsize=7, color=STOP_COLOR,
+                        zorder=31)
+
+
 def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages: int = 5,
                 obstacles: Sequence[Obstacle] = (), title: str = "",
-                times: Sequence[float] | None = None) -> Path:
+                times: Sequence[float] | None = None, stopped: bool = False) -> Path:
     """Draw the chain at several times with the curve at those times; save a PNG.
 
     Parameters
@@ -206,18 +264,28 @@ def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages
         Figure title (default: the link count and "stages of the motion").
     times : sequence of float, optional
         Stage times [s] (the nearest samples are drawn; times outside the run are skipped).
+    stopped : bool
+        The run stopped before its end: its last sample is drawn too, red and marked as the stop.
 
     Returns
     -------
     Path
         The written file.
     """
+    idx, stop = _with_stop(run, stage_indices(run, stages, times), stopped)
+    contacts = (getattr(run, "info", None) or {}).get("contacts") or []
+    if contacts:                         # the body at its first contact, where the rings are
+        idx = np.union1d(idx, [int(np.argmin(np.abs(run.t - float(contacts[0]["time"]))))]).astype(int)
+    lo, hi = _view_box(run, ctrl, idx, list(obstacles), None)
+    flat = (hi[1] - lo[1]) < FLAT * (hi[0] - lo[0])
+    if flat and len(idx) >= 3 and stage_overlap(ctrl.chain.joints_np(run.q[idx]), ctrl.chain.xi) > OVERLAP:
+        return _plot_stage_rows(run, ctrl, path, idx, stop, list(obstacles), title)
     # Fixed margins, as in plot_tracking: tight_layout measured every text first (1.46x slower). The
     # figure's height follows the scene's aspect (a long, flat path gets a flat figure, not white bands).
     # The legend stands right of the scene, never over the chain.
-    width, left, right, below, above = 9.0, 0.75, 1.9, 0.6, 0.4       # inches
+    width, left, right, below, above = 9.0, 0.75, 2.3, 0.6, 0.4       # inches
     fig, ax = plt.subplots(figsize=(width, 6.5))
-    aspect = _draw_stages(ax, run, ctrl, stage_indices(run, stages, times), list(obstacles), legend_outside=True)
+    aspect = _draw_stages(ax, run, ctrl, idx, list(obstacles), stop=stop)
     height = float(np.clip((width - left - right) * aspect, 2.4, 8.0)) + below + above
     fig.set_size_inches(width, height)
     fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=below / height, top=1 - above / height)
@@ -225,8 +293,73 @@ def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages
     return save_figure(fig, path, tight=False)
 
 
+#: Stages that overlap more than this (:func:`stage_overlap`; a body moving along itself, fed by a rail
+#: or through a pipe) in a view less than :data:`FLAT` high per unit of width are drawn one per row on a
+#: shared view instead of on top of each other.
+OVERLAP, FLAT = 0.3, 0.6
+
+
+def stage_overlap(joints: np.ndarray, xi: float) -> float:
+    """How much consecutive stages lie on top of each other: the mean, over pairs of consecutive stages,
+    of the share of the later stage's joints within ``2 xi`` of a joint of the earlier one.
+
+    Parameters
+    ----------
+    joints : ndarray, shape (k, m+1, 2)
+        The joints of each stage [m].
+    xi : float
+        Link length [m].
+
+    Returns
+    -------
+    float
+        0 (apart) to 1 (on top of each other); 0 for fewer than two stages.
+    """
+    if len(joints) < 2:
+        return 0.0
+    shares = [np.mean(np.min(np.linalg.norm(b[:, None, :] - a[None, :, :], axis=-1), axis=1) <= 2 * xi)
+              for a, b in zip(joints[:-1], joints[1:])]
+    return float(np.mean(shares))
+
+
+def _plot_stage_rows(run: Run, ctrl: CoordinatingController, path: str | Path, idx: np.ndarray,
+                     stop: int | None, obstacles: list[Obstacle], title: str) -> Path:
+    """The stages of a flat scene one per row (same view, same colours as on one axes); save a PNG."""
+    frame = ctrl.chain.joints_np(run.q[idx]).reshape(-1, 2)
+    if obstacles:
+        frame = np.concatenate([frame] + [outline(ob) for ob in obstacles])
+    if isinstance(ctrl.curve, PathCurve):
+        frame = np.concatenate([frame, ctrl.curve.sample(float(run.t[idx[0]]), extent=1.0)])
+    colors = plt.cm.viridis(np.linspace(0, 0.9, len(idx)))
+    width, left, right = 9.0, 0.75, 2.3
+    lo, hi = _view_box(run, ctrl, idx, obstacles, frame)
+    row = float(np.clip((width - left - right) * (hi[1] - lo[1]) / (hi[0] - lo[0]), 0.9, 3.0))
+    gap, below, above = 0.4, 0.55, 0.75                                  # inches
+    height = row * len(idx) + gap * (len(idx) - 1) + below + above
+    fig, axes = plt.subplots(len(idx), 1, figsize=(width, height), sharex=True, sharey=True)
+    for i, (ax, k) in enumerate(zip(axes, idx)):
+        _draw_stages(ax, run, ctrl, np.array([k]), obstacles, frame=frame, legend="right" if i == 0 else "none",
+                     stop=stop if k == stop else None, palette=colors[i:i + 1])
+        ax.set_title(f"t = {run.t[k]:.{2 if k == stop else 1}f} s" + (" (stop)" if k == stop else ""),
+                     fontsize=9, loc="left")
+        if i < len(idx) - 1:
+            ax.set_xlabel("")
+    fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=below / height, top=1 - above / height,
+                        hspace=gap / row)
+    fig.suptitle(title or f"{ctrl.chain.m}-link robot: stages of the motion", fontsize=11)
+    return save_figure(fig, path, tight=False)
+
+
+def _with_stop(run: Run, idx: np.ndarray, stopped: bool) -> tuple[np.ndarray, int | None]:
+    """``idx`` with the last row (the stop) added if ``stopped``, and that row (None if not stopped)."""
+    if not stopped or not len(run.t):
+        return idx, None
+    stop = len(run.t) - 1
+    return np.union1d(idx, [stop]).astype(int), stop
+
+
 def plot_panels(run: Run, ctrl: CoordinatingController, path: str | Path, panels: Sequence[dict],
-                obstacles: Sequence[Obstacle] = (), title: str = "") -> Path:
+                obstacles: Sequence[Obstacle] = (), title: str = "", stopped: bool = False) -> Path:
     """One labelled panel per phase (paper Fig. 4): ``panels`` = ``[{"title": "(a) ...", "stages": [t, ...]}]``.
 
     All panels share the view of the whole run so that the phases line up.
@@ -245,6 +378,9 @@ def plot_panels(run: Run, ctrl: CoordinatingController, path: str | Path, panels
         Obstacles to draw.
     title : str
         Figure title (empty: a default naming the link count).
+    stopped : bool
+        The run stopped before its end: every panel asking for a later time also draws the stop (red,
+        marked); a panel whose times all come after it draws only the stop.
 
     Returns
     -------
@@ -256,8 +392,16 @@ def plot_panels(run: Run, ctrl: CoordinatingController, path: str | Path, panels
         frame = np.concatenate([frame] + [outline(ob) for ob in obstacles])
     fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 5.4), squeeze=False)
     for ax, panel in zip(axes[0], panels):
-        _draw_stages(ax, run, ctrl, stage_indices(run, times=panel["stages"]), list(obstacles), frame=frame)
+        inside = [t for t in panel["stages"] if t <= run.t[-1] + 1e-9]
+        idx = stage_indices(run, times=inside) if inside else np.zeros(0, int)
+        later = stopped and len(inside) < len(panel["stages"])
+        idx, stop = _with_stop(run, idx, later)
+        _draw_stages(ax, run, ctrl, idx if len(idx) else np.array([len(run.t) - 1]), list(obstacles), frame=frame,
+                     legend="none", stop=stop)
         ax.set_title(panel["title"], fontsize=10)
+    handles, labels = axes[0][-1].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=8, frameon=False,
+               bbox_to_anchor=(0.5, -0.06))
     fig.suptitle(title or f"{ctrl.chain.m}-link robot: phases of the motion")
     # tight_layout leaves equal-aspect panels' x labels outside the canvas: the saved box is fitted instead
     return save_figure(fig, path, tight=False, bbox_inches="tight")
@@ -328,10 +472,12 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     t = run.t[keep]
     # Fixed margins (room for the tick labels, axis labels and title of these three panels): tight_layout
     # would measure every text first, which took longer than drawing the figure.
-    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True,
-                             gridspec_kw=dict(left=0.13, right=0.97, bottom=0.06, top=0.95, hspace=0.08))
+    # the legends stand right of the panels, off the data
+    fig, axes = plt.subplots(3, 1, figsize=(9.2, 8), sharex=True,
+                             gridspec_kw=dict(left=0.1, right=0.74, bottom=0.06, top=0.95, hspace=0.16))
     axes[0].semilogy(t, np.maximum(emax[keep], 1e-17), label="max$_j$ |e$^j$|")
-    if emax[0] > 0:
+    if emax[0] > 1e-14:
+        # only when there is a decay to see (a start on the curve, e(0) at the rounding floor, has none);
         # held at the same 1e-17 m floor as the data: below it lie only rounding errors, not a decay to compare
         axes[0].semilogy(t, np.maximum(emax[0] * np.exp(-gain * (t - t[0])), 1e-17), "--",
                          label=f"e(0) exp(-{gain:g} t)")
@@ -339,10 +485,10 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     axes[0].yaxis.set_major_formatter(LogFormatter())
     axes[0].yaxis.set_minor_formatter(NullFormatter())
     axes[0].set_ylabel("deviation [m]")
-    axes[0].legend(fontsize=8)
+    axes[0].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     axes[1].plot(t, s_err[keep], label="s - (s(0) + ∫v*)")
     axes[1].set_ylabel("s tracking error [m]")
-    axes[1].legend(fontsize=8)
+    axes[1].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     axes[2].plot(t, link[keep], label="smallest link margin")
     axes[2].plot(t, longitudinal[keep], label="longitudinal margin")
     for name, thr in (thresholds or {}).items():
@@ -351,7 +497,7 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     axes[2].set_ylabel("margin [-]")
     axes[2].set_xlabel("t [s]")
     axes[2].set_ylim(bottom=0)
-    axes[2].legend(fontsize=8)
+    axes[2].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
     for ax in axes:
         ax.grid(alpha=0.3)
     axes[0].set_title(title or "tracking and singularity margins")

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import matplotlib
+import matplotlib.colors
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import LogFormatter, MaxNLocator, NullFormatter
@@ -280,7 +281,7 @@ def draw_projection(ax: Any, scene: dict[str, Any], colours: np.ndarray, title: 
 
 
 def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[float] | None = None,
-                        stages: int = 4, title: str = "", obstacles: Sequence[Any] = ()) -> Path:
+                        stages: int = 4, title: str = "", obstacles: Sequence[Any] = (), stopped: bool = False) -> Path:
     """The chain at several times with the curve at those times: a perspective view and two projections; a PNG.
 
     Parameters
@@ -299,6 +300,8 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
         Figure title (empty: a default naming the link count).
     obstacles : sequence of Obstacle3D
         Drawn as wireframes, clipped to the view box.
+    stopped : bool
+        The run stopped before its end: its last sample is drawn too, red, labelled as the stop.
 
     Returns
     -------
@@ -306,9 +309,14 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
         The file written.
     """
     idx = stage_indices(run, stages, times)
+    if stopped and len(run.t):                   # the configuration at the stop, drawn red
+        idx = np.union1d(idx, [len(run.t) - 1]).astype(int)
     scene = stage_scene(run, ctrl, idx, obstacles)
     colours = matplotlib.colormaps["viridis"](np.linspace(0, 0.9, len(idx)))
     labels = [f"t = {run.t[k]:.2f} s" for k in idx]
+    if stopped and len(run.t):
+        colours[-1] = matplotlib.colors.to_rgba("#d62728")
+        labels[-1] = f"stop at t = {run.t[-1]:.2f} s"
     fig = Figure(figsize=(13.0, 7.0))
     grid = fig.add_gridspec(2, 2, width_ratios=(1.5, 1.0), left=0.0, right=0.84, bottom=0.07, top=0.92,
                             wspace=0.22, hspace=0.28)
@@ -485,6 +493,7 @@ def spatial_figures(run: Any, scenario: Any, ctrl: Any, stem: str | Path, stages
     times = stages if stages is not None else getattr(scenario, "stages", None)
     thresholds = getattr(scenario, "thresholds", None)
     return [plot_spatial_stages(run, ctrl, stem.with_name(stem.name + "_stages.png"), times=times,
-                                title=f"{title}: stages of the motion", obstacles=getattr(scenario, "obstacles", ())),
+                                title=f"{title}: stages of the motion", obstacles=getattr(scenario, "obstacles", ()),
+                                stopped=outcome not in (None, "", "completed")),
             plot_spatial_tracking(run, ctrl, stem.with_name(stem.name + "_tracking.png"), thresholds=thresholds,
                                   title=f"{title}: tracking and margins")]

@@ -1,11 +1,16 @@
 """Live view: serve a run over the Foxglove WebSocket protocol while it is simulated.
 
 The server is foxglove-sdk's (``foxglove.start_server``), on a context of its own, so it sees
-only these channels. It carries the same topics, schemas and message bytes as the log
-(:mod:`.mcap_writer`): the per-step channels at a reduced rate (default 50 Hz, plenty for a
-plot), ``/scene``, ``/tf`` and ``/tracking`` at the scene rate. Messages go out paced to the
-simulated time (``speed`` simulated seconds per wall second) from a thread of their own; its
-queue is short, so a simulation that runs faster than that waits for the view.
+only these channels, on a loopback port of its own behind a :class:`~.ws_bridge.SubprotocolBridge`
+on the public port, which also lets in the viewers that offer the protocol's former name
+``foxglove.websocket.v1`` (Foxglove Studio 1.48, Lichtblick). It carries the same topics, schemas
+and message bytes as the log (:mod:`.mcap_writer`): the per-step channels at a reduced rate
+(default 50 Hz, plenty for a plot), ``/scene``, ``/tf`` and ``/tracking`` at the scene rate,
+``/margins/cond`` at the log's cond rate. Messages go out paced to the simulated time (``speed``
+simulated seconds per wall second) from a thread of their own; its queue is short, so a
+simulation that runs faster than that waits for the view. A client that stops reading never
+slows the run: the SDK drops its oldest messages (and disconnects it when even its control queue
+is full), the bridge drops it after :data:`~.ws_bridge.STALL_TIMEOUT` seconds without progress.
 """
 from __future__ import annotations
 
@@ -21,18 +26,24 @@ from coordarm.symbolic.checks import is_real
 from .log_schemas import CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, foxglove_schema_bytes, numeric_channels
 from .log_layout import PLANAR, ChainLayout, layout_of_chain
 from .mcap_file import Worker
-from .mcap_writer import SCENE_RATE, log_time_ns, steps_between
+from .mcap_writer import SCENE_RATE, default_cond_rate, log_time_ns, steps_between
 from .run import Run
 from .scenario import Scenario
 from .scene3d import scene_builder
+from .ws_bridge import SubprotocolBridge
 
 #: Default rate of the per-step channels on the live view [Hz].
 LIVE_RATE = 50.0
 
+#: :meth:`LiveView.wait_for_client` returns once no new subscription came for this long [s] (a viewer
+#: subscribes panel by panel within a few hundred milliseconds of connecting).
+SUBSCRIPTIONS_SETTLE = 1.0
+
 
 def sdk_channels(context: Any, links: int, scenes: bool = True, layout: ChainLayout = PLANAR) -> dict[str, Any]:
     """foxglove-sdk channels on ``context`` for the log's topics: the per-step ones and, if ``scenes``,
-    ``/tracking``, ``/scene`` and ``/tf`` (same schemas and encodings as the log; keys as in the log).
+    ``/margins/cond``, ``/tracking``, ``/scene`` and ``/tf`` (same schemas and encodings as the log; keys as
+    in the log).
 
     Parameters
     ----------
@@ -54,7 +65,7 @@ def sdk_channels(context: Any, links: int, scenes: bool = True, layout: ChainLay
 
     numeric = numeric_channels(links, layout=layout)
     out = {}
-    for key in (*PER_STEP, "tracking") if scenes else PER_STEP:
+    for key in (*PER_STEP, "cond", "tracking") if scenes else PER_STEP:
         ch = numeric[key]
         schema = foxglove.Schema(name=ch.schema_name, encoding="ros2msg", data=ch.schema_text().encode())
         out[key] = foxglove.Channel(ch.topic, schema=schema, message_encoding="cdr", context=context)
@@ -64,14 +75,30 @@ def sdk_channels(context: Any, links: int, scenes: bool = True, layout: ChainLay
     return out
 
 
-class _Subscribed:
-    """A ``foxglove.websocket.ServerListener`` that sets an event at the first subscription."""
+def subscription_listener() -> Any:
+    """A ``foxglove.websocket.ServerListener`` that records the time of the latest subscription.
 
-    def __init__(self) -> None:
-        self.event = threading.Event()
+    It subclasses the SDK's listener, so every callback the server makes (``on_unsubscribe`` at each
+    disconnect, ...) exists; ``event`` is set at the first subscription, ``last`` holds the
+    ``time.monotonic()`` of the latest one.
 
-    def on_subscribe(self, client: Any, channel: Any) -> None:
-        self.event.set()
+    Returns
+    -------
+    foxglove.websocket.ServerListener
+        The listener.
+    """
+    from foxglove.websocket import ServerListener
+
+    class Subscriptions(ServerListener):
+        def __init__(self) -> None:
+            self.event = threading.Event()
+            self.last = 0.0
+
+        def on_subscribe(self, client: Any, channel: Any) -> None:
+            self.last = time.monotonic()
+            self.event.set()
+
+    return Subscriptions()
 
 
 class LiveView:
@@ -96,6 +123,11 @@ class LiveView:
         Samples per simulated second on the per-step channels [Hz].
     scene_rate : float
         Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz].
+    cond_rate : float, optional
+        Rate of ``/margins/cond`` [Hz], 0 = off (default: the log's default,
+        :func:`~.mcap_writer.default_cond_rate` on a planar chain, off on a spatial one).
+    frames : {"ends", "all"}
+        The frames of ``/tf``: ``base`` and ``tip``, or one per link (as the log's).
 
     Raises
     ------
@@ -105,7 +137,7 @@ class LiveView:
 
     def __init__(self, scenario: Scenario, ctrl: CoordinatingController | None = None, *, port: int = 8765,
                  host: str = "127.0.0.1", speed: float = 1.0, rate: float = LIVE_RATE,
-                 scene_rate: float = SCENE_RATE) -> None:
+                 scene_rate: float = SCENE_RATE, cond_rate: float | None = None, frames: str = "ends") -> None:
         import foxglove
         from foxglove.websocket import Capability
 
@@ -116,16 +148,26 @@ class LiveView:
         self.every = steps_between(rate, scenario.step, "live rate")
         self.scene_every = steps_between(scene_rate, scenario.step, "scene_rate")
         self.origin = min(0.0, scenario.t0)
-        self.scene = scene_builder(ctrl, scenario.obstacles, getattr(scenario.physical(ctrl.chain), "radius", None))
+        self.scene = scene_builder(ctrl, scenario.obstacles, getattr(scenario.physical(ctrl.chain), "radius", None),
+                                   frames)
         layout = layout_of_chain(ctrl.chain)
         self.numeric = numeric_channels(ctrl.chain.m, layout=layout)
+        if cond_rate is None:
+            cond_rate = default_cond_rate(ctrl.chain.m) if layout is PLANAR else 0.0
+        self.cond_every = steps_between(cond_rate, scenario.step, "cond_rate") if cond_rate else 0
+        self.ctrl = ctrl
         self.context = foxglove.Context()
-        self._listener = _Subscribed()
+        self._listener = subscription_listener()
         try:
-            self.server = foxglove.start_server(name=f"coordarm {scenario.name}", host=host, port=port,
+            self.server = foxglove.start_server(name=f"coordarm {scenario.name}", host="127.0.0.1", port=0,
                                                 context=self.context, server_listener=self._listener,
                                                 capabilities=[Capability.Time])
-        except Exception as exc:  # foxglove raises its own error types for a port in use, a bad host, ...
+        except Exception as exc:  # foxglove raises its own error types
+            raise ConfigError(f"--live: cannot start the live server: {exc}") from None
+        try:
+            self.bridge = SubprotocolBridge(("127.0.0.1", self.server.port), host=host, port=port)
+        except (OSError, OverflowError) as exc:
+            self.server.stop()
             raise ConfigError(f"--port {port}: cannot start the live server on {host}: {exc}") from None
         self.channels = sdk_channels(self.context, ctrl.chain.m, layout=layout)
         self.host = host
@@ -136,28 +178,37 @@ class LiveView:
 
     @property
     def port(self) -> int:
-        """The port the server listens on."""
-        return self.server.port
+        """The port the server listens on (the bridge's)."""
+        return self.bridge.port
 
     @property
     def url(self) -> str:
         """The server's address, e.g. ``ws://127.0.0.1:8765``."""
         return f"ws://{self.host}:{self.port}"
 
-    def wait_for_client(self, timeout: float | None = None) -> bool:
-        """Block until a client subscribes to a channel (or ``timeout`` [s] passes); True if one did.
+    def wait_for_client(self, timeout: float | None = None, settle: float = SUBSCRIPTIONS_SETTLE) -> bool:
+        """Block until a client subscribed and then ``settle`` seconds passed without a new subscription.
+
+        A viewer subscribes to the topics of its open panels one after another as it connects; waiting
+        for them to settle lets every panel of an already loaded layout see the run from its start.
 
         Parameters
         ----------
         timeout : float or None
-            Longest wait [s] (None: no limit).
+            Longest wait for the first subscription [s] (None: no limit).
+        settle : float
+            Quiet time after the latest subscription [s].
 
         Returns
         -------
         bool
             A client subscribed.
         """
-        return self._listener.event.wait(timeout)
+        if not self._listener.event.wait(timeout):
+            return False
+        while (quiet := time.monotonic() - self._listener.last) < settle:
+            time.sleep(settle - quiet)
+        return True
 
     def on_chunk(self, part: Run) -> None:
         """Queue a block of consecutive steps (blocks while the view is more than a few blocks behind).
@@ -192,6 +243,12 @@ class LiveView:
             out += [(n, key, CDR_HEADER + row.tobytes()) for n, row in zip(ns, data)]
         ks = np.flatnonzero(g % self.scene_every == 0)
         out += [(n, key, data) for key, n, data in self.scene.messages(part, ks, log_time_ns(part.t[ks], self.origin))]
+        if self.cond_every:   # as the log computes it (mcap_writer.RunLogger)
+            ks = np.flatnonzero(g % self.cond_every == 0)
+            if len(ks):
+                for k, value in zip(ks, self.ctrl.conds(part.q[ks], part.t[ks])):
+                    out.append((int(log_time_ns(part.t[k], self.origin)), "cond",
+                                CDR_HEADER + np.array([part.t[k], value], "<f8").tobytes()))
         out.sort(key=lambda item: item[0])
         last = None
         for n, key, data in out:
@@ -222,7 +279,8 @@ class LiveView:
         """
         self._drop = self._drop or drop
         self._worker.stop()
-        self.server.stop()
+        self.server.stop()    # closes its connections (the bridge passes the closing handshake on)
+        self.bridge.close()
 
     def __enter__(self) -> "LiveView":
         return self

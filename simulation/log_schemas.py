@@ -153,11 +153,63 @@ def _field(name: str, m: int, rail: bool = False, layout: ChainLayout = PLANAR) 
 
 #: The fields of a planar run's ``/tracking`` record (all float64 scalars, in order).
 TRACKING_FIELDS = (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0),
-                   ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0))
+                   ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0),
+                   ("log10_max_abs_e", 0), ("s_error", 0), ("log10_abs_s_error", 0))
 #: The fields of a spatial run's ``/tracking`` record: the planar ones with the target's ``z`` after its
 #: ``y``, then the roll and its command [rad].
 SPATIAL_TRACKING_FIELDS = (("t", 0), ("s", 0), ("s_target", 0), ("target_x", 0), ("target_y", 0), ("target_z", 0),
-                           ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0), ("roll", 0), ("roll_target", 0))
+                           ("max_abs_e", 0), ("min_link_margin", 0), ("norm_u", 0), ("roll", 0), ("roll_target", 0),
+                           ("log10_max_abs_e", 0), ("s_error", 0), ("log10_abs_s_error", 0))
+
+
+#: Unit and meaning of the fields that are not law outputs (those carry their own, in
+#: :data:`coordarm.symbolic.outputs.LAW_OUTPUTS` and the spatial layout's outputs).
+FIELD_NOTES = {
+    "t": ("s", "simulated time"),
+    "q": ("rad", "joint angles (d [m] first on a rail)"),
+    "v_star": ("m/s", "commanded speed v* of the end point along the curve"),
+    "roll_star": ("rad", "commanded roll"),
+    "cond": ("-", "2-norm condition number of the decoupling matrix (or the log's estimate of it)"),
+    "s_target": ("m", "target arc length s(0) + integral of v*"),
+    "target_x": ("m", "target point on the curve, x"),
+    "target_y": ("m", "target point on the curve, y"),
+    "target_z": ("m", "target point on the curve, z"),
+    "max_abs_e": ("m", "largest deviation max_j |e_j|"),
+    "min_link_margin": ("-", "smallest link margin (0: singular)"),
+    "norm_u": ("rad/s", "Euclidean norm of u"),
+    "roll": ("rad", "roll of the first link about the curve"),
+    "roll_target": ("rad", "commanded roll"),
+    "log10_max_abs_e": ("log10 m", "log10 of max|e| (floored at 1e-18 m): plots read at every scale"),
+    "s_error": ("m", "s - s_target"),
+    "log10_abs_s_error": ("log10 m", "log10 of |s - s_target| (floored at 1e-18 m)"),
+}
+
+
+def field_notes(fields: tuple[tuple[str, int], ...], rail: bool = False, layout: ChainLayout = PLANAR) -> str:
+    """One comment line per field, ``name [unit]: meaning``, for the head of a ``ros2msg`` definition.
+
+    Parameters
+    ----------
+    fields : tuple of (str, int)
+        The channel's fields.
+    rail, layout : optional
+        The chain's kind (which outputs table describes the law's fields).
+
+    Returns
+    -------
+    str
+        The lines, joined by newlines (fields with no note are left out).
+    """
+    rows = outputs_of(True) if rail else layout.outputs if layout is SPATIAL else LAW_OUTPUTS
+    outputs = {o.name: (o.unit, o.description) for o in rows}
+    if "s_target" in dict(fields):   # /tracking: its s is the channels' s
+        outputs.setdefault("s", ("m", "arc length of the end point along the curve"))
+    lines = []
+    for name, _ in fields:
+        unit, meaning = FIELD_NOTES.get(name) or outputs.get(name) or (None, None)
+        if unit is not None:
+            lines.append(f"{name} [{unit}]: {meaning}")
+    return "\n".join(lines)
 
 
 def numeric_channels(links: int, rail: bool = False, layout: ChainLayout = PLANAR) -> dict[str, NumericChannel]:
@@ -196,11 +248,19 @@ def numeric_channels(links: int, rail: bool = False, layout: ChainLayout = PLANA
         names = list(lead) + [o.name for o in rows if o.channel == key and o.name not in lead]
         comment = (SPATIAL_RAIL_COMMENT if spatial and rail and key == "joint_state" else SPATIAL_COMMENTS[key]
                    if spatial else RAIL_COMMENT if rail and key == "joint_state" else "")
-        out[key] = NumericChannel(topic, schema, tuple(_field(n, m, rail, layout) for n in names), comment)
-    out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", (("t", 0), ("cond", 0)))
-    out["tracking"] = NumericChannel("/tracking", "coordarm_msgs/msg/Tracking",
-                                     SPATIAL_TRACKING_FIELDS if spatial else TRACKING_FIELDS)
+        fields = tuple(_field(n, m, rail, layout) for n in names)
+        out[key] = NumericChannel(topic, schema, fields, _joined(comment, field_notes(fields, rail, layout)))
+    cond = (("t", 0), ("cond", 0))
+    out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", cond, field_notes(cond))
+    tracking = SPATIAL_TRACKING_FIELDS if spatial else TRACKING_FIELDS
+    out["tracking"] = NumericChannel("/tracking", "coordarm_msgs/msg/Tracking", tracking,
+                                     field_notes(tracking, rail, layout))
     return out
+
+
+def _joined(*parts: str) -> str:
+    """The non-empty ``parts`` joined by newlines."""
+    return "\n".join(p for p in parts if p)
 
 
 #: Former field names, as found in older logs (old name -> name).

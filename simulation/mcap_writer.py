@@ -6,7 +6,7 @@ Channels (timestamps: ns of simulated time)
   ``/margins`` (``t``, ``link_margins`` of links 2..m, ``longitudinal``): every logged step;
 * ``/margins/cond``: condition number of the decoupling matrix, ~5 Hz (one SVD each);
 * ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, the end point's target, obstacles),
-  ``/tf``: ``foxglove.FrameTransforms`` JSON (a frame per link, chained from ``world``) and
+  ``/tf``: ``foxglove.FrameTransforms`` JSON (``base`` and ``tip``, or a frame per link) and
   ``/tracking`` (``s`` and its target, ``max|e|``, the smallest link margin, ``|u|``), ~20 Hz
   (:mod:`.scene`).
 
@@ -231,6 +231,8 @@ class RunLogger:
         overlapping the log with a compiled simulation when a second core is free: on 2 cores
         full-rate logging then costs 1.7x the unlogged run instead of 2.5x
         (benchmarks/RESULTS_logging.md). ``coordarm run`` uses it on machines with 2+ cores.
+    frames : {"ends", "all"}
+        The frames of ``/tf``: ``base`` and ``tip`` (default), or one per link (:mod:`.scene`).
 
     Raises
     ------
@@ -244,7 +246,8 @@ class RunLogger:
                  log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float | None = None,
                  compression: str = Compression.ZSTD.value, chunk_size: int | None = None, flush_interval: float = FLUSH_INTERVAL,
                  command: list[str] | None = None, backend: str = Backend.INTERPRETED.value, library_key: str | None = None,
-                 threaded: bool = False, overwrite: bool = True) -> None:
+                 threaded: bool = False, overwrite: bool = True, frames: str = "ends") -> None:
+        self.frames = frames
         with self._removed_on_failure():
             self._open(path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,
                        overwrite, threaded)
@@ -337,7 +340,7 @@ class RunLogger:
         self._flushed = self._received = time.monotonic()
         self._gap = 0.0  # wall time between the last two blocks
         self.scene = scene_builder(self.ctrl, self.scenario.obstacles,
-                                   getattr(self.scenario.physical(self.ctrl.chain), "radius", None))
+                                   getattr(self.scenario.physical(self.ctrl.chain), "radius", None), self.frames)
         self.outcome: dict[str, Any] | None = None
         #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
         self.contacts: list[dict] = []

@@ -82,3 +82,66 @@ class Progress:
         if self.tty:
             self.stream.write("\n")
             self.stream.flush()
+
+
+class Phase:
+    """A line on stderr for a step that may take a while without a bar of its own (a build, a start-up).
+
+    Used as a context manager: nothing is written if the step ends within ``delay`` seconds;
+    after that, ``"<label> ..."`` appears (on a terminal followed by the seconds spent, updated
+    every second), and at the end ``"<label>: done in X s"`` (or ``"<label>: failed after X s"``).
+
+    Parameters
+    ----------
+    label : str
+        What is being done, e.g. ``"law: building the compiled library"``.
+    enabled : bool
+        Write anything at all (False: a quiet run).
+    stream : text file, optional
+        Where to write (default: ``sys.stderr``).
+    delay : float
+        Seconds before the line appears [s].
+    """
+
+    def __init__(self, label: str, enabled: bool = True, stream: TextIO | None = None, delay: float = 1.0) -> None:
+        import threading
+
+        self.label, self.enabled, self.stream, self.delay = label, enabled, stream or sys.stderr, delay
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.shown = False
+        self._done = threading.Event()
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._watch, name="coordarm-phase", daemon=True)
+
+    def _watch(self) -> None:
+        if self._done.wait(self.delay):
+            return
+        while True:
+            with self._lock:
+                if self._done.is_set():
+                    return
+                elapsed = time.perf_counter() - self.start
+                if self.tty:
+                    self.stream.write(f"\r{self.label} ... {elapsed:.0f} s")
+                elif not self.shown:
+                    self.stream.write(f"{self.label} ...\n")
+                self.stream.flush()
+                self.shown = True
+            if self._done.wait(1.0):
+                return
+
+    def __enter__(self) -> "Phase":
+        self.start = time.perf_counter()
+        if self.enabled:
+            self._thread.start()
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        with self._lock:
+            self._done.set()
+            if self.shown:
+                how = "done in" if exc_type is None else "failed after"
+                self.stream.write(f"{chr(13) if self.tty else ''}{self.label}: {how} "
+                                  f"{time.perf_counter() - self.start:.1f} s\n")
+                self.stream.flush()
+        return False

@@ -117,7 +117,8 @@ def even_indices(n: int, k: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, k).round().astype(int))
 
 
-def select_backend(ctrl: CoordinatingController, backend: str = "auto") -> tuple[str, Any, dict[str, Any]]:
+def select_backend(ctrl: CoordinatingController, backend: str = "auto",
+                   progress: bool = False) -> tuple[str, Any, dict[str, Any]]:
     """Resolve ``backend`` to ``(name, compiled controller or None, info)``.
 
     ``"auto"`` compiles (or takes from the cache) the generated library and falls back to
@@ -131,6 +132,10 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto") -> tuple
         The closed loop to run.
     backend : {"auto", "compiled", "interpreted"}, optional
         The backend asked for.
+
+    progress : bool
+        Say on stderr what is happening when building the library takes more than a second
+        (:class:`~.progress.Phase`).
 
     Returns
     -------
@@ -154,7 +159,10 @@ def select_backend(ctrl: CoordinatingController, backend: str = "auto") -> tuple
     if backend == Backend.INTERPRETED:
         return "interpreted", None, {"backend": "interpreted"}
     try:
-        compiled = compile_controller(ctrl)
+        from .progress import Phase
+        with Phase(f"law: building the compiled library of the {ctrl.chain.m}-link law (cached for later runs)",
+                   enabled=progress):
+            compiled = compile_controller(ctrl)
     except BuildError as exc:
         if backend == Backend.COMPILED:
             raise
@@ -234,7 +242,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     """
     duration, step, t0, thr = check_settings(ctrl, duration, step, t0, chunk, backend, thresholds)
     q0, tube = check_start(ctrl, q0, t0, duration, thr, check_every, physical)
-    backend, compiled, info = select_backend(ctrl, backend)
+    backend, compiled, info = select_backend(ctrl, backend, progress=bool(progress))
     check_interrupt()
     n_steps = int(round(duration / step))
     every = kept_every(keep, on_chunk is not None, n_steps)

@@ -1,16 +1,23 @@
 """What Foxglove draws: the ``/scene`` (``foxglove.SceneUpdate``), ``/tf`` (``foxglove.FrameTransforms``)
 and ``/tracking`` messages of a run, built from blocks of its steps.
 
-The scene, in frame ``world``: the chain (its joints as a line strip), the whole curve at its
-current pose, the end point's target (a sphere at the point of the curve whose arc length is
-``s(0) + integral of v*``) and the obstacles, each drawn from :func:`obstacle_outlines`. The
-frame transforms give a frame ``link1`` .. ``linkm`` per link (origin at the link's central
-point, x along the link), each parented to the previous one and ``link1`` to ``world``, so
-that users can attach their own models to the links. The messages follow the official
-Foxglove JSON Schemas shipped in ``foxglove_schemas/`` (see :mod:`.log_schemas`).
+The scene, in frame ``world``: the chain as solid segments (a line list, 6 px wide at any zoom)
+coloured by each link's margin (:func:`margin_colours`: blue at 0.5 or more, orange at 0.25, red at
+0; the first link, which has no margin, blue) with a dark sphere at every joint, the whole curve at
+its current pose (a solid line, 3 px), the end point's target (a red sphere at the point of the
+curve whose arc length is ``s(0) + integral of v*``), the rail with its end stops and the carriage
+(a cube at ``y^1``) on a rail robot, and the obstacles, each drawn from :func:`obstacle_outlines`
+(4 px). The frame transforms give, by default (``frames="ends"``), the frames ``base`` (at the
+pinned first central point ``y^1``, x along the rail on a rail robot) and ``tip`` (at the free end
+of the last link, x along it), both parented to ``world``; with ``frames="all"`` a frame ``link1`` ..
+``linkm`` per link (origin at the link's central point, x along the link), each parented to the
+previous one and ``link1`` to ``world``, so that users can attach their own models to the links.
+The messages follow the official Foxglove JSON Schemas shipped in ``foxglove_schemas/`` (see
+:mod:`.log_schemas`).
 """
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import casadi as ca
@@ -23,13 +30,43 @@ from .json_fill import JsonTemplate
 from .log_schemas import CDR_HEADER
 from .obstacles import outline
 from .run import Run
+from .tracking_record import tracking_records
 
 #: A point in JSON, coordinates as integer micrometres with an exponent (exact to 1e-6 m, and
 #: integers format about twice as fast as floats).
 _POINT = '{"x":%de-6,"y":%de-6,"z":0}'
 _POSE0 = '{"position":{"x":0,"y":0,"z":0},"orientation":{"x":0,"y":0,"z":0,"w":1}}'
-ARM_COLOR, CURVE_COLOR, WALL_COLOR, TARGET_COLOR = ((0.15, 0.45, 0.9, 1.0), (0.9, 0.5, 0.1, 0.8),
+ARM_COLOR, CURVE_COLOR, WALL_COLOR, TARGET_COLOR = ((0.15, 0.45, 0.9, 1.0), (0.9, 0.5, 0.1, 1.0),
                                                     (0.2, 0.2, 0.2, 1.0), (0.85, 0.1, 0.1, 1.0))
+#: Colours of the joint markers, the rail and its carriage (r, g, b, a).
+JOINT_COLOR, RAIL_COLOR, CARRIAGE_COLOR = (0.1, 0.1, 0.1, 1.0), (0.45, 0.45, 0.45, 1.0), (0.3, 0.3, 0.3, 0.9)
+#: Widths [px, at any zoom] of the arm, the curve, the obstacles and the rail.
+ARM_PX, CURVE_PX, WALL_PX, RAIL_PX = 6.0, 3.0, 4.0, 5.0
+#: The link margin colour scale: margins (stops) and their colours (r, g, b); linear in between.
+MARGIN_STOPS = (0.0, 0.25, 0.5)
+MARGIN_COLOURS = ((0.85, 0.1, 0.1), (0.95, 0.6, 0.1), ARM_COLOR[:3])
+#: Which frames ``/tf`` carries: ``ends`` (world -> base, world -> tip) or ``all`` (a frame per link).
+FRAME_SETS = ("ends", "all")
+
+
+def margin_colours(margins: np.ndarray) -> np.ndarray:
+    """The colour of each link from its margin: red at 0, orange at 0.25, blue at 0.5 or more.
+
+    Parameters
+    ----------
+    margins : ndarray, shape (..., m-1)
+        The link margins of links 2..m [-] (the first link has none: it is drawn blue).
+
+    Returns
+    -------
+    ndarray, shape (..., m, 3)
+        ``(r, g, b)`` in 0..1 per link.
+    """
+    x = np.asarray(margins, float)
+    x = np.concatenate([np.full(x.shape[:-1] + (1,), MARGIN_STOPS[-1]), x], axis=-1)
+    x = np.where(np.isfinite(x), x, 0.0)
+    stops = np.asarray(MARGIN_COLOURS)
+    return np.stack([np.interp(x, MARGIN_STOPS, stops[:, c]) for c in range(3)], axis=-1)
 
 
 def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
@@ -52,14 +89,15 @@ def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
     return [outline(ob) for ob in obstacles]
 
 
-def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0) -> tuple[str, str]:
-    """The text of a ``foxglove.LinePrimitive`` before and after its points."""
+def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0, pixels: bool = False) -> tuple[str, str]:
+    """The text of a ``foxglove.LinePrimitive`` before and after its points (``pixels``: thickness in px)."""
     r, g, b, a = color
-    return (f'{{"type":{kind},"pose":{_POSE0},"thickness":{thickness},"scale_invariant":false,"points":[',
-            f'],"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}},"colors":[],"indices":[]}}')
+    return (f'{{"type":{kind},"pose":{_POSE0},"thickness":{thickness},"scale_invariant":{str(pixels).lower()},'
+            '"points":[', f'],"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}},"colors":[],"indices":[]}}')
 
 
-def line_json(points: np.ndarray, thickness: float, color: tuple[float, ...], kind: int = 0) -> str:
+def line_json(points: np.ndarray, thickness: float, color: tuple[float, ...], kind: int = 0,
+              pixels: bool = False) -> str:
     """A ``foxglove.LinePrimitive`` in JSON (``kind`` 0 = line strip; points formatted in one pass).
 
     Parameters
@@ -72,6 +110,8 @@ def line_json(points: np.ndarray, thickness: float, color: tuple[float, ...], ki
         ``(r, g, b, a)``, each in 0..1.
     kind : int
         ``LinePrimitive`` type: 0 line strip, 1 line loop, 2 line list.
+    pixels : bool
+        ``thickness`` is in pixels, the same at any zoom (``scale_invariant``), instead of metres.
 
     Returns
     -------
@@ -79,19 +119,72 @@ def line_json(points: np.ndarray, thickness: float, color: tuple[float, ...], ki
         The JSON object.
     """
     xy = np.round(np.asarray(points, float).reshape(-1, 2) * 1e6).astype(np.int64)
-    head, tail = _line_parts(thickness, color, kind)
+    head, tail = _line_parts(thickness, color, kind, pixels)
     return head + ",".join([_POINT] * len(xy)) % tuple(xy.ravel().tolist()) + tail
 
 
-def _line_slots(template: JsonTemplate, points: int, thickness: float, color: tuple[float, ...],
-                slot_kind: int) -> None:
-    """Append a line strip of ``points`` points whose coordinates [µm] are slots of ``slot_kind``."""
-    head, tail = _line_parts(thickness, color)
-    template.text(head)
+def _point_slots(template: JsonTemplate, points: int, slot_kind: int) -> None:
+    """Append ``points`` comma-separated points whose coordinates [µm] are slots of ``slot_kind``."""
     for i in range(points):
         template.text("," if i else "").text('{"x":').number(slot_kind).text('e-6,"y":').number(slot_kind)
         template.text('e-6,"z":0}')
+
+
+def _line_slots(template: JsonTemplate, points: int, thickness: float, color: tuple[float, ...],
+                slot_kind: int, pixels: bool = True) -> None:
+    """Append a line strip of ``points`` points whose coordinates [µm] are slots of ``slot_kind``."""
+    head, tail = _line_parts(thickness, color, 0, pixels)
+    template.text(head)
+    _point_slots(template, points, slot_kind)
     template.text(tail)
+
+
+def _coloured_segments_slots(template: JsonTemplate, segments: int, thickness: float, point_kind: int,
+                             colour_kind: int) -> None:
+    """Append a line list of ``segments`` segments (2 points each, coordinates [µm] of ``point_kind``) whose
+    per-point colours [1e-3] are slots of ``colour_kind`` (r, g, b per point; alpha 1), ``thickness`` in px."""
+    template.text(f'{{"type":2,"pose":{_POSE0},"thickness":{thickness},"scale_invariant":true,"points":[')
+    _point_slots(template, 2 * segments, point_kind)
+    template.text('],"color":{"r":0,"g":0,"b":0,"a":1},"colors":[')
+    for i in range(2 * segments):
+        template.text("," if i else "").text('{"r":').number(colour_kind).text('e-3,"g":').number(colour_kind)
+        template.text('e-3,"b":').number(colour_kind).text('e-3,"a":1}')
+    template.text('],"indices":[]}')
+
+
+def _sphere(position: str, diameter: float, color: tuple[float, ...]) -> tuple[str, str]:
+    """The text of a ``foxglove.SpherePrimitive`` before and after its position's ``x, y`` text."""
+    r, g, b, a = color
+    return ('{"pose":{"position":', f',"orientation":{{"x":0,"y":0,"z":0,"w":1}}}},'
+            f'"size":{{"x":{diameter},"y":{diameter},"z":{diameter}}},"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}')
+
+
+def rail_lines(chain: Any, reach: float) -> list[np.ndarray]:
+    """The rail of a rail robot as polylines [m]: the rail between its limits (cut to ``reach`` where a
+    limit is infinite) and a short stop across it at each finite limit; none on a fixed base.
+
+    Parameters
+    ----------
+    chain : PlanarChain
+        The chain (``rail``, ``rail_angle``, ``rail_limits``, ``xi``).
+    reach : float
+        Half-length drawn of an unbounded rail [m].
+
+    Returns
+    -------
+    list of ndarray, each shape (2, 2)
+        The rail, then the stops.
+    """
+    if not getattr(chain, "rail", False) or len(chain.rail_direction) != 2:
+        return []    # a fixed base; a spatial chain's rail is drawn by scene3d.SpatialSceneBuilder
+    u = chain.rail_direction
+    n = np.array([-u[1], u[0]])
+    low, high = (max(chain.rail_limits[0], -reach), min(chain.rail_limits[1], reach))
+    out = [np.array([low * u, high * u])]
+    for d, limit in zip((low, high), chain.rail_limits):
+        if np.isfinite(limit):
+            out.append(np.array([d * u - 1.5 * chain.xi * n, d * u + 1.5 * chain.xi * n]))
+    return out
 
 
 def link_frames(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -177,6 +270,50 @@ def frame_transforms_json(joints: np.ndarray, ns: list[int] | np.ndarray) -> lis
     return _tf_template(m).fill(values.reshape(n, -1))
 
 
+_END_TEMPLATE = JsonTemplate(kinds=4).text('{"transforms":[')
+for _j, _name in enumerate(("base", "tip")):
+    _stamp_slots(_END_TEMPLATE.text("," if _j else "").text('{"timestamp":'))
+    _END_TEMPLATE.text(f',"parent_frame_id":"world","child_frame_id":"{_name}","translation":{{"x":').number(2)
+    _END_TEMPLATE.text('e-9,"y":').number(2).text('e-9,"z":0},"rotation":{"x":0,"y":0,"z":').number(3)
+    _END_TEMPLATE.text('e-15,"w":').number(3).text("e-15}}")
+_END_TEMPLATE.text("]}")
+
+
+def end_frames_json(base: np.ndarray, base_angle: float, joints: np.ndarray, ns: list[int] | np.ndarray) -> list[bytes]:
+    """The ``foxglove.FrameTransforms`` ``world -> base`` and ``world -> tip`` of poses ``joints``, one JSON each.
+
+    ``base`` sits at the first central point ``y^1`` turned by ``base_angle`` (the rail's direction, 0 on
+    a fixed base); ``tip`` at the last joint (the free end of link m), x along link m.
+
+    Parameters
+    ----------
+    base : ndarray, shape (n, 2)
+        The first central point of each pose [m].
+    base_angle : float
+        Rotation of the base frame about z [rad].
+    joints : ndarray, shape (n, m+1, 2)
+        Joint positions of each pose [m].
+    ns : list of int or ndarray, shape (n,)
+        Time stamp of each pose [ns].
+
+    Returns
+    -------
+    list of bytes
+        One JSON message per pose (translations to 1 nm, quaternions to 1e-15).
+    """
+    joints = np.asarray(joints, float)
+    n = len(joints)
+    d = joints[:, -1] - joints[:, -2]
+    angles = np.column_stack([np.full(n, base_angle), np.arctan2(d[:, 1], d[:, 0])])
+    values = np.empty((n, 2, 6), np.int64)
+    values[..., :2] = _stamps(ns)[:, None, :]
+    values[:, 0, 2:4] = np.round(np.asarray(base, float) * 1e9)
+    values[:, 1, 2:4] = np.round(joints[:, -1] * 1e9)
+    values[..., 4] = np.round(np.sin(0.5 * angles) * 1e15)
+    values[..., 5] = np.round(np.cos(0.5 * angles) * 1e15)
+    return _END_TEMPLATE.fill(values.reshape(n, -1))
+
+
 def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.ndarray:
     """The point ``distance`` [m] along ``polyline`` from the foot of ``start`` on it.
 
@@ -236,13 +373,21 @@ class SceneBuilder:
         The run's controller (chain and curve).
     obstacles : array_like
         The scenario's obstacles (drawn through :func:`obstacle_outlines`).
+    frames : {"ends", "all"}
+        ``/tf``: the frames ``base`` and ``tip`` (default), or a frame per link.
     """
 
-    def __init__(self, ctrl: CoordinatingController, obstacles: Any) -> None:
+    def __init__(self, ctrl: CoordinatingController, obstacles: Any, frames: str = "ends") -> None:
+        if frames not in FRAME_SETS:
+            raise ValueError(f"frames: need one of {', '.join(FRAME_SETS)}, got {frames!r}")
         self.ctrl = ctrl
+        self.frames = frames
         self.reach = 2.2 * ctrl.chain.m * ctrl.chain.xi
         outlines = obstacle_outlines(obstacles)
-        self._obstacle_lines = tuple(line_json(p, 0.02, WALL_COLOR) for p in outlines)  # same in every scene
+        # the same in every scene: obstacles and the rail
+        self._obstacle_lines = tuple(line_json(p, WALL_PX, WALL_COLOR, pixels=True) for p in outlines)
+        self._rail_lines = tuple(line_json(p, RAIL_PX, RAIL_COLOR, pixels=True)
+                                 for p in rail_lines(ctrl.chain, self.reach))
         self._scene_templates: dict[tuple[int, int], JsonTemplate] = {}
         self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
         self._s0: float | None = None
@@ -333,23 +478,32 @@ class SceneBuilder:
         """
         if not len(ks):
             return []
-        joints = self.ctrl.chain.joints_np(part.q[ks])
+        chain = self.ctrl.chain
+        joints = chain.joints_np(part.q[ks])
+        base = chain.centres_np(part.q[ks])[:, 0]
         curves = self.curves(part.t[ks])
-        frames = frame_transforms_json(joints, ns)
+        if self.frames == "all":
+            frames = frame_transforms_json(joints, ns)
+        else:
+            frames = end_frames_json(base, chain.rail_angle if chain.rail else 0.0, joints, ns)
         ends = 0.5 * (joints[:, -2] + joints[:, -1])  # the central point of the last link
         s, s_target = part.s[ks], self.s_target[ks]
         targets = _targets(curves, ends, s_target - s)
-        tracking = np.column_stack([part.t[ks], s, s_target, targets, np.max(np.abs(part.e[ks]), axis=1),
-                                    np.min(part.link_margins[ks], axis=1), np.linalg.norm(part.u[ks], axis=1)])
+        tracking = tracking_records(part, ks, s_target, targets)
+        m = joints.shape[1] - 1
+        segments = np.stack([joints[:, :-1], joints[:, 1:]], axis=2).reshape(len(ks), -1)   # link j: ends j, j+1
+        colours = np.repeat(margin_colours(part.link_margins[ks]), 2, axis=1).reshape(len(ks), -1)
         scenes: list[bytes] = [b""] * len(ks)
         sizes = np.array([len(c) for c in curves])
         for size in np.unique(sizes):        # one template per number of curve points (one for a line)
             rows = np.flatnonzero(sizes == size)
-            values = np.concatenate([       # in the template's order: stamp, target, arm, curve
+            values = np.concatenate([       # in the template's order: stamp, target, joints, carriage, arm, curve
                 _stamps(np.asarray(ns)[rows]), np.round(targets[rows] * 1e12),
                 np.round(joints[rows].reshape(len(rows), -1) * 1e6),
+                np.round(base[rows] * 1e6) if chain.rail else np.zeros((len(rows), 0)),
+                np.round(segments[rows] * 1e6), np.round(colours[rows] * 1e3),
                 np.round(np.array([curves[i] for i in rows]).reshape(len(rows), -1) * 1e6)], axis=1)
-            for i, text in zip(rows, self._scene_template(joints.shape[1], int(size)).fill(values)):
+            for i, text in zip(rows, self._scene_template(m + 1, int(size)).fill(values)):
                 scenes[i] = text
         out = []
         for n, scene, tf, record in zip(np.asarray(ns).tolist(), scenes, frames, tracking.astype("<f8")):
@@ -359,22 +513,34 @@ class SceneBuilder:
         return out
 
     def _scene_template(self, joints: int, curve_points: int) -> JsonTemplate:
-        """The ``foxglove.SceneUpdate`` with slots: stamp (kinds 0, 1), the arm's ``joints`` points [µm] (2),
-        the curve's ``curve_points`` points [µm] (3) and the target sphere's centre [pm] (4); obstacles are
-        literal."""
+        """The ``foxglove.SceneUpdate`` with slots: stamp (kinds 0, 1), the target sphere's centre [pm] (4),
+        the joint spheres' centres, the carriage's centre (rail robots) and the links' ends [µm] (2), the
+        links' colours [1e-3] (5) and the curve's ``curve_points`` points [µm] (3); the rail and the
+        obstacles are literal."""
         key = (joints, curve_points)
         if key not in self._scene_templates:
-            r, g, b, a = TARGET_COLOR
-            d = 0.04
-            t = _stamp_slots(JsonTemplate(kinds=5).text('{"deletions":[],"entities":[{"timestamp":'))
+            chain = self.ctrl.chain
+            xi = chain.xi
+            t = _stamp_slots(JsonTemplate(kinds=6).text('{"deletions":[],"entities":[{"timestamp":'))
             t.text(',"frame_id":"world","id":"coordarm","lifetime":{"sec":0,"nsec":0},"frame_locked":false,'
-                   '"metadata":[],"arrows":[],"cubes":[],"spheres":[{"pose":{"position":{"x":').number(4)
-            t.text('e-12,"y":').number(4).text('e-12,"z":0},"orientation":{"x":0,"y":0,"z":0,"w":1}},'
-                                               f'"size":{{"x":{d},"y":{d},"z":{d}}},'
-                                               f'"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}],"cylinders":[],'
-                                               '"triangles":[],"texts":[],"models":[],"lines":[')
-            _line_slots(t, joints, 0.01, ARM_COLOR, 2)
+                   '"metadata":[],"arrows":[],"spheres":[')
+            head, tail = _sphere("", max(1.2 * xi, 0.05), TARGET_COLOR)
+            t.text(head + '{"x":').number(4).text('e-12,"y":').number(4).text('e-12,"z":0}' + tail)
+            head, tail = _sphere("", 0.45 * xi, JOINT_COLOR)
+            for _ in range(joints):
+                t.text("," + head + '{"x":').number(2).text('e-6,"y":').number(2).text('e-6,"z":0}' + tail)
+            t.text('],"cubes":[')
+            if chain.rail:
+                r, g, b, a = CARRIAGE_COLOR
+                c, s_ = math.cos(0.5 * chain.rail_angle), math.sin(0.5 * chain.rail_angle)
+                t.text('{"pose":{"position":{"x":').number(2).text('e-6,"y":').number(2)
+                t.text(f'e-6,"z":0}},"orientation":{{"x":0,"y":0,"z":{s_!r},"w":{c!r}}}}},'
+                       f'"size":{{"x":{1.5 * xi},"y":{xi},"z":{0.5 * xi}}},'
+                       f'"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}')
+            t.text('],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":[')
+            _coloured_segments_slots(t, joints - 1, ARM_PX, 2, 5)
             t.text(",")
-            _line_slots(t, curve_points, 0.005, CURVE_COLOR, 3)
-            self._scene_templates[key] = t.text("".join("," + x for x in self._obstacle_lines) + "]}]}")
+            _line_slots(t, curve_points, CURVE_PX, CURVE_COLOR, 3)
+            extra = "".join("," + x for x in (*self._rail_lines, *self._obstacle_lines))
+            self._scene_templates[key] = t.text(extra + "]}]}")
         return self._scene_templates[key]

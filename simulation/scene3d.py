@@ -21,8 +21,9 @@ from coordarm.symbolic.spatial_chain import SpatialChain
 
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
-from .scene import ARM_COLOR, CURVE_COLOR, TARGET_COLOR, WALL_COLOR, SceneBuilder
+from .scene import CURVE_COLOR, CURVE_PX, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder, margin_colours
 from .spatial_view import rail_ends, roll_command, spatial_joints
+from .tracking_record import log10_floored
 
 #: Colour of the joint spheres and the base (r, g, b, a).
 JOINT_COLOR = (0.1, 0.1, 0.1, 1.0)
@@ -117,11 +118,12 @@ def _colour(c: tuple[float, ...]) -> dict[str, float]:
     return dict(zip("rgba", c))
 
 
-def _line(points: np.ndarray, thickness: float, colour: tuple[float, ...]) -> dict[str, Any]:
-    """A ``foxglove.LinePrimitive`` line strip through ``points`` (k, 3) [m] (non-finite points dropped)."""
+def _line(points: np.ndarray, thickness: float, colour: tuple[float, ...], pixels: bool = False) -> dict[str, Any]:
+    """A ``foxglove.LinePrimitive`` line strip through ``points`` (k, 3) [m] (non-finite points dropped),
+    ``thickness`` in px if ``pixels`` (the same at any zoom), else in metres."""
     pts = np.asarray(points, float)
     pts = pts[np.all(np.isfinite(pts), axis=1)]
-    return {"type": 0, "pose": _pose((0, 0, 0)), "thickness": thickness, "scale_invariant": False,
+    return {"type": 0, "pose": _pose((0, 0, 0)), "thickness": thickness, "scale_invariant": pixels,
             "points": [_vec(p) for p in pts], "color": _colour(colour), "colors": [], "indices": []}
 
 
@@ -141,19 +143,23 @@ class SpatialSceneBuilder(SceneBuilder):
         The links' capsule radius [m] (``[chain] radius``): each link is drawn as the capsule the physical
         checks use, a cylinder of that radius with a sphere of that radius at each end. None: thin
         cylinders (``0.12 xi``) with larger joint spheres.
+    frames : {"ends", "all"}
+        ``/tf``: the frames ``base`` (at the origin) and ``tip`` (the free end of link m, oriented as
+        ``R_m``), or a frame per link.
 
     Attributes
     ----------
     TRACKING_FIELDS : tuple of (str, int)
-        The fields of the ``/tracking`` record (all scalars, float64, in order): the planar ones with
-        the target's ``z`` after its ``y``, then the roll and its command [rad].
+        The fields of the ``/tracking`` record (all scalars, float64, in order): the planar first eight
+        with the target's ``z`` after its ``y``, the roll and its command [rad], then ``log10 max|e|``,
+        ``s - s_target`` [m] and ``log10 |s - s_target|``.
     """
 
     TRACKING_FIELDS = SPATIAL_TRACKING_FIELDS
 
-    def __init__(self, ctrl: Any, obstacles: Any, radius: float | None = None) -> None:
-        super().__init__(ctrl, [])
-        self._walls = [_line(p, 0.005, WALL_COLOR) for ob in obstacles for p in wireframe(ob)]
+    def __init__(self, ctrl: Any, obstacles: Any, radius: float | None = None, frames: str = "ends") -> None:
+        super().__init__(ctrl, [], frames)
+        self._walls = [_line(p, WALL_PX, WALL_COLOR, pixels=True) for ob in obstacles for p in wireframe(ob)]
         self.radius = 0.12 * ctrl.chain.xi if radius is None else float(radius)     # of the link cylinders [m]
         self._joint_size = 2.6 * self.radius if radius is None else 2 * self.radius  # capsules: caps of the radius
         self._path_points: np.ndarray | None = None     # a path's polyline (it does not move)
@@ -229,17 +235,18 @@ class SpatialSceneBuilder(SceneBuilder):
         """
         xi, r = self.ctrl.chain.xi, self.radius
         cylinders = [{"pose": _pose(c, a), "size": {"x": 2 * r, "y": 2 * r, "z": xi}, "bottom_scale": 1,
-                      "top_scale": 1, "color": _colour(ARM_COLOR)} for c, a in zip(pose["centres"], pose["axes"])]
+                      "top_scale": 1, "color": _colour((*rgb, 1.0))}
+                     for c, a, rgb in zip(pose["centres"], pose["axes"], pose["colours"].tolist())]
         d = self._joint_size
         spheres = [{"pose": _pose(p), "size": {"x": d, "y": d, "z": d}, "color": _colour(JOINT_COLOR)}
                    for p in pose["joints"]]
-        spheres.append({"pose": _pose(target), "size": {"x": 0.04, "y": 0.04, "z": 0.04},
-                        "color": _colour(TARGET_COLOR)})
+        big = max(1.2 * xi, 0.05)
+        spheres.append({"pose": _pose(target), "size": {"x": big, "y": big, "z": big}, "color": _colour(TARGET_COLOR)})
         base = {"pose": _pose(pose["base"]), "size": {"x": 2 * d, "y": 2 * d, "z": 2 * d}, "color": _colour(JOINT_COLOR)}
         return {"timestamp": {"sec": int(ns // 10**9), "nsec": int(ns % 10**9)}, "frame_id": "world",
                 "id": "coordarm", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
                 "arrows": [], "cubes": [base], "spheres": spheres, "cylinders": cylinders,
-                "lines": [_line(curve, 0.005, CURVE_COLOR)] + self._walls, "triangles": [], "texts": [],
+                "lines": [_line(curve, CURVE_PX, CURVE_COLOR, pixels=True)] + self._walls, "triangles": [], "texts": [],
                 "models": []}
 
     def poses(self, q: np.ndarray) -> list[dict[str, np.ndarray]]:
@@ -255,7 +262,8 @@ class SpatialSceneBuilder(SceneBuilder):
         list of dict
             Per row: ``centres`` (m, 3) [m] (the cylinders' centres ``y^j``), ``axes`` (m, 4) (quaternions
             ``(x, y, z, w)`` of ``R_j Ry(pi/2)``: the cylinder's z axis along ``d_j``), ``joints`` (m+1, 3) [m]
-            and ``base`` (3,) [m] (the origin, or ``d`` along the rail).
+            and ``base`` (3,) [m] (the origin, or ``d`` along the rail); ``colours`` (m, 3) is added by
+            :meth:`messages` (:func:`~.scene.margin_colours`).
         """
         chain = self.ctrl.chain
         centres, axes = chain.centres_np(q), quaternion_product(quaternions(chain.frames_np(q)), _Z_TO_X)
@@ -277,14 +285,24 @@ class SpatialSceneBuilder(SceneBuilder):
         list of bytes
             One message per pose.
         """
-        trans, rot = spatial_link_frames(self.ctrl.chain, q)
+        chain = self.ctrl.chain
+        if self.frames == "all":
+            trans, rot = spatial_link_frames(chain, q)
+            parents = ["world"] + [f"link{j}" for j in range(1, chain.m)]
+            children = [f"link{j}" for j in range(1, chain.m + 1)]
+        else:   # world -> base (the first central point, unturned), world -> tip (last joint, R_m)
+            joints = spatial_joints(chain, q)
+            base = chain.centres_np(q)[:, 0]
+            trans = np.stack([base, joints[:, -1]], axis=1)
+            rot = np.stack([np.broadcast_to([0.0, 0.0, 0.0, 1.0], (len(q), 4)),
+                            quaternions(chain.frames_np(q)[:, -1])], axis=1)
+            parents, children = ["world", "world"], ["base", "tip"]
         out = []
         for n, tr, ro in zip(np.asarray(ns).tolist(), trans, rot):
             stamp = {"sec": int(n // 10**9), "nsec": int(n % 10**9)}
             out.append(json.dumps({"transforms": [
-                {"timestamp": stamp, "parent_frame_id": "world" if j == 0 else f"link{j}",
-                 "child_frame_id": f"link{j + 1}", "translation": _vec(tr[j]),
-                 "rotation": dict(zip("xyzw", ro[j].tolist()))} for j in range(len(tr))]},
+                {"timestamp": stamp, "parent_frame_id": parent, "child_frame_id": child, "translation": _vec(tr[j]),
+                 "rotation": dict(zip("xyzw", ro[j].tolist()))} for j, (parent, child) in enumerate(zip(parents, children))]},
                 separators=(",", ":")).encode())
         return out
 
@@ -312,9 +330,12 @@ class SpatialSceneBuilder(SceneBuilder):
         q, t = part.q[ks], np.asarray(part.t, float)[ks]
         curves, targets, poses = self.curves(t), self.targets(part, ks), self.poses(q)
         roll_target = roll_command(self.ctrl, t)
-        tracking = np.column_stack([t, part.s[ks], self.s_target[ks], targets, np.max(np.abs(part.e[ks]), axis=1),
+        max_e, s_error = np.max(np.abs(part.e[ks]), axis=1), part.s[ks] - self.s_target[ks]
+        tracking = np.column_stack([t, part.s[ks], self.s_target[ks], targets, max_e,
                                     np.min(part.link_margins[ks], axis=1), np.linalg.norm(part.u[ks], axis=1),
-                                    part.roll[ks], roll_target])
+                                    part.roll[ks], roll_target, log10_floored(max_e), s_error, log10_floored(s_error)])
+        for pose, rgb in zip(poses, margin_colours(part.link_margins[ks])):
+            pose["colours"] = rgb
         out = []
         for i, (n, tf) in enumerate(zip(np.asarray(ns).tolist(), self.frame_transforms(q, ns))):
             scene = {"deletions": [], "entities": [self.scene_entity(poses[i], curves[i], targets[i], n)]}
@@ -324,7 +345,7 @@ class SpatialSceneBuilder(SceneBuilder):
         return out
 
 
-def scene_builder(ctrl: Any, obstacles: Any, radius: float | None = None) -> SceneBuilder:
+def scene_builder(ctrl: Any, obstacles: Any, radius: float | None = None, frames: str = "ends") -> SceneBuilder:
     """The scene builder of ``ctrl``'s chain kind: :class:`SpatialSceneBuilder` for a spatial chain.
 
     Parameters
@@ -335,6 +356,8 @@ def scene_builder(ctrl: Any, obstacles: Any, radius: float | None = None) -> Sce
         The scenario's obstacles.
     radius : float, optional
         A spatial chain's capsule radius [m] (its links drawn as those capsules); unused for a planar chain.
+    frames : {"ends", "all"}
+        The frames of ``/tf``: ``base`` and ``tip``, or one per link.
 
     Returns
     -------
@@ -342,5 +365,5 @@ def scene_builder(ctrl: Any, obstacles: Any, radius: float | None = None) -> Sce
         A planar :class:`~.scene.SceneBuilder` or a :class:`SpatialSceneBuilder`.
     """
     if isinstance(ctrl.chain, SpatialChain):
-        return SpatialSceneBuilder(ctrl, obstacles, radius)
-    return SceneBuilder(ctrl, obstacles)
+        return SpatialSceneBuilder(ctrl, obstacles, radius, frames)
+    return SceneBuilder(ctrl, obstacles, frames)

@@ -111,7 +111,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
                  port: int = 8765, live_speed: float = 1.0, live_wait: bool = False, figures: bool = True,
                  stages: Sequence[float] | None = None, allow_contact: bool = False, progress: bool = False,
                  echo: Callable[[str], None] | None = None,
-                 on_warning: Callable[[Warning], None] | None = None) -> ScenarioResult:
+                 on_warning: Callable[[Warning], None] | None = None, log_frames: str = "ends") -> ScenarioResult:
     """Simulate a scenario with its log, optional live view, outcome and figures (``coordarm run``).
 
     Parameters
@@ -126,8 +126,9 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         The MCAP log (default ``logs/<name>.mcap``, replaced if there); figures go beside it.
     overwrite, yes : bool, optional
         Replace an existing ``log``; run above the cost limits or a dense law over ``DENSE_LINKS`` links.
-    log_rate, cond_rate, compression : optional
-        Log samples [Hz], condition number samples [Hz] (0 = off), chunk compression (zstd, lz4, none).
+    log_rate, cond_rate, compression, log_frames : optional
+        Log samples [Hz], condition number samples [Hz] (0 = off), chunk compression (zstd, lz4, none),
+        the frames of ``/tf`` (log and live view: ``"ends"``, base and tip, or ``"all"``, one per link).
     live, port, live_speed, live_wait : optional
         Serve the run to Foxglove on ``port`` (0 = any) at ``live_speed`` simulated seconds per second
         [-], starting once a client subscribed if ``live_wait``.
@@ -172,7 +173,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     run, stopped, chosen, compiled = simulate_logged(
         scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
         compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
-        allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue)
+        allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue, log_frames=log_frames)
     status = outcome_of(stopped, None)["status"]
     for line in report_lines(run, scenario, compiled, out):
         say(line)
@@ -284,8 +285,8 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
                     backend: str, log_rate: float | None, cond_rate: float | None, compression: str,
                     live: bool, port: int, live_speed: float, live_wait: bool, allow_contact: bool,
                     progress: bool, say: Callable[[str], None],
-                    on_warning: Callable[[Warning], None]) -> tuple[Run, SingularityError | CollisionError | None,
-                                                                    str, Any]:
+                    on_warning: Callable[[Warning], None],
+                    log_frames: str = "ends") -> tuple[Run, SingularityError | CollisionError | None, str, Any]:
     """Simulate ``scenario`` into the log ``out`` (and the live view); the log is closed with the outcome.
 
     Parameters
@@ -313,9 +314,12 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
     live_speed : float
         Simulated seconds per wall-clock second on the live view [-].
     live_wait : bool
-        Start once a live client subscribed.
+        Start once a live client subscribed and its subscriptions settled (see
+        :meth:`~coordarm.simulation.live.LiveView.wait_for_client`).
     say : callable
         Gets the live view's address line.
+    log_frames : {"ends", "all"}
+        The frames of ``/tf`` (log and live view).
 
     Returns
     -------
@@ -340,7 +344,8 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
     with ExitStack() as stack:
         view = None
         if live:
-            view = stack.enter_context(LiveView(scenario, ctrl, port=port, speed=live_speed))
+            view = stack.enter_context(LiveView(scenario, ctrl, port=port, speed=live_speed, cond_rate=cond_rate,
+                                                frames=log_frames))
             say(f"live          {view.url} (Foxglove: Open connection, Foxglove WebSocket)")
             if live_wait:
                 view.wait_for_client()
@@ -348,7 +353,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         try:
             run = logged_run(scenario, ctrl, out, view, holder, overwrite=overwrite, log_rate=log_rate,
                              cond_rate=cond_rate, compression=compression, allow_contact=allow_contact,
-                             progress=progress, on_warning=on_warning)
+                             progress=progress, on_warning=on_warning, log_frames=log_frames)
             stopped = None
         except (SingularityError, CollisionError) as err:
             run, stopped = err.run, err
@@ -357,7 +362,8 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
 
 def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view: Any, holder: dict[str, Any], *,
                overwrite: bool, log_rate: float | None, cond_rate: float | None, compression: str,
-               allow_contact: bool, progress: bool, on_warning: Callable[[Warning], None]) -> Run:
+               allow_contact: bool, progress: bool, on_warning: Callable[[Warning], None],
+               log_frames: str = "ends") -> Run:
     """Build or load the law and simulate ``scenario`` into the log ``out``, closed with the outcome.
 
     Parameters
@@ -385,6 +391,8 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
         Show a progress bar on standard error.
     on_warning : callable
         Gets each warning of building or loading the law.
+    log_frames : {"ends", "all"}
+        The frames of ``/tf``: ``base`` and ``tip``, or one per link.
 
     Returns
     -------
@@ -409,13 +417,13 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
     # The log is closed with its outcome however the run ends (singularity, collision, error, Ctrl-C).
     # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
     with RunLogger(out, scenario, ctrl, log_rate=log_rate, cond_rate=cond_rate,
-                   compression=compression, overwrite=overwrite,
+                   compression=compression, overwrite=overwrite, frames=log_frames,
                    threaded=(os.cpu_count() or 1) > 1) as logger:
         q0 = scenario.start(ctrl)
         with warnings.catch_warnings(record=True) as caught:   # builds or loads the library
             warnings.simplefilter("always", BackendFallbackWarning)
             check_gain_step(ctrl.gain, scenario.step)
-            backend, compiled, _ = select_backend(ctrl, holder["backend"])
+            backend, compiled, _ = select_backend(ctrl, holder["backend"], progress=progress)
         holder.update(backend=backend, compiled=compiled)
         for w in caught:
             on_warning(w.message)

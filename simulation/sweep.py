@@ -20,6 +20,7 @@ import math
 import os
 import re
 import time
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, TextIO
 
@@ -328,8 +329,11 @@ def _open_client(client: Any, workers: int | None):
 
     if client is None:
         n = workers or os.cpu_count() or 1
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
+        with warnings.catch_warnings():   # the scheduler's HTTP server (health checks, no dashboard) on
+            # another port when 8787 is taken: nothing for the user to act on
+            warnings.filterwarnings("ignore", message=r"Port \d+ is already in use", category=UserWarning)
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                                   silence_logs=logging.ERROR)
         local = Client(cluster)
         from .sweep_plugin import IgnoreCtrlC
 
@@ -451,7 +455,10 @@ def _run(spec, todo, client, workers, batch, point_fn, log_dir, table, bar):
     from .sweep_plugin import drop_sync_cancel_race
 
     drop_sync_cancel_race()
-    dask_client, owned = _open_client(client, workers)
+    from .progress import Phase
+    with Phase("sweep: starting the Dask workers" if client is None else f"sweep: connecting to {client}",
+               enabled=bar is not None):
+        dask_client, owned = _open_client(client, workers)
     try:
         n_workers = sum(dask_client.nthreads().values()) or (workers or 1)
         size = batch or batch_size(len(todo), n_workers)

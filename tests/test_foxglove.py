@@ -14,16 +14,16 @@ from coordarm.simulation.log_schemas import foxglove_schema
 from coordarm.simulation.mcap_writer import RunLogger
 from coordarm.simulation.run import simulate
 from coordarm.simulation.scenario import load_scenario
-from coordarm.simulation.scene import _targets, link_frames, obstacle_outlines, point_along
+from coordarm.simulation.scene import _targets, link_frames, margin_colours, obstacle_outlines, point_along
 
 LINKS, DURATION = 6, 0.6
 
 
-def _log(name, tmp_path_factory, links=LINKS, duration=DURATION, **overrides):
+def _log(name, tmp_path_factory, links=LINKS, duration=DURATION, frames="ends", **overrides):
     scenario = load_scenario(name).with_overrides(links=links, duration=duration, **overrides)
     ctrl = scenario.controller()
     path = tmp_path_factory.mktemp("fox") / f"{name}.mcap"
-    with RunLogger(path, scenario, ctrl, chunk_size=16 * 1024, command=["test"]) as log:
+    with RunLogger(path, scenario, ctrl, chunk_size=16 * 1024, command=["test"], frames=frames) as log:
         run = simulate(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0,
                        backend="interpreted", chunk=97, on_chunk=log.on_chunk)
     return path, run, scenario
@@ -35,8 +35,18 @@ def hole(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def hole_all_frames(tmp_path_factory):
+    return _log("hole", tmp_path_factory, frames="all")
+
+
+@pytest.fixture(scope="module")
 def arc(tmp_path_factory):
     return _log("arc", tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def thread(tmp_path_factory):
+    return _log("thread", tmp_path_factory, links=60, duration=0.3)
 
 
 def _messages(path, topic):
@@ -132,14 +142,24 @@ def test_every_scene_message_validates_and_draws_arm_curve_target_and_walls(hole
         k = int(np.flatnonzero(np.round(run.t * 1e9) == log_time)[0])
         entity, = scene["entities"]
         arm, curve, *walls = entity["lines"]
+        # the arm: a line list, one segment per link (its two joints), coloured by the link's margin
+        joints = chain.joints_np(run.q[k])
         pts = np.array([[p["x"], p["y"]] for p in arm["points"]])
-        np.testing.assert_allclose(pts, chain.joints_np(run.q[k]), atol=1e-6)  # 6 decimals in the JSON
+        assert arm["type"] == 2 and arm["scale_invariant"] and len(pts) == 2 * LINKS
+        np.testing.assert_allclose(pts[0::2], joints[:-1], atol=1e-6)  # 6 decimals in the JSON
+        np.testing.assert_allclose(pts[1::2], joints[1:], atol=1e-6)
+        colours = np.array([[c["r"], c["g"], c["b"]] for c in arm["colors"]])
+        np.testing.assert_allclose(colours[0::2], margin_colours(run.link_margins[k]), atol=1e-3)
+        np.testing.assert_array_equal(colours[0::2], colours[1::2])
         line = np.array([[p["x"], p["y"]] for p in curve["points"]])  # evaluated for many times at once
         np.testing.assert_allclose(line, ctrl.curve.sample(run.t[k], n=2, extent=2.2 * LINKS * chain.xi), atol=1e-6)
         assert len(walls) == len(scenario.obstacles)
         for wall, ob in zip(walls, scenario.obstacles):
             np.testing.assert_allclose([[p["x"], p["y"]] for p in wall["points"]], ob.points, atol=1e-6)
-        sphere, = entity["spheres"]
+        sphere, *markers = entity["spheres"]
+        np.testing.assert_allclose([[p["pose"]["position"]["x"], p["pose"]["position"]["y"]] for p in markers],
+                                   joints, atol=1e-6)
+        assert entity["cubes"] == []    # no carriage on a fixed base
         target = np.array([sphere["pose"]["position"]["x"], sphere["pose"]["position"]["y"]])
         phi, psi = (float(v) for v in ctrl.curve.functions()(target, run.t[k]))
         assert abs(phi) < 1e-9 and psi == pytest.approx(s_ref[k], abs=1e-9)
@@ -152,9 +172,12 @@ def test_tracking_channel_holds_s_its_target_a_point_of_the_curve_there_and_the_
     rows = _messages(path, "/tracking")
     assert len(rows) == len(range(0, len(run.t), 50))
     for log_time, data in rows:
-        t, s, s_target, x, y, max_e, min_link, norm_u = np.frombuffer(data[4:], "<f8")
+        t, s, s_target, x, y, max_e, min_link, norm_u, log_e, s_error, log_s = np.frombuffer(data[4:], "<f8")
         k = int(np.flatnonzero(run.t == t)[0])
         assert s == run.s[k] and s_target == s_ref[k]   # bit for bit: same sums in the same order
+        assert s_error == s - s_target
+        assert log_e == pytest.approx(math.log10(max(max_e, 1e-18)), abs=1e-14)
+        assert log_s == pytest.approx(math.log10(max(abs(s_error), 1e-18)), abs=1e-14)
         assert max_e == max(abs(v) for v in run.e[k]) and min_link == min(run.link_margins[k])
         assert norm_u == pytest.approx(math.sqrt(sum(v * v for v in run.u[k])), rel=1e-15)
         phi, psi = (float(v) for v in ctrl.curve.functions()(np.array([x, y]), t))
@@ -191,8 +214,56 @@ def test_obstacle_outlines_draw_each_wall_segment_disc_and_polygon():
 
 
 # ------------------------------------------------------------------------------ the link frames
-def test_frame_transforms_validate_and_chain_every_link_from_world(hole):
-    path, run, scenario = hole
+def test_margin_colours_run_from_red_at_0_through_orange_at_a_quarter_to_blue_from_a_half():
+    red, orange, blue = (0.85, 0.1, 0.1), (0.95, 0.6, 0.1), (0.15, 0.45, 0.9)
+    got = margin_colours(np.array([[0.0, 0.25, 0.5, 0.9, 0.125, np.nan]]))[0]
+    np.testing.assert_allclose(got[0], blue)            # link 1 has no margin
+    np.testing.assert_allclose(got[1:5], [red, orange, blue, blue], atol=1e-15)
+    np.testing.assert_allclose(got[5], [(r + o) / 2 for r, o in zip(red, orange)], atol=1e-15)
+    np.testing.assert_allclose(got[6], red)             # a NaN margin reads as singular
+
+
+def test_the_default_frames_are_base_and_tip_from_world(hole, thread):
+    for path, run, scenario in (hole, thread):
+        chain = scenario.chain()
+        validator = jsonschema.Draft202012Validator(json.loads(_stored_schema(path, "foxglove.FrameTransforms").data))
+        for log_time, data in _messages(path, "/tf"):
+            tf = json.loads(data)
+            validator.validate(tf)
+            k = int(np.flatnonzero(np.round(run.t * 1e9) == log_time)[0])
+            base, tip = tf["transforms"]
+            assert (base["parent_frame_id"], base["child_frame_id"], tip["parent_frame_id"], tip["child_frame_id"]) \
+                == ("world", "base", "world", "tip")
+            joints = chain.joints_np(run.q[k])
+            np.testing.assert_allclose([base["translation"]["x"], base["translation"]["y"]],
+                                       chain.centres_np(run.q[k])[0], atol=1e-9)
+            np.testing.assert_allclose([tip["translation"]["x"], tip["translation"]["y"]], joints[-1], atol=1e-9)
+            # the tip's x axis lies along the last link
+            angle = 2 * math.atan2(tip["rotation"]["z"], tip["rotation"]["w"])
+            d = joints[-1] - joints[-2]
+            assert math.remainder(angle - math.atan2(d[1], d[0]), 2 * math.pi) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_rail_robot_s_scene_draws_the_rail_its_stops_and_the_carriage_under_the_base(thread):
+    path, run, scenario = thread
+    chain = scenario.chain()
+    for log_time, data in _messages(path, "/scene"):
+        entity, = json.loads(data)["entities"]
+        k = int(np.flatnonzero(np.round(run.t * 1e9) == log_time)[0])
+        arm, curve, rail, low, high, *walls = entity["lines"]
+        assert len(walls) == len(scenario.obstacles)
+        np.testing.assert_allclose([[p["x"], p["y"]] for p in rail["points"]], [[-0.1, 0.0], [4.0, 0.0]], atol=1e-6)
+        for stop, d in ((low, -0.1), (high, 4.0)):    # across the rail (along y) at each limit
+            np.testing.assert_allclose([p["x"] for p in stop["points"]], [d, d], atol=1e-6)
+            assert stop["points"][0]["y"] < 0 < stop["points"][1]["y"]
+        carriage, = entity["cubes"]
+        d = run.q[k][0]
+        np.testing.assert_allclose([carriage["pose"]["position"]["x"], carriage["pose"]["position"]["y"]],
+                                   [d, 0.0], atol=1e-6)
+
+
+def test_frame_transforms_validate_and_chain_every_link_from_world(hole_all_frames):
+    path, run, scenario = hole_all_frames
     chain = scenario.chain()
     validator = jsonschema.Draft202012Validator(json.loads(_stored_schema(path, "foxglove.FrameTransforms").data))
     msgs = _messages(path, "/tf")

@@ -94,7 +94,7 @@ def test_the_3d_panel_views_world_in_perspective_where_the_scene_and_the_link_fr
     camera = three_d["cameraState"]
     # a perspective view from above (not a flat top view, which hides the spatial chain's z) and not edge-on
     assert three_d["followTf"] == "world" and camera["perspective"] is True and 20 <= camera["phi"] <= 70
-    assert three_d["scene"]["transforms"]["visible"] and 0 < three_d["scene"]["transforms"]["axisSize"] < 0.1
+    assert three_d["scene"]["transforms"]["visible"] and 0 < three_d["scene"]["transforms"]["axisSize"] <= 0.1
     for fields, tf, scene in logs.values():
         assert set(three_d["topics"]) <= set(fields) and three_d["topics"]["/scene"]["visible"]
         assert tf["transforms"][0]["parent_frame_id"] == "world"
@@ -126,4 +126,49 @@ def test_every_panel_setting_is_a_field_of_foxglove_sdks_typed_layout_classes():
         if key.startswith("Plot!"):
             assert set(config) <= _keys(fl.PlotConfig) | title, key
             assert all(set(series) <= _keys(fl.PlotSeries) for series in config["paths"]), key
-            assert config["xAxisVal"] == "timestamp" and config["legendDisplay"] in ("floating", "top", "left")
+            assert config["xAxisVal"] == "timestamp" and config["legendDisplay"] in ("top", "left")   # off the data
+
+
+def test_the_deviations_are_plotted_as_logarithms_that_read_at_every_scale():
+    plot = json.loads(layout_path().read_text())["configById"]["Plot!deviation"]
+    shown = [p["value"] for p in plot["paths"] if p["enabled"]]
+    assert shown == ["/tracking.log10_max_abs_e", "/tracking.log10_abs_s_error"] and plot["yAxisLabel"] == "log10 m"
+
+
+@pytest.mark.parametrize("preset", ["line", "hole", "pipe", "thread", "path3d"])
+def test_layout_for_a_scenario_aims_the_camera_so_that_the_whole_scene_is_in_view(preset, tmp_path):
+    """Every drawn point lies inside the view cone of the fitted camera, whatever its azimuth (the cone
+    is computed here from the camera's distance, polar angle and vertical field of view)."""
+    import math
+
+    import numpy as np
+
+    from coordarm.simulation.scenario import load_scenario
+    from coordarm.simulation.scene_view import scene_points
+
+    out = tmp_path / "fitted.json"
+    assert main(["layout", "--for", preset, "--out", str(out)]) == 0
+    layout = json.loads(out.read_text())
+    camera = layout["configById"]["3D!coordarm"]["cameraState"]
+    shipped = json.loads(layout_path().read_text())
+    assert {k: v for k, v in layout["configById"].items() if k != "3D!coordarm"} == \
+        {k: v for k, v in shipped["configById"].items() if k != "3D!coordarm"}
+    points = scene_points(load_scenario(preset))
+    centre = np.array(camera["targetOffset"])
+    half = math.radians(camera["fovy"]) / 2
+    phi = math.radians(camera["phi"])
+    for theta in (0.0, math.pi / 2, 1.0):
+        eye = centre + camera["distance"] * np.array([math.sin(phi) * math.cos(theta),
+                                                      math.sin(phi) * math.sin(theta), math.cos(phi)])
+        axis = (centre - eye) / np.linalg.norm(centre - eye)
+        rays = points - eye
+        angles = np.arccos(np.clip(rays @ axis / np.linalg.norm(rays, axis=1), -1, 1))
+        assert np.max(angles) < 0.8 * half, (preset, np.degrees(np.max(angles)))   # room for a narrow panel
+    # aimed at the scene: the box's centre
+    np.testing.assert_allclose(centre, 0.5 * (points.min(axis=0) + points.max(axis=0)), atol=1e-3)
+
+
+def test_layout_for_needs_out_and_a_readable_scene(tmp_path, capsys):
+    assert main(["layout", "--for", "thread"]) == 2
+    assert "--for" in capsys.readouterr().err
+    assert main(["layout", "--for", str(tmp_path / "missing.mcap"), "--out", str(tmp_path / "x.json")]) == 2

@@ -57,7 +57,10 @@ def test_the_plain_mcap_reader_sees_schemas_channels_metadata_and_statistics(log
                                                                                       "jsonschema")
         js = topics["/joint_state"]
         assert (schemas[js.schema_id].encoding, js.message_encoding) == ("ros2msg", "cdr")
-        assert schemas[js.schema_id].data.decode() == f"float64 t\nfloat64[{LINKS}] q\nfloat64[{LINKS}] u\n"
+        text = schemas[js.schema_id].data.decode()   # each field's unit in a comment, then the fields
+        assert text == ("# t [s]: simulated time\n# q [rad]: joint angles (d [m] first on a rail)\n"
+                        "# u [rad/s]: control u = B^-1 qdot (joint rates for B = I)\n"
+                        f"float64 t\nfloat64[{LINKS}] q\nfloat64[{LINKS}] u\n")
         n = len(run.t)
         counts = {c.topic: summary.statistics.channel_message_counts[c.id] for c in topics.values()}
         assert counts["/joint_state"] == counts["/task_state"] == counts["/margins"] == n
@@ -194,7 +197,9 @@ def test_stream_reader_of_mcap_reads_the_whole_file_with_crc_checks(logged):
 
 def test_numeric_channel_layout_matches_its_schema_text():
     ch = numeric_channels(5)["task_state"]
-    assert ch.schema_text() == "float64 t\nfloat64 s\nfloat64 v_star\nfloat64[4] e\nfloat64 v_scale\n"
+    text = ch.schema_text()
+    assert text.endswith("\nfloat64 t\nfloat64 s\nfloat64 v_star\nfloat64[4] e\nfloat64 v_scale\n")
+    assert all(line.startswith("# ") for line in text.splitlines()[:-5])   # the comment lines (units) first
     assert ch.width == 8 and ch.size == 4 + 64
     assert ch.slices() == {"t": 0, "s": 1, "v_star": 2, "e": slice(3, 7), "v_scale": 7}
 
@@ -296,3 +301,12 @@ def test_ctrl_c_arriving_while_a_chunk_is_written_is_held_back_until_the_block_i
     assert rep.outcome["status"] == "interrupted" and rep.problems == [] and rep.recovered is False
     assert rep.t[-1] == rep.outcome["t_end"] and len(rep.t) % 100 == 0  # whole blocks only
     np.testing.assert_allclose(np.diff(rep.t), scenario.step, rtol=1e-9)
+
+
+def test_every_field_of_every_numeric_channel_says_its_unit_in_the_schema():
+    from coordarm.simulation.log_layout import SPATIAL
+    from coordarm.simulation.log_schemas import numeric_channels
+    for kw in ({}, {"rail": True}, {"layout": SPATIAL}):
+        for ch in numeric_channels(5, **kw).values():
+            noted = {line[2:].split(" [")[0] for line in ch.schema_text().splitlines() if line.startswith("# ")}
+            assert {name for name, _ in ch.fields} <= noted, (kw, ch.topic)

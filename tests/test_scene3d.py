@@ -50,8 +50,17 @@ def ctrl():
 
 @pytest.fixture(scope="module")
 def drawn(ctrl):
+    return _drawn(ctrl, "ends")
+
+
+@pytest.fixture(scope="module")
+def drawn_all_frames(ctrl):
+    return _drawn(ctrl, "all")
+
+
+def _drawn(ctrl, frames):
     part = block()
-    builder = SpatialSceneBuilder(ctrl, [])
+    builder = SpatialSceneBuilder(ctrl, [], frames)
     builder.advance(part)
     ks = np.array([0, 3, 6])
     return part, ks, builder.messages(part, ks, (part.t[ks] * 1e9).round().astype(np.int64))
@@ -84,8 +93,20 @@ def test_link_cylinders_sit_on_the_centres_along_the_link_directions(ctrl, drawn
         np.testing.assert_allclose(joints[1:], c + 0.5 * XI * d, atol=1e-15)
 
 
-def test_frames_composed_from_world_give_each_link_centre_and_orientation(ctrl, drawn):
+def test_the_default_frames_are_the_base_at_the_first_centre_and_the_tip_at_the_last_joint(ctrl, drawn):
     part, ks, msgs = drawn
+    tfs = [json.loads(data)["transforms"] for key, _, data in msgs if key == "tf"]
+    R_all = ctrl.chain.frames_np(part.q[ks])
+    for (base, tip), R, c, d in zip(tfs, R_all, ctrl.chain.centres_np(part.q[ks]), ctrl.chain.directions_np(part.q[ks])):
+        assert [(x["parent_frame_id"], x["child_frame_id"]) for x in (base, tip)] == [("world", "base"), ("world", "tip")]
+        np.testing.assert_allclose(xyz(base["translation"]), c[0], atol=1e-15)
+        np.testing.assert_allclose(xyz(tip["translation"]), c[-1] + 0.5 * XI * d[-1], atol=1e-14)
+        axes = np.array([rotate(xyzw(tip["rotation"]), v) for v in np.eye(3)]).T
+        np.testing.assert_allclose(axes, R[-1], atol=1e-13)
+
+
+def test_frames_composed_from_world_give_each_link_centre_and_orientation(ctrl, drawn_all_frames):
+    part, ks, msgs = drawn_all_frames
     tfs = [json.loads(data)["transforms"] for key, _, data in msgs if key == "tf"]
     R_all = ctrl.chain.frames_np(part.q[ks])
     for transforms, R, c in zip(tfs, R_all, ctrl.chain.centres_np(part.q[ks])):

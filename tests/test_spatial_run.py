@@ -227,7 +227,7 @@ def test_the_plain_mcap_reader_sees_the_spatial_channels_and_metadata(logged):
         tracking = schemas[topics["/tracking"].schema_id].data.decode()
         assert [x.split()[1] for x in tracking.splitlines() if x and not x.startswith("#")] == [
             "t", "s", "s_target", "target_x", "target_y", "target_z", "max_abs_e", "min_link_margin", "norm_u",
-            "roll", "roll_target"]
+            "roll", "roll_target", "log10_max_abs_e", "s_error", "log10_abs_s_error"]
         text = {t: schemas[c.schema_id].data.decode() for t, c in topics.items()
                 if t in ("/joint_state", "/task_state", "/margins")}
         body = {t: "".join(x + "\n" for x in s.splitlines() if not x.startswith("#")) for t, s in text.items()}

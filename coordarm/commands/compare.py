@@ -61,7 +61,7 @@ def main(args: argparse.Namespace) -> int:
 
     scenario = load_scenario(args.scenario).with_overrides(duration=args.duration)
     methods = parse_methods(args.methods, scenario)
-    results = compare(scenario, methods, args.backend)
+    results = compare(scenario, methods, args.backend, progress=True)
     print(f"scenario {scenario.name} ({scenario.source}), {scenario.config.chain.links} links, "
           f"{scenario.duration:g} s")
     print(text_table(results))

@@ -54,7 +54,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--live-speed", type=float, default=1.0, metavar="X",
                    help="simulated seconds per wall-clock second on the live view (default 1)")
     p.add_argument("--live-wait", action="store_true",
-                   help="with --live: start simulating only once a client has subscribed")
+                   help="with --live: start simulating only once a client has subscribed and its subscriptions "
+                        "settled (1 s without a new one): import the layout first, then connect")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a field of the scenario, e.g. --set control.speed=0.05 (dotted TOML name or a "
+                        "sweep alias; one value, parsed as coordarm sweep --vary parses one; repeatable)")
+    p.add_argument("--log-frames", choices=("ends", "all"), default="ends",
+                   help="frames on /tf (log and live view): ends = base and tip (default), all = one per link")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
     p.add_argument("--stages", type=stage_list, metavar="T1,T2,...",
                    help="times [s] of the stage figure, e.g. 0,4,8,12 (default: [figures] stages, else 5 evenly)")
@@ -115,14 +121,27 @@ def main(args: argparse.Namespace) -> int:
     """
     from coordarm.simulation.session import run_scenario
 
-    result = run_scenario(args.scenario, links=args.links, duration=args.duration, step=args.step, law=args.law,
+    scenario = args.scenario
+    if args.set:
+        from coordarm.simulation.overrides import with_settings
+        from coordarm.simulation.scenario import load_scenario
+
+        scenario = with_settings(load_scenario(args.scenario), args.set)
+    result = run_scenario(scenario, links=args.links, duration=args.duration, step=args.step, law=args.law,
                           governor=True if args.governor else None, backend=args.backend, log=args.out,
                           overwrite=args.overwrite, yes=args.yes, log_rate=args.log_rate, cond_rate=args.cond_rate,
                           compression=args.compression, live=args.live, port=args.port, live_speed=args.live_speed,
                           live_wait=args.live_wait, figures=not args.no_figures, stages=args.stages,
-                          allow_contact=args.allow_contact, progress=not args.quiet, echo=echo, on_warning=warn)
+                          allow_contact=args.allow_contact, progress=not args.quiet, echo=echo, on_warning=warn,
+                          log_frames=args.log_frames)
     if result.stopped is not None:
         print(f"coordarm run: {result.stop_message()}", file=sys.stderr)
+    late = [t for t in args.stages or () if len(result.run.t) and t > result.run.t[-1] + 1e-9]
+    if late and not args.no_figures:
+        end = "stop" if result.stopped is not None else "end"
+        print(f"coordarm run: note: --stages {', '.join(f'{t:g}' for t in late)} s after the run's {end} "
+              f"(t = {result.run.t[-1]:.2f} s): not drawn" + (" (the stop is)" if end == "stop" else ""),
+              file=sys.stderr)
     return result.exit_status
 
 
