@@ -60,7 +60,7 @@ def drawn_all_frames(ctrl):
 
 def _drawn(ctrl, frames):
     part = block()
-    builder = SpatialSceneBuilder(ctrl, [], frames)
+    builder = SpatialSceneBuilder(ctrl, [], frames=frames)
     builder.advance(part)
     ks = np.array([0, 3, 6])
     return part, ks, builder.messages(part, ks, (part.t[ks] * 1e9).round().astype(np.int64))
