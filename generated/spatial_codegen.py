@@ -16,12 +16,11 @@ import casadi as ca
 from coordarm.symbolic import LAWS, BuildError, SpatialController
 from coordarm.symbolic.laws import Law
 from coordarm.symbolic.outputs import spatial_offsets, spatial_packed_width
-from coordarm.symbolic.spatial_recursion import SPATIAL_CARRY
 
 from .codegen import Source, casadi_code, dense_law
 from .render import render
-from .spatial_variants import (JOINT_CARRY, spatial_joint_step_trig, spatial_link_inv_det, spatial_link_step_trig,
-                               spatial_time_features)
+from .spatial_variants import (FRAME_CARRY, JOINT_CARRY, spatial_frame_head, spatial_frame_tail, spatial_joint_step_trig,
+                               spatial_link_inv_det, spatial_link_step_trig, spatial_time_features)
 
 
 def spatial_layout_macros(m: int) -> str:
@@ -58,8 +57,7 @@ def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
         Structured: time features, head, link step, end solve, joint step, link pivot's 1/det; dense: the whole law.
     """
     if form == Law.STRUCTURED:
-        rec = ctrl.recursion
-        return [spatial_time_features(ctrl), rec.head(), spatial_link_step_trig(ctrl), rec.tail(),
+        return [spatial_time_features(ctrl), spatial_frame_head(ctrl), spatial_link_step_trig(ctrl), spatial_frame_tail(ctrl),
                 spatial_joint_step_trig(), spatial_link_inv_det(ctrl)]
     return [ctrl.law(form)]
 
@@ -77,7 +75,7 @@ def spatial_law(ctrl: SpatialController) -> str:
     str
         ``CA_NW``, ``CA_NC``, ``CA_NJC`` definitions followed by the law's C (``ca_law``, ``CA_LAW_SCRATCH``).
     """
-    return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NC {SPATIAL_CARRY}\n"
+    return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NC {FRAME_CARRY}\n"
             f"#define CA_NJC {JOINT_CARRY}\n" + render("spatial_law.c"))
 
 

@@ -109,10 +109,10 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   ca_spatial_trig(q, ang, c, s, ic);
   arg[0] = q; arg[1] = &t;
   res[0] = carry; res[1] = out + CA_OUT_ROLL; res[2] = row; res[3] = &rhs; res[4] = &scale;
-  if (spatial_head(arg, res, iw, w, 0)) return 2;
+  if (spatial_frame_head(arg, res, iw, w, 0)) return 2;
   if (ca_spatial_recursion(c, s, wt, carry, out, W, iw, w)) return 2;
-  arg[0] = carry; arg[1] = &t; arg[2] = row; arg[3] = &rhs; arg[4] = &scale;
+  arg[0] = carry; arg[1] = W + 6 * (CA_M - 1); arg[2] = &t; arg[3] = row; arg[4] = &rhs; arg[5] = &scale;
   res[0] = out + CA_OUT_S; res[1] = p; res[2] = out + CA_OUT_END_MARGIN;
-  if (spatial_tail(arg, res, iw, w, 0)) return 2;
+  if (spatial_frame_tail(arg, res, iw, w, 0)) return 2;
   return ca_spatial_joints(c, s, ic, W, p, u, out, iw, w);
 }
