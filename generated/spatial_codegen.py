@@ -1,9 +1,8 @@
 """Emit the C source of a :class:`~coordarm.symbolic.spatial_controller.SpatialController`'s law.
 
-The structured form is four small generated Functions (the time features and the per-link step of
-:mod:`.spatial_variants`, the head and the end solve of
-:class:`~coordarm.symbolic.spatial_recursion.SpatialRecursion`) and the joint step, called by the C
-loops of ``templates/spatial_law.c``: the code size does not grow with the number of links. The
+The structured form is small generated Functions of :mod:`.spatial_variants` (the time features, the
+head, the per-link kinematics and rates steps, the end solve, the joint step), called by the C loops
+of ``templates/spatial_law.c``: the code size does not grow with the number of links. The
 dense form is the whole law as one Function (``templates/dense_law.c``). Both end with the
 library's API of ``templates/library_api.c`` (law, control, RK4 step, chunk, sizes), the same entry
 points as the planar library; the packed outputs follow
@@ -19,8 +18,9 @@ from coordarm.symbolic.outputs import spatial_offsets, spatial_packed_width
 
 from .codegen import Source, casadi_code, dense_law
 from .render import render
-from .spatial_variants import (FRAME_CARRY, JOINT_CARRY, spatial_frame_head, spatial_frame_tail, spatial_joint_step_trig,
-                               spatial_link_inv_det, spatial_link_step_trig, spatial_time_features)
+from .spatial_variants import (JOINT_CARRY, KIN_CARRY, LINK_GEOMETRY, RATE_CARRY, spatial_frame_head,
+                               spatial_frame_tail, spatial_joint_step_trig, spatial_kinematics_step,
+                               spatial_link_inv_det, spatial_link_pivot, spatial_rates_step, spatial_time_features)
 
 
 def spatial_layout_macros(m: int) -> str:
@@ -54,11 +54,13 @@ def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
     Returns
     -------
     list of casadi.Function
-        Structured: time features, head, link step, end solve, joint step, link pivot's 1/det; dense: the whole law.
+        Structured: time features, head, kinematics step, rates step, end solve, joint step, link pivot's 1/det;
+        dense: the whole law.
     """
     if form == Law.STRUCTURED:
-        return [spatial_time_features(ctrl), spatial_frame_head(ctrl), spatial_link_step_trig(ctrl), spatial_frame_tail(ctrl),
-                spatial_joint_step_trig(), spatial_link_inv_det(ctrl)]
+        return [spatial_time_features(ctrl), spatial_frame_head(ctrl), spatial_kinematics_step(ctrl),
+                spatial_link_inv_det(ctrl), spatial_link_pivot(ctrl), spatial_rates_step(ctrl), spatial_frame_tail(ctrl),
+                spatial_joint_step_trig()]
     return [ctrl.law(form)]
 
 
@@ -73,10 +75,13 @@ def spatial_law(ctrl: SpatialController) -> str:
     Returns
     -------
     str
-        ``CA_NW``, ``CA_NC``, ``CA_NJC`` definitions followed by the law's C (``ca_law``, ``CA_LAW_SCRATCH``).
+        ``CA_NW``, ``CA_NKC``, ``CA_NRC``, ``CA_NG``, ``CA_NJC`` definitions followed by the law's C (``ca_law``,
+        ``CA_LAW_SCRATCH``).
     """
-    return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NC {FRAME_CARRY}\n"
-            f"#define CA_NJC {JOINT_CARRY}\n" + render("spatial_law.c"))
+    return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NKC {KIN_CARRY}\n"
+            f"#define CA_NRC {RATE_CARRY}\n#define CA_NG {LINK_GEOMETRY}\n#define CA_NJC {JOINT_CARRY}\n"
+            f"#define CA_NPV {spatial_rates_step(ctrl).n_in() - 1}\n"
+            + render("spatial_law.c"))
 
 
 def generate_spatial_source(ctrl: SpatialController, form: str = "structured") -> Source:

@@ -1,11 +1,15 @@
 """The C-only variants of the spatial law's Functions (:mod:`coordarm.symbolic.spatial_recursion`).
 
-The interpreted spatial solve builds each joint's rotation ``Rz(a_j) Ry(b_j)`` from its angles. The
-generated C computes the cosines and sines of every joint angle in vectorised loops first and passes
-them in, so the per-link step (:func:`spatial_link_step_trig`) and the per-joint step
-(:func:`spatial_joint_step_trig`) have no trigonometry; the time-only terms of the curve's geometry
-are computed once per law call (:func:`spatial_time_features`). The head and the end solve are the
-interpreted ones (called once per law call). The Functions are cached per controller here.
+The interpreted spatial solve is one loop over links (frames, centres, pivots and rates together).
+The generated C splits it into two loops over links, each with a carry that fits in registers:
+the forward kinematics (:func:`spatial_kinematics_step`: ``R_j``, ``y^j`` from the cosines and
+sines of the joint angles, computed before in vectorised loops), which stores each link's
+``E_j = [R_j e_y, R_j e_z]`` and ``y^j``, then the rates (:func:`spatial_rates_step`: the link pivot
+and the affine link rates, carrying only ``A = y^j' + xi/2 E_j w_j``). On a line both work in the
+line's own frame (:mod:`.spatial_frame`), where the geometry and ``dPhi/dy`` cost nothing. The
+time-only terms are computed once per law call (:func:`spatial_time_features`); the head and the end
+solve (:func:`spatial_frame_head`, :func:`spatial_frame_tail`) are the interpreted ones with their
+carries in this layout. The Functions are cached per controller here.
 """
 from __future__ import annotations
 
@@ -21,12 +25,15 @@ from coordarm.symbolic.spatial_recursion import singular_values_2x2, solve_2x2, 
 from .spatial_frame import frame_geometry, frame_of
 
 _CACHE: "weakref.WeakKeyDictionary[SpatialController, dict]" = weakref.WeakKeyDictionary()
-#: Inputs of the per-link step: the carry, the joint's four cosines and sines, the time features.
-LINK_INPUTS = ["carry", "cos_a", "sin_a", "cos_b", "sin_b", "w"]
-#: Size of the per-link step's second output: ``(e^j (2), link margin, xi/2 W0_j (2), xi/2 vec W1_j (4))``.
+#: Size of the kinematics carry: ``vec R_j`` (9), ``y^j`` (3); its last 9 (``vec E_j``, ``y^j``) are the
+#: link's geometry the rates step reads.
+KIN_CARRY = 12
+#: Size of a link's stored geometry: ``vec E_j`` (6) and ``y^j`` (3), the kinematics carry from index 3.
+LINK_GEOMETRY = 9
+#: Size of the rates carry: ``A = A0 + A1 p`` (3 + 6) [m/s] and the running ``sum ||W1||`` (1).
+RATE_CARRY = 10
+#: Size of the rates step's second output: ``(e^j (2), link margin, xi/2 W0_j (2), xi/2 vec W1_j (4))``.
 LINK_OUT = 9
-#: Size of the compiled forward carry: ``R`` (9), ``y`` (3), ``A`` affine in ``p`` (3 + 6), ``sum ||W1||`` (1).
-FRAME_CARRY = 22
 #: Size of the joint loop's carry: the previous link's angular velocity in its own frame.
 JOINT_CARRY = 3
 
@@ -50,10 +57,13 @@ def joint_rotation(ca_: Any, sa: Any, cb: Any, sb: Any) -> tuple[Any, Any]:
 
 
 def singular_values_2x2_select(A: Any) -> tuple[Any, Any]:
-    """``(smallest, largest)`` singular value of a 2x2 matrix, with ``fmax(x, 0)`` written as a select.
+    """``(smallest, largest)`` singular value of a 2x2 matrix, with ``fmax(x, 0)`` written without a branch.
 
-    As :func:`~coordarm.symbolic.spatial_recursion.singular_values_2x2`; C's ``fmax`` is a library call unless NaN may be ignored; ``x > 0 ? x : 0`` is one instruction and
-    gives the same value, NaN included (``fmax(NaN, 0) = 0``).
+    As :func:`~coordarm.symbolic.spatial_recursion.singular_values_2x2`. C's ``fmax`` is a library call
+    unless NaN may be ignored, and gcc turns ``sqrt(x > 0 ? x : 0)`` into a branch around the square root,
+    which stops a loop over links from vectorising; ``(x + |x|) / 2`` is ``fmax(x, 0)`` exactly for every
+    number (``x + x`` and the halving are exact; ``x + |x| = 0`` for ``x < 0``), and where ``x`` is NaN the
+    other square root of the pair is NaN too, so both forms give NaN singular values.
 
     Parameters
     ----------
@@ -66,80 +76,59 @@ def singular_values_2x2_select(A: Any) -> tuple[Any, Any]:
     F = ca.sumsqr(A)
     D = ca.fabs(A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0])
     gap = F - 2 * D
-    plus, minus = ca.sqrt(F + 2 * D), ca.sqrt(ca.if_else(gap > 0, gap, 0))
+    plus, minus = ca.sqrt(F + 2 * D), ca.sqrt(0.5 * (gap + ca.fabs(gap)))
     return 0.5 * (plus - minus), 0.5 * (plus + minus)
 
 
-def pack_frame_carry(R: Any, y: Any, A0: Any, A1: Any, total: Any) -> Any:
-    """The compiled forward carry as one column (:data:`FRAME_CARRY` doubles).
-
-    Parameters
-    ----------
-    R : casadi.SX, shape (3, 3)
-        The link frame, in the law's frame (:mod:`.spatial_frame`).
-    y : casadi.SX, shape (3,)
-        The link's centre [m].
-    A0, A1 : casadi.SX, shapes (3,) and (3, 2)
-        ``y^j' + xi/2 E_j w_j = A0 + A1 p`` [m/s]: the next centre's velocity before the next link's rate.
-    total : casadi.SX
-        The running ``sum ||W1||`` [-].
-
-    Returns
-    -------
-    casadi.SX, shape (22, 1)
-    """
-    return ca.vertcat(ca.vec(R), y, A0, ca.vec(A1), total)
-
-
-def unpack_frame_carry(c: Any) -> tuple[Any, ...]:
-    """``(R, y, A0, A1, total)`` of a compiled carry column (inverse of :func:`pack_frame_carry`).
-
-    Parameters
-    ----------
-    c : casadi.SX, shape (22, 1)
-
-    Returns
-    -------
-    tuple of casadi.SX
-    """
-    return ca.reshape(c[0:9], 3, 3), c[9:12], c[12:15], ca.reshape(c[15:21], 3, 2), c[21]
-
-
-def _link_expressions(ctrl: SpatialController):
-    """Symbolic inputs ``(carry, trig, t, inv_det)`` and ``(carry_next, out_j, 1 / det P_j)`` of one link step.
-
-    As :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` with the joint's cosines and
-    sines as inputs and the reciprocal of the link pivot's determinant as an input too (its expression is
-    returned for :func:`spatial_link_inv_det`): one division per link instead of six (CasADi would fold
-    ``x * (1/y)`` back into a division). In the law's frame (:mod:`.spatial_frame`: on a line the
-    geometry and ``dPhi/dy`` are free). The pivot is taken over ``xi/2`` (``J E_j``): the carried
-    ``xi/2 E_j w_j`` is then ``E_j V_j`` with ``V_j = xi/2 w_j`` (the joint loop scales ``V_j`` back);
-    ``-P^-1`` is formed once and applied to both right-hand sides. The carry holds
-    ``A = y^j' + xi/2 E_j w_j`` only (the next centre's rate before the next link's own), updated as
-    ``A + 2 E_j V_j``.
-    """
-    xi, K = ctrl.chain.xi, ctrl.gain
-    carry, t, inv = ca.SX.sym("carry", FRAME_CARRY), ca.SX.sym("t"), ca.SX.sym("inv_det")
-    trig = [ca.SX.sym(name) for name in LINK_INPUTS[1:5]]
-    R_prev, y_prev, A0, A1, total = unpack_frame_carry(carry)
+def _kinematics_function(ctrl: SpatialController) -> ca.Function:
+    """``(carry, cos a, sin a, cos b, sin b) -> carry_next`` of :func:`spatial_kinematics_step`."""
+    carry, trig = ca.SX.sym("carry", KIN_CARRY), [ca.SX.sym(n) for n in ("cos_a", "sin_a", "cos_b", "sin_b")]
+    R_prev, y_prev = ca.reshape(carry[0:9], 3, 3), carry[9:12]
     rz, ry = joint_rotation(*trig)
     R = ca.mtimes(ca.mtimes(R_prev, rz), ry)
-    E = R[:, 1:3]
-    y = y_prev + 0.5 * xi * (R_prev[:, 0] + R[:, 0])
+    y = y_prev + 0.5 * ctrl.chain.xi * (R_prev[:, 0] + R[:, 0])
+    return ca.Function("spatial_kinematics_step", [carry, *trig], [ca.vertcat(ca.vec(R), y)],
+                       ["carry", "cos_a", "sin_a", "cos_b", "sin_b"], ["carry_next"])
+
+
+def _pivot_expressions(ctrl: SpatialController):
+    """Inputs ``(geo, w, t, inv)`` and outputs ``(pivot, out, inv_expr)`` of one link's pivot (no carry).
+
+    ``pivot = (K Phi + Phit (2), vec(-P^-1) (4), vec(2 E_j (-P^-1)) (6)[, vec dPhi/dy (6)])``, the last only
+    when ``dPhi/dy`` varies (not on a line in its own frame); ``out = (e^j (2), link margin)``.
+    """
+    K = ctrl.gain
+    geo, t, inv = [ca.SX.sym(f"g{k}") for k in range(LINK_GEOMETRY)], ca.SX.sym("t"), ca.SX.sym("inv_det")
+    E, y = ca.reshape(ca.vertcat(*geo[0:6]), 3, 2), ca.vertcat(*geo[6:9])
     Phi, J, Phit, *_ = frame_geometry(ctrl)(y, t)
     P = ca.mtimes(J, E)                  # the link pivot over xi/2 (the xi/2 cancels from xi/2 E w_j)
     neg_inv = ca.vertcat(ca.horzcat(-P[1, 1], P[0, 1]), ca.horzcat(P[1, 0], -P[0, 0])) * inv   # -P^-1
-    V0 = ca.mtimes(neg_inv, K * Phi + Phit + ca.mtimes(J, A0))      # xi/2 W0_j
-    V1 = ca.mtimes(neg_inv, ca.mtimes(J, A1))                        # xi/2 W1_j
-    new = pack_frame_carry(R, y, A0 + 2 * ca.mtimes(E, V0), A1 + 2 * ca.mtimes(E, V1),
-                           total + singular_values_2x2_select(V1)[1] * (2 / xi))
-    out = ca.vertcat(Phi, singular_values_2x2_select(P)[0], V0, ca.vec(V1))
+    parts = [K * Phi + Phit, ca.vec(neg_inv), ca.vec(2 * ca.mtimes(E, neg_inv))]
+    if not J.is_constant():
+        parts.append(ca.vec(J))
+    out = ca.vertcat(Phi, singular_values_2x2_select(P)[0])
     inv_expr = 1 / (P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0])
-    return (carry, trig, t, inv), (new, out, inv_expr)
+    return (geo, t, inv), (ca.vertcat(*parts), out, inv_expr), J
+
+
+def _rates_function(ctrl: SpatialController, J: Any, n_pivot: int) -> ca.Function:
+    """``(carry, pivot_1, ..., pivot_n) -> (carry_next, V_1, ..., V_6)`` of :func:`spatial_rates_step`."""
+    carry, piv = ca.SX.sym("carry", RATE_CARRY), [ca.SX.sym(f"p{k}") for k in range(n_pivot)]
+    A0, A1, total = carry[0:3], ca.reshape(carry[3:9], 3, 2), carry[9]
+    r, neg_inv, M = ca.vertcat(*piv[0:2]), ca.reshape(ca.vertcat(*piv[2:6]), 2, 2), ca.reshape(ca.vertcat(*piv[6:12]), 3, 2)
+    if n_pivot > 12:
+        J = ca.reshape(ca.vertcat(*piv[12:18]), 2, 3)
+    G0, G1 = r + ca.mtimes(J, A0), ca.mtimes(J, A1)
+    V0, V1 = ca.mtimes(neg_inv, G0), ca.mtimes(neg_inv, G1)          # xi/2 W0_j, xi/2 W1_j
+    new = ca.vertcat(A0 + ca.mtimes(M, G0), ca.vec(A1 + ca.mtimes(M, G1)),
+                     total + singular_values_2x2_select(V1)[1] * (2 / ctrl.chain.xi))
+    V = ca.vertcat(V0, ca.vec(V1))
+    return ca.Function("spatial_rates_step", [carry, *piv], [new, *(V[k] for k in range(6))],
+                       ["carry"] + [f"pivot_{k}" for k in range(n_pivot)], ["carry_next"] + [f"v_{k}" for k in range(6)])
 
 
 def _head_function(ctrl: SpatialController) -> ca.Function:
-    """The interpreted head with its carry turned into the compiled one, in the law's frame."""
+    """The interpreted head with its carry split into the kinematics and the rates carries, in the law's frame."""
     ab, t = ca.SX.sym("ab", 2), ca.SX.sym("t")
     carry, *rest = ctrl.recursion.head()(ab, t)
     R, y, Y0, Y1, H0, H1, total = unpack_carry(carry)
@@ -148,38 +137,40 @@ def _head_function(ctrl: SpatialController) -> ca.Function:
     if frame is not None:
         F, p = frame
         R, y, A0, A1 = ca.mtimes(F.T, R), ca.mtimes(F.T, y - p), ca.mtimes(F.T, A0), ca.mtimes(F.T, A1)
-    return ca.Function("spatial_frame_head", [ab, t], [pack_frame_carry(R, y, A0, A1, total), *rest],
-                       ["ab", "t"], ["carry", "roll", "roll_row", "roll_rhs", "roll_scale"])
+    return ca.Function("spatial_frame_head", [ab, t],
+                       [ca.vertcat(ca.vec(R), y), ca.vertcat(A0, ca.vec(A1), total), *rest],
+                       ["ab", "t"], ["kinematics", "rates", "roll", "roll_row", "roll_rhs", "roll_scale"])
 
 
 def _tail_function(ctrl: SpatialController) -> ca.Function:
-    """The interpreted end solve on the compiled carry of link m and link m's ``xi/2 (W0_m, vec W1_m)``."""
-    carry, v, t = ca.SX.sym("carry", FRAME_CARRY), ca.SX.sym("v", 6), ca.SX.sym("t")
-    row, rhs, scale = ca.SX.sym("roll_row", 1, 2), ca.SX.sym("roll_rhs"), ca.SX.sym("roll_scale")
-    R, y, A0, A1, total = unpack_frame_carry(carry)
-    E = R[:, 1:3]
+    """The interpreted end solve on link m's geometry, the rates carry after it and its ``xi/2 (W0_m, vec W1_m)``."""
+    geo, carry, v = ca.SX.sym("geo", LINK_GEOMETRY), ca.SX.sym("carry", RATE_CARRY), ca.SX.sym("v", 6)
+    t, row, rhs, scale = ca.SX.sym("t"), ca.SX.sym("roll_row", 1, 2), ca.SX.sym("roll_rhs"), ca.SX.sym("roll_scale")
+    E, y = ca.reshape(geo[0:6], 3, 2), geo[6:9]
+    A0, A1, total = carry[0:3], ca.reshape(carry[3:9], 3, 2), carry[9]
     Y0, Y1 = A0 - ca.mtimes(E, v[0:2]), A1 - ca.mtimes(E, ca.reshape(v[2:6], 2, 2))   # y^m' = A - xi/2 E_m w_m
     _, _, _, psi, h, psit = frame_geometry(ctrl)(y, t)
     s_row = ca.mtimes(h.T, Y1)
     N = ca.vertcat(s_row, row)
     p = solve_2x2(N, ca.vertcat(ca.SX(ctrl.task.speed(t)) - psit - ca.dot(h, Y0), rhs))
     margin = singular_values_2x2(ca.vertcat(s_row / (ctrl.chain.xi * total), row / scale))[0]
-    return ca.Function("spatial_frame_tail", [carry, v, t, row, rhs, scale], [psi, p, margin],
-                       ["carry", "v", "t", "roll_row", "roll_rhs", "roll_scale"], ["s", "p", "end_margin"])
+    return ca.Function("spatial_frame_tail", [geo, carry, v, t, row, rhs, scale], [psi, p, margin],
+                       ["geo", "carry", "v", "t", "roll_row", "roll_rhs", "roll_scale"], ["s", "p", "end_margin"])
 
 
 def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ...]:
-    """``(time_features, link_step_trig, link_inv_det, head, tail)`` of ``ctrl``."""
-    (carry, trig, t, inv), (new, out, inv_expr) = _link_expressions(ctrl)
-    expr, wsym, wexpr = split_time_terms(ca.vertcat(new, out, inv_expr), t)
-    n = FRAME_CARRY + LINK_OUT
+    """``(time_features, kinematics_step, link_pivot, link_inv_det, rates_step, head, tail)`` of ``ctrl``."""
+    (geo, t, inv), (piv, out, inv_expr), J = _pivot_expressions(ctrl)
+    expr, wsym, wexpr = split_time_terms(ca.vertcat(piv, out, inv_expr), t)
+    n = piv.numel()
     tf = ca.Function("spatial_time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
-    body = ca.cse(expr[:n])
-    step = ca.Function("spatial_link_step_trig", [carry, *trig, wsym, inv],
-                       [body[:FRAME_CARRY], body[FRAME_CARRY:]],
-                       LINK_INPUTS + ["inv_det"], ["carry_next", "out"])
-    inv_det = ca.Function("spatial_link_inv_det", [carry, *trig, wsym], [ca.cse(expr[n])], LINK_INPUTS, ["inv_det"])
-    return tf, step, inv_det, _head_function(ctrl), _tail_function(ctrl)
+    body = ca.cse(expr[:n + 3])
+    names = [f"g{k}" for k in range(LINK_GEOMETRY)]
+    pivot = ca.Function("spatial_link_pivot", [*geo, wsym, inv], [body[k] for k in range(n + 3)],
+                        names + ["w", "inv_det"], [f"pivot_{k}" for k in range(n)] + ["e_1", "e_2", "margin"])
+    inv_det = ca.Function("spatial_link_inv_det", [*geo, wsym], [ca.cse(expr[n + 3])], names + ["w"], ["inv_det"])
+    return (tf, _kinematics_function(ctrl), pivot, inv_det, _rates_function(ctrl, J, n), _head_function(ctrl),
+            _tail_function(ctrl))
 
 
 def _cached(ctrl: SpatialController) -> tuple[ca.Function, ...]:
@@ -190,7 +181,7 @@ def _cached(ctrl: SpatialController) -> tuple[ca.Function, ...]:
 
 
 def spatial_time_features(ctrl: SpatialController) -> ca.Function:
-    """``t -> w``: the time-only terms of :func:`spatial_link_step_trig`, computed once per law call.
+    """``t -> w``: the time-only terms of :func:`spatial_rates_step`, computed once per law call.
 
     Parameters
     ----------
@@ -205,12 +196,10 @@ def spatial_time_features(ctrl: SpatialController) -> ca.Function:
     return _cached(ctrl)[0]
 
 
-def spatial_link_step_trig(ctrl: SpatialController) -> ca.Function:
-    """One link ``j >= 2`` of the spatial solve with the joint's cosines and sines as inputs.
+def spatial_kinematics_step(ctrl: SpatialController) -> ca.Function:
+    """One link's forward kinematics: ``(carry, cos a_j, sin a_j, cos b_j, sin b_j) -> carry_next``.
 
-    ``(carry, cos a_j, sin a_j, cos b_j, sin b_j, w, inv_det) -> (carry_next, out_j)``, the operations of
-    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` without trigonometry and with
-    the reciprocal of the link pivot's determinant from :func:`spatial_link_inv_det`.
+    ``R_j = R_{j-1} Rz(a_j) Ry(b_j)``, ``y^j = y^{j-1} + xi/2 (d_{j-1} + d_j)``, in the law's frame.
 
     Parameters
     ----------
@@ -220,15 +209,36 @@ def spatial_link_step_trig(ctrl: SpatialController) -> ca.Function:
     Returns
     -------
     casadi.Function
-        Carry layout of :func:`pack_frame_carry` (:data:`FRAME_CARRY`, in the law's frame);
-        ``out_j = (e^j [m] (2), link margin [-], xi/2 W0_j [m/s] (2), xi/2 vec W1_j [m] (4))``
-        (the link rates ``w_j = W0_j + W1_j p`` times ``xi/2``).
+        Carry ``(vec R_j (9), y^j (3) [m])`` (:data:`KIN_CARRY`); its entries 3..11 are the link's
+        geometry ``(vec E_j, y^j)`` that :func:`spatial_rates_step` reads.
     """
     return _cached(ctrl)[1]
 
 
+def spatial_rates_step(ctrl: SpatialController) -> ca.Function:
+    """One link ``j >= 2`` of the spatial solve's rates: ``(carry, geo_j, w, inv_det) -> (carry_next, out_j)``.
+
+    The operations of :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` after the
+    kinematics, with the reciprocal of the link pivot's determinant from :func:`spatial_link_inv_det`.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+
+    Returns
+    -------
+    casadi.Function
+        ``geo_j = (vec E_j, y^j)`` (:data:`LINK_GEOMETRY`); carry ``(A0 (3), vec A1 (6), sum ||W1||)``
+        (:data:`RATE_CARRY`, ``A0 + A1 p = y^j' + xi/2 E_j w_j`` [m/s]);
+        ``out_j = (e^j [m] (2), link margin [-], xi/2 W0_j [m/s] (2), xi/2 vec W1_j [m] (4))``
+        (the link rates ``w_j = W0_j + W1_j p`` times ``xi/2``).
+    """
+    return _cached(ctrl)[4]
+
+
 def spatial_link_inv_det(ctrl: SpatialController) -> ca.Function:
-    """``(carry, cos a_j, sin a_j, cos b_j, sin b_j, w) -> 1 / det P_j`` for :func:`spatial_link_step_trig`.
+    """``(geo_j, w) -> 1 / det P_j`` for :func:`spatial_rates_step`.
 
     Parameters
     ----------
@@ -241,14 +251,17 @@ def spatial_link_inv_det(ctrl: SpatialController) -> ca.Function:
         Output ``inv_det`` [-]: the reciprocal of the determinant of the link pivot over ``xi/2``,
         ``dPhi/dy E_j`` (2x2, [1/rad]) [rad^2].
     """
-    return _cached(ctrl)[2]
+    return _cached(ctrl)[3]
 
 
-def spatial_frame_head(ctrl: SpatialController) -> ca.Function:
-    """Link 1: ``(ab_1, t) -> (carry, roll, roll_row, roll_rhs, roll_scale)`` with the compiled carry.
+def spatial_link_pivot(ctrl: SpatialController) -> ca.Function:
+    """One link's pivot, no carry: ``(g_0, ..., g_8, w, inv_det) -> (pivot_0, ..., pivot_n-1, e_1, e_2, margin)``.
 
-    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.head` with its carry turned into the
-    layout of :func:`pack_frame_carry` in the law's frame (:mod:`.spatial_frame`).
+    All scalars (the C loop over links passes each as a pointer into an array per quantity, so the
+    loop vectorises): the link's geometry ``(vec E_j, y^j)`` from :func:`spatial_kinematics_step`, the
+    time features, ``1 / det P_j`` (:func:`spatial_link_inv_det`); out the rates step's inputs
+    ``K Phi + Phit`` [m/s] (2), ``vec(-P_j^-1)`` (4), ``vec(2 E_j (-P_j^-1))`` (6) and, where
+    ``dPhi/dy`` varies along the curve, ``vec dPhi/dy`` (6); then ``e^j`` [m] and the link margin.
 
     Parameters
     ----------
@@ -258,17 +271,37 @@ def spatial_frame_head(ctrl: SpatialController) -> ca.Function:
     Returns
     -------
     casadi.Function
-        Inputs ``ab`` (2,) [rad], ``t`` [s]; the roll [rad], ``roll_row`` (1, 2), ``roll_rhs`` [rad/s], ``roll_scale``.
     """
-    return _cached(ctrl)[3]
+    return _cached(ctrl)[2]
+
+
+def spatial_frame_head(ctrl: SpatialController) -> ca.Function:
+    """Link 1: ``(ab_1, t) -> (kinematics, rates, roll, roll_row, roll_rhs, roll_scale)``.
+
+    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.head` with its carry split into the
+    kinematics carry (:func:`spatial_kinematics_step`) and the rates carry (:func:`spatial_rates_step`),
+    in the law's frame (:mod:`.spatial_frame`).
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+
+    Returns
+    -------
+    casadi.Function
+        Inputs ``ab`` (2,) [rad], ``t`` [s]; the two carries, the roll [rad], ``roll_row`` (1, 2),
+        ``roll_rhs`` [rad/s], ``roll_scale``.
+    """
+    return _cached(ctrl)[5]
 
 
 def spatial_frame_tail(ctrl: SpatialController) -> ca.Function:
-    """The 2x2 end solve: ``(carry_m, v_m, t, roll_row, roll_rhs, roll_scale) -> (s, p, end_margin)``.
+    """The 2x2 end solve: ``(geo_m, carry_m, v_m, t, roll_row, roll_rhs, roll_scale) -> (s, p, end_margin)``.
 
-    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.tail` on the compiled carry after link m,
-    whose ``A = y^m' + xi/2 E_m w_m`` gives ``y^m' = A - E_m v_m`` with ``v_m = xi/2 (W0_m, vec W1_m)``
-    (link m's second output, :func:`spatial_link_step_trig`).
+    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.tail` on link m's geometry and the
+    rates carry after link m, whose ``A = y^m' + xi/2 E_m w_m`` gives ``y^m' = A - E_m v_m`` with
+    ``v_m = xi/2 (W0_m, vec W1_m)`` (link m's second output, :func:`spatial_rates_step`).
 
     Parameters
     ----------
@@ -280,7 +313,7 @@ def spatial_frame_tail(ctrl: SpatialController) -> ca.Function:
     casadi.Function
         ``s`` [m], ``p = w_1`` (2,) [rad/s], ``end_margin`` [-].
     """
-    return _cached(ctrl)[4]
+    return _cached(ctrl)[6]
 
 
 def spatial_joint_step_trig() -> ca.Function:
