@@ -1,7 +1,8 @@
 """Emit the C source of a :class:`~coordarm.symbolic.spatial_controller.SpatialController`'s law.
 
-The structured form is small generated Functions of :mod:`.spatial_variants` (the time features, the
-head, the per-link kinematics and rates steps, the end solve, the joint step), called by the C loops
+The structured form is small generated Functions of :mod:`.spatial_variants` and :mod:`.spatial_joints`
+(the time features, the head, the per-link kinematics, pivot and rates steps, the end solve, the
+joint rates), called by the C loops
 of ``templates/spatial_law.c``: the code size does not grow with the number of links. The
 dense form is the whole law as one Function (``templates/dense_law.c``). Both end with the
 library's API of ``templates/library_api.c`` (law, control, RK4 step, chunk, sizes), the same entry
@@ -18,9 +19,10 @@ from coordarm.symbolic.outputs import spatial_offsets, spatial_packed_width
 
 from .codegen import Source, casadi_code, dense_law
 from .render import render
-from .spatial_variants import (JOINT_CARRY, KIN_CARRY, LINK_GEOMETRY, RATE_CARRY, spatial_frame_head,
-                               spatial_frame_tail, spatial_joint_step_trig, spatial_kinematics_step,
-                               spatial_link_inv_det, spatial_link_pivot, spatial_rates_step, spatial_time_features)
+from .spatial_joints import spatial_joint_prep, spatial_joint_rates
+from .spatial_variants import (KIN_CARRY, LINK_GEOMETRY, RATE_CARRY, spatial_end_margin, spatial_frame_head,
+                               spatial_frame_tail, spatial_kinematics_step, spatial_link_inv_det, spatial_link_pivot,
+                               spatial_rate_norm, spatial_rates_step, spatial_time_features)
 
 
 def spatial_layout_macros(m: int) -> str:
@@ -54,13 +56,13 @@ def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
     Returns
     -------
     list of casadi.Function
-        Structured: time features, head, kinematics step, rates step, end solve, joint step, link pivot's 1/det;
-        dense: the whole law.
+        Structured: time features, head, kinematics step, link pivot's 1/det, link pivot, rates step, end solve,
+        rate norm, end margin, joint prep, joint rates; dense: the whole law.
     """
     if form == Law.STRUCTURED:
         return [spatial_time_features(ctrl), spatial_frame_head(ctrl), spatial_kinematics_step(ctrl),
                 spatial_link_inv_det(ctrl), spatial_link_pivot(ctrl), spatial_rates_step(ctrl), spatial_frame_tail(ctrl),
-                spatial_joint_step_trig()]
+                spatial_rate_norm(ctrl), spatial_end_margin(ctrl), spatial_joint_prep(), spatial_joint_rates()]
     return [ctrl.law(form)]
 
 
@@ -75,11 +77,11 @@ def spatial_law(ctrl: SpatialController) -> str:
     Returns
     -------
     str
-        ``CA_NW``, ``CA_NKC``, ``CA_NRC``, ``CA_NG``, ``CA_NJC`` definitions followed by the law's C (``ca_law``,
+        ``CA_NW``, ``CA_NKC``, ``CA_NRC``, ``CA_NG``, ``CA_NPV`` definitions followed by the law's C (``ca_law``,
         ``CA_LAW_SCRATCH``).
     """
     return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NKC {KIN_CARRY}\n"
-            f"#define CA_NRC {RATE_CARRY}\n#define CA_NG {LINK_GEOMETRY}\n#define CA_NJC {JOINT_CARRY}\n"
+            f"#define CA_NRC {RATE_CARRY}\n#define CA_NG {LINK_GEOMETRY}\n"
             f"#define CA_NPV {spatial_rates_step(ctrl).n_in() - 1}\n"
             + render("spatial_law.c"))
 

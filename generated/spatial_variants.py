@@ -30,12 +30,8 @@ _CACHE: "weakref.WeakKeyDictionary[SpatialController, dict]" = weakref.WeakKeyDi
 KIN_CARRY = 12
 #: Size of a link's stored geometry: ``vec E_j`` (6) and ``y^j`` (3), the kinematics carry from index 3.
 LINK_GEOMETRY = 9
-#: Size of the rates carry: ``A = A0 + A1 p`` (3 + 6) [m/s] and the running ``sum ||W1||`` (1).
-RATE_CARRY = 10
-#: Size of the rates step's second output: ``(e^j (2), link margin, xi/2 W0_j (2), xi/2 vec W1_j (4))``.
-LINK_OUT = 9
-#: Size of the joint loop's carry: the previous link's angular velocity in its own frame.
-JOINT_CARRY = 3
+#: Size of the rates carry: ``A = A0 + A1 p`` (3 + 6) [m/s].
+RATE_CARRY = 9
 
 
 def joint_rotation(ca_: Any, sa: Any, cb: Any, sb: Any) -> tuple[Any, Any]:
@@ -114,17 +110,32 @@ def _pivot_expressions(ctrl: SpatialController):
 def _rates_function(ctrl: SpatialController, J: Any, n_pivot: int) -> ca.Function:
     """``(carry, pivot_1, ..., pivot_n) -> (carry_next, V_1, ..., V_6)`` of :func:`spatial_rates_step`."""
     carry, piv = ca.SX.sym("carry", RATE_CARRY), [ca.SX.sym(f"p{k}") for k in range(n_pivot)]
-    A0, A1, total = carry[0:3], ca.reshape(carry[3:9], 3, 2), carry[9]
+    A0, A1 = carry[0:3], ca.reshape(carry[3:9], 3, 2)
     r, neg_inv, M = ca.vertcat(*piv[0:2]), ca.reshape(ca.vertcat(*piv[2:6]), 2, 2), ca.reshape(ca.vertcat(*piv[6:12]), 3, 2)
     if n_pivot > 12:
         J = ca.reshape(ca.vertcat(*piv[12:18]), 2, 3)
     G0, G1 = r + ca.mtimes(J, A0), ca.mtimes(J, A1)
     V0, V1 = ca.mtimes(neg_inv, G0), ca.mtimes(neg_inv, G1)          # xi/2 W0_j, xi/2 W1_j
-    new = ca.vertcat(A0 + ca.mtimes(M, G0), ca.vec(A1 + ca.mtimes(M, G1)),
-                     total + singular_values_2x2_select(V1)[1] * (2 / ctrl.chain.xi))
+    new = ca.vertcat(A0 + ca.mtimes(M, G0), ca.vec(A1 + ca.mtimes(M, G1)))
     V = ca.vertcat(V0, ca.vec(V1))
     return ca.Function("spatial_rates_step", [carry, *piv], [new, *(V[k] for k in range(6))],
                        ["carry"] + [f"pivot_{k}" for k in range(n_pivot)], ["carry_next"] + [f"v_{k}" for k in range(6)])
+
+
+def _rate_norm_function(ctrl: SpatialController) -> ca.Function:
+    """``(v_2, v_3, v_4, v_5) -> ||W1_j||`` (spectral) from ``xi/2 vec W1_j``, for the end margin's scale."""
+    v = [ca.SX.sym(f"v_{k}") for k in range(2, 6)]
+    norm = singular_values_2x2_select(ca.reshape(ca.vertcat(*v), 2, 2))[1] * (2 / ctrl.chain.xi)
+    return ca.Function("spatial_rate_norm", v, [norm], [f"v_{k}" for k in range(2, 6)], ["norm"])
+
+
+def _end_margin_function(ctrl: SpatialController) -> ca.Function:
+    """``(s_row, roll_row, roll_scale, total) -> end_margin``, the end margin of the interpreted tail."""
+    s_row, row = ca.SX.sym("s_row", 1, 2), ca.SX.sym("roll_row", 1, 2)
+    scale, total = ca.SX.sym("roll_scale"), ca.SX.sym("total")
+    margin = singular_values_2x2(ca.vertcat(s_row / (ctrl.chain.xi * total), row / scale))[0]
+    return ca.Function("spatial_end_margin", [s_row, row, scale, total], [margin],
+                       ["s_row", "roll_row", "roll_scale", "total"], ["end_margin"])
 
 
 def _head_function(ctrl: SpatialController) -> ca.Function:
@@ -138,24 +149,23 @@ def _head_function(ctrl: SpatialController) -> ca.Function:
         F, p = frame
         R, y, A0, A1 = ca.mtimes(F.T, R), ca.mtimes(F.T, y - p), ca.mtimes(F.T, A0), ca.mtimes(F.T, A1)
     return ca.Function("spatial_frame_head", [ab, t],
-                       [ca.vertcat(ca.vec(R), y), ca.vertcat(A0, ca.vec(A1), total), *rest],
-                       ["ab", "t"], ["kinematics", "rates", "roll", "roll_row", "roll_rhs", "roll_scale"])
+                       [ca.vertcat(ca.vec(R), y), ca.vertcat(A0, ca.vec(A1)), total, *rest],
+                       ["ab", "t"], ["kinematics", "rates", "total", "roll", "roll_row", "roll_rhs", "roll_scale"])
 
 
 def _tail_function(ctrl: SpatialController) -> ca.Function:
     """The interpreted end solve on link m's geometry, the rates carry after it and its ``xi/2 (W0_m, vec W1_m)``."""
     geo, carry, v = ca.SX.sym("geo", LINK_GEOMETRY), ca.SX.sym("carry", RATE_CARRY), ca.SX.sym("v", 6)
-    t, row, rhs, scale = ca.SX.sym("t"), ca.SX.sym("roll_row", 1, 2), ca.SX.sym("roll_rhs"), ca.SX.sym("roll_scale")
+    t, row, rhs = ca.SX.sym("t"), ca.SX.sym("roll_row", 1, 2), ca.SX.sym("roll_rhs")
     E, y = ca.reshape(geo[0:6], 3, 2), geo[6:9]
-    A0, A1, total = carry[0:3], ca.reshape(carry[3:9], 3, 2), carry[9]
+    A0, A1 = carry[0:3], ca.reshape(carry[3:9], 3, 2)
     Y0, Y1 = A0 - ca.mtimes(E, v[0:2]), A1 - ca.mtimes(E, ca.reshape(v[2:6], 2, 2))   # y^m' = A - xi/2 E_m w_m
     _, _, _, psi, h, psit = frame_geometry(ctrl)(y, t)
     s_row = ca.mtimes(h.T, Y1)
     N = ca.vertcat(s_row, row)
     p = solve_2x2(N, ca.vertcat(ca.SX(ctrl.task.speed(t)) - psit - ca.dot(h, Y0), rhs))
-    margin = singular_values_2x2(ca.vertcat(s_row / (ctrl.chain.xi * total), row / scale))[0]
-    return ca.Function("spatial_frame_tail", [geo, carry, v, t, row, rhs, scale], [psi, p, margin],
-                       ["geo", "carry", "v", "t", "roll_row", "roll_rhs", "roll_scale"], ["s", "p", "end_margin"])
+    return ca.Function("spatial_frame_tail", [geo, carry, v, t, row, rhs], [psi, p, s_row],
+                       ["geo", "carry", "v", "t", "roll_row", "roll_rhs"], ["s", "p", "s_row"])
 
 
 def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ...]:
@@ -170,7 +180,7 @@ def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ...]:
                         names + ["w", "inv_det"], [f"pivot_{k}" for k in range(n)] + ["e_1", "e_2", "margin"])
     inv_det = ca.Function("spatial_link_inv_det", [*geo, wsym], [ca.cse(expr[n + 3])], names + ["w"], ["inv_det"])
     return (tf, _kinematics_function(ctrl), pivot, inv_det, _rates_function(ctrl, J, n), _head_function(ctrl),
-            _tail_function(ctrl))
+            _tail_function(ctrl), _rate_norm_function(ctrl), _end_margin_function(ctrl))
 
 
 def _cached(ctrl: SpatialController) -> tuple[ca.Function, ...]:
@@ -316,27 +326,37 @@ def spatial_frame_tail(ctrl: SpatialController) -> ca.Function:
     return _cached(ctrl)[6]
 
 
-def spatial_joint_step_trig() -> ca.Function:
-    """Link rates to joint rates, one joint, with the joint's cosines and sines as inputs.
+def spatial_rate_norm(ctrl: SpatialController) -> ca.Function:
+    """``||W1_j||`` (spectral norm) from link j's ``xi/2 vec W1_j`` (4 scalars), for the end margin.
 
-    ``(carry, x) -> (carry_next, out)``, ``x = (cos a_j, sin a_j, cos b_j, sin b_j, 1 / cos b_j, w_j1, w_j2)``,
-    ``out = (a_j', b_j', |cos b_j|)``. The carry is the angular velocity of link ``j - 1`` in its own
-    frame, ``R_{j-1}^T omega_{j-1}`` (3) [rad/s], zero before the first joint: the rates of
-    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.joint_step` (which carries ``R_{j-1}`` and
-    ``omega_{j-1}`` in the base frame) without a frame product.
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
 
     Returns
     -------
     casadi.Function
-        Rates in [rad/s].
+        Inputs ``v_2 .. v_5`` [m] (:func:`spatial_rates_step`'s outputs 2-5); output ``norm`` [-].
     """
-    omega, x = ca.SX.sym("carry", JOINT_CARRY), ca.SX.sym("x", 7)
-    ca_, sa, cb, sb, inv_cb, w1, w2 = (x[k] for k in range(7))
-    v0, v1 = ca_ * omega[0] + sa * omega[1], ca_ * omega[1] - sa * omega[0]     # Rz(a)^T omega
-    local = ca.vertcat(cb * v0 - sb * omega[2], v1, sb * v0 + cb * omega[2])       # Ry(b)^T Rz(a)^T omega
-    b_dot = -w2 - local[1]
-    a_dot = (w1 - local[2]) * inv_cb
-    # R_j^T (omega + a_dot R_{j-1} e_z + b_dot R_{j-1} Rz(a) e_y), with Ry^T Rz^T e_z = (-sb, 0, cb)
-    new = ca.vertcat(local[0] - a_dot * sb, local[1] + b_dot, local[2] + a_dot * cb)
-    return ca.Function("spatial_joint_step_trig", [omega, x], [new, ca.vertcat(a_dot, b_dot, ca.fabs(cb))],
-                       ["carry", "x"], ["carry_next", "out"])
+    return _cached(ctrl)[7]
+
+
+def spatial_end_margin(ctrl: SpatialController) -> ca.Function:
+    """The end margin: ``(s_row, roll_row, roll_scale, total) -> end_margin``.
+
+    The smallest singular value of the end solve's matrix with its ``s`` row over ``xi total``
+    (``total = sum_j ||W1_j||``, ``W1_1 = I``) and its roll row over ``roll_scale``, as in
+    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.tail`.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+
+    Returns
+    -------
+    casadi.Function
+        Output ``end_margin`` [-].
+    """
+    return _cached(ctrl)[8]

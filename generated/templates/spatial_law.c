@@ -1,8 +1,8 @@
 /* The spatial law (universal joints, q = (a_1, b_1, ..., a_m, b_m)): every joint angle's cosine and
-   sine in vectorised loops, then three O(m) loops over links: the forward kinematics (frames and
-   centres, storing each link's geometry), the rates (link pivots and the affine link rates, no
-   trigonometry), and after the 2x2 end solve for w_1 = p, the joint rates link by link. Each loop's
-   carry is small enough for the registers. */
+   sine in vectorised loops, then O(m) loops over links: the forward kinematics (frames and centres,
+   storing each link's geometry), the link pivots (independent, vectorised), the rates (the affine
+   link rates, carrying A only), and after the 2x2 end solve for w_1 = p, the joint rates (vectorised
+   but for one multiply-add per joint in sequence). Each sequential loop's carry fits the registers. */
 #if defined(__x86_64__) && defined(__GLIBC__) && defined(__GNUC__) && !defined(__clang__) \
     && __GNUC__ >= 6 && !defined(__FAST_MATH__) && !defined(COORDARM_SCALAR_TRIG)
 #if __GLIBC_PREREQ(2, 22)
@@ -26,8 +26,8 @@ __attribute__((simd("notinbranch"))) double sin(double);
 
 /* scratch: the angles (a_1..a_m, b_1..b_m), their cosines and sines, 1 / cos b_j, and per link (one
    array of CA_M per quantity): xi/2 (W0_j, vec W1_j) (6), the geometry (vec E_j, y^j) (CA_NG), the
-   pivot's outputs for the rates (CA_NPV) */
-#define CA_LAW_SCRATCH ((13 + CA_NG + CA_NPV) * CA_M)
+   pivot's outputs for the rates (CA_NPV >= 12; after the rates, the joint loop's 6 CA_M + 3) */
+#define CA_LAW_SCRATCH ((13 + CA_NG + CA_NPV) * CA_M + 3)
 
 /* ang = (a_1..a_m, b_1..b_m), then c = cos(ang), s = sin(ang), ic = 1 / cos(b): independent iterations.
    Vectorised (libmvec) as separate loops, since gcc would fuse one loop's cos and sin into a scalar sincos. */
@@ -117,28 +117,46 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_rates(const casadi_real* Pv, casadi
   return 0;
 }
 
-/* Joint rates from the link rates w_1 = p, w_j = W0_j + W1_j p (W holds W0_j, W1_j times xi/2; the
-   angular velocity carried from joint to joint in the link's frame); writes u and the joint margins |cos b_j|. */
-CA_FLATTEN CA_NOINLINE static int ca_spatial_joints(const casadi_real* c, const casadi_real* s, const casadi_real* ic,
-                                        const casadi_real* W, const casadi_real* p, casadi_real* u, casadi_real* out,
-                                        casadi_int* iw, casadi_real* w) {
-  casadi_real c0[CA_NJC] = {0}, c1[CA_NJC], x[7], o[3];
+/* Joint rates from the link rates w_1 = p, w_j = W0_j + W1_j p (W holds W0_j, W1_j times xi/2), and
+   the end margin's sum ||W1_j|| (total, from the head's 1). Only the spin about each link is carried
+   (x_j = alpha_j x_{j-1} + beta_j, see spatial_joints.py); the other loops have independent iterations
+   (vectorised). Scratch J: w_1, w_2 (CA_M + 1 each, index 0 before link 1), alpha, beta, the norms
+   ||W1_j|| (CA_M each), x (CA_M + 1). Writes u and the joint margins |cos b_j|. */
+CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spatial_joints(
+    const casadi_real* restrict c, const casadi_real* restrict s, const casadi_real* restrict ic,
+    const casadi_real* restrict W, const casadi_real* restrict p, casadi_real* restrict total,
+    casadi_real* restrict u, casadi_real* restrict out, casadi_real* restrict J, casadi_int* iw, casadi_real* w) {
+  casadi_real *w1 = J, *w2 = w1 + CA_M + 1, *al = w2 + CA_M + 1, *be = al + CA_M, *nrm = be + CA_M;
+  casadi_real *x = nrm + CA_M, sum = *total;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
-  casadi_int j, k;
+  casadi_int j;
+  w1[0] = 0; w2[0] = 0; w1[1] = p[0]; w2[1] = p[1]; nrm[0] = 0;
+  for (j = 1; j < CA_M; ++j) {
+    w1[j + 1] = (W[j] + W[2 * CA_M + j] * p[0] + W[4 * CA_M + j] * p[1]) * (1 / CA_HALF_XI);
+    w2[j + 1] = (W[CA_M + j] + W[3 * CA_M + j] * p[0] + W[5 * CA_M + j] * p[1]) * (1 / CA_HALF_XI);
+  }
+  for (j = 1; j < CA_M; ++j) {
+    arg[0] = W + 2 * CA_M + j; arg[1] = W + 3 * CA_M + j; arg[2] = W + 4 * CA_M + j; arg[3] = W + 5 * CA_M + j;
+    res[0] = nrm + j;
+    if (spatial_rate_norm(arg, res, iw, w, 0)) return 2;
+  }
   for (j = 0; j < CA_M; ++j) {
-    x[0] = c[j]; x[1] = s[j]; x[2] = c[CA_M + j]; x[3] = s[CA_M + j]; x[4] = ic[j];
-    if (j == 0) {
-      x[5] = p[0]; x[6] = p[1];
-    } else {
-      x[5] = (W[j] + W[2 * CA_M + j] * p[0] + W[4 * CA_M + j] * p[1]) * (1 / CA_HALF_XI);
-      x[6] = (W[CA_M + j] + W[3 * CA_M + j] * p[0] + W[5 * CA_M + j] * p[1]) * (1 / CA_HALF_XI);
-    }
-    arg[0] = c0; arg[1] = x; res[0] = c1; res[1] = o;
-    if (spatial_joint_step_trig(arg, res, iw, w, 0)) return 2;
-    u[2 * j] = o[0]; u[2 * j + 1] = o[1];
-    out[CA_OUT_JOINT_MARGINS + j] = o[2];
-    for (k = 0; k < CA_NJC; ++k) c0[k] = c1[k];
+    arg[0] = c + j; arg[1] = s + j; arg[2] = s + CA_M + j; arg[3] = ic + j; arg[4] = w1 + j + 1; arg[5] = w2 + j;
+    res[0] = al + j; res[1] = be + j;
+    if (spatial_joint_prep(arg, res, iw, w, 0)) return 2;
+  }
+  x[0] = 0;
+  for (j = 0; j < CA_M; ++j) {          /* the only sequential part: the spin, and the norms' sum in order */
+    x[j + 1] = al[j] * x[j] + be[j];
+    sum += nrm[j];
+  }
+  *total = sum;
+  for (j = 0; j < CA_M; ++j) {
+    arg[0] = c + j; arg[1] = s + j; arg[2] = c + CA_M + j; arg[3] = s + CA_M + j; arg[4] = ic + j;
+    arg[5] = x + j; arg[6] = w1 + j; arg[7] = w2 + j; arg[8] = w1 + j + 1; arg[9] = w2 + j + 1;
+    res[0] = u + 2 * j; res[1] = u + 2 * j + 1; res[2] = out + CA_OUT_JOINT_MARGINS + j;
+    if (spatial_joint_rates(arg, res, iw, w, 0)) return 2;
   }
   return 0;
 }
@@ -146,7 +164,7 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_joints(const casadi_real* c, const 
 /* The law at (q, t): u (2m) to u, every other output to out at its offset. */
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
                   casadi_real* w) {
-  casadi_real wt[CA_NW + 1], kin[CA_NKC], carry[CA_NRC], row[2], rhs, scale, p[2], geo[CA_NG], v[6];
+  casadi_real wt[CA_NW + 1], kin[CA_NKC], carry[CA_NRC], total, row[2], rhs, scale, p[2], geo[CA_NG], v[6], srow[2];
   casadi_real *ang = w + CA_SZ_W + CA_RK4_SCRATCH, *c = ang + 2 * CA_M, *s = c + 2 * CA_M, *ic = s + 2 * CA_M;
   casadi_real *W = ic + CA_M, *G = W + 6 * CA_M, *Pv = G + CA_NG * CA_M;
   const casadi_real* arg[CA_SZ_ARG];
@@ -156,15 +174,18 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   if (spatial_time_features(arg, res, iw, w, 0)) return 2;
   ca_spatial_trig(q, ang, c, s, ic);
   arg[0] = q; arg[1] = &t;
-  res[0] = kin; res[1] = carry; res[2] = out + CA_OUT_ROLL; res[3] = row; res[4] = &rhs; res[5] = &scale;
+  res[0] = kin; res[1] = carry; res[2] = &total; res[3] = out + CA_OUT_ROLL; res[4] = row; res[5] = &rhs;
+  res[6] = &scale;
   if (spatial_frame_head(arg, res, iw, w, 0)) return 2;
   if (ca_spatial_kinematics(c, s, kin, G, iw, w)) return 2;
   if (ca_spatial_pivots(G, wt, Pv, out, iw, w)) return 2;
   if (ca_spatial_rates(Pv, carry, W, iw, w)) return 2;
   for (k = 0; k < CA_NG; ++k) geo[k] = G[k * CA_M + CA_M - 1];      /* link m */
   for (k = 0; k < 6; ++k) v[k] = W[k * CA_M + CA_M - 1];
-  arg[0] = geo; arg[1] = carry; arg[2] = v; arg[3] = &t; arg[4] = row; arg[5] = &rhs; arg[6] = &scale;
-  res[0] = out + CA_OUT_S; res[1] = p; res[2] = out + CA_OUT_END_MARGIN;
+  arg[0] = geo; arg[1] = carry; arg[2] = v; arg[3] = &t; arg[4] = row; arg[5] = &rhs;
+  res[0] = out + CA_OUT_S; res[1] = p; res[2] = srow;
   if (spatial_frame_tail(arg, res, iw, w, 0)) return 2;
-  return ca_spatial_joints(c, s, ic, W, p, u, out, iw, w);
+  if (ca_spatial_joints(c, s, ic, W, p, &total, u, out, Pv, iw, w)) return 2;      /* Pv is free again */
+  arg[0] = srow; arg[1] = row; arg[2] = &scale; arg[3] = &total; res[0] = out + CA_OUT_END_MARGIN;
+  return spatial_end_margin(arg, res, iw, w, 0) ? 2 : 0;
 }
