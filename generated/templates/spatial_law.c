@@ -24,10 +24,14 @@ __attribute__((simd("notinbranch"))) double sin(double);
 #define CA_NONNULL(...)
 #endif
 
-/* scratch: the angles (a_1..a_m, b_1..b_m), their cosines and sines, 1 / cos b_j, and per link (one
-   array of CA_M per quantity): xi/2 (W0_j, vec W1_j) (6), the geometry (vec E_j, y^j) (CA_NG), the
-   pivot's outputs for the rates (CA_NPV >= 12; after the rates, the joint loop's 6 CA_M + 3) */
-#define CA_LAW_SCRATCH ((13 + CA_NG + CA_NPV) * CA_M + 3)
+/* Per-link arrays are CA_MS doubles apart: at least CA_M + 1 and an odd number of 64-byte lines, so
+   that the arrays a loop reads side by side do not fall into the same L1 sets (CA_M = 1024 would put
+   them 8 KiB apart: every one in the same set). */
+#define CA_MS ((((CA_M + 8) / 8) | 1) * 8)
+/* scratch: the angles (a_1..a_m, b_1..b_m), their cosines and sines (2 arrays each), 1 / cos b_j, and
+   per link (one array per quantity): xi/2 (W0_j, vec W1_j) (6), the geometry (vec E_j, y^j) (CA_NG),
+   the pivot's outputs for the rates (CA_NPV >= 12; after the rates, the joint loop's 6 arrays) */
+#define CA_LAW_SCRATCH ((13 + CA_NG + CA_NPV) * CA_MS)
 
 /* ang = (a_1..a_m, b_1..b_m), then c = cos(ang), s = sin(ang), ic = 1 / cos(b): independent iterations.
    Vectorised (libmvec) as separate loops, since gcc would fuse one loop's cos and sin into a scalar sincos. */
@@ -51,7 +55,7 @@ static void ca_spatial_trig(const casadi_real* restrict q, casadi_real* restrict
 }
 
 /* Links 2..m: frames and centres from link 1's carry kin; quantity k of link j's geometry
-   (vec E_j, y^j) to G[k CA_M + j]. The steps have one call site and are inlined here (flatten; these
+   (vec E_j, y^j) to G[k CA_MS + j]. The steps have one call site and are inlined here (flatten; these
    loops are not themselves inlined into ca_law, where gcc would not inline the steps); the carry is
    copied back, not pointer-swapped, so it can stay in registers. */
 CA_FLATTEN CA_NOINLINE static int ca_spatial_kinematics(const casadi_real* c, const casadi_real* s,
@@ -66,7 +70,7 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_kinematics(const casadi_real* c, co
     arg[0] = c0; arg[1] = c + j; arg[2] = s + j; arg[3] = c + CA_M + j; arg[4] = s + CA_M + j;
     res[0] = c1;
     if (spatial_kinematics_step(arg, res, iw, w, 0)) return 2;
-    for (k = 0; k < CA_NG; ++k) G[k * CA_M + j] = c1[CA_NKC - CA_NG + k];
+    for (k = 0; k < CA_NG; ++k) G[k * CA_MS + j] = c1[CA_NKC - CA_NG + k];
     for (k = 0; k < CA_NKC; ++k) c0[k] = c1[k];
   }
   return 0;
@@ -74,7 +78,7 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_kinematics(const casadi_real* c, co
 
 /* Links 2..m, independent iterations (vectorised: every argument a pointer into an array per
    quantity, non-null): each link's pivot from its geometry, e^j and the link margin to out,
-   the rates step's inputs to Pv[k CA_M + j]. */
+   the rates step's inputs to Pv[k CA_MS + j]. */
 CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4) static int ca_spatial_pivots(
     const casadi_real* restrict G, const casadi_real* restrict wt, casadi_real* restrict Pv,
     casadi_real* restrict out, casadi_int* iw, casadi_real* w) {
@@ -83,11 +87,11 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4) static int ca_spatial_pivots(
   casadi_real inv;
   casadi_int j, k;
   for (j = 1; j < CA_M; ++j) {
-    for (k = 0; k < CA_NG; ++k) arg[k] = G + k * CA_M + j;
+    for (k = 0; k < CA_NG; ++k) arg[k] = G + k * CA_MS + j;
     arg[CA_NG] = wt; res[0] = &inv;
     if (spatial_link_inv_det(arg, res, iw, w, 0)) return 2;
     arg[CA_NG + 1] = &inv;
-    for (k = 0; k < CA_NPV; ++k) res[k] = Pv + k * CA_M + j;
+    for (k = 0; k < CA_NPV; ++k) res[k] = Pv + k * CA_MS + j;
     res[CA_NPV] = out + CA_OUT_E + 2 * (j - 1);
     res[CA_NPV + 1] = out + CA_OUT_E + 2 * (j - 1) + 1;
     res[CA_NPV + 2] = out + CA_OUT_LINK_MARGINS + j - 1;
@@ -97,7 +101,7 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4) static int ca_spatial_pivots(
 }
 
 /* Links 2..m: the rates carry (A = A0 + A1 p, sum ||W1||) -> after link m; quantity k of
-   xi/2 (W0_j, vec W1_j) to W[k CA_M + j]. */
+   xi/2 (W0_j, vec W1_j) to W[k CA_MS + j]. */
 CA_FLATTEN CA_NOINLINE static int ca_spatial_rates(const casadi_real* Pv, casadi_real* carry, casadi_real* W,
                                                    casadi_int* iw, casadi_real* w) {
   casadi_real c0[CA_NRC], c1[CA_NRC];
@@ -107,9 +111,9 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_rates(const casadi_real* Pv, casadi
   for (k = 0; k < CA_NRC; ++k) c0[k] = carry[k];
   for (j = 1; j < CA_M; ++j) {
     arg[0] = c0;
-    for (k = 0; k < CA_NPV; ++k) arg[1 + k] = Pv + k * CA_M + j;
+    for (k = 0; k < CA_NPV; ++k) arg[1 + k] = Pv + k * CA_MS + j;
     res[0] = c1;
-    for (k = 0; k < 6; ++k) res[1 + k] = W + k * CA_M + j;
+    for (k = 0; k < 6; ++k) res[1 + k] = W + k * CA_MS + j;
     if (spatial_rates_step(arg, res, iw, w, 0)) return 2;
     for (k = 0; k < CA_NRC; ++k) c0[k] = c1[k];
   }
@@ -120,24 +124,24 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_rates(const casadi_real* Pv, casadi
 /* Joint rates from the link rates w_1 = p, w_j = W0_j + W1_j p (W holds W0_j, W1_j times xi/2), and
    the end margin's sum ||W1_j|| (total, from the head's 1). Only the spin about each link is carried
    (x_j = alpha_j x_{j-1} + beta_j, see spatial_joints.py); the other loops have independent iterations
-   (vectorised). Scratch J: w_1, w_2 (CA_M + 1 each, index 0 before link 1), alpha, beta, the norms
-   ||W1_j|| (CA_M each), x (CA_M + 1). Writes u and the joint margins |cos b_j|. */
+   (vectorised). Scratch J, one array of CA_MS each: w_1, w_2 (index 0 before link 1), alpha, beta,
+   the norms ||W1_j||, x (index 0 before link 1). Writes u and the joint margins |cos b_j|. */
 CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spatial_joints(
     const casadi_real* restrict c, const casadi_real* restrict s, const casadi_real* restrict ic,
     const casadi_real* restrict W, const casadi_real* restrict p, casadi_real* restrict total,
     casadi_real* restrict u, casadi_real* restrict out, casadi_real* restrict J, casadi_int* iw, casadi_real* w) {
-  casadi_real *w1 = J, *w2 = w1 + CA_M + 1, *al = w2 + CA_M + 1, *be = al + CA_M, *nrm = be + CA_M;
-  casadi_real *x = nrm + CA_M, sum = *total;
+  casadi_real *w1 = J, *w2 = w1 + CA_MS, *al = w2 + CA_MS, *be = al + CA_MS, *nrm = be + CA_MS;
+  casadi_real *x = nrm + CA_MS, sum = *total;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int j;
   w1[0] = 0; w2[0] = 0; w1[1] = p[0]; w2[1] = p[1]; nrm[0] = 0;
   for (j = 1; j < CA_M; ++j) {
-    w1[j + 1] = (W[j] + W[2 * CA_M + j] * p[0] + W[4 * CA_M + j] * p[1]) * (1 / CA_HALF_XI);
-    w2[j + 1] = (W[CA_M + j] + W[3 * CA_M + j] * p[0] + W[5 * CA_M + j] * p[1]) * (1 / CA_HALF_XI);
+    w1[j + 1] = (W[j] + W[2 * CA_MS + j] * p[0] + W[4 * CA_MS + j] * p[1]) * (1 / CA_HALF_XI);
+    w2[j + 1] = (W[CA_MS + j] + W[3 * CA_MS + j] * p[0] + W[5 * CA_MS + j] * p[1]) * (1 / CA_HALF_XI);
   }
   for (j = 1; j < CA_M; ++j) {
-    arg[0] = W + 2 * CA_M + j; arg[1] = W + 3 * CA_M + j; arg[2] = W + 4 * CA_M + j; arg[3] = W + 5 * CA_M + j;
+    arg[0] = W + 2 * CA_MS + j; arg[1] = W + 3 * CA_MS + j; arg[2] = W + 4 * CA_MS + j; arg[3] = W + 5 * CA_MS + j;
     res[0] = nrm + j;
     if (spatial_rate_norm(arg, res, iw, w, 0)) return 2;
   }
@@ -165,8 +169,8 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spati
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
                   casadi_real* w) {
   casadi_real wt[CA_NW + 1], kin[CA_NKC], carry[CA_NRC], total, row[2], rhs, scale, p[2], geo[CA_NG], v[6], srow[2];
-  casadi_real *ang = w + CA_SZ_W + CA_RK4_SCRATCH, *c = ang + 2 * CA_M, *s = c + 2 * CA_M, *ic = s + 2 * CA_M;
-  casadi_real *W = ic + CA_M, *G = W + 6 * CA_M, *Pv = G + CA_NG * CA_M;
+  casadi_real *ang = w + CA_SZ_W + CA_RK4_SCRATCH, *c = ang + 2 * CA_MS, *s = c + 2 * CA_MS, *ic = s + 2 * CA_MS;
+  casadi_real *W = ic + CA_MS, *G = W + 6 * CA_MS, *Pv = G + CA_NG * CA_MS;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int k;
@@ -180,8 +184,8 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   if (ca_spatial_kinematics(c, s, kin, G, iw, w)) return 2;
   if (ca_spatial_pivots(G, wt, Pv, out, iw, w)) return 2;
   if (ca_spatial_rates(Pv, carry, W, iw, w)) return 2;
-  for (k = 0; k < CA_NG; ++k) geo[k] = G[k * CA_M + CA_M - 1];      /* link m */
-  for (k = 0; k < 6; ++k) v[k] = W[k * CA_M + CA_M - 1];
+  for (k = 0; k < CA_NG; ++k) geo[k] = G[k * CA_MS + CA_M - 1];      /* link m */
+  for (k = 0; k < 6; ++k) v[k] = W[k * CA_MS + CA_M - 1];
   arg[0] = geo; arg[1] = carry; arg[2] = v; arg[3] = &t; arg[4] = row; arg[5] = &rhs;
   res[0] = out + CA_OUT_S; res[1] = p; res[2] = srow;
   if (spatial_frame_tail(arg, res, iw, w, 0)) return 2;
