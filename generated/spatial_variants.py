@@ -17,6 +17,7 @@ import weakref
 from typing import Any
 
 import casadi as ca
+import numpy as np
 
 from coordarm.symbolic import SpatialController
 from coordarm.symbolic.recursion import split_time_terms
@@ -87,11 +88,17 @@ def _kinematics_function(ctrl: SpatialController) -> ca.Function:
                        ["carry", "cos_a", "sin_a", "cos_b", "sin_b"], ["carry_next"])
 
 
-def _pivot_expressions(ctrl: SpatialController):
-    """Inputs ``(geo, w, t, inv)`` and outputs ``(pivot, out, inv_expr)`` of one link's pivot (no carry).
+def _is_line_frame(J: Any) -> bool:
+    """``dPhi/dy`` is the constant ``[[0, 1, 0], [0, 0, 1]]`` (a line in its own frame, :mod:`.spatial_frame`)."""
+    return bool(J.is_constant()) and bool(np.array_equal(np.array(ca.DM(J)), np.eye(3)[1:3]))
 
-    ``pivot = (K Phi + Phit (2), vec(-P^-1) (4), vec(2 E_j (-P^-1)) (6)[, vec dPhi/dy (6)])``, the last only
-    when ``dPhi/dy`` varies (not on a line in its own frame); ``out = (e^j (2), link margin)``.
+
+def _pivot_expressions(ctrl: SpatialController):
+    """Inputs ``(geo, t, inv)``, outputs ``(pivot, out, inv_expr)`` and ``dPhi/dy`` of one link's pivot (no carry).
+
+    ``pivot = (K Phi + Phit (2), vec(-P^-1) (4), vec M (6)[, vec dPhi/dy (6)])`` with ``M = 2 E_j (-P^-1)``,
+    ``dPhi/dy`` only where it varies; on a line in its own frame only ``M``'s first row (2), the one
+    :func:`_rates_function` reads there. ``out = (e^j (2), link margin)``.
     """
     K = ctrl.gain
     geo, t, inv = [ca.SX.sym(f"g{k}") for k in range(LINK_GEOMETRY)], ca.SX.sym("t"), ca.SX.sym("inv_det")
@@ -99,26 +106,42 @@ def _pivot_expressions(ctrl: SpatialController):
     Phi, J, Phit, *_ = frame_geometry(ctrl)(y, t)
     P = ca.mtimes(J, E)                  # the link pivot over xi/2 (the xi/2 cancels from xi/2 E w_j)
     neg_inv = ca.vertcat(ca.horzcat(-P[1, 1], P[0, 1]), ca.horzcat(P[1, 0], -P[0, 0])) * inv   # -P^-1
-    parts = [K * Phi + Phit, ca.vec(neg_inv), ca.vec(2 * ca.mtimes(E, neg_inv))]
-    if not J.is_constant():
-        parts.append(ca.vec(J))
+    M = 2 * ca.mtimes(E, neg_inv)
+    parts = [K * Phi + Phit, ca.vec(neg_inv)]
+    if _is_line_frame(J):
+        parts.append(M[0, :].T)
+    else:
+        parts.append(ca.vec(M))
+        if not J.is_constant():
+            parts.append(ca.vec(J))
     out = ca.vertcat(Phi, singular_values_2x2_select(P)[0])
     inv_expr = 1 / (P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0])
     return (geo, t, inv), (ca.vertcat(*parts), out, inv_expr), J
 
 
 def _rates_function(ctrl: SpatialController, J: Any, n_pivot: int) -> ca.Function:
-    """``(carry, pivot_1, ..., pivot_n) -> (carry_next, V_1, ..., V_6)`` of :func:`spatial_rates_step`."""
+    """``(carry, pivot_0, ..., pivot_n-1) -> (carry_next, v_0, ..., v_5)`` of :func:`spatial_rates_step`.
+
+    ``G = dPhi/dy A + (K Phi + Phit, 0, 0)``, ``V = -P^-1 G`` (``xi/2 (W0_j, W1_j)``), ``A <- A + M G``.
+    On a line in its own frame ``dPhi/dy`` takes ``A``'s rows 2-3 (``b``), the same at every link, and
+    ``dPhi/dy M = 2 P (-P^-1) = -2 I``: ``b <- b - 2 G = -b - 2 (K Phi + Phit, 0, 0)`` exactly, and only
+    ``A``'s first row needs ``M`` (its first row).
+    """
     carry, piv = ca.SX.sym("carry", RATE_CARRY), [ca.SX.sym(f"p{k}") for k in range(n_pivot)]
-    A0, A1 = carry[0:3], ca.reshape(carry[3:9], 3, 2)
-    r, neg_inv, M = ca.vertcat(*piv[0:2]), ca.reshape(ca.vertcat(*piv[2:6]), 2, 2), ca.reshape(ca.vertcat(*piv[6:12]), 3, 2)
-    if n_pivot > 12:
-        J = ca.reshape(ca.vertcat(*piv[12:18]), 2, 3)
-    G0, G1 = r + ca.mtimes(J, A0), ca.mtimes(J, A1)
-    V0, V1 = ca.mtimes(neg_inv, G0), ca.mtimes(neg_inv, G1)          # xi/2 W0_j, xi/2 W1_j
-    new = ca.vertcat(A0 + ca.mtimes(M, G0), ca.vec(A1 + ca.mtimes(M, G1)))
-    V = ca.vertcat(V0, ca.vec(V1))
-    return ca.Function("spatial_rates_step", [carry, *piv], [new, *(V[k] for k in range(6))],
+    A = ca.horzcat(carry[0:3], ca.reshape(carry[3:9], 3, 2))
+    r, neg_inv = ca.vertcat(*piv[0:2]), ca.reshape(ca.vertcat(*piv[2:6]), 2, 2)
+    rhs = ca.horzcat(r, ca.SX.zeros(2, 2))
+    if _is_line_frame(J):
+        G = A[1:3, :] + rhs
+        new = ca.vertcat(A[0, :] + ca.mtimes(ca.horzcat(*piv[6:8]), G), -A[1:3, :] - 2 * rhs)
+    else:
+        M = ca.reshape(ca.vertcat(*piv[6:12]), 3, 2)
+        if n_pivot > 12:
+            J = ca.reshape(ca.vertcat(*piv[12:18]), 2, 3)
+        G = ca.mtimes(J, A) + rhs
+        new = A + ca.mtimes(M, G)
+    V = ca.vec(ca.mtimes(neg_inv, G))                 # xi/2 (W0_j, vec W1_j)
+    return ca.Function("spatial_rates_step", [carry, *piv], [ca.vec(new), *(V[k] for k in range(6))],
                        ["carry"] + [f"pivot_{k}" for k in range(n_pivot)], ["carry_next"] + [f"v_{k}" for k in range(6)])
 
 

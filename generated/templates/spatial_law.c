@@ -30,7 +30,8 @@ __attribute__((simd("notinbranch"))) double sin(double);
 #define CA_MS ((((CA_M + 8) / 8) | 1) * 8)
 /* scratch: the angles (a_1..a_m, b_1..b_m), their cosines and sines (2 arrays each), 1 / cos b_j, and
    per link (one array per quantity): xi/2 (W0_j, vec W1_j) (6), the geometry (vec E_j, y^j) (CA_NG),
-   the pivot's outputs for the rates (CA_NPV >= 12; after the rates, the joint loop's 6 arrays) */
+   the pivot's outputs for the rates (CA_NPV: 8 on a line, else 12 or 18; after the rates, the joint
+   loop's 6 arrays) */
 #define CA_LAW_SCRATCH ((13 + CA_NG + CA_NPV) * CA_MS)
 
 /* ang = (a_1..a_m, b_1..b_m), then c = cos(ang), s = sin(ang), ic = 1 / cos(b): independent iterations.
