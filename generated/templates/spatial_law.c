@@ -56,9 +56,34 @@ static void ca_spatial_trig(const casadi_real* restrict q, casadi_real* restrict
 }
 
 /* Links 2..m: frames and centres from link 1's carry kin; quantity k of link j's geometry
-   (vec E_j, y^j) to G[k CA_MS + j]. The steps have one call site and are inlined here (flatten; these
-   loops are not themselves inlined into ca_law, where gcc would not inline the steps); the carry is
-   copied back, not pointer-swapped, so it can stay in registers. */
+   (vec E_j, y^j) to G[k CA_MS + j]. With GNU C the frame's columns and the centre are 4-vectors (the
+   fourth lane unused), R Rz(a_j) Ry(b_j) and y^j as in spatial_kinematics_step: the carry stays in four
+   registers (the scalar step's twelve doubles spill, and its chain through the frame is longer); else
+   (or with COORDARM_SCALAR_KINEMATICS) the generated step, inlined, its carry copied back. */
+#if defined(__GNUC__) && !defined(COORDARM_SCALAR_KINEMATICS)
+typedef casadi_real ca_v4 __attribute__((vector_size(4 * sizeof(casadi_real))));
+CA_NOINLINE static int ca_spatial_kinematics(const casadi_real* restrict c, const casadi_real* restrict s,
+                                             const casadi_real* restrict kin, casadi_real* restrict G,
+                                             casadi_int* iw, casadi_real* w) {
+  ca_v4 r0 = {kin[0], kin[1], kin[2], 0}, r1 = {kin[3], kin[4], kin[5], 0}, r2 = {kin[6], kin[7], kin[8], 0};
+  ca_v4 y = {kin[9], kin[10], kin[11], 0}, a, n0, n1, n2;
+  casadi_int j;
+  (void)iw; (void)w;
+  for (j = 1; j < CA_M; ++j) {
+    const casadi_real ca = c[j], sa = s[j], cb = c[CA_M + j], sb = s[CA_M + j];
+    a = ca * r0 + sa * r1;             /* R Rz(a) = (a, n1, r2) */
+    n1 = ca * r1 - sa * r0;
+    n0 = cb * a - sb * r2;             /* then Ry(b) = (n0, n1, n2) */
+    n2 = sb * a + cb * r2;
+    y = y + CA_HALF_XI * (r0 + n0);
+    G[j] = n1[0]; G[CA_MS + j] = n1[1]; G[2 * CA_MS + j] = n1[2];
+    G[3 * CA_MS + j] = n2[0]; G[4 * CA_MS + j] = n2[1]; G[5 * CA_MS + j] = n2[2];
+    G[6 * CA_MS + j] = y[0]; G[7 * CA_MS + j] = y[1]; G[8 * CA_MS + j] = y[2];
+    r0 = n0; r1 = n1; r2 = n2;
+  }
+  return 0;
+}
+#else
 CA_FLATTEN CA_NOINLINE static int ca_spatial_kinematics(const casadi_real* c, const casadi_real* s,
                                                         const casadi_real* kin, casadi_real* G, casadi_int* iw,
                                                         casadi_real* w) {
@@ -76,6 +101,7 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_kinematics(const casadi_real* c, co
   }
   return 0;
 }
+#endif
 
 /* Links 2..m, independent iterations (vectorised: every argument a pointer into an array per
    quantity, non-null): each link's pivot from its geometry, e^j and the link margin to out,
