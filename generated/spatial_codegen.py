@@ -8,6 +8,10 @@ dense form is the whole law as one Function (``templates/dense_law.c``). Both en
 library's API of ``templates/library_api.c`` (law, control, RK4 step, chunk, sizes), the same entry
 points as the planar library; the packed outputs follow
 :func:`coordarm.symbolic.outputs.spatial_offsets` (``CA_OUT_<NAME>`` macros).
+
+On a rail (``CA_RAIL`` = 1) the heads are the rail's (:func:`~.spatial_variants.spatial_rates_head`:
+``d_dot``, the rail margin and ``psi(y^1)``; a commanded span reads the end's centre ``y^m`` from the
+kinematics loop).
 """
 from __future__ import annotations
 
@@ -20,26 +24,29 @@ from coordarm.symbolic.outputs import spatial_offsets, spatial_packed_width
 from .codegen import Source, casadi_code, dense_law
 from .render import render
 from .spatial_joints import spatial_joint_prep, spatial_joint_rates
-from .spatial_variants import (KIN_CARRY, LINK_GEOMETRY, RATE_CARRY, spatial_end_margin, spatial_frame_head,
-                               spatial_frame_tail, spatial_kinematics_step, spatial_link_inv_det, spatial_link_pivot,
-                               spatial_rate_norm, spatial_rates_step, spatial_time_features)
+from .spatial_variants import (KIN_CARRY, LINK_GEOMETRY, RATE_CARRY, spatial_end_margin, spatial_frame_tail,
+                               spatial_kinematics_head, spatial_kinematics_step, spatial_link_inv_det,
+                               spatial_link_pivot, spatial_rate_norm, spatial_rates_head, spatial_rates_step,
+                               spatial_time_features)
 
 
-def spatial_layout_macros(m: int) -> str:
+def spatial_layout_macros(m: int, rail: bool = False) -> str:
     """C macros of the spatial packed output vector: ``CA_NOUT`` and ``CA_OUT_<NAME>`` offsets.
 
     Parameters
     ----------
     m : int
         Number of links.
+    rail : bool
+        A chain on a rail (``u`` one wider, then ``sigma`` and ``rail_margin``).
 
     Returns
     -------
     str
-        One ``#define`` per line, from :data:`coordarm.symbolic.outputs.SPATIAL_LAW_OUTPUTS`.
+        One ``#define`` per line, from :func:`coordarm.symbolic.outputs.spatial_outputs_of`.
     """
-    lines = [f"#define CA_NOUT {spatial_packed_width(m)}"]
-    lines += [f"#define CA_OUT_{name.upper()} {start}" for name, (start, _) in spatial_offsets(m).items()]
+    lines = [f"#define CA_NOUT {spatial_packed_width(m, rail)}"]
+    lines += [f"#define CA_OUT_{name.upper()} {start}" for name, (start, _) in spatial_offsets(m, rail).items()]
     return "\n".join(lines) + "\n"
 
 
@@ -56,13 +63,14 @@ def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
     Returns
     -------
     list of casadi.Function
-        Structured: time features, head, kinematics step, link pivot's 1/det, link pivot, rates step, end solve,
-        rate norm, end margin, joint prep, joint rates; dense: the whole law.
+        Structured: time features, the two heads (on a rail the rail's), kinematics step, link pivot's 1/det,
+        link pivot, rates step, end solve, rate norm, end margin, joint prep, joint rates; dense: the whole law.
     """
     if form == Law.STRUCTURED:
-        return [spatial_time_features(ctrl), spatial_frame_head(ctrl), spatial_kinematics_step(ctrl),
-                spatial_link_inv_det(ctrl), spatial_link_pivot(ctrl), spatial_rates_step(ctrl), spatial_frame_tail(ctrl),
-                spatial_rate_norm(ctrl), spatial_end_margin(ctrl), spatial_joint_prep(), spatial_joint_rates()]
+        return [spatial_time_features(ctrl), spatial_kinematics_head(ctrl), spatial_rates_head(ctrl),
+                spatial_kinematics_step(ctrl), spatial_link_inv_det(ctrl), spatial_link_pivot(ctrl),
+                spatial_rates_step(ctrl), spatial_frame_tail(ctrl), spatial_rate_norm(ctrl), spatial_end_margin(ctrl),
+                spatial_joint_prep(), spatial_joint_rates()]
     return [ctrl.law(form)]
 
 
@@ -141,9 +149,9 @@ def assemble_spatial_source(ctrl: SpatialController, funcs: list[ca.Function], l
         The C text, with the form and the link count.
     """
     code, sizes = casadi_code(funcs, name)
-    m = ctrl.chain.m
-    prelude = render("prelude.c", m=m, nq=ctrl.chain.dof, half_xi=repr(0.5 * ctrl.chain.xi), rail=0,
-                     layout=spatial_layout_macros(m), b_macros=render("b_identity.h"),
+    m, rail = ctrl.chain.m, ctrl.chain.rail
+    prelude = render("prelude.c", m=m, nq=ctrl.chain.dof, half_xi=repr(0.5 * ctrl.chain.xi), rail=int(rail),
+                     layout=spatial_layout_macros(m, rail), b_macros=render("b_identity.h"),
                      **{f"sz_{k}": v for k, v in sizes.items()})
     parts = [code, prelude, law, render("library_api.c") if api is None else api]
     return Source("\n".join(parts), form, m)

@@ -21,6 +21,7 @@ import numpy as np
 
 from coordarm.symbolic import SpatialController
 from coordarm.symbolic.recursion import split_time_terms
+from coordarm.symbolic.spatial_chain import rot_y, rot_z
 from coordarm.symbolic.spatial_recursion import singular_values_2x2, solve_2x2, unpack_carry
 
 from .spatial_frame import frame_geometry, frame_of
@@ -161,19 +162,59 @@ def _end_margin_function(ctrl: SpatialController) -> ca.Function:
                        ["s_row", "roll_row", "roll_scale", "total"], ["end_margin"])
 
 
-def _head_function(ctrl: SpatialController) -> ca.Function:
-    """The interpreted head with its carry split into the kinematics and the rates carries, in the law's frame."""
+def _head_inputs(ctrl: SpatialController) -> tuple[list, Any, Any, Any]:
+    """The heads' inputs ``([d,] ab_1, t)``, and ``d``, ``ab_1``, ``t`` (``d`` None for a fixed base)."""
     ab, t = ca.SX.sym("ab", 2), ca.SX.sym("t")
-    carry, *rest = ctrl.recursion.head()(ab, t)
-    R, y, Y0, Y1, H0, H1, total = unpack_carry(carry)
-    A0, A1 = Y0 + H0, Y1 + H1
+    d = ca.SX.sym("d") if ctrl.chain.rail else None
+    return ([d] if ctrl.chain.rail else []) + [ab, t], d, ab, t
+
+
+def _to_frame(ctrl: SpatialController, t: Any, *pairs: tuple[Any, bool]) -> list:
+    """Base-frame ``(value, is_point)`` pairs in the law's frame: ``F^T (y - p)`` for a point, ``F^T v`` else."""
     frame = frame_of(ctrl, t)
-    if frame is not None:
-        F, p = frame
-        R, y, A0, A1 = ca.mtimes(F.T, R), ca.mtimes(F.T, y - p), ca.mtimes(F.T, A0), ca.mtimes(F.T, A1)
-    return ca.Function("spatial_frame_head", [ab, t],
-                       [ca.vertcat(ca.vec(R), y), ca.vertcat(A0, ca.vec(A1)), total, *rest],
-                       ["ab", "t"], ["kinematics", "rates", "total", "roll", "roll_row", "roll_rhs", "roll_scale"])
+    if frame is None:
+        return [v for v, _ in pairs]
+    F, p = frame
+    return [ca.mtimes(F.T, v - p if point else v) for v, point in pairs]
+
+
+def _kinematics_head_function(ctrl: SpatialController) -> ca.Function:
+    """Link 1's frame and centre (``y^1 = d r`` on a rail, else 0) in the law's frame: the kinematics carry."""
+    inputs, d, ab, t = _head_inputs(ctrl)
+    R = ca.mtimes(rot_z(ab[0]), rot_y(ab[1]))
+    y = d * ca.DM(ctrl.chain.rail_direction) if ctrl.chain.rail else ca.SX.zeros(3, 1)
+    R, y = _to_frame(ctrl, t, (R, False), (y, True))
+    return ca.Function("spatial_kinematics_head", inputs, [ca.vertcat(ca.vec(R), y)],
+                       ["d", "ab", "t"][3 - len(inputs):], ["kinematics"])
+
+
+def _rates_head_function(ctrl: SpatialController) -> ca.Function:
+    """The interpreted head (on a rail the rail head) with its carry turned into the rates carry, in the law's frame.
+
+    On a rail the last input is the end's centre ``y^m`` in the law's frame (from the kinematics loop),
+    which gives the span ``sigma = psi(y^m) - psi(y^1)`` the rail head reads when the span is commanded.
+    """
+    inputs, d, ab, t = _head_inputs(ctrl)
+    names = ["ab", "t"]
+    if ctrl.chain.rail:
+        y_m = ca.SX.sym("y_m", 3)
+        frame = frame_of(ctrl, t)
+        y_world = y_m if frame is None else ca.mtimes(frame[0], y_m) + frame[1]
+        geometry = ctrl.task.geometry
+        sigma = geometry(y_world, t)[3] - geometry(d * ca.DM(ctrl.chain.rail_direction), t)[3]
+        carry, *rest = ctrl.recursion.rail_head()(d, ab, t, sigma)
+        inputs, names = inputs + [y_m], ["d", "ab", "t", "y_m"]
+    else:
+        carry, *rest = ctrl.recursion.head()(ab, t)
+    _, _, Y0, Y1, H0, H1, total = unpack_carry(carry)
+    A0, A1 = _to_frame(ctrl, t, (Y0 + H0, False), (Y1 + H1, False))
+    outs = [ca.vertcat(A0, ca.vec(A1)), total, *rest]
+    both = ca.cse(ca.vertcat(*[ca.vec(o) for o in outs]))         # one graph: the outputs share their terms
+    ends = np.cumsum([0] + [o.numel() for o in outs])
+    parts = [ca.reshape(both[i:j], o.size1(), o.size2()) for i, j, o in zip(ends[:-1], ends[1:], outs)]
+    rail = ["d_dot", "rail_margin", "psi_1"] if ctrl.chain.rail else []
+    return ca.Function("spatial_rates_head", inputs, parts, names,
+                       ["rates", "total", "roll", "roll_row", "roll_rhs", "roll_scale"] + rail)
 
 
 def _tail_function(ctrl: SpatialController) -> ca.Function:
@@ -202,8 +243,9 @@ def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ...]:
     pivot = ca.Function("spatial_link_pivot", [*geo, wsym, inv], [body[k] for k in range(n + 3)],
                         names + ["w", "inv_det"], [f"pivot_{k}" for k in range(n)] + ["e_1", "e_2", "margin"])
     inv_det = ca.Function("spatial_link_inv_det", [*geo, wsym], [ca.cse(expr[n + 3])], names + ["w"], ["inv_det"])
-    return (tf, _kinematics_function(ctrl), pivot, inv_det, _rates_function(ctrl, J, n), _head_function(ctrl),
-            _tail_function(ctrl), _rate_norm_function(ctrl), _end_margin_function(ctrl))
+    return (tf, _kinematics_function(ctrl), pivot, inv_det, _rates_function(ctrl, J, n),
+            _kinematics_head_function(ctrl), _tail_function(ctrl), _rate_norm_function(ctrl), _end_margin_function(ctrl),
+            _rates_head_function(ctrl))
 
 
 def _cached(ctrl: SpatialController) -> tuple[ca.Function, ...]:
@@ -308,12 +350,11 @@ def spatial_link_pivot(ctrl: SpatialController) -> ca.Function:
     return _cached(ctrl)[2]
 
 
-def spatial_frame_head(ctrl: SpatialController) -> ca.Function:
-    """Link 1: ``(ab_1, t) -> (kinematics, rates, roll, roll_row, roll_rhs, roll_scale)``.
+def spatial_kinematics_head(ctrl: SpatialController) -> ca.Function:
+    """Link 1's kinematics carry: ``([d,] ab_1, t) -> kinematics``.
 
-    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.head` with its carry split into the
-    kinematics carry (:func:`spatial_kinematics_step`) and the rates carry (:func:`spatial_rates_step`),
-    in the law's frame (:mod:`.spatial_frame`).
+    ``(vec R_1, y^1)`` (:data:`KIN_CARRY`) in the law's frame (:mod:`.spatial_frame`), ``y^1 = d r`` on a
+    rail (``d`` first), the origin else.
 
     Parameters
     ----------
@@ -323,10 +364,32 @@ def spatial_frame_head(ctrl: SpatialController) -> ca.Function:
     Returns
     -------
     casadi.Function
-        Inputs ``ab`` (2,) [rad], ``t`` [s]; the two carries, the roll [rad], ``roll_row`` (1, 2),
-        ``roll_rhs`` [rad/s], ``roll_scale``.
+        Inputs ``d`` [m] (on a rail only), ``ab`` (2,) [rad], ``t`` [s]; output the carry (12).
     """
     return _cached(ctrl)[5]
+
+
+def spatial_rates_head(ctrl: SpatialController) -> ca.Function:
+    """Link 1's rates carry and the roll row: ``([d,] ab_1, t[, y_m]) -> (rates, total, roll, roll_row, roll_rhs,
+    roll_scale[, d_dot, rail_margin, psi_1])``.
+
+    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.head` (on a rail
+    :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.rail_head`, given the end's centre ``y^m``
+    in the law's frame for the span) with its carry as the rates carry ``A = y^1' + xi/2 E_1 w_1``
+    (:func:`spatial_rates_step`) in the law's frame, and the end margin's running sum (1).
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+
+    Returns
+    -------
+    casadi.Function
+        The rates carry (9) [m/s], ``total`` [-], the roll [rad], ``roll_row`` (1, 2), ``roll_rhs`` [rad/s],
+        ``roll_scale``; on a rail ``d_dot`` [m/s], ``rail_margin`` [-] and ``psi_1`` [m].
+    """
+    return _cached(ctrl)[9]
 
 
 def spatial_frame_tail(ctrl: SpatialController) -> ca.Function:

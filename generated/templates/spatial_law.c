@@ -2,7 +2,10 @@
    sine in vectorised loops, then O(m) loops over links: the forward kinematics (frames and centres,
    storing each link's geometry), the link pivots (independent, vectorised), the rates (the affine
    link rates, carrying A only), and after the 2x2 end solve for w_1 = p, the joint rates (vectorised
-   but for one multiply-add per joint in sequence). Each sequential loop's carry fits the registers. */
+   but for one multiply-add per joint in sequence). Each sequential loop's carry fits the registers.
+   On a rail (CA_RAIL = 1, the feed axis) q = (d, a_1, b_1, ...) and u = (d_dot, ...): the heads take d
+   (the rates head also the end's centre y^m, for the span), the rest reads the angles at q + 1 and
+   writes the rates at u + 1. */
 #if defined(__x86_64__) && defined(__GLIBC__) && defined(__GNUC__) && !defined(__clang__) \
     && __GNUC__ >= 6 && !defined(__FAST_MATH__) && !defined(COORDARM_SCALAR_TRIG)
 #if __GLIBC_PREREQ(2, 22)
@@ -192,7 +195,7 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spati
   return 0;
 }
 
-/* The law at (q, t): u (2m) to u, every other output to out at its offset. */
+/* The law at (q, t): u (2m, d_dot first on a rail) to u, every other output to out at its offset. */
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
                   casadi_real* w) {
   casadi_real wt[CA_NW + 1], kin[CA_NKC], carry[CA_NRC], total, row[2], rhs, scale, p[2], geo[CA_NG], v[6], srow[2];
@@ -201,14 +204,27 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int k;
+#if CA_RAIL
+  casadi_real psi1, ym[3];
+#endif
   arg[0] = &t; res[0] = wt;
   if (spatial_time_features(arg, res, iw, w, 0)) return 2;
-  ca_spatial_trig(q, ang, c, s, ic);
-  arg[0] = q; arg[1] = &t;
-  res[0] = kin; res[1] = carry; res[2] = &total; res[3] = out + CA_OUT_ROLL; res[4] = row; res[5] = &rhs;
-  res[6] = &scale;
-  if (spatial_frame_head(arg, res, iw, w, 0)) return 2;
+  ca_spatial_trig(q + CA_RAIL, ang, c, s, ic);
+#if CA_RAIL
+  arg[0] = q; arg[1] = q + 1; arg[2] = &t;          /* (d, ab_1, t) */
+#else
+  arg[0] = q; arg[1] = &t;                          /* (ab_1, t) */
+#endif
+  res[0] = kin;
+  if (spatial_kinematics_head(arg, res, iw, w, 0)) return 2;
   if (ca_spatial_kinematics(c, s, kin, G, iw, w)) return 2;
+  res[0] = carry; res[1] = &total; res[2] = out + CA_OUT_ROLL; res[3] = row; res[4] = &rhs; res[5] = &scale;
+#if CA_RAIL
+  for (k = 0; k < 3; ++k) ym[k] = G[(6 + k) * CA_MS + CA_M - 1];      /* y^m (m >= 2) */
+  arg[3] = ym;
+  res[6] = u; res[7] = out + CA_OUT_RAIL_MARGIN; res[8] = &psi1;     /* d_dot, rail margin, psi(y^1) */
+#endif
+  if (spatial_rates_head(arg, res, iw, w, 0)) return 2;
   if (ca_spatial_pivots(G, wt, Pv, out, iw, w)) return 2;
   if (ca_spatial_rates(Pv, carry, W, iw, w)) return 2;
   for (k = 0; k < CA_NG; ++k) geo[k] = G[k * CA_MS + CA_M - 1];      /* link m */
@@ -216,7 +232,10 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   arg[0] = geo; arg[1] = carry; arg[2] = v; arg[3] = &t; arg[4] = row; arg[5] = &rhs;
   res[0] = out + CA_OUT_S; res[1] = p; res[2] = srow;
   if (spatial_frame_tail(arg, res, iw, w, 0)) return 2;
-  if (ca_spatial_joints(c, s, ic, W, p, &total, u, out, Pv, iw, w)) return 2;      /* Pv is free again */
+#if CA_RAIL
+  out[CA_OUT_SIGMA] = out[CA_OUT_S] - psi1;          /* sigma = psi(y^m) - psi(y^1) */
+#endif
+  if (ca_spatial_joints(c, s, ic, W, p, &total, u + CA_RAIL, out, Pv, iw, w)) return 2;   /* Pv is free again */
   arg[0] = srow; arg[1] = row; arg[2] = &scale; arg[3] = &total; res[0] = out + CA_OUT_END_MARGIN;
   return spatial_end_margin(arg, res, iw, w, 0) ? 2 : 0;
 }
