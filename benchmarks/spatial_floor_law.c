@@ -12,22 +12,21 @@
 #define FL_TH_A {th_a}
 #define FL_TH_W {th_w}
 
+typedef double fl_v4 __attribute__((vector_size(32)));
 static void fl_kinematics(const double* restrict c, const double* restrict s, const double* restrict kin,
                           double* restrict G) {
-  double r00 = kin[0], r10 = kin[1], r20 = kin[2], r01 = kin[3], r11 = kin[4], r21 = kin[5];
-  double r02 = kin[6], r12 = kin[7], r22 = kin[8], y0 = kin[9], y1 = kin[10], y2 = kin[11];
+  fl_v4 r0 = {kin[0], kin[1], kin[2], 0}, r1 = {kin[3], kin[4], kin[5], 0}, r2 = {kin[6], kin[7], kin[8], 0};
+  fl_v4 y = {kin[9], kin[10], kin[11], 0};
   long long j;
   for (j = 1; j < CA_M; ++j) {
     double ca = c[j], sa = s[j], cb = c[CA_M + j], sb = s[CA_M + j];
-    double a0 = ca * r00 + sa * r01, a1 = ca * r10 + sa * r11, a2 = ca * r20 + sa * r21;     /* R Rz(a) e_x */
-    double n01 = ca * r01 - sa * r00, n11 = ca * r11 - sa * r10, n21 = ca * r21 - sa * r20;  /* R Rz(a) e_y */
-    double n00 = cb * a0 - sb * r02, n10 = cb * a1 - sb * r12, n20 = cb * a2 - sb * r22;     /* then Ry(b) */
-    double n02 = sb * a0 + cb * r02, n12 = sb * a1 + cb * r12, n22 = sb * a2 + cb * r22;
-    y0 += CA_HALF_XI * (r00 + n00); y1 += CA_HALF_XI * (r10 + n10); y2 += CA_HALF_XI * (r20 + n20);
-    G[j] = n01; G[CA_MS + j] = n11; G[2 * CA_MS + j] = n21;
-    G[3 * CA_MS + j] = n02; G[4 * CA_MS + j] = n12; G[5 * CA_MS + j] = n22;
-    G[6 * CA_MS + j] = y0; G[7 * CA_MS + j] = y1; G[8 * CA_MS + j] = y2;
-    r00 = n00; r10 = n10; r20 = n20; r01 = n01; r11 = n11; r21 = n21; r02 = n02; r12 = n12; r22 = n22;
+    fl_v4 a = ca * r0 + sa * r1, n1 = ca * r1 - sa * r0;                  /* R Rz(a) = (a, n1, r2) */
+    fl_v4 n0 = cb * a - sb * r2, n2 = sb * a + cb * r2;                   /* then Ry(b) */
+    y += CA_HALF_XI * (r0 + n0);
+    G[j] = n1[0]; G[CA_MS + j] = n1[1]; G[2 * CA_MS + j] = n1[2];
+    G[3 * CA_MS + j] = n2[0]; G[4 * CA_MS + j] = n2[1]; G[5 * CA_MS + j] = n2[2];
+    G[6 * CA_MS + j] = y[0]; G[7 * CA_MS + j] = y[1]; G[8 * CA_MS + j] = y[2];
+    r0 = n0; r1 = n1; r2 = n2;
   }
 }
 
@@ -111,11 +110,11 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   casadi_real* res[CA_SZ_RES];
   casadi_int k;
   ca_spatial_trig(q, ang, c, s, ic);
-  arg[0] = q; arg[1] = &t;
-  res[0] = kin; res[1] = carry; res[2] = &total; res[3] = out + CA_OUT_ROLL; res[4] = row; res[5] = &rhs;
-  res[6] = &scale;
-  if (spatial_frame_head(arg, res, iw, w, 0)) return 2;
+  arg[0] = q; arg[1] = &t; res[0] = kin;
+  if (spatial_kinematics_head(arg, res, iw, w, 0)) return 2;
   fl_kinematics(c, s, kin, G);
+  res[0] = carry; res[1] = &total; res[2] = out + CA_OUT_ROLL; res[3] = row; res[4] = &rhs; res[5] = &scale;
+  if (spatial_rates_head(arg, res, iw, w, 0)) return 2;
   fl_pivots(G, FL_TH_A * FL_TH_W * cos(FL_TH_W * t), Pv, out);
   fl_rates(Pv, carry, W);
   for (k = 0; k < CA_NG; ++k) geo[k] = G[k * CA_MS + CA_M - 1];
