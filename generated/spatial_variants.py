@@ -1,15 +1,17 @@
 """The C-only variants of the spatial law's Functions (:mod:`coordarm.symbolic.spatial_recursion`).
 
 The interpreted spatial solve is one loop over links (frames, centres, pivots and rates together).
-The generated C splits it into two loops over links, each with a carry that fits in registers:
-the forward kinematics (:func:`spatial_kinematics_step`: ``R_j``, ``y^j`` from the cosines and
-sines of the joint angles, computed before in vectorised loops), which stores each link's
-``E_j = [R_j e_y, R_j e_z]`` and ``y^j``, then the rates (:func:`spatial_rates_step`: the link pivot
-and the affine link rates, carrying only ``A = y^j' + xi/2 E_j w_j``). On a line both work in the
-line's own frame (:mod:`.spatial_frame`), where the geometry and ``dPhi/dy`` cost nothing. The
-time-only terms are computed once per law call (:func:`spatial_time_features`); the head and the end
-solve (:func:`spatial_frame_head`, :func:`spatial_frame_tail`) are the interpreted ones with their
-carries in this layout. The Functions are cached per controller here.
+The generated C splits it into loops over links, the sequential ones with a carry that fits the
+registers: the forward kinematics (:func:`spatial_kinematics_step`: ``R_j``, ``y^j`` from the cosines
+and sines of the joint angles, computed before in vectorised loops), which stores each link's
+``E_j = [R_j e_y, R_j e_z]`` and ``y^j``; the link pivots (:func:`spatial_link_pivot`,
+:func:`spatial_link_inv_det`: independent per link, every argument a scalar so that the C loop
+vectorises); the rates (:func:`spatial_rates_step`: the affine link rates, carrying only
+``A = y^j' + xi/2 E_j w_j``). On a line all of it works in the line's own frame (:mod:`.spatial_frame`),
+where the geometry and ``dPhi/dy`` cost nothing. The time-only terms are computed once per law call
+(:func:`spatial_time_features`); the heads and the end solve (:func:`spatial_kinematics_head`,
+:func:`spatial_rates_head`, :func:`spatial_frame_tail`, :func:`spatial_end_margin`) are the interpreted
+ones with their carries in this layout. The Functions are cached per controller here.
 """
 from __future__ import annotations
 
@@ -143,7 +145,8 @@ def _rates_function(ctrl: SpatialController, J: Any, n_pivot: int) -> ca.Functio
         new = A + ca.mtimes(M, G)
     V = ca.vec(ca.mtimes(neg_inv, G))                 # xi/2 (W0_j, vec W1_j)
     return ca.Function("spatial_rates_step", [carry, *piv], [ca.vec(new), *(V[k] for k in range(6))],
-                       ["carry"] + [f"pivot_{k}" for k in range(n_pivot)], ["carry_next"] + [f"v_{k}" for k in range(6)])
+                       ["carry"] + [f"pivot_{k}" for k in range(n_pivot)],
+                       ["carry_next"] + [f"v_{k}" for k in range(6)])
 
 
 def _rate_norm_function(ctrl: SpatialController) -> ca.Function:
@@ -233,7 +236,8 @@ def _tail_function(ctrl: SpatialController) -> ca.Function:
 
 
 def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ...]:
-    """``(time_features, kinematics_step, link_pivot, link_inv_det, rates_step, head, tail)`` of ``ctrl``."""
+    """``(time_features, kinematics_step, link_pivot, link_inv_det, rates_step, kinematics_head, tail, rate_norm,
+    end_margin, rates_head)`` of ``ctrl``."""
     (geo, t, inv), (piv, out, inv_expr), J = _pivot_expressions(ctrl)
     expr, wsym, wexpr = split_time_terms(ca.vertcat(piv, out, inv_expr), t)
     n = piv.numel()
@@ -244,7 +248,8 @@ def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ...]:
                         names + ["w", "inv_det"], [f"pivot_{k}" for k in range(n)] + ["e_1", "e_2", "margin"])
     inv_det = ca.Function("spatial_link_inv_det", [*geo, wsym], [ca.cse(expr[n + 3])], names + ["w"], ["inv_det"])
     return (tf, _kinematics_function(ctrl), pivot, inv_det, _rates_function(ctrl, J, n),
-            _kinematics_head_function(ctrl), _tail_function(ctrl), _rate_norm_function(ctrl), _end_margin_function(ctrl),
+            _kinematics_head_function(ctrl), _tail_function(ctrl), _rate_norm_function(ctrl),
+            _end_margin_function(ctrl),
             _rates_head_function(ctrl))
 
 

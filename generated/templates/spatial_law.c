@@ -155,7 +155,8 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_rates(const casadi_real* Pv, casadi
    the end margin's sum ||W1_j|| (total, from the head's 1). Only the spin about each link is carried
    (x_j = alpha_j x_{j-1} + beta_j, see spatial_joints.py); the other loops have independent iterations
    (vectorised), two joints per step. Scratch J, one array of CA_MS each: w_1, w_2 (index 0 before
-   link 1), alpha, beta, the norms ||W1_j||, x (index 0 before link 1), and the two-joint a2, b2. Writes u and the joint margins |cos b_j|. */
+   link 1), alpha, beta, the norms ||W1_j||, x (index 0 before link 1), and the two-joint a2, b2.
+   Writes u and the joint margins |cos b_j|. */
 CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spatial_joints(
     const casadi_real* restrict c, const casadi_real* restrict s, const casadi_real* restrict ic,
     const casadi_real* restrict W, const casadi_real* restrict p, casadi_real* restrict total,
