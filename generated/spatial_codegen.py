@@ -1,31 +1,32 @@
 """Emit the C source of a :class:`~coordarm.symbolic.spatial_controller.SpatialController`'s law.
 
-The structured form is four small generated Functions (the time features and the per-link step of
-:mod:`.spatial_variants`, the head and the end solve of
-:class:`~coordarm.symbolic.spatial_recursion.SpatialRecursion`) and the joint step, called by the C
-loops of ``templates/spatial_law.c``: the code size does not grow with the number of links. The
+The structured form is small generated Functions of :mod:`.spatial_variants` and :mod:`.spatial_joints`
+(the time features, the head, the per-link kinematics, pivot and rates steps, the end solve, the
+joint rates), called by the C loops
+of ``templates/spatial_law.c``: the code size does not grow with the number of links. The
 dense form is the whole law as one Function (``templates/dense_law.c``). Both end with the
 library's API of ``templates/library_api.c`` (law, control, RK4 step, chunk, sizes), the same entry
 points as the planar library; the packed outputs follow
 :func:`coordarm.symbolic.outputs.spatial_offsets` (``CA_OUT_<NAME>`` macros).
 
-On a rail (``CA_RAIL`` = 1) the structured form's head is the rail head (:func:`spatial_rail_head`,
-``CA_RAIL_HEAD``): ``d_dot``, the rail margin and ``psi(y^1)`` with link 1's carry; the rail direction is
-``CA_RAIL_X/Y/Z`` and a commanded span (``CA_SPAN``) reads the end's centre ``y^m``, summed in the C.
+On a rail (``CA_RAIL`` = 1) the heads are the rail's (:func:`~.spatial_variants.spatial_rates_head`:
+``d_dot``, the rail margin and ``psi(y^1)``; a commanded span reads the end's centre ``y^m`` from the
+kinematics loop).
 """
 from __future__ import annotations
 
 import casadi as ca
-import numpy as np
 
 from coordarm.symbolic import LAWS, BuildError, SpatialController
 from coordarm.symbolic.laws import Law
 from coordarm.symbolic.outputs import spatial_offsets, spatial_packed_width
-from coordarm.symbolic.spatial_recursion import SPATIAL_CARRY
 
 from .codegen import Source, casadi_code, dense_law
 from .render import render
-from .spatial_variants import (JOINT_CARRY, spatial_joint_step_trig, spatial_link_inv_det, spatial_link_step_trig,
+from .spatial_joints import spatial_joint_prep, spatial_joint_rates
+from .spatial_variants import (KIN_CARRY, LINK_GEOMETRY, RATE_CARRY, spatial_end_margin, spatial_frame_tail,
+                               spatial_kinematics_head, spatial_kinematics_step, spatial_link_inv_det,
+                               spatial_link_pivot, spatial_rate_norm, spatial_rates_head, spatial_rates_step,
                                spatial_time_features)
 
 
@@ -49,55 +50,6 @@ def spatial_layout_macros(m: int, rail: bool = False) -> str:
     return "\n".join(lines) + "\n"
 
 
-def spatial_rail_head(ctrl: SpatialController) -> ca.Function:
-    """The head of the generated C on a rail: the interpreted rail head, or with a commanded span its
-    variant that takes the end's centre ``y^m`` [m] instead of ``sigma`` (``sigma = psi(y^m) - psi(y^1)``).
-
-    Parameters
-    ----------
-    ctrl : SpatialController
-        The controller (its chain on a rail).
-
-    Returns
-    -------
-    casadi.Function
-        ``(d, ab_1, t, sigma or y_m) -> (carry, roll, roll_row, roll_rhs, roll_scale, d_dot, rail_margin, psi_1)``.
-    """
-    head = ctrl.recursion.rail_head()
-    if ctrl.span is None:
-        return head
-    d, ab, t, y_m = ca.SX.sym("d"), ca.SX.sym("ab", 2), ca.SX.sym("t"), ca.SX.sym("y_m", 3)
-    geometry = ctrl.task.geometry
-    sigma = geometry(y_m, t)[3] - geometry(d * ca.DM(ctrl.chain.rail_direction), t)[3]
-    outs = head(d, ab, t, sigma)
-    both = ca.cse(ca.vertcat(*[ca.vec(o) for o in outs]))
-    sizes = np.cumsum([0] + [o.numel() for o in outs])
-    parts = [ca.reshape(both[a:b], o.size1(), o.size2()) for a, b, o in zip(sizes[:-1], sizes[1:], outs)]
-    return ca.Function("spatial_rail_head_from_end", [d, ab, t, y_m], parts, ["d", "ab", "t", "y_m"],
-                       head.name_out())
-
-
-def spatial_rail_macros(ctrl: SpatialController) -> str:
-    """C macros of a spatial chain on a rail: the rail's unit direction, the head's name, a commanded span.
-
-    Parameters
-    ----------
-    ctrl : SpatialController
-        The controller (a fixed base gives an empty string).
-
-    Returns
-    -------
-    str
-        ``CA_RAIL_X/Y/Z``, ``CA_RAIL_HEAD`` and (a commanded span) ``CA_SPAN``, one ``#define`` per line.
-    """
-    if not ctrl.chain.rail:
-        return ""
-    x, y, z = (repr(float(v)) for v in ctrl.chain.rail_direction)
-    return (f"#define CA_RAIL_X {x}\n#define CA_RAIL_Y {y}\n#define CA_RAIL_Z {z}\n"
-            f"#define CA_RAIL_HEAD {spatial_rail_head(ctrl).name()}\n"
-            + ("#define CA_SPAN 1\n" if ctrl.span is not None else ""))
-
-
 def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
     """The CasADi Functions the C of ``form`` calls (the structured form's time features first).
 
@@ -111,14 +63,14 @@ def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
     Returns
     -------
     list of casadi.Function
-        Structured: time features, head (on a rail the rail head), link step, end solve, joint step, link pivot's
-        1/det; dense: the whole law.
+        Structured: time features, the two heads (on a rail the rail's), kinematics step, link pivot's 1/det,
+        link pivot, rates step, end solve, rate norm, end margin, joint prep, joint rates; dense: the whole law.
     """
     if form == Law.STRUCTURED:
-        rec = ctrl.recursion
-        head = spatial_rail_head(ctrl) if ctrl.chain.rail else rec.head()
-        return [spatial_time_features(ctrl), head, spatial_link_step_trig(ctrl), rec.tail(),
-                spatial_joint_step_trig(), spatial_link_inv_det(ctrl)]
+        return [spatial_time_features(ctrl), spatial_kinematics_head(ctrl), spatial_rates_head(ctrl),
+                spatial_kinematics_step(ctrl), spatial_link_inv_det(ctrl), spatial_link_pivot(ctrl),
+                spatial_rates_step(ctrl), spatial_frame_tail(ctrl), spatial_rate_norm(ctrl), spatial_end_margin(ctrl),
+                spatial_joint_prep(), spatial_joint_rates()]
     return [ctrl.law(form)]
 
 
@@ -133,10 +85,13 @@ def spatial_law(ctrl: SpatialController) -> str:
     Returns
     -------
     str
-        ``CA_NW``, ``CA_NC``, ``CA_NJC`` definitions followed by the law's C (``ca_law``, ``CA_LAW_SCRATCH``).
+        ``CA_NW``, ``CA_NKC``, ``CA_NRC``, ``CA_NG``, ``CA_NPV`` definitions followed by the law's C (``ca_law``,
+        ``CA_LAW_SCRATCH``).
     """
-    return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NC {SPATIAL_CARRY}\n"
-            f"#define CA_NJC {JOINT_CARRY}\n" + spatial_rail_macros(ctrl) + render("spatial_law.c"))
+    return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NKC {KIN_CARRY}\n"
+            f"#define CA_NRC {RATE_CARRY}\n#define CA_NG {LINK_GEOMETRY}\n"
+            f"#define CA_NPV {spatial_rates_step(ctrl).n_in() - 1}\n"
+            + render("spatial_law.c"))
 
 
 def generate_spatial_source(ctrl: SpatialController, form: str = "structured") -> Source:

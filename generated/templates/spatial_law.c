@@ -1,8 +1,11 @@
 /* The spatial law (universal joints, q = (a_1, b_1, ..., a_m, b_m)): every joint angle's cosine and
-   sine in vectorised loops, the O(m) recursion over links 2..m (generated per-link step, no
-   trigonometry), the 2x2 end solve for w_1 = p, then the joint rates link by link.
-   On a rail (CA_RAIL = 1, the feed axis) q = (d, a_1, b_1, ...) and u = (d_dot, ...): the head is
-   ca_spatial_rail_head (below), the rest reads the angles at q + 1 and writes the rates at u + 1. */
+   sine in vectorised loops, then O(m) loops over links: the forward kinematics (frames and centres,
+   storing each link's geometry), the link pivots (independent, vectorised), the rates (the affine
+   link rates, carrying A only), and after the 2x2 end solve for w_1 = p, the joint rates (vectorised
+   but for one multiply-add per joint in sequence). Each sequential loop's carry fits the registers.
+   On a rail (CA_RAIL = 1, the feed axis) q = (d, a_1, b_1, ...) and u = (d_dot, ...): the heads take d
+   (the rates head also the end's centre y^m, for the span), the rest reads the angles at q + 1 and
+   writes the rates at u + 1. */
 #if defined(__x86_64__) && defined(__GLIBC__) && defined(__GNUC__) && !defined(__clang__) \
     && __GNUC__ >= 6 && !defined(__FAST_MATH__) && !defined(COORDARM_SCALAR_TRIG)
 #if __GLIBC_PREREQ(2, 22)
@@ -18,9 +21,21 @@ __attribute__((simd("notinbranch"))) double sin(double);
 #define CA_NOINLINE
 #endif
 
-/* scratch: the angles (a_1..a_m, b_1..b_m), their cosines and sines, 1 / cos b_j, each link's
-   xi/2 (W0_j, vec W1_j) */
-#define CA_LAW_SCRATCH (13 * CA_M)
+#if defined(__GNUC__)
+#define CA_NONNULL(...) __attribute__((nonnull(__VA_ARGS__)))
+#else
+#define CA_NONNULL(...)
+#endif
+
+/* Per-link arrays are CA_MS doubles apart: at least CA_M + 1 and an odd number of 64-byte lines, so
+   that the arrays a loop reads side by side do not fall into the same L1 sets (CA_M = 1024 would put
+   them 8 KiB apart: every one in the same set). */
+#define CA_MS ((((CA_M + 8) / 8) | 1) * 8)
+/* scratch: the angles (a_1..a_m, b_1..b_m), their cosines and sines (2 arrays each), 1 / cos b_j, and
+   per link (one array per quantity): xi/2 (W0_j, vec W1_j) (6), the geometry (vec E_j, y^j) (CA_NG),
+   the pivot's outputs for the rates (CA_NPV: 8 on a line, else 12 or 18; after the rates, the joint
+   loop's 8 arrays) */
+#define CA_LAW_SCRATCH ((13 + CA_NG + CA_NPV) * CA_MS)
 
 /* ang = (a_1..a_m, b_1..b_m), then c = cos(ang), s = sin(ang), ic = 1 / cos(b): independent iterations.
    Vectorised (libmvec) as separate loops, since gcc would fuse one loop's cos and sin into a scalar sincos. */
@@ -43,128 +58,194 @@ static void ca_spatial_trig(const casadi_real* restrict q, casadi_real* restrict
   for (j = 0; j < CA_M; ++j) ic[j] = 1 / c[CA_M + j];
 }
 
-/* Links 2..m: carry -> carry_m; writes e^j and the link margins to out and xi/2 (W0_j, vec W1_j) to W + 6 j.
-   The step has one call site and is inlined here (flatten; this function is not itself inlined into
-   ca_law, where gcc would not inline the large step). The carry (31 doubles, more than the registers)
-   alternates between two arrays: copying it back would be a memcpy call per link. */
-CA_FLATTEN CA_NOINLINE static int ca_spatial_recursion(const casadi_real* c, const casadi_real* s, const casadi_real* wt,
-                                           casadi_real* carry, casadi_real* out, casadi_real* W, casadi_int* iw,
-                                           casadi_real* w) {
-  casadi_real c0[CA_NC], c1[CA_NC], o[9], inv;
-  casadi_real *cur = c0, *nxt = c1, *tmp;
-  const casadi_real* arg[CA_SZ_ARG];
-  casadi_real* res[CA_SZ_RES];
-  casadi_int j, k;
-  for (k = 0; k < CA_NC; ++k) c0[k] = carry[k];
+/* Links 2..m: frames and centres from link 1's carry kin; quantity k of link j's geometry
+   (vec E_j, y^j) to G[k CA_MS + j]. With GNU C the frame's columns and the centre are 4-vectors (the
+   fourth lane unused), R Rz(a_j) Ry(b_j) and y^j as in spatial_kinematics_step: the carry stays in four
+   registers (the scalar step's twelve doubles spill, and its chain through the frame is longer); else
+   (or with COORDARM_SCALAR_KINEMATICS) the generated step, inlined, its carry copied back. */
+#if defined(__GNUC__) && !defined(COORDARM_SCALAR_KINEMATICS)
+typedef casadi_real ca_v4 __attribute__((vector_size(4 * sizeof(casadi_real))));
+CA_NOINLINE static int ca_spatial_kinematics(const casadi_real* restrict c, const casadi_real* restrict s,
+                                             const casadi_real* restrict kin, casadi_real* restrict G,
+                                             casadi_int* iw, casadi_real* w) {
+  ca_v4 r0 = {kin[0], kin[1], kin[2], 0}, r1 = {kin[3], kin[4], kin[5], 0}, r2 = {kin[6], kin[7], kin[8], 0};
+  ca_v4 y = {kin[9], kin[10], kin[11], 0}, a, n0, n1, n2;
+  casadi_int j;
+  (void)iw; (void)w;
   for (j = 1; j < CA_M; ++j) {
-    arg[0] = cur; arg[1] = c + j; arg[2] = s + j; arg[3] = c + CA_M + j; arg[4] = s + CA_M + j; arg[5] = wt;
-    res[0] = &inv;
-    if (spatial_link_inv_det(arg, res, iw, w, 0)) return 2;
-    arg[6] = &inv; res[0] = nxt; res[1] = o;
-    if (spatial_link_step_trig(arg, res, iw, w, 0)) return 2;
-    out[CA_OUT_E + 2 * (j - 1)] = o[0];
-    out[CA_OUT_E + 2 * (j - 1) + 1] = o[1];
-    out[CA_OUT_LINK_MARGINS + j - 1] = o[2];
-    for (k = 0; k < 6; ++k) W[6 * j + k] = o[3 + k];
-    tmp = cur; cur = nxt; nxt = tmp;
+    const casadi_real ca = c[j], sa = s[j], cb = c[CA_M + j], sb = s[CA_M + j];
+    a = ca * r0 + sa * r1;             /* R Rz(a) = (a, n1, r2) */
+    n1 = ca * r1 - sa * r0;
+    n0 = cb * a - sb * r2;             /* then Ry(b) = (n0, n1, n2) */
+    n2 = sb * a + cb * r2;
+    y = y + CA_HALF_XI * (r0 + n0);
+    G[j] = n1[0]; G[CA_MS + j] = n1[1]; G[2 * CA_MS + j] = n1[2];
+    G[3 * CA_MS + j] = n2[0]; G[4 * CA_MS + j] = n2[1]; G[5 * CA_MS + j] = n2[2];
+    G[6 * CA_MS + j] = y[0]; G[7 * CA_MS + j] = y[1]; G[8 * CA_MS + j] = y[2];
+    r0 = n0; r1 = n1; r2 = n2;
   }
-  for (k = 0; k < CA_NC; ++k) carry[k] = cur[k];
   return 0;
 }
-
-/* Joint rates from the link rates w_1 = p, w_j = W0_j + W1_j p (W holds W0_j, W1_j times xi/2; the
-   frame and the angular velocity carried from joint to joint); writes u and the joint margins |cos b_j|. */
-CA_FLATTEN CA_NOINLINE static int ca_spatial_joints(const casadi_real* c, const casadi_real* s, const casadi_real* ic,
-                                        const casadi_real* W, const casadi_real* p, casadi_real* u, casadi_real* out,
-                                        casadi_int* iw, casadi_real* w) {
-  casadi_real c0[CA_NJC] = {0}, c1[CA_NJC], x[7], o[3];
+#else
+CA_FLATTEN CA_NOINLINE static int ca_spatial_kinematics(const casadi_real* c, const casadi_real* s,
+                                                        const casadi_real* kin, casadi_real* G, casadi_int* iw,
+                                                        casadi_real* w) {
+  casadi_real c0[CA_NKC], c1[CA_NKC];
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int j, k;
-  for (j = 0; j < CA_M; ++j) {
-    x[0] = c[j]; x[1] = s[j]; x[2] = c[CA_M + j]; x[3] = s[CA_M + j]; x[4] = ic[j];
-    if (j == 0) {
-      x[5] = p[0]; x[6] = p[1];
-    } else {
-      x[5] = (W[6 * j] + W[6 * j + 2] * p[0] + W[6 * j + 4] * p[1]) * (1 / CA_HALF_XI);
-      x[6] = (W[6 * j + 1] + W[6 * j + 3] * p[0] + W[6 * j + 5] * p[1]) * (1 / CA_HALF_XI);
-    }
-    arg[0] = c0; arg[1] = x; res[0] = c1; res[1] = o;
-    if (spatial_joint_step_trig(arg, res, iw, w, 0)) return 2;
-    u[2 * j] = o[0]; u[2 * j + 1] = o[1];
-    out[CA_OUT_JOINT_MARGINS + j] = o[2];
-    for (k = 0; k < CA_NJC; ++k) c0[k] = c1[k];
+  for (k = 0; k < CA_NKC; ++k) c0[k] = kin[k];
+  for (j = 1; j < CA_M; ++j) {
+    arg[0] = c0; arg[1] = c + j; arg[2] = s + j; arg[3] = c + CA_M + j; arg[4] = s + CA_M + j;
+    res[0] = c1;
+    if (spatial_kinematics_step(arg, res, iw, w, 0)) return 2;
+    for (k = 0; k < CA_NG; ++k) G[k * CA_MS + j] = c1[CA_NKC - CA_NG + k];
+    for (k = 0; k < CA_NKC; ++k) c0[k] = c1[k];
+  }
+  return 0;
+}
+#endif
+
+/* Links 2..m, independent iterations (vectorised: every argument a pointer into an array per
+   quantity, non-null): each link's pivot from its geometry, e^j and the link margin to out,
+   the rates step's inputs to Pv[k CA_MS + j]. */
+CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4) static int ca_spatial_pivots(
+    const casadi_real* restrict G, const casadi_real* restrict wt, casadi_real* restrict Pv,
+    casadi_real* restrict out, casadi_int* iw, casadi_real* w) {
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  casadi_real inv;
+  casadi_int j, k;
+  for (j = 1; j < CA_M; ++j) {
+    for (k = 0; k < CA_NG; ++k) arg[k] = G + k * CA_MS + j;
+    arg[CA_NG] = wt; res[0] = &inv;
+    if (spatial_link_inv_det(arg, res, iw, w, 0)) return 2;
+    arg[CA_NG + 1] = &inv;
+    for (k = 0; k < CA_NPV; ++k) res[k] = Pv + k * CA_MS + j;
+    res[CA_NPV] = out + CA_OUT_E + 2 * (j - 1);
+    res[CA_NPV + 1] = out + CA_OUT_E + 2 * (j - 1) + 1;
+    res[CA_NPV + 2] = out + CA_OUT_LINK_MARGINS + j - 1;
+    if (spatial_link_pivot(arg, res, iw, w, 0)) return 2;
   }
   return 0;
 }
 
-#if CA_RAIL
-/* The head on a rail: d_dot (u[0]) from the span row, the rail margin and psi(y^1), and link 1's carry
-   and roll row (generated spatial_rail_head). A commanded span (CA_SPAN) is computed inside the generated
-   head from the end's centre y^m, which this loop sums from the cosines and sines (R_j = R_{j-1} Rz Ry). */
-static int ca_spatial_rail_head(const casadi_real* q, casadi_real t, const casadi_real* c, const casadi_real* s,
-                                casadi_real* carry, casadi_real* roll, casadi_real* row, casadi_real* rhs,
-                                casadi_real* scale, casadi_real* u, casadi_real* out, casadi_real* psi1,
-                                casadi_int* iw, casadi_real* w) {
+/* Links 2..m: the rates carry (A = A0 + A1 p, sum ||W1||) -> after link m; quantity k of
+   xi/2 (W0_j, vec W1_j) to W[k CA_MS + j]. */
+CA_FLATTEN CA_NOINLINE static int ca_spatial_rates(const casadi_real* Pv, casadi_real* carry, casadi_real* W,
+                                                   casadi_int* iw, casadi_real* w) {
+  casadi_real c0[CA_NRC], c1[CA_NRC];
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
-#ifdef CA_SPAN
-  casadi_real R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, N[9], J[9], ym[3], prev[3];
-  casadi_int j, r, k;
-  ym[0] = q[0] * CA_RAIL_X; ym[1] = q[0] * CA_RAIL_Y; ym[2] = q[0] * CA_RAIL_Z;      /* y^1 = d rail */
-  for (j = 0; j < CA_M; ++j) {
-    casadi_real ca_ = c[j], sa = s[j], cb = c[CA_M + j], sb = s[CA_M + j];
-    J[0] = ca_ * cb; J[1] = -sa; J[2] = ca_ * sb;       /* Rz(a) Ry(b), row-major */
-    J[3] = sa * cb;  J[4] = ca_; J[5] = sa * sb;
-    J[6] = -sb;      J[7] = 0;   J[8] = cb;
-    for (r = 0; r < 3; ++r)
-      for (k = 0; k < 3; ++k) N[3 * r + k] = R[3 * r] * J[k] + R[3 * r + 1] * J[3 + k] + R[3 * r + 2] * J[6 + k];
-    for (r = 0; r < 3; ++r) {
-      if (j > 0) ym[r] += CA_HALF_XI * (prev[r] + N[3 * r]);        /* y^j = y^{j-1} + xi/2 (d_{j-1} + d_j) */
-      prev[r] = N[3 * r];
-    }
-    for (k = 0; k < 9; ++k) R[k] = N[k];
+  casadi_int j, k;
+  for (k = 0; k < CA_NRC; ++k) c0[k] = carry[k];
+  for (j = 1; j < CA_M; ++j) {
+    arg[0] = c0;
+    for (k = 0; k < CA_NPV; ++k) arg[1 + k] = Pv + k * CA_MS + j;
+    res[0] = c1;
+    for (k = 0; k < 6; ++k) res[1 + k] = W + k * CA_MS + j;
+    if (spatial_rates_step(arg, res, iw, w, 0)) return 2;
+    for (k = 0; k < CA_NRC; ++k) c0[k] = c1[k];
   }
-  arg[3] = ym;
-#else
-  casadi_real sigma = 0;               /* a held span: the head does not read it */
-  (void)c; (void)s;
-  arg[3] = &sigma;
-#endif
-  arg[0] = q; arg[1] = q + 1; arg[2] = &t;
-  res[0] = carry; res[1] = roll; res[2] = row; res[3] = rhs; res[4] = scale;
-  res[5] = u; res[6] = out + CA_OUT_RAIL_MARGIN; res[7] = psi1;
-  return CA_RAIL_HEAD(arg, res, iw, w, 0) ? 2 : 0;
+  for (k = 0; k < CA_NRC; ++k) carry[k] = c0[k];
+  return 0;
 }
-#endif
+
+/* Joint rates from the link rates w_1 = p, w_j = W0_j + W1_j p (W holds W0_j, W1_j times xi/2), and
+   the end margin's sum ||W1_j|| (total, from the head's 1). Only the spin about each link is carried
+   (x_j = alpha_j x_{j-1} + beta_j, see spatial_joints.py); the other loops have independent iterations
+   (vectorised), two joints per step. Scratch J, one array of CA_MS each: w_1, w_2 (index 0 before
+   link 1), alpha, beta, the norms ||W1_j||, x (index 0 before link 1), and the two-joint a2, b2.
+   Writes u and the joint margins |cos b_j|. */
+CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spatial_joints(
+    const casadi_real* restrict c, const casadi_real* restrict s, const casadi_real* restrict ic,
+    const casadi_real* restrict W, const casadi_real* restrict p, casadi_real* restrict total,
+    casadi_real* restrict u, casadi_real* restrict out, casadi_real* restrict J, casadi_int* iw, casadi_real* w) {
+  casadi_real *w1 = J, *w2 = w1 + CA_MS, *al = w2 + CA_MS, *be = al + CA_MS, *nrm = be + CA_MS;
+  casadi_real *x = nrm + CA_MS, *a2 = x + CA_MS, *b2 = a2 + CA_MS, sum = *total;
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  casadi_int j;
+  w1[0] = 0; w2[0] = 0; w1[1] = p[0]; w2[1] = p[1]; nrm[0] = 0;
+  for (j = 1; j < CA_M; ++j) {
+    w1[j + 1] = (W[j] + W[2 * CA_MS + j] * p[0] + W[4 * CA_MS + j] * p[1]) * (1 / CA_HALF_XI);
+    w2[j + 1] = (W[CA_MS + j] + W[3 * CA_MS + j] * p[0] + W[5 * CA_MS + j] * p[1]) * (1 / CA_HALF_XI);
+  }
+  for (j = 1; j < CA_M; ++j) {
+    arg[0] = W + 2 * CA_MS + j; arg[1] = W + 3 * CA_MS + j; arg[2] = W + 4 * CA_MS + j; arg[3] = W + 5 * CA_MS + j;
+    res[0] = nrm + j;
+    if (spatial_rate_norm(arg, res, iw, w, 0)) return 2;
+  }
+  for (j = 0; j < CA_M; ++j) {
+    arg[0] = c + j; arg[1] = s + j; arg[2] = s + CA_M + j; arg[3] = ic + j; arg[4] = w1 + j + 1; arg[5] = w2 + j;
+    res[0] = al + j; res[1] = be + j;
+    if (spatial_joint_prep(arg, res, iw, w, 0)) return 2;
+  }
+  for (j = 0; j + 1 < CA_M; ++j) {      /* two joints at once: x_{j+2} = a2_j x_j + b2_j */
+    a2[j] = al[j + 1] * al[j];
+    b2[j] = al[j + 1] * be[j] + be[j + 1];
+  }
+  x[0] = 0;
+  for (j = 0; j + 1 < CA_M; j += 2) {   /* the only sequential part: the spin, two joints a step, and the norms' sum */
+    x[j + 1] = al[j] * x[j] + be[j];
+    x[j + 2] = a2[j] * x[j] + b2[j];
+    sum += nrm[j] + nrm[j + 1];
+  }
+  if (j < CA_M) {
+    x[j + 1] = al[j] * x[j] + be[j];
+    sum += nrm[j];
+  }
+  *total = sum;
+  for (j = 0; j < CA_M; ++j) {
+    arg[0] = c + j; arg[1] = s + j; arg[2] = c + CA_M + j; arg[3] = s + CA_M + j; arg[4] = ic + j;
+    arg[5] = x + j; arg[6] = w1 + j; arg[7] = w2 + j; arg[8] = w1 + j + 1; arg[9] = w2 + j + 1;
+    res[0] = u + 2 * j; res[1] = u + 2 * j + 1; res[2] = out + CA_OUT_JOINT_MARGINS + j;
+    if (spatial_joint_rates(arg, res, iw, w, 0)) return 2;
+  }
+  return 0;
+}
 
 /* The law at (q, t): u (2m, d_dot first on a rail) to u, every other output to out at its offset. */
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
                   casadi_real* w) {
-  casadi_real wt[CA_NW + 1], carry[CA_NC], row[2], rhs, scale, p[2];
-#if CA_RAIL
-  casadi_real psi1;
-#endif
-  casadi_real *ang = w + CA_SZ_W + CA_RK4_SCRATCH, *c = ang + 2 * CA_M, *s = c + 2 * CA_M, *ic = s + 2 * CA_M;
-  casadi_real *W = ic + CA_M;
+  casadi_real wt[CA_NW + 1], kin[CA_NKC], carry[CA_NRC], total, row[2], rhs, scale, p[2], geo[CA_NG], v[6], srow[2];
+  casadi_real *ang = w + CA_SZ_W + CA_RK4_SCRATCH, *c = ang + 2 * CA_MS, *s = c + 2 * CA_MS, *ic = s + 2 * CA_MS;
+  casadi_real *W = ic + CA_MS, *G = W + 6 * CA_MS, *Pv = G + CA_NG * CA_MS;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
+  casadi_int k;
+#if CA_RAIL
+  casadi_real psi1, ym[3];
+#endif
   arg[0] = &t; res[0] = wt;
   if (spatial_time_features(arg, res, iw, w, 0)) return 2;
   ca_spatial_trig(q + CA_RAIL, ang, c, s, ic);
 #if CA_RAIL
-  if (ca_spatial_rail_head(q, t, c, s, carry, out + CA_OUT_ROLL, row, &rhs, &scale, u, out, &psi1, iw, w)) return 2;
+  arg[0] = q; arg[1] = q + 1; arg[2] = &t;          /* (d, ab_1, t) */
 #else
-  arg[0] = q; arg[1] = &t;
-  res[0] = carry; res[1] = out + CA_OUT_ROLL; res[2] = row; res[3] = &rhs; res[4] = &scale;
-  if (spatial_head(arg, res, iw, w, 0)) return 2;
+  arg[0] = q; arg[1] = &t;                          /* (ab_1, t) */
 #endif
-  if (ca_spatial_recursion(c, s, wt, carry, out, W, iw, w)) return 2;
-  arg[0] = carry; arg[1] = &t; arg[2] = row; arg[3] = &rhs; arg[4] = &scale;
-  res[0] = out + CA_OUT_S; res[1] = p; res[2] = out + CA_OUT_END_MARGIN;
-  if (spatial_tail(arg, res, iw, w, 0)) return 2;
+  res[0] = kin;
+  if (spatial_kinematics_head(arg, res, iw, w, 0)) return 2;
+  if (ca_spatial_kinematics(c, s, kin, G, iw, w)) return 2;
+  res[0] = carry; res[1] = &total; res[2] = out + CA_OUT_ROLL; res[3] = row; res[4] = &rhs; res[5] = &scale;
 #if CA_RAIL
-  out[CA_OUT_SIGMA] = out[CA_OUT_S] - psi1;
+  for (k = 0; k < 3; ++k) ym[k] = G[(6 + k) * CA_MS + CA_M - 1];      /* y^m (m >= 2) */
+  arg[3] = ym;
+  res[6] = u; res[7] = out + CA_OUT_RAIL_MARGIN; res[8] = &psi1;     /* d_dot, rail margin, psi(y^1) */
 #endif
-  return ca_spatial_joints(c, s, ic, W, p, u + CA_RAIL, out, iw, w);
+  if (spatial_rates_head(arg, res, iw, w, 0)) return 2;
+  if (ca_spatial_pivots(G, wt, Pv, out, iw, w)) return 2;
+  if (ca_spatial_rates(Pv, carry, W, iw, w)) return 2;
+  for (k = 0; k < CA_NG; ++k) geo[k] = G[k * CA_MS + CA_M - 1];      /* link m */
+  for (k = 0; k < 6; ++k) v[k] = W[k * CA_MS + CA_M - 1];
+  arg[0] = geo; arg[1] = carry; arg[2] = v; arg[3] = &t; arg[4] = row; arg[5] = &rhs;
+  res[0] = out + CA_OUT_S; res[1] = p; res[2] = srow;
+  if (spatial_frame_tail(arg, res, iw, w, 0)) return 2;
+#if CA_RAIL
+  out[CA_OUT_SIGMA] = out[CA_OUT_S] - psi1;          /* sigma = psi(y^m) - psi(y^1) */
+#endif
+  if (ca_spatial_joints(c, s, ic, W, p, &total, u + CA_RAIL, out, Pv, iw, w)) return 2;   /* Pv is free again */
+  arg[0] = srow; arg[1] = row; arg[2] = &scale; arg[3] = &total; res[0] = out + CA_OUT_END_MARGIN;
+  return spatial_end_margin(arg, res, iw, w, 0) ? 2 : 0;
 }
