@@ -110,6 +110,10 @@ CHANNEL_LAYOUT = {
     "margins": ("/margins", "coordarm_msgs/msg/Margins", ("t", "link_margins", "longitudinal")),
 }
 
+#: The comment of ``/margins/cond``: what ``cond`` is (the ``run`` metadata's ``cond`` entry says which).
+COND_COMMENT = ("cond: condition number of the decoupling matrix C, as the run metadata's cond entry says:\n"
+                "'1-norm estimate (lower bound)': est ||C||_1 * est ||C^-1||_1, O(m) per sample (planar default;\n"
+                "coordarm.symbolic.cond_estimate); '2-norm exact': sigma_max / sigma_min (an SVD, O(m^3))")
 #: The comment of ``/joint_state`` on a rail: ``q`` and ``u`` hold the rail joint first.
 RAIL_COMMENT = ("q[0]: rail position d [m] (introduction axis); q[1..m]: revolute joints q_1..q_m [rad]\n"
                 "u[0]: rail rate d_dot [m/s]; u[1..m]: revolute controls")
@@ -192,7 +196,8 @@ def numeric_channels(links: int, rail: bool = False, layout: ChainLayout = PLANA
         names = list(lead) + [o.name for o in rows if o.channel == key and o.name not in lead]
         comment = SPATIAL_COMMENTS[key] if spatial else RAIL_COMMENT if rail and key == "joint_state" else ""
         out[key] = NumericChannel(topic, schema, tuple(_field(n, m, rail, layout) for n in names), comment)
-    out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", (("t", 0), ("cond", 0)))
+    out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", (("t", 0), ("cond", 0)),
+                                 COND_COMMENT)
     out["tracking"] = NumericChannel("/tracking", "coordarm_msgs/msg/Tracking",
                                      SPATIAL_TRACKING_FIELDS if spatial else TRACKING_FIELDS)
     return out

@@ -199,6 +199,41 @@ class NumericAPI:
         """
         return condition_numbers(self.decoupling_matrices(Q, T)[0])
 
+    def cond_estimates(self, Q, T) -> np.ndarray:
+        """Estimated 1-norm condition numbers of the decoupling matrices at N states, O(m) each.
+
+        A lower bound of the exact ``cond_1`` within a factor :data:`~.cond_estimate.DOCUMENTED_FACTOR`
+        on the tested chains (see :mod:`.cond_estimate`); the exact 2-norm value is :meth:`conds`
+        (an SVD, O(m^3)).
+
+        Parameters
+        ----------
+        Q : array_like, shape (N, dof)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            ``est ||C||_1 * est ||C^-1||_1`` of each (inf when singular).
+        """
+        import scipy.linalg                      # scipy loads only when a run logs cond
+
+        from .cond_estimate import DecouplingOperator
+
+        geo = self.centre_geometry(Q, T)
+        Q = np.atleast_2d(np.asarray(Q, float))
+        m = self.chain.m
+        normals = normal(np.cumsum(self.chain.revolute(Q), axis=-1))
+        rows = np.concatenate([geo["gpsi"][:, m - 1:], geo["gphi"][:, 1:]], axis=1)
+        bd = self.chain.b_diagonal
+        dense = {} if bd is not None else {"B": self.chain.B, "B_lu": scipy.linalg.lu_factor(self.chain.B)}
+        rail = self.chain.rail_direction if self.chain.rail else None
+        return np.array([DecouplingOperator(normals[i], rows[i], self.chain.xi, bd, rail=rail,
+                                            base_gradient=geo["gpsi"][i, 0] if rail is not None else None,
+                                            **dense).cond_estimate() for i in range(len(Q))])
+
     def base_offset(self, t: float = 0.0) -> float:
         """``|phi(0, t)|``: how far the curve passes from the pinned base.
 

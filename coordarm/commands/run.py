@@ -41,8 +41,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--log-rate", type=float, metavar="HZ",
                    help="samples per simulated second in the log (default: every step)")
     p.add_argument("--cond-rate", type=float, metavar="HZ",
-                   help="samples per simulated second of cond (an SVD each; default 5 Hz up to 64 links, "
-                        "then falling as 1/m^2, off above 1024 links; 0 = off)")
+                   help="samples per simulated second of cond, an O(m) estimate of the 1-norm condition number "
+                        "of the decoupling matrix (a lower bound; default 5 Hz; 0 = off; the exact value: "
+                        "coordarm report)")
     p.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
                    help="chunk compression of the log: zstd (default, smallest), lz4 (faster) "
                         "or none (the cheapest to write, ~2.6x larger)")
