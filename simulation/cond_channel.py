@@ -1,4 +1,4 @@
-"""The rate and the meaning of ``/margins/cond``: the O(m) estimate by default, the exact value on request."""
+"""The rate and the meaning of ``/margins/cond``: the 1-norm condition number (O(m) estimate above 256 joints) by default, the exact 2-norm value on request."""
 from __future__ import annotations
 
 #: Default rate of ``/margins/cond`` [Hz].
@@ -7,7 +7,7 @@ COND_RATE = 5.0
 #: 4096 x 4096 decoupling matrix takes about a minute; at 16384 links the matrix is 2 GiB).
 COND_LINK_LIMIT = 1024
 #: What the ``cond`` field holds, by ``cond_exact`` (the ``run`` metadata's ``cond`` entry).
-COND_KINDS = {False: "1-norm estimate (lower bound)", True: "2-norm exact"}
+COND_KINDS = {False: "1-norm (exact up to 256 joints, above: an O(m) lower-bound estimate)", True: "2-norm exact"}
 
 
 def default_cond_rate(links: int, exact: bool = True) -> float:

@@ -112,8 +112,8 @@ CHANNEL_LAYOUT = {
 
 #: The comment of ``/margins/cond``: what ``cond`` is (the ``run`` metadata's ``cond`` entry says which).
 COND_COMMENT = ("cond: condition number of the decoupling matrix C, as the run metadata's cond entry says:\n"
-                "'1-norm estimate (lower bound)': est ||C||_1 * est ||C^-1||_1, O(m) per sample (planar default;\n"
-                "coordarm.symbolic.cond_estimate); '2-norm exact': sigma_max / sigma_min (an SVD, O(m^3))")
+                "'1-norm (...)': ||C||_1 ||C^-1||_1, exact up to 256 joints, above an O(m) lower-bound estimate\n"
+                "(planar default; coordarm.symbolic.cond_estimate); '2-norm exact': sigma_max / sigma_min (an SVD)")
 #: The comment of ``/joint_state`` on a rail: ``q`` and ``u`` hold the rail joint first.
 RAIL_COMMENT = ("q[0]: rail position d [m] (introduction axis); q[1..m]: revolute joints q_1..q_m [rad]\n"
                 "u[0]: rail rate d_dot [m/s]; u[1..m]: revolute controls")

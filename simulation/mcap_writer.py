@@ -4,8 +4,9 @@ Channels (timestamps: ns of simulated time)
 
 * ``/joint_state`` (``t``, ``q``, ``u``), ``/task_state`` (``t``, ``s``, ``v_star``, ``e``),
   ``/margins`` (``t``, ``link_margins`` of links 2..m, ``longitudinal``): every logged step;
-* ``/margins/cond``: condition number of the decoupling matrix, 5 Hz: by default the O(m) estimate of
-  its 1-norm condition number (a lower bound, :mod:`coordarm.symbolic.cond_estimate`), with
+* ``/margins/cond``: condition number of the decoupling matrix, 5 Hz: by default its 1-norm condition
+  number, exact up to 256 joints and above that an O(m) estimate (a lower bound,
+  :mod:`coordarm.symbolic.cond_estimate`), with
   ``cond_exact=True`` the exact 2-norm one (an SVD, O(m^3)); the ``run`` metadata's ``cond`` says which;
 * ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, the end point's target, obstacles),
   ``/tf``: ``foxglove.FrameTransforms`` JSON (a frame per link, chained from ``world``) and

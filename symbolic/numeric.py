@@ -18,6 +18,20 @@ from .law_face import condition_numbers
 from .task import Task
 
 
+#: Up to this many joints :meth:`NumericAPI.cond_estimates` computes ``cond_1`` exactly (a batched dense
+#: inverse costs less than the O(m) estimator's Python overhead there: benchmarks/RESULTS.md, issue 24).
+EXACT_COND_DOF = 256
+
+
+def _exact_cond_1(A: np.ndarray) -> float:
+    """``||A||_1 ||A^-1||_1`` (inf when ``A`` is singular)."""
+    try:
+        with np.errstate(all="ignore"):
+            return float(np.abs(A).sum(axis=0).max() * np.abs(np.linalg.inv(A)).sum(axis=0).max())
+    except np.linalg.LinAlgError:
+        return float("inf")
+
+
 class NumericAPI:
     """Numeric evaluation of a controller's law (a mixin of :class:`~.controller.CoordinatingController`).
 
@@ -200,11 +214,12 @@ class NumericAPI:
         return condition_numbers(self.decoupling_matrices(Q, T)[0])
 
     def cond_estimates(self, Q, T) -> np.ndarray:
-        """Estimated 1-norm condition numbers of the decoupling matrices at N states, O(m) each.
+        """1-norm condition numbers of the decoupling matrices at N states: estimated in O(m) each above
+        :data:`EXACT_COND_DOF` joints, exact (a dense inverse, cheaper at that size) up to it.
 
-        A lower bound of the exact ``cond_1`` within a factor :data:`~.cond_estimate.DOCUMENTED_FACTOR`
-        on the tested chains (see :mod:`.cond_estimate`); the exact 2-norm value is :meth:`conds`
-        (an SVD, O(m^3)).
+        The estimate is a lower bound of the exact ``cond_1`` within a factor
+        :data:`~.cond_estimate.DOCUMENTED_FACTOR` on the tested chains (see :mod:`.cond_estimate`); the
+        exact 2-norm value is :meth:`conds` (an SVD, O(m^3)).
 
         Parameters
         ----------
@@ -218,13 +233,16 @@ class NumericAPI:
         ndarray, shape (N,)
             ``est ||C||_1 * est ||C^-1||_1`` of each (inf when singular).
         """
-        import scipy.linalg                      # scipy loads only when a run logs cond
-
-        from .cond_estimate import DecouplingOperator
-
         geo = self.centre_geometry(Q, T)
         Q = np.atleast_2d(np.asarray(Q, float))
         m = self.chain.m
+        if self.chain.dof <= EXACT_COND_DOF:     # a dense inverse is cheaper than the estimator here
+            M = self.decoupling_matrices(Q, T, geo)[0]
+            return np.array([_exact_cond_1(A) for A in M])
+        import scipy.linalg                      # scipy loads only for a chain above EXACT_COND_DOF
+
+        from .cond_estimate import DecouplingOperator
+
         normals = normal(np.cumsum(self.chain.revolute(Q), axis=-1))
         rows = np.concatenate([geo["gpsi"][:, m - 1:], geo["gphi"][:, 1:]], axis=1)
         bd = self.chain.b_diagonal

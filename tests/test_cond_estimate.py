@@ -73,8 +73,8 @@ def test_estimate_is_a_lower_bound_of_the_exact_1_norm_cond_within_the_documente
         ctrl = load_scenario(name).with_overrides(links=m).controller()
         rng = np.random.default_rng(100 + m)
         Q, T = rng.normal(size=(25, ctrl.chain.dof)), rng.uniform(0, 3, 25)
-        M, _ = ctrl.decoupling_matrices(Q, T)
-        ratio = ctrl.cond_estimates(Q, T) / np.array([exact_cond_1(A) for A in M])
+        ops, M = operators(ctrl, Q, T)
+        ratio = np.array([op.cond_estimate() for op in ops]) / np.array([exact_cond_1(A) for A in M])
         assert np.all(ratio <= 1 + 1e-9)
         worst = min(worst, ratio.min())
     assert worst >= 1 / DOCUMENTED_FACTOR
@@ -94,3 +94,15 @@ def test_a_singular_decoupling_matrix_gives_inf():
     rows = np.tile([1.0, 0.0], (m, 1))
     op = DecouplingOperator(n, rows, 0.1, np.ones(m))
     assert op.cond_estimate() == np.inf
+
+
+def test_cond_estimates_is_exact_up_to_the_threshold_and_the_estimator_above(monkeypatch):
+    from coordarm.symbolic import numeric
+    ctrl = load_scenario("arc").with_overrides(links=10).controller()
+    rng = np.random.default_rng(5)
+    Q, T = rng.normal(size=(6, 10)), rng.uniform(0, 3, 6)
+    ops, M = operators(ctrl, Q, T)
+    exact = np.array([exact_cond_1(A) for A in M])
+    np.testing.assert_allclose(ctrl.cond_estimates(Q, T), exact, rtol=1e-9)
+    monkeypatch.setattr(numeric, "EXACT_COND_DOF", 0)
+    np.testing.assert_array_equal(ctrl.cond_estimates(Q, T), [op.cond_estimate() for op in ops])

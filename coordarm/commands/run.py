@@ -41,9 +41,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--log-rate", type=float, metavar="HZ",
                    help="samples per simulated second in the log (default: every step)")
     p.add_argument("--cond-rate", type=float, metavar="HZ",
-                   help="samples per simulated second of cond, an O(m) estimate of the 1-norm condition number "
-                        "of the decoupling matrix (a lower bound; default 5 Hz; 0 = off; the exact value: "
-                        "coordarm report)")
+                   help="samples per simulated second of cond, the 1-norm condition number of the decoupling "
+                        "matrix (exact up to 256 joints, above an O(m) lower-bound estimate; default 5 Hz; 0 = off; "
+                        "the exact 2-norm value: coordarm report)")
     p.add_argument("--compression", choices=COMPRESSIONS, default="zstd",
                    help="chunk compression of the log: zstd (default, smallest), lz4 (faster) "
                         "or none (the cheapest to write, ~2.6x larger)")
