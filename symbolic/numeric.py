@@ -238,7 +238,12 @@ class NumericAPI:
         m = self.chain.m
         if self.chain.dof <= EXACT_COND_DOF:     # a dense inverse is cheaper than the estimator here
             M = self.decoupling_matrices(Q, T, geo)[0]
-            return np.array([_exact_cond_1(A) for A in M])
+            try:                                 # one batched inverse; a singular matrix: one by one
+                with np.errstate(all="ignore"):
+                    inverse = np.linalg.inv(M)
+            except np.linalg.LinAlgError:
+                return np.array([_exact_cond_1(A) for A in M])
+            return np.abs(M).sum(axis=1).max(axis=1) * np.abs(inverse).sum(axis=1).max(axis=1)
         import scipy.linalg                      # scipy loads only for a chain above EXACT_COND_DOF
 
         from .cond_estimate import DecouplingOperator
