@@ -107,8 +107,8 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
                  duration: float | None = None, step: float | None = None, law: str | None = None,
                  governor: bool | None = None, backend: str = "auto", log: str | os.PathLike | None = None,
                  overwrite: bool = False, yes: bool = False, log_rate: float | None = None,
-                 cond_rate: float | None = None, compression: str = "zstd", live: bool = False,
-                 port: int = 8765, live_speed: float = 1.0, live_wait: bool = False, figures: bool = True,
+                 cond_rate: float | None = None, cond_exact: bool = False, compression: str = "zstd",
+                 live: bool = False, port: int = 8765, live_speed: float = 1.0, live_wait: bool = False, figures: bool = True,
                  stages: Sequence[float] | None = None, allow_contact: bool = False, progress: bool = False,
                  echo: Callable[[str], None] | None = None,
                  on_warning: Callable[[Warning], None] | None = None) -> ScenarioResult:
@@ -128,6 +128,9 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         Replace an existing ``log``; run above the cost limits or a dense law over ``DENSE_LINKS`` links.
     log_rate, cond_rate, compression : optional
         Log samples [Hz], condition number samples [Hz] (0 = off), chunk compression (zstd, lz4, none).
+    cond_exact : bool, optional
+        Log the exact 2-norm condition number (an SVD per sample, O(m^3)) instead of the 1-norm one
+        (exact up to 256 joints, above an O(m) lower-bound estimate).
     live, port, live_speed, live_wait : optional
         Serve the run to Foxglove on ``port`` (0 = any) at ``live_speed`` simulated seconds per second
         [-], starting once a client subscribed if ``live_wait``.
@@ -171,7 +174,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     ctrl = scenario.controller()
     run, stopped, chosen, compiled = simulate_logged(
         scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
-        compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
+        cond_exact=cond_exact, compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
         allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue)
     status = outcome_of(stopped, None)["status"]
     for line in report_lines(run, scenario, compiled, out):
@@ -283,8 +286,8 @@ def checked_log_path(out: Path, overwrite: bool) -> Path:
 def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path, *, overwrite: bool,
                     backend: str, log_rate: float | None, cond_rate: float | None, compression: str,
                     live: bool, port: int, live_speed: float, live_wait: bool, allow_contact: bool,
-                    progress: bool, say: Callable[[str], None],
-                    on_warning: Callable[[Warning], None]) -> tuple[Run, SingularityError | CollisionError | None,
+                    progress: bool, say: Callable[[str], None], on_warning: Callable[[Warning], None],
+                    cond_exact: bool = False) -> tuple[Run, SingularityError | CollisionError | None,
                                                                     str, Any]:
     """Simulate ``scenario`` into the log ``out`` (and the live view); the log is closed with the outcome.
 
@@ -302,6 +305,8 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         How the law runs.
     log_rate, cond_rate : float or None
         As for :func:`logged_run` [Hz].
+    cond_exact : bool
+        As for :func:`logged_run`.
     compression : str
         As for :func:`logged_run`.
     on_warning : callable
@@ -347,7 +352,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         holder: dict[str, Any] = {"backend": backend, "compiled": None}
         try:
             run = logged_run(scenario, ctrl, out, view, holder, overwrite=overwrite, log_rate=log_rate,
-                             cond_rate=cond_rate, compression=compression, allow_contact=allow_contact,
+                             cond_rate=cond_rate, cond_exact=cond_exact, compression=compression, allow_contact=allow_contact,
                              progress=progress, on_warning=on_warning)
             stopped = None
         except (SingularityError, CollisionError) as err:
@@ -357,7 +362,8 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
 
 def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view: Any, holder: dict[str, Any], *,
                overwrite: bool, log_rate: float | None, cond_rate: float | None, compression: str,
-               allow_contact: bool, progress: bool, on_warning: Callable[[Warning], None]) -> Run:
+               allow_contact: bool, progress: bool, on_warning: Callable[[Warning], None],
+               cond_exact: bool = False) -> Run:
     """Build or load the law and simulate ``scenario`` into the log ``out``, closed with the outcome.
 
     Parameters
@@ -377,6 +383,8 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
         Replace an existing ``out``.
     log_rate, cond_rate : float or None
         Log samples and condition number samples per simulated second [Hz] (None: the defaults).
+    cond_exact : bool
+        Log the exact 2-norm condition number (see :class:`~.mcap_writer.RunLogger`).
     compression : str
         Chunk compression of the log (zstd, lz4, none).
     allow_contact : bool
@@ -408,7 +416,7 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
 
     # The log is closed with its outcome however the run ends (singularity, collision, error, Ctrl-C).
     # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
-    with RunLogger(out, scenario, ctrl, log_rate=log_rate, cond_rate=cond_rate,
+    with RunLogger(out, scenario, ctrl, log_rate=log_rate, cond_rate=cond_rate, cond_exact=cond_exact,
                    compression=compression, overwrite=overwrite,
                    threaded=(os.cpu_count() or 1) > 1) as logger:
         q0 = scenario.start(ctrl)
