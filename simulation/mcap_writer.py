@@ -4,8 +4,8 @@ Channels (timestamps: ns of simulated time)
 
 * ``/joint_state`` (``t``, ``q``, ``u``), ``/task_state`` (``t``, ``s``, ``v_star``, ``e``),
   ``/margins`` (``t``, ``link_margins`` of links 2..m, ``longitudinal``): every logged step;
-* ``/margins/cond``: condition number of the decoupling matrix, 5 Hz: by default its 1-norm condition
-  number, exact up to 256 joints and above that an O(m) estimate (a lower bound,
+* ``/margins/cond``: condition number of the decoupling matrix: by default its 1-norm condition
+  number, exact up to 256 joints (5 Hz) and above that an O(m) estimate (0.5 Hz; a lower bound,
   :mod:`coordarm.symbolic.cond_estimate`), with
   ``cond_exact=True`` the exact 2-norm one (an SVD, O(m^3)); the ``run`` metadata's ``cond`` says which;
 * ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, the end point's target, obstacles),
@@ -185,7 +185,8 @@ class RunLogger:
         Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off.
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz]; 0 switches it off. Default :func:`default_cond_rate`:
-        5 Hz for the estimate; for the exact value 5 Hz up to 64 links, then falling as ``1/m^2``
+        5 Hz up to 256 links and 0.5 Hz above for the 1-norm value; for the exact 2-norm value 5 Hz up
+        to 64 links, then falling as ``1/m^2``
         (an SVD costs O(m^3), a step O(m)); 0 for a spatial chain (the ``run`` metadata's
         ``chain_kind`` is ``"universal"``).
     cond_exact : bool

@@ -9,6 +9,7 @@ from mcap.stream_reader import StreamReader
 
 from coordarm.analysis.replay import load
 from coordarm.simulation.log_schemas import numeric_channels
+from coordarm.simulation.cond_channel import ESTIMATE_RATE
 from coordarm.simulation.mcap_writer import COND_KINDS, COND_RATE, RunLogger, code_hash, default_cond_rate
 from coordarm.symbolic.cond_estimate import DOCUMENTED_FACTOR
 from coordarm.simulation.run import Run, simulate
@@ -254,7 +255,8 @@ def test_exact_cond_rate_defaults_to_5_hz_and_falls_as_one_over_m_squared_past_6
     assert default_cond_rate(8) == default_cond_rate(64) == COND_RATE == 5.0
     assert default_cond_rate(128) == pytest.approx(1.25) and default_cond_rate(1024) == pytest.approx(5 / 256)
     assert default_cond_rate(1025) == default_cond_rate(16384) == 0.0   # an O(m^3) SVD per sample: off
-    assert default_cond_rate(16384, exact=False) == COND_RATE            # the O(m) estimate: 5 Hz at every size
+    assert default_cond_rate(256, exact=False) == COND_RATE              # the exact 1-norm: cheap up to 256
+    assert default_cond_rate(257, exact=False) == default_cond_rate(16384, exact=False) == ESTIMATE_RATE
     sc = load_scenario("line").with_overrides(links=128)
     with RunLogger(tmp_path / "big.mcap", sc, command=["test"], cond_exact=True) as log:
         assert log.cond_every == round(1 / (1.25 * sc.step))

@@ -42,7 +42,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="samples per simulated second in the log (default: every step)")
     p.add_argument("--cond-rate", type=float, metavar="HZ",
                    help="samples per simulated second of cond, the 1-norm condition number of the decoupling "
-                        "matrix (exact up to 256 joints, above an O(m) lower-bound estimate; default 5 Hz; 0 = off; "
+                        "matrix (exact up to 256 joints at 5 Hz by default, above an O(m) lower-bound estimate at 0.5 Hz; 0 = off; "
                         "the exact 2-norm value: coordarm report)")
     p.add_argument("--cond-exact", action="store_true",
                    help="log the exact 2-norm condition number instead (an SVD per sample, O(m^3): slow above "
