@@ -106,3 +106,21 @@ def test_cond_estimates_is_exact_up_to_the_threshold_and_the_estimator_above(mon
     np.testing.assert_allclose(ctrl.cond_estimates(Q, T), exact, rtol=1e-9)
     monkeypatch.setattr(numeric, "EXACT_COND_DOF", 0)
     np.testing.assert_array_equal(ctrl.cond_estimates(Q, T), [op.cond_estimate() for op in ops])
+
+
+@pytest.mark.parametrize("extra, kind", [([], False), (["--cond-exact"], True)])
+def test_the_run_command_logs_the_1_norm_cond_by_default_and_the_2_norm_with_cond_exact(tmp_path, extra, kind):
+    from coordarm.analysis.replay import load
+    from coordarm.cli import main
+    from coordarm.simulation.mcap_writer import COND_KINDS
+    out = tmp_path / "c.mcap"
+    assert main(["run", "line", "--links", "6", "--duration", "0.4", "--quiet", "--no-figures", *extra,
+                 "--out", str(out)]) == 0
+    rep = load(out)
+    assert rep.run_info["cond"] == COND_KINDS[kind] and len(rep.cond) == 3    # 5 Hz: t = 0, 0.2, 0.4
+    ctrl = rep.controller()
+    for tk, c in zip(rep.cond_t, rep.cond):
+        k = int(np.flatnonzero(rep.t == tk)[0])
+        A = ctrl.decoupling_matrices(rep.q[k:k + 1], [tk])[0][0]
+        sv = np.linalg.svd(A, compute_uv=False)
+        assert c == pytest.approx(sv[0] / sv[-1] if kind else exact_cond_1(A), rel=1e-9)
