@@ -107,11 +107,10 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
                  duration: float | None = None, step: float | None = None, law: str | None = None,
                  governor: bool | None = None, backend: str = "auto", log: str | os.PathLike | None = None,
                  overwrite: bool = False, yes: bool = False, log_rate: float | None = None,
-                 cond_rate: float | None = None, cond_exact: bool = False, compression: str = "zstd",
-                 live: bool = False, port: int = 8765, live_speed: float = 1.0, live_wait: bool = False, figures: bool = True,
+                 cond_rate: float | None = None, cond_exact: bool = False, compression: str = "zstd", live: bool = False,
+                 port: int = 8765, live_speed: float = 1.0, live_wait: bool = False, figures: bool = True,
                  stages: Sequence[float] | None = None, allow_contact: bool = False, progress: bool = False,
-                 echo: Callable[[str], None] | None = None,
-                 on_warning: Callable[[Warning], None] | None = None) -> ScenarioResult:
+                 echo: Callable[[str], None] | None = None, on_warning: Callable[[Warning], None] | None = None) -> ScenarioResult:
     """Simulate a scenario with its log, optional live view, outcome and figures (``coordarm run``).
 
     Parameters
@@ -126,11 +125,9 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         The MCAP log (default ``logs/<name>.mcap``, replaced if there); figures go beside it.
     overwrite, yes : bool, optional
         Replace an existing ``log``; run above the cost limits or a dense law over ``DENSE_LINKS`` links.
-    log_rate, cond_rate, compression : optional
-        Log samples [Hz], condition number samples [Hz] (0 = off), chunk compression (zstd, lz4, none).
-    cond_exact : bool, optional
-        Log the exact 2-norm condition number (an SVD per sample, O(m^3)) instead of the 1-norm one
-        (exact up to 256 joints, above an O(m) lower-bound estimate).
+    log_rate, cond_rate, cond_exact, compression : optional
+        Log samples [Hz], cond samples [Hz] (0 = off), the exact 2-norm cond (an SVD per sample) instead
+        of the 1-norm one, chunk compression (zstd, lz4, none).
     live, port, live_speed, live_wait : optional
         Serve the run to Foxglove on ``port`` (0 = any) at ``live_speed`` simulated seconds per second
         [-], starting once a client subscribed if ``live_wait``.
@@ -303,10 +300,8 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         As for :func:`logged_run`.
     backend : {"auto", "compiled", "interpreted"}
         How the law runs.
-    log_rate, cond_rate : float or None
+    log_rate, cond_rate, cond_exact : float or None, float or None, bool
         As for :func:`logged_run` [Hz].
-    cond_exact : bool
-        As for :func:`logged_run`.
     compression : str
         As for :func:`logged_run`.
     on_warning : callable
