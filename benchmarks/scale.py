@@ -222,7 +222,10 @@ def per_round(a: list[float], b: list[float]) -> str:
 
 
 def report(data: dict, load: list[float], rounds: int) -> list[str]:
-    out = [f"Run {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; machine:", *machine(),
+    when = data.get("when", {})
+    out = [f"Report written {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; parts measured "
+           + ", ".join(f"{k} at {v}" for k, v in when.items()) + "; machine:",
+           *(line for line in machine() if "load average at start" not in line),
            f"* load average during the run: {min(load):.2f}–{max(load):.2f} (2 cores shared with 8 other agents: "
            "a loaded machine; ratios are per round, so both sides of each saw the same load)",
            f"* {rounds} interleaved rounds; raw numbers in `benchmarks/scale.json`", ""]
@@ -306,7 +309,8 @@ def write(lines: list[str]) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=5)
-    ap.add_argument("--parts", default="links,command,export,rt")
+    ap.add_argument("--parts", default="links,command,export,rt",
+                    help="comma-separated parts to measure; `none` rewrites the report from scale.json")
     ap.add_argument("--no-write", action="store_true")
     args = ap.parse_args()
     parts = args.parts.split(",")
