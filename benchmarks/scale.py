@@ -228,7 +228,8 @@ def report(data: dict, load: list[float], rounds: int) -> list[str]:
            *(line for line in machine() if "load average at start" not in line),
            f"* load average during the run: {min(load):.2f}–{max(load):.2f} (2 cores shared with 8 other agents: "
            "a loaded machine; ratios are per round, so both sides of each saw the same load)",
-           f"* {rounds} interleaved rounds; raw numbers in `benchmarks/scale.json`", ""]
+           "* interleaved rounds: " + ", ".join(f"{k} {v}" for k, v in data.get("rounds", {}).items())
+           + " (rt: one run of 2000 cycles per case); raw numbers in `benchmarks/scale.json`", ""]
     if "links" in data:
         d = data["links"]
         med = {k: {int(m): float(np.median(v)) for m, v in d[k].items()} for k in ("wall", "bare", "rss")}
@@ -326,6 +327,7 @@ def main() -> None:
             print(f"{name}: done after {time.perf_counter() - started:.0f} s", file=sys.stderr)
     saved = json.loads((HERE / "scale.json").read_text()) if (HERE / "scale.json").exists() else {}
     merged = {**saved, **data}        # parts not run this time keep their last numbers
+    merged["rounds"] = {**saved.get("rounds", {}), **{name: args.rounds for name in data if name != "rt"}}
     loads = {**saved.get("loads", {}), **{name: load for name in data}}
     lines = report(merged, [x for v in loads.values() for x in v], args.rounds)
     print("\n".join(lines))
