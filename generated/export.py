@@ -25,7 +25,7 @@ from .spatial_codegen import assemble_spatial_source, spatial_functions, spatial
 #: Prefix of every external symbol of the export.
 PREFIX = "coordarm_law_"
 #: Files an export writes.
-FILES = ("coordarm_law.c", "coordarm_law.h", "Makefile", "example.c")
+FILES = ("coordarm_law.c", "coordarm_law.h", "Makefile", "example.c", "example_rt.c")
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,7 @@ class Export:
     directory : Path
         The output directory.
     files : tuple of Path
-        ``coordarm_law.c``, ``coordarm_law.h``, ``Makefile``, ``example.c``.
+        ``coordarm_law.c``, ``coordarm_law.h``, ``Makefile``, ``example.c``, ``example_rt.c``.
     m : int
         Number of links.
     """
@@ -127,7 +127,11 @@ def _numbers(values) -> str:
 
 def export_law(ctrl: CoordinatingController | SpatialController, q0: np.ndarray, directory: str | Path, *, step: float,
                duration: float, t0: float = 0.0, scenario: str = "", source: str = "") -> Export:
-    """Write the law of ``ctrl`` as plain C, with a Makefile and an example loop, into ``directory``.
+    """Write the law of ``ctrl`` as plain C, with a Makefile, an example loop and a real-time loop, into ``directory``.
+
+    The Makefile compiles with the flags of the compiled law (:data:`~.build.DEFAULT_FLAGS`, in GNU C
+    mode so that floating-point contraction stays on), so the exported ``u`` is bit-identical to the
+    law the simulation runs; its shared library hides every symbol but the API (see the Makefile).
 
     Parameters
     ----------
@@ -137,7 +141,7 @@ def export_law(ctrl: CoordinatingController | SpatialController, q0: np.ndarray,
         Start configuration of the example [rad] (``m`` values; on a rail ``m + 1``, ``d`` [m] first;
         for a spatial chain ``2 m``, ``(a_1, b_1, ..., a_m, b_m)``).
     directory : path
-        Output directory (created; the four files in it are overwritten).
+        Output directory (created; the five files in it are overwritten).
     step, duration, t0 : float
         The example's RK4 step, default duration and start time [s].
     scenario, source : str
@@ -185,6 +189,8 @@ def export_law(ctrl: CoordinatingController | SpatialController, q0: np.ndarray,
         "example.c": render("export/example.c", n_q=chain.dof, q0=_numbers(q0), b=_numbers(b),
                             b_rail=", d first" if rail else "", h=repr(float(step)),
                             t0=repr(float(t0)), steps=max(1, int(math.floor(duration / step + 0.5)))),
+        "example_rt.c": render("export/example_rt.c", n_q=chain.dof, q0=_numbers(q0), b=_numbers(b),
+                               b_rail=", d first" if rail else "", t0=repr(float(t0))),
     }
     out = Path(directory)
     try:

@@ -2,10 +2,12 @@
 
 Hard bounds (a :class:`~symbolic.errors.ConfigError` whatever ``--yes`` says) keep every
 number meaningful: log times are integer nanoseconds of simulated time, so steps shorter
-than 1 us or times beyond 1e6 s would collide or overflow; more than :data:`MAX_LINKS`
-links would not fit in memory. Within them, :func:`estimate` gives the number of steps, the
-log size and the memory of a run, and :func:`check_cost` refuses a run above
-:data:`COST_LIMITS` unless the user confirmed it (``coordarm run --yes``).
+than 1 us or times beyond 1e6 s would collide or overflow. The number of links has no
+constant cap: :func:`estimate` gives the number of steps, the log size and the memory of a run
+(the law's own data included, :data:`LAW_BYTES_PER_LINK`), :func:`check_cost` refuses a run above
+:func:`cost_limits` (:data:`COST_LIMITS`, and half the machine's memory) unless the user confirmed
+it (``coordarm run --yes``), and a run whose memory exceeds the machine's physical memory
+(:func:`machine_memory`) is refused whatever ``--yes`` says.
 
 Stability of the discretised loop: every deviation obeys ``edot = -K e``. RK4 with step
 ``h`` is stable for ``K h <`` :data:`RK4_LIMIT` (a larger ``K h`` diverges, whatever the
@@ -30,8 +32,6 @@ from .choices import DENSE_LINKS  # noqa: F401 (re-exported)
 from .log_layout import PLANAR, ChainLayout
 from .log_schemas import PER_STEP, numeric_channels
 
-#: Largest number of links of a chain.
-MAX_LINKS = 4096
 #: Allowed RK4 step [s] (log times are integer ns; below 1 us consecutive times could collide).
 STEP_RANGE = (1e-6, 1.0)
 #: Longest simulated duration and largest |t0| [s] (keeps ns log times exact and in 64 bits).
@@ -40,8 +40,12 @@ MAX_TIME = 1e6
 LINK_LENGTH_RANGE = (1e-6, 1e3)
 #: Largest gain [1/s].
 MAX_GAIN = 1e6
-#: A run above any of these needs a confirmation (``--yes``): steps, log bytes, memory bytes.
+#: A run above any of these needs a confirmation (``--yes``): steps, log bytes, memory bytes (the memory
+#: limit is raised to half the machine's memory by :func:`cost_limits`).
 COST_LIMITS = {"steps": 20_000_000, "log_bytes": 4 * 2**30, "memory_bytes": 2 * 2**30}
+#: Memory of the law per link while it is built, compiled and run [bytes] (a 16384-link line run of
+#: 10 steps peaks at 250 MB; benchmarks/RESULTS.md, "Link counts").
+LAW_BYTES_PER_LINK = 16 * 1024
 #: Rows of a logged run kept in memory for the figures (the rest is streamed to the log).
 KEEP_ROWS = 20_000
 
@@ -150,10 +154,11 @@ def check_bounds(links: Any, link_length: float, step: float, duration: float, t
     Raises
     ------
     ConfigError
-        The first value outside its bound.
+        The first value outside its bound, or more links than the machine's memory holds.
     """
-    if links > MAX_LINKS:
-        raise ConfigError(f"chain.links: at most {MAX_LINKS}, got {links}")
+    if links * LAW_BYTES_PER_LINK > (total := machine_memory()):
+        raise ConfigError(f"chain.links: {links} links need at least {_size(links * LAW_BYTES_PER_LINK)} of memory, "
+                          f"more than this machine's {_size(total)}")
     checks = (("chain.link_length", link_length, *LINK_LENGTH_RANGE), ("run.step", step, *STEP_RANGE),
               ("run.duration", duration, 0.0, MAX_TIME), ("run.t0", abs(t0), 0.0, MAX_TIME),
               ("control.gain", gain, 0.0, MAX_GAIN))
@@ -226,6 +231,7 @@ def estimate(links: int, step: float, duration: float, log_rate: float | None = 
         Steps, uncompressed log bytes and bytes of run data in memory.
     """
     steps = int(math.ceil(duration / step))
+    links = int(links)
     widths = numeric_channels(links) if layout is PLANAR else numeric_channels(links, layout=layout)
     row = sum(widths[k].width for k in PER_STEP) * 8          # float64 values of one sample
     record = row + len(PER_STEP) * (31 + 4)                    # + message headers and CDR headers
@@ -233,31 +239,60 @@ def estimate(links: int, step: float, duration: float, log_rate: float | None = 
     log_bytes = (steps // every + 1) * record if logged else 0
     kept = min(steps + 1, KEEP_ROWS + 4 * (steps // block + 1)) if logged else steps + 1
     memory = 2 * kept * row + 4 * min(block, steps) * row      # concatenation doubles, one block in flight
-    return Cost(steps, log_bytes, memory)
+    return Cost(steps, log_bytes, memory + LAW_BYTES_PER_LINK * links)
+
+
+def machine_memory() -> int:
+    """The machine's physical memory [bytes] (``psutil.virtual_memory().total``).
+
+    Returns
+    -------
+    int
+        Total physical memory [bytes].
+    """
+    import psutil
+
+    return int(psutil.virtual_memory().total)
+
+
+def cost_limits() -> dict[str, int]:
+    """The limits :func:`check_cost` applies: :data:`COST_LIMITS` with the memory limit raised to half the
+    machine's memory.
+
+    Returns
+    -------
+    dict of str to int
+        ``steps``, ``log_bytes`` and ``memory_bytes`` limits.
+    """
+    return {**COST_LIMITS, "memory_bytes": max(COST_LIMITS["memory_bytes"], machine_memory() // 2)}
 
 
 def check_cost(cost: Cost, confirmed: bool = False) -> None:
-    """Refuse a run above :data:`COST_LIMITS` unless ``confirmed``.
+    """Refuse a run above :func:`cost_limits` unless ``confirmed``, and above the machine's memory always.
 
     Parameters
     ----------
     cost : Cost
         The run's estimate.
     confirmed : bool
-        The user said yes (``--yes``): no check.
+        The user said yes (``--yes``): only the machine's memory is checked.
 
     Raises
     ------
     ConfigError
         Naming the estimate and the limit exceeded.
     """
+    total = machine_memory()
+    if cost.memory_bytes > total:
+        raise ConfigError(f"this run needs {cost.describe()}, more than this machine's {_size(total)} of memory "
+                          "(--yes does not lift this); use fewer links, shorten --duration or set --log-rate")
     if confirmed:
         return
     def show(name: str, value: int) -> str:
         return _size(value) if name.endswith("bytes") else f"{value:,}"
 
     over = [f"{name} {show(name, getattr(cost, name))} > {show(name, limit)}"
-            for name, limit in COST_LIMITS.items() if getattr(cost, name) > limit]
+            for name, limit in cost_limits().items() if getattr(cost, name) > limit]
     if over:
         raise ConfigError(f"this run needs {cost.describe()} ({'; '.join(over)}); "
                           "pass --yes to run it anyway, or shorten --duration / lengthen --step / set --log-rate")

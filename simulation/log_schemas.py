@@ -110,6 +110,10 @@ CHANNEL_LAYOUT = {
     "margins": ("/margins", "coordarm_msgs/msg/Margins", ("t", "link_margins", "longitudinal")),
 }
 
+#: The comment of ``/margins/cond``: what ``cond`` is (the ``run`` metadata's ``cond`` entry says which).
+COND_COMMENT = ("cond: condition number of the decoupling matrix C, as the run metadata's cond entry says:\n"
+                "'1-norm (...)': ||C||_1 ||C^-1||_1, exact up to 256 joints, above an O(m) lower-bound estimate\n"
+                "(planar default; coordarm.symbolic.cond_estimate); '2-norm exact': sigma_max / sigma_min (an SVD)")
 #: The comment of ``/joint_state`` on a rail: ``q`` and ``u`` hold the rail joint first.
 RAIL_COMMENT = ("q[0]: rail position d [m] (introduction axis); q[1..m]: revolute joints q_1..q_m [rad]\n"
                 "u[0]: rail rate d_dot [m/s]; u[1..m]: revolute controls")
@@ -251,7 +255,8 @@ def numeric_channels(links: int, rail: bool = False, layout: ChainLayout = PLANA
         fields = tuple(_field(n, m, rail, layout) for n in names)
         out[key] = NumericChannel(topic, schema, fields, _joined(comment, field_notes(fields, rail, layout)))
     cond = (("t", 0), ("cond", 0))
-    out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", cond, field_notes(cond))
+    out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", cond,
+                                 _joined(COND_COMMENT, field_notes(cond)))
     tracking = SPATIAL_TRACKING_FIELDS if spatial else TRACKING_FIELDS
     out["tracking"] = NumericChannel("/tracking", "coordarm_msgs/msg/Tracking", tracking,
                                      field_notes(tracking, rail, layout))

@@ -4,7 +4,10 @@ Channels (timestamps: ns of simulated time)
 
 * ``/joint_state`` (``t``, ``q``, ``u``), ``/task_state`` (``t``, ``s``, ``v_star``, ``e``),
   ``/margins`` (``t``, ``link_margins`` of links 2..m, ``longitudinal``): every logged step;
-* ``/margins/cond``: condition number of the decoupling matrix, ~5 Hz (one SVD each);
+* ``/margins/cond``: condition number of the decoupling matrix: by default its 1-norm condition
+  number, exact up to 256 joints (5 Hz) and above that an O(m) estimate (0.5 Hz; a lower bound,
+  :mod:`coordarm.symbolic.cond_estimate`), with
+  ``cond_exact=True`` the exact 2-norm one (an SVD, O(m^3)); the ``run`` metadata's ``cond`` says which;
 * ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, the end point's target, obstacles),
   ``/tf``: ``foxglove.FrameTransforms`` JSON (``base`` and ``tip``, or a frame per link) and
   ``/tracking`` (``s`` and its target, ``max|e|``, the smallest link margin, ``|u|``), ~20 Hz
@@ -49,6 +52,7 @@ from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.task import BUILT_IN_CURVES
 
 from .choices import Backend, Compression
+from .cond_channel import COND_KINDS, COND_LINK_LIMIT, COND_RATE, default_cond_rate  # noqa: F401 (re-exported)
 from .log_layout import PLANAR, layout_of_chain, partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
@@ -66,35 +70,8 @@ FLUSH_INTERVAL = 0.5
 #: 1.5x faster than 256 KiB ones, for a slightly smaller file (benchmarks/RESULTS_logging.md).
 CHUNK_SIZE = 1 << 20
 
-#: Default rates of the reduced-rate channels [Hz].
-SCENE_RATE, COND_RATE = 20.0, 5.0
-
-
-#: Above this many links ``/margins/cond`` is off unless a rate is given (one SVD of a
-#: 4096 x 4096 decoupling matrix takes about a minute; at 16384 links the matrix is 2 GiB).
-COND_LINK_LIMIT = 1024
-
-
-def default_cond_rate(links: int) -> float:
-    """Default rate of ``/margins/cond`` [Hz]: :data:`COND_RATE` up to 64 links, then ``* (64/m)^2``,
-    and 0 (channel off) above :data:`COND_LINK_LIMIT` links.
-
-    One ``cond`` is an SVD of the m x m decoupling matrix, O(m^3), against O(m) for a step
-    of the law, so this keeps its share of a run's time about what it is at 64 links.
-
-    Parameters
-    ----------
-    links : int
-        Number of links m (> 0).
-
-    Returns
-    -------
-    float
-        The rate [Hz]; 0 above :data:`COND_LINK_LIMIT` links.
-    """
-    if links > COND_LINK_LIMIT:
-        return 0.0
-    return COND_RATE * min(1.0, (64.0 / links) ** 2)
+#: Default rate of the scene channels [Hz] (``/margins/cond``: :data:`~.cond_channel.COND_RATE`).
+SCENE_RATE = 20.0
 
 
 def steps_between(rate: Any, step: float, name: str) -> int:
@@ -208,8 +185,13 @@ class RunLogger:
         Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off.
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz]; 0 switches it off. Default :func:`default_cond_rate`:
-        5 Hz up to 64 links, then falling as ``1/m^2`` (an SVD costs O(m^3), a step O(m)); 0 for a
-        spatial chain (the ``run`` metadata's ``chain_kind`` is ``"universal"``).
+        5 Hz up to 256 links and 0.5 Hz above for the 1-norm value; for the exact 2-norm value 5 Hz up
+        to 64 links, then falling as ``1/m^2``
+        (an SVD costs O(m^3), a step O(m)); 0 for a spatial chain (the ``run`` metadata's
+        ``chain_kind`` is ``"universal"``).
+    cond_exact : bool
+        Log the exact 2-norm condition number (an SVD per sample) instead of the O(m) 1-norm
+        estimate; a spatial chain always logs the exact value (when a rate is given).
     compression : {"zstd", "lz4", "none"}
         Chunk compression (see :class:`~simulation.mcap_file.McapFile`).
     chunk_size : int, optional
@@ -246,9 +228,11 @@ class RunLogger:
                  log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float | None = None,
                  compression: str = Compression.ZSTD.value, chunk_size: int | None = None, flush_interval: float = FLUSH_INTERVAL,
                  command: list[str] | None = None, backend: str = Backend.INTERPRETED.value, library_key: str | None = None,
-                 threaded: bool = False, overwrite: bool = True, frames: str = "ends") -> None:
+                 threaded: bool = False, overwrite: bool = True, cond_exact: bool = False,
+                 frames: str = "ends") -> None:
         self.frames = frames
         with self._removed_on_failure():
+            self.cond_exact = bool(cond_exact)
             self._open(path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,
                        overwrite, threaded)
             self._write_header(command, backend, library_key)
@@ -277,8 +261,9 @@ class RunLogger:
         self.step = scenario.step
         self.every = self._decimation(log_rate, "log_rate") if log_rate is not None else 1
         m = self.ctrl.chain.m
+        self.cond_exact = self.cond_exact or self.layout is not PLANAR     # spatial: the SVD only
         if cond_rate is None:
-            cond_rate = default_cond_rate(m) if self.layout is PLANAR else 0.0   # spatial: a dense SVD, off
+            cond_rate = default_cond_rate(m, self.cond_exact) if self.layout is PLANAR else 0.0  # spatial: off
         self.scene_every = self._decimation(scene_rate, "scene_rate") if scene_rate else 0
         self.cond_every = self._decimation(cond_rate, "cond_rate") if cond_rate else 0
         if compression not in COMPRESSIONS:
@@ -318,6 +303,7 @@ class RunLogger:
             "started": datetime.now(timezone.utc).isoformat(timespec="seconds"), "host": socket.gethostname(),
             "platform": platform.platform(), "log_every_steps": str(self.every),
             "scene_every_steps": str(self.scene_every), "cond_every_steps": str(self.cond_every),
+            "cond": COND_KINDS[self.cond_exact],
             "time_origin": repr(self.origin),
             **({} if self.layout is PLANAR else {"chain_kind": self.layout.kind})})
 
@@ -437,7 +423,8 @@ class RunLogger:
         if self.cond_every:
             ks = np.flatnonzero(g % self.cond_every == 0)
             if len(ks):
-                for k, value in zip(ks, self.ctrl.conds(part.q[ks], part.t[ks])):
+                conds = self.ctrl.conds if self.cond_exact else self.ctrl.cond_estimates
+                for k, value in zip(ks, conds(part.q[ks], part.t[ks])):
                     record = CDR_HEADER + np.array([part.t[k], value], "<f8").tobytes()
                     self._extras.append(("cond", int(self._ns(part.t[k])), record))
         while len(self._pending) >= self.samples_per_chunk:

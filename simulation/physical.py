@@ -172,6 +172,8 @@ class Physical:
         dict of str to (float, float, int)
             By obstacle name.
         """
+        if not self.obstacles:                      # nothing to measure: skip the O(N m) joints
+            return {}
         joints = self.chain.joints_np(np.asarray(q, float))
         out = {}
         for ob in self.obstacles:

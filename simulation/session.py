@@ -107,11 +107,11 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
                  duration: float | None = None, step: float | None = None, law: str | None = None,
                  governor: bool | None = None, backend: str = "auto", log: str | os.PathLike | None = None,
                  overwrite: bool = False, yes: bool = False, log_rate: float | None = None,
-                 cond_rate: float | None = None, compression: str = "zstd", live: bool = False,
+                 cond_rate: float | None = None, cond_exact: bool = False, compression: str = "zstd", live: bool = False,
                  port: int = 8765, live_speed: float = 1.0, live_wait: bool = False, figures: bool = True,
                  stages: Sequence[float] | None = None, allow_contact: bool = False, progress: bool = False,
-                 echo: Callable[[str], None] | None = None,
-                 on_warning: Callable[[Warning], None] | None = None, log_frames: str = "ends") -> ScenarioResult:
+                 echo: Callable[[str], None] | None = None, on_warning: Callable[[Warning], None] | None = None,
+                 log_frames: str = "ends") -> ScenarioResult:
     """Simulate a scenario with its log, optional live view, outcome and figures (``coordarm run``).
 
     Parameters
@@ -126,9 +126,10 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         The MCAP log (default ``logs/<name>.mcap``, replaced if there); figures go beside it.
     overwrite, yes : bool, optional
         Replace an existing ``log``; run above the cost limits or a dense law over ``DENSE_LINKS`` links.
-    log_rate, cond_rate, compression, log_frames : optional
-        Log samples [Hz], condition number samples [Hz] (0 = off), chunk compression (zstd, lz4, none),
-        the frames of ``/tf`` (log and live view: ``"ends"``, base and tip, or ``"all"``, one per link).
+    log_rate, cond_rate, cond_exact, compression, log_frames : optional
+        Log samples [Hz], cond samples [Hz] (0 = off), the exact 2-norm cond (an SVD per sample) instead
+        of the 1-norm one, chunk compression (zstd, lz4, none), the frames of ``/tf`` (log and live view:
+        ``"ends"``, base and tip, or ``"all"``, one per link).
     live, port, live_speed, live_wait : optional
         Serve the run to Foxglove on ``port`` (0 = any) at ``live_speed`` simulated seconds per second
         [-], starting once a client subscribed if ``live_wait``.
@@ -172,7 +173,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     ctrl = scenario.controller()
     run, stopped, chosen, compiled = simulate_logged(
         scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
-        compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
+        cond_exact=cond_exact, compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
         allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue, log_frames=log_frames)
     status = outcome_of(stopped, None)["status"]
     for line in report_lines(run, scenario, compiled, out):
@@ -284,8 +285,8 @@ def checked_log_path(out: Path, overwrite: bool) -> Path:
 def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path, *, overwrite: bool,
                     backend: str, log_rate: float | None, cond_rate: float | None, compression: str,
                     live: bool, port: int, live_speed: float, live_wait: bool, allow_contact: bool,
-                    progress: bool, say: Callable[[str], None],
-                    on_warning: Callable[[Warning], None],
+                    progress: bool, say: Callable[[str], None], on_warning: Callable[[Warning], None],
+                    cond_exact: bool = False,
                     log_frames: str = "ends") -> tuple[Run, SingularityError | CollisionError | None, str, Any]:
     """Simulate ``scenario`` into the log ``out`` (and the live view); the log is closed with the outcome.
 
@@ -301,7 +302,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         As for :func:`logged_run`.
     backend : {"auto", "compiled", "interpreted"}
         How the law runs.
-    log_rate, cond_rate : float or None
+    log_rate, cond_rate, cond_exact : float or None, float or None, bool
         As for :func:`logged_run` [Hz].
     compression : str
         As for :func:`logged_run`.
@@ -352,7 +353,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         holder: dict[str, Any] = {"backend": backend, "compiled": None}
         try:
             run = logged_run(scenario, ctrl, out, view, holder, overwrite=overwrite, log_rate=log_rate,
-                             cond_rate=cond_rate, compression=compression, allow_contact=allow_contact,
+                             cond_rate=cond_rate, cond_exact=cond_exact, compression=compression, allow_contact=allow_contact,
                              progress=progress, on_warning=on_warning, log_frames=log_frames)
             stopped = None
         except (SingularityError, CollisionError) as err:
@@ -363,7 +364,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
 def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view: Any, holder: dict[str, Any], *,
                overwrite: bool, log_rate: float | None, cond_rate: float | None, compression: str,
                allow_contact: bool, progress: bool, on_warning: Callable[[Warning], None],
-               log_frames: str = "ends") -> Run:
+               cond_exact: bool = False, log_frames: str = "ends") -> Run:
     """Build or load the law and simulate ``scenario`` into the log ``out``, closed with the outcome.
 
     Parameters
@@ -383,6 +384,8 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
         Replace an existing ``out``.
     log_rate, cond_rate : float or None
         Log samples and condition number samples per simulated second [Hz] (None: the defaults).
+    cond_exact : bool
+        Log the exact 2-norm condition number (see :class:`~.mcap_writer.RunLogger`).
     compression : str
         Chunk compression of the log (zstd, lz4, none).
     allow_contact : bool
@@ -416,7 +419,7 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
 
     # The log is closed with its outcome however the run ends (singularity, collision, error, Ctrl-C).
     # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
-    with RunLogger(out, scenario, ctrl, log_rate=log_rate, cond_rate=cond_rate,
+    with RunLogger(out, scenario, ctrl, log_rate=log_rate, cond_rate=cond_rate, cond_exact=cond_exact,
                    compression=compression, overwrite=overwrite, frames=log_frames,
                    threaded=(os.cpu_count() or 1) > 1) as logger:
         q0 = scenario.start(ctrl)

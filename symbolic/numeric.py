@@ -18,6 +18,20 @@ from .law_face import condition_numbers
 from .task import Task
 
 
+#: Up to this many joints :meth:`NumericAPI.cond_estimates` computes ``cond_1`` exactly (a batched dense
+#: inverse costs less than the O(m) estimator's Python overhead there: benchmarks/RESULTS.md, issue 24).
+EXACT_COND_DOF = 256
+
+
+def _exact_cond_1(A: np.ndarray) -> float:
+    """``||A||_1 ||A^-1||_1`` (inf when ``A`` is singular)."""
+    try:
+        with np.errstate(all="ignore"):
+            return float(np.abs(A).sum(axis=0).max() * np.abs(np.linalg.inv(A)).sum(axis=0).max())
+    except np.linalg.LinAlgError:
+        return float("inf")
+
+
 class NumericAPI:
     """Numeric evaluation of a controller's law (a mixin of :class:`~.controller.CoordinatingController`).
 
@@ -198,6 +212,50 @@ class NumericAPI:
             ``sigma_max / sigma_min`` of each (inf when singular).
         """
         return condition_numbers(self.decoupling_matrices(Q, T)[0])
+
+    def cond_estimates(self, Q, T) -> np.ndarray:
+        """1-norm condition numbers of the decoupling matrices at N states: estimated in O(m) each above
+        :data:`EXACT_COND_DOF` joints, exact (a dense inverse, cheaper at that size) up to it.
+
+        The estimate is a lower bound of the exact ``cond_1`` within a factor
+        :data:`~.cond_estimate.DOCUMENTED_FACTOR` on the tested chains (see :mod:`.cond_estimate`); the
+        exact 2-norm value is :meth:`conds` (an SVD, O(m^3)).
+
+        Parameters
+        ----------
+        Q : array_like, shape (N, dof)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            ``est ||C||_1 * est ||C^-1||_1`` of each (inf when singular).
+        """
+        geo = self.centre_geometry(Q, T)
+        Q = np.atleast_2d(np.asarray(Q, float))
+        m = self.chain.m
+        if self.chain.dof <= EXACT_COND_DOF:     # a dense inverse is cheaper than the estimator here
+            M = self.decoupling_matrices(Q, T, geo)[0]
+            try:                                 # one batched inverse; a singular matrix: one by one
+                with np.errstate(all="ignore"):
+                    inverse = np.linalg.inv(M)
+            except np.linalg.LinAlgError:
+                return np.array([_exact_cond_1(A) for A in M])
+            return np.abs(M).sum(axis=1).max(axis=1) * np.abs(inverse).sum(axis=1).max(axis=1)
+        import scipy.linalg                      # scipy loads only for a chain above EXACT_COND_DOF
+
+        from .cond_estimate import DecouplingOperator
+
+        normals = normal(np.cumsum(self.chain.revolute(Q), axis=-1))
+        rows = np.concatenate([geo["gpsi"][:, m - 1:], geo["gphi"][:, 1:]], axis=1)
+        bd = self.chain.b_diagonal
+        dense = {} if bd is not None else {"B": self.chain.B, "B_lu": scipy.linalg.lu_factor(self.chain.B)}
+        rail = self.chain.rail_direction if self.chain.rail else None
+        return np.array([DecouplingOperator(normals[i], rows[i], self.chain.xi, bd, rail=rail,
+                                            base_gradient=geo["gpsi"][i, 0] if rail is not None else None,
+                                            **dense).cond_estimate() for i in range(len(Q))])
 
     def base_offset(self, t: float = 0.0) -> float:
         """``|phi(0, t)|``: how far the curve passes from the pinned base.

@@ -26,9 +26,9 @@ def exported(tmp_path_factory):
     return out
 
 
-def test_export_writes_the_four_files_with_the_documented_api(exported):
+def test_export_writes_the_five_files_with_the_documented_api(exported):
     assert sorted(p.name for p in exported.iterdir()) == ["Makefile", "coordarm_law.c", "coordarm_law.h",
-                                                           "example.c"]
+                                                           "example.c", "example_rt.c"]
     header = (exported / "coordarm_law.h").read_text()
     assert "int coordarm_law_sizes(long *n_q, long *n_u, long *n_outputs, long *n_work);" in header
     assert "int coordarm_law(const double *q, double t, double *u, double *outputs, double *work);" in header

@@ -40,7 +40,7 @@ def one_line_error(capsys, *words):
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["run", "line", "--links", "100000"], ["chain.links", "4096"]),
+    (["run", "line", "--links", "100000"], ["memory", "--yes does not lift"]),
     (["run", "line", "--links", "99999999999999999999"], ["chain.links"]),
     (["run", "line", "--step", "5e-324"], ["run.step"]),
     (["run", "line", "--step", "1e-9", "--duration", "0.05"], ["run.step"]),

@@ -9,7 +9,9 @@ from mcap.stream_reader import StreamReader
 
 from coordarm.analysis.replay import load
 from coordarm.simulation.log_schemas import numeric_channels
-from coordarm.simulation.mcap_writer import COND_RATE, RunLogger, code_hash, default_cond_rate
+from coordarm.simulation.cond_channel import ESTIMATE_RATE
+from coordarm.simulation.mcap_writer import COND_KINDS, COND_RATE, RunLogger, code_hash, default_cond_rate
+from coordarm.symbolic.cond_estimate import DOCUMENTED_FACTOR
 from coordarm.simulation.run import Run, simulate
 from coordarm.simulation.scenario import Scenario, load_scenario
 from coordarm.symbolic import ConfigError, LogError, SingularityError
@@ -98,15 +100,29 @@ def test_the_scenario_metadata_alone_rebuilds_the_controller(logged, scenario):
     np.testing.assert_allclose(ctrl.control(rep.q[k], float(rep.t[k])), run.u[k], rtol=1e-12, atol=1e-12)
 
 
-def test_cond_channel_is_the_condition_number_of_the_decoupling_matrix(logged, scenario):
+def test_cond_channel_is_a_lower_bound_of_the_1_norm_condition_number_of_the_decoupling_matrix(logged, scenario):
     path, run = logged
     rep = load(path)
     ctrl = scenario.controller()
     assert len(rep.cond) == len(range(0, len(run.t), 200))
+    assert rep.run_info["cond"] == COND_KINDS[False]
     for tk, c in zip(rep.cond_t, rep.cond):
         k = int(np.flatnonzero(run.t == tk)[0])
-        M = np.asarray(ctrl.decoupling_function()(run.q[k], tk)[0])   # by AD, not the closed form the log used
-        sv = np.linalg.svd(M, compute_uv=False)
+        M = np.asarray(ctrl.decoupling_function()(run.q[k], tk)[0])   # by AD, not the structure the log used
+        exact = np.linalg.norm(M, 1) * np.linalg.norm(np.linalg.inv(M), 1)
+        assert exact / DOCUMENTED_FACTOR <= c <= exact * (1 + 1e-9)
+
+
+def test_cond_exact_logs_the_2_norm_condition_number_of_the_decoupling_matrix(scenario, tmp_path):
+    ctrl = scenario.controller()
+    path = tmp_path / "exact.mcap"
+    with RunLogger(path, scenario, ctrl, command=["test"], cond_exact=True, cond_rate=20.0) as log:
+        run = simulate(ctrl, scenario.start(ctrl), 0.2, scenario.step, scenario.t0, on_chunk=log.on_chunk)
+    rep = load(path)
+    assert rep.run_info["cond"] == COND_KINDS[True] and len(rep.cond) >= 2
+    for tk, c in zip(rep.cond_t, rep.cond):
+        k = int(np.flatnonzero(run.t == tk)[0])
+        sv = np.linalg.svd(np.asarray(ctrl.decoupling_function()(run.q[k], tk)[0]), compute_uv=False)
         assert c == pytest.approx(sv[0] / sv[-1], rel=1e-9)
 
 
@@ -240,12 +256,14 @@ def test_lz4_zstd_and_uncompressed_logs_hold_the_same_messages_for_the_plain_rea
     assert not (tmp_path / "x.mcap").exists()
 
 
-def test_cond_rate_defaults_to_5_hz_and_falls_as_one_over_m_squared_past_64_links(tmp_path):
+def test_exact_cond_rate_defaults_to_5_hz_and_falls_as_one_over_m_squared_past_64_links(tmp_path):
     assert default_cond_rate(8) == default_cond_rate(64) == COND_RATE == 5.0
     assert default_cond_rate(128) == pytest.approx(1.25) and default_cond_rate(1024) == pytest.approx(5 / 256)
     assert default_cond_rate(1025) == default_cond_rate(16384) == 0.0   # an O(m^3) SVD per sample: off
+    assert default_cond_rate(256, exact=False) == COND_RATE              # the exact 1-norm: cheap up to 256
+    assert default_cond_rate(257, exact=False) == default_cond_rate(16384, exact=False) == ESTIMATE_RATE
     sc = load_scenario("line").with_overrides(links=128)
-    with RunLogger(tmp_path / "big.mcap", sc, command=["test"]) as log:
+    with RunLogger(tmp_path / "big.mcap", sc, command=["test"], cond_exact=True) as log:
         assert log.cond_every == round(1 / (1.25 * sc.step))
         log.on_chunk(Run(*(np.zeros((1, n)) if n else np.zeros(1) for n in (0, 128, 128, 127, 0, 127, 0, 0))))
     assert load(tmp_path / "big.mcap").run_info["cond_every_steps"] == str(log.cond_every)

@@ -18,8 +18,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("export", help="write a scenario's law as standalone C",
                        description="Write the coordinating law of a scenario (a preset: "
                                    f"{', '.join(presets())}, or a TOML file) as plain C that needs nothing of "
-                                   "Python or CasADi: coordarm_law.c/.h, a Makefile (target libcoordarm_law.a) "
-                                   "and example.c, a fixed-step loop.")
+                                   "Python or CasADi: coordarm_law.c/.h, a Makefile (targets libcoordarm_law.a, "
+                                   "libcoordarm_law.so, example, example_rt; the compiled law's flags), "
+                                   "example.c, a fixed-step loop, and example_rt.c, a fixed-rate real-time loop "
+                                   "printing the law's time and wake-up latency (./example_rt CYCLES [RATE_HZ]).")
     p.add_argument("scenario", metavar="SCENARIO_OR_TOML")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="output directory")
     p.add_argument("--links", type=int, help="override the number of links")
@@ -56,5 +58,5 @@ def main(args: argparse.Namespace) -> int:
                         t0=scenario.t0, scenario=scenario.name, source=str(scenario.source))
     for path in result.files:
         print(f"wrote         {path}")
-    print(f"build         make -C {result.directory}   (libcoordarm_law.a and example)")
+    print(f"build         make -C {result.directory}   (libcoordarm_law.a, libcoordarm_law.so, example, example_rt)")
     return 0

@@ -16,6 +16,14 @@
 extern "C" {
 #endif
 
+/* The two functions of the API stay visible in a shared library built with -fvisibility=hidden
+ * (the Makefile's libcoordarm_law.so), which lets the compiler inline everything else. */
+#if defined(__GNUC__)
+#define COORDARM_LAW_API __attribute__((visibility("default")))
+#else
+#define COORDARM_LAW_API
+#endif
+
 /* Sizes of this law (also returned by coordarm_law_sizes). */
 #define COORDARM_LAW_N_Q @n_q@L
 #define COORDARM_LAW_N_U @n_q@L
@@ -32,7 +40,7 @@ extern "C" {
 
 /* The sizes of the arrays of coordarm_law: n_q = n_u (m, or m + 1 on a rail), n_outputs, n_work (doubles).
  * Returns COORDARM_LAW_OK, or COORDARM_LAW_EINVAL for a NULL pointer. */
-int coordarm_law_sizes(long *n_q, long *n_u, long *n_outputs, long *n_work);
+COORDARM_LAW_API int coordarm_law_sizes(long *n_q, long *n_u, long *n_outputs, long *n_work);
 
 /* The control u(q, t).
  *
@@ -45,7 +53,7 @@ int coordarm_law_sizes(long *n_q, long *n_u, long *n_outputs, long *n_work);
  *
  * Returns COORDARM_LAW_OK or a negative COORDARM_LAW_E* code: for a non-finite input u and
  * outputs are all NaN; at a singularity they hold what the law computed (inf or NaN included). */
-int coordarm_law(const double *q, double t, double *u, double *outputs, double *work);
+COORDARM_LAW_API int coordarm_law(const double *q, double t, double *u, double *outputs, double *work);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,48 @@
+"""The rate and the meaning of ``/margins/cond``: the 1-norm condition number (O(m) estimate above 256 joints) by default, the exact 2-norm value on request."""
+from __future__ import annotations
+
+from coordarm.symbolic.numeric import EXACT_COND_DOF
+
+#: Default rate of ``/margins/cond`` [Hz].
+COND_RATE = 5.0
+#: Above this many links the exact ``/margins/cond`` is off unless a rate is given (one SVD of a
+#: 4096 x 4096 decoupling matrix takes about a minute; at 16384 links the matrix is 2 GiB).
+COND_LINK_LIMIT = 1024
+#: What the ``cond`` field holds, by ``cond_exact`` (the ``run`` metadata's ``cond`` entry).
+COND_KINDS = {False: "1-norm (exact up to 256 joints, above: an O(m) lower-bound estimate)", True: "2-norm exact"}
+
+
+#: Default rate of the O(m) estimate above :data:`~coordarm.symbolic.numeric.EXACT_COND_DOF` joints [Hz]:
+#: one estimate costs about 25 us per link (a sparse LU and some ten solves), the compiled simulation
+#: about 40 us per link per simulated second at a 1 ms step, so at 0.5 Hz the estimate adds about 30 %
+#: (benchmarks/RESULTS.md, issue 24); at 5 Hz it would add 300 %.
+ESTIMATE_RATE = 0.5
+
+
+def default_cond_rate(links: int, exact: bool = True) -> float:
+    """Default rate of ``/margins/cond`` [Hz].
+
+    The 1-norm value (``exact=False``, the default of a run): :data:`COND_RATE` up to
+    :data:`~coordarm.symbolic.numeric.EXACT_COND_DOF` links (computed exactly, cheap there), then
+    :data:`ESTIMATE_RATE` (the O(m) estimate, whose share of a run is then the same at every size).
+    The exact 2-norm value is an SVD of the m x m decoupling matrix,
+    O(m^3): :data:`COND_RATE` up to 64 links, then ``* (64/m)^2``, and 0 (channel off) above
+    :data:`COND_LINK_LIMIT` links, which keeps its share of a run's time about what it is at 64 links.
+
+    Parameters
+    ----------
+    links : int
+        Number of links m (> 0).
+    exact : bool
+        The rate of the exact 2-norm condition number (True) or of the 1-norm one (False).
+
+    Returns
+    -------
+    float
+        The rate [Hz]; for the exact value 0 above :data:`COND_LINK_LIMIT` links.
+    """
+    if not exact:
+        return COND_RATE if links <= EXACT_COND_DOF else ESTIMATE_RATE
+    if links > COND_LINK_LIMIT:
+        return 0.0
+    return COND_RATE * min(1.0, (64.0 / links) ** 2)
