@@ -1,6 +1,10 @@
 """The rate and the meaning of ``/margins/cond``: the 1-norm condition number (O(m) estimate above 256 joints) by default, the exact 2-norm value on request."""
 from __future__ import annotations
 
+from typing import Any
+
+import numpy as np
+
 from coordarm.symbolic.numeric import EXACT_COND_DOF
 
 #: Default rate of ``/margins/cond`` [Hz].
@@ -46,3 +50,52 @@ def default_cond_rate(links: int, exact: bool = True) -> float:
     if links > COND_LINK_LIMIT:
         return 0.0
     return COND_RATE * min(1.0, (64.0 / links) ** 2)
+
+
+def cond_plan(ctrl: Any, cond_rate: float | None, cond_exact: bool, planar: bool) -> tuple[float, bool]:
+    """The rate and the kind of ``/margins/cond`` of a run, the one rule the log and the live view share.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController or SpatialController
+        The run's controller (its chain's ``m``).
+    cond_rate : float or None
+        The rate asked for [Hz] (0 = off); None: :func:`default_cond_rate` on a planar chain, off on a spatial one.
+    cond_exact : bool
+        Whether the exact 2-norm value was asked for (a spatial chain has only that one).
+    planar : bool
+        Whether the chain is planar.
+
+    Returns
+    -------
+    rate : float
+        Samples per simulated second [Hz]; 0 = off.
+    exact : bool
+        True: the exact 2-norm value (``ctrl.conds``); False: the 1-norm one (``ctrl.cond_estimates``).
+    """
+    exact = bool(cond_exact) or not planar
+    if cond_rate is None:
+        cond_rate = default_cond_rate(ctrl.chain.m, exact) if planar else 0.0
+    return cond_rate, exact
+
+
+def cond_values(ctrl: Any, exact: bool, q: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The condition numbers of ``/margins/cond`` at the states ``q`` and times ``t``.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController or SpatialController
+        The run's controller.
+    exact : bool
+        The exact 2-norm value (an SVD each) or the 1-norm one (see :func:`cond_plan`).
+    q : ndarray, shape (k, n)
+        Joint states [rad, m].
+    t : ndarray, shape (k,)
+        Times [s].
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        The condition numbers [-].
+    """
+    return np.asarray((ctrl.conds if exact else ctrl.cond_estimates)(q, t))

@@ -26,7 +26,8 @@ from coordarm.symbolic.checks import is_real
 from .log_schemas import CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, foxglove_schema_bytes, numeric_channels
 from .log_layout import PLANAR, ChainLayout, layout_of_chain
 from .mcap_file import Worker
-from .mcap_writer import SCENE_RATE, default_cond_rate, log_time_ns, steps_between
+from .cond_channel import cond_plan, cond_values
+from .mcap_writer import SCENE_RATE, log_time_ns, steps_between
 from .run import Run
 from .scenario import Scenario
 from .scene3d import scene_builder
@@ -124,10 +125,11 @@ class LiveView:
     scene_rate : float
         Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz].
     cond_rate : float, optional
-        Rate of ``/margins/cond`` [Hz], 0 = off (default: the log's default,
-        :func:`~.mcap_writer.default_cond_rate` on a planar chain, off on a spatial one).
+        Rate of ``/margins/cond`` [Hz], 0 = off (default: the log's default, :func:`~.cond_channel.cond_plan`).
     frames : {"ends", "all"}
         The frames of ``/tf``: ``base`` and ``tip``, or one per link (as the log's).
+    cond_exact : bool
+        Serve the exact 2-norm condition number instead of the 1-norm one (as the log's ``cond_exact``).
 
     Raises
     ------
@@ -137,7 +139,8 @@ class LiveView:
 
     def __init__(self, scenario: Scenario, ctrl: CoordinatingController | None = None, *, port: int = 8765,
                  host: str = "127.0.0.1", speed: float = 1.0, rate: float = LIVE_RATE,
-                 scene_rate: float = SCENE_RATE, cond_rate: float | None = None, frames: str = "ends") -> None:
+                 scene_rate: float = SCENE_RATE, cond_rate: float | None = None, frames: str = "ends",
+                 cond_exact: bool = False) -> None:
         import foxglove
         from foxglove.websocket import Capability
 
@@ -152,8 +155,7 @@ class LiveView:
                                    frames)
         layout = layout_of_chain(ctrl.chain)
         self.numeric = numeric_channels(ctrl.chain.m, layout=layout)
-        if cond_rate is None:
-            cond_rate = default_cond_rate(ctrl.chain.m) if layout is PLANAR else 0.0
+        cond_rate, self.cond_exact = cond_plan(ctrl, cond_rate, cond_exact, layout is PLANAR)
         self.cond_every = steps_between(cond_rate, scenario.step, "cond_rate") if cond_rate else 0
         self.ctrl = ctrl
         self.context = foxglove.Context()
@@ -246,7 +248,7 @@ class LiveView:
         if self.cond_every:   # as the log computes it (mcap_writer.RunLogger)
             ks = np.flatnonzero(g % self.cond_every == 0)
             if len(ks):
-                for k, value in zip(ks, self.ctrl.conds(part.q[ks], part.t[ks])):
+                for k, value in zip(ks, cond_values(self.ctrl, self.cond_exact, part.q[ks], part.t[ks])):
                     out.append((int(log_time_ns(part.t[k], self.origin)), "cond",
                                 CDR_HEADER + np.array([part.t[k], value], "<f8").tobytes()))
         out.sort(key=lambda item: item[0])

@@ -52,7 +52,8 @@ from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.task import BUILT_IN_CURVES
 
 from .choices import Backend, Compression
-from .cond_channel import COND_KINDS, COND_LINK_LIMIT, COND_RATE, default_cond_rate  # noqa: F401 (re-exported)
+from .cond_channel import COND_KINDS, COND_LINK_LIMIT, COND_RATE, cond_plan, cond_values  # noqa: F401 (re-exported)
+from .cond_channel import default_cond_rate  # noqa: F401 (re-exported)
 from .log_layout import PLANAR, layout_of_chain, partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
@@ -261,9 +262,7 @@ class RunLogger:
         self.step = scenario.step
         self.every = self._decimation(log_rate, "log_rate") if log_rate is not None else 1
         m = self.ctrl.chain.m
-        self.cond_exact = self.cond_exact or self.layout is not PLANAR     # spatial: the SVD only
-        if cond_rate is None:
-            cond_rate = default_cond_rate(m, self.cond_exact) if self.layout is PLANAR else 0.0  # spatial: off
+        cond_rate, self.cond_exact = cond_plan(self.ctrl, cond_rate, self.cond_exact, self.layout is PLANAR)
         self.scene_every = self._decimation(scene_rate, "scene_rate") if scene_rate else 0
         self.cond_every = self._decimation(cond_rate, "cond_rate") if cond_rate else 0
         if compression not in COMPRESSIONS:
@@ -423,8 +422,7 @@ class RunLogger:
         if self.cond_every:
             ks = np.flatnonzero(g % self.cond_every == 0)
             if len(ks):
-                conds = self.ctrl.conds if self.cond_exact else self.ctrl.cond_estimates
-                for k, value in zip(ks, conds(part.q[ks], part.t[ks])):
+                for k, value in zip(ks, cond_values(self.ctrl, self.cond_exact, part.q[ks], part.t[ks])):
                     record = CDR_HEADER + np.array([part.t[k], value], "<f8").tobytes()
                     self._extras.append(("cond", int(self._ns(part.t[k])), record))
         while len(self._pending) >= self.samples_per_chunk:

@@ -161,12 +161,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     from coordarm.simulation.outcome import EXIT_CODES, outcome_of
 
     lines: list[str] = []
-
-    def say(line: str) -> None:
-        lines.append(line)
-        if echo is not None:
-            echo(line)
-
+    say = collector(lines, echo)
     scenario = prepared_scenario(scenario, links, duration, step, law, governor, log_rate, yes)
     overwrite = overwrite or log is None   # the default log is a scratch file
     out = checked_log_path(Path("logs") / f"{scenario.name}.mcap" if log is None else Path(log), overwrite)
@@ -184,6 +179,28 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     return ScenarioResult(scenario, run, status, EXIT_CODES[status], out, tuple(drawn), chosen,
                           Path(compiled.library.path) if compiled else None, compiled.cache_hit if compiled else None,
                           tuple(lines), stopped)
+
+
+def collector(lines: list[str], echo: Callable[[str], None] | None) -> Callable[[str], None]:
+    """A ``say`` function that appends each line to ``lines`` and passes it on to ``echo`` (if given).
+
+    Parameters
+    ----------
+    lines : list of str
+        Collects every line said.
+    echo : callable or None
+        Gets each line as soon as it is said.
+
+    Returns
+    -------
+    callable
+        ``say(line)``.
+    """
+    def say(line: str) -> None:
+        lines.append(line)
+        if echo is not None:
+            echo(line)
+    return say
 
 
 def report_lines(run: Run, scenario: Scenario, compiled: Any, out: Path) -> list[str]:
@@ -346,7 +363,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         view = None
         if live:
             view = stack.enter_context(LiveView(scenario, ctrl, port=port, speed=live_speed, cond_rate=cond_rate,
-                                                frames=log_frames))
+                                                frames=log_frames, cond_exact=cond_exact))
             say(f"live          {view.url} (Foxglove: Open connection, Foxglove WebSocket)")
             if live_wait:
                 view.wait_for_client()
