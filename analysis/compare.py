@@ -29,7 +29,7 @@ from .baselines import BACKENDS, BASELINES, EndPointRate, simulate_baseline, sto
 from .compare_figures3d import plot_bodies3d
 from .compare_scores import CONTACT_RATE, RAIL_SCORES, SCORE_TABLE, SCORES, score, score_rows
 from .follow_leader import FollowTheLeader, simulate_ftl
-from .follow_leader3d import check_rail
+from .follow_leader3d import SpatialFollowTheLeader, check_rail
 
 #: Methods of ``coordarm compare`` in table order.
 METHODS = COMPARE_METHODS
@@ -174,6 +174,8 @@ def _run(method: str, scenario: Scenario, ctrl: CoordinatingController, backend:
         return simulate_baseline(law, q0, scenario.duration, scenario.step, scenario.t0, backend=backend)
     if method == "ftl" and scenario.universal:
         check_rail(ctrl.chain, scenario.name)
+        return simulate_ftl(SpatialFollowTheLeader(ctrl, q0, scenario.t0), scenario.duration, scenario.step,
+                            backend)
     if method == "ftl" and ctrl.chain.rail:
         return simulate_ftl(FollowTheLeader(ctrl, q0, scenario.t0), scenario.duration, scenario.step, backend)
     raise ConfigError(f"method: {method!r} is not available for scenario {scenario.name!r}")

@@ -196,6 +196,22 @@ class FollowTheLeader:
         except NotImplementedError:
             return self._y0
 
+    def continuous(self, Q: np.ndarray) -> np.ndarray:
+        """``Q`` (N, m+1) with link 1's absolute angle ``q_1`` unwrapped in time (an ``atan2`` in ``(-pi, pi]``).
+
+        Parameters
+        ----------
+        Q : ndarray, shape (N, m+1)
+            Laid configurations, one per sample.
+
+        Returns
+        -------
+        ndarray, shape (N, m+1)
+        """
+        Q = np.array(Q, float)
+        Q[:, 1] = np.unwrap(Q[:, 1])
+        return Q
+
     def mapped(self, n: int, backend: str) -> ca.Function:
         """:meth:`function` over ``n`` times in one call (generated C for ``backend="compiled"``).
 
@@ -243,7 +259,8 @@ def simulate_ftl(law: FollowTheLeader, duration: float, step: float, backend: st
 
     Parameters
     ----------
-    law : FollowTheLeader
+    law : FollowTheLeader or SpatialFollowTheLeader
+        The laying (its ``mapped``, ``guess``, ``continuous``, ``s0``, ``t0`` and ``ctrl``).
     duration, step : float
         Simulated time and sample step [s].
     backend : {"compiled", "interpreted"}
@@ -271,7 +288,7 @@ def simulate_ftl(law: FollowTheLeader, duration: float, step: float, backend: st
     Q, s_err, worst = (np.asarray(x) for x in fn(T[None], target[None], guess.T))
     wall = time.perf_counter() - wall
     Q = Q.T
-    Q[:, 1] = np.unwrap(Q[:, 1])                    # link 1's absolute angle, continuous in time
+    Q = law.continuous(Q)
     bad = ~((worst.ravel() < TOLERANCE) & (s_err.ravel() < TOLERANCE))
     stopped, end = ("off_path", max(int(np.argmax(bad)), 1)) if bad.any() else ("completed", n)
     Q, T = Q[:end], T[:end]

@@ -31,7 +31,9 @@ import numpy as np
 
 from coordarm.symbolic import ConfigError
 
+from .baselines import BACKENDS, compiled
 from .follow_leader import NEWTON
+from .follow_leader import TOLERANCE as LAID_TOLERANCE
 
 #: Newton iterations projecting the end point's guess onto the path at ``s*``.
 TIP_NEWTON = 4
@@ -262,3 +264,156 @@ class SpatialLaying:
         Y = np.asarray(Y).T
         return {"q": np.asarray(q).ravel(), "centres": Y, "base": Y[0], "s_error": float(err),
                 "worst": float(worst)}
+
+
+@dataclass
+class SpatialFollowTheLeader:
+    """Follow-the-leader of a spatial chain on a rail: :class:`SpatialLaying` with the rail fed to the base.
+
+    ``q = (d, a_1, b_1, ..., a_m, b_m)`` with ``d = y^1 . rail`` (the base point on the rail); ``worst``
+    also counts the base's distance from the rail. The same interface as
+    :class:`~.follow_leader.FollowTheLeader` (:func:`~.follow_leader.simulate_ftl` runs either).
+
+    Attributes
+    ----------
+    ctrl : SpatialController
+        A chain on a rail (``rail``, ``rail_direction`` (3,), ``rail_limits`` [m]), the path and ``v*(t)``.
+    q0 : ndarray, shape (dof,)
+        Start with every central point on the path (a ``follow`` start).
+    t0 : float
+        Start time [s].
+
+    Raises
+    ------
+    ConfigError
+        No rail, or ``q0`` is not the chain laid on the path.
+    """
+
+    ctrl: Any
+    q0: np.ndarray
+    t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        chain = self.ctrl.chain
+        check_rail(chain)
+        self.q0 = chain.check_q(self.q0, "q0")
+        self._y0 = chain.centres_np(self.q0)[-1]
+        #: Arc length of the end point at the start [m].
+        self.s0 = float(self.ctrl.curve.functions()(self._y0, float(self.t0))[0])
+        #: The geometry: the body laid behind the end point.
+        self.laying = SpatialLaying(self.ctrl, tip_components(self.ctrl, self.q0, self.t0))
+        self._cache: dict = {}
+        q, _, worst = self.configuration(self.t0, self.s0)
+        if not worst < LAID_TOLERANCE or not np.max(np.abs(q - self.q0)) < 1e-9:
+            raise ConfigError("ftl: the start must be the chain laid on the path (start.kind = \"follow\"); this "
+                              f"one differs from the laid chain by {np.max(np.abs(q - self.q0)):.3g} (coordarm "
+                              "compare: leave ftl out with --methods coordinating,pinv,dls)")
+
+    def function(self) -> ca.Function:
+        """``(t, s*, guess of y^m) -> (q (dof,), |s - s*|, worst)``: the commanded configuration. Built once.
+
+        Returns
+        -------
+        casadi.Function
+            ``(t [s], s_target [m], guess (3,) [m]) -> (q (dof,) [m, rad], s_error [m], worst [m])``.
+        """
+        if "fn" not in self._cache:
+            rail = ca.DM(np.asarray(self.ctrl.chain.rail_direction, float).reshape(3, 1))
+            t, target, guess = ca.MX.sym("t"), ca.MX.sym("s_target"), ca.MX.sym("guess", 3)
+            q, Y, s_err, worst = self.laying.function()(t, target, guess)
+            base = Y[:, 0]
+            d = ca.dot(rail, base)
+            off_rail = ca.norm_2(base - d * rail)
+            self._cache["fn"] = ca.Function("ftl3d_rail_configuration", [t, target, guess],
+                                            [ca.vertcat(d, q), s_err, ca.fmax(worst, off_rail)],
+                                            ["t", "s_target", "guess"], ["q", "s_error", "worst"])
+        return self._cache["fn"]
+
+    def configuration(self, t: float, s_target: float) -> tuple[np.ndarray, float, float]:
+        """The chain laid on the path at ``t`` with its end point at ``s_target``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        s_target : float
+            Arc length of the end point [m].
+
+        Returns
+        -------
+        q : ndarray, shape (dof,)
+            ``(d, a_1, b_1, ...)`` [m, rad].
+        s_error : float
+            ``|psi(y^m) - s_target|`` [m].
+        worst : float
+            Largest ``|Phi|`` of a laid centre, ``psi`` going forwards, or the base's distance from the rail [m].
+        """
+        q, err, worst = self.function()(t, s_target, self.guess(t, s_target))
+        return np.asarray(q).ravel(), float(err), float(worst)
+
+    def guess(self, t: float, s_target: float) -> np.ndarray:
+        """A first guess of the path's point at ``s_target`` (the start's end point if the curve has no ``point_at``).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        s_target : float
+            Arc length of the end point [m].
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            [m].
+        """
+        return self.laying.guess(t, s_target, self._y0)
+
+    def mapped(self, n: int, backend: str) -> ca.Function:
+        """:meth:`function` over ``n`` times in one call (generated C for ``backend="compiled"``). Built once.
+
+        Parameters
+        ----------
+        n : int
+            Number of samples.
+        backend : {"compiled", "interpreted"}
+            Generated C (built or taken from the build cache), or CasADi's virtual machine.
+
+        Returns
+        -------
+        casadi.Function
+            ``(t (1, n), s_target (1, n), guess (3, n)) -> (q (dof, n), s_error (1, n), worst (1, n))``.
+
+        Raises
+        ------
+        ConfigError
+            Unknown ``backend``.
+        BuildError
+            ``backend="compiled"`` and the C code cannot be built.
+        """
+        if backend not in BACKENDS:
+            raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+        key = ("map", n, backend)
+        if key not in self._cache:
+            fn = self.function()
+            if backend == "compiled":
+                if "compiled" not in self._cache:
+                    self._cache["compiled"] = compiled(fn, "ftl3d", self.ctrl.chain.m)
+                fn = self._cache["compiled"]
+            self._cache[key] = fn.map(n)
+        return self._cache[key]
+
+    def continuous(self, Q: np.ndarray) -> np.ndarray:
+        """``Q`` (N, dof) with every ``a_j`` unwrapped in time (each is an ``atan2`` in ``(-pi, pi]``).
+
+        Parameters
+        ----------
+        Q : ndarray, shape (N, dof)
+            Laid configurations, one per sample.
+
+        Returns
+        -------
+        ndarray, shape (N, dof)
+        """
+        Q = np.array(Q, float)
+        Q[:, 1::2] = np.unwrap(Q[:, 1::2], axis=0)
+        return Q
