@@ -121,14 +121,14 @@ def linearisation_function(ctrl: CoordinatingController, form: str | None = None
 
 def _linearisation_function(ctrl: CoordinatingController, form: str) -> ca.Function:
     """The uncached body of :func:`linearisation_function` (on a rail: tasks ``(s, sigma, e)``; spatial:
-    ``(s, roll, e)``)."""
+    ``(s, roll, e)``; spatial on a rail: ``(s, sigma, roll, e)``)."""
     m = ctrl.chain.dof
     sym = ca.SX if form == Law.STRUCTURED else ca.MX      # the dense law's linear solve is MX only
     q, t = sym.sym("q", m), sym.sym("t")
     out = dict(zip(ctrl.outputs, ctrl.fast_law(form)(q, t)))
     u, e, s = out["u"], out["e"], out["s"]
-    if "roll" in out:                    # a spatial chain: B = I, tasks (s, roll, e^2_1, e^2_2, ...)
-        f, z = u, ca.vertcat(s, out["roll"], e)
+    if "roll" in out:                    # a spatial chain: B = I, tasks (s, [sigma,] roll, e^2_1, e^2_2, ...)
+        f, z = u, ca.vertcat(s, *([out["sigma"]] if ctrl.chain.rail else []), out["roll"], e)
     else:
         f = ca.mtimes(ca.DM(ctrl.B_joints), u)
         z = ca.vertcat(s, out["sigma"], e) if ctrl.chain.rail else ca.vertcat(s, e)

@@ -109,7 +109,9 @@ def replay_log(log: str | os.PathLike, out: str | os.PathLike | None = None, *, 
     for p in figures:
         say(f"figure        {p}")
     gif = None
-    if animation:
+    if animation and run.layout.kind != "revolute":
+        say("animation     none: the GIF draws planar runs only (a spatial run: the stage figure and the Foxglove scene)")
+    elif animation:
         from coordarm.analysis.animation import animate
         gif = stem.with_name(stem.name + ".gif")
         with writing(gif):

@@ -90,7 +90,7 @@ def linearisation_lines(lins: list[Linearisation], K: float) -> list[str]:
     Parameters
     ----------
     lins : list of Linearisation
-        The closed loop linearised at points of the run (tasks ``(s, roll, e)``).
+        The closed loop linearised at points of the run (tasks ``(s, roll, e)``; on a rail ``(s, sigma, roll, e)``).
     K : float
         The design gain [1/s].
 
@@ -100,18 +100,25 @@ def linearisation_lines(lins: list[Linearisation], K: float) -> list[str]:
         Markdown lines.
     """
     n = len(lins[0].q) if lins else 0
+    rail, free = n % 2 == 1, lins[0].free if lins else 1          # on a rail q = (d, a_1, b_1, ...): 2m + 1
+    tasks = "s, sigma, roll" if rail else "s, roll"
+    held = "s' = v* and a held span sigma' = 0 (two eigenvalues 0)" if free == 2 else "s' = v*"
+    zeros = ", ".join(["0"] * free)
+    deviations = n - 2 - int(rail)
+    decaying = "the span, the roll error" if rail and free == 1 else "the roll error"
     lines = ["## Linearised error dynamics", "",
              "Closed loop linearised by CasADi AD at points of the run, mapped to task coordinates "
-             "(s, roll, e^2_1, e^2_2, ..., e^m_2) including the change of the task map along the trajectory; "
-             f"the design is diag(0, -K, ..., -K) with K = {K:g} 1/s: s' = v*, and the roll error and the "
-             f"{max(n - 2, 0)} normal deviations decay like exp(-K t) ({max(n - 1, 0)} eigenvalues -K).", "",
-             "| t [s] | max abs(A - design) | eigenvalue of s | largest abs(eigenvalue + K), other "
-             f"{max(n - 1, 0)} | frozen-Jacobian error |", "|---|---|---|---|---|"]
+             f"({tasks}, e^2_1, e^2_2, ..., e^m_2) including the change of the task map along the trajectory; "
+             f"the design is diag({zeros}, -K, ..., -K) with K = {K:g} 1/s: {held}, and {decaying} and the "
+             f"{max(deviations, 0)} normal deviations decay like exp(-K t) ({max(n - free, 0)} eigenvalues -K).", "",
+             f"| t [s] | max abs(A - design) | eigenvalue{'s' if free > 1 else ''} of {'s, sigma' if free > 1 else 's'} "
+             f"| largest abs(eigenvalue + K), other {max(n - free, 0)} | frozen-Jacobian error |", "|---|---|---|---|---|"]
     for L in lins:
         ev = L.eigenvalues()
-        s_ev = ev[np.argmin(np.abs(ev))]
-        rest = np.delete(ev, np.argmin(np.abs(ev)))
-        lines.append(f"| {L.t:.3f} | {L.deviation_from_design(K):.2e} | {s_ev.real:.2e}{s_ev.imag:+.1e}j | "
+        order = np.argsort(np.abs(ev))
+        zero_ev, rest = ev[order[:free]], ev[order[free:]]
+        shown_zero = ", ".join(f"{z.real:.2e}{z.imag:+.1e}j" for z in zero_ev)
+        lines.append(f"| {L.t:.3f} | {L.deviation_from_design(K):.2e} | {shown_zero} | "
                      f"{np.max(np.abs(rest + K)):.2e} | {L.deviation_from_design(K, frozen=True):.3g} |")
     if not lins:
         lines.append("| - | no finite state to linearise at | | | |")
@@ -147,8 +154,9 @@ def findings_lines(a: SpatialAnalysis, lins: list[Linearisation], K: float) -> l
     lines.append(f"* blow-up (|u|_inf > {BLOWUP_FACTOR:g} x nominal): {_when(a.blowup_time)}")
     if lins:
         worst = max(L.deviation_from_design(K) for L in lins)
-        lines.append(f"* linearised error dynamics at {len(lins)} points: the design diag(0, -K, ..., -K) to "
-                     f"{worst:.1e} 1/s (every task error but s decays like exp(-{K:g} t))")
+        zeros, free = ", ".join(["0"] * lins[0].free), "s and the held span" if lins[0].free == 2 else "s"
+        lines.append(f"* linearised error dynamics at {len(lins)} points: the design diag({zeros}, -K, ..., -K) to "
+                     f"{worst:.1e} 1/s (every task error but {free} decays like exp(-{K:g} t))")
     return lines
 
 
@@ -181,9 +189,16 @@ def spatial_markdown(a: SpatialAnalysis, scenario: Any, ctrl: Any, run: Any, ste
     m, K = ctrl.chain.m, ctrl.gain
     lines = [f"# Singularity report: {scenario.name}", "",
              f"* scenario: `{scenario.source}`, {m} links of {ctrl.chain.xi} m with universal joints "
-             f"({2 * m} joint angles a_j, b_j), K = {K:g} 1/s",
-             f"* run: t = {a.t[0]:.3f} .. {a.t[-1]:.3f} s, {len(a.t)} samples; outcome: {outcome_of(run)['status']}",
-             "", "## Findings", ""] + findings_lines(a, lins, K) + [""]
+             f"({2 * m} joint angles a_j, b_j" + (", d first: a rail along "
+                                                   f"{np.round(ctrl.chain.rail_direction, 4).tolist()}" if ctrl.chain.rail
+                                                   else "") + f"), K = {K:g} 1/s",
+             f"* run: t = {a.t[0]:.3f} .. {a.t[-1]:.3f} s, {len(a.t)} samples; outcome: {outcome_of(run)['status']}"]
+    if getattr(run, "rail_margin", None) is not None:
+        k = int(np.argmin(run.rail_margin))
+        lines.append(f"* rail: d from {run.q[0, 0]:.4f} to {run.q[-1, 0]:.4f} m (limits {list(ctrl.chain.rail_limits)}), "
+                     f"span sigma {run.sigma[0]:.4f} -> {run.sigma[-1]:.4f} m; rail margin "
+                     f"abs(grad psi(y^1) . rail) / abs(grad psi(y^1)) min {run.rail_margin[k]:.6g} at t = {run.t[k]:.3f} s")
+    lines += ["", "## Findings", ""] + findings_lines(a, lins, K) + [""]
     lines += margin_lines(a) + [""] + effort_lines(a) + [""] + linearisation_lines(lins, K)
     lines += sampled_data_lines(K, step)
     lines += ["", "## Figures", ""] + [f"![{p.stem}]({p.name})" for p in figures]

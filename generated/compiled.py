@@ -160,8 +160,8 @@ class CompiledController:
         m, self.n_out, n_iw, n_w = (int(v) for v in sizes)
         self.rail = self.chain.rail
         spatial = isinstance(ctrl, SpatialController)
-        width = spatial_packed_width(self.chain.m) if spatial else packed_width(self.chain.m, self.rail)
-        self._split = ((lambda packed: spatial_split(packed, self.m)) if spatial
+        width = spatial_packed_width(self.chain.m, self.rail) if spatial else packed_width(self.chain.m, self.rail)
+        self._split = ((lambda packed: spatial_split(packed, self.m, self.rail)) if spatial
                        else (lambda packed: split(packed, self.m, self.rail)))
         if m != self.chain.m or self.n_out != width:
             raise BuildError(f"generated library {self.library.path} is for {m} links and {self.n_out} outputs, "

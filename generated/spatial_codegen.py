@@ -8,10 +8,15 @@ dense form is the whole law as one Function (``templates/dense_law.c``). Both en
 library's API of ``templates/library_api.c`` (law, control, RK4 step, chunk, sizes), the same entry
 points as the planar library; the packed outputs follow
 :func:`coordarm.symbolic.outputs.spatial_offsets` (``CA_OUT_<NAME>`` macros).
+
+On a rail (``CA_RAIL`` = 1) the structured form's head is the rail head (:func:`spatial_rail_head`,
+``CA_RAIL_HEAD``): ``d_dot``, the rail margin and ``psi(y^1)`` with link 1's carry; the rail direction is
+``CA_RAIL_X/Y/Z`` and a commanded span (``CA_SPAN``) reads the end's centre ``y^m``, summed in the C.
 """
 from __future__ import annotations
 
 import casadi as ca
+import numpy as np
 
 from coordarm.symbolic import LAWS, BuildError, SpatialController
 from coordarm.symbolic.laws import Law
@@ -24,22 +29,73 @@ from .spatial_variants import (JOINT_CARRY, spatial_joint_step_trig, spatial_lin
                                spatial_time_features)
 
 
-def spatial_layout_macros(m: int) -> str:
+def spatial_layout_macros(m: int, rail: bool = False) -> str:
     """C macros of the spatial packed output vector: ``CA_NOUT`` and ``CA_OUT_<NAME>`` offsets.
 
     Parameters
     ----------
     m : int
         Number of links.
+    rail : bool
+        A chain on a rail (``u`` one wider, then ``sigma`` and ``rail_margin``).
 
     Returns
     -------
     str
-        One ``#define`` per line, from :data:`coordarm.symbolic.outputs.SPATIAL_LAW_OUTPUTS`.
+        One ``#define`` per line, from :func:`coordarm.symbolic.outputs.spatial_outputs_of`.
     """
-    lines = [f"#define CA_NOUT {spatial_packed_width(m)}"]
-    lines += [f"#define CA_OUT_{name.upper()} {start}" for name, (start, _) in spatial_offsets(m).items()]
+    lines = [f"#define CA_NOUT {spatial_packed_width(m, rail)}"]
+    lines += [f"#define CA_OUT_{name.upper()} {start}" for name, (start, _) in spatial_offsets(m, rail).items()]
     return "\n".join(lines) + "\n"
+
+
+def spatial_rail_head(ctrl: SpatialController) -> ca.Function:
+    """The head of the generated C on a rail: the interpreted rail head, or with a commanded span its
+    variant that takes the end's centre ``y^m`` [m] instead of ``sigma`` (``sigma = psi(y^m) - psi(y^1)``).
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (its chain on a rail).
+
+    Returns
+    -------
+    casadi.Function
+        ``(d, ab_1, t, sigma or y_m) -> (carry, roll, roll_row, roll_rhs, roll_scale, d_dot, rail_margin, psi_1)``.
+    """
+    head = ctrl.recursion.rail_head()
+    if ctrl.span is None:
+        return head
+    d, ab, t, y_m = ca.SX.sym("d"), ca.SX.sym("ab", 2), ca.SX.sym("t"), ca.SX.sym("y_m", 3)
+    geometry = ctrl.task.geometry
+    sigma = geometry(y_m, t)[3] - geometry(d * ca.DM(ctrl.chain.rail_direction), t)[3]
+    outs = head(d, ab, t, sigma)
+    both = ca.cse(ca.vertcat(*[ca.vec(o) for o in outs]))
+    sizes = np.cumsum([0] + [o.numel() for o in outs])
+    parts = [ca.reshape(both[a:b], o.size1(), o.size2()) for a, b, o in zip(sizes[:-1], sizes[1:], outs)]
+    return ca.Function("spatial_rail_head_from_end", [d, ab, t, y_m], parts, ["d", "ab", "t", "y_m"],
+                       head.name_out())
+
+
+def spatial_rail_macros(ctrl: SpatialController) -> str:
+    """C macros of a spatial chain on a rail: the rail's unit direction, the head's name, a commanded span.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (a fixed base gives an empty string).
+
+    Returns
+    -------
+    str
+        ``CA_RAIL_X/Y/Z``, ``CA_RAIL_HEAD`` and (a commanded span) ``CA_SPAN``, one ``#define`` per line.
+    """
+    if not ctrl.chain.rail:
+        return ""
+    x, y, z = (repr(float(v)) for v in ctrl.chain.rail_direction)
+    return (f"#define CA_RAIL_X {x}\n#define CA_RAIL_Y {y}\n#define CA_RAIL_Z {z}\n"
+            f"#define CA_RAIL_HEAD {spatial_rail_head(ctrl).name()}\n"
+            + ("#define CA_SPAN 1\n" if ctrl.span is not None else ""))
 
 
 def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
@@ -55,11 +111,13 @@ def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
     Returns
     -------
     list of casadi.Function
-        Structured: time features, head, link step, end solve, joint step, link pivot's 1/det; dense: the whole law.
+        Structured: time features, head (on a rail the rail head), link step, end solve, joint step, link pivot's
+        1/det; dense: the whole law.
     """
     if form == Law.STRUCTURED:
         rec = ctrl.recursion
-        return [spatial_time_features(ctrl), rec.head(), spatial_link_step_trig(ctrl), rec.tail(),
+        head = spatial_rail_head(ctrl) if ctrl.chain.rail else rec.head()
+        return [spatial_time_features(ctrl), head, spatial_link_step_trig(ctrl), rec.tail(),
                 spatial_joint_step_trig(), spatial_link_inv_det(ctrl)]
     return [ctrl.law(form)]
 
@@ -78,7 +136,7 @@ def spatial_law(ctrl: SpatialController) -> str:
         ``CA_NW``, ``CA_NC``, ``CA_NJC`` definitions followed by the law's C (``ca_law``, ``CA_LAW_SCRATCH``).
     """
     return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NC {SPATIAL_CARRY}\n"
-            f"#define CA_NJC {JOINT_CARRY}\n" + render("spatial_law.c"))
+            f"#define CA_NJC {JOINT_CARRY}\n" + spatial_rail_macros(ctrl) + render("spatial_law.c"))
 
 
 def generate_spatial_source(ctrl: SpatialController, form: str = "structured") -> Source:
@@ -136,9 +194,9 @@ def assemble_spatial_source(ctrl: SpatialController, funcs: list[ca.Function], l
         The C text, with the form and the link count.
     """
     code, sizes = casadi_code(funcs, name)
-    m = ctrl.chain.m
-    prelude = render("prelude.c", m=m, nq=ctrl.chain.dof, half_xi=repr(0.5 * ctrl.chain.xi), rail=0,
-                     layout=spatial_layout_macros(m), b_macros=render("b_identity.h"),
+    m, rail = ctrl.chain.m, ctrl.chain.rail
+    prelude = render("prelude.c", m=m, nq=ctrl.chain.dof, half_xi=repr(0.5 * ctrl.chain.xi), rail=int(rail),
+                     layout=spatial_layout_macros(m, rail), b_macros=render("b_identity.h"),
                      **{f"sz_{k}": v for k, v in sizes.items()})
     parts = [code, prelude, law, render("library_api.c") if api is None else api]
     return Source("\n".join(parts), form, m)

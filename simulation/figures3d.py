@@ -19,7 +19,7 @@ import numpy as np
 
 from .figures import envelope_indices, stage_indices
 from .obstacles3d import densified, wireframe
-from .spatial_view import clip_to_box, roll_command, spatial_joints, view_box
+from .spatial_view import clip_to_box, rail_ends, roll_command, spatial_joints, view_box
 
 #: The floor of the logarithmic error plots [m or rad]: below it lie only rounding errors.
 FLOOR = 1e-17
@@ -105,8 +105,8 @@ def stage_scene(run: Any, ctrl: Any, idx: np.ndarray, obstacles: Sequence[Any] =
     """What the stage figure draws: joints and curve per stage, the target points and the view box.
 
     The box holds the chain over the whole run (so that it does not depend on the stages drawn), a
-    bounded path whole and every bounded obstacle (an unbounded plate is cut to the box); the curves
-    and the obstacles are clipped to it.
+    bounded path whole, every bounded obstacle (an unbounded plate is cut to the box) and a rail's finite
+    ends; the curves, the obstacles and the rail are clipped to it.
 
     Parameters
     ----------
@@ -123,7 +123,8 @@ def stage_scene(run: Any, ctrl: Any, idx: np.ndarray, obstacles: Sequence[Any] =
     -------
     dict
         ``joints`` (k, m+1, 3), ``curves`` list of (n, 3), ``targets`` (k, 3) or None, ``lo``, ``hi`` (3,) [m],
-        ``obstacles`` list of (n, 3) polylines (clipped to the box).
+        ``obstacles`` list of (n, 3) polylines (clipped to the box), ``bases`` (k, 3) [m] (the base at each
+        stage) and ``rail`` (n, 3) or None (the rail between its limits, clipped to the box).
     """
     chain, curve = ctrl.chain, ctrl.curve
     every = np.unique(np.linspace(0, len(run.t) - 1, 60).round().astype(int))
@@ -132,12 +133,17 @@ def stage_scene(run: Any, ctrl: Any, idx: np.ndarray, obstacles: Sequence[Any] =
         frame.append(curve.sample(float(run.t[idx[0]]), n=400, extent=0.0))
     lines = [densified(p) for ob in obstacles for p in wireframe(ob)]
     frame += [p for ob in obstacles if ob.kind != "plate" or math.isfinite(ob.extent) for p in wireframe(ob)]
+    bounded_rail = rail_ends(chain, math.inf)
+    if bounded_rail is not None:                                     # a rail's finite ends are shown
+        frame.append(bounded_rail[np.all(np.isfinite(bounded_rail), axis=1)])
     lo, hi = view_box(np.concatenate(frame), chain.xi)
     reach = float(np.linalg.norm(hi - lo)) + float(np.max(np.abs(np.concatenate([lo, hi]))))
     curves = [clip_to_box(curve_points(curve, float(run.t[k]), reach), lo, hi) for k in idx]
     targets = target_points3d(ctrl, reference_arc_length(run)[idx], run.t[idx])
+    ends = rail_ends(chain, reach)
     return dict(joints=spatial_joints(chain, run.q[idx]), curves=curves, targets=targets, lo=lo, hi=hi,
-                obstacles=[clip_to_box(p, lo, hi) for p in lines])
+                obstacles=[clip_to_box(p, lo, hi) for p in lines], bases=chain.base_point(run.q[idx]),
+                rail=None if ends is None else clip_to_box(densified(ends, 200), lo, hi))
 
 
 def draw_stage(ax: Any, scene: dict[str, Any], i: int, colour: Any, label: str, axes: Sequence[int]) -> None:
@@ -168,10 +174,15 @@ def draw_stage(ax: Any, scene: dict[str, Any], i: int, colour: Any, label: str, 
     ax.plot(*(J[-1:, a] for a in axes), "o", color=colour, ms=6, mec="k", mew=0.6, gid="end")
     if scene["targets"] is not None:
         ax.plot(*(scene["targets"][i:i + 1, a] for a in axes), "x", color=colour, ms=8, mew=2, gid="target")
+    if scene.get("rail") is not None:           # the base on the rail at this stage (the carriage)
+        ax.plot(*(scene["bases"][i:i + 1, a] for a in axes), "s", color=colour, ms=6, mec="k", mew=0.8, gid="base")
 
 
-def draw_base(ax: Any, axes: Sequence[int]) -> None:
-    """The base (the first link's centre, the origin) as a black square on ``ax``.
+def draw_base(ax: Any, axes: Sequence[int], scene: dict[str, Any] | None = None) -> None:
+    """The base (the first link's centre) as a black square on ``ax``; on a rail the rail too.
+
+    A fixed base is the origin; on a rail (``scene["rail"]``) the rail is a thick grey line between its
+    limits (gid ``"rail"``; :func:`draw_stage` draws the base on it at each stage, a square in the stage's colour).
 
     Parameters
     ----------
@@ -179,8 +190,14 @@ def draw_base(ax: Any, axes: Sequence[int]) -> None:
         Where to draw.
     axes : sequence of int
         The coordinates drawn.
+    scene : dict, optional
+        From :func:`stage_scene` (without it, or without a rail: the base at the origin).
     """
-    ax.plot(*([0.0] for _ in axes), "s", color="k", ms=7, label="base", gid="base")
+    if scene is None or scene.get("rail") is None:
+        ax.plot(*([0.0] for _ in axes), "s", color="k", ms=7, label="base", gid="base")
+        return
+    ax.plot(*(scene["rail"][:, a] for a in axes), "-", color="0.35", lw=3.0, alpha=0.6,
+            label="rail (squares: the base)", gid="rail")
 
 
 def draw_obstacles(ax: Any, scene: dict[str, Any], axes: Sequence[int]) -> None:
@@ -216,7 +233,7 @@ def draw_view3d(ax: Any, scene: dict[str, Any], colours: np.ndarray, labels: Seq
     lo, hi = scene["lo"], scene["hi"]
     for i, (c, label) in enumerate(zip(colours, labels)):
         draw_stage(ax, scene, i, c, label, (0, 1, 2))
-    draw_base(ax, (0, 1, 2))
+    draw_base(ax, (0, 1, 2), scene)
     draw_obstacles(ax, scene, (0, 1, 2))
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
@@ -250,7 +267,7 @@ def draw_projection(ax: Any, scene: dict[str, Any], colours: np.ndarray, title: 
     lo, hi = scene["lo"], scene["hi"]
     for i, c in enumerate(colours):
         draw_stage(ax, scene, i, c, "", axes)
-    draw_base(ax, axes)
+    draw_base(ax, axes, scene)
     draw_obstacles(ax, scene, axes)
     ax.set_xlim(lo[axes[0]], hi[axes[0]])
     ax.set_ylim(lo[axes[1]], hi[axes[1]])

@@ -116,7 +116,7 @@ class LiveView:
         self.every = steps_between(rate, scenario.step, "live rate")
         self.scene_every = steps_between(scene_rate, scenario.step, "scene_rate")
         self.origin = min(0.0, scenario.t0)
-        self.scene = scene_builder(ctrl, scenario.obstacles)
+        self.scene = scene_builder(ctrl, scenario.obstacles, getattr(scenario.physical(ctrl.chain), "radius", None))
         layout = layout_of_chain(ctrl.chain)
         self.numeric = numeric_channels(ctrl.chain.m, layout=layout)
         self.context = foxglove.Context()

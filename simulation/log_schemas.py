@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from importlib import resources
 from typing import Any
 
-from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name, outputs_of
+from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name, outputs_of, spatial_outputs_of
 
 from .log_layout import PLANAR, SPATIAL, ChainLayout
 
@@ -122,6 +122,9 @@ SPATIAL_CHANNEL_LAYOUT = {
     "task_state": ("/task_state", "coordarm_msgs/msg/SpatialTaskState", ("t", "s", "v_star", "e", "roll", "roll_star")),
     "margins": ("/margins", "coordarm_msgs/msg/SpatialMargins", ("t", "link_margins", "end_margin", "joint_margins")),
 }
+#: The comment of a spatial ``/joint_state`` on a rail: ``q`` and ``u`` hold the rail joint first.
+SPATIAL_RAIL_COMMENT = ("q = (d, a_1, b_1, ..., a_m, b_m): rail position d [m] (feed axis), then the joint angles [rad]\n"
+                        "u = q' (d_dot [m/s] first) (B = I)")
 #: The comments of the spatial channels: what the columns of the vectors are.
 SPATIAL_COMMENTS = {
     "joint_state": "q = (a_1, b_1, ..., a_m, b_m) [rad]: R_j = R_{j-1} Rz(a_j) Ry(b_j)\nu = q' [rad/s] (B = I)",
@@ -136,8 +139,9 @@ def _field(name: str, m: int, rail: bool = False, layout: ChainLayout = PLANAR) 
     if layout is SPATIAL:
         if name in SPATIAL_RUN_FIELDS:
             per_link, extra = SPATIAL_RUN_FIELDS[name]
+            extra += int(rail and name == "q")              # d first on a rail
             return name, 0 if (per_link, extra) == (0, 1) else per_link * m + extra
-        out = next(o for o in layout.outputs if o.name == name)
+        out = next(o for o in spatial_outputs_of(rail) if o.name == name)
         return name, 0 if out.scalar else out.width(m)
     if name in RUN_FIELDS:
         per_link, extra = RUN_FIELDS[name]
@@ -188,9 +192,10 @@ def numeric_channels(links: int, rail: bool = False, layout: ChainLayout = PLANA
     out = {}
     spatial = layout is SPATIAL
     for key, (topic, schema, lead) in (SPATIAL_CHANNEL_LAYOUT if spatial else CHANNEL_LAYOUT).items():
-        rows = outputs_of(True) if rail else layout.outputs if spatial else LAW_OUTPUTS
+        rows = spatial_outputs_of(rail) if spatial else outputs_of(True) if rail else LAW_OUTPUTS
         names = list(lead) + [o.name for o in rows if o.channel == key and o.name not in lead]
-        comment = SPATIAL_COMMENTS[key] if spatial else RAIL_COMMENT if rail and key == "joint_state" else ""
+        comment = (SPATIAL_RAIL_COMMENT if spatial and rail and key == "joint_state" else SPATIAL_COMMENTS[key]
+                   if spatial else RAIL_COMMENT if rail and key == "joint_state" else "")
         out[key] = NumericChannel(topic, schema, tuple(_field(n, m, rail, layout) for n in names), comment)
     out["cond"] = NumericChannel("/margins/cond", "coordarm_msgs/msg/Conditioning", (("t", 0), ("cond", 0)))
     out["tracking"] = NumericChannel("/tracking", "coordarm_msgs/msg/Tracking",

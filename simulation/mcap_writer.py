@@ -336,7 +336,8 @@ class RunLogger:
         self._governed = 0.0    # simulated time with v_scale < 1 [s]
         self._flushed = self._received = time.monotonic()
         self._gap = 0.0  # wall time between the last two blocks
-        self.scene = scene_builder(self.ctrl, self.scenario.obstacles)
+        self.scene = scene_builder(self.ctrl, self.scenario.obstacles,
+                                   getattr(self.scenario.physical(self.ctrl.chain), "radius", None))
         self.outcome: dict[str, Any] | None = None
         #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
         self.contacts: list[dict] = []

@@ -5,7 +5,7 @@
 link j is a capsule about the segment ``y^j -+ xi/2 d_j`` of ``radius``; two non-adjacent
 capsules closer than ``2 radius + clearance`` are a ``self`` contact, a capsule closer than
 ``clearance`` to an obstacle a ``wall`` contact, a bend ``acos(d_{j-1} . d_j)`` beyond the
-limit a ``joint_limit`` contact. :func:`close_pairs` is the broad phase (sort and sweep on the
+limit a ``joint_limit`` contact; on a rail, ``d`` outside the rail's limits a ``rail_limit`` contact. :func:`close_pairs` is the broad phase (sort and sweep on the
 links' bounding boxes), so a check costs O(m log m) per sample on a chain that is not piled
 onto itself.
 """
@@ -32,8 +32,8 @@ def link_ends(chain: SpatialChain, q: np.ndarray) -> tuple[np.ndarray, np.ndarra
     ----------
     chain : SpatialChain
         The manipulator.
-    q : ndarray, shape (N, 2 m)
-        Configurations [rad].
+    q : ndarray, shape (N, dof)
+        Configurations [rad] (``d`` [m] first on a rail).
 
     Returns
     -------
@@ -43,6 +43,7 @@ def link_ends(chain: SpatialChain, q: np.ndarray) -> tuple[np.ndarray, np.ndarra
     d = chain.directions_np(q)
     half = 0.5 * chain.xi * d
     a = np.concatenate([-half[:, :1], np.cumsum(2 * half[:, :-1], axis=1) - half[:, :1]], axis=1)
+    a = a + chain.base_point(q)[:, None, :]
     return a, a + 2 * half, d
 
 
@@ -146,18 +147,24 @@ class Physical3D:
         ----------
         t : ndarray, shape (N,)
             Times of the samples [s].
-        q : ndarray, shape (N, 2 m)
-            Configurations [rad].
+        q : ndarray, shape (N, dof)
+            Configurations [rad] (``d`` [m] first on a rail).
 
         Returns
         -------
         list of Contact
             ``joint_limit`` (value: the bend [rad]), ``self`` (value: the gap between the two
-            capsules [m]) and ``wall`` contacts (value: the gap to the obstacle [m]).
+            capsules [m]), ``wall`` contacts (value: the gap to the obstacle [m]) and on a rail
+            ``rail_limit`` (value: ``d`` [m], link 1).
         """
         t = np.atleast_1d(np.asarray(t, float))
         q = np.asarray(q, float).reshape(len(t), -1)
         c, found = float(self.clearance), []
+        if self.chain.rail:
+            lo, hi = self.chain.rail_limits
+            for k in np.flatnonzero(~((q[:, 0] >= lo) & (q[:, 0] <= hi))):
+                found.append((k, 0, Contact("rail_limit", float(t[k]), (1,), float(q[k, 0]),
+                                            hi if q[k, 0] > hi else lo)))
         a, b, d = link_ends(self.chain, q)
         bends = np.arccos(np.clip(np.sum(d[:, :-1] * d[:, 1:], axis=-1), -1.0, 1.0))
         lim = np.broadcast_to(np.asarray(self.limit, float), bends.shape[-1:])
@@ -180,8 +187,8 @@ class Physical3D:
 
         Parameters
         ----------
-        q : ndarray, shape (N, 2 m)
-            Configurations [rad].
+        q : ndarray, shape (N, dof)
+            Configurations [rad] (``d`` [m] first on a rail).
         t : ndarray, shape (N,)
             Times of the samples [s].
 

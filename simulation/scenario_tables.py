@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from coordarm.symbolic import ConfigError, Curve, PlanarChain, SpatialChain, curve_from_spec, motion_from_spec
-from coordarm.symbolic.checks import is_integer, is_real
+from coordarm.symbolic.checks import is_integer
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.laws import LAWS, Law
@@ -25,8 +25,8 @@ from .limits import check_bounds, check_gain_step
 from .obstacles import Obstacle, obstacles_from_spec
 from .obstacles3d import Obstacle3D, obstacles3d_from_spec
 from .run import DEFAULT_THRESHOLDS, check_number
-from .spatial_tables import (BEND_LIMIT, check_curve_kind, check_joints, check_kind_keys, roll_motion, spatial_curve,
-                             spatial_start)
+from .spatial_tables import (BEND_LIMIT, base_args, check_curve_kind, check_joints, check_kind_keys, roll_motion,
+                             spatial_curve, spatial_start)
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
             "obstacles", "figures"}
@@ -88,10 +88,11 @@ class ChainTable:
     clearance : float or None
         Least distance kept between non-adjacent links [m]; None: 0.
     base : str or dict or None
-        ``"fixed"`` or ``{kind = "rail", angle [rad], limits [m]}``; None: fixed.
+        ``"fixed"`` or ``{kind = "rail", angle [rad], limits [m]}`` (a universal chain's rail:
+        ``{kind = "rail", direction = [x, y, z], limits [m]}``); None: fixed.
     base_args : dict
-        ``base`` as :class:`PlanarChain` keyword arguments (``base``, ``rail_angle`` [rad],
-        ``rail_limits`` [m]), checked when read.
+        ``base`` as chain keyword arguments (``base``, ``rail_angle`` [rad] or ``rail_direction``,
+        ``rail_limits`` [m]; :func:`base_args`), checked when read.
     joints : str
         ``"revolute"`` (a planar chain) or ``"universal"`` (a spatial chain, two angles per joint;
         its ``joint_limit`` bounds the bend ``acos(d_{j-1} . d_j)`` between consecutive links).
@@ -132,7 +133,7 @@ class ChainTable:
             A new chain (clearance 0 when the table leaves it out); a SpatialChain for universal joints.
         """
         if self.universal:
-            return SpatialChain(self.links, float(self.link_length))
+            return SpatialChain(self.links, float(self.link_length), **self.base_args)
         return PlanarChain(self.links, float(self.link_length), joint_limit=self.joint_limit,
                            clearance=float(self.clearance or 0.0), **self.base_args)
 
@@ -395,40 +396,6 @@ class ScenarioConfig:
             "obstacles": [o.to_spec() for o in self.obstacles], "figures": self.figures.to_dict()})
 
 
-def base_args(spec: Any) -> dict:
-    """``[chain] base``: ``"fixed"`` or ``{kind = "rail", angle = 0.0, limits = [0.0, 5.0]}`` as PlanarChain arguments.
-
-    Parameters
-    ----------
-    spec : str or dict
-        The ``base`` entry as written.
-
-    Returns
-    -------
-    dict
-        ``base`` and, on a rail, ``rail_angle`` [rad] and ``rail_limits`` [m].
-
-    Raises
-    ------
-    ConfigError
-        Neither ``"fixed"`` nor a valid rail table.
-    """
-    if spec == "fixed":
-        return {"base": "fixed"}
-    if not isinstance(spec, dict) or spec.get("kind") != "rail":
-        raise ConfigError(f"chain.base: expected \"fixed\" or a table {{kind = \"rail\", angle, limits}}, got {spec!r}")
-    unknown = set(spec) - {"kind", "angle", "limits"}
-    if unknown:
-        raise ConfigError(f"chain.base: unknown key(s) {sorted(unknown)}; allowed: ['kind', 'angle', 'limits']")
-    angle = check_number(spec.get("angle", 0.0), "chain.base.angle", positive=False)
-    limits = spec.get("limits", [-math.inf, math.inf])
-    if (not isinstance(limits, list) or len(limits) != 2
-            or not all(is_real(v) for v in limits)
-            or not limits[0] < limits[1]):
-        raise ConfigError(f"chain.base.limits: need [low, high] with low < high [m], got {limits!r}")
-    return {"base": "rail", "rail_angle": angle, "rail_limits": tuple(float(v) for v in limits)}
-
-
 def _tables(data: Any) -> dict:
     """The sections checked for shape (tables, known keys) with defaults filled in, as a fresh dict."""
     if not isinstance(data, dict):
@@ -469,8 +436,9 @@ def _chain(ch: dict) -> ChainTable:
                 raise ConfigError(f"chain.{exc}") from None
     if "radius" in ch:
         check_number(ch["radius"], "chain.radius")
+    joints = check_joints(ch.get("joints", "revolute"))
     return ChainTable(ch["links"], ch["link_length"], ch.get("joint_limit"), ch.get("clearance"), ch.get("base"),
-                      base_args(ch.get("base", "fixed")), check_joints(ch.get("joints", "revolute")), ch.get("radius"))
+                      base_args(ch.get("base", "fixed"), joints == "universal"), joints, ch.get("radius"))
 
 
 def _span(control: dict, chain: ChainTable) -> Any:

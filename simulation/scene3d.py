@@ -2,7 +2,8 @@
 
 The scene, in frame ``world``, follows the official ``foxglove.SceneUpdate`` schema as the planar
 one (:mod:`.scene`): each link a cylinder (centre ``y^j``, axis along ``d_j``, length ``xi``), each
-link end a sphere (the joints), the base a cube, the curve at its current pose a 3-D line strip, the
+link end a sphere (the joints), the base a cube (on a rail: at ``d`` along it, the rail a grey line
+between its limits), the curve at its current pose a 3-D line strip, the
 end point's target (the point of the curve at arc length ``s(0) + integral of v*``) a red sphere and
 the 3-D obstacles as wireframes (:func:`.obstacles3d.wireframe`). The frame transforms
 (``foxglove.FrameTransforms``) give a frame ``link1`` .. ``linkm`` per link, origin at the link's
@@ -21,10 +22,12 @@ from coordarm.symbolic.spatial_chain import SpatialChain
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
 from .scene import ARM_COLOR, CURVE_COLOR, TARGET_COLOR, WALL_COLOR, SceneBuilder
-from .spatial_view import roll_command, spatial_joints
+from .spatial_view import rail_ends, roll_command, spatial_joints
 
 #: Colour of the joint spheres and the base (r, g, b, a).
 JOINT_COLOR = (0.1, 0.1, 0.1, 1.0)
+#: Colour of the rail (feed axis) (r, g, b, a).
+RAIL_COLOR = (0.45, 0.45, 0.45, 0.8)
 #: The quaternion (x, y, z, w) of ``Ry(pi/2)``: it turns a cylinder's axis (z) onto the link's x axis.
 _Z_TO_X = np.array([0.0, np.sin(np.pi / 4), 0.0, np.cos(np.pi / 4)])
 
@@ -134,6 +137,10 @@ class SpatialSceneBuilder(SceneBuilder):
         The run's controller (chain and 3-D curve).
     obstacles : array_like
         The scenario's 3-D obstacles (drawn as wireframes, :func:`~.obstacles3d.wireframe`).
+    radius : float, optional
+        The links' capsule radius [m] (``[chain] radius``): each link is drawn as the capsule the physical
+        checks use, a cylinder of that radius with a sphere of that radius at each end. None: thin
+        cylinders (``0.12 xi``) with larger joint spheres.
 
     Attributes
     ----------
@@ -144,11 +151,15 @@ class SpatialSceneBuilder(SceneBuilder):
 
     TRACKING_FIELDS = SPATIAL_TRACKING_FIELDS
 
-    def __init__(self, ctrl: Any, obstacles: Any) -> None:
+    def __init__(self, ctrl: Any, obstacles: Any, radius: float | None = None) -> None:
         super().__init__(ctrl, [])
         self._walls = [_line(p, 0.005, WALL_COLOR) for ob in obstacles for p in wireframe(ob)]
-        self.radius = 0.12 * ctrl.chain.xi      # of the link cylinders [m]
+        self.radius = 0.12 * ctrl.chain.xi if radius is None else float(radius)     # of the link cylinders [m]
+        self._joint_size = 2.6 * self.radius if radius is None else 2 * self.radius  # capsules: caps of the radius
         self._path_points: np.ndarray | None = None     # a path's polyline (it does not move)
+        ends = rail_ends(ctrl.chain, self.reach)
+        if ends is not None:                             # the rail between its limits, under the walls
+            self._walls = [_line(ends, 0.02 * ctrl.chain.xi + 0.004, RAIL_COLOR)] + self._walls
 
     def curves(self, times: np.ndarray) -> list[np.ndarray]:
         """The curve at each of ``times`` as a 3-D polyline (a line: its two ends; a path, which does not
@@ -202,8 +213,8 @@ class SpatialSceneBuilder(SceneBuilder):
         Parameters
         ----------
         pose : dict of str to ndarray
-            ``centres`` (m, 3) [m], ``axes`` (m, 4) (quaternions turning z onto ``d_j``) and ``joints``
-            (m+1, 3) [m] of the chain (see :meth:`poses`).
+            ``centres`` (m, 3) [m], ``axes`` (m, 4) (quaternions turning z onto ``d_j``), ``joints``
+            (m+1, 3) [m] and ``base`` (3,) [m] of the chain (see :meth:`poses`).
         curve : ndarray, shape (n, 3)
             The curve's polyline [m].
         target : ndarray, shape (3,)
@@ -219,12 +230,12 @@ class SpatialSceneBuilder(SceneBuilder):
         xi, r = self.ctrl.chain.xi, self.radius
         cylinders = [{"pose": _pose(c, a), "size": {"x": 2 * r, "y": 2 * r, "z": xi}, "bottom_scale": 1,
                       "top_scale": 1, "color": _colour(ARM_COLOR)} for c, a in zip(pose["centres"], pose["axes"])]
-        d = 2.6 * r
+        d = self._joint_size
         spheres = [{"pose": _pose(p), "size": {"x": d, "y": d, "z": d}, "color": _colour(JOINT_COLOR)}
                    for p in pose["joints"]]
         spheres.append({"pose": _pose(target), "size": {"x": 0.04, "y": 0.04, "z": 0.04},
                         "color": _colour(TARGET_COLOR)})
-        base = {"pose": _pose((0, 0, 0)), "size": {"x": 2 * d, "y": 2 * d, "z": 2 * d}, "color": _colour(JOINT_COLOR)}
+        base = {"pose": _pose(pose["base"]), "size": {"x": 2 * d, "y": 2 * d, "z": 2 * d}, "color": _colour(JOINT_COLOR)}
         return {"timestamp": {"sec": int(ns // 10**9), "nsec": int(ns % 10**9)}, "frame_id": "world",
                 "id": "coordarm", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
                 "arrows": [], "cubes": [base], "spheres": spheres, "cylinders": cylinders,
@@ -236,19 +247,20 @@ class SpatialSceneBuilder(SceneBuilder):
 
         Parameters
         ----------
-        q : ndarray, shape (k, 2 m)
-            Joint coordinates [rad].
+        q : ndarray, shape (k, dof)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
 
         Returns
         -------
         list of dict
             Per row: ``centres`` (m, 3) [m] (the cylinders' centres ``y^j``), ``axes`` (m, 4) (quaternions
-            ``(x, y, z, w)`` of ``R_j Ry(pi/2)``: the cylinder's z axis along ``d_j``) and ``joints`` (m+1, 3) [m].
+            ``(x, y, z, w)`` of ``R_j Ry(pi/2)``: the cylinder's z axis along ``d_j``), ``joints`` (m+1, 3) [m]
+            and ``base`` (3,) [m] (the origin, or ``d`` along the rail).
         """
         chain = self.ctrl.chain
         centres, axes = chain.centres_np(q), quaternion_product(quaternions(chain.frames_np(q)), _Z_TO_X)
-        joints = spatial_joints(chain, q)
-        return [{"centres": c, "axes": a, "joints": j} for c, a, j in zip(centres, axes, joints)]
+        joints, bases = spatial_joints(chain, q), chain.base_point(q)
+        return [{"centres": c, "axes": a, "joints": j, "base": b} for c, a, j, b in zip(centres, axes, joints, bases)]
 
     def frame_transforms(self, q: np.ndarray, ns: np.ndarray) -> list[bytes]:
         """The ``foxglove.FrameTransforms`` of poses ``q`` (k, 2m) stamped ``ns`` [ns], one JSON each.
@@ -312,7 +324,7 @@ class SpatialSceneBuilder(SceneBuilder):
         return out
 
 
-def scene_builder(ctrl: Any, obstacles: Any) -> SceneBuilder:
+def scene_builder(ctrl: Any, obstacles: Any, radius: float | None = None) -> SceneBuilder:
     """The scene builder of ``ctrl``'s chain kind: :class:`SpatialSceneBuilder` for a spatial chain.
 
     Parameters
@@ -321,11 +333,14 @@ def scene_builder(ctrl: Any, obstacles: Any) -> SceneBuilder:
         The controller of the run.
     obstacles : list
         The scenario's obstacles.
+    radius : float, optional
+        A spatial chain's capsule radius [m] (its links drawn as those capsules); unused for a planar chain.
 
     Returns
     -------
     SceneBuilder
         A planar :class:`~.scene.SceneBuilder` or a :class:`SpatialSceneBuilder`.
     """
-    builder = SpatialSceneBuilder if isinstance(ctrl.chain, SpatialChain) else SceneBuilder
-    return builder(ctrl, obstacles)
+    if isinstance(ctrl.chain, SpatialChain):
+        return SpatialSceneBuilder(ctrl, obstacles, radius)
+    return SceneBuilder(ctrl, obstacles)

@@ -34,8 +34,9 @@ def spatial_start(config: ScenarioConfig, chain: SpatialChain, curve: Any) -> np
 
     Returns
     -------
-    ndarray, shape (2 m,)
-        Joint coordinates ``(a_1, b_1, ..., a_m, b_m)`` [rad].
+    ndarray, shape (dof,)
+        Joint coordinates ``(a_1, b_1, ..., a_m, b_m)`` [rad]; on a rail ``d`` first, at ``max(low, 0)`` of
+        the rail's limits (as the planar rail), the zig-zag laid from the base there.
 
     Raises
     ------
@@ -45,7 +46,8 @@ def spatial_start(config: ScenarioConfig, chain: SpatialChain, curve: Any) -> np
     """
     st, t0 = config.start, float(config.run.t0)
     lay = follow_curve3d if st.kind == "follow" else zigzag_start
-    q = lay(chain, curve, float(st.beta), t0, st.axis, st.fold, float(st.roll or 0.0))
+    d0 = max(chain.rail_limits[0], 0.0) if chain.rail else 0.0
+    q = lay(chain, curve, float(st.beta), t0, st.axis, st.fold, float(st.roll or 0.0), d=d0)
     check_bends(chain, q, config.chain.bend_limit)
     hits = spatial_physical(config, chain).check(np.array([t0]), q[None])
     if hits:
@@ -96,4 +98,4 @@ def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:
     chain, c = config.chain.build(), config.control
     q0 = spatial_start(config, chain, curve) if c.roll_motion is None else None
     return SpatialController(chain, curve, float(c.gain), c.speed_motion, roll=c.roll_motion, law=c.law,
-                             start=q0, t0=float(config.run.t0))
+                             start=q0, t0=float(config.run.t0), span=c.span_motion)

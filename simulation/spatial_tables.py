@@ -2,18 +2,21 @@
 
 ``[chain] joints = "universal"`` makes a spatial chain (:class:`~coordarm.symbolic.SpatialChain`):
 its ``[curve]`` is 3-D (:func:`~coordarm.symbolic.curve3d_specs.curve3d_from_spec`), ``[control]``
-may command a ``roll`` and ``[start]`` takes ``axis``, ``fold`` and ``roll``. A planar
-(``"revolute"``) scenario refuses those keys, and a spatial one the planar options its law does
-not have (rail, span, governor, damping, a projected start); its obstacles are 3-D
+may command a ``roll`` and ``[start]`` takes ``axis``, ``fold`` and ``roll``; its rail (``[chain] base =
+{kind = "rail", direction = [x, y, z], limits = [lo, hi]}``) has a 3-D direction and its ``[control] span``
+is the planar one. A planar (``"revolute"``) scenario refuses those keys, and a spatial one the planar
+options its law does not have (governor, damping, a projected start); its obstacles are 3-D
 (:mod:`coordarm.simulation.obstacles3d`) and its links capsules of ``[chain] radius``.
 """
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
 from coordarm.symbolic import ConfigError, motion_from_spec
+from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.chain import DEFAULT_JOINT_LIMIT
 from coordarm.symbolic.curve3d_specs import curve3d_from_spec
 from coordarm.symbolic.curves3d import SpatialCurve
@@ -35,8 +38,7 @@ PLANAR_CURVE_KEYS = ("angle", "center", "heading", "offset")
 #: Keys of a 3-D ``[curve]`` that a planar curve does not have.
 SPATIAL_CURVE_KEYS = ("direction", "normal", "centre")
 #: Keys a spatial scenario refuses (its law has no such option yet), by section.
-PLANAR_ONLY = {"chain": ("base",), "control": ("span", "governor", "damping"),
-               "start": ("heading", "curve")}
+PLANAR_ONLY = {"control": ("governor", "damping"), "start": ("heading", "curve")}
 #: Keys only a spatial scenario has, by section.
 SPATIAL_ONLY = {"chain": ("radius",), "control": ("roll",), "start": ("axis", "fold", "roll")}
 CURVE_HINT = ("line: point [x, y, z], direction, normal, rotation = {axis, angle}; arc/circle: centre, radius, "
@@ -204,3 +206,49 @@ def roll_motion(control: dict) -> Any:
         Not a motion.
     """
     return motion_from_spec(control["roll"], "control.roll") if "roll" in control else None
+
+
+def base_args(spec: Any, universal: bool = False) -> dict:
+    """``[chain] base``: ``"fixed"`` or a rail table, as chain keyword arguments.
+
+    A planar chain's rail is ``{kind = "rail", angle = 0.0, limits = [0.0, 5.0]}`` (:class:`PlanarChain`
+    arguments ``rail_angle`` [rad], ``rail_limits`` [m]); a universal chain's is ``{kind = "rail",
+    direction = [x, y, z], limits = [lo, hi]}`` (:class:`SpatialChain` arguments ``rail_direction``,
+    normalised, and ``rail_limits`` [m]).
+
+    Parameters
+    ----------
+    spec : str or dict
+        The ``base`` entry as written.
+    universal : bool
+        The chain has universal joints (its rail has a 3-D ``direction``, not an ``angle``).
+
+    Returns
+    -------
+    dict
+        ``base`` and, on a rail, the rail's direction (``rail_angle`` or ``rail_direction``) and ``rail_limits``.
+
+    Raises
+    ------
+    ConfigError
+        Neither ``"fixed"`` nor a valid rail table.
+    """
+    if spec == "fixed":
+        return {"base": "fixed"}
+    aim = "direction" if universal else "angle"
+    if not isinstance(spec, dict) or spec.get("kind") != "rail":
+        raise ConfigError(f"chain.base: expected \"fixed\" or a table {{kind = \"rail\", {aim}, limits}}, got {spec!r}")
+    unknown = set(spec) - {"kind", aim, "limits"}
+    if unknown:
+        raise ConfigError(f"chain.base: unknown key(s) {sorted(unknown)}; allowed: ['kind', '{aim}', 'limits']")
+    limits = spec.get("limits", [-math.inf, math.inf])
+    if (not isinstance(limits, list) or len(limits) != 2
+            or not all(is_real(v) for v in limits)
+            or not limits[0] < limits[1]):
+        raise ConfigError(f"chain.base.limits: need [low, high] with low < high [m], got {limits!r}")
+    lim = tuple(float(v) for v in limits)
+    if universal:
+        direction = unit_vector(spec.get("direction", [1.0, 0.0, 0.0]), "chain.base.direction")
+        return {"base": "rail", "rail_direction": tuple(float(v) for v in direction), "rail_limits": lim}
+    angle = check_number(spec.get("angle", 0.0), "chain.base.angle", positive=False)
+    return {"base": "rail", "rail_angle": angle, "rail_limits": lim}

@@ -104,3 +104,24 @@ def roll_command(ctrl: Any, times: np.ndarray) -> np.ndarray:
     t = ca.SX.sym("t")
     f = ca.Function("roll_command", [t], [0 * t + ctrl.roll_target(t)])
     return np.asarray(f.map(len(times))(ca.DM(times).T), float).ravel() if len(times) else np.empty(0)
+
+
+def rail_ends(chain: SpatialChain, reach: float) -> np.ndarray | None:
+    """The two ends of a spatial chain's rail, ``low r`` and ``high r`` (an infinite limit cut to ``reach``).
+
+    Parameters
+    ----------
+    chain : SpatialChain
+        The manipulator.
+    reach : float
+        Distance from the origin at which an unbounded rail is cut [m].
+
+    Returns
+    -------
+    ndarray, shape (2, 3), or None
+        The ends [m]; None for a fixed base.
+    """
+    if not chain.rail:
+        return None
+    lo, hi = (float(np.clip(v, -reach, reach)) for v in chain.rail_limits)
+    return np.array([lo, hi])[:, None] * chain.rail_direction

@@ -396,10 +396,10 @@ def _advance(ctrl, compiled, q, times, step, layout):
     run outputs (``layout.run_outputs``) at each start (dict of row blocks)."""
     if compiled is not None:
         Q, D = compiled.chunk(q, times, step)
-        d = split(D, ctrl.chain.m, ctrl.chain.rail) if layout is PLANAR else spatial_split(D, ctrl.chain.m)
+        d = split(D, ctrl.chain.m, ctrl.chain.rail) if layout is PLANAR else spatial_split(D, ctrl.chain.m, ctrl.chain.rail)
         return Q, {a: d[a] for a in ctrl.run_outputs}
     Q, *outs = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
-    return Q.T, {a: (v.ravel() if a in layout.scalars else v.T) for a, v in zip(ctrl.run_outputs, outs)}
+    return Q.T, {a: (v.ravel() if a in ctrl.SCALAR_OUTPUTS else v.T) for a, v in zip(ctrl.run_outputs, outs)}
 
 
 def _thin(part: Run, k0: int, every: int) -> Run:

@@ -8,6 +8,10 @@ if TYPE_CHECKING:   # numpy and the run module load only when a summary is writt
     from coordarm.simulation.scenario import Scenario
 
 
+#: Most obstacles a spatial summary lists one by one (the closest; one line sums up the others).
+CLEARANCE_LINES = 6
+
+
 def summary_lines(run: Run, scenario: Scenario) -> list[str]:
     """The summary of ``run`` that ``coordarm run`` and ``coordarm replay`` print, one string per line.
 
@@ -66,10 +70,17 @@ def spatial_summary_lines(run: Run, scenario: Scenario) -> list[str]:
     list of str
         Scenario and link count; simulated time and steps, stop reason and backend; final max|e^j| [m];
         s tracking [m]; roll tracking [rad]; the smallest link, end and joint margins; max|u| [rad/s];
-        the clearance to every obstacle (:func:`spatial_physical_lines`).
+        on a rail its travel, span and margin; the largest bend against its limit and the clearance to every
+        obstacle (:func:`spatial_physical_lines`).
     """
+    import numpy as np
+
     s = run.summary()
-    return [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1] // 2} links, universal joints",
+    rail = [] if run.sigma is None else [
+        f"rail          d from {run.q[0, 0]:.4f} to {run.q[-1, 0]:.4f} m, span sigma {run.sigma[0]:.4f} -> "
+        f"{run.sigma[-1]:.4f} m, min rail margin {np.min(run.rail_margin):.4f}"]
+    return [f"scenario      {scenario.name} ({scenario.source}), {run.q.shape[1] // 2} links, universal joints"
+            + (" on a rail" if run.sigma is not None else ""),
             f"simulated     {s['duration']:.3f} s in {s['steps']} steps ({run.info.get('stopped', '?')}, "
             f"backend {run.info.get('backend', '?')})",
             f"final max|e|  {s['final_max_abs_e']:.3e} m",
@@ -80,7 +91,7 @@ def spatial_summary_lines(run: Run, scenario: Scenario) -> list[str]:
             f"end margin    min {s['min_end_margin']:.4f} (t = {s['min_end_margin_time']:.2f} s)",
             f"joint margin  min |cos b_j| = {s['min_joint_margin']:.4f} (joint {s['min_joint_margin_joint']}, "
             f"t = {s['min_joint_margin_time']:.2f} s)",
-            f"max|u|        {s['max_abs_u']:.4g}"] + spatial_physical_lines(run, scenario)
+            f"max|u|        {s['max_abs_u']:.4g}"] + rail + spatial_physical_lines(run, scenario)
 
 
 def spatial_physical_lines(run: Run, scenario: Scenario) -> list[str]:
@@ -96,20 +107,38 @@ def spatial_physical_lines(run: Run, scenario: Scenario) -> list[str]:
     Returns
     -------
     list of str
-        A contacts line when the run recorded any, then ``clearance 'name': min gap [m] (link, t)`` from at
-        most 2000 evenly spread samples per obstacle.
+        The largest bend against its limit (a full configuration only), a contacts line when the run recorded
+        any, then ``clearance 'name': min gap [m] (link, t)`` from at most 2000 evenly spread samples per obstacle
+        (more than :data:`CLEARANCE_LINES` obstacles: the closest ones, in file order, then one line for the rest).
     """
-    from coordarm.simulation.run import even_indices
+    import numpy as np
 
+    from coordarm.simulation.run import even_indices
+    from coordarm.symbolic.start3d import bend_angles
+
+    chain, rows = scenario.chain(), even_indices(len(run.t), 2000)
+    lines = []
+    if run.q.shape[1] == chain.dof:
+        rel = bend_angles(chain, run.q[rows]) / np.broadcast_to(np.asarray(scenario.config.chain.bend_limit, float),
+                                                                (chain.m - 1,))
+        k, j = np.unravel_index(int(np.argmax(rel)), rel.shape)
+        lim = np.broadcast_to(np.asarray(scenario.config.chain.bend_limit, float), (chain.m - 1,))[j]
+        lines.append(f"bends         max bend/limit = {rel[k, j]:.3f} (joint {j + 2}: {rel[k, j] * lim:.3f} rad of "
+                     f"{lim:.3f}, t = {run.t[rows][k]:.2f} s)")
     contacts = run.info.get("contacts") or []
-    lines = [f"contacts      {len(contacts)} distinct (allowed), first: {contacts[0]['kind']} at "
-             f"t = {contacts[0]['time']:.3f} s, links {contacts[0]['links']}"] if contacts else []
+    lines += [f"contacts      {len(contacts)} distinct (allowed), first: {contacts[0]['kind']} at "
+              f"t = {contacts[0]['time']:.3f} s, links {contacts[0]['links']}"] if contacts else []
     if not scenario.obstacles:
         return lines
-    rows = even_indices(len(run.t), 2000)
     gaps = scenario.physical().clearances(run.q[rows], run.t[rows])
-    return lines + [f"clearance     {name!r}: min {d:.4f} m (link {link}, t = {t:.2f} s)"
-                    for name, (d, t, link) in gaps.items()]
+    shown_gaps = dict(sorted(gaps.items(), key=lambda kv: kv[1][0])[:CLEARANCE_LINES]) \
+        if len(gaps) > CLEARANCE_LINES else gaps
+    lines += [f"clearance     {name!r}: min {d:.4f} m (link {link}, t = {t:.2f} s)"
+              for name, (d, t, link) in gaps.items() if name in shown_gaps]
+    if len(gaps) > len(shown_gaps):
+        rest = min(d for name, (d, _, _) in gaps.items() if name not in shown_gaps)
+        lines.append(f"clearance     {len(gaps) - len(shown_gaps)} more obstacles, each at least {rest:.4f} m away")
+    return lines
 
 
 def physical_lines(run: Run, scenario: Scenario) -> list[str]:

@@ -278,7 +278,10 @@ def integer_fields(spec: dict, names: list[str]) -> set[str]:
 
 
 def _controller(sc: Scenario):
-    key = repr((sc.config.chain, sc.config.curve, sc.config.control))
+    # a spatial controller whose roll is held holds the roll of its start: the start is part of its key
+    held = sc.config.chain.universal and sc.config.control.roll_motion is None
+    key = repr((sc.config.chain, sc.config.curve, sc.config.control,
+                (sc.config.start, sc.config.run.t0) if held else None))
     ctrl = _CONTROLLERS.get(key)
     if ctrl is None:
         if len(_CONTROLLERS) >= _MAX_CONTROLLERS:

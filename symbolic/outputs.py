@@ -236,33 +236,58 @@ def split(packed: Any, m: int, rail: bool = False) -> dict[str, Any]:
     return result
 
 
-def spatial_packed_width(m: int) -> int:
-    """Length of the packed output vector of the spatial law for ``m`` links (``6 m``).
+def spatial_outputs_of(rail: bool = False) -> tuple[Output, ...]:
+    """The rows of the spatial law's outputs: :data:`SPATIAL_LAW_OUTPUTS`, and on a ``rail`` ``u`` one wider
+    (``d_dot`` [m/s] first) plus :data:`RAIL_LAW_OUTPUTS` (``sigma``, ``rail_margin``) at the end.
+
+    Parameters
+    ----------
+    rail : bool
+        A spatial chain on a rail (feed axis).
+
+    Returns
+    -------
+    tuple of Output
+        In packed order.
+    """
+    if not rail:
+        return SPATIAL_LAW_OUTPUTS
+    u = SPATIAL_LAW_OUTPUTS[0]
+    return (Output(u.name, 2, 1, u.unit, u.channel, u.description + "; d_dot [m/s] first"),
+            *SPATIAL_LAW_OUTPUTS[1:], *RAIL_LAW_OUTPUTS)
+
+
+def spatial_packed_width(m: int, rail: bool = False) -> int:
+    """Length of the packed output vector of the spatial law for ``m`` links (``6 m``; ``6 m + 3`` on a rail).
 
     Parameters
     ----------
     m : int
         Number of links.
+    rail : bool
+        A chain on a rail.
 
     Returns
     -------
     int
-        Number of doubles: the widths of :data:`SPATIAL_LAW_OUTPUTS` summed.
+        Number of doubles: the widths of :func:`spatial_outputs_of` summed.
     """
-    return sum(o.width(m) for o in SPATIAL_LAW_OUTPUTS)
+    return sum(o.width(m) for o in spatial_outputs_of(rail))
 
 
-def spatial_offsets(m: int) -> dict[str, tuple[int, int]]:
+def spatial_offsets(m: int, rail: bool = False) -> dict[str, tuple[int, int]]:
     """``name -> (start, width)`` of each spatial output in the packed vector for ``m`` links.
 
     The generated C of a :class:`~coordarm.symbolic.spatial_controller.SpatialController` packs the law
-    (and each row ``D[k]`` of a chunk) in this layout: the rows of :data:`SPATIAL_LAW_OUTPUTS` in order,
-    which are also :data:`SPATIAL_RUN_OUTPUTS` (every spatial output is logged).
+    (and each row ``D[k]`` of a chunk) in this layout: the rows of :func:`spatial_outputs_of` in order,
+    which are also the run outputs (every spatial output is logged).
 
     Parameters
     ----------
     m : int
         Number of links.
+    rail : bool
+        A chain on a rail (``u`` one wider, ``sigma`` and ``rail_margin`` at the end).
 
     Returns
     -------
@@ -270,21 +295,23 @@ def spatial_offsets(m: int) -> dict[str, tuple[int, int]]:
         Start index and width of each output, in packing order.
     """
     out, start = {}, 0
-    for o in SPATIAL_LAW_OUTPUTS:
+    for o in spatial_outputs_of(rail):
         out[o.name] = (start, o.width(m))
         start += o.width(m)
     return out
 
 
-def spatial_split(packed: Any, m: int) -> dict[str, Any]:
-    """Split packed spatial output rows into a dict keyed by :data:`SPATIAL_OUTPUTS`.
+def spatial_split(packed: Any, m: int, rail: bool = False) -> dict[str, Any]:
+    """Split packed spatial output rows into a dict keyed by the names of :func:`spatial_outputs_of`.
 
     Parameters
     ----------
-    packed : ndarray, shape (spatial_packed_width(m),) or (n, spatial_packed_width(m))
+    packed : ndarray, shape (spatial_packed_width(m, rail),) or (n, spatial_packed_width(m, rail))
         One packed row or a block of rows (views are returned into it).
     m : int
         Number of links.
+    rail : bool
+        A chain on a rail.
 
     Returns
     -------
@@ -294,14 +321,14 @@ def spatial_split(packed: Any, m: int) -> dict[str, Any]:
     Raises
     ------
     ValueError
-        The last axis is not ``spatial_packed_width(m)`` long.
+        The last axis is not ``spatial_packed_width(m, rail)`` long.
     """
-    width = spatial_packed_width(m)
+    width = spatial_packed_width(m, rail)
     if packed.shape[-1] != width:
         raise ValueError(f"packed spatial outputs: last axis of {packed.shape[-1]}, expected {width} for {m} links")
     result: dict[str, Any] = {}
-    offs = spatial_offsets(m)
-    for o in SPATIAL_LAW_OUTPUTS:
+    offs = spatial_offsets(m, rail)
+    for o in spatial_outputs_of(rail):
         start, w = offs[o.name]
         if o.scalar:
             v = packed[..., start]

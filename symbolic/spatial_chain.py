@@ -3,12 +3,18 @@
 Joint j has the angles ``(a_j, b_j)``; ``q = (a_1, b_1, ..., a_m, b_m)``. Link frames ``R_0 = I``,
 ``R_j = R_{j-1} Rz(a_j) Ry(b_j)``, link directions ``d_j = R_j e_x``, centres ``y^1 = 0`` (the base,
 pinned at the origin) and ``y^j = y^{j-1} + xi/2 (d_{j-1} + d_j)``. With every ``b_j = 0`` it is the
-planar chain with ``q_j = a_j``. The base is fixed in this version (no rail).
+planar chain with ``q_j = a_j``.
+
+On a rail (``base="rail"``, the feed axis) a prismatic joint ``d`` [m] comes first in ``q``:
+``q = (d, a_1, b_1, ..., a_m, b_m)`` (``dof = 2 m + 1``) and the base is ``y^1 = d r`` with ``r`` the
+unit rail direction; the link frames do not depend on ``d`` (``R_0 = I``). :meth:`SpatialChain.angles`
+drops ``d``, :meth:`SpatialChain.rail_position` reads it, :attr:`SpatialChain.rail_direction` and
+:attr:`SpatialChain.rail_limits` describe the rail.
 """
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Sequence
 
 import casadi as ca
 import numpy as np
@@ -148,6 +154,13 @@ class SpatialChain(KinematicChain):
         Number of links m >= 2.
     link_length : float
         Link length xi > 0 [m].
+    base : {"fixed", "rail"}
+        ``"fixed"``: the base ``y^1`` is pinned at the origin. ``"rail"``: a feed axis, a prismatic
+        joint ``d`` [m] first in ``q`` slides the base to ``y^1 = d rail_direction``.
+    rail_direction : array_like, shape (3,)
+        Direction of the rail (normalised here; a rail only).
+    rail_limits : (float, float)
+        Allowed range ``[low, high]`` of ``d`` [m] (a run leaving it stops with a ``rail_limit`` contact).
 
     Attributes
     ----------
@@ -156,25 +169,41 @@ class SpatialChain(KinematicChain):
     xi : float
         Link length [m].
     dof : int
-        ``2 m``: the joint coordinates ``(a_1, b_1, ..., a_m, b_m)``.
+        ``2 m`` joint angles ``(a_1, b_1, ..., a_m, b_m)``, plus ``d`` first on a rail (``2 m + 1``).
     rail : bool
-        Always False (fixed base at the origin).
+        Whether the base slides on a rail.
+    rail_direction : ndarray, shape (3,)
+        Unit direction of the rail (``(1, 0, 0)`` for a fixed base, unused there).
+    rail_limits : (float, float)
+        Range of ``d`` [m] (``(-inf, inf)`` for a fixed base).
 
     Raises
     ------
     ConfigError
-        ``links`` or ``link_length`` of the wrong type or out of range.
+        ``links`` or ``link_length`` of the wrong type or out of range, an unknown base, a rail
+        direction that is not three finite numbers (not all zero), or rail limits that are not
+        ``[low, high]`` with ``low < high``.
     """
 
     kind = "universal"
 
-    def __init__(self, links: int, link_length: float) -> None:
+    def __init__(self, links: int, link_length: float, base: str = "fixed",
+                 rail_direction: ArrayLike = (1.0, 0.0, 0.0),
+                 rail_limits: Sequence[float] = (-math.inf, math.inf)) -> None:
         if not is_integer(links) or links < 2:
             raise ConfigError(f"links: need an integer >= 2, got {links!r}")
         if not is_real(link_length) or not math.isfinite(link_length) or link_length <= 0:
             raise ConfigError(f"link_length: need a finite number > 0 [m], got {link_length!r}")
+        if base not in ("fixed", "rail"):
+            raise ConfigError(f"base: expected one of ('fixed', 'rail'), got {base!r}")
         self.m, self.xi = int(links), float(link_length)
-        self.dof, self.rail = 2 * self.m, False
+        self.rail = base == "rail"
+        self.rail_direction = unit_vector(rail_direction, "rail_direction")
+        lim = tuple(rail_limits) if isinstance(rail_limits, (list, tuple)) else ()
+        if len(lim) != 2 or any(not is_real(v) or math.isnan(v) for v in lim) or not lim[0] < lim[1]:
+            raise ConfigError(f"rail_limits: need [low, high] with low < high [m], got {rail_limits!r}")
+        self.rail_limits = (float(lim[0]), float(lim[1]))
+        self.dof = 2 * self.m + int(self.rail)
 
     @property
     def links(self) -> int:
@@ -187,7 +216,74 @@ class SpatialChain(KinematicChain):
         return self.xi
 
     def __repr__(self) -> str:
-        return f"SpatialChain(links={self.m}, link_length={self.xi})"
+        rail = f", base='rail', rail_direction={self.rail_direction.tolist()}" if self.rail else ""
+        return f"SpatialChain(links={self.m}, link_length={self.xi}{rail})"
+
+    # ------------------------------------------------------------------------------ rail
+    def angles(self, q: Any) -> Any:
+        """The ``2 m`` joint angles ``(a_1, b_1, ..., a_m, b_m)`` of ``q`` (``d`` dropped on a rail).
+
+        Parameters
+        ----------
+        q : ndarray, shape (..., dof), or casadi expression, shape (dof,)
+            Joint coordinates.
+
+        Returns
+        -------
+        same type, shape (..., 2 m)
+            The joint angles [rad].
+        """
+        if not self.rail:
+            return q
+        return q[..., 1:] if isinstance(q, np.ndarray) else q[1:]
+
+    def rail_position(self, q: ArrayLike) -> np.ndarray:
+        """The rail position ``d`` of ``q`` (0 for a fixed base), vectorised over leading axes.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., dof)
+            Joint coordinates.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            ``d`` [m].
+        """
+        q = np.asarray(q, float)
+        return q[..., 0] if self.rail else np.zeros(q.shape[:-1])
+
+    def base_point(self, q: ArrayLike) -> np.ndarray:
+        """The base ``y^1 = d rail_direction`` (the origin for a fixed base), vectorised.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., dof)
+            Joint coordinates.
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+            The base [m].
+        """
+        return self.rail_position(q)[..., None] * self.rail_direction
+
+    def with_rail_position(self, angles: ArrayLike, d: float = 0.0) -> np.ndarray:
+        """``q`` from the joint angles: ``(d, angles)`` on a rail, the angles alone for a fixed base.
+
+        Parameters
+        ----------
+        angles : array_like, shape (2 m,)
+            ``(a_1, b_1, ..., a_m, b_m)`` [rad].
+        d : float
+            Rail position [m] (ignored for a fixed base).
+
+        Returns
+        -------
+        ndarray, shape (dof,)
+        """
+        angles = np.asarray(angles, float)
+        return np.r_[float(d), angles] if self.rail else angles
 
     # ---------------------------------------------------------------------------- CasADi
     def frames(self, q: Any) -> list[Any]:
@@ -202,7 +298,7 @@ class SpatialChain(KinematicChain):
         -------
         list of casadi expression, each (3, 3)
         """
-        R, out = None, []
+        R, out, q = None, [], self.angles(q)
         for j in range(self.m):
             J = ca.mtimes(rot_z(q[2 * j]), rot_y(q[2 * j + 1]))
             R = J if R is None else ca.mtimes(R, J)
@@ -235,10 +331,10 @@ class SpatialChain(KinematicChain):
         Returns
         -------
         casadi expression, shape (3, m)
-            Column j is the centre of link j+1 [m] (column 0 the origin).
+            Column j is the centre of link j+1 [m] (column 0 the base: the origin, or ``d`` along the rail).
         """
         d = self.directions(q)
-        cols = [ca.DM.zeros(3, 1) + 0 * q[0]]
+        cols = [q[0] * ca.DM(self.rail_direction) if self.rail else ca.DM.zeros(3, 1) + 0 * q[0]]
         for j in range(1, self.m):
             cols.append(cols[-1] + 0.5 * self.xi * (d[:, j - 1] + d[:, j]))
         return ca.horzcat(*cols)
@@ -249,14 +345,14 @@ class SpatialChain(KinematicChain):
 
         Parameters
         ----------
-        q : array_like, shape (2 m,)
-            Joint coordinates ``(a_1, b_1, ..., a_m, b_m)`` [rad].
+        q : array_like, shape (dof,)
+            Joint coordinates ``(a_1, b_1, ..., a_m, b_m)`` [rad] (``d`` [m] first on a rail).
         field : str
             Name used in the error message.
 
         Returns
         -------
-        ndarray, shape (2 m,)
+        ndarray, shape (dof,)
             ``q`` as floats.
 
         Raises
@@ -264,7 +360,8 @@ class SpatialChain(KinematicChain):
         ConfigError
             Wrong shape, NaN or inf.
         """
-        return check_joint_vector(q, self.dof, field, " (a_1, b_1, ..., a_m, b_m)")
+        return check_joint_vector(q, self.dof, field, " (d, a_1, b_1, ..., a_m, b_m)" if self.rail
+                                  else " (a_1, b_1, ..., a_m, b_m)")
 
     def frames_np(self, q: ArrayLike) -> np.ndarray:
         """Link frames ``R_j``, vectorised over leading axes of ``q``.
@@ -278,7 +375,7 @@ class SpatialChain(KinematicChain):
         -------
         ndarray, shape (..., m, 3, 3)
         """
-        q = np.asarray(q, float)
+        q = self.angles(np.asarray(q, float))
         J = joint_rotation_np(q[..., 0::2], q[..., 1::2])
         R = np.empty_like(J)
         R[..., 0, :, :] = J[..., 0, :, :]
@@ -311,37 +408,39 @@ class SpatialChain(KinematicChain):
         Returns
         -------
         ndarray, shape (..., m, 3)
-            Link centres [m], the first at the origin.
+            Link centres [m], the first at the base (the origin, or ``d`` along the rail).
         """
         d = self.directions_np(q)
         steps = 0.5 * self.xi * (d[..., :-1, :] + d[..., 1:, :])
-        base = np.zeros(d.shape[:-2] + (1, 3))
-        return np.concatenate([base, np.cumsum(steps, axis=-2)], axis=-2)
+        base = self.base_point(q)[..., None, :]
+        return np.concatenate([base, base + np.cumsum(steps, axis=-2)], axis=-2)
 
-    def joint_angles(self, directions: ArrayLike) -> np.ndarray:
+    def joint_angles(self, directions: ArrayLike, d: float = 0.0) -> np.ndarray:
         """The joint coordinates of given link directions (each joint with ``|b_j| <= pi/2``).
 
         Parameters
         ----------
         directions : array_like, shape (m, 3)
             Unit link directions ``d_1..d_m`` (normalised here).
+        d : float
+            Rail position [m] (a chain on a rail only; put first in ``q``).
 
         Returns
         -------
-        ndarray, shape (2 m,)
-            ``(a_1, b_1, ..., a_m, b_m)`` [rad].
+        ndarray, shape (dof,)
+            ``(a_1, b_1, ..., a_m, b_m)`` [rad] (``d`` [m] first on a rail).
         """
-        d = np.asarray(directions, float)
-        d = d / np.linalg.norm(d, axis=-1, keepdims=True)
-        q, R = np.empty(self.dof), np.eye(3)
+        dirs = np.asarray(directions, float)
+        dirs = dirs / np.linalg.norm(dirs, axis=-1, keepdims=True)
+        q, R = np.empty(2 * self.m), np.eye(3)
         for j in range(self.m):
-            a, b = joint_angles_of_direction(R, d[j])
+            a, b = joint_angles_of_direction(R, dirs[j])
             q[2 * j:2 * j + 2] = a, b
             R = R @ joint_rotation_np(a, b)
-        return q
+        return self.with_rail_position(q, d)
 
     def zigzag(self, beta: float, axis: ArrayLike = (1.0, 0.0, 0.0), fold: ArrayLike = (0.0, 1.0, 0.0),
-               roll: float = 0.0) -> np.ndarray:
+               roll: float = 0.0, d: float = 0.0) -> np.ndarray:
         """Uniform spatial zig-zag ``d_j = cos(beta) axis + (-1)^(j+1) sin(beta) fold_rolled``.
 
         ``fold`` is orthogonalised against ``axis`` and turned by ``roll`` about it; the centres lie
@@ -357,11 +456,13 @@ class SpatialChain(KinematicChain):
             Direction of the fold (not parallel to ``axis``).
         roll : float
             Turn of the fold direction about ``axis`` [rad].
+        d : float
+            Rail position [m] (a chain on a rail only; the centres then lie on the line through the base).
 
         Returns
         -------
-        ndarray, shape (2 m,)
-            Joint coordinates [rad].
+        ndarray, shape (dof,)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
 
         Raises
         ------
@@ -379,5 +480,5 @@ class SpatialChain(KinematicChain):
             raise ConfigError("fold: must not be parallel to axis")
         fo = rotate_about(fo / np.linalg.norm(fo), ax, float(roll))
         signs = (-1.0) ** np.arange(self.m)                  # (-1)^(j+1) for j = 1..m
-        d = math.cos(beta) * ax + math.sin(beta) * signs[:, None] * fo
-        return self.joint_angles(d)
+        dirs = math.cos(beta) * ax + math.sin(beta) * signs[:, None] * fo
+        return self.joint_angles(dirs, d)

@@ -6,6 +6,10 @@ agree to rounding: ``"structured"`` (the O(m) solve of :mod:`.spatial_recursion`
 ``"dense"`` (the AD decoupling matrix of :mod:`.spatial_dense`). The commanded roll ``theta*`` is a
 number, a motion (callable of ``t``) or None: held at the roll of the ``start`` configuration at
 ``t0``, a constant fixed when the controller is built (:attr:`SpatialController.roll_target`).
+
+On a rail (``chain.rail``: ``q = (d, a_1, b_1, ...)``) one more output, the span
+``sigma = psi(y^m) - psi(y^1)``, is held (``span=None``) or tracks ``span``; ``u`` then holds the rail
+rate ``d_dot`` [m/s] first and the law adds the outputs ``sigma`` and ``rail_margin``.
 """
 from __future__ import annotations
 
@@ -20,7 +24,7 @@ from .errors import ConfigError
 from .law_face import LawFace, condition_numbers
 from .laws import LAWS
 from .motions import Constant
-from .outputs import SPATIAL_OUTPUTS, SPATIAL_RUN_OUTPUTS, SPATIAL_SCALAR_OUTPUTS
+from .outputs import RAIL_OUTPUTS, SCALAR_OUTPUTS, SPATIAL_OUTPUTS, SPATIAL_RUN_OUTPUTS, SPATIAL_SCALAR_OUTPUTS
 from .params import as_param
 from .spatial_chain import SpatialChain
 from .spatial_dense import spatial_decoupling_expr, spatial_law_function
@@ -56,8 +60,8 @@ def start_roll(chain: SpatialChain, curve: Any, q: Any, t: float) -> float:
         The manipulator.
     curve : SpatialCurve
         The goal curve.
-    q : array_like, shape (2 m,)
-        Joint coordinates [rad].
+    q : array_like, shape (dof,)
+        Joint coordinates [rad] (``d`` [m] first on a rail).
     t : float
         Time [s].
 
@@ -78,7 +82,7 @@ class SpatialController(LawFace):
     Parameters
     ----------
     chain : SpatialChain
-        The manipulator (fixed base at the origin).
+        The manipulator (fixed base at the origin, or on a rail).
     curve : SpatialCurve
         The goal curve (``psi``, ``Phi``, ``frame``); it must pass near the base.
     gain : float
@@ -89,10 +93,13 @@ class SpatialController(LawFace):
         Commanded roll ``theta*(t)`` [rad]. None (default): held at the roll of ``start`` at ``t0``.
     law : {"structured", "dense"}
         Form of the law used by :meth:`control` and :meth:`rk4_step`.
-    start : array_like, shape (2 m,), optional
+    start : array_like, shape (dof,), optional
         The start configuration; required when ``roll`` is None.
     t0 : float
         Start time [s] (for ``roll=None``).
+    span : None, float or callable
+        Only on a rail: the commanded span ``sigma*(t)`` [m], tracked by ``sigma' = sigma*' - K (sigma -
+        sigma*)``; None (default): held, ``sigma' = 0``.
 
     Attributes
     ----------
@@ -103,16 +110,19 @@ class SpatialController(LawFace):
     recursion : SpatialRecursion
         The O(m) solve's Functions.
     outputs, run_outputs : tuple of str
-        :data:`~.outputs.SPATIAL_OUTPUTS` and :data:`~.outputs.SPATIAL_RUN_OUTPUTS`.
+        :data:`~.outputs.SPATIAL_OUTPUTS` and :data:`~.outputs.SPATIAL_RUN_OUTPUTS` (on a rail plus
+        :data:`~.outputs.RAIL_OUTPUTS`: ``sigma``, ``rail_margin``).
+    span : callable or None
+        The commanded span (None: held).
 
     Raises
     ------
     ConfigError
-        A value of the wrong type or out of range, or ``roll=None`` without ``start``.
+        A value of the wrong type or out of range, ``roll=None`` without ``start``, or a span without a rail.
     """
 
     def __init__(self, chain: SpatialChain, curve: Any, gain: float, speed: Any, roll: Any = None,
-                 law: str = "structured", start: Any = None, t0: float = 0.0) -> None:
+                 law: str = "structured", start: Any = None, t0: float = 0.0, span: Any = None) -> None:
         if not isinstance(chain, SpatialChain):
             raise ConfigError(f"chain: expected a SpatialChain, got {type(chain).__name__}")
         check_spatial_curve(curve)
@@ -126,12 +136,16 @@ class SpatialController(LawFace):
         self.speed = as_param(speed, "speed")
         self.roll_target = (Constant(start_roll(chain, curve, start, t0)) if roll is None
                             else as_param(roll, "roll"))
-        self.outputs, self.run_outputs = SPATIAL_OUTPUTS, SPATIAL_RUN_OUTPUTS
-        self.task = SpatialTask(curve, self.speed, self.gain, self.roll_target)
+        if span is not None and not chain.rail:
+            raise ConfigError("span: only a chain on a rail (base = 'rail') has a span output")
+        self.span = None if span is None else as_param(span, "span")
+        rail = RAIL_OUTPUTS if chain.rail else ()
+        self.outputs, self.run_outputs = SPATIAL_OUTPUTS + rail, SPATIAL_RUN_OUTPUTS + rail
+        self.task = SpatialTask(curve, self.speed, self.gain, self.roll_target, self.span)
         self.recursion = SpatialRecursion(chain, self.task)
         self._cache: dict = {}
 
-    SCALAR_OUTPUTS = SPATIAL_SCALAR_OUTPUTS
+    SCALAR_OUTPUTS = SPATIAL_SCALAR_OUTPUTS + tuple(n for n in RAIL_OUTPUTS if n in SCALAR_OUTPUTS)
     RK4_NAME, DECOUPLING_NAME = "spatial_rk4_step", "spatial_decoupling"
 
     def _build_law(self, form: str) -> ca.Function:

@@ -4,7 +4,9 @@ The task outputs are stacked in the row order ``(s, roll, e^2_1, e^2_2, e^3_1, e
 (2 m rows for the 2 m joint coordinates ``(a_1, b_1, ..., a_m, b_m)``); the decoupling matrix is
 their Jacobian ``M = dY/dq`` (``B = I``) and the right-hand side the commanded rates minus the
 outputs' partial time derivatives at fixed ``q``: ``(v* - ds/dt, theta*' - K (theta - theta*) -
-dtheta/dt, -K e - de/dt)``; ``u = M^-1 rhs``.
+dtheta/dt, -K e - de/dt)``; ``u = M^-1 rhs``. On a rail ``q = (d, a_1, b_1, ...)`` and the span
+``sigma = psi(y^m) - psi(y^1)`` is a row after ``s``: ``(s, sigma, roll, e^2_1, ...)``, its right-hand
+side ``sigma' - dsigma/dt`` (``sigma' = 0`` when held).
 """
 from __future__ import annotations
 
@@ -19,7 +21,8 @@ from .spatial_task import SpatialTask
 
 
 def task_outputs_expr(chain: SpatialChain, task: SpatialTask, q: Any, t: Any) -> Any:
-    """The task outputs ``Y = (s, roll, e^2_1, e^2_2, ..., e^m_2)`` of symbolic ``(q, t)``.
+    """The task outputs ``Y = (s, roll, e^2_1, e^2_2, ..., e^m_2)`` of symbolic ``(q, t)`` (on a rail
+    ``(s, sigma, roll, e^2_1, ...)``).
 
     Parameters
     ----------
@@ -27,21 +30,22 @@ def task_outputs_expr(chain: SpatialChain, task: SpatialTask, q: Any, t: Any) ->
         The manipulator.
     task : SpatialTask
         Curve geometry.
-    q : casadi.SX, shape (2 m,)
-        Joint coordinates [rad].
+    q : casadi.SX, shape (dof,)
+        Joint coordinates [rad] (``d`` [m] first on a rail).
     t : casadi.SX
         Time [s].
 
     Returns
     -------
-    casadi.SX, shape (2 m, 1)
-        ``s`` [m], ``roll`` [rad], then the deviations [m].
+    casadi.SX, shape (dof, 1)
+        ``s`` [m], (on a rail ``sigma`` [m],) ``roll`` [rad], then the deviations [m].
     """
     y, d = chain.centres(q), chain.directions(q)
     s = task.geometry(y[:, chain.m - 1], t)[3]
     roll = task.roll_geometry(y[:, 0], d[:, 0], t)[0]
     e = [task.geometry(y[:, j], t)[0] for j in range(1, chain.m)]
-    return ca.vertcat(s, roll, *e)
+    span = [s - task.geometry(y[:, 0], t)[3]] if chain.rail else []
+    return ca.vertcat(s, *span, roll, *e)
 
 
 def spatial_decoupling_expr(chain: SpatialChain, task: SpatialTask, q: Any, t: Any) -> tuple[Any, Any]:
@@ -53,20 +57,22 @@ def spatial_decoupling_expr(chain: SpatialChain, task: SpatialTask, q: Any, t: A
         The manipulator.
     task : SpatialTask
         Curve geometry, commands and gain.
-    q : casadi.SX, shape (2 m,)
-        Joint coordinates [rad].
+    q : casadi.SX, shape (dof,)
+        Joint coordinates [rad] (``d`` [m] first on a rail).
     t : casadi.SX
         Time [s].
 
     Returns
     -------
-    M : casadi.SX, shape (2 m, 2 m)
-        ``dY/dq`` [m/rad and rad/rad].
-    rhs : casadi.SX, shape (2 m,)
-        ``(v* - ds/dt, theta*' - K (theta - theta*) - dtheta/dt, -K e - de/dt)``.
+    M : casadi.SX, shape (dof, dof)
+        ``dY/dq`` [m/rad and rad/rad; m/m in the rail column].
+    rhs : casadi.SX, shape (dof,)
+        ``(v* - ds/dt, [sigma' - dsigma/dt,] theta*' - K (theta - theta*) - dtheta/dt, -K e - de/dt)``.
     """
     Y = task_outputs_expr(chain, task, q, t)
-    target = ca.vertcat(ca.SX(task.speed(t)), task.roll_rate(Y[1], t), -task.gain * Y[2:])
+    r = int(chain.rail)
+    span = [task.span_rate(Y[1], t)] if chain.rail else []
+    target = ca.vertcat(ca.SX(task.speed(t)), *span, task.roll_rate(Y[1 + r], t), -task.gain * Y[2 + r:])
     return ca.jacobian(Y, q), target - ca.jacobian(Y, t)
 
 
@@ -86,7 +92,7 @@ def spatial_law_function(recursion: SpatialRecursion, form: str, names: Sequence
     Returns
     -------
     casadi.Function
-        ``spatial_law_<form>``: inputs ``q`` (2 m,) and ``t`` [s], outputs ``names``.
+        ``spatial_law_<form>``: inputs ``q`` (dof,) and ``t`` [s], outputs ``names``.
     """
     chain = recursion.chain
     q, t = ca.MX.sym("q", chain.dof), ca.MX.sym("t")

@@ -17,6 +17,13 @@ Margins (dimensionless, 0 at a singularity):
   ``xi sum_j ||W1_j||`` (``W1_1 = I``, spectral norms; the planar longitudinal margin's scale) and its
   roll row by ``|d theta / d d_1|`` (which makes the roll row a unit vector);
 * joint margin of joint j: ``|cos b_j|`` (0: the two angles cannot express the link's turn).
+
+On a rail (the feed axis, ``q = (d, a_1, b_1, ...)``) the span row minus the ``s`` row leaves
+``grad psi(y^1) . r d' = v* - sigma' - dpsi/dt(y^1)`` (``y^1 = d r`` depends on ``d`` alone, the frames
+do not): the rail rate, dividing by the **rail pivot** ``grad psi(y^1) . r`` (:meth:`SpatialRecursion.rail_head`).
+The forward loop then starts with ``y^1' = d' r``, and the roll row, whose frame sits at the closest
+point of ``y^1``, loses ``dtheta/dy^1 . r d'`` from its right-hand side. The rail margin is
+``|grad psi(y^1) . r| / |grad psi(y^1)|`` (0: the rail stands across the path).
 """
 from __future__ import annotations
 
@@ -144,6 +151,79 @@ class SpatialRecursion:
                 ["ab", "t"], ["carry", "roll", "roll_row", "roll_rhs", "roll_scale"])
         return self._cache["head"]
 
+    def rail_head(self) -> ca.Function:
+        """``(d, ab_1, t, sigma) -> (carry, roll, roll_row, roll_rhs, roll_scale, d_dot, rail_margin, psi_1)`` on a rail.
+
+        The rail rate ``d_dot = (v* - sigma' - dpsi/dt(y^1)) / (grad psi(y^1) . r)`` with ``y^1 = d r``; the
+        carry of :meth:`head` with ``y^1 = d r`` and ``y^1' = d_dot r``; the roll's right-hand side less
+        ``dtheta/dy . r d_dot``. ``sigma`` is the span now [m] (used only when it is commanded).
+
+        Returns
+        -------
+        casadi.Function
+            Outputs as :meth:`head`'s, then ``d_dot`` [m/s], ``rail_margin`` [-] and ``psi_1`` [m].
+        """
+        if "rail_head" not in self._cache:
+            d, ab, t, sigma = ca.SX.sym("d"), ca.SX.sym("ab", 2), ca.SX.sym("t"), ca.SX.sym("sigma")
+            half, rail = 0.5 * self.chain.xi, ca.DM(self.chain.rail_direction)
+            y1 = d * rail
+            _, _, _, psi1, h1, psit1 = self.task.geometry(y1, t)
+            pivot = ca.dot(h1, rail)
+            d_dot = (ca.SX(self.task.speed(t)) - self.task.span_rate(sigma, t) - psit1) / pivot
+            R = ca.mtimes(rot_z(ab[0]), rot_y(ab[1]))
+            E = R[:, 1:3]
+            theta, g, theta_t, gy = self.task.roll_geometry(y1, R[:, 0], t)
+            carry = pack_carry(R, y1, d_dot * rail, ca.SX.zeros(3, 2), ca.SX.zeros(3, 1), half * E, 1)
+            rhs = self.task.roll_rate(theta, t) - theta_t - ca.dot(gy, rail) * d_dot
+            self._cache["rail_head"] = ca.Function(
+                "spatial_rail_head", [d, ab, t, sigma],
+                [carry, theta, ca.mtimes(g.T, E), rhs, ca.norm_2(g), d_dot, ca.fabs(pivot) / ca.norm_2(h1), psi1],
+                ["d", "ab", "t", "sigma"],
+                ["carry", "roll", "roll_row", "roll_rhs", "roll_scale", "d_dot", "rail_margin", "psi_1"])
+        return self._cache["rail_head"]
+
+    @staticmethod
+    def end_step() -> ca.Function:
+        """One link of the forward kinematics alone: ``(carry, ab_j) -> carry_next``, carry ``(vec R_{j-1}, y^{j-1}, h)``.
+
+        ``h = xi/2`` [m] rides in the carry so that the step has no constant of its own.
+
+        Returns
+        -------
+        casadi.Function
+            ``spatial_end_step``; the carry (13) holds the frame, the centre [m] and ``xi/2`` [m].
+        """
+        carry, ab = ca.SX.sym("carry", 13), ca.SX.sym("ab", 2)
+        R_prev, y, h = ca.reshape(carry[0:9], 3, 3), carry[9:12], carry[12]
+        R = ca.mtimes(R_prev, ca.mtimes(rot_z(ab[0]), rot_y(ab[1])))
+        return ca.Function("spatial_end_step", [carry, ab], [ca.vertcat(ca.vec(R), y + h * (R_prev[:, 0] + R[:, 0]), h)],
+                           ["carry", "ab"], ["carry_next"])
+
+    def span_now(self, q: Any, t: Any) -> Any:
+        """``sigma = psi(y^m) - psi(y^1)`` by an O(m) loop of forward kinematics (needed only for a commanded span).
+
+        Parameters
+        ----------
+        q : casadi.MX, shape (2 m + 1,)
+            Joint coordinates ``(d, a_1, b_1, ...)``.
+        t : casadi.MX
+            Time [s].
+
+        Returns
+        -------
+        casadi.MX or int
+            The span [m] (0 when the span is held: the head does not read it).
+        """
+        if self.task.span is None:
+            return 0
+        m, rail = self.chain.m, ca.DM(self.chain.rail_direction)
+        ab = ca.reshape(q[1:], 2, m)
+        first = ca.mtimes(rot_z(ab[0, 0]), rot_y(ab[1, 0]))
+        y1 = q[0] * rail
+        carry = self.end_step().mapaccum("ends", m - 1)(ca.vertcat(ca.vec(first), y1, 0.5 * self.chain.xi), ab[:, 1:])
+        y_m = carry[9:12, m - 2]
+        return self.task.geometry(y_m, t)[3] - self.task.geometry(y1, t)[3]
+
     def link_step(self) -> ca.Function:
         """One link j >= 2: ``(carry, ab_j, t) -> (carry_next, out_j)``, ``out_j = (e^j, margin, W0_j, vec W1_j)`` (9).
 
@@ -219,8 +299,8 @@ class SpatialRecursion:
 
         Parameters
         ----------
-        q : casadi.MX, shape (2 m,)
-            Joint coordinates [rad].
+        q : casadi.MX, shape (dof,)
+            Joint coordinates [rad] (``d`` [m] first on a rail: dropped here).
         w : casadi.MX, shape (2, m)
             Link rates ``w_j`` (``d_j' = E_j w_j``) [rad/s].
 
@@ -232,7 +312,7 @@ class SpatialRecursion:
         m = self.chain.m
         loop = self.joint_step().mapaccum("joints", m)
         start = ca.vertcat(ca.vec(ca.DM.eye(3)), ca.DM.zeros(3, 1))
-        _, outs = loop(start, ca.vertcat(ca.reshape(q, 2, m), w))
+        _, outs = loop(start, ca.vertcat(ca.reshape(self.chain.angles(q), 2, m), w))
         return ca.vec(outs[0:2, :]), outs[2, :].T
 
     def outputs(self, q: ca.MX, t: ca.MX) -> dict[str, Any]:
@@ -240,23 +320,31 @@ class SpatialRecursion:
 
         Parameters
         ----------
-        q : casadi.MX, shape (2 m,)
-            Joint coordinates [rad].
+        q : casadi.MX, shape (dof,)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
         t : casadi.MX
             Time [s].
 
         Returns
         -------
         dict
-            ``u`` (2 m), ``e`` (2 (m-1): ``e^2_1, e^2_2, e^3_1, ...``), ``s``, ``roll``, ``link_margins``
-            (m-1), ``end_margin``, ``joint_margins`` (m) as MX expressions.
+            ``u`` (2 m; on a rail ``d_dot`` [m/s] first), ``e`` (2 (m-1): ``e^2_1, e^2_2, e^3_1, ...``), ``s``,
+            ``roll``, ``link_margins`` (m-1), ``end_margin``, ``joint_margins`` (m) (on a rail also ``sigma``
+            and ``rail_margin``) as MX expressions.
         """
         m = self.chain.m
-        ab = ca.reshape(q, 2, m)
-        carry0, roll, row, rhs, scale = self.head()(ab[:, 0], t)
+        ab = ca.reshape(self.chain.angles(q), 2, m)
+        if self.chain.rail:
+            carry0, roll, row, rhs, scale, d_dot, rail_margin, psi1 = self.rail_head()(q[0], ab[:, 0], t,
+                                                                                        self.span_now(q, t))
+        else:
+            carry0, roll, row, rhs, scale = self.head()(ab[:, 0], t)
         carries, outs = self.link_step().mapaccum("links", m - 1)(carry0, ab[:, 1:], ca.repmat(t, 1, m - 1))
         s, p, end_margin = self.tail()(carries[:, m - 2], t, row, rhs, scale)
         w = outs[3:5, :] + outs[5:7, :] * p[0] + outs[7:9, :] * p[1]      # w_j = W0_j + W1_j p
         u, joint_margins = self.joint_rates(q, ca.horzcat(p, w))
-        return {"u": u, "e": ca.vec(outs[0:2, :]), "s": s, "roll": roll, "link_margins": outs[2, :].T,
-                "end_margin": end_margin, "joint_margins": joint_margins}
+        out = {"u": u, "e": ca.vec(outs[0:2, :]), "s": s, "roll": roll, "link_margins": outs[2, :].T,
+               "end_margin": end_margin, "joint_margins": joint_margins}
+        if self.chain.rail:
+            out.update(u=ca.vertcat(d_dot, u), sigma=s - psi1, rail_margin=rail_margin)
+        return out

@@ -5,7 +5,9 @@ A :class:`SpatialCurve`-like object (``psi(y, t)``, ``Phi(y, t)``, ``frame(y, t)
 arc length ``psi`` and the normal coordinates ``Phi = (phi_1, phi_2)`` in the transported frame
 ``(t, n_1, n_2)``. The outputs of a spatial chain are ``s = psi(y^m)``, ``e^j = Phi(y^j)`` (j = 2..m)
 and the roll ``theta = atan2(n_2 . d_1, n_1 . d_1)`` with the frame at the closest point of ``y^1``.
-The commands: ``s' = v*``, ``e' = -K e``, ``theta' = theta*' - K (theta - theta*)``.
+The commands: ``s' = v*``, ``e' = -K e``, ``theta' = theta*' - K (theta - theta*)``. On a rail (the
+feed axis) the span ``sigma = psi(y^m) - psi(y^1)`` is one more output: held (``sigma' = 0``) or
+commanded, ``sigma' = sigma*' - K (sigma - sigma*)``.
 """
 from __future__ import annotations
 
@@ -108,6 +110,8 @@ class SpatialTask:
         Error gain K > 0 [1/s].
     roll : callable
         Commanded roll ``t -> theta*(t)`` [rad] (CasADi in, CasADi out).
+    span : callable, optional
+        On a rail, the commanded span ``t -> sigma*(t)`` [m]; None: the span is held.
 
     Attributes
     ----------
@@ -117,10 +121,34 @@ class SpatialTask:
         :func:`roll_function` of ``curve``.
     """
 
-    def __init__(self, curve: Any, speed: Callable[[Any], Any], gain: float, roll: Callable[[Any], Any]) -> None:
-        self.curve, self.speed, self.gain, self.roll = curve, speed, gain, roll
+    def __init__(self, curve: Any, speed: Callable[[Any], Any], gain: float, roll: Callable[[Any], Any],
+                 span: Callable[[Any], Any] | None = None) -> None:
+        self.curve, self.speed, self.gain, self.roll, self.span = curve, speed, gain, roll, span
         self.geometry = spatial_geometry_function(curve)
         self.roll_geometry = roll_function(curve)
+
+    def tracking_rate(self, command: Callable[[Any], Any], value: Any, t: Any) -> Any:
+        """Commanded rate of an output that tracks ``command``: ``c*' - K (value - c*)``.
+
+        Parameters
+        ----------
+        command : callable
+            ``t -> c*(t)`` (CasADi in, CasADi out).
+        value : casadi.SX or casadi.MX
+            The output now.
+        t : casadi.SX or casadi.MX
+            Time [s].
+
+        Returns
+        -------
+        casadi expression
+            The commanded rate.
+        """
+        ts = ca.SX.sym("ts")
+        target = ca.SX(command(ts))
+        target_and_rate = ca.Function("target", [ts], [target, ca.jacobian(target, ts)])
+        c_star, c_star_dot = target_and_rate(t)
+        return c_star_dot - self.gain * (value - c_star)
 
     def roll_rate(self, theta: Any, t: Any) -> Any:
         """Commanded roll rate ``theta*' - K (theta - theta*)``.
@@ -137,8 +165,23 @@ class SpatialTask:
         casadi expression
             ``theta'`` commanded [rad/s].
         """
-        ts = ca.SX.sym("ts")
-        target = ca.SX(self.roll(ts))
-        target_and_rate = ca.Function("roll_target", [ts], [target, ca.jacobian(target, ts)])
-        th_star, th_star_dot = target_and_rate(t)
-        return th_star_dot - self.gain * (theta - th_star)
+        return self.tracking_rate(self.roll, theta, t)
+
+    def span_rate(self, sigma: Any, t: Any) -> Any:
+        """Commanded span rate: ``sigma*' - K (sigma - sigma*)``, or 0 when the span is held.
+
+        Parameters
+        ----------
+        sigma : casadi.SX or casadi.MX
+            The span now [m].
+        t : casadi.SX or casadi.MX
+            Time [s].
+
+        Returns
+        -------
+        casadi expression
+            ``sigma'`` commanded [m/s].
+        """
+        if self.span is None:
+            return 0 * t
+        return self.tracking_rate(self.span, sigma, t)

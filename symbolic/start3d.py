@@ -22,8 +22,8 @@ from .spatial_task import spatial_geometry_function
 MAX_ITER = 60
 
 
-def base_frame(curve: Any, t0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The curve's frame ``(tangent, n_1, n_2)`` at the closest point of the base (the origin) at ``t0``.
+def base_frame(curve: Any, t0: float, base: ArrayLike = (0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The curve's frame ``(tangent, n_1, n_2)`` at the closest point of the base at ``t0``.
 
     Parameters
     ----------
@@ -31,18 +31,21 @@ def base_frame(curve: Any, t0: float) -> tuple[np.ndarray, np.ndarray, np.ndarra
         The goal curve.
     t0 : float
         Time [s].
+    base : array_like, shape (3,)
+        The base ``y^1`` [m] (the origin, or ``d`` along a rail).
 
     Returns
     -------
     tuple of 3 ndarray, each shape (3,)
         Unit tangent and normals.
     """
-    out = curve.functions()(np.zeros(3), float(t0))
+    out = curve.functions()(np.asarray(base, float), float(t0))
     return tuple(np.asarray(v, float).ravel() for v in out[2:5])
 
 
 def first_direction(curve: Any, beta: float, t0: float, axis: ArrayLike | None = None,
-                    fold: ArrayLike | None = None, roll: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+                    fold: ArrayLike | None = None, roll: float = 0.0,
+                    base: ArrayLike = (0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
     """Axis and rolled fold direction of a zig-zag (defaults from the curve's frame at the base).
 
     Parameters
@@ -59,6 +62,8 @@ def first_direction(curve: Any, beta: float, t0: float, axis: ArrayLike | None =
         Direction of the fold (default: the curve's ``n_1`` there); orthogonalised against ``axis``.
     roll : float
         Turn of the fold direction about ``axis`` [rad].
+    base : array_like, shape (3,)
+        The base [m] whose closest point gives the default frame.
 
     Returns
     -------
@@ -72,7 +77,7 @@ def first_direction(curve: Any, beta: float, t0: float, axis: ArrayLike | None =
     """
     if not 0 < abs(beta) < math.pi / 2:
         raise ConfigError(f"start.beta: need 0 < |beta| < pi/2, got {beta}")
-    tangent, n1, _ = base_frame(curve, t0)
+    tangent, n1, _ = base_frame(curve, t0, base)
     ax = tangent if axis is None else unit_vector(axis, "start.axis")
     fo = n1 if fold is None else unit_vector(fold, "start.fold")
     fo = fo - np.dot(fo, ax) * ax
@@ -82,7 +87,7 @@ def first_direction(curve: Any, beta: float, t0: float, axis: ArrayLike | None =
 
 
 def zigzag_start(chain: SpatialChain, curve: Any, beta: float, t0: float = 0.0, axis: ArrayLike | None = None,
-                 fold: ArrayLike | None = None, roll: float = 0.0) -> np.ndarray:
+                 fold: ArrayLike | None = None, roll: float = 0.0, d: float = 0.0) -> np.ndarray:
     """The uniform zig-zag ``d_j = cos(beta) axis + (-1)^(j+1) sin(beta) fold_rolled``.
 
     Parameters
@@ -99,19 +104,22 @@ def zigzag_start(chain: SpatialChain, curve: Any, beta: float, t0: float = 0.0, 
         See :func:`first_direction`.
     roll : float
         Turn of the fold direction about the axis [rad].
+    d : float
+        Rail position [m] (a chain on a rail: put first in ``q``; the frame is taken at the base there).
 
     Returns
     -------
-    ndarray, shape (2 m,)
-        Joint coordinates ``(a_1, b_1, ..., a_m, b_m)`` [rad].
+    ndarray, shape (dof,)
+        Joint coordinates ``(a_1, b_1, ..., a_m, b_m)`` [rad] (``d`` [m] first on a rail).
 
     Raises
     ------
     ConfigError
         See :func:`first_direction`.
     """
-    ax, fo = first_direction(curve, beta, t0, axis, fold, roll)
-    return chain.zigzag(float(beta), ax, fo, 0.0)
+    base = chain.base_point(chain.with_rail_position(np.zeros(2 * chain.m), d))
+    ax, fo = first_direction(curve, beta, t0, axis, fold, roll, base)
+    return chain.zigzag(float(beta), ax, fo, 0.0, d=d)
 
 
 def place_link(geometry: Any, end: np.ndarray, guess: np.ndarray, h: float, t0: float,
@@ -161,7 +169,7 @@ def place_link(geometry: Any, end: np.ndarray, guess: np.ndarray, h: float, t0: 
 
 
 def follow_curve3d(chain: SpatialChain, curve: Any, beta: float, t0: float = 0.0, axis: ArrayLike | None = None,
-                   fold: ArrayLike | None = None, roll: float = 0.0, tol: float = 1e-13) -> np.ndarray:
+                   fold: ArrayLike | None = None, roll: float = 0.0, tol: float = 1e-13, d: float = 0.0) -> np.ndarray:
     """A spatial zig-zag laid along the curve link by link: every centre ``y^2..y^m`` on it.
 
     Link 1 leaves the base as the zig-zag of :func:`zigzag_start` (``d_1 = cos(beta) axis +
@@ -186,35 +194,38 @@ def follow_curve3d(chain: SpatialChain, curve: Any, beta: float, t0: float = 0.0
         Turn of the first link's fold direction about the axis [rad].
     tol : float
         Newton stops once its step is below ``tol`` [-].
+    d : float
+        Rail position [m] (a chain on a rail: the base is ``d`` along the rail, ``d`` first in ``q``).
 
     Returns
     -------
-    ndarray, shape (2 m,)
-        Joint coordinates ``(a_1, b_1, ..., a_m, b_m)`` [rad].
+    ndarray, shape (dof,)
+        Joint coordinates ``(a_1, b_1, ..., a_m, b_m)`` [rad] (``d`` [m] first on a rail).
 
     Raises
     ------
     ConfigError
         ``beta`` or a vector out of range, or a link that cannot be laid on the curve going forward.
     """
-    ax, fo = first_direction(curve, beta, t0, axis, fold, roll)
+    y = chain.base_point(chain.with_rail_position(np.zeros(2 * chain.m), d))
+    ax, fo = first_direction(curve, beta, t0, axis, fold, roll, y)
     geometry, frames, h = spatial_geometry_function(curve), curve.functions(), 0.5 * chain.xi
     directions = [math.cos(beta) * ax + math.sin(beta) * fo]
-    y, s_prev = np.zeros(3), float(frames(np.zeros(3), t0)[0])
+    s_prev = float(frames(y, t0)[0])
     for j in range(2, chain.m + 1):
         end = y + h * directions[-1]
         tangent = np.asarray(frames(end, t0)[2], float).ravel()
         guess = 2 * np.dot(tangent, directions[-1]) * tangent - directions[-1]
-        d = place_link(geometry, end, guess, h, t0, tol)
-        y_new = end + h * d
+        d_j = place_link(geometry, end, guess, h, t0, tol)
+        y_new = end + h * d_j
         out = frames(y_new, t0)
         phi, s = np.asarray(out[1], float).ravel(), float(out[0])
         if not (np.max(np.abs(phi)) < 1e-9 and s > s_prev):
             raise ConfigError(f"start: link {j} cannot be laid on the curve going forward at t0 = {t0} "
                               f"(beta = {beta}); try another beta, axis or fold, or a gentler curve")
-        directions.append(d)
+        directions.append(d_j)
         y, s_prev = y_new, s
-    return chain.joint_angles(np.array(directions))
+    return chain.joint_angles(np.array(directions), d)
 
 
 def bend_angles(chain: SpatialChain, q: ArrayLike) -> np.ndarray:
@@ -224,8 +235,8 @@ def bend_angles(chain: SpatialChain, q: ArrayLike) -> np.ndarray:
     ----------
     chain : SpatialChain
         The manipulator.
-    q : array_like, shape (..., 2 m)
-        Joint coordinates [rad].
+    q : array_like, shape (..., dof)
+        Joint coordinates [rad] (``d`` [m] first on a rail).
 
     Returns
     -------

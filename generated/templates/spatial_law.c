@@ -1,6 +1,8 @@
 /* The spatial law (universal joints, q = (a_1, b_1, ..., a_m, b_m)): every joint angle's cosine and
    sine in vectorised loops, the O(m) recursion over links 2..m (generated per-link step, no
-   trigonometry), the 2x2 end solve for w_1 = p, then the joint rates link by link. */
+   trigonometry), the 2x2 end solve for w_1 = p, then the joint rates link by link.
+   On a rail (CA_RAIL = 1, the feed axis) q = (d, a_1, b_1, ...) and u = (d_dot, ...): the head is
+   ca_spatial_rail_head (below), the rest reads the angles at q + 1 and writes the rates at u + 1. */
 #if defined(__x86_64__) && defined(__GLIBC__) && defined(__GNUC__) && !defined(__clang__) \
     && __GNUC__ >= 6 && !defined(__FAST_MATH__) && !defined(COORDARM_SCALAR_TRIG)
 #if __GLIBC_PREREQ(2, 22)
@@ -96,23 +98,73 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_joints(const casadi_real* c, const 
   return 0;
 }
 
-/* The law at (q, t): u (2m) to u, every other output to out at its offset. */
+#if CA_RAIL
+/* The head on a rail: d_dot (u[0]) from the span row, the rail margin and psi(y^1), and link 1's carry
+   and roll row (generated spatial_rail_head). A commanded span (CA_SPAN) is computed inside the generated
+   head from the end's centre y^m, which this loop sums from the cosines and sines (R_j = R_{j-1} Rz Ry). */
+static int ca_spatial_rail_head(const casadi_real* q, casadi_real t, const casadi_real* c, const casadi_real* s,
+                                casadi_real* carry, casadi_real* roll, casadi_real* row, casadi_real* rhs,
+                                casadi_real* scale, casadi_real* u, casadi_real* out, casadi_real* psi1,
+                                casadi_int* iw, casadi_real* w) {
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+#ifdef CA_SPAN
+  casadi_real R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, N[9], J[9], ym[3], prev[3];
+  casadi_int j, r, k;
+  ym[0] = q[0] * CA_RAIL_X; ym[1] = q[0] * CA_RAIL_Y; ym[2] = q[0] * CA_RAIL_Z;      /* y^1 = d rail */
+  for (j = 0; j < CA_M; ++j) {
+    casadi_real ca_ = c[j], sa = s[j], cb = c[CA_M + j], sb = s[CA_M + j];
+    J[0] = ca_ * cb; J[1] = -sa; J[2] = ca_ * sb;       /* Rz(a) Ry(b), row-major */
+    J[3] = sa * cb;  J[4] = ca_; J[5] = sa * sb;
+    J[6] = -sb;      J[7] = 0;   J[8] = cb;
+    for (r = 0; r < 3; ++r)
+      for (k = 0; k < 3; ++k) N[3 * r + k] = R[3 * r] * J[k] + R[3 * r + 1] * J[3 + k] + R[3 * r + 2] * J[6 + k];
+    for (r = 0; r < 3; ++r) {
+      if (j > 0) ym[r] += CA_HALF_XI * (prev[r] + N[3 * r]);        /* y^j = y^{j-1} + xi/2 (d_{j-1} + d_j) */
+      prev[r] = N[3 * r];
+    }
+    for (k = 0; k < 9; ++k) R[k] = N[k];
+  }
+  arg[3] = ym;
+#else
+  casadi_real sigma = 0;               /* a held span: the head does not read it */
+  (void)c; (void)s;
+  arg[3] = &sigma;
+#endif
+  arg[0] = q; arg[1] = q + 1; arg[2] = &t;
+  res[0] = carry; res[1] = roll; res[2] = row; res[3] = rhs; res[4] = scale;
+  res[5] = u; res[6] = out + CA_OUT_RAIL_MARGIN; res[7] = psi1;
+  return CA_RAIL_HEAD(arg, res, iw, w, 0) ? 2 : 0;
+}
+#endif
+
+/* The law at (q, t): u (2m, d_dot first on a rail) to u, every other output to out at its offset. */
 static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
                   casadi_real* w) {
   casadi_real wt[CA_NW + 1], carry[CA_NC], row[2], rhs, scale, p[2];
+#if CA_RAIL
+  casadi_real psi1;
+#endif
   casadi_real *ang = w + CA_SZ_W + CA_RK4_SCRATCH, *c = ang + 2 * CA_M, *s = c + 2 * CA_M, *ic = s + 2 * CA_M;
   casadi_real *W = ic + CA_M;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   arg[0] = &t; res[0] = wt;
   if (spatial_time_features(arg, res, iw, w, 0)) return 2;
-  ca_spatial_trig(q, ang, c, s, ic);
+  ca_spatial_trig(q + CA_RAIL, ang, c, s, ic);
+#if CA_RAIL
+  if (ca_spatial_rail_head(q, t, c, s, carry, out + CA_OUT_ROLL, row, &rhs, &scale, u, out, &psi1, iw, w)) return 2;
+#else
   arg[0] = q; arg[1] = &t;
   res[0] = carry; res[1] = out + CA_OUT_ROLL; res[2] = row; res[3] = &rhs; res[4] = &scale;
   if (spatial_head(arg, res, iw, w, 0)) return 2;
+#endif
   if (ca_spatial_recursion(c, s, wt, carry, out, W, iw, w)) return 2;
   arg[0] = carry; arg[1] = &t; arg[2] = row; arg[3] = &rhs; arg[4] = &scale;
   res[0] = out + CA_OUT_S; res[1] = p; res[2] = out + CA_OUT_END_MARGIN;
   if (spatial_tail(arg, res, iw, w, 0)) return 2;
-  return ca_spatial_joints(c, s, ic, W, p, u, out, iw, w);
+#if CA_RAIL
+  out[CA_OUT_SIGMA] = out[CA_OUT_S] - psi1;
+#endif
+  return ca_spatial_joints(c, s, ic, W, p, u + CA_RAIL, out, iw, w);
 }
