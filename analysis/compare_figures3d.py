@@ -1,11 +1,12 @@
 """``compare.png`` of a spatial scenario: every method in its own 3-D panel, then the deviations over time.
 
 Top row: one perspective panel per method (none is drawn over another), each with that method's body
-at the same stage times (colour = time), the path at those times (dashed), the obstacles and the base,
+at the same stage times (colour = time), the path at those times (dashed), the obstacles and the base
+(on a rail: the rail, grey, and the base on it at each stage),
 in one shared view box with equal scales (axes in metres). Bottom row: the shape deviation (mean
 distance of the centres ``y^2..y^m`` from the path, in percent of the body length) and the end point's
 arc-length error ``|psi(y^m) - s*(t)|`` over time, on log scales, one line style per method so that
-lines that coincide stay visible.
+lines that coincide stay visible. The obstacles are drawn light (a body inside a cage stays visible).
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ import numpy as np
 from coordarm.simulation.figures import stage_indices
 from coordarm.simulation.figures3d import curve_points, draw_view3d, target_points3d
 from coordarm.simulation.obstacles3d import densified, wireframe
-from coordarm.simulation.spatial_view import clip_to_box, spatial_joints, view_box
+from coordarm.simulation.spatial_view import clip_to_box, rail_ends, spatial_joints, view_box
 
 from .compare_scores import centre_distances
 
@@ -57,6 +58,9 @@ def shared_box(results: Sequence[Any], ctrl: Any, obstacles: Sequence[Any]) -> t
     if getattr(curve, "kind", "") in ("path", "waypoints"):
         pts.append(curve.sample(float(results[0].run.t[0]), n=400, extent=0.0))
     pts += [p for ob in obstacles if ob.kind != "plate" or math.isfinite(ob.extent) for p in wireframe(ob)]
+    ends = rail_ends(chain, math.inf)
+    if ends is not None:                                             # a rail's finite ends are shown
+        pts.append(ends[np.all(np.isfinite(ends), axis=1)])
     return view_box(np.concatenate(pts), chain.xi)
 
 
@@ -82,14 +86,18 @@ def method_scene(run: Any, ctrl: Any, times: np.ndarray, box: tuple[np.ndarray, 
     Returns
     -------
     dict
-        ``joints``, ``curves``, ``targets``, ``lo``, ``hi``, ``obstacles``, ``times`` (the stage times drawn).
+        ``joints``, ``curves``, ``targets``, ``lo``, ``hi``, ``obstacles``, ``bases`` (k, 3) [m], ``rail`` (the
+        rail between its limits, clipped; None for a fixed base) and ``times`` (the stage times drawn).
     """
     lo, hi = box
     inside = times <= run.t[-1] + 1e-9
     idx = stage_indices(run, len(times), list(times[inside]))
     reach = float(np.linalg.norm(hi - lo)) + float(np.max(np.abs(np.concatenate([lo, hi]))))
     lines = [clip_to_box(densified(p), lo, hi) for ob in obstacles for p in wireframe(ob)]
+    ends = rail_ends(ctrl.chain, reach)
     return dict(joints=spatial_joints(ctrl.chain, run.q[idx]), lo=lo, hi=hi, obstacles=lines,
+                bases=ctrl.chain.base_point(run.q[idx]),
+                rail=None if ends is None else clip_to_box(densified(ends, 200), lo, hi),
                 curves=[clip_to_box(curve_points(ctrl.curve, float(run.t[k]), reach), lo, hi) for k in idx],
                 targets=target_points3d(ctrl, s_ref[inside][:len(idx)], run.t[idx]), times=run.t[idx])
 
@@ -172,6 +180,27 @@ def draw_time_plots(axes: Sequence[Any], results: Sequence[Any], ctrl: Any) -> N
         ax.legend(fontsize=8, loc="best")
 
 
+def panel_title(result: Any) -> str:
+    """A method's panel title: its name, where it stopped early, and its contact samples if any.
+
+    Parameters
+    ----------
+    result : MethodRun
+        The scored run.
+
+    Returns
+    -------
+    str
+    """
+    run, scores = result.run, result.scores
+    stopped = run.info.get("stopped", "?")
+    notes = [] if stopped == "completed" else [f"{stopped} at {run.t[-1]:.2f} s"]
+    notes += [f"{scores[k]} samples with {what}" for k, what in (("wall_contacts", "an obstacle contact"),
+                                                                 ("self_collisions", "a self-collision"))
+              if scores.get(k)]
+    return result.method + (f"\n({'; '.join(notes)})" if notes else "")
+
+
 def plot_bodies3d(results: Sequence[Any], scenario: Any, path: str | Path, stages: int = 4) -> Path:
     """``compare.png`` of a spatial scenario (see the module's docstring); a PNG.
 
@@ -198,24 +227,26 @@ def plot_bodies3d(results: Sequence[Any], scenario: Any, path: str | Path, stage
     fine = scenario.t0 + np.linspace(0.0, scenario.duration, 2001)
     s_ref = np.interp(times, fine, reference_arc_length(ctrl, fine, s0))
     n = len(results)
-    fig = Figure(figsize=(4.6 * max(n, 2), 8.6))
-    grid = fig.add_gridspec(2, max(n, 2) * 2, height_ratios=(1.55, 1.0), left=0.05, right=0.98, bottom=0.07,
-                            top=0.9, hspace=0.28, wspace=0.6)
+    fig = Figure(figsize=(4.6 * max(n, 2), 9.2))
+    grid = fig.add_gridspec(2, max(n, 2) * 2, height_ratios=(1.8, 1.0), left=0.05, right=0.98, bottom=0.07,
+                            top=0.86, hspace=0.18, wspace=0.6)
     colours = matplotlib.colormaps["viridis"](np.linspace(0, 0.9, stages))
     for i, r in enumerate(results):
         ax = fig.add_subplot(grid[0, 2 * i:2 * i + 2], projection="3d")
         scene = method_scene(r.run, ctrl, times, box, scenario.obstacles, s_ref)
         drawn = colours[:len(scene["times"])]
         draw_view3d(ax, scene, drawn, [f"t = {t:.1f} s" for t in scene["times"]])
-        stopped = r.run.info.get("stopped", "?")
-        ax.set_title(r.method + ("" if stopped == "completed" else f" ({stopped} at {r.run.t[-1]:.2f} s)"),
-                     fontsize=11, color=STYLES.get(r.method, ("k",))[0])
+        for line in ax.lines:                 # the obstacles lighter, so that a body inside a cage stays visible
+            if line.get_gid() == "obstacle":
+                line.set_alpha(0.3)
+                line.set_linewidth(0.6)
+        ax.set_title(panel_title(r), fontsize=11, color=STYLES.get(r.method, ("k",))[0])
     half = max(n, 2)
     draw_time_plots([fig.add_subplot(grid[1, :half]), fig.add_subplot(grid[1, half:])], results, ctrl)
     handles = [Line2D([], [], color=c, lw=2.5) for c in colours]
     handles += [Line2D([], [], ls="--", color="gray"), Line2D([], [], ls="", marker="x", color="gray", mew=2)]
     names = [f"t = {t:.1f} s" for t in times] + ["path at that time", "target s*(t)"]
-    fig.legend(handles, names, loc="upper center", ncol=len(names), fontsize=9, bbox_to_anchor=(0.5, 0.955))
+    fig.legend(handles, names, loc="upper center", ncol=len(names), fontsize=9, bbox_to_anchor=(0.5, 0.96))
     fig.suptitle(f"{scenario.name}: {ctrl.chain.m} links with universal joints, the same task under each method",
                  fontsize=12)
     path = Path(path)
