@@ -252,3 +252,85 @@ def test_compare_cli_on_a_spatial_scenario_writes_every_method_as_generated_c(tm
     assert "every method as generated C" in md and "| pinv | completed |" in md
     assert data["methods"]["coordinating"]["shape_deviation"] < data["methods"]["pinv"]["shape_deviation"]
     assert (out / "compare.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def rail_scenario(segments, links=12, limits=(0.0, 5.0), speed=0.2, direction=(1.0, 0.0, 0.0), duration=1.0,
+                  step=0.01):
+    return Scenario.from_dict({
+        "name": "rail3d-small",
+        "chain": {"links": links, "link_length": 0.1, "joints": "universal", "joint_limit": 1.4,
+                  "base": {"kind": "rail", "direction": list(direction), "limits": list(limits)}},
+        "curve": {"kind": "path", "start": [-0.3 * c for c in direction], "direction": list(direction),
+                  "normal": [0.0, 1.0, 0.0], "segments": segments},
+        "control": {"gain": K, "speed": speed}, "start": {"kind": "follow", "beta": 0.6},
+        "run": {"duration": duration, "step": step}})
+
+
+def test_spatial_ftl_on_a_straight_path_along_the_rail_feeds_at_v_star_with_every_joint_at_rest():
+    from coordarm.analysis.follow_leader import simulate_ftl
+    from coordarm.analysis.follow_leader3d import SpatialFollowTheLeader
+    direction = (0.6, 0.0, 0.8)
+    sc = rail_scenario([{"line": 5.0}], direction=direction, speed=0.17)
+    ctrl = sc.controller()
+    q0 = sc.start(ctrl)
+    run = simulate_ftl(SpatialFollowTheLeader(ctrl, q0), 1.0, 0.01, "interpreted")
+    assert run.info["stopped"] == "completed" and len(run.t) == 101
+    np.testing.assert_allclose(run.u[:, 0], 0.17, rtol=0, atol=1e-10)                 # d_dot = v*
+    np.testing.assert_allclose(run.q[:, 0], q0[0] + 0.17 * run.t, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(run.u[:, 1:], 0.0, rtol=0, atol=1e-10)                 # joints at rest
+    np.testing.assert_allclose(run.q[:, 1:], np.broadcast_to(q0[1:], run.q[:, 1:].shape), rtol=0, atol=1e-12)
+
+
+def test_spatial_ftl_on_a_rail_keeps_every_centre_on_a_banked_path_and_the_end_point_at_s_star():
+    from coordarm.analysis.follow_leader import simulate_ftl
+    from coordarm.analysis.follow_leader3d import SpatialFollowTheLeader
+    sc = rail_scenario([{"line": 1.6}, {"arc": 0.7, "radius": 0.6, "bank": 1.0}, {"arc": 0.6, "radius": 0.7,
+                                                                                  "bank": 2.5}, {"line": 2.0}],
+                       links=20, speed=0.25, duration=3.0)
+    ctrl = sc.controller()
+    q0 = sc.start(ctrl)
+    law = SpatialFollowTheLeader(ctrl, q0)
+    runs = [simulate_ftl(law, 3.0, 0.01, b) for b in ("compiled", "interpreted")]
+    # the same body (centres by forward kinematics) from both; the joint angles of the same directions differ by
+    # more (rounding grows by about 1 / cos b_j per joint when the angles are read off the directions)
+    np.testing.assert_allclose(*(ctrl.chain.centres_np(r.q) for r in runs), rtol=0, atol=1e-12)
+    run = runs[0]
+    assert run.info["stopped"] == "completed" and run.info["backend"] == "compiled"
+    Y = ctrl.chain.centres_np(run.q)                                  # forward kinematics of q = (d, a, b, ...)
+    np.testing.assert_allclose(Y[:, 0], run.q[:, :1] * np.array([1.0, 0.0, 0.0]), rtol=0, atol=1e-15)
+    s_end = np.array([float(ctrl.curve.functions()(y, 0.0)[0]) for y in Y[:, -1]])
+    assert 1.6 < s_end[0] < 2.02 and s_end[-1] > 2.44            # from the first banked arc past the second
+    dist = brute_force_distance(ctrl.curve, Y.reshape(-1, 3))
+    assert np.max(dist) < SPACING ** 2 / (8 * 0.6) + 1e-12
+    np.testing.assert_allclose(s_end, law.s0 + 0.25 * run.t, rtol=0, atol=1e-10)
+    assert np.max(np.abs(np.diff(run.q[:, 1:], axis=0))) < 0.05         # the laid chain moves continuously
+
+
+def test_spatial_ftl_needs_a_start_on_the_path():
+    from coordarm.analysis.follow_leader3d import SpatialFollowTheLeader
+    sc = rail_scenario([{"line": 5.0}])
+    ctrl = sc.controller()
+    q0 = sc.start(ctrl)
+    bent = q0.copy()
+    bent[3] += 0.05
+    with pytest.raises(ConfigError, match="on the path"):
+        SpatialFollowTheLeader(ctrl, bent)
+
+
+def test_compare_on_a_spatial_rail_robot_runs_all_four_methods(tmp_path):
+    from coordarm.analysis.compare import SCORE_TABLE, write_outputs
+    sc = rail_scenario([{"line": 1.0}, {"arc": 0.8, "radius": 0.6, "bank": 1.2}, {"line": 2.0}], links=10,
+                       limits=(0.0, 0.5), speed=0.2, duration=3.0, step=0.005)
+    assert parse_methods(None, sc) == ["coordinating", "pinv", "dls", "ftl"]
+    results = compare(sc)
+    by = {r.method: r for r in results}
+    for r in results:
+        assert list(r.scores) == [row.key for row in SCORE_TABLE]          # peak_rail_rate included
+        assert r.run.q[:, 0].max() <= 0.5
+    ftl = by["ftl"]
+    assert ftl.scores["max_deviation"] < 1e-9 and ftl.scores["final_s_error"] < 1e-9
+    assert ftl.scores["outcome"] in ("completed", "rail_limit")
+    coord = by["coordinating"].run
+    assert by["coordinating"].scores["peak_rail_rate"] == pytest.approx(np.max(np.abs(coord.u[:, 0])), rel=1e-12)
+    paths = write_outputs(sc, results, tmp_path)
+    assert "peak rail rate [m/s]" in paths["md"].read_text() and paths["png"].stat().st_size > 10_000
