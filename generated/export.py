@@ -15,7 +15,7 @@ import casadi as ca
 import numpy as np
 
 from coordarm.symbolic import BuildError, CoordinatingController, SpatialController
-from coordarm.symbolic.outputs import SPATIAL_LAW_OUTPUTS, outputs_of
+from coordarm.symbolic.outputs import outputs_of, spatial_outputs_of
 
 from .build import DEFAULT_FLAGS
 from .codegen import assemble_source, functions, structured_law
@@ -104,7 +104,7 @@ def _layout(m: int, rail: bool = False, spatial: bool = False) -> tuple[str, str
     on a ``rail`` with ``sigma`` and ``rail_margin``; of a ``spatial`` chain its own table), its
     ``COORDARM_LAW_OUT_<NAME>`` offset macros, and its length."""
     lines, macros, start = [], [], 0
-    for o in (SPATIAL_LAW_OUTPUTS if spatial else outputs_of(rail)):
+    for o in (spatial_outputs_of(rail) if spatial else outputs_of(rail)):
         if o.name == "u":
             continue
         width = o.width(m)
@@ -161,17 +161,20 @@ def export_law(ctrl: CoordinatingController | SpatialController, q0: np.ndarray,
     q0 = chain.check_q(q0, "q0")
     m, rail = chain.m, chain.rail
     b_text = "1 (identity)" if np.all(b == 1) else (_numbers(b[:4]) + (", ..." if m > 4 else ""))
-    if rail:
-        b, b_text = np.r_[1.0, b], "1 for d, then " + b_text
+    if rail:                                      # a spatial chain's b already spans every joint (B = I)
+        b, b_text = (b if spatial else np.r_[1.0, b]), "1 for d, then " + b_text
     layout, offsets, n_outputs = _layout(m, rail, spatial)
-    q_text = ("a_1, b_1, ..., a_m, b_m [rad] (universal joints: R_j = R_{j-1} Rz(a_j) Ry(b_j), link direction R_j e_x)"
+    angles = "a_1, b_1, ..., a_m, b_m [rad] (universal joints: R_j = R_{j-1} Rz(a_j) Ry(b_j), link direction R_j e_x)"
+    q_text = (("d [m] (the base's position along the rail of direction "
+               f"{[round(float(v), 6) for v in chain.rail_direction]}), then " if rail else "") + angles
               if spatial else "d [m] (the base's position along the rail at angle "
               f"{chain.rail_angle!r} rad), then q_1..q_m [rad]" if rail else
               "q_1..q_m [rad] (q_1 is the base joint, alpha_j = q_1 + ... + q_j)")
     texts = {
         "coordarm_law.c": law_source(ctrl),
         "coordarm_law.h": render("export/coordarm_law.h", chain_kind=_CHAIN_KIND[spatial],
-                                 singular_text=_SINGULAR_TEXT[spatial], scenario=scenario or "?",
+                                 singular_text=_SINGULAR_TEXT[spatial] + (", or the rail margin" if spatial and rail
+                                                                           else ""), scenario=scenario or "?",
                                  source=source or "?", m=m,
                                  n_q=chain.dof, base=" on a rail" if rail else "", q_text=q_text,
                                  u_text=" (d_dot [m/s] first)" if rail else "",

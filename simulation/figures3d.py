@@ -19,7 +19,7 @@ import numpy as np
 
 from .figures import envelope_indices, stage_indices
 from .obstacles3d import densified, wireframe
-from .spatial_view import clip_to_box, rail_ends, roll_command, spatial_joints, view_box
+from .spatial_view import clip_to_box, rail_ends, roll_command, span_command, spatial_joints, view_box
 
 #: The floor of the logarithmic error plots [m or rad]: below it lie only rounding errors.
 FLOOR = 1e-17
@@ -345,14 +345,20 @@ def tracking_series(run: Any, ctrl: Any) -> dict[str, np.ndarray]:
     -------
     dict of str to ndarray, each shape (N+1,)
         ``emax`` [m], ``s_err`` [m], ``roll`` and ``roll_star`` [rad], ``roll_err`` [rad] (wrapped to
-        (-pi, pi]), ``link``, ``end``, ``joint`` margins [-].
+        (-pi, pi]), ``link``, ``end``, ``joint`` margins [-]; on a rail (``run.sigma``) also ``span_err`` [m]
+        (``sigma - sigma*``, or ``sigma - sigma(0)`` when held) and the ``rail`` margin [-].
     """
     roll = np.asarray(run.roll, float)
     roll_star = roll_command(ctrl, run.t)
-    return dict(emax=np.max(np.abs(run.e), axis=1), s_err=run.s - reference_arc_length(run), roll=roll,
-                roll_star=roll_star, roll_err=np.angle(np.exp(1j * (roll - roll_star))),
-                link=np.min(run.link_margins, axis=1), end=np.asarray(run.end_margin, float),
-                joint=np.min(run.joint_margins, axis=1))
+    out = dict(emax=np.max(np.abs(run.e), axis=1), s_err=run.s - reference_arc_length(run), roll=roll,
+               roll_star=roll_star, roll_err=np.angle(np.exp(1j * (roll - roll_star))),
+               link=np.min(run.link_margins, axis=1), end=np.asarray(run.end_margin, float),
+               joint=np.min(run.joint_margins, axis=1))
+    if getattr(run, "sigma", None) is not None:
+        sigma = np.asarray(run.sigma, float)
+        target = span_command(ctrl, run.t)
+        out.update(span_err=sigma - (sigma[0] if target is None else target), rail=np.asarray(run.rail_margin, float))
+    return out
 
 
 def draw_decay(ax: Any, t: np.ndarray, values: np.ndarray, gain: float, label: str, ylabel: str,
@@ -420,6 +426,9 @@ def plot_spatial_tracking(run: Any, ctrl: Any, path: str | Path, thresholds: dic
     draw_decay(axes[0], t, s["emax"], ctrl.gain, "max$_j$ |e$^j$| (normal deviations)", "deviation [m]",
                "max|e(0)|")
     axes[1].plot(t, s["s_err"], label="s - (s(0) + ∫v*)")
+    if "span_err" in s:                                     # a rail: the span's error too
+        axes[1].plot(t, s["span_err"], label="span σ - σ*" if getattr(ctrl, "span", None) is not None
+                     else "span σ - σ(0) (held)")
     axes[1].set_ylabel("s error [m]")
     axes[2].plot(t, s["roll"], label="roll θ")
     axes[2].plot(t, s["roll_star"], "--", label="command θ*")
@@ -428,6 +437,8 @@ def plot_spatial_tracking(run: Any, ctrl: Any, path: str | Path, thresholds: dic
     axes[4].plot(t, s["link"], label="smallest link margin")
     axes[4].plot(t, s["end"], label="end margin")
     axes[4].plot(t, s["joint"], label="smallest joint margin |cos b$_j$|")
+    if "rail" in s:
+        axes[4].plot(t, s["rail"], label="rail margin")
     for name, value in (thresholds or {}).items():
         axes[4].axhline(value, ls=":", color="gray", label=f"{name} threshold")
     axes[4].set_ylim(bottom=0)

@@ -32,10 +32,13 @@ A spatial chain (``[chain] joints = "universal"``: two angles per joint, q = (a_
     [curve]     kind = "line": point = [x, y, z] (motions), direction, normal, rotation = {axis, angle}
                 kind = "arc" | "circle": centre, radius, normal; kind = "path": start, direction,
                 normal, segments = [{line = L}, {arc = A, radius = R, bank = b}]; kind = "waypoints"
-    [control]   roll = motion [rad] (default: held at the start's roll); no span, governor, damping
+    [control]   roll = motion [rad] (default: held at the start's roll); span = motion (rail only, as
+                planar); no governor, damping
     [start]     kind = "zigzag" | "follow", beta, axis = [x, y, z] (default: the curve's tangent at
                 the base), fold = [x, y, z] (default: its n_1), roll = 0.0 [rad]
-    [chain]     radius = link_length / 10 [m] (links are capsules), clearance = 0.0 [m] (extra distance)
+    [chain]     radius = link_length / 10 [m] (links are capsules), clearance = 0.0 [m] (extra distance),
+                base = "fixed" | {kind = "rail", direction = [x, y, z], limits = [lo, hi]} (a feed axis:
+                q = (d, a_1, b_1, ...), the base at d along the unit direction)
     [[obstacles]] kind = "plate" | "sphere" | "cylinder" | "box" (keys: :mod:`.obstacles3d`)
 """
 from __future__ import annotations

@@ -125,3 +125,26 @@ def rail_ends(chain: SpatialChain, reach: float) -> np.ndarray | None:
         return None
     lo, hi = (float(np.clip(v, -reach, reach)) for v in chain.rail_limits)
     return np.array([lo, hi])[:, None] * chain.rail_direction
+
+
+def span_command(ctrl: Any, times: np.ndarray) -> np.ndarray | None:
+    """The commanded span ``sigma*(t)`` of a spatial controller on a rail at ``times``, or None when it is held.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (its ``span``, a callable of ``t``, or None).
+    times : ndarray, shape (k,)
+        Times [s].
+
+    Returns
+    -------
+    ndarray, shape (k,), or None
+        ``sigma*`` [m].
+    """
+    if getattr(ctrl, "span", None) is None:
+        return None
+    times = np.asarray(times, float).ravel()
+    t = ca.SX.sym("t")
+    f = ca.Function("span_command", [t], [0 * t + ctrl.span(t)])
+    return np.asarray(f.map(len(times))(ca.DM(times).T), float).ravel() if len(times) else np.empty(0)

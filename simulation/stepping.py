@@ -399,7 +399,8 @@ def _advance(ctrl, compiled, q, times, step, layout):
         d = split(D, ctrl.chain.m, ctrl.chain.rail) if layout is PLANAR else spatial_split(D, ctrl.chain.m, ctrl.chain.rail)
         return Q, {a: d[a] for a in ctrl.run_outputs}
     Q, *outs = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
-    return Q.T, {a: (v.ravel() if a in ctrl.SCALAR_OUTPUTS else v.T) for a, v in zip(ctrl.run_outputs, outs)}
+    scalars = getattr(ctrl, "SCALAR_OUTPUTS", layout.scalars)          # a spatial rail adds sigma, rail_margin
+    return Q.T, {a: (v.ravel() if a in scalars else v.T) for a, v in zip(ctrl.run_outputs, outs)}
 
 
 def _thin(part: Run, k0: int, every: int) -> Run:

@@ -1,12 +1,15 @@
 """The spatial law on a rail compiled (the rail head of templates/spatial_law.c): the same outputs as the
 interpreted law, held and commanded span, structured and dense, warning-free; the chunk as interpreted RK4."""
 import re
+import shutil
+import subprocess
 
 import numpy as np
 import pytest
 
 from coordarm.generated import compile as compile_controller
 from coordarm.generated.build import build
+from coordarm.generated.export import export_law
 from coordarm.generated.spatial_codegen import generate_spatial_source
 from coordarm.symbolic.curves3d import Line3D
 from coordarm.symbolic.motions import Sinusoid
@@ -79,3 +82,22 @@ def test_the_spatial_rail_library_compiles_without_a_warning_and_its_code_does_n
     assert lib.path.is_file()
     texts = [generate_spatial_source(controller(m, "line", 0.3)).text for m in (4, 400)]
     assert re.sub(r"\d+", "", texts[0]) == re.sub(r"\d+", "", texts[1])  # only the numbers of the sizes differ
+
+
+@pytest.mark.skipif(shutil.which("make") is None or shutil.which("cc") is None, reason="needs make and cc")
+def test_the_export_of_a_spatial_rail_law_builds_warning_free_and_its_example_computes_the_law(tmp_path):
+    ctrl = controller(4, "line", span=0.3)
+    q0 = random_state(ctrl.chain, np.random.default_rng(3))
+    export_law(ctrl, q0, tmp_path, step=0.01, duration=0.05, scenario="test")
+    header = (tmp_path / "coordarm_law.h").read_text()
+    assert "COORDARM_LAW_OUT_SIGMA" in header and "rail of direction" in header
+    subprocess.run(["make", "-C", str(tmp_path), "WARN=-std=c99 -Wall -Wextra -Werror"], check=True,
+                   capture_output=True)
+    first = subprocess.run([str(tmp_path / "example"), "1"], check=True, capture_output=True, text=True)
+    row = np.array(first.stdout.splitlines()[0].split(), dtype=float)   # t, q (9), u (9), outputs
+    want = ctrl.evaluate(q0, 0.0)
+    assert row[0] == 0.0 and np.array_equal(row[1:10], q0)
+    assert_close(row[10:19], want["u"], rtol=1e-10)
+    rest = np.concatenate([want["e"], [want["s"], want["roll"]], want["link_margins"], [want["end_margin"]],
+                           want["joint_margins"], [want["sigma"], want["rail_margin"]]])
+    assert_close(row[19:], rest, rtol=1e-10)

@@ -9,16 +9,19 @@ import pytest
 
 from coordarm.analysis.linearise import linearise
 from coordarm.analysis.replay import load
+from coordarm import sweep
 from coordarm.cli import main
-from coordarm.simulation.figures3d import stage_scene
+from coordarm.simulation.figures3d import plot_spatial_tracking, stage_scene, tracking_series
 from coordarm.simulation.mcap_writer import RunLogger
 from coordarm.simulation.physical3d import link_ends
 from coordarm.simulation.run import simulate
 from coordarm.simulation.scenario import Scenario, load_scenario
 from coordarm.simulation.scene3d import SpatialSceneBuilder
+from coordarm.simulation.spatial_view import span_command
 from coordarm.simulation.summary import summary_lines
 from coordarm.simulation.sweep_points import run_point
-from coordarm.symbolic import ConfigError, SpatialChain
+from coordarm.symbolic import ConfigError, SingularityError, SpatialChain
+from coordarm.symbolic.motions import Sinusoid
 from coordarm.symbolic.spatial_controller import SpatialController
 
 RAIL = [1.0, 0.5, 0.0]
@@ -132,6 +135,17 @@ def test_the_linearised_rail_loop_is_the_design(logged):
     assert lin.free == 1 and lin.deviation_from_design(2.0) < 1e-9
 
 
+def test_the_tracking_figure_shows_the_span_error_and_the_rail_margin(logged, tmp_path):
+    _, ctrl, run, _ = logged
+    ser = tracking_series(run, ctrl)
+    np.testing.assert_array_equal(ser["span_err"], run.sigma - run.sigma[0])
+    np.testing.assert_array_equal(ser["rail"], run.rail_margin)
+    commanded = SpatialController(ctrl.chain, ctrl.curve, 2.0, 0.1, roll=0.2, span=Sinusoid(0.1, 2.0, 0.5))
+    np.testing.assert_allclose(span_command(commanded, run.t), 0.5 + 0.1 * np.sin(2.0 * run.t), atol=1e-15)
+    assert span_command(ctrl, run.t) is None
+    assert plot_spatial_tracking(run, ctrl, tmp_path / "t.png").read_bytes()[:4] == b"\x89PNG"
+
+
 def test_the_stage_figure_and_the_scene_draw_the_rail_and_the_base_on_it(logged):
     scenario, ctrl, run, _ = logged
     idx = np.array([0, len(run.t) - 1])
@@ -167,6 +181,13 @@ def test_a_sweep_over_the_start_roll_and_the_links_holds_each_points_roll():
     assert max(r["max_roll_error"] for r in rows) < 1e-9
 
 
+def test_a_sweep_of_the_port_preset_over_the_start_roll(tmp_path):
+    df = sweep("port", {"start.roll": [0.0, 0.3], "run.duration": [0.1]}, client="serial", out=tmp_path)
+    assert list(df["outcome"]) == ["completed"] * 2, list(df["message"])
+    assert df["max_roll_error"].max() < 1e-9 and (df["min_clearance"] > 0.02).all()
+    assert (df["min_end_margin"] > 0.15).all() and (df["min_joint_margin"] > 0.9).all()
+
+
 def test_port_and_pipe3d_start_valid_and_run_on_the_command_line(tmp_path, capsys):
     assert main(["run", "port", "--duration", "0.3", "--out", str(tmp_path / "port.mcap"), "--no-figures"]) == 0
     text = capsys.readouterr().out
@@ -179,3 +200,26 @@ def test_port_and_pipe3d_start_valid_and_run_on_the_command_line(tmp_path, capsy
         assert sc.config.chain.joint_limit == 1.4 and sc.chain().rail and math.isclose(sc.chain().rail_direction[0], 1.0)
     port = load_scenario("port").spec["obstacles"][0]
     assert port["kind"] == "plate" and port["holes"] == [{"centre": [1.65, 0.0, 0.0], "radius": 0.05}]     # 0.1 m
+
+
+def test_a_rail_margin_below_the_link_threshold_stops_the_run_as_a_singularity():
+    data = rail_scenario(chain={"base": {"kind": "rail", "direction": [0.3, 1.0, 0.0], "limits": [0.1, 1.0]}},
+                         thresholds={"link": 0.5})
+    data["curve"].update(direction=[1.0, 0.0, 0.0], normal=[0.0, 1.0, 0.0])
+    data["start"] = {"kind": "zigzag", "beta": 0.6, "axis": [1.0, 0.0, 0.0], "fold": [0.0, 1.0, 0.0]}
+    sc = Scenario.from_dict(data, "across.toml")
+    ctrl = sc.controller()
+    with pytest.raises(SingularityError) as err:
+        simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, thresholds=sc.thresholds, backend="interpreted")
+    assert err.value.kind == "rail" and err.value.margin == pytest.approx(0.3 / math.hypot(0.3, 1.0), abs=1e-12)
+    assert err.value.run.info["stopped"] == "singularity"
+
+
+def test_a_commanded_span_in_the_scenario_decays_to_its_command_like_exp_minus_K_t():
+    sc = Scenario.from_dict(rail_scenario(control={"span": [0.4, {"kind": "ramp", "rate": 0.02}]}), "span.toml")
+    ctrl = sc.controller()
+    run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted")
+    target = 0.4 + 0.02 * run.t
+    np.testing.assert_allclose(run.sigma - target, (run.sigma[0] - 0.4) * np.exp(-2.0 * run.t), rtol=0, atol=1e-9)
+    assert abs(run.sigma[0] - 0.4) > 1e-2                  # not vacuous: the start's span is not the command
+    np.testing.assert_allclose(run.s, run.s[0] + 0.1 * run.t, rtol=0, atol=1e-9)
