@@ -16,6 +16,10 @@ The chains of the scenarios have ``B = I``, so ``u = qdot``. On a rail (``q = (d
 the rail is one more column of ``dy^m/dq`` (the rail direction: every centre slides with the
 base) and the joint-centering term leaves ``d`` free (``z_d = 0``): it keeps the body compact,
 not the base in place.
+
+A spatial chain (:class:`~coordarm.symbolic.SpatialChain`, ``q = (a_1, b_1, ...)``, ``B = I``) has
+three task rows (along the curve and the two normal coordinates ``Phi``) and a 3 x 3 Gram matrix
+(:mod:`.spatial_baselines`); everything else is the same.
 """
 from __future__ import annotations
 
@@ -29,9 +33,11 @@ from coordarm.generated.build import build
 from coordarm.generated.codegen import CODEGEN_OPTIONS, Source
 from coordarm.simulation.choices import COMPARE_BACKENDS
 from coordarm.simulation.run import Run
-from coordarm.symbolic import ConfigError, CoordinatingController, PlanarChain
+from coordarm.symbolic import ConfigError, CoordinatingController, PlanarChain, SpatialChain
 from coordarm.symbolic.integrator import rk4
 from coordarm.symbolic.near_singular import damping_factor
+
+from .spatial_baselines import inverse3, singular_value_ratio3, spatial_end_point_task
 
 #: Baselines implemented here.
 BASELINES = ("pinv", "dls")
@@ -72,7 +78,7 @@ class EndPointRate:
 
     def __post_init__(self) -> None:
         chain = self.ctrl.chain
-        if chain.b_diagonal is None or not np.all(chain.b_diagonal == 1):
+        if not isinstance(chain, SpatialChain) and (chain.b_diagonal is None or not np.all(chain.b_diagonal == 1)):
             raise ConfigError("baselines: need B = I (qdot = u)")
         self.centre = np.asarray(self.centre, dtype=float)
         if self.centre.shape != (chain.dof,):
@@ -84,6 +90,8 @@ class EndPointRate:
         chain, ctrl = self.ctrl.chain, self.ctrl
         m = chain.m
         q, t = ca.SX.sym("q", chain.dof), ca.SX.sym("t")
+        if isinstance(chain, SpatialChain):
+            return self._spatial_expressions(q, t)
         weights = np.full(m, chain.xi)
         weights[[0, -1]] = 0.5 * chain.xi          # y^m = y^1 + sum_j w_j d(alpha_j)
         alpha = ca.cumsum(chain.revolute(q))
@@ -111,6 +119,21 @@ class EndPointRate:
         u = ca.mtimes(A.T, ca.mtimes(Ginv, r)) + z - ca.mtimes(A.T, ca.mtimes(Ginv, ca.mtimes(A, z)))
         return q, t, y, A, r, u
 
+    def _spatial_expressions(self, q: ca.SX, t: ca.SX):
+        """:meth:`_expressions` of a spatial chain: three task rows (along, two across), a 3 x 3 Gram matrix."""
+        y, A, r = spatial_end_point_task(self.ctrl, q, t)
+        free = np.ones(self.ctrl.chain.dof)
+        if self.ctrl.chain.rail:                   # the rail's d is left free by the centering term
+            free[0] = 0.0
+        G = ca.mtimes(A, A.T)
+        if self.damping:
+            lam2 = damping_factor(singular_value_ratio3(G), self.damping["lambda"], self.damping["band"])
+            G = G + lam2 * ca.SX.eye(3)
+        Ginv = inverse3(G)
+        z = -self.centering * ca.DM(free) * (q - ca.DM(self.centre))
+        u = ca.mtimes(A.T, ca.mtimes(Ginv, r)) + z - ca.mtimes(A.T, ca.mtimes(Ginv, ca.mtimes(A, z)))
+        return q, t, y, A, r, u
+
     def law(self) -> ca.Function:
         """``(q, t) -> u`` (dof,) [rad/s; ``d_dot`` m/s first on a rail]; not finite where ``A A^T`` is singular (pinv).
 
@@ -127,7 +150,7 @@ class EndPointRate:
         return self._cache["law"]
 
     def task(self, q, t: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``y^m`` (2,) [m], the task Jacobian ``A`` (2, dof) [m/rad] and the commanded rates ``r`` (2,) [m/s].
+        """``y^m`` [m], the task Jacobian ``A`` [m/rad] and the commanded rates ``r`` [m/s] (k = 2 planar, 3 spatial).
 
         Parameters
         ----------
@@ -138,11 +161,11 @@ class EndPointRate:
 
         Returns
         -------
-        y : (2,) ndarray
+        y : (k,) ndarray
             Central point ``y^m`` of the last link [m].
-        A : (2, dof) ndarray
-            Task Jacobian (along, across the curve) [m/rad].
-        r : (2,) ndarray
+        A : (k, dof) ndarray
+            Task Jacobian (along, across the curve; spatial: across in ``n_1``, ``n_2``) [m/rad].
+        r : (k,) ndarray
             Commanded rates ``(v* - psi_t, -K phi - phi_t)`` [m/s].
 
         Raises

@@ -1,19 +1,13 @@
 """The same scenario under coordarm's law and the classic baselines, scored side by side.
 
-Every method's run is scored from its joint trajectory alone, by the same code:
+Every method's run is scored from its joint trajectory alone, by the same code: the one table of
+scores :data:`.compare_scores.SCORE_TABLE` (deviations, the shape deviation as a percentage of the
+body length, contacts, peak rates, the end point's arc-length error, the time per step).
 
-* ``max_deviation``: the largest ``|phi|`` of any central point ``y^2..y^m`` over the run [m]
-  (body following; ``y^1`` is the pinned base);
-* ``wall_contacts``, ``self_collisions``: samples (at :data:`CONTACT_RATE`) in which some link
-  touches an obstacle, or two non-adjacent links touch each other (within the chain's
-  clearance; :func:`coordarm.simulation.physical.check_configuration`);
-* ``peak_u``, ``peak_joint_rate``: largest ``|u|`` and ``|qdot| = |B u|`` of the revolute joints [rad/s];
-* ``peak_rail_rate`` (a robot on a rail only): largest ``|d_dot|`` [m/s];
-* ``final_s_error``: ``|psi(y^m) - (s(0) + integral of v*)|`` at the run's last sample [m];
-* ``step_time``: wall time of the stepping loop per RK4 step [s] (``ftl``: of its one mapped call per sample).
-
-``ftl`` (:mod:`.follow_leader`) applies to robots on a rail only. The coordinating law of a rail
-robot runs in CasADi's virtual machine when its generated C is not available.
+Planar chains and spatial chains (universal joints) alike: ``pinv`` and ``dls`` drive the end point
+(three task rows in 3-D, :mod:`.spatial_baselines`), ``ftl`` (:mod:`.follow_leader`,
+:mod:`.follow_leader3d`) applies to robots on a rail only. The coordinating law of a rail robot runs
+in CasADi's virtual machine when its generated C is not available.
 """
 from __future__ import annotations
 
@@ -32,17 +26,16 @@ from coordarm.symbolic import (BuildError, CollisionError, ConfigError, Coordina
                                SingularityError)
 
 from .baselines import BACKENDS, BASELINES, EndPointRate, simulate_baseline, stop_at_rail_limit
+from .compare_figures3d import plot_bodies3d
+from .compare_scores import CONTACT_RATE, RAIL_SCORES, SCORE_TABLE, SCORES, score, score_rows
 from .follow_leader import FollowTheLeader, simulate_ftl
+from .follow_leader3d import SpatialFollowTheLeader, check_rail
 
 #: Methods of ``coordarm compare`` in table order.
 METHODS = COMPARE_METHODS
-#: Scores of one method, in table and JSON order.
-SCORES = ("outcome", "max_deviation", "wall_contacts", "self_collisions", "peak_u", "peak_joint_rate",
-          "final_s_error", "step_time")
-#: The extra score of a robot on a rail (after ``peak_joint_rate`` in the table, last in the JSON).
-RAIL_SCORES = ("peak_rail_rate",)
-#: Samples per simulated second at which contacts are counted [Hz].
-CONTACT_RATE = 100.0
+__all__ = ["CONTACT_RATE", "DEFAULT_DLS", "METHODS", "RAIL_SCORES", "SCORES", "SCORE_TABLE", "MethodRun",
+           "available_methods", "compare", "markdown_table", "parse_methods", "run_method", "score", "text_table",
+           "to_json", "write_outputs"]
 #: Damping of the ``dls`` baseline unless the scenario sets ``[control] damping``.
 DEFAULT_DLS = {"kind": "dls", "lambda": 0.01, "band": 0.1}
 
@@ -79,14 +72,7 @@ def available_methods(scenario: Scenario) -> tuple[str, ...]:
     tuple of str
         Names from :data:`METHODS`, in that order.
 
-    Raises
-    ------
-    ConfigError
-        A spatial scenario (the baselines are planar).
     """
-    if scenario.universal:
-        raise ConfigError("chain.joints: 'universal': the baselines (pinv, dls, ftl) and the comparison are "
-                          "planar; a spatial scenario is not compared yet")
     rail = scenario.chain().rail
     return tuple(m for m in METHODS if m != "ftl" or rail)
 
@@ -118,6 +104,11 @@ def parse_methods(text: str | None, scenario: Scenario) -> list[str]:
         if n not in METHODS:
             raise ConfigError(f"--methods: unknown method {n!r}; choose from {', '.join(METHODS)}")
         if n not in available_methods(scenario):
+            if scenario.universal:
+                try:
+                    check_rail(scenario.chain(), scenario.name)
+                except ConfigError as err:
+                    raise ConfigError(f"--methods: {err}") from None
             raise ConfigError(f"--methods: {n!r} needs a robot with an introduction axis (rail); "
                               f"scenario {scenario.name!r} has none")
     if not names:
@@ -181,53 +172,13 @@ def _run(method: str, scenario: Scenario, ctrl: CoordinatingController, backend:
         damping = (scenario.config.control.damping or DEFAULT_DLS) if method == "dls" else None
         law = EndPointRate(ctrl, q0, damping)
         return simulate_baseline(law, q0, scenario.duration, scenario.step, scenario.t0, backend=backend)
+    if method == "ftl" and scenario.universal:
+        check_rail(ctrl.chain, scenario.name)
+        return simulate_ftl(SpatialFollowTheLeader(ctrl, q0, scenario.t0), scenario.duration, scenario.step,
+                            backend)
     if method == "ftl" and ctrl.chain.rail:
         return simulate_ftl(FollowTheLeader(ctrl, q0, scenario.t0), scenario.duration, scenario.step, backend)
     raise ConfigError(f"method: {method!r} is not available for scenario {scenario.name!r}")
-
-
-def score(run: Run, scenario: Scenario) -> dict[str, Any]:
-    """The scores of one run (keys :data:`SCORES`), computed from ``run.q`` and ``run.u`` only.
-
-    Parameters
-    ----------
-    run : Run
-        A run of ``scenario``.
-    scenario : Scenario
-        Its scenario (chain, curve, obstacles, step).
-
-    Returns
-    -------
-    dict of str to Any
-        ``outcome`` (str), ``max_deviation`` [m], ``wall_contacts`` and ``self_collisions``
-        (contact sample counts), ``peak_u`` [rad/s], ``peak_joint_rate`` [rad/s],
-        ``final_s_error`` [m], ``step_time`` (wall time per step) [s]; on a rail also
-        ``peak_rail_rate`` [m/s].
-    """
-    ctrl = scenario.controller()
-    geo = ctrl.centre_geometry(run.q, run.t)
-    s_ref = geo["psi"][0, -1] + np.concatenate(
-        [[0.0], np.cumsum(0.5 * np.diff(run.t) * (run.v_star[1:] + run.v_star[:-1]))])
-    every = max(1, int(round(1.0 / (CONTACT_RATE * scenario.step))))
-    rows = np.unique(np.r_[np.arange(0, len(run.t), every), len(run.t) - 1])
-    contacts = scenario.physical(ctrl.chain).check(run.t[rows], run.q[rows])
-    u = ctrl.chain.revolute(run.u)
-    rates = ctrl.chain.apply_B(u)
-
-    def samples(kind: str) -> int:
-        return len({c.time for c in contacts if c.kind == kind})
-
-    out = {"outcome": run.info.get("stopped", "?"),
-           "max_deviation": float(np.max(np.abs(geo["phi"][:, 1:]))),
-           "wall_contacts": samples("wall"),
-           "self_collisions": samples("self"),
-           "peak_u": float(np.max(np.abs(u))),
-           "peak_joint_rate": float(np.max(np.abs(rates))),
-           "final_s_error": float(abs(geo["psi"][-1, -1] - s_ref[-1])),
-           "step_time": float(run.info["wall_time"] / run.info["steps"])}
-    if ctrl.chain.rail:
-        out["peak_rail_rate"] = float(np.max(np.abs(run.u[:, 0])))
-    return out
 
 
 def compare(scenario: Scenario, methods: list[str] | None = None, backend: str = "compiled",
@@ -266,7 +217,7 @@ def compare(scenario: Scenario, methods: list[str] | None = None, backend: str =
 
 
 def to_json(scenario: Scenario, results: list[MethodRun]) -> dict[str, Any]:
-    """``{"scenario": name, "methods": {method: {score: value}}}`` (on a rail with :data:`RAIL_SCORES` last).
+    """``{"scenario": name, "methods": {method: {score: value}}}``, scores in :data:`SCORE_TABLE` order.
 
     Parameters
     ----------
@@ -280,14 +231,7 @@ def to_json(scenario: Scenario, results: list[MethodRun]) -> dict[str, Any]:
     dict of str to Any
         The JSON-ready summary.
     """
-    keys = SCORES + tuple(k for k in RAIL_SCORES if results and k in results[0].scores)
-    return {"scenario": scenario.name, "methods": {r.method: {k: r.scores[k] for k in keys} for r in results}}
-
-
-HEADERS = ("method", "outcome", "max dev [m]", "wall", "self", "peak u [rad/s]", "peak rate [rad/s]",
-           "final s err [m]", "step [µs]")
-#: The column of a rail robot, after ``peak rate``.
-RAIL_HEADER = "peak rail rate [m/s]"
+    return {"scenario": scenario.name, "methods": {r.method: dict(r.scores) for r in results}}
 
 
 #: How each backend runs the methods (for compare.md).
@@ -312,16 +256,10 @@ def engines(results: list[MethodRun]) -> str:
         return f"every method {ENGINES[next(iter(used.values()))]}"
     return ", ".join(", ".join(m for m in used if used[m] == b) + f" {ENGINES[b]}"
                      for b in ENGINES if b in used.values())
-#: Lengths below this are rounding noise in the table (the JSON keeps them) [m].
-LENGTH_FLOOR = 1e-9
-
-
-def _length(value: float) -> str:
-    return "< 1e-9" if value < LENGTH_FLOOR else f"{value:.3g}"
 
 
 def headers(results: list[MethodRun]) -> list[str]:
-    """The table's column titles (a rail robot's runs get :data:`RAIL_HEADER`).
+    """The table's column titles, with units (:data:`SCORE_TABLE`'s rows the runs have).
 
     Parameters
     ----------
@@ -331,12 +269,9 @@ def headers(results: list[MethodRun]) -> list[str]:
     Returns
     -------
     list of str
-        The titles, with units.
+        ``"method"``, then one title per score.
     """
-    out = list(HEADERS)
-    if results and "peak_rail_rate" in results[0].scores:
-        out.insert(HEADERS.index("peak rate [rad/s]") + 1, RAIL_HEADER)
-    return out
+    return ["method"] + [row.header for row in score_rows(results[0].scores if results else {})]
 
 
 def table_rows(results: list[MethodRun]) -> list[list[str]]:
@@ -352,16 +287,8 @@ def table_rows(results: list[MethodRun]) -> list[list[str]]:
     list of list of str
         One row per run, columns as :func:`headers`.
     """
-    rows = []
-    for r in results:
-        s = r.scores
-        row = [r.method, s["outcome"], _length(s["max_deviation"]), str(s["wall_contacts"]),
-               str(s["self_collisions"]), f"{s['peak_u']:.3g}", f"{s['peak_joint_rate']:.3g}",
-               _length(s["final_s_error"]), f"{1e6 * s['step_time']:.1f}"]
-        if "peak_rail_rate" in s:
-            row.insert(HEADERS.index("peak rate [rad/s]") + 1, f"{s['peak_rail_rate']:.3g}")
-        rows.append(row)
-    return rows
+    rows = score_rows(results[0].scores if results else {})
+    return [[r.method] + [row.cell(r.scores[row.key]) for row in rows] for r in results]
 
 
 def text_table(results: list[MethodRun]) -> str:
@@ -533,7 +460,10 @@ def write_outputs(scenario: Scenario, results: list[MethodRun], out: Path, backe
     out.mkdir(parents=True, exist_ok=True)
     paths = {"json": out / "compare.json", "md": out / "compare.md", "png": out / "compare.png"}
     paths["json"].write_text(json.dumps(to_json(scenario, results), indent=2) + "\n")
-    plot_bodies(results, scenario, paths["png"])
+    if scenario.universal:
+        plot_bodies3d(results, scenario, paths["png"])
+    else:
+        plot_bodies(results, scenario, paths["png"])
     paths["md"].write_text(
         f"# {scenario.name}: coordinating control and the baselines\n\n{markdown_table(results)}\n\n"
         f"Scores from each run's joint trajectory ({scenario.duration:g} s, RK4 step {scenario.step:g} s, "

@@ -1,6 +1,7 @@
 """Follow-the-leader (``ftl``), the classic baseline of snake-arm robots on an introduction axis.
 
-The end point leads along the path at ``s*(t) = s(0) + integral of v*`` and the body follows it:
+The end point leads along the path at ``s*(t) = s(0) + integral of v*`` (Simpson's rule on each step)
+and the body follows it:
 the commanded configuration at time ``t`` lays the chain on the path link by link from the end
 point back to the base, as the ``follow`` start lays it from the base
 (:func:`coordarm.symbolic.start.follow_curve`):
@@ -196,6 +197,22 @@ class FollowTheLeader:
         except NotImplementedError:
             return self._y0
 
+    def continuous(self, Q: np.ndarray) -> np.ndarray:
+        """``Q`` (N, m+1) with link 1's absolute angle ``q_1`` unwrapped in time (an ``atan2`` in ``(-pi, pi]``).
+
+        Parameters
+        ----------
+        Q : ndarray, shape (N, m+1)
+            Laid configurations, one per sample.
+
+        Returns
+        -------
+        ndarray, shape (N, m+1)
+        """
+        Q = np.array(Q, float)
+        Q[:, 1] = np.unwrap(Q[:, 1])
+        return Q
+
     def mapped(self, n: int, backend: str) -> ca.Function:
         """:meth:`function` over ``n`` times in one call (generated C for ``backend="compiled"``).
 
@@ -243,7 +260,8 @@ def simulate_ftl(law: FollowTheLeader, duration: float, step: float, backend: st
 
     Parameters
     ----------
-    law : FollowTheLeader
+    law : FollowTheLeader or SpatialFollowTheLeader
+        The laying (its ``mapped``, ``guess``, ``continuous``, ``s0``, ``t0`` and ``ctrl``).
     duration, step : float
         Simulated time and sample step [s].
     backend : {"compiled", "interpreted"}
@@ -263,15 +281,16 @@ def simulate_ftl(law: FollowTheLeader, duration: float, step: float, backend: st
     ctrl, chain = law.ctrl, law.ctrl.chain
     n = int(round(duration / step)) + 1
     T = law.t0 + step * np.arange(n)
-    v = ctrl.speeds(T)
-    target = law.s0 + np.concatenate([[0.0], np.cumsum(0.5 * step * (v[1:] + v[:-1]))])
+    v, mid = ctrl.speeds(T), ctrl.speeds(T[:-1] + 0.5 * step)
+    target = law.s0 + np.concatenate([[0.0], np.cumsum(step / 6 * (v[:-1] + 4 * mid + v[1:]))])   # Simpson's rule
     fn = law.mapped(n, backend)                     # built before the clock starts
     wall = time.perf_counter()
     guess = np.array([law.guess(t, s) for t, s in zip(T, target)])
     Q, s_err, worst = (np.asarray(x) for x in fn(T[None], target[None], guess.T))
     wall = time.perf_counter() - wall
-    Q = Q.T
-    Q[:, 1] = np.unwrap(Q[:, 1])                    # link 1's absolute angle, continuous in time
+    Q = law.continuous(Q.T)
+    Q[0] = law.q0            # the start itself (the laid chain equals it to 1e-9, checked when the law was built;
+    #                          a rail position rounded a hair outside its limit would end the run at once)
     bad = ~((worst.ravel() < TOLERANCE) & (s_err.ravel() < TOLERANCE))
     stopped, end = ("off_path", max(int(np.argmax(bad)), 1)) if bad.any() else ("completed", n)
     Q, T = Q[:end], T[:end]

@@ -1,4 +1,4 @@
-"""The command line on spatial scenarios: a run logs and draws, a report is written; what is planar only says so (exit 2)."""
+"""The command line on spatial scenarios: a run logs and draws, a report is written; ftl without a rail says so (exit 2)."""
 import json
 
 from mcap.reader import make_reader
@@ -21,9 +21,9 @@ def test_run_line3d_logs_a_universal_chain_and_writes_both_figures(tmp_path, cap
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_compare_refuses_a_spatial_scenario_with_a_clear_error_and_report_writes_one(tmp_path, capsys):
-    assert main(["compare", "line3d", "--duration", "0.1"]) == 2
-    assert "baselines (pinv, dls, ftl) and the comparison are planar" in capsys.readouterr().err
+def test_compare_refuses_ftl_on_a_fixed_base_spatial_scenario_and_report_writes_one(tmp_path, capsys):
+    assert main(["compare", "line3d", "--methods", "ftl", "--duration", "0.1"]) == 2
+    assert "ftl: follow-the-leader needs a robot on a rail" in capsys.readouterr().err
     out = tmp_path / "report"
     assert main(["report", "line3d", "--links", "8", "--duration", "0.2", "--out", str(out)]) == 0
     assert str(out / "report.md") in capsys.readouterr().out

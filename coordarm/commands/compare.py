@@ -18,11 +18,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         The sub-parsers of the ``coordarm`` parser; the added parser sets ``func`` to :func:`main`.
     """
     p = sub.add_parser("compare", help="run a scenario under coordinating control and the baselines, score them",
-                       description=f"Run a scenario (a preset: {', '.join(presets())}, or a TOML file) under "
-                                   "coordarm's coordinating law and the classic baselines (pinv: end-point "
-                                   "resolved rate with the pseudoinverse and joint centering; dls: the same with "
-                                   "damped least squares; ftl: follow-the-leader, rail robots only). Prints a "
-                                   "table and writes compare.md, compare.json and compare.png.")
+                       description=f"Run a scenario (a preset: {', '.join(presets())}, or a TOML file; planar "
+                                   "or spatial chain) under coordarm's coordinating law and the classic baselines "
+                                   "(pinv: end-point resolved rate with the pseudoinverse and joint centering; "
+                                   "dls: the same with damped least squares; ftl: follow-the-leader, rail robots "
+                                   "only). Scores include the shape deviation in percent of the body length and "
+                                   "the time per step. Prints a table and writes compare.md, compare.json and "
+                                   "compare.png.")
     p.add_argument("scenario", metavar="SCENARIO_OR_TOML")
     p.add_argument("--methods", metavar="LIST",
                    help=f"comma-separated, from {','.join(METHODS)} (default: all that apply to the scenario)")
