@@ -257,7 +257,7 @@ def example(row: Row, presets: dict[str, dict]) -> str:
     Returns
     -------
     str
-        Markdown, e.g. ``\`links = 64\` (line)``.
+        Markdown, e.g. a backquoted ``links = 64`` and the preset's name.
     """
     for name in sorted(presets):
         for table in _tables_of(row, presets[name]):
