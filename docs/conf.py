@@ -9,8 +9,6 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE / "_ext"))
 os.environ.setdefault("MPLBACKEND", "Agg")
 
-import gallery_scraper  # noqa: E402  (docs/_ext, on the path above)
-
 project = "coordarm"
 author = "the coordarm developers"
 copyright = "coordarm developers, MIT licence"
@@ -56,8 +54,8 @@ sphinx_gallery_conf = {
     "gallery_dirs": "auto_examples",
     "filename_pattern": r"/plot_",
     "ignore_pattern": r"__init__\.py|conftest\.py",
-    "image_scrapers": ("matplotlib", gallery_scraper.png_files),
-    "reset_modules": ("matplotlib", gallery_scraper.reset),
+    "image_scrapers": ("matplotlib", "gallery_scraper.png_files"),   # docs/_ext/gallery_scraper.py
+    "reset_modules": ("matplotlib", "gallery_scraper.reset"),
     "download_all_examples": False,
     "remove_config_comments": True,
     "within_subsection_order": "FileNameSortKey",

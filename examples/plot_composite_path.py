@@ -28,4 +28,4 @@ scenario = coordarm.Scenario.from_dict({
     "figures": {"stages": [0, duration / 2, duration]},
 })
 result = coordarm.run_scenario(scenario, log="logs/s_path.mcap", overwrite=True)
-print(result.outcome, result.run.summary())
+print(*result.lines, sep="\n")           # what `coordarm run` prints

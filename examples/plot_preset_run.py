@@ -14,5 +14,4 @@ duration = 20.0   # [s]
 
 result = coordarm.run_scenario("line", duration=duration, log="logs/line.mcap", overwrite=True)
 print(result.outcome, result.exit_status)       # completed 0
-print(result.log, *result.figures, sep="\n")
-print(result.run.summary())
+print(*result.lines, sep="\n")           # what `coordarm run` prints

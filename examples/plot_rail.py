@@ -20,4 +20,4 @@ print(out["u"][0], out["sigma"], out["rail_margin"])     # d_dot = v* = 0.17, th
 # The ``thread`` preset, shortened:
 duration = 18.0   # [s]
 result = coordarm.run_scenario("thread", duration=duration, log="logs/thread.mcap", overwrite=True)
-print(result.outcome, result.run.summary())
+print(*result.lines, sep="\n")           # what `coordarm run` prints

@@ -12,4 +12,4 @@ import coordarm
 duration = 12.0   # [s]
 
 result = coordarm.run_scenario("line3d", duration=duration, log="logs/line3d.mcap", overwrite=True)
-print(result.outcome, result.run.summary())
+print(*result.lines, sep="\n")           # what `coordarm run` prints

@@ -7,6 +7,8 @@ angle towards ``cos(bank) n_1 + sin(bank) n_2`` of the frame transported along t
 a path of your own that climbs out of the base plane, built in Python and run directly with
 :func:`coordarm.simulate`; the figure is drawn from the run.
 """
+from pathlib import Path
+
 import numpy as np
 
 import coordarm
@@ -22,4 +24,5 @@ q0 = chain.zigzag(0.9)
 ctrl = SpatialController(chain, path, gain=2.0, speed=0.05, start=q0)
 run = coordarm.simulate(ctrl, q0, duration, 0.002)
 print(run.info["stopped"], "final max|e| =", np.max(np.abs(run.e[-1])))
+Path("logs").mkdir(exist_ok=True)
 plot_spatial_stages(run, ctrl, "logs/my_path3d_stages.png")

@@ -45,7 +45,7 @@ def markdown() -> str:
              "Every `coordarm` command and flag, generated from the parser the command line uses. "
              "`coordarm --version` prints the installed version; `coordarm COMMAND --help` prints the same text. "
              "Exit status: 0 done, 2 bad input (one line naming the file, field or flag), 3 stopped ahead "
-             "of a singularity, 4 stopped at a collision, 130 interrupted ({doc}`guide/validity`).", ""]
+             "of a singularity, 4 stopped at a collision, 130 interrupted ({doc}`/guide/validity`).", ""]
     for name, parser in commands().items():
         lines += [f"## `coordarm {name}`", "", _cell(parser.description or ""), "", "```text",
                   _usage(parser), "```", "",

@@ -40,6 +40,15 @@ def generate(srcdir: Path) -> list[Path]:
     return list(pages)
 
 
+def skip_member(app, what: str, name: str, obj, skip: bool, options) -> bool | None:
+    """Leave type variables out of the API reference (numpydoc cannot read their docstring)."""
+    import typing
+
+    if isinstance(obj, typing.TypeVar):
+        return True
+    return None
+
+
 def _builder_inited(app) -> None:
     generate(Path(app.srcdir))
 
@@ -47,4 +56,5 @@ def _builder_inited(app) -> None:
 def setup(app) -> dict:
     """Register the generator with Sphinx."""
     app.connect("builder-inited", _builder_inited)
+    app.connect("autodoc-skip-member", skip_member)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
