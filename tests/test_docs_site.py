@@ -198,3 +198,16 @@ def test_the_site_builds_without_a_warning(tmp_path):
         assert (out / page).is_file(), page
     for example in sorted((ROOT / "examples").glob("plot_*.py")):
         assert list((out / "_images").glob(f"sphx_glr_{example.stem}_*.png")), f"{example.name} drew no figure"
+
+
+def test_the_scenario_module_docstring_states_the_defaults_the_parser_uses():
+    from coordarm.simulation import scenario
+    from coordarm.simulation.run import DEFAULT_THRESHOLDS
+    from coordarm.simulation.scenario_tables import RunTable
+
+    doc = scenario.__doc__
+    thresholds = re.search(r"\[thresholds\] link = ([\d.]+), longitudinal = ([\d.]+)", doc)
+    assert (float(thresholds.group(1)), float(thresholds.group(2))) == (DEFAULT_THRESHOLDS["link"],
+                                                                          DEFAULT_THRESHOLDS["longitudinal"])
+    run = re.search(r"\[run\]\s+duration = ([\d.]+), step = ([\d.]+), t0 = ([\d.]+)", doc)
+    assert tuple(map(float, run.groups())) == (RunTable().duration, RunTable().step, RunTable().t0)
