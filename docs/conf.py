@@ -64,6 +64,11 @@ sphinx_gallery_conf = {
     "plot_gallery": "True",
 }
 
+# Math is typeset by MathJax 3 from its CDN; COORDARM_MATHJAX=file:///.../tex-chtml.js uses a local copy
+# (an offline build, e.g. for the screenshots in docs/_static/).
+if os.environ.get("COORDARM_MATHJAX"):
+    mathjax_path = os.environ["COORDARM_MATHJAX"]
+
 html_theme = "furo"
 html_title = f"coordarm {release}"
 html_static_path = ["_static"]
