@@ -1,6 +1,6 @@
 """
-A spatial chain on a moving line (``line3d``)
-=============================================
+A spatial chain on a moving line: line3d
+========================================
 
 ``[chain] joints = "universal"`` gives every joint two angles: the paper's law in space. The
 ``line3d`` preset: 64 links on a line that swings out of the base plane while the commanded
