@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 PYTHON ?= python3
 
-.PHONY: install demo test lint bench clean
+.PHONY: install demo test lint bench clean docs
 
 install: $(VENV)/.installed
 
@@ -22,8 +22,16 @@ test: install
 lint: install
 	$(VENV)/bin/lint-imports
 
+# The documentation site: installs the docs extra, then builds docs/_build/html with warnings as errors.
+docs: $(VENV)/.docs-installed
+	$(PY) -m sphinx -W --keep-going -b html docs docs/_build/html
+
+$(VENV)/.docs-installed: $(VENV)/.installed
+	$(PY) -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[test,docs]'
+	touch $@
+
 bench: install
 	$(PY) benchmarks/performance.py
 
 clean:
-	rm -rf $(VENV) logs/*.mcap logs/*.png logs/*.gif
+	rm -rf $(VENV) logs/*.mcap logs/*.png logs/*.gif docs/_build docs/api docs/reference docs/auto_examples examples/logs

@@ -9,7 +9,7 @@ A *blow-up* is the first sample where ``|u|_inf`` exceeds ``BLOWUP_FACTOR`` (10)
 nominal value (:func:`nominal_u`: the median of ``|u|_inf`` over the whole run, but never
 less than the rate the commanded motion itself asks for, ``(max v* + K max|e(0)|) / xi``,
 so a run that starts at rest does not get a vanishing nominal). A margin *predicts* it when
-it falls below its threshold strictly before that time. Read by :mod:`.report` (tables,
+it falls below its threshold strictly before that time. Read by :mod:`coordarm.analysis.report` (tables,
 ``report.json``) and :mod:`.report_figures` (plots).
 """
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Singularity and condition report of a spatial run (universal joints): margins, linearised error dynamics.
 
-The spatial counterpart of :mod:`.report`: :func:`write_spatial_report` writes ``report.md``, the figures
+The spatial counterpart of :mod:`coordarm.analysis.report`: :func:`write_spatial_report` writes ``report.md``, the figures
 ``margins.png``, ``links.png`` (:mod:`.spatial_report_figures`) and ``step_responses.png`` (the planar
 report's: one deviation loop ``e' = -K e`` is the same), and ``report.json``. The margins are the run's own
 arrays (:mod:`.spatial_analysis`); the linearised error dynamics are the closed loop differentiated by

@@ -1,6 +1,6 @@
 """Choices the command line offers, kept free of heavy imports so that ``coordarm --help`` starts at once.
 
-The modules that act on them (:mod:`.run`, :mod:`.mcap_file`, :mod:`.scenario`, :mod:`.sweep_points`) import
+The modules that act on them (:mod:`coordarm.simulation.run`, :mod:`.mcap_file`, :mod:`.scenario`, :mod:`.sweep_points`) import
 them from here.
 """
 from __future__ import annotations

@@ -34,7 +34,7 @@ from .log_schemas import PER_STEP, numeric_channels
 
 #: Allowed RK4 step [s] (log times are integer ns; below 1 us consecutive times could collide).
 STEP_RANGE = (1e-6, 1.0)
-#: Longest simulated duration and largest |t0| [s] (keeps ns log times exact and in 64 bits).
+#: Longest simulated duration and largest ``|t0|`` [s] (keeps ns log times exact and in 64 bits).
 MAX_TIME = 1e6
 #: Allowed link length [m].
 LINK_LENGTH_RANGE = (1e-6, 1e3)

@@ -3,6 +3,8 @@
 A scenario file is data only: every time-varying quantity is built from the motion
 primitives of :mod:`symbolic.motions`; nothing read from a file is evaluated.
 
+Every key with its type, unit, default and an example: the documentation's *Scenario keys* page,
+generated from :mod:`coordarm.simulation.scenario_tables` and :mod:`coordarm.simulation.spatial_tables`.
 Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
 
     name = "line"
@@ -20,7 +22,7 @@ Layout (all tables but ``[chain]``, ``[curve]`` and ``[control]`` optional)::
                 curve = {...}  (projected: project onto this curve instead;
                 follow: a zig-zag laid link by link along the curve, for bent paths)
     [run]       duration = 20.0, step = 0.001, t0 = 0.0
-    [thresholds] link = 0.02, longitudinal = 0.05
+    [thresholds] link = 0.02, longitudinal = 0.15
     [[obstacles]] a = [x, y], b = [x, y]      (wall segment), or center = [x, y], radius = r
                 (disc), or points = [[x, y], ...] (closed polygon); name = "..." optional
     [figures]   stages = [0, 4, 8, 12]         (times of the stage figure [s]), or

@@ -3,7 +3,7 @@
 A point is a mapping ``{name: value}`` over the varied names exactly as the user gave them
 (``"control.gain"``, ``"links"``, ...). A name is a dotted path into the scenario's TOML
 tables (``chain.links``, ``control.gain``, ``curve.radius``, ``start.beta``, ``run.duration``)
-or one of the short :data:`ALIASES`. Nothing here imports Dask: :mod:`.sweep` ships these
+or one of the short :data:`ALIASES`. Nothing here imports Dask: :mod:`coordarm.simulation.sweep` ships these
 functions to the workers, which run them on plain data (a scenario as a dict and the point),
 so the compiled controller is never pickled: each worker builds or loads it from its own
 content-addressed cache (:func:`coordarm.generated.build.build_root`).
