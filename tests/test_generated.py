@@ -394,3 +394,18 @@ def test_the_cache_directory_is_the_build_dir_the_variable_or_the_users_linux_ca
     assert build_root(tmp_path / "given") == tmp_path / "given"
     monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path / "env"))
     assert build_root() == tmp_path / "env" and build_root(tmp_path / "given") == tmp_path / "given"
+
+
+@pytest.mark.parametrize("times, h, match", [
+    ([0.0, 0.1], float("nan"), r"^h: the step must be a finite number of seconds above 0, got nan$"),
+    ([0.0, 0.1], 0.0, r"^h: the step .* got 0.0$"),
+    ([0.0, 0.1], "0.01", r"^h: the step .* got '0.01'$"),
+    ([0.0, float("nan"), 0.2], 0.01, r"^times\[1\]: each start time must be finite, got nan$"),
+    (np.zeros((2, 3)), 0.01, r"^times: need a 1-D sequence of start times \[s\], got shape \(2, 3\)$"),
+    (["a", "b"], 0.01, r"^times: need a 1-D sequence"),
+])
+def test_bad_times_or_step_of_a_compiled_chunk_name_the_argument(times, h, match):
+    """Not ``t: must be finite, got <times[0]>`` (a bad h), nor silent NaN or a silently misread grid."""
+    ctrl, comp = compiled("line", 7)
+    with pytest.raises(ConfigError, match=match):
+        comp.chunk(ctrl.chain.zigzag(1.0), times, h)
