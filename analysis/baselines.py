@@ -28,7 +28,7 @@ import numpy as np
 from coordarm.generated.build import build
 from coordarm.generated.codegen import CODEGEN_OPTIONS, Source
 from coordarm.simulation.choices import COMPARE_BACKENDS
-from coordarm.simulation.run import Run
+from coordarm.simulation.run import Run, check_time_span
 from coordarm.symbolic import ConfigError, CoordinatingController, PlanarChain
 from coordarm.symbolic.integrator import rk4
 from coordarm.symbolic.near_singular import damping_factor
@@ -330,10 +330,12 @@ def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: f
     Raises
     ------
     ConfigError
-        A bad ``q0`` or ``backend``.
+        A bad ``q0`` or ``backend``; ``duration``, ``step`` or ``t0`` not finite, ``duration`` or ``step`` not
+        > 0, or ``step > duration`` (named).
     BuildError
         ``backend="compiled"`` and the C code cannot be built.
     """
+    duration, step, t0 = check_time_span(duration, step, t0)
     n_steps = int(round(duration / step))
     q = law.ctrl.chain.check_q(q0, "q0")
     chunk = min(chunk, n_steps)
