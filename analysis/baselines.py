@@ -28,7 +28,7 @@ import numpy as np
 from coordarm.generated.build import build
 from coordarm.generated.codegen import CODEGEN_OPTIONS, Source
 from coordarm.simulation.choices import COMPARE_BACKENDS
-from coordarm.simulation.run import Run, check_time_span
+from coordarm.simulation.run import Run
 from coordarm.symbolic import ConfigError, CoordinatingController, PlanarChain
 from coordarm.symbolic.integrator import rk4
 from coordarm.symbolic.near_singular import damping_factor
@@ -335,6 +335,8 @@ def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: f
     BuildError
         ``backend="compiled"`` and the C code cannot be built.
     """
+    from coordarm.simulation.run import check_time_span   # here, not at the top: spares a merge conflict
+
     duration, step, t0 = check_time_span(duration, step, t0)
     n_steps = int(round(duration / step))
     q = law.ctrl.chain.check_q(q0, "q0")
