@@ -353,10 +353,14 @@ def simulate_baseline(law: EndPointRate, q0, duration: float, step: float, t0: f
     Raises
     ------
     ConfigError
-        A bad ``q0`` or ``backend``.
+        A bad ``q0`` or ``backend``; ``duration``, ``step`` or ``t0`` not finite, ``duration`` or ``step`` not
+        > 0, or ``step > duration`` (named).
     BuildError
         ``backend="compiled"`` and the C code cannot be built.
     """
+    from coordarm.simulation.run import check_time_span   # here, not at the top: spares a merge conflict
+
+    duration, step, t0 = check_time_span(duration, step, t0)
     n_steps = int(round(duration / step))
     q = law.ctrl.chain.check_q(q0, "q0")
     chunk = min(chunk, n_steps)

@@ -109,13 +109,13 @@ def replay_log(log: str | os.PathLike, out: str | os.PathLike | None = None, *, 
     for p in figures:
         say(f"figure        {p}")
     gif = None
-    if animation and run.layout.kind != "revolute":
-        say("animation     none: the GIF draws planar runs only (a spatial run: the stage figure and the Foxglove scene)")
-    elif animation:
+    if animation:
         from coordarm.analysis.animation import animate
+        from coordarm.analysis.animation3d import animate3d
         gif = stem.with_name(stem.name + ".gif")
-        with writing(gif):
-            gif = animate(replay, gif, fps=fps, ctrl=ctrl, progress=progress)
+        with writing(gif):       # a spatial run: the chain in a 3-D perspective view
+            gif = (animate if run.layout.kind == "revolute" else animate3d)(replay, gif, fps=fps, ctrl=ctrl,
+                                                                             progress=progress)
         say(f"animation     {gif}")
     return ReplayOutputs(replay, tuple(figures), gif, tuple(lines))
 

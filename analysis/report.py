@@ -260,7 +260,8 @@ def summary_json(a: RunAnalysis, run: Any, scenario: Any, ctrl: CoordinatingCont
     clearance = {name: {"distance": d, "time": when, "link": link}
                  for name, (d, when, link) in physical.clearances(q[rows], t[rows]).items()}
     blowup = None if a.blowup_time is None else {
-        "time": a.blowup_time, "link": a.blowup_link, "nominal_u": a.nominal_u, "factor": BLOWUP_FACTOR}
+        "time": a.blowup_time, "link": a.blowup_link, "nominal_u": a.nominal_u, "factor": BLOWUP_FACTOR,
+        **({"rail": a.blowup_rail} if ctrl.chain.rail else {})}
     return {"scenario": scenario.name, "links": ctrl.chain.m, "t_start": float(t[0]), "t_end": float(t[-1]),
             "outcome": outcome, "margins": margins, "blowup": blowup, "nominal_u": a.nominal_u,
             "collisions": [c.to_dict() for c in found], "clearance": clearance}

@@ -48,13 +48,16 @@ class RunAnalysis:
     blowup_time : float or None
         First time ``|u|_inf > BLOWUP_FACTOR * nominal_u`` [s].
     blowup_link : int or None
-        1-based joint with the largest ``|u_j|`` at the blow-up.
+        The joint (1..m, a rail's ``d`` not counted) with the largest ``|u_j|`` at the blow-up
+        (:func:`blowup_joint`); None without a blow-up or when the rail's rate was the largest.
     thresholds : dict
         Threshold of each margin.
     crossings : dict
         Margin -> first time below its threshold [s] (None: never).
     minima : dict
         Margin -> (smallest value, time) over the run.
+    blowup_rail : bool
+        The rail's ``|d_dot|`` [m/s] was the largest entry of ``u`` at the blow-up.
     """
 
     t: np.ndarray
@@ -67,6 +70,7 @@ class RunAnalysis:
     thresholds: dict
     crossings: dict
     minima: dict
+    blowup_rail: bool = False
 
     def smallest(self, name: str) -> np.ndarray:
         """Margin ``name`` per sample (the smallest link margin for ``"links"``).
@@ -173,7 +177,7 @@ def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, flo
     nominal = nominal_u(ctrl, t, q, u_norm)
     over = np.flatnonzero(~(u_norm <= BLOWUP_FACTOR * nominal))
     blowup = float(t[over[0]]) if len(over) else None
-    blowup_link = int(np.nanargmax(np.abs(u[over[0]]))) + 1 if len(over) and np.isfinite(u[over[0]]).any() else None
+    blowup_link, blowup_rail = blowup_joint(u[over[0]], ctrl.chain.rail) if len(over) else (None, False)
 
     idx = even_indices(len(t), samples or default_samples(ctrl.chain.m))
     mg = run_margins(ctrl, t[idx], q[idx])
@@ -195,7 +199,36 @@ def analyse_run(ctrl: CoordinatingController, t, q, u, thresholds: dict[str, flo
         crossings[name] = float(ts[hit[0]]) if len(hit) else None
         k = int(np.nanargmin(v)) if np.isfinite(v).any() else 0
         minima[name] = (float(v[k]), float(ts[k]))
-    return RunAnalysis(ts, mg, t, u_norm, nominal, blowup, blowup_link, thr, crossings, minima)
+    return RunAnalysis(ts, mg, t, u_norm, nominal, blowup, blowup_link, thr, crossings, minima, blowup_rail)
+
+
+def blowup_joint(u_row: np.ndarray, rail: bool, per_joint: int = 1) -> tuple[int | None, bool]:
+    """The joint whose rate is the largest in ``u_row``, numbered as the user sees the joints, or the rail.
+
+    Parameters
+    ----------
+    u_row : (n,) array_like
+        The control at one sample: ``(d_dot, u_1, ...)`` on a rail (``d_dot`` [m/s] first), else
+        ``(u_1, ...)`` [rad/s]; a universal joint has ``per_joint = 2`` entries ``(a_j', b_j')``.
+    rail : bool
+        Whether the chain is on a rail (the first entry is ``d_dot``).
+    per_joint : int
+        Entries of ``u`` per joint: 1 planar, 2 universal.
+
+    Returns
+    -------
+    joint : int or None
+        1..m, the rail not counted; None when the rail's ``|d_dot|`` is the largest entry or no entry is finite.
+    rail_largest : bool
+        The rail's ``|d_dot|`` is the largest entry.
+    """
+    size = np.abs(np.asarray(u_row, dtype=float))
+    if not np.isfinite(size).any():
+        return None, False
+    k = int(np.nanargmax(size))
+    if rail and k == 0:
+        return None, True
+    return (k - int(rail)) // per_joint + 1, False
 
 
 def nominal_u(ctrl: CoordinatingController, t: np.ndarray, q: np.ndarray, u_norm: np.ndarray) -> float:

@@ -17,7 +17,7 @@ import numpy as np
 
 from coordarm.simulation.run import DEFAULT_THRESHOLDS, even_indices
 
-from .run_analysis import BLOWUP_FACTOR, nominal_u
+from .run_analysis import BLOWUP_FACTOR, blowup_joint, nominal_u
 
 #: The spatial margins: name -> (array of the run, threshold key, first index number or None for a scalar).
 SPATIAL_MARGINS = {"link": ("link_margins", "link", 2), "end": ("end_margin", "longitudinal", None),
@@ -56,6 +56,11 @@ class SpatialAnalysis:
         Margin name -> first time below its threshold [s] (None: never).
     cond_t, cond : (n,) arrays
         Times [s] and 2-norm condition numbers of the decoupling matrix (empty above :data:`COND_LINKS`).
+    blowup_joint : int or None
+        The universal joint (1..m, a rail's ``d`` not counted) with the largest rate ``|a_j'|`` or ``|b_j'|`` at
+        the blow-up (:func:`~.run_analysis.blowup_joint`); None without one or when the rail's was the largest.
+    blowup_rail : bool
+        The rail's ``|d_dot|`` [m/s] was the largest entry of ``u`` at the blow-up.
     """
 
     t: np.ndarray
@@ -68,6 +73,8 @@ class SpatialAnalysis:
     crossings: dict
     cond_t: np.ndarray
     cond: np.ndarray
+    blowup_joint: int | None = None
+    blowup_rail: bool = False
 
     def smallest(self, name: str) -> np.ndarray:
         """Margin ``name`` per row, the smallest over links or joints.
@@ -138,5 +145,6 @@ def analyse_spatial_run(ctrl: Any, run: Any, thresholds: dict[str, float] | None
     if ctrl.chain.m <= COND_LINKS and len(t):
         rows = even_indices(len(t), COND_SAMPLES)
         cond_t, cond = t[rows], ctrl.conds(q[rows], t[rows])
+    joint, rail = blowup_joint(u[over[0]], ctrl.chain.rail, 2) if len(over) else (None, False)
     return SpatialAnalysis(t, margins, u_norm, nominal, float(t[over[0]]) if len(over) else None,
-                           thr, minima, crossings, cond_t, cond)
+                           thr, minima, crossings, cond_t, cond, joint, rail)

@@ -293,8 +293,9 @@ def spatial_json(a: SpatialAnalysis, run: Any, scenario: Any, ctrl: Any, lins: l
         value, when, j = a.minima[name]
         margins[name] = {"array": field, "value": value if np.isfinite(value) else None, "time": when,
                          "index": j, "threshold": a.thresholds[name], "first_below": a.crossings[name]}
-    blowup = None if a.blowup_time is None else {"time": a.blowup_time, "nominal_u": a.nominal_u,
-                                                 "factor": BLOWUP_FACTOR}
+    blowup = None if a.blowup_time is None else {"time": a.blowup_time, "joint": a.blowup_joint,
+                                                 "nominal_u": a.nominal_u, "factor": BLOWUP_FACTOR,
+                                                 **({"rail": a.blowup_rail} if ctrl.chain.rail else {})}
     return {"scenario": scenario.name, "chain_kind": "universal", "links": ctrl.chain.m,
             "t_start": float(a.t[0]), "t_end": float(a.t[-1]), "outcome": outcome_of(run), "margins": margins,
             "blowup": blowup, "nominal_u": a.nominal_u,

@@ -505,7 +505,12 @@ def kill_process_tree(pid: int) -> None:
 
 
 def clean(build_dir: str | os.PathLike | None = None) -> int:
-    """Delete every cached library under the cache directory; return how many entries went.
+    """Delete every cached library in the cache the builds use; return how many entries went.
+
+    The cache is :func:`private_root` of :func:`build_root`, the directory :func:`build` writes to (a
+    private temporary one, with a :class:`CacheWarning`, when the wanted one is not this user's alone;
+    it is not created when missing). Only cache entries (:func:`is_cache_entry`) are deleted: nothing
+    else in the directory, no symbolic link and nothing a link points to.
 
     Parameters
     ----------
@@ -515,14 +520,41 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
     Returns
     -------
     int
-        Entries (directories with a 16-character name) removed; 0 when the directory does not exist.
+        Entries removed; 0 when the directory does not exist.
     """
-    root = build_root(build_dir)
-    if not root.is_dir():
+    wanted = build_root(build_dir)
+    if not wanted.is_dir():
         return 0
+    root = private_root(wanted)
     n = 0
     for entry in root.iterdir():
-        if entry.is_dir() and len(entry.name) == 16:
+        if is_cache_entry(entry):
             shutil.rmtree(entry, ignore_errors=True)
-            n += 1
+            n += not entry.exists()
     return n
+
+
+def is_cache_entry(entry: Path) -> bool:
+    """Whether ``entry`` is a directory :func:`build` made: named by 16 hex digits of its key, not a symbolic
+    link, holding only regular files a build writes (the source, the library, the metadata and their
+    temporary files).
+
+    Parameters
+    ----------
+    entry : Path
+        A directory entry of the cache.
+
+    Returns
+    -------
+    bool
+        False for anything else (a user's directory that happens to have a 16-character name).
+    """
+    if len(entry.name) != 16 or entry.name.strip("0123456789abcdef") or entry.is_symlink() or not entry.is_dir():
+        return False
+    names = (LIBRARY, SOURCE, META)
+    try:
+        return all(child.is_file() and not child.is_symlink()
+                   and (child.name in names or child.name.startswith(tuple(n + "." for n in names)))
+                   for child in entry.iterdir())
+    except OSError:
+        return False

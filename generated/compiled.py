@@ -7,6 +7,7 @@ from Python is one ctypes call plus a copy of ``u`` out, or, with ``out=``, no c
 from __future__ import annotations
 
 import ctypes
+import math
 import time
 import warnings
 from typing import Any
@@ -14,6 +15,8 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError, SpatialController
+from coordarm.symbolic.checks import is_real
+from coordarm.symbolic.errors import shown
 from coordarm.symbolic.outputs import packed_width, spatial_packed_width, spatial_split, split
 
 from .build import Library, build
@@ -357,20 +360,58 @@ class CompiledController:
         Raises
         ------
         ConfigError
-            ``q0`` of the wrong shape or not finite, or a time not finite.
+            ``q0`` of the wrong shape or not finite, ``times`` not a 1-D array of finite times, or ``h`` not a
+            finite positive step.
         NonFiniteError
             The law produced NaN or inf.
         """
         self._load_q(q0)
-        times = np.ascontiguousarray(times, dtype=float)
+        times, h = chunk_grid(times, h)
         n = len(times)
         Q, D = np.empty((n, self.n)), np.empty((n, self.n_out))
         p = self._ptr
         rc = self._chunk_c(p[0], times.ctypes.data, h, n, Q.ctypes.data, D.ctypes.data, p[2], p[3])
-        if rc:
+        if rc:      # h and the times are checked above: only a failing generated Function is left
             self._fail(rc, float(times[0]) if n else 0.0)
         return Q, D
 
     def __repr__(self) -> str:
         return (f"CompiledController({self.ctrl!r}, form={self.form!r}, library={str(self.library.path)!r}, "
                 f"cache_hit={self.cache_hit})")
+
+
+def chunk_grid(times: Any, h: Any) -> tuple[np.ndarray, float]:
+    """The start times and the step of :meth:`CompiledController.chunk`, checked, as C reads them.
+
+    Parameters
+    ----------
+    times : (N,) array_like
+        Start time of each step [s].
+    h : float
+        Step length [s].
+
+    Returns
+    -------
+    times : (N,) float64 C-contiguous ndarray
+        The start times [s].
+    h : float
+        The step [s].
+
+    Raises
+    ------
+    ConfigError
+        ``times`` not a 1-D sequence of finite numbers (naming the first bad entry), or ``h`` not a finite
+        number above 0.
+    """
+    if not is_real(h, numpy=True) or not math.isfinite(h) or h <= 0:
+        raise ConfigError(f"h: the step must be a finite number of seconds above 0, got {shown(h)}")
+    try:
+        grid = np.ascontiguousarray(times, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(f"times: need a 1-D sequence of start times [s], got {shown(times)}") from None
+    if grid.ndim != 1:
+        raise ConfigError(f"times: need a 1-D sequence of start times [s], got shape {grid.shape}")
+    bad = np.flatnonzero(~np.isfinite(grid))
+    if len(bad):
+        raise ConfigError(f"times[{bad[0]}]: each start time must be finite, got {float(grid[bad[0]])!r}")
+    return grid, float(h)

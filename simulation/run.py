@@ -74,6 +74,32 @@ def check_number(value: Any, name: str, positive: bool = True) -> float:
     return float(value)
 
 
+def check_time_span(duration: Any, step: Any, t0: Any = 0.0) -> tuple[float, float, float]:
+    """A run's simulated time, step and start time checked: finite numbers, ``0 < step <= duration``.
+
+    Parameters
+    ----------
+    duration, step, t0 : float
+        Simulated time, RK4 step and start time [s].
+
+    Returns
+    -------
+    duration, step, t0 : float
+        As floats [s].
+
+    Raises
+    ------
+    ConfigError
+        One that is not a finite number (naming ``duration``, ``step`` or ``t0``), ``duration`` or ``step``
+        not > 0, or a step longer than the run.
+    """
+    duration, step = check_number(duration, "duration"), check_number(step, "step")
+    t0 = check_number(t0, "t0", positive=False)
+    if step > duration:
+        raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
+    return duration, step, t0
+
+
 def check_curve_reaches_base(ctrl: CoordinatingController, t0: float, t1: float, samples: int = 201) -> None:
     """Raise a ConfigError if the curve passes farther than one link length from the base.
 
@@ -334,10 +360,7 @@ def check_settings(ctrl: CoordinatingController, duration: Any, step: Any, t0: A
         Not a finite number (``duration``, ``step`` not > 0), a step longer than the run, a chunk
         that is not a positive integer, or an unknown backend.
     """
-    duration, step = check_number(duration, "duration"), check_number(step, "step")
-    t0 = check_number(t0, "t0", positive=False)
-    if step > duration:
-        raise ConfigError(f"step: {step} s is longer than the duration {duration} s")
+    duration, step, t0 = check_time_span(duration, step, t0)
     if not is_integer(chunk) or chunk < 1:
         raise ConfigError(f"chunk: need a positive integer, got {shown(chunk)}")
     if backend not in BACKENDS:   # select_backend checks too, but only after the start checks

@@ -31,7 +31,7 @@ from .checks import is_real
 from .chain import PlanarChain
 from .curves import Curve
 from .dense import decoupling_matrix_expr
-from .errors import ConfigError
+from .errors import ConfigError, shown
 from .law import law_function
 from .law_face import LawFace
 from .laws import LAWS, Law
@@ -101,8 +101,8 @@ def check_controller(chain: Any, curve: Any, gain: Any, speed: Any, law: Any, sp
     governor : bool
         Whether the speed governor is on.
     governor_threshold : float
-        Longitudinal margin at which the governed speed reaches 0 (in (0, 1), checked only with the
-        governor on).
+        Longitudinal margin at which the governed speed reaches 0: a finite number, in (0, 1) with the
+        governor on (off, it is unused).
     damping : dict or None
         Damped least squares settings (:func:`check_damping`), or None for none.
 
@@ -129,7 +129,10 @@ def check_controller(chain: Any, curve: Any, gain: Any, speed: Any, law: Any, sp
     if not isinstance(governor, bool):
         raise ConfigError(f"governor: expected true or false, got {governor!r}")
     if governor and (not is_real(governor_threshold) or not 0 < governor_threshold < 1):
-        raise ConfigError(f"governor_threshold: need a number in (0, 1), got {governor_threshold!r}")
+        raise ConfigError(f"governor_threshold: need a number in (0, 1), got {shown(governor_threshold)}")
+    if not is_real(governor_threshold) or not math.isfinite(governor_threshold):    # off: unused, still a number
+        raise ConfigError(f"governor_threshold: need a finite number (in (0, 1) with the governor on), "
+                          f"got {shown(governor_threshold)}")
     checked = {"gain": float(gain), "governor_threshold": float(governor_threshold),
                "damping": check_damping(damping), "speed": as_param(speed, "speed")}
     if type(curve) not in BUILT_IN_CURVES:

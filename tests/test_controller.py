@@ -155,3 +155,18 @@ def test_other_bad_controller_inputs_are_named():
         ctrl.control([0.1, float("nan"), 0.0, 0.0], 0.0)
     with pytest.raises(ConfigError, match="t: must be finite"):
         ctrl.control(chain.zigzag(1.0), float("inf"))
+
+
+@pytest.mark.parametrize("threshold", ["abc", None, [0.1], float("nan"), float("inf"), True])
+@pytest.mark.parametrize("governor", [False, True])
+def test_a_bad_governor_threshold_is_refused_naming_it_with_the_governor_on_or_off(threshold, governor):
+    """Off, it was converted unchecked: a traceback (ValueError/TypeError) or NaN, True kept as 1.0."""
+    with pytest.raises(ConfigError, match=r"^governor_threshold: need a"):
+        CoordinatingController(PlanarChain(4, 0.1), Line(), 1.0, 0.1, governor=governor, governor_threshold=threshold)
+
+
+def test_a_governor_threshold_outside_0_1_is_unused_and_kept_with_the_governor_off():
+    ctrl = CoordinatingController(PlanarChain(4, 0.1), Line(), 1.0, 0.1, governor_threshold=0.0)
+    assert ctrl.governor_threshold == 0.0           # a scenario's longitudinal threshold 0 without the governor
+    with pytest.raises(ConfigError, match=r"governor_threshold: need a number in \(0, 1\), got 0.0"):
+        CoordinatingController(PlanarChain(4, 0.1), Line(), 1.0, 0.1, governor=True, governor_threshold=0.0)

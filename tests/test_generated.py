@@ -394,3 +394,55 @@ def test_the_cache_directory_is_the_build_dir_the_variable_or_the_users_linux_ca
     assert build_root(tmp_path / "given") == tmp_path / "given"
     monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path / "env"))
     assert build_root() == tmp_path / "env" and build_root(tmp_path / "given") == tmp_path / "given"
+
+
+@pytest.mark.parametrize("times, h, match", [
+    ([0.0, 0.1], float("nan"), r"^h: the step must be a finite number of seconds above 0, got nan$"),
+    ([0.0, 0.1], 0.0, r"^h: the step .* got 0.0$"),
+    ([0.0, 0.1], "0.01", r"^h: the step .* got '0.01'$"),
+    ([0.0, float("nan"), 0.2], 0.01, r"^times\[1\]: each start time must be finite, got nan$"),
+    (np.zeros((2, 3)), 0.01, r"^times: need a 1-D sequence of start times \[s\], got shape \(2, 3\)$"),
+    (["a", "b"], 0.01, r"^times: need a 1-D sequence"),
+])
+def test_bad_times_or_step_of_a_compiled_chunk_name_the_argument(times, h, match):
+    """Not ``t: must be finite, got <times[0]>`` (a bad h), nor silent NaN or a silently misread grid."""
+    ctrl, comp = compiled("line", 7)
+    with pytest.raises(ConfigError, match=match):
+        comp.chunk(ctrl.chain.zigzag(1.0), times, h)
+
+
+def cache_entry(root, name, files=(LIBRARY, "coordarm.c", META)):
+    """A directory shaped like a build's entry under ``root``."""
+    entry = root / name
+    entry.mkdir(parents=True)
+    for f in files:
+        (entry / f).write_text("x")
+    return entry
+
+
+def test_clean_deletes_only_cache_entries_never_a_users_files_or_through_a_link(tmp_path):
+    from coordarm.generated.build import clean
+    root = tmp_path / "cache"
+    root.mkdir(mode=0o700)
+    built = [cache_entry(root, "0123456789abcdef"), cache_entry(root, "fedcba9876543210", ("coordarm.c",))]
+    users = [cache_entry(root, "my-photos-2024-x", ("a.jpg",)),           # 16 characters, not hex
+             cache_entry(root, "00000000aaaaaaaa", ("notes.txt",))]       # hex, but not a build's files
+    outside = cache_entry(tmp_path / "elsewhere", "1111111111111111")
+    (root / "2222222222222222").symlink_to(outside, target_is_directory=True)
+    assert clean(root) == 2
+    assert not any(e.exists() for e in built)
+    assert all((e / f).exists() for e, f in zip(users, ("a.jpg", "notes.txt")))
+    assert (outside / LIBRARY).exists() and (root / "2222222222222222").is_symlink()
+    assert clean(tmp_path / "missing") == 0 and not (tmp_path / "missing").exists()
+
+
+def test_clean_empties_the_private_cache_the_builds_use_not_a_shared_one(tmp_path, monkeypatch):
+    from coordarm.generated import build as build_mod
+    shared, private = tmp_path / "shared", tmp_path / "private"
+    others = cache_entry(shared, "0123456789abcdef")                  # another user's library
+    shared.chmod(0o777)
+    mine = cache_entry(private, "fedcba9876543210")
+    monkeypatch.setattr(build_mod, "_private_fallback", [private])
+    with pytest.warns(build_mod.CacheWarning, match="writable by others"):
+        assert build_mod.clean(shared) == 1
+    assert (others / LIBRARY).exists() and not mine.exists()
