@@ -44,7 +44,7 @@ def test_help_lists_the_choices_of_their_single_sources():
     text = " ".join(res.stdout.split())
     for choices in (BACKENDS, COMPRESSIONS, LAWS):
         assert "{" + ",".join(choices) + "}" in text
-    assert set(presets()) == {"line", "arc", "hole", "pipe", "thread", "line3d", "path3d"} and all(p in text for p in presets())
+    assert set(presets()) == {"line", "arc", "hole", "pipe", "thread", "line3d", "path3d", "port", "pipe3d"} and all(p in text for p in presets())
 
 
 def test_importing_the_figure_modules_keeps_the_users_matplotlib_backend():
