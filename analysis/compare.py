@@ -201,8 +201,9 @@ def score(run: Run, scenario: Scenario) -> dict[str, Any]:
     dict of str to Any
         ``outcome`` (str), ``max_deviation`` [m], ``wall_contacts`` and ``self_collisions``
         (contact sample counts), ``peak_u`` [rad/s], ``peak_joint_rate`` [rad/s],
-        ``final_s_error`` [m], ``step_time`` (wall time per step) [s]; on a rail also
-        ``peak_rail_rate`` [m/s].
+        ``final_s_error`` [m], ``step_time`` (wall time per step) [s], ``peak_du_dt`` (the
+        largest joint acceleration over every step, ``run.info["joint_rates"]``) [rad/s^2]; on a
+        rail also ``peak_rail_rate`` [m/s] and ``peak_rail_accel`` [m/s^2].
     """
     ctrl = scenario.controller()
     geo = ctrl.centre_geometry(run.q, run.t)
@@ -225,8 +226,13 @@ def score(run: Run, scenario: Scenario) -> dict[str, Any]:
            "peak_joint_rate": float(np.max(np.abs(rates))),
            "final_s_error": float(abs(geo["psi"][-1, -1] - s_ref[-1])),
            "step_time": float(run.info["wall_time"] / run.info["steps"])}
+    peaks = run.info.get("joint_rates") or {}           # every step; else (a baseline) the rows kept
+    dt = np.diff(run.t)[:, None]
+    out["peak_du_dt"] = peaks.get("du_dt", float(np.max(np.abs(np.diff(u, axis=0)) / dt, initial=0.0)))
     if ctrl.chain.rail:
         out["peak_rail_rate"] = float(np.max(np.abs(run.u[:, 0])))
+        out["peak_rail_accel"] = peaks.get("rail_accel", float(np.max(np.abs(np.diff(run.u[:, :1], axis=0)) / dt,
+                                                                      initial=0.0)))
     return out
 
 

@@ -21,6 +21,7 @@ from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.laws import LAWS, Law
 
+from .joint_rates import check_limit
 from .limits import check_bounds, check_gain_step
 from .obstacles import Obstacle, obstacles_from_spec
 from .obstacles3d import Obstacle3D, obstacles3d_from_spec
@@ -30,7 +31,8 @@ from .spatial_tables import (BEND_LIMIT, check_curve_kind, check_joints, check_k
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
             "obstacles", "figures"}
-KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base", "joints", "radius"},
+KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base", "joints", "radius", "rate_limit",
+                  "accel_limit"},
         "figures": {"stages", "panels"},
         "control": {"gain", "speed", "law", "span", "governor", "damping", "roll"},
         "start": {"kind", "beta", "heading", "curve", "axis", "fold", "roll"}, "run": {"duration", "step", "t0"},
@@ -97,6 +99,9 @@ class ChainTable:
         its ``joint_limit`` bounds the bend ``acos(d_{j-1} . d_j)`` between consecutive links).
     radius : float or None
         Capsule radius of a universal chain's links [m]; None: ``link_length / 10``.
+    rate_limit, accel_limit : float or None
+        Largest ``|u_j|`` [rad/s] and ``|du_j/dt|`` [rad/s^2] of a joint, checked at every step
+        (:mod:`coordarm.simulation.joint_rates`); None: unchecked.
     """
 
     links: int
@@ -107,6 +112,8 @@ class ChainTable:
     base_args: dict = field(default_factory=lambda: {"base": "fixed"}, compare=False, repr=False)
     joints: str = "revolute"
     radius: float | None = None
+    rate_limit: float | None = None
+    accel_limit: float | None = None
 
     @property
     def universal(self) -> bool:
@@ -147,7 +154,8 @@ class ChainTable:
         """
         return {"links": self.links, "link_length": self.link_length,
                 **_present(joint_limit=self.joint_limit, clearance=self.clearance, base=self.base,
-                           joints=self.joints if self.universal else None, radius=self.radius)}
+                           joints=self.joints if self.universal else None, radius=self.radius,
+                           rate_limit=self.rate_limit, accel_limit=self.accel_limit)}
 
 
 @dataclass(frozen=True)
@@ -470,7 +478,9 @@ def _chain(ch: dict) -> ChainTable:
     if "radius" in ch:
         check_number(ch["radius"], "chain.radius")
     return ChainTable(ch["links"], ch["link_length"], ch.get("joint_limit"), ch.get("clearance"), ch.get("base"),
-                      base_args(ch.get("base", "fixed")), check_joints(ch.get("joints", "revolute")), ch.get("radius"))
+                      base_args(ch.get("base", "fixed")), check_joints(ch.get("joints", "revolute")), ch.get("radius"),
+                      check_limit(ch.get("rate_limit"), "chain.rate_limit"),
+                      check_limit(ch.get("accel_limit"), "chain.accel_limit"))
 
 
 def _span(control: dict, chain: ChainTable) -> Any:

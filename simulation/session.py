@@ -25,6 +25,8 @@ from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from coordarm.simulation.choices import DENSE_LINKS
 from coordarm.symbolic.errors import CollisionError, ConfigError, LogError, SingularityError
+
+from .joint_rates import JointRateError
 from coordarm.symbolic.laws import Law
 
 if TYPE_CHECKING:   # numpy, CasADi, matplotlib and foxglove load only when a run starts
@@ -350,7 +352,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
                              cond_rate=cond_rate, compression=compression, allow_contact=allow_contact,
                              progress=progress, on_warning=on_warning)
             stopped = None
-        except (SingularityError, CollisionError) as err:
+        except (SingularityError, CollisionError, JointRateError) as err:
             run, stopped = err.run, err
     return run, stopped, holder["backend"], holder["compiled"]
 
@@ -420,12 +422,13 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
         for w in caught:
             on_warning(w.message)
         logger.set_backend(backend, compiled.library.key if compiled else None)
+        rates = logger.joint_rates = scenario.joint_rates()     # its peaks go into the log's outcome
         on_chunk = logger.on_chunk if view is None else both(logger.on_chunk, view.on_chunk)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", GainStepWarning)   # said above already
             run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
                            thresholds=scenario.thresholds, progress=progress, on_chunk=on_chunk,
-                           physical=scenario.physical(ctrl.chain),
+                           physical=scenario.physical(ctrl.chain), rates=rates,
                            check_every=max(logger.every, round(1.0 / (CHECK_RATE * scenario.step))),
                            allow_contact=allow_contact)
         logger.contacts = run.info["contacts"]

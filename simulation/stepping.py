@@ -14,6 +14,7 @@ from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import spatial_split, split
 
+from .joint_rates import JointRateError
 from .log_layout import PLANAR, ChainLayout, MarginCheck, layout_of_chain
 from .result import OPTIONAL, Run, deviation_norms
 
@@ -173,6 +174,9 @@ class Stepping:
         Physical check stride [steps].
     allow_contact : bool
         Keep going after a contact.
+    rates : JointRates or None
+        Peaks of the joint rates and accelerations, and their limits
+        (:class:`~coordarm.simulation.joint_rates.JointRates`), updated with every step.
     """
 
     ctrl: CoordinatingController
@@ -187,6 +191,7 @@ class Stepping:
     physical: Any = None
     check_every: int = 1
     allow_contact: bool = False
+    rates: Any = None
 
     @property
     def layout(self) -> ChainLayout:
@@ -230,6 +235,12 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
         part.s = unwrap_s(loop.ctrl.curve, part.t, part.s, prev)
         prev = (float(part.t[-1]), float(part.s[-1]))
         stop = _first_stop(part, k, loop, contacts)
+        if loop.rates is not None:
+            upto = len(part.t) if stop is None else stop[0] + 1
+            fast = loop.rates.update(part.t[:upto], part.u[:upto])
+            if fast is not None and (stop is None or fast[0] < stop[0]):
+                stop = fast
+            info = dict(info, joint_rates=dict(loop.rates.peaks))
         if stop is not None:
             row, error = stop
             part = part.rows(slice(0, row + 1))
@@ -338,7 +349,8 @@ def stopped(ctrl: CoordinatingController, error: CoordarmError, parts: list[Run]
     return error
 
 
-_STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision"}
+_STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision",
+          JointRateError: "rate_limit"}
 
 
 def _records(contacts: list) -> list[dict]:
