@@ -151,7 +151,7 @@ def _piece_geometries(ctrl: CoordinatingController, carry: ca.SX, qj: ca.SX, cs:
         geos.append(ca.vertcat(1 / (0.5 * xi * pivot), phi, ca.fabs(pivot), g, -K * phi - phit))
     expr, wsym, wexpr = split_time_terms(ca.vertcat(*geos), t)
     tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
-    geometry = {kind: ca.Function(f"link_geometry_{kind}", [carry, qj, cs[0], cs[1], wsym, sel],
+    geometry = {kind: ca.Function(f"link_geometry_{function_kind(kind, kinds)}", [carry, qj, cs[0], cs[1], wsym, sel],
                                   [ca.cse(expr[6 * i:6 * i + 6])], _TRIG_INPUTS + ["w", "piece"], ["geometry"])
                 for i, kind in enumerate(kinds)}
     return tf, geometry
@@ -172,6 +172,28 @@ def piece_kinds(ctrl: CoordinatingController) -> tuple[str, ...]:
     """
     spiral = any(pc.c != 0 for pc in ctrl.curve.pieces)
     return ("line", "arc", "spiral") if spiral else ("line", "arc")
+
+
+def function_kind(kind: str, kinds: tuple[str, ...]) -> str:
+    """The C name's suffix of a kind's Function: on a path with clothoids the arc's is ``arc_only``.
+
+    The C glue calls ``link_geometry_arc`` and ``tail_arc`` for a piece flagged arc-like; with clothoids
+    those names are wrappers (:func:`~coordarm.generated.path_search.spiral_wrappers`) that call the
+    arc's or the clothoid's Function by the piece's flag.
+
+    Parameters
+    ----------
+    kind : str
+        ``"line"``, ``"arc"`` or ``"spiral"``.
+    kinds : tuple of str
+        The path's kinds (:func:`piece_kinds`).
+
+    Returns
+    -------
+    str
+        ``kind``, or ``"arc_only"``.
+    """
+    return "arc_only" if kind == "arc" and "spiral" in kinds else kind
 
 
 def _piece_step(ctrl: CoordinatingController, carry: ca.SX, qj: ca.SX, cs: ca.SX) -> ca.Function:
@@ -245,7 +267,8 @@ def tail_piece(ctrl: CoordinatingController, kind: str) -> ca.Function:
         sel = ca.SX.sym("piece", PIECE_CONSTANTS)
         geometry = ctrl.task.piece_geometry(kind)
         outs = ctrl.recursion.tail_expressions(carry, t, lambda y: geometry(y, t, sel))
-        return ca.Function(f"tail_{kind}", [carry, t, sel], list(outs), ["carry", "t", "piece"], TAIL_OUTPUTS)
+        name = f"tail_{function_kind(kind, piece_kinds(ctrl))}"
+        return ca.Function(name, [carry, t, sel], list(outs), ["carry", "t", "piece"], TAIL_OUTPUTS)
     return _cached(ctrl, ("tail", kind), make)
 
 

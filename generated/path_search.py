@@ -150,16 +150,28 @@ def search_source(path: Path) -> str:
     Returns
     -------
     str
-        ``#define CA_PATH``, ``CA_SPIRAL`` (with transitions), ``CA_NP`` (the number of pieces), ``CA_PATH_EPS`` and the static tables.
+        ``#define CA_PATH``, ``CA_NP`` (the number of pieces), ``CA_PATH_EPS`` and the static
+        tables (and :data:`SPIRAL_WRAPPERS` on a path with clothoids).
     """
     tb = search_tables(path)
     n = len(tb["flags"])
-    spiral = "#define CA_SPIRAL 1\n" if np.any(tb["flags"] & 8) else ""
-    return (f"#define CA_PATH 1\n{spiral}#define CA_NP {n}\n#define CA_PATH_EPS {tb['eps']!r}\n"
+    return (f"#define CA_PATH 1\n#define CA_NP {n}\n#define CA_PATH_EPS {tb['eps']!r}\n"
             f"static const casadi_real ca_pp[CA_NP][{PIECE_CONSTANTS}] = {{{_rows(tb['params'])}}};\n"
             f"static const casadi_real ca_pj[CA_NP][3] = {{{_rows(tb['junction'])}}};\n"
             f"static const casadi_real ca_pf[CA_NP][5] = {{{_rows(tb['formula'])}}};\n"
             f"static const int ca_pk[CA_NP] = {{{_values(tb['flags'], int)}}};\n"
             f"static const int ca_nb_start[CA_NP + 1] = {{{_values(tb['start'], int)}}};\n"
             f"static const int ca_nb_j[{max(1, len(tb['others']))}] = {{{_values(tb['others'], int)}}};\n"
-            f"static const casadi_real ca_nb_lb[{max(1, len(tb['bounds']))}] = {{{_values(tb['bounds'])}}};\n")
+            f"static const casadi_real ca_nb_lb[{max(1, len(tb['bounds']))}] = {{{_values(tb['bounds'])}}};\n"
+            + (SPIRAL_WRAPPERS if np.any(tb["flags"] & 8) else ""))
+
+
+#: On a path with clothoids: ``link_geometry_arc`` and ``tail_arc``, which the glue calls for every
+#: arc-like piece (flag 1), call the clothoid's Function for a piece flagged 8, else the arc's
+#: (``*_arc_only``, :func:`~coordarm.generated.link_variants.function_kind`); the piece is found from
+#: its constants' row of ``ca_pp``, the argument at ``slot``.
+SPIRAL_WRAPPERS = "".join(
+    f"static int {name}_arc(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {{\n"
+    f"  casadi_int k = (casadi_int)((arg[{slot}] - ca_pp[0]) / {PIECE_CONSTANTS});\n"
+    f"  return ca_pk[k] & 8 ? {name}_spiral(arg, res, iw, w, mem) : {name}_arc_only(arg, res, iw, w, mem);\n}}\n"
+    for name, slot in (("link_geometry", 5), ("tail", 2)))

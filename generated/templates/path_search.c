@@ -1,6 +1,5 @@
 
-/* Whether p lies in piece j's closest-point range (its junction tests, and an arc's wedge); *dist = |phi_j|
-   (a clothoid's: that of its approximating arc, whose error the tables' lower bounds allow for),
+/* Whether p lies in piece j's closest-point range (its junction tests, and an arc's wedge); *dist = |phi_j|,
    g[0] and g[1] the junction tests at its start and end (those it has). */
 static int ca_piece_ok(casadi_int j, const casadi_real* p, casadi_real* dist, casadi_real* g) {
   const casadi_real* f = ca_pf[j];
@@ -51,14 +50,6 @@ static casadi_int ca_closest_piece(const casadi_real* p, casadi_int guess) {
   return best;
 }
 
-/* The Function of piece k's kind: flag 8 a clothoid of a transition (CA_SPIRAL), 1 an arc, else a line. */
-#ifdef CA_SPIRAL
-#define CA_PIECE_CALL(name, k) (ca_pk[k] & 8 ? name##_spiral(arg, res, iw, w, 0) \
-    : ca_pk[k] & 1 ? name##_arc(arg, res, iw, w, 0) : name##_line(arg, res, iw, w, 0))
-#else
-#define CA_PIECE_CALL(name, k) (ca_pk[k] & 1 ? name##_arc(arg, res, iw, w, 0) : name##_line(arg, res, iw, w, 0))
-#endif
-
 /* Before the recursion and apart from it (the centres do not depend on the rates): the closest
    piece pc[j] of every central point y^j (j = 0..m-1, 0-based), each search starting from the
    previous link's piece, and each link's geometry geo[6 j .. 6 j + 5] by the formulas of its
@@ -82,7 +73,7 @@ CA_FLATTEN static int ca_path_pass(const casadi_real* head, const casadi_real* q
     k = pc[j] = ca_closest_piece(pp, k);
     arg[0] = cy; arg[1] = q + j; arg[2] = c + j; arg[3] = s + j; arg[4] = wt; arg[5] = ca_pp[k];
     res[0] = geo + 6 * j;
-    if (CA_PIECE_CALL(link_geometry, k)) return 2;
+    if (ca_pk[k] & 1 ? link_geometry_arc(arg, res, iw, w, 0) : link_geometry_line(arg, res, iw, w, 0)) return 2;
     cy[0] = y0; cy[1] = y1; cy[3] = c[j]; cy[4] = s[j];
   }
   return 0;

@@ -188,7 +188,7 @@ again:
   res[4] = tl + 4;
 #ifdef CA_PATH
   arg[2] = ca_pp[pc[CA_M - 1]];        /* the tail by the formulas of y^m's piece */
-  if (CA_PIECE_CALL(tail, pc[CA_M - 1])) return 2;
+  if (ca_pk[pc[CA_M - 1]] & 1 ? tail_arc(arg, res, iw, w, 0) : tail_line(arg, res, iw, w, 0)) return 2;
 #else
   if (tail(arg, res, iw, w, 0)) return 2;
 #endif
