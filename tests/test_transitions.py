@@ -54,6 +54,39 @@ def dense_g2(start, heading, segments, window, h=1e-5, ray=0.5):
     return P, s, T
 
 
+def dense_from_curvature(start, heading, segments, transitions, h=1e-5, ray=0.5):
+    """Independent G2 geometry for any transitions: the curvature (G1 steps, each replaced by a linear
+    ramp of its junction's length centred on it) integrated twice with the trapezoid rule.
+
+    Returns points (N, 2), their arc lengths (N,) and unit tangents (N, 2)."""
+    ks = [0.0 if "line" in sg else math.copysign(1.0 / sg["radius"], sg["arc"]) for sg in segments]
+    ls = [sg["line"] if "line" in sg else abs(sg["arc"]) * sg["radius"] for sg in segments]
+    ends = np.cumsum(ls)
+    s = np.arange(-ray, ends[-1] + ray, h)
+    kappa = np.select([(s >= a) & (s < b) for a, b in zip(np.r_[0.0, ends[:-1]], ends)], ks, 0.0)
+    for S, L, k0, k1 in zip(ends[:-1], transitions, ks[:-1], ks[1:]):
+        if L > 0:
+            on = np.abs(s - S) <= L / 2
+            kappa[on] = k0 + (k1 - k0) * (s[on] - (S - L / 2)) / L
+    theta = np.r_[0.0, np.cumsum(0.5 * h * (kappa[1:] + kappa[:-1]))]
+    theta += heading - np.interp(0.0, s, theta)
+    T = np.c_[np.cos(theta), np.sin(theta)]
+    P = np.vstack([[0.0, 0.0], np.cumsum(0.5 * h * (T[1:] + T[:-1]), axis=0)])
+    P += np.asarray(start) - np.array([np.interp(0.0, s, P[:, 0]), np.interp(0.0, s, P[:, 1])])
+    return P, s, T
+
+
+def test_a_g2_path_with_different_transitions_matches_its_curvature_integrated():
+    path = Path(START, HEADING, SEGMENTS[:1] + [dict(SEGMENTS[1], transition=0.1)] + SEGMENTS[2:], transition=0.25)
+    assert path.transitions == [0.1, 0.25, 0.25]
+    P, S, T = dense_from_curvature(START, HEADING, SEGMENTS, path.transitions)
+    f = path.functions()
+    idx = np.random.default_rng(5).integers(0, len(S), 60)
+    phi, psi = (np.asarray(v).ravel() for v in f.map(len(idx))(P[idx].T, 0.0))
+    np.testing.assert_allclose(phi, 0.0, atol=1e-9)
+    np.testing.assert_allclose(psi, S[idx], atol=1e-9)
+
+
 def test_a_g2_path_matches_its_definition_built_independently():
     path = Path(START, HEADING, SEGMENTS, transition=L)
     assert path.transitions == [L, L, L]
