@@ -32,7 +32,7 @@ from .errors import ConfigError
 #: Clothoid pieces turning more than this [rad] are split into equal pieces (and at an inflection).
 MAX_SPIRAL = 0.25
 #: Gauss-Legendre nodes of the position quadrature on a clothoid piece.
-GAUSS_NODES = 8
+GAUSS_NODES = 7
 #: Newton steps of the closest point on a clothoid piece (from the chord projection).
 NEWTON_STEPS = 3
 #: Default transition length as a fraction of the smaller radius of the two segments it joins.
