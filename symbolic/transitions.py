@@ -170,6 +170,35 @@ def _quadrature(k0, c, sigma):
     return 0.5 * sigma * X, 0.5 * sigma * Y
 
 
+def spiral_foot(k0, c, sigma, vx, vy):
+    """The closest point of a clothoid to ``(vx, vy)`` in its local frame: :data:`NEWTON_STEPS` Newton steps.
+
+    Parameters
+    ----------
+    k0, c : casadi.SX
+        Start curvature [1/m] and curvature rate [1/m^2].
+    sigma : casadi.SX
+        Start guess of the arc length from the piece's start [m].
+    vx, vy : casadi.SX
+        The point along ``d0`` and ``n0`` from the piece's start [m].
+
+    Returns
+    -------
+    tuple of casadi.SX
+        ``sigma`` [m], the foot ``(X, Y)`` [m] and the heading change ``theta`` [rad] there.
+    """
+    for _ in range(NEWTON_STEPS):
+        X, Y = _quadrature(k0, c, sigma)
+        th = (k0 + 0.5 * c * sigma) * sigma
+        ct, st = ca.cos(th), ca.sin(th)
+        ex, ey = X - vx, Y - vy
+        f = ct * ex + st * ey
+        fp = 1 + (k0 + c * sigma) * (ct * ey - st * ex)
+        sigma = sigma - f / fp
+    X, Y = _quadrature(k0, c, sigma)
+    return sigma, X, Y, (k0 + 0.5 * c * sigma) * sigma
+
+
 def spiral_formulas(sel, p):
     """``(phi, psi)`` at ``p`` (path frame) on the clothoid piece with constants ``sel``.
 
@@ -189,17 +218,7 @@ def spiral_formulas(sel, p):
     p0, d0, k0, s0, c, h = sel[0:2], sel[2:4], sel[4], sel[5], sel[6], sel[8:10]
     dv = p - p0
     vx, vy = d0[0] * dv[0] + d0[1] * dv[1], d0[0] * dv[1] - d0[1] * dv[0]
-    sigma = h[0] * dv[0] + h[1] * dv[1]
-    for _ in range(NEWTON_STEPS):
-        X, Y = _quadrature(k0, c, sigma)
-        th = (k0 + 0.5 * c * sigma) * sigma
-        ct, st = ca.cos(th), ca.sin(th)
-        ex, ey = X - vx, Y - vy
-        f = ct * ex + st * ey
-        fp = 1 + (k0 + c * sigma) * (ct * ey - st * ex)
-        sigma = sigma - f / fp
-    X, Y = _quadrature(k0, c, sigma)
-    th = (k0 + 0.5 * c * sigma) * sigma
+    sigma, X, Y, th = spiral_foot(k0, c, h[0] * dv[0] + h[1] * dv[1], vx, vy)
     phi = ca.cos(th) * (vy - Y) - ca.sin(th) * (vx - X)
     return phi, s0 + sigma
 
