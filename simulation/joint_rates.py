@@ -82,7 +82,10 @@ class JointRates:
     rail : bool
         The first column of ``u`` is the rail's rate ``d'`` [m/s] (its change is ``d''``, kept apart).
     rate_limit, accel_limit : float or None
-        Limits of ``|u_j|`` [rad/s] and ``|du_j/dt|`` [rad/s^2] of the revolute joints (None: unchecked).
+        Limits of ``|u_j|`` [rad/s] and ``|du_j/dt|`` [rad/s^2] of the joints' angles (None: unchecked).
+    per_joint : int
+        Columns of ``u`` per joint: 1 (revolute), 2 (a universal joint's two angles); joints are
+        named ``column // per_joint + 1``.
     peaks : dict
         ``du_dt`` [rad/s^2] with its ``du_dt_joint`` and ``du_dt_time`` [s] (the end of the step), and on a
         rail ``rail_accel`` [m/s^2] with ``rail_accel_time``.
@@ -91,6 +94,7 @@ class JointRates:
     rail: bool = False
     rate_limit: float | None = None
     accel_limit: float | None = None
+    per_joint: int = 1
     peaks: dict = field(default_factory=dict)
     _last: tuple | None = field(default=None, repr=False)
 
@@ -121,14 +125,15 @@ class JointRates:
             bad = np.argwhere(np.abs(rev) > self.rate_limit)
             if len(bad):
                 k, j = bad[0]
-                stop = (int(k), JointRateError(float(tt[k]), int(j) + 1, float(abs(rev[k, j])), self.rate_limit, "rate"))
+                stop = (int(k), JointRateError(float(tt[k]), int(j) // self.per_joint + 1, float(abs(rev[k, j])),
+                                               self.rate_limit, "rate"))
         acc = np.abs(np.diff(rev, axis=0)) / np.diff(tt)[:, None]       # step k ends at row k + 1
         if self.accel_limit is not None:
             bad = np.argwhere(acc > self.accel_limit)
             if len(bad) and (stop is None or bad[0][0] + 1 < stop[0]):
                 k, j = bad[0]
-                stop = (int(k) + 1, JointRateError(float(tt[k + 1]), int(j) + 1, float(acc[k, j]), self.accel_limit,
-                                                   "accel"))
+                stop = (int(k) + 1, JointRateError(float(tt[k + 1]), int(j) // self.per_joint + 1, float(acc[k, j]),
+                                                   self.accel_limit, "accel"))
         end = len(tt) if stop is None else stop[0] + 1                   # the peaks up to the stop only
         self._peaks(tt[:end], uu[:end], acc[:end - 1])
         return None if stop is None else (stop[0] - shift, stop[1])
@@ -139,7 +144,8 @@ class JointRates:
             return
         k, j = np.unravel_index(np.argmax(acc), acc.shape)
         if acc[k, j] > self.peaks.get("du_dt", -1.0):
-            self.peaks.update(du_dt=float(acc[k, j]), du_dt_joint=int(j) + 1, du_dt_time=float(tt[k + 1]))
+            self.peaks.update(du_dt=float(acc[k, j]), du_dt_joint=int(j) // self.per_joint + 1,
+                              du_dt_time=float(tt[k + 1]))
         if self.rail:
             dd = np.abs(np.diff(uu[:, 0])) / np.diff(tt)
             i = int(np.argmax(dd))

@@ -247,7 +247,9 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     check_interrupt()
     n_steps = int(round(duration / step))
     every = kept_every(keep, on_chunk is not None, n_steps)
-    rates = JointRates(rail=bool(getattr(ctrl.chain, "rail", False))) if rates is None else rates
+    if rates is None:
+        rates = JointRates(rail=bool(getattr(ctrl.chain, "rail", False)),
+                           per_joint=layout_of_chain(ctrl.chain).deviations_per_link)
     loop = Stepping(ctrl, compiled, t0, step, n_steps, chunk, thr, tube, every, physical, check_every, allow_contact,
                     rates)
     bar = progress_bar(duration, n_steps, progress)

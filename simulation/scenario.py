@@ -262,7 +262,8 @@ class Scenario:
             A fresh record (one per run).
         """
         ch = self.config.chain
-        return JointRates(rail=ch.rail, rate_limit=ch.rate_limit, accel_limit=ch.accel_limit)
+        return JointRates(rail=ch.rail, rate_limit=ch.rate_limit, accel_limit=ch.accel_limit,
+                          per_joint=2 if ch.universal else 1)
 
     def controller(self) -> CoordinatingController | SpatialController:
         """The coordinating controller this scenario describes.

@@ -101,6 +101,7 @@ def spatial_summary_lines(run: Run, scenario: Scenario) -> list[str]:
             f"link margin   min {s['min_link_margin']:.4f} (link {s['min_link_margin_link']}, "
             f"t = {s['min_link_margin_time']:.2f} s)",
             f"end margin    min {s['min_end_margin']:.4f} (t = {s['min_end_margin_time']:.2f} s)",
+            *rate_lines(run.info.get("joint_rates")),
             f"joint margin  min |cos b_j| = {s['min_joint_margin']:.4f} (joint {s['min_joint_margin_joint']}, "
             f"t = {s['min_joint_margin_time']:.2f} s)",
             f"max|u|        {s['max_abs_u']:.4g}"] + spatial_physical_lines(run, scenario)
