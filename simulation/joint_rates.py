@@ -3,74 +3,16 @@
 The law gives the joint rates ``u`` at every RK4 step; the joint accelerations are their step-to-step
 changes, ``du/dt ~ (u_{k+1} - u_k) / h`` (on a rail the first column is the rail's rate ``d'``, so its
 change is ``d''``). :class:`JointRates` sees every step (before a log thins the rows), keeps the
-peaks and stops the run at the first step beyond a limit (:class:`JointRateError`).
+peaks and stops the run at the first step beyond a limit (:class:`~coordarm.symbolic.errors.JointRateError`).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic.errors import ConfigError, CoordarmError
-
-
-class JointRateError(CoordarmError):
-    """A joint moved faster (``kind = "rate"``) or turned its rate faster (``"accel"``) than its limit.
-
-    Parameters
-    ----------
-    time : float
-        Simulated time [s].
-    joint : int
-        1-based joint index (``q_j``; on a rail joint 0 is the rail).
-    value : float
-        ``|u_j|`` [rad/s] or ``|du_j/dt|`` [rad/s^2].
-    limit : float
-        The limit it exceeded.
-    kind : {"rate", "accel"}
-        Which limit.
-    run : object, optional
-        The run up to that state.
-    """
-
-    def __init__(self, time: float, joint: int, value: float, limit: float, kind: str,
-                 run: object | None = None) -> None:
-        self.time, self.joint, self.value, self.limit, self.kind, self.run = time, joint, value, limit, kind, run
-        what = (f"moves at |u| = {value:.4g} rad/s, above chain.rate_limit = {limit:.4g} rad/s" if kind == "rate" else
-                f"accelerates at |du/dt| = {value:.4g} rad/s^2, above chain.accel_limit = {limit:.4g} rad/s^2")
-        super().__init__(f"joint {kind} limit at t = {time:.4f} s: joint {joint} {what}; run stopped")
-
-    def __reduce__(self):
-        return (JointRateError, (self.time, self.joint, self.value, self.limit, self.kind, None))
-
-
-def check_limit(value: Any, field_name: str) -> float | None:
-    """A ``rate_limit`` or ``accel_limit`` read from a scenario: None, or a finite number > 0.
-
-    Parameters
-    ----------
-    value : object
-        The value (None when the key is left out).
-    field_name : str
-        Its name in error messages (``"chain.rate_limit"``).
-
-    Returns
-    -------
-    float or None
-        The limit.
-
-    Raises
-    ------
-    ConfigError
-        Not a finite number > 0.
-    """
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise ConfigError(f"{field_name}: need a number > 0, got {value!r}")
-    return float(value)
+from coordarm.symbolic.errors import JointRateError
 
 
 @dataclass
@@ -96,7 +38,7 @@ class JointRates:
     accel_limit: float | None = None
     per_joint: int = 1
     peaks: dict = field(default_factory=dict)
-    _last: tuple | None = field(default=None, repr=False)
+    _last = None                 # the previous update's last row (t, u): not a field
 
     def update(self, t: np.ndarray, u: np.ndarray) -> tuple[int, JointRateError] | None:
         """Take the next rows ``(t, u)`` of the run; the first row beyond a limit, and its error.

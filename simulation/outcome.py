@@ -4,10 +4,11 @@ from __future__ import annotations
 from typing import Any
 
 from coordarm.symbolic import CollisionError, SingularityError
+from coordarm.symbolic.errors import JointRateError
 from coordarm.symbolic.interrupts import interruption
 
 from .choices import Outcome
-from .joint_rates import JointRateError
+
 
 #: Exit status of ``coordarm run`` per outcome (bad input is 2, Ctrl-C 130: see ``coordarm.cli``).
 EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.SINGULARITY: 3, Outcome.COLLISION: 4, Outcome.RATE_LIMIT: 5}

@@ -19,7 +19,6 @@ from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
 
 from .choices import BACKENDS, Backend
-from .joint_rates import JointRates
 from .limits import KEEP_ROWS, check_gain_step
 from .result import ARRAYS, OPTIONAL, ExtraOutputs, Run
 from .log_layout import layout_of_chain
@@ -171,8 +170,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
              t0: float = 0.0, *, backend: str = "auto", chunk: int = DEFAULT_CHUNK,
              thresholds: dict[str, float] | None = None, progress: bool | None = None,
              on_chunk: Callable[[Run], None] | None = None, physical: Any = None,
-             check_every: int = 1, allow_contact: bool = False, keep: int | None = None,
-             rates: Any = None) -> Run:
+             check_every: int = 1, allow_contact: bool = False, keep: int | None = None) -> Run:
     """Integrate the closed loop with fixed-step RK4 from ``q0`` at ``t0`` for ``duration``.
 
     Parameters
@@ -212,11 +210,6 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         the chunk's last row, so its summary's extremes, final values and step count are exact. Default:
         :data:`~simulation.limits.KEEP_ROWS` when ``on_chunk`` is given (a logger streams the
         rest to disk), else every row. ``run.info["kept_every"]`` records the thinning.
-    rates : JointRates, optional
-        Peaks of the joint rates and accelerations and their optional limits
-        (:class:`~coordarm.simulation.joint_rates.JointRates`; default: peaks only, no limit).
-        ``run.info["joint_rates"]`` records the peaks (``du_dt`` [rad/s^2], its joint and time,
-        on a rail ``rail_accel`` [m/s^2]).
 
     Returns
     -------
@@ -238,8 +231,6 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     CollisionError
         A contact (joint limit, self-collision, obstacle) and not ``allow_contact``;
         ``err.contact`` is the first, ``err.run`` holds the run up to there.
-    JointRateError
-        A joint rate or acceleration beyond ``rates``' limit; ``err.run`` holds the run up to there.
     """
     duration, step, t0, thr = check_settings(ctrl, duration, step, t0, chunk, backend, thresholds)
     q0, tube = check_start(ctrl, q0, t0, duration, thr, check_every, physical)
@@ -247,11 +238,7 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     check_interrupt()
     n_steps = int(round(duration / step))
     every = kept_every(keep, on_chunk is not None, n_steps)
-    if rates is None:
-        rates = JointRates(rail=bool(getattr(ctrl.chain, "rail", False)),
-                           per_joint=layout_of_chain(ctrl.chain).deviations_per_link)
-    loop = Stepping(ctrl, compiled, t0, step, n_steps, chunk, thr, tube, every, physical, check_every, allow_contact,
-                    rates)
+    loop = Stepping(ctrl, compiled, t0, step, n_steps, chunk, thr, tube, every, physical, check_every, allow_contact)
     bar = progress_bar(duration, n_steps, progress)
     try:
         return integrate(loop, q0, dict(info, kept_every=every), on_chunk, bar)

@@ -54,7 +54,6 @@ from coordarm.symbolic import (ConfigError, CoordinatingController, Curve, Plana
                                SpatialController, follow_curve, project_onto_curve)
 from coordarm.symbolic.start import check_start
 
-from .joint_rates import JointRates
 from .choices import presets
 from .obstacles import Obstacle
 from .obstacles3d import Obstacle3D
@@ -251,19 +250,7 @@ class Scenario:
         """
         if self.universal:
             return spatial_physical(self.config, chain or self.chain())
-        return Physical(chain or self.chain(), self.obstacles)
-
-    def joint_rates(self) -> JointRates:
-        """The run's joint-rate record: peaks of ``|du/dt|``, and ``[chain] rate_limit`` / ``accel_limit``.
-
-        Returns
-        -------
-        JointRates
-            A fresh record (one per run).
-        """
-        ch = self.config.chain
-        return JointRates(rail=ch.rail, rate_limit=ch.rate_limit, accel_limit=ch.accel_limit,
-                          per_joint=2 if ch.universal else 1)
+        return Physical(chain or self.chain(), self.obstacles, self.config.chain.rates)
 
     def controller(self) -> CoordinatingController | SpatialController:
         """The coordinating controller this scenario describes.

@@ -24,9 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from coordarm.simulation.choices import DENSE_LINKS
-from coordarm.symbolic.errors import CollisionError, ConfigError, LogError, SingularityError
-
-from .joint_rates import JointRateError
+from coordarm.symbolic.errors import CollisionError, ConfigError, JointRateError, LogError, SingularityError
 from coordarm.symbolic.laws import Law
 
 if TYPE_CHECKING:   # numpy, CasADi, matplotlib and foxglove load only when a run starts
@@ -422,16 +420,15 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
         for w in caught:
             on_warning(w.message)
         logger.set_backend(backend, compiled.library.key if compiled else None)
-        rates = logger.joint_rates = scenario.joint_rates()     # its peaks go into the log's outcome
         on_chunk = logger.on_chunk if view is None else both(logger.on_chunk, view.on_chunk)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", GainStepWarning)   # said above already
             run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
                            thresholds=scenario.thresholds, progress=progress, on_chunk=on_chunk,
-                           physical=scenario.physical(ctrl.chain), rates=rates,
+                           physical=scenario.physical(ctrl.chain),
                            check_every=max(logger.every, round(1.0 / (CHECK_RATE * scenario.step))),
                            allow_contact=allow_contact)
-        logger.contacts = run.info["contacts"]
+        logger.contacts, logger.joint_rates = run.info["contacts"], run.info.get("joint_rates")
     return run
 
 

@@ -48,7 +48,18 @@ def curvature_vectors(segments: Sequence[tuple[str, float, float, float]]) -> li
 
 
 def segment_lengths3d(segments: Sequence[tuple[str, float, float, float]]) -> list[float]:
-    """Length of each parsed 3-D segment [m]."""
+    """Length of each parsed 3-D segment [m].
+
+    Parameters
+    ----------
+    segments : sequence of (str, float, float, float)
+        Parsed segments (:func:`~.paths3d.parse_segment3d`).
+
+    Returns
+    -------
+    list of float
+        A line's length, or an arc's ``A R`` [m].
+    """
     return [a if kind == "line" else a * r for kind, a, r, _ in segments]
 
 
@@ -112,7 +123,18 @@ def ramps(ka: np.ndarray, kb: np.ndarray, L: float) -> list[tuple[float, float, 
 
 
 def local_piece(k0: float, c: float, length: float) -> Piece:
-    """The planar clothoid of a 3-D piece in its own plane coordinates (start at 0, heading along x)."""
+    """The planar clothoid of a 3-D piece in its own plane coordinates (start at 0, heading along x).
+
+    Parameters
+    ----------
+    k0, c, length : float
+        Start curvature [1/m], curvature rate [1/m^2] and length [m].
+
+    Returns
+    -------
+    Piece
+        The clothoid in the plane of ``t_0`` (x) and ``u`` (y).
+    """
     return Piece(np.zeros(2), np.array([1.0, 0.0]), k0, 0.0, length, c=c)
 
 
