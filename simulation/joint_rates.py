@@ -8,7 +8,6 @@ peaks and stops the run at the first step beyond a limit (:class:`~coordarm.symb
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 

@@ -278,13 +278,14 @@ def _segment_parts(segments, transitions) -> list[list[tuple[float, float, float
     curv = [0.0 if kind == "line" else math.copysign(1.0 / r, a) for kind, a, r in segments]
     lengths = [a if kind == "line" else abs(a) * r for kind, a, r in segments]
     out = []
-    for (kind, a, r), run in zip(segments, transition_runs(curv, lengths, transitions)):
-        (k, _, core), ramps = run[0], run[1:]
-        if core <= 1e-12:
+    for i, ((kind, a, r), run) in enumerate(zip(segments, transition_runs(curv, lengths, transitions))):
+        core, ramps = run[0][2], run[1:]
+        if core <= 1e-12:                   # used up by its transitions
             parts = []
-        elif kind == "line" or core == lengths[len(out)]:
-            parts = [(0.0, a, 0.0)] if kind == "line" and core == a else (
-                [(0.0, core, 0.0)] if kind == "line" else _arc_parts(a, r))
+        elif core == lengths[i]:            # no transition at either end: the segment as in G1
+            parts = [(0.0, a, 0.0)] if kind == "line" else _arc_parts(a, r)
+        elif kind == "line":
+            parts = [(0.0, core, 0.0)]
         else:
             parts = _arc_parts(math.copysign(core / r, a), r)
         for k0, c, length in ramps:

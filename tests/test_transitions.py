@@ -100,7 +100,7 @@ def test_a_g2_path_matches_its_definition_built_independently():
     np.testing.assert_allclose(phi, off, atol=1e-9)       # trapezoid rule, h = 1e-5: ~1e-10
     np.testing.assert_allclose(psi, S[idx], atol=1e-9)
     # the end: same total length and turning as the G1 path, the end point moved by the transitions only
-    end, d = path.pieces[-1].p0, path.pieces[-1].d0
+    d = path.pieces[-1].d0
     assert path.pieces[-1].s0 == pytest.approx(path.length - 1.0 + L / 2, abs=1e-12)
     assert math.atan2(d[1], d[0]) == pytest.approx(HEADING + 1.0 - 1.5, abs=1e-14)
 
