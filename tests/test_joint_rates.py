@@ -105,3 +105,6 @@ def test_an_accel_limit_stops_the_g1_path_at_its_junction_and_the_g2_path_passes
     peak = load(out).outcome["joint_rates"]["du_dt"]
     assert 0 < peak < 0.15                                   # 0.10 rad/s^2: 16x lower
     assert f"peak |du/dt|  {peak:.4g} rad/s²" in res.stdout
+    replay = subprocess.run([sys.executable, "-m", "coordarm", "replay", str(out), "--no-animation"],
+                            capture_output=True, text=True, timeout=600)
+    assert f"peak |du/dt|  {peak:.4g} rad/s²" in replay.stdout, replay.stderr       # from the log's outcome
