@@ -38,9 +38,9 @@ from .follow_leader import FollowTheLeader, simulate_ftl
 METHODS = COMPARE_METHODS
 #: Scores of one method, in table and JSON order.
 SCORES = ("outcome", "max_deviation", "wall_contacts", "self_collisions", "peak_u", "peak_joint_rate",
-          "final_s_error", "step_time")
-#: The extra score of a robot on a rail (after ``peak_joint_rate`` in the table, last in the JSON).
-RAIL_SCORES = ("peak_rail_rate",)
+          "final_s_error", "step_time", "peak_du_dt")
+#: The extra scores of a robot on a rail (``peak_rail_rate`` after ``peak_joint_rate`` in the table; last in the JSON).
+RAIL_SCORES = ("peak_rail_rate", "peak_rail_accel")
 #: Samples per simulated second at which contacts are counted [Hz].
 CONTACT_RATE = 100.0
 #: Damping of the ``dls`` baseline unless the scenario sets ``[control] damping``.

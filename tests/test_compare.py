@@ -241,7 +241,7 @@ def test_compare_on_a_rail_robot_runs_all_four_methods_and_holds_them_to_the_rai
     paths = write_outputs(sc, results, tmp_path)
     data = json.loads(paths["json"].read_text())
     for scores in data["methods"].values():
-        assert list(scores) == list(SCORES) + ["peak_rail_rate"]
+        assert list(scores) == list(SCORES) + ["peak_rail_rate", "peak_rail_accel"]
     assert "peak rail rate [m/s]" in paths["md"].read_text() and paths["png"].stat().st_size > 10_000
 
 
