@@ -13,6 +13,9 @@ alike (a spatial centre's deviation is the length of its two normal coordinates 
   an obstacle, or two non-adjacent links (capsules, in 3-D) touch each other;
 * ``peak_u``, ``peak_joint_rate``: largest ``|u|`` and ``|qdot| = |B u|`` of the joints [rad/s];
 * ``peak_rail_rate`` (a robot on a rail only): largest ``|d_dot|`` [m/s];
+* ``peak_du_dt``: the largest joint acceleration ``|du/dt|`` over every step [rad/s^2] (the run's own
+  record ``run.info["joint_rates"]`` where the simulation kept one, else from the samples kept);
+* ``peak_rail_accel`` (a robot on a rail only): the largest ``|d''|`` likewise [m/s^2];
 * ``final_s_error``: ``|psi(y^m) - (s(0) + integral of v*)|`` at the run's last sample [m];
 * ``step_time``: wall time of the stepping loop per step [s] (``ftl``: of its one mapped call per sample).
 """
@@ -131,6 +134,29 @@ class Scoring:
         chain = self.ctrl.chain
         return chain.apply_B(self.joint_u) if hasattr(chain, "apply_B") else self.joint_u
 
+    def peak_rate_change(self, column: str) -> float:
+        """The largest ``|du/dt|`` of the joints (``column="du_dt"``) or of the rail (``"rail_accel"``).
+
+        Taken from the simulation's record of every step (``run.info["joint_rates"]``) where there is
+        one, else from the differences of the samples kept (a baseline's run).
+
+        Parameters
+        ----------
+        column : {"du_dt", "rail_accel"}
+            Which peak.
+
+        Returns
+        -------
+        float
+            [rad/s^2] or [m/s^2].
+        """
+        peaks = self.run.info.get("joint_rates") or {}
+        if column in peaks:
+            return float(peaks[column])
+        u = self.joint_u if column == "du_dt" else np.asarray(self.run.u)[:, :1]
+        dt = np.diff(self.run.t)[:, None]
+        return float(np.max(np.abs(np.diff(u, axis=0)) / dt, initial=0.0))
+
     def contact_samples(self, kind: str) -> int:
         """Samples with at least one contact of ``kind`` (``"wall"`` or ``"self"``).
 
@@ -202,6 +228,9 @@ SCORE_TABLE = (
     Score("peak_joint_rate", "peak rate [rad/s]", "{:.3g}".format, lambda s: float(np.max(np.abs(s.joint_rates)))),
     Score("peak_rail_rate", "peak rail rate [m/s]", "{:.3g}".format,
           lambda s: float(np.max(np.abs(np.asarray(s.run.u)[:, 0]))), rail_only=True),
+    Score("peak_du_dt", "peak du/dt [rad/s²]", "{:.3g}".format, lambda s: s.peak_rate_change("du_dt")),
+    Score("peak_rail_accel", "peak rail accel [m/s²]", "{:.3g}".format, lambda s: s.peak_rate_change("rail_accel"),
+          rail_only=True),
     Score("final_s_error", "final s err [m]", _length, Scoring.final_s_error),
     Score("step_time", "step [µs]", lambda v: f"{1e6 * v:.1f}",
           lambda s: float(s.run.info["wall_time"] / s.run.info["steps"])),

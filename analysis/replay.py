@@ -197,12 +197,13 @@ class Replay(ExtraOutputs):
         -------
         Run
             The samples (``t``, ``q``, ``u`` and the rest), with ``info`` holding the backend,
-            the outcome's status as ``stopped`` and its contacts.
+            the outcome's status as ``stopped``, its contacts and its ``joint_rates`` (the peaks).
         """
         keys = self.layout.arrays + tuple(a for a in OPTIONAL if a in self.extra)
         return Run.from_arrays({a: getattr(self, a) for a in keys},
                                info={"backend": self.build.get("backend", "?"), "stopped": self.outcome.get("status", "?"),
-                                     "contacts": self.outcome.get("contacts", [])})
+                                     "contacts": self.outcome.get("contacts", []),
+                                     "joint_rates": self.outcome.get("joint_rates")})
 
     @property
     def layout(self) -> ChainLayout:

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from coordarm.simulation.summary import rate_lines
 from coordarm.simulation.run import even_indices
 from coordarm.symbolic import CoordinatingController, SingularityError
 
@@ -84,7 +85,8 @@ def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController,
         Figure files, linked by file name (they sit next to the report).
     checks : dict
         ``"orthonormal"``: the curve check's message (str); ``"linearisations"``: a list of
-        :class:`.linearise.Linearisation` along the run.
+        :class:`.linearise.Linearisation` along the run; ``"joint_rates"``: the run's peak joint
+        accelerations (:attr:`~coordarm.simulation.joint_rates.JointRates.peaks`), optional.
 
     Returns
     -------
@@ -120,6 +122,7 @@ def markdown(analysis: RunAnalysis, scenario: Any, ctrl: CoordinatingController,
               f"* first |u|_inf > {BLOWUP_FACTOR:g} x nominal: {_fmt(a.blowup_time)}",
               f"* largest |u|_inf: {np.nanmax(a.u_norm):.4g} rad/s; largest cond(M): "
               f"{np.nanmax(a.margins['cond']):.4g}; largest amplification xi|u|/|v*|: {amp}"]
+    lines += [f"* {line} (every step of the run)" for line in rate_lines(checks.get("joint_rates"))]
     if a.blowup_time is not None:
         good = [LABELS[n] for n, p in pred.items() if p]
         lines.append(f"* predicted by: {', '.join(good) if good else 'no margin at its threshold'}")
@@ -210,7 +213,9 @@ def write_report(run: Any, scenario: Any, out_dir: str | Path, ctrl: Coordinatin
         lin_q = q[ok]
     checks = {"orthonormal": check_orthonormal(ctrl.curve, times=np.linspace(t[0], t[-1], 3),
                                                warn=False).message(),
-              "linearisations": linearise_run(ctrl, lin_t, lin_q, 4) if len(lin_t) else []}
+              "linearisations": linearise_run(ctrl, lin_t, lin_q, 4) if len(lin_t) else [],
+              "joint_rates": ((getattr(run, "outcome", None) or {}).get("joint_rates")
+                              or getattr(run, "info", {}).get("joint_rates"))}
     title = f"{scenario.name}: {ctrl.chain.m} links"
     figs = [plot_margins(a, out / "margins.png", title),
             plot_links(a, out / "links.png", title),

@@ -11,7 +11,12 @@ The chain starts laid along its curve (``follow_curve``, zig-zag beta = 1.3): th
 valid in the path's tube, where a run stays (``--off-path`` times the zig-zag along x
 instead, which leaves a path of 10 segments by up to 0.7 m, outside its 0.5 m tube).
 
-Run: ``python benchmarks/path_law.py [--reps N] [--links M] [--off-path]``.
+G1 paths (``transition = 0``: lines and arcs) and G2 paths (the default clothoid transitions,
+issue 28: 0.125 m at every junction of these 0.3 m lines and 0.5 m arcs, a clothoid link takes a
+fixed 3 Newton steps of an 8-node quadrature) are timed side by side; ``--full`` adds the full
+selection inside the link step.
+
+Run: ``python benchmarks/path_law.py [--reps N] [--links M] [--off-path] [--full]``.
 """
 from __future__ import annotations
 
@@ -27,12 +32,13 @@ from coordarm.generated.compiled import CompiledController
 from coordarm.symbolic import follow_curve
 
 
-def path_of(n_segments: int) -> Path:
-    """A path through the base of ``n_segments`` alternating 0.3 m lines and 0.8 rad arcs of 0.5 m."""
+def path_of(n_segments: int, transition: float | None = 0.0) -> Path:
+    """A path through the base of ``n_segments`` alternating 0.3 m lines and 0.8 rad arcs of 0.5 m
+    (``transition``: 0 the G1 path, None the default clothoid transitions)."""
     segs = []
     for i in range(n_segments):
         segs.append({"line": 0.3} if i % 2 == 0 else {"arc": 0.8 * (-1) ** (i // 2), "radius": 0.5})
-    return Path((-0.5, 0.0), 0.0, segs)
+    return Path((-0.5, 0.0), 0.0, segs, transition=transition)
 
 
 def main() -> None:
@@ -41,14 +47,16 @@ def main() -> None:
     ap.add_argument("--links", type=int, default=64)
     ap.add_argument("--steps", type=int, default=2000)
     ap.add_argument("--off-path", action="store_true", help="start from the zig-zag along x, not on the path")
+    ap.add_argument("--full", action="store_true", help="also time the full selection inside the link step")
     args = ap.parse_args()
     chain = PlanarChain(args.links, 0.1)
     cases, states = {}, {}
-    curves = {"line": Line()} | {f"path, {k} segments": path_of(k) for k in (2, 5, 10)}
+    curves = ({"line": Line()} | {f"path, {k} segments": path_of(k) for k in (2, 5, 10)}
+              | {f"G2 path, {k} segments": path_of(k, None) for k in (2, 5, 10)})
     for name, curve in curves.items():
         ctrl = CoordinatingController(chain, curve, 2.0, 0.1)
         q = chain.zigzag(1.3) if args.off_path else follow_curve(ctrl, 1.3)
-        variants = [("", True)] + ([(" (full selection)", False)] if name != "line" else [])
+        variants = [("", True)] + ([(" (full selection)", False)] if name != "line" and args.full else [])
         for suffix, search in variants:
             cases[name + suffix] = CompiledController(ctrl, path_search=search)
             states[name + suffix] = q

@@ -165,9 +165,11 @@ def functions(ctrl: CoordinatingController, form: str, path_search: bool = True)
         rec = ctrl.recursion
         if path_search and _searched(ctrl):
             tf, geometry, step = link_variants.piece_steps(ctrl)
+            spiral = ([geometry["spiral"], link_variants.tail_piece(ctrl, "spiral")]
+                      if "spiral" in geometry else [])
             return [tf, _head(ctrl), step, rec.tail(), geometry["line"], rec.time_features_repivot(),
                     rec.link_step_repivot(), ctrl.curve.frame_function(), geometry["arc"],
-                    link_variants.tail_piece(ctrl, "line"), link_variants.tail_piece(ctrl, "arc")]
+                    link_variants.tail_piece(ctrl, "line"), link_variants.tail_piece(ctrl, "arc")] + spiral
         return [link_variants.time_features_trig(ctrl), _head(ctrl), link_variants.link_step_trig(ctrl), rec.tail(),
                 link_variants.link_pivot(ctrl), rec.time_features_repivot(), rec.link_step_repivot()]
     return [ctrl.law(form)]

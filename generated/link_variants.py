@@ -142,8 +142,8 @@ def _piece_geometries(ctrl: CoordinatingController, carry: ca.SX, qj: ca.SX, cs:
     c = CARRY.unpack(carry)
     n_j = ctrl.chain.link_normal(cs)
     y_j = c.y + ctrl.chain.centre_step(c.direction, cs)
-    geos = []
-    for kind in ("line", "arc"):
+    geos, kinds = [], piece_kinds(ctrl)
+    for kind in kinds:
         phi, g, phit = ctrl.task.piece_geometry(kind)(y_j, t, sel)[:3]
         pivot = ca.dot(g, n_j)
         # |grad phi| = 1 for a distance to a line or a circle: the margin is |pivot| (the
@@ -151,10 +151,49 @@ def _piece_geometries(ctrl: CoordinatingController, carry: ca.SX, qj: ca.SX, cs:
         geos.append(ca.vertcat(1 / (0.5 * xi * pivot), phi, ca.fabs(pivot), g, -K * phi - phit))
     expr, wsym, wexpr = split_time_terms(ca.vertcat(*geos), t)
     tf = ca.Function("time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
-    geometry = {kind: ca.Function(f"link_geometry_{kind}", [carry, qj, cs[0], cs[1], wsym, sel],
+    geometry = {kind: ca.Function(f"link_geometry_{function_kind(kind, kinds)}", [carry, qj, cs[0], cs[1], wsym, sel],
                                   [ca.cse(expr[6 * i:6 * i + 6])], _TRIG_INPUTS + ["w", "piece"], ["geometry"])
-                for i, kind in enumerate(("line", "arc"))}
+                for i, kind in enumerate(kinds)}
     return tf, geometry
+
+
+def piece_kinds(ctrl: CoordinatingController) -> tuple[str, ...]:
+    """The kinds of piece of the controller's path: ``("line", "arc")``, and ``"spiral"`` with transitions.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller (its curve a :class:`~coordarm.symbolic.paths.Path`).
+
+    Returns
+    -------
+    tuple of str
+        The kinds the generated C has a link geometry and a tail for.
+    """
+    spiral = any(pc.c != 0 for pc in ctrl.curve.pieces)
+    return ("line", "arc", "spiral") if spiral else ("line", "arc")
+
+
+def function_kind(kind: str, kinds: tuple[str, ...]) -> str:
+    """The C name's suffix of a kind's Function: on a path with clothoids the arc's is ``arc_only``.
+
+    The C glue calls ``link_geometry_arc`` and ``tail_arc`` for a piece flagged arc-like; with clothoids
+    those names are wrappers (:func:`~coordarm.generated.path_search.spiral_wrappers`) that call the
+    arc's or the clothoid's Function by the piece's flag.
+
+    Parameters
+    ----------
+    kind : str
+        ``"line"``, ``"arc"`` or ``"spiral"``.
+    kinds : tuple of str
+        The path's kinds (:func:`piece_kinds`).
+
+    Returns
+    -------
+    str
+        ``kind``, or ``"arc_only"``.
+    """
+    return "arc_only" if kind == "arc" and "spiral" in kinds else kind
 
 
 def _piece_step(ctrl: CoordinatingController, carry: ca.SX, qj: ca.SX, cs: ca.SX) -> ca.Function:
@@ -188,7 +227,8 @@ def piece_steps(ctrl: CoordinatingController) -> tuple[ca.Function, dict[str, ca
     time_features : casadi.Function
         ``t -> w``, the time-only terms of both kinds.
     geometry : dict
-        ``{"line": link_geometry_line, "arc": link_geometry_arc}``: ``(carry, q_j, cos_alpha_j,
+        ``{"line": link_geometry_line, "arc": link_geometry_arc}`` (and ``"spiral"`` on a path with
+        transitions, :func:`piece_kinds`): ``(carry, q_j, cos_alpha_j,
         sin_alpha_j, w, piece) -> geometry``, ``piece`` the ten constants
         (:func:`~coordarm.symbolic.path_pieces.piece_parameters` with ``derived=True``) of the closest
         piece, which is of that kind; ``geometry = (1 / (xi/2 pivot_j) [1/m], phi [m], link
@@ -214,7 +254,7 @@ def tail_piece(ctrl: CoordinatingController, kind: str) -> ca.Function:
     ----------
     ctrl : CoordinatingController
         The controller (its curve a :class:`~coordarm.symbolic.paths.Path`).
-    kind : {"line", "arc"}
+    kind : {"line", "arc", "spiral"}
         The kind of the piece.
 
     Returns
@@ -227,7 +267,8 @@ def tail_piece(ctrl: CoordinatingController, kind: str) -> ca.Function:
         sel = ca.SX.sym("piece", PIECE_CONSTANTS)
         geometry = ctrl.task.piece_geometry(kind)
         outs = ctrl.recursion.tail_expressions(carry, t, lambda y: geometry(y, t, sel))
-        return ca.Function(f"tail_{kind}", [carry, t, sel], list(outs), ["carry", "t", "piece"], TAIL_OUTPUTS)
+        name = f"tail_{function_kind(kind, piece_kinds(ctrl))}"
+        return ca.Function(name, [carry, t, sel], list(outs), ["carry", "t", "piece"], TAIL_OUTPUTS)
     return _cached(ctrl, ("tail", kind), make)
 
 

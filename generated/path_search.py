@@ -90,8 +90,9 @@ def search_tables(path: Path) -> dict:
     -------
     dict
         ``params`` (n, PIECE_CONSTANTS) piece constants (with the derived ones), ``junction`` (n, 3) ``(d0, d0 . p0)``, ``formula`` (n, 5)
-        (line: ``n0, n0 . p0``; arc: centre, radius, towards the middle), ``flags`` (n,) (1: arc,
-        2: no start test, 4: no end test), ``start`` (n + 1,), ``others`` and ``bounds``: piece
+        (line: ``n0, n0 . p0``; arc: centre, radius, towards the middle; clothoid: those of its
+        approximating arc, :meth:`~coordarm.symbolic.path_pieces.Piece.wedge`), ``flags`` (n,) (1: arc or
+        clothoid, 2: no start test, 4: no end test, 8: clothoid), ``start`` (n + 1,), ``others`` and ``bounds``: piece
         ``i``'s list of the other pieces and their lower bounds, ascending, at
         ``start[i]:start[i + 1]``; ``eps`` [m], the slack of the comparison ``bound <= 2 delta + eps``.
     """
@@ -101,22 +102,27 @@ def search_tables(path: Path) -> dict:
     junction = np.array([[pc.d0[0], pc.d0[1], float(pc.d0 @ pc.p0)] for pc in pieces])
     formula, flags = np.zeros((n, 5)), np.zeros(n, dtype=int)
     for i, pc in enumerate(pieces):
-        if pc.k == 0:
+        if pc.k == 0 and pc.c == 0:
             n0 = pc.n0
             formula[i, :3] = (n0[0], n0[1], float(n0 @ pc.p0))
-        else:
+        elif pc.c == 0:
             c = pc.centre
             mid = pc.p0 + pc.end()[0] - 2 * c
             formula[i] = (c[0], c[1], 1.0 / abs(pc.k), mid[0], mid[1])
             flags[i] |= 1
+        else:                               # a clothoid: selected by its approximating arc
+            c, radius, mid = pc.wedge()
+            formula[i] = (c[0], c[1], radius, mid[0], mid[1])
+            flags[i] |= 1 | 8
         flags[i] |= 2 if (pc.ray_before or i == 0) else 0
         flags[i] |= 4 if i == n - 1 else 0
     shapes = [_shape(pc, i == 0) for i, pc in enumerate(pieces)]
     scale = 1.0 + max(float(np.max(np.abs(params[:, :2]))),
                       max((pc.length for pc in pieces if math.isfinite(pc.length)), default=0.0))
     start, others, bounds = [0], [], []
+    loose = 2.0 * max(pc.selection_error() for pc in pieces)   # the clothoids' approximate |phi| (0 on G1 paths)
     for i in range(n):
-        row = sorted((max(0.0, lower_bound(shapes[i], shapes[k]) * (1 - SLACK) - SLACK * scale), k)
+        row = sorted((max(0.0, lower_bound(shapes[i], shapes[k]) * (1 - SLACK) - SLACK * scale - loose), k)
                      for k in range(n) if k != i)
         others += [k for _, k in row]
         bounds += [b for b, _ in row]
@@ -144,7 +150,8 @@ def search_source(path: Path) -> str:
     Returns
     -------
     str
-        ``#define CA_PATH``, ``CA_NP`` (the number of pieces), ``CA_PATH_EPS`` and the static tables.
+        ``#define CA_PATH``, ``CA_NP`` (the number of pieces), ``CA_PATH_EPS`` and the static
+        tables (and :data:`SPIRAL_WRAPPERS` on a path with clothoids).
     """
     tb = search_tables(path)
     n = len(tb["flags"])
@@ -155,4 +162,16 @@ def search_source(path: Path) -> str:
             f"static const int ca_pk[CA_NP] = {{{_values(tb['flags'], int)}}};\n"
             f"static const int ca_nb_start[CA_NP + 1] = {{{_values(tb['start'], int)}}};\n"
             f"static const int ca_nb_j[{max(1, len(tb['others']))}] = {{{_values(tb['others'], int)}}};\n"
-            f"static const casadi_real ca_nb_lb[{max(1, len(tb['bounds']))}] = {{{_values(tb['bounds'])}}};\n")
+            f"static const casadi_real ca_nb_lb[{max(1, len(tb['bounds']))}] = {{{_values(tb['bounds'])}}};\n"
+            + (SPIRAL_WRAPPERS if np.any(tb["flags"] & 8) else ""))
+
+
+#: On a path with clothoids: ``link_geometry_arc`` and ``tail_arc``, which the glue calls for every
+#: arc-like piece (flag 1), call the clothoid's Function for a piece flagged 8, else the arc's
+#: (``*_arc_only``, :func:`~coordarm.generated.link_variants.function_kind`); the piece is found from
+#: its constants' row of ``ca_pp``, the argument at ``slot``.
+SPIRAL_WRAPPERS = "".join(
+    f"static int {name}_arc(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {{\n"
+    f"  casadi_int k = (casadi_int)((arg[{slot}] - ca_pp[0]) / {PIECE_CONSTANTS});\n"
+    f"  return ca_pk[k] & 8 ? {name}_spiral(arg, res, iw, w, mem) : {name}_arc_only(arg, res, iw, w, mem);\n}}\n"
+    for name, slot in (("link_geometry", 5), ("tail", 2)))

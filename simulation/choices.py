@@ -45,6 +45,7 @@ class Outcome(StrEnum):
     COMPLETED = "completed"
     SINGULARITY = "singularity"
     COLLISION = "collision"
+    RATE_LIMIT = "rate_limit"
     INTERRUPTED = "interrupted"
     ERROR = "error"
 

@@ -296,3 +296,50 @@ def check_cost(cost: Cost, confirmed: bool = False) -> None:
     if over:
         raise ConfigError(f"this run needs {cost.describe()} ({'; '.join(over)}); "
                           "pass --yes to run it anyway, or shorten --duration / lengthen --step / set --log-rate")
+
+
+#: The optional ``[chain]`` keys of :mod:`.joint_rates`: the largest joint rate and acceleration.
+RATE_KEYS = ("rate_limit", "accel_limit")
+
+
+def check_limit(value: Any, field_name: str) -> float | None:
+    """A ``rate_limit`` or ``accel_limit`` read from a scenario: None, or a finite number > 0.
+
+    Parameters
+    ----------
+    value : object
+        The value (None when the key is left out).
+    field_name : str
+        Its name in error messages (``"chain.rate_limit"``).
+
+    Returns
+    -------
+    float or None
+        The limit.
+
+    Raises
+    ------
+    ConfigError
+        Not a finite number > 0.
+    """
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise ConfigError(f"{field_name}: need a number > 0, got {value!r}")
+    return float(value)
+
+
+def rate_limits(chain: dict) -> tuple[float | None, float | None]:
+    """``[chain] rate_limit`` and ``accel_limit`` of a scenario table, checked (:func:`check_limit`).
+
+    Parameters
+    ----------
+    chain : dict
+        The ``[chain]`` table.
+
+    Returns
+    -------
+    tuple of (float or None, float or None)
+        The rate limit [rad/s] and the acceleration limit [rad/s^2] (None when left out).
+    """
+    return tuple(check_limit(chain.get(k), f"chain.{k}") for k in RATE_KEYS)

@@ -329,6 +329,9 @@ class RunLogger:
         self.outcome: dict[str, Any] | None = None
         #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
         self.contacts: list[dict] = []
+        #: The run's peak joint accelerations (``run.info["joint_rates"]``, set by the caller; a stopped
+        #: run's come with its error), written into the outcome as ``joint_rates``.
+        self.joint_rates: dict | None = None
         # At most two blocks wait (so a kill loses at most ~1 s, and the queue holds at most two
         # blocks: the run itself keeps only thinned rows); an idle worker still pushes the last
         # block out in time.
@@ -544,6 +547,9 @@ class RunLogger:
                 self._write_chunk(len(self._pending))
             self._write_build()
             self.outcome = outcome_of(error, last_t, self.contacts, self._governed)
+            peaks = self.joint_rates or getattr(getattr(error, "run", None), "info", {}).get("joint_rates")
+            if peaks:
+                self.outcome["joint_rates"] = dict(peaks)
             self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in self.outcome.items()})
             self.file.close(rename_to=self.path)
         except Exception as exc:

@@ -4,12 +4,14 @@ from __future__ import annotations
 from typing import Any
 
 from coordarm.symbolic import CollisionError, SingularityError
+from coordarm.symbolic.errors import JointRateError
 from coordarm.symbolic.interrupts import interruption
 
 from .choices import Outcome
 
+
 #: Exit status of ``coordarm run`` per outcome (bad input is 2, Ctrl-C 130: see ``coordarm.cli``).
-EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.SINGULARITY: 3, Outcome.COLLISION: 4}
+EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.SINGULARITY: 3, Outcome.COLLISION: 4, Outcome.RATE_LIMIT: 5}
 
 
 def outcome_of(error: BaseException | None, last_t: float | None,
@@ -43,6 +45,9 @@ def outcome_of(error: BaseException | None, last_t: float | None,
         c = error.contact
         out = {"status": Outcome.COLLISION.value, "t_end": last_t, "time": c.time, "kind": c.kind, "links": list(c.links),
                "value": c.value, "threshold": c.threshold, "obstacle": c.obstacle, "message": str(error)}
+    elif isinstance(error, JointRateError):
+        out = {"status": Outcome.RATE_LIMIT.value, "t_end": last_t, "time": error.time, "joint": error.joint,
+               "value": error.value, "limit": error.limit, "kind": error.kind, "message": str(error)}
     else:
         status = (Outcome.INTERRUPTED if interruption(error) is not None else Outcome.ERROR).value
         out = {"status": status, "t_end": last_t, "error": type(error).__name__, "message": str(error)}
@@ -68,6 +73,10 @@ def explain(error: SingularityError | CollisionError) -> list[str]:
     """
     if isinstance(error, CollisionError):
         return [error.contact.describe(), error.contact.advice()]
+    if isinstance(error, JointRateError):
+        return [str(error).removesuffix("; run stopped"),
+                "advice: lower the speed v*, use longer path transitions (curve.transition), or raise "
+                f"chain.{error.kind}_limit if the hardware allows"]
     t, v, thr = f"t = {error.time:.3f} s", f"{error.margin:.3g}", f"{error.threshold:.3g}"
     if error.kind == "longitudinal":
         return [f"singularity ahead at {t}: the longitudinal margin fell to {v} (threshold {thr}): the body is "

@@ -135,10 +135,14 @@ class Physical:
         The chain (its ``joint_limits`` and ``clearance``).
     obstacles : list of Obstacle
         Walls, discs and polygons.
+    rate_limits : (float or None, float or None)
+        ``[chain] rate_limit`` [rad/s] and ``accel_limit`` [rad/s^2], checked at every step
+        (:mod:`.joint_rates`); None: unchecked.
     """
 
     chain: PlanarChain
     obstacles: list[Obstacle] = field(default_factory=list)
+    rate_limits: tuple = (None, None)
 
     def check(self, t: np.ndarray, q: np.ndarray) -> list[Contact]:
         """Every contact at the samples ``(t[k], q[k])``, sorted by time (then kind, links).

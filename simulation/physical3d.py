@@ -132,6 +132,8 @@ class Physical3D:
         Extra distance kept between capsules and from obstacles [m] (0: touching is contact).
     obstacles : list of Obstacle3D
         Plates, spheres, cylinders and boxes.
+    rate_limits : (float or None, float or None)
+        ``[chain] rate_limit`` [rad/s] and ``accel_limit`` [rad/s^2] (:mod:`.joint_rates`); None: unchecked.
     """
 
     chain: SpatialChain
@@ -139,6 +141,7 @@ class Physical3D:
     radius: float
     clearance: float = 0.0
     obstacles: list[Obstacle3D] = field(default_factory=list)
+    rate_limits: tuple = (None, None)
 
     def check(self, t: np.ndarray, q: np.ndarray) -> list[Contact]:
         """Every contact at the samples ``(t[k], q[k])``, sorted by time (then kind, links).

@@ -255,7 +255,7 @@ class Scenario:
         """
         if self.universal:
             return spatial_physical(self.config, chain or self.chain())
-        return Physical(chain or self.chain(), self.obstacles)
+        return Physical(chain or self.chain(), self.obstacles, self.config.chain.rates)
 
     def controller(self) -> CoordinatingController | SpatialController:
         """The coordinating controller this scenario describes.

@@ -21,18 +21,16 @@ from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.laws import LAWS, Law
 
-from .limits import check_bounds, check_gain_step
+from .limits import RATE_KEYS, check_bounds, check_gain_step, rate_limits
 from .obstacles import Obstacle, obstacles_from_spec
 from .obstacles3d import Obstacle3D, obstacles3d_from_spec
 from .run import DEFAULT_THRESHOLDS, check_number
 from .spatial_tables import (BEND_LIMIT, base_args, check_curve_kind, check_joints, check_kind_keys, roll_motion,
                              spatial_curve, spatial_start)
 
-SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds",
-            "obstacles", "figures"}
-KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base", "joints", "radius"},
-        "figures": {"stages", "panels"},
-        "control": {"gain", "speed", "law", "span", "governor", "damping", "roll"},
+SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds", "obstacles", "figures"}
+KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base", "joints", "radius", *RATE_KEYS},
+        "figures": {"stages", "panels"}, "control": {"gain", "speed", "law", "span", "governor", "damping", "roll"},
         "start": {"kind", "beta", "heading", "curve", "axis", "fold", "roll"}, "run": {"duration", "step", "t0"},
         "thresholds": {"link", "longitudinal"}}
 START_KINDS = ("zigzag", "projected", "follow")
@@ -98,6 +96,8 @@ class ChainTable:
         its ``joint_limit`` bounds the bend ``acos(d_{j-1} . d_j)`` between consecutive links).
     radius : float or None
         Capsule radius of a universal chain's links [m]; None: ``link_length / 10``.
+    rates : (float or None, float or None)
+        ``rate_limit`` [rad/s] and ``accel_limit`` [rad/s^2] (:mod:`.joint_rates`); None: unchecked.
     """
 
     links: int
@@ -108,6 +108,7 @@ class ChainTable:
     base_args: dict = field(default_factory=lambda: {"base": "fixed"}, compare=False, repr=False)
     joints: str = "revolute"
     radius: float | None = None
+    rates: tuple[float | None, float | None] = (None, None)
 
     @property
     def universal(self) -> bool:
@@ -146,7 +147,7 @@ class ChainTable:
             ``links``, ``link_length``, and ``joint_limit``, ``clearance``, ``base`` when given
             (and ``joints`` for a universal chain only: a planar scenario's stays as it was).
         """
-        return {"links": self.links, "link_length": self.link_length,
+        return {"links": self.links, "link_length": self.link_length, **_present(**dict(zip(RATE_KEYS, self.rates))),
                 **_present(joint_limit=self.joint_limit, clearance=self.clearance, base=self.base,
                            joints=self.joints if self.universal else None, radius=self.radius)}
 
@@ -438,7 +439,8 @@ def _chain(ch: dict) -> ChainTable:
         check_number(ch["radius"], "chain.radius")
     joints = check_joints(ch.get("joints", "revolute"))
     return ChainTable(ch["links"], ch["link_length"], ch.get("joint_limit"), ch.get("clearance"), ch.get("base"),
-                      base_args(ch.get("base", "fixed"), joints == "universal"), joints, ch.get("radius"))
+                      base_args(ch.get("base", "fixed"), joints == "universal"), joints, ch.get("radius"),
+                      rate_limits(ch))
 
 
 def _span(control: dict, chain: ChainTable) -> Any:

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from coordarm.simulation.choices import DENSE_LINKS
-from coordarm.symbolic.errors import CollisionError, ConfigError, LogError, SingularityError
+from coordarm.symbolic.errors import CollisionError, ConfigError, JointRateError, LogError, SingularityError
 from coordarm.symbolic.laws import Law
 
 if TYPE_CHECKING:   # numpy, CasADi, matplotlib and foxglove load only when a run starts
@@ -373,7 +373,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
                              cond_rate=cond_rate, cond_exact=cond_exact, compression=compression, allow_contact=allow_contact,
                              progress=progress, on_warning=on_warning, log_frames=log_frames)
             stopped = None
-        except (SingularityError, CollisionError) as err:
+        except (SingularityError, CollisionError, JointRateError) as err:
             run, stopped = err.run, err
     return run, stopped, holder["backend"], holder["compiled"]
 
@@ -456,7 +456,7 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
                            physical=scenario.physical(ctrl.chain),
                            check_every=max(logger.every, round(1.0 / (CHECK_RATE * scenario.step))),
                            allow_contact=allow_contact)
-        logger.contacts = run.info["contacts"]
+        logger.contacts, logger.joint_rates = run.info["contacts"], run.info.get("joint_rates")
     return run
 
 

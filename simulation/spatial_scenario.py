@@ -72,7 +72,7 @@ def spatial_physical(config: ScenarioConfig, chain: SpatialChain) -> Physical3D:
     """
     ch = config.chain
     radius = float(ch.link_length) / 10 if ch.radius is None else float(ch.radius)
-    return Physical3D(chain, ch.bend_limit, radius, float(ch.clearance or 0.0), list(config.obstacles))
+    return Physical3D(chain, ch.bend_limit, radius, float(ch.clearance or 0.0), list(config.obstacles), ch.rates)
 
 
 def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:

@@ -11,9 +11,11 @@ import numpy as np
 
 from coordarm.symbolic import CollisionError, CoordarmError, CoordinatingController, SingularityError, TubeError
 from coordarm.symbolic.curves import unwrap_s
+from coordarm.symbolic.errors import JointRateError
 from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import spatial_split, split
 
+from .joint_rates import JointRates
 from .log_layout import PLANAR, ChainLayout, MarginCheck, layout_of_chain
 from .result import OPTIONAL, Run, deviation_norms
 
@@ -224,12 +226,19 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
     parts: list[Run] = []
     contacts: list = []
     q, k, wall = q0, 0, _time.perf_counter()
+    rates = JointRates(bool(getattr(loop.ctrl.chain, "rail", False)),       # peaks, and the physical's limits
+                       *getattr(loop.physical, "rate_limits", (None, None)), per_joint=loop.layout.deviations_per_link)
     prev: tuple[float, float] | None = None
     while k <= loop.n_steps:
         part, Q, n = next_part(loop, q, k)
         part.s = unwrap_s(loop.ctrl.curve, part.t, part.s, prev)
         prev = (float(part.t[-1]), float(part.s[-1]))
         stop = _first_stop(part, k, loop, contacts)
+        fast = rates.update(part.t[:len(part.t) if stop is None else stop[0] + 1],
+                            part.u[:len(part.t) if stop is None else stop[0] + 1])
+        if fast is not None and (stop is None or fast[0] < stop[0]):
+            stop = fast
+        info = dict(info, joint_rates=dict(rates.peaks))
         if stop is not None:
             row, error = stop
             part = part.rows(slice(0, row + 1))
@@ -338,7 +347,8 @@ def stopped(ctrl: CoordinatingController, error: CoordarmError, parts: list[Run]
     return error
 
 
-_STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision"}
+_STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision",
+          JointRateError: "rate_limit"}
 
 
 def _records(contacts: list) -> list[dict]:

@@ -45,6 +45,7 @@ def summary_lines(run: Run, scenario: Scenario) -> list[str]:
              f"t = {s['min_link_margin_time']:.2f} s)",
              f"longitudinal  min {s['min_longitudinal_margin']:.4f} (t = {s['min_longitudinal_margin_time']:.2f} s)",
              f"max|u|        {s['max_abs_u']:.4g}"]
+    lines += rate_lines(run.info.get("joint_rates"))
     if scenario.config.control.governor:
         lines.append(f"governor      v* slowed during {run.governed_time():.3f} s (final v_scale {run.speed_factor()[-1]:.3g})")
     if run.sigma is not None:
@@ -53,6 +54,28 @@ def summary_lines(run: Run, scenario: Scenario) -> list[str]:
     if run.q.shape[1] == scenario.chain().dof:
         lines += physical_lines(run, scenario)
     return lines
+
+
+def rate_lines(peaks: dict | None) -> list[str]:
+    """The line of the joint accelerations' peak (and the rail's ``d''``), from ``run.info["joint_rates"]``.
+
+    Parameters
+    ----------
+    peaks : dict or None
+        :attr:`~coordarm.simulation.joint_rates.JointRates.peaks` (None or empty: no line).
+
+    Returns
+    -------
+    list of str
+        ``peak |du/dt|  <value> rad/s^2 (joint j, t = ..)`` and on a rail ``, d'' <value> m/s^2``.
+    """
+    if not peaks or "du_dt" not in peaks:
+        return []
+    line = (f"peak |du/dt|  {peaks['du_dt']:.4g} rad/s² (joint {peaks['du_dt_joint']}, "
+            f"t = {peaks['du_dt_time']:.3f} s)")
+    if "rail_accel" in peaks:
+        line += f", rail |d''| {peaks['rail_accel']:.4g} m/s² (t = {peaks['rail_accel_time']:.3f} s)"
+    return [line]
 
 
 def spatial_summary_lines(run: Run, scenario: Scenario) -> list[str]:
@@ -89,6 +112,7 @@ def spatial_summary_lines(run: Run, scenario: Scenario) -> list[str]:
             f"link margin   min {s['min_link_margin']:.4f} (link {s['min_link_margin_link']}, "
             f"t = {s['min_link_margin_time']:.2f} s)",
             f"end margin    min {s['min_end_margin']:.4f} (t = {s['min_end_margin_time']:.2f} s)",
+            *rate_lines(run.info.get("joint_rates")),
             f"joint margin  min |cos b_j| = {s['min_joint_margin']:.4f} (joint {s['min_joint_margin_joint']}, "
             f"t = {s['min_joint_margin_time']:.2f} s)",
             f"max|u|        {s['max_abs_u']:.4g}"] + rail + spatial_physical_lines(run, scenario)

@@ -20,8 +20,8 @@ CURVE3D_KINDS = {
     "line": (("point", "direction", "normal"), ("rotation",)),
     "circle": (("centre", "radius", "normal"), ("reference",)),
     "arc": (("centre", "radius", "normal"), ("reference",)),
-    "path": (("start", "direction", "normal", "segments"), ()),
-    "waypoints": (("points", "radius"), ("normal",)),
+    "path": (("start", "direction", "normal", "segments"), ("transition",)),
+    "waypoints": (("points", "radius"), ("normal", "transition")),
 }
 
 
@@ -127,8 +127,8 @@ def build(kind: str, spec: dict, field: str) -> SpatialCurve:
         return cls(motion_point(spec["centre"], f"{field}.centre"),
                    motion_from_spec(spec["radius"], f"{field}.radius"), spec["normal"], spec.get("reference"))
     if kind == "path":
-        return Path3D(spec["start"], spec["direction"], spec["normal"], spec["segments"])
-    return Path3D.from_waypoints(spec["points"], spec["radius"], spec.get("normal"))
+        return Path3D(spec["start"], spec["direction"], spec["normal"], spec["segments"], spec.get("transition"))
+    return Path3D.from_waypoints(spec["points"], spec["radius"], spec.get("normal"), spec.get("transition"))
 
 
 def curve3d_from_spec(spec: Any, field: str = "curve") -> SpatialCurve:
@@ -141,7 +141,8 @@ def curve3d_from_spec(spec: Any, field: str = "curve") -> SpatialCurve:
         (:data:`CURVE3D_KINDS`): ``point``/``centre``/``start``/``points`` [m] (points and centres
         as three motions each), ``direction``, ``normal``, ``rotation = {axis, angle}``, ``radius``
         [m] (a motion for circles and arcs), ``segments`` (``{line = L}``,
-        ``{arc = A, radius = R, bank = beta}``).
+        ``{arc = A, radius = R, bank = beta}``), ``transition`` [m] (paths and waypoints: the clothoid
+        transitions' length, :mod:`.transitions3d`).
     field : str
         Name of the table in error messages.
 

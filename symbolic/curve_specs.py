@@ -18,8 +18,8 @@ CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "rad
           "arc": (Arc, ("point", "angle", "radius"))}
 
 #: Curve kinds built by :func:`path_from_spec` (composite paths of :mod:`.paths`) and their keys.
-PATH_KINDS = {"path": ("start", "heading", "segments", "offset", "rotation"),
-              "waypoints": ("points", "radius", "offset", "rotation")}
+PATH_KINDS = {"path": ("start", "heading", "segments", "offset", "rotation", "transition"),
+              "waypoints": ("points", "radius", "offset", "rotation", "transition")}
 
 
 def path_from_spec(spec: dict, field: str = "curve") -> Path:
@@ -30,7 +30,8 @@ def path_from_spec(spec: dict, field: str = "curve") -> Path:
     spec : dict
         ``kind`` (a key of :data:`PATH_KINDS`) and that kind's keys: ``start`` [m], ``heading``
         [rad] and ``segments``, or ``points`` [m] and the fillet ``radius`` [m]; optional
-        ``offset`` (a pair of motions [m]) and ``rotation`` (a motion [rad]).
+        ``offset`` (a pair of motions [m]), ``rotation`` (a motion [rad]) and ``transition``
+        (the clothoid transitions' length [m], see :class:`~.paths.Path`).
     field : str
         Name of the table in error messages.
 
@@ -61,6 +62,8 @@ def path_from_spec(spec: dict, field: str = "curve") -> Path:
         motion["offset"] = tuple(motion_from_spec(c, f"{field}.offset[{i}]") for i, c in enumerate(v))
     if "rotation" in spec:
         motion["rotation"] = motion_from_spec(spec["rotation"], f"{field}.rotation")
+    if "transition" in spec:
+        motion["transition"] = spec["transition"]
     try:
         if kind == "waypoints":
             return Path.from_waypoints(spec["points"], spec["radius"], **motion)

@@ -162,3 +162,33 @@ def shown(value: object) -> str:
     """
     text = repr(value)
     return text if len(text) <= SHOWN_LENGTH else text[:SHOWN_LENGTH - 3] + "..."
+
+
+class JointRateError(CoordarmError):
+    """A joint moved faster (``kind = "rate"``) or turned its rate faster (``"accel"``) than its limit.
+
+    Parameters
+    ----------
+    time : float
+        Simulated time [s].
+    joint : int
+        1-based joint index (``q_j``; on a rail joint 0 is the rail).
+    value : float
+        ``|u_j|`` [rad/s] or ``|du_j/dt|`` [rad/s^2].
+    limit : float
+        The limit it exceeded.
+    kind : {"rate", "accel"}
+        Which limit.
+    run : object, optional
+        The run up to that state.
+    """
+
+    def __init__(self, time: float, joint: int, value: float, limit: float, kind: str,
+                 run: object | None = None) -> None:
+        self.time, self.joint, self.value, self.limit, self.kind, self.run = time, joint, value, limit, kind, run
+        what = (f"moves at |u| = {value:.4g} rad/s, above chain.rate_limit = {limit:.4g} rad/s" if kind == "rate" else
+                f"accelerates at |du/dt| = {value:.4g} rad/s^2, above chain.accel_limit = {limit:.4g} rad/s^2")
+        super().__init__(f"joint {kind} limit at t = {time:.4f} s: joint {joint} {what}; run stopped")
+
+    def __reduce__(self):
+        return (JointRateError, (self.time, self.joint, self.value, self.limit, self.kind, None))

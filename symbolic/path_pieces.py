@@ -17,6 +17,7 @@ import numpy as np
 
 from .checks import is_real
 from .errors import ConfigError
+from .transitions import spiral_formulas, spiral_local, split_ramp, transition_runs
 
 #: Length of a piece's constants with the derived ones (:func:`piece_parameters`), as the
 #: generated per-piece link steps take them.
@@ -69,6 +70,9 @@ class Piece:
         The piece's length [m] (``inf`` for the ray after the last segment).
     ray_before : bool
         The piece's line extends backwards without limit (the ray before the first segment).
+    c : float
+        Curvature rate [1/m^2]: non-zero for a clothoid piece of a transition
+        (:mod:`.transitions`), whose curvature is ``k + c sigma`` at ``sigma`` along it.
     """
 
     p0: np.ndarray
@@ -77,6 +81,7 @@ class Piece:
     s0: float
     length: float
     ray_before: bool = False
+    c: float = 0.0
 
     @property
     def n0(self) -> np.ndarray:
@@ -96,12 +101,80 @@ class Piece:
         tangent : (2,) ndarray
             Unit tangent there.
         """
+        if self.c != 0:
+            return self.point(self.length)
         if self.k == 0:
             return self.p0 + self.length * self.d0, self.d0.copy()
         a = self.k * self.length
         c, s = math.cos(a), math.sin(a)
         rot = np.array([[c, -s], [s, c]])
         return self.centre + rot @ (self.p0 - self.centre), rot @ self.d0
+
+
+    def point(self, x: float) -> tuple[np.ndarray, np.ndarray]:
+        """Point and unit tangent at ``x`` along the piece (0 <= x <= length).
+
+        Parameters
+        ----------
+        x : float
+            Arc length from the piece's start [m].
+
+        Returns
+        -------
+        point : (2,) ndarray
+            The point [m].
+        tangent : (2,) ndarray
+            The unit tangent there.
+        """
+        if self.c == 0:
+            return Piece(self.p0, self.d0, self.k, self.s0, x).end()
+        X, Y, th = spiral_local(self.k, self.c, x)
+        n0 = self.n0
+        c, s = math.cos(th), math.sin(th)
+        return self.p0 + X * self.d0 + Y * n0, c * self.d0 + s * n0
+
+    def wedge(self) -> tuple[np.ndarray, float, np.ndarray]:
+        """Centre, radius and the direction towards the middle of the arc that selects the piece.
+
+        An arc's own centre and radius; a clothoid's approximating arc: centre at the crossing of
+        its end normals, radius the mean distance of its end points from there.
+
+        Returns
+        -------
+        centre : (2,) ndarray
+            [m].
+        radius : float
+            [m].
+        mid : (2,) ndarray
+            From the centre towards the piece's middle (not normalised) [m].
+        """
+        end, d1 = self.end()
+        if self.c == 0:
+            c = self.centre
+            return c, 1.0 / abs(self.k), self.p0 + end - 2 * c
+        n0, n1 = self.n0, np.array([-d1[1], d1[0]])
+        det = n0[0] * (-n1[1]) + n1[0] * n0[1]                   # p0 + a n0 = end + b n1
+        r = end - self.p0
+        a = (r[0] * (-n1[1]) + n1[0] * r[1]) / det
+        c = self.p0 + a * n0
+        radius = 0.5 * (float(np.linalg.norm(self.p0 - c)) + float(np.linalg.norm(end - c)))
+        return c, radius, self.p0 + end - 2 * c
+
+    def selection_error(self) -> float:
+        """Bound of the error of :meth:`wedge`'s ``| |p - centre| - radius |`` as ``|phi|`` on the piece [m].
+
+        Returns
+        -------
+        float
+            0 for a line or an arc; for a clothoid the largest deviation of its points (sampled
+            finely) from the approximating arc, doubled.
+        """
+        if self.c == 0:
+            return 0.0
+        c, radius, _ = self.wedge()
+        dev = max(abs(float(np.linalg.norm(self.point(x)[0] - c)) - radius)
+                  for x in np.linspace(0.0, self.length, 33))
+        return 2.0 * dev
 
 
 def parse_segment(seg: Any, field: str) -> tuple[str, float, float]:
@@ -146,12 +219,14 @@ def parse_segment(seg: Any, field: str) -> tuple[str, float, float]:
     raise ConfigError(f"{field}: expected {{line = L}} or {{arc = A, radius = R}}, got keys {sorted(seg)}")
 
 
-def build_pieces(start: Sequence[float], heading: float, segments: Sequence[tuple[str, float, float]]
-                 ) -> list[Piece]:
+def build_pieces(start: Sequence[float], heading: float, segments: Sequence[tuple[str, float, float]],
+                 transitions: Sequence[float] | None = None) -> list[Piece]:
     """The path's pieces (arcs over :data:`MAX_PIECE` split), with rays at both ends.
 
     A line at either end becomes the ray there; an arc at an end gets a ray added (before the
     first arc: a piece of length 0 marked ``ray_before``; after the last: one of length ``inf``).
+    With transitions, each junction's curvature jump becomes a clothoid ramp
+    (:func:`~.transitions.transition_runs`, split by :func:`~.transitions.split_ramp`).
 
     Parameters
     ----------
@@ -161,6 +236,8 @@ def build_pieces(start: Sequence[float], heading: float, segments: Sequence[tupl
         Tangent direction at the start [rad].
     segments : sequence of (str, float, float)
         Parsed segments (:func:`parse_segment`), at least one.
+    transitions : sequence of float, optional
+        Transition length at each junction [m] (``len(segments) - 1`` values); None or all 0: G1.
 
     Returns
     -------
@@ -170,27 +247,51 @@ def build_pieces(start: Sequence[float], heading: float, segments: Sequence[tupl
     p = np.asarray(start, float)
     d = np.array([math.cos(heading), math.sin(heading)])
     s, pieces = 0.0, []
-    for kind, a, r in segments:
-        if kind == "line":
-            parts = [(0.0, a)]
-        else:
-            n = max(1, math.ceil(abs(a) / MAX_PIECE - 1e-12))
-            parts = [(math.copysign(1.0 / r, a), abs(a) * r / n)] * n
-        for k, length in parts:
-            piece = Piece(p, d, k, s, length)
+    for parts in _segment_parts(segments, transitions):
+        for k, length, c in parts:
+            piece = Piece(p, d, k, s, length, c=c)
             pieces.append(piece)
             p, d = piece.end()
             s += length
     first, last = pieces[0], pieces[-1]
-    if first.k == 0:
+    if first.k == 0 and first.c == 0:
         pieces[0] = Piece(first.p0, first.d0, 0.0, first.s0, first.length, ray_before=True)
     else:
         pieces.insert(0, Piece(first.p0, first.d0, 0.0, 0.0, 0.0, ray_before=True))
-    if last.k == 0:
+    if last.k == 0 and last.c == 0:
         pieces[-1] = Piece(pieces[-1].p0, pieces[-1].d0, 0.0, pieces[-1].s0, math.inf, pieces[-1].ray_before)
     else:
         pieces.append(Piece(p, d, 0.0, s, math.inf))
     return pieces
+
+
+def _arc_parts(a: float, r: float) -> list[tuple[float, float, float]]:
+    """An arc of turning angle ``a`` and radius ``r`` as pieces ``(k, length, 0)`` of at most :data:`MAX_PIECE`."""
+    n = max(1, math.ceil(abs(a) / MAX_PIECE - 1e-12))
+    return [(math.copysign(1.0 / r, a), abs(a) * r / n, 0.0)] * n
+
+
+def _segment_parts(segments, transitions) -> list[list[tuple[float, float, float]]]:
+    """Per segment, its pieces ``(k [1/m], length [m], c [1/m^2])``: G1 as before, or with the transitions' ramps."""
+    if not transitions or not any(transitions):
+        return [[(0.0, a, 0.0)] if kind == "line" else _arc_parts(a, r) for kind, a, r in segments]
+    curv = [0.0 if kind == "line" else math.copysign(1.0 / r, a) for kind, a, r in segments]
+    lengths = [a if kind == "line" else abs(a) * r for kind, a, r in segments]
+    out = []
+    for i, ((kind, a, r), run) in enumerate(zip(segments, transition_runs(curv, lengths, transitions))):
+        core, ramps = run[0][2], run[1:]
+        if core <= 1e-12:                   # used up by its transitions
+            parts = []
+        elif core == lengths[i]:            # no transition at either end: the segment as in G1
+            parts = [(0.0, a, 0.0)] if kind == "line" else _arc_parts(a, r)
+        elif kind == "line":
+            parts = [(0.0, core, 0.0)]
+        else:
+            parts = _arc_parts(math.copysign(core / r, a), r)
+        for k0, c, length in ramps:
+            parts += [(ks, h, c) for ks, h in split_ramp(k0, c, length)]
+        out.append(parts)
+    return out
 
 
 def _junction_tests(pieces: list[Piece], p) -> list:
@@ -203,14 +304,21 @@ def _junction_tests(pieces: list[Piece], p) -> list:
 
 
 def _abs_phi(piece: Piece, p):
-    """``|phi|`` of the piece's own formula at ``p`` and, for an arc, the test excluding the opposite wedge."""
-    if piece.k == 0:
+    """``|phi|`` of the piece's own formula at ``p`` and, for an arc, the test excluding the opposite wedge.
+
+    A clothoid piece is selected like an arc, by its approximating arc (:meth:`Piece.wedge`).
+    """
+    if piece.k == 0 and piece.c == 0:
         n0 = piece.n0
         return ca.fabs(n0[0] * p[0] + n0[1] * p[1] - float(n0 @ piece.p0)), None
-    c = piece.centre
+    if piece.c == 0:
+        c = piece.centre
+        rx, ry = p[0] - c[0], p[1] - c[1]
+        mid = piece.p0 + piece.end()[0] - 2 * c                # towards the arc's middle from its centre
+        return ca.fabs(ca.sqrt(rx * rx + ry * ry) - 1.0 / abs(piece.k)), mid[0] * rx + mid[1] * ry > 0
+    c, radius, mid = piece.wedge()
     rx, ry = p[0] - c[0], p[1] - c[1]
-    mid = piece.p0 + piece.end()[0] - 2 * c                    # towards the arc's middle from its centre
-    return ca.fabs(ca.sqrt(rx * rx + ry * ry) - 1.0 / abs(piece.k)), mid[0] * rx + mid[1] * ry > 0
+    return ca.fabs(ca.sqrt(rx * rx + ry * ry) - radius), mid[0] * rx + mid[1] * ry > 0
 
 
 def closest_piece_formulas(pieces: list[Piece], p):
@@ -233,7 +341,8 @@ def closest_piece_formulas(pieces: list[Piece], p):
         Signed distance ``phi`` and arc length ``psi`` [m].
     """
     g = _junction_tests(pieces, p)
-    params = [ca.DM(piece_parameters(pc)) for pc in pieces]
+    spirals = any(pc.c != 0 for pc in pieces)
+    params = [ca.DM(_padded(piece_parameters(pc)) if spirals else piece_parameters(pc)) for pc in pieces]
     best, sel = ca.inf, params[0]
     last = len(pieces) - 1
     for i, (pc, par) in enumerate(zip(pieces, params)):
@@ -245,7 +354,16 @@ def closest_piece_formulas(pieces: list[Piece], p):
             closer = ca.logic_and(closer, tst)
         best = ca.if_else(closer, dist, best)
         sel = ca.if_else(closer, par, sel)
+    if spirals:
+        phi, psi = piece_formulas(sel[:6], p)
+        phi_s, psi_s = spiral_formulas(sel, p)
+        return ca.if_else(sel[6] != 0, phi_s, phi), ca.if_else(sel[6] != 0, psi_s, psi)
     return piece_formulas(sel, p)
+
+
+def _padded(params: np.ndarray) -> np.ndarray:
+    """A piece's constants filled with zeros to :data:`PIECE_CONSTANTS` (a line's or an arc's ``c = 0``)."""
+    return np.r_[params, np.zeros(PIECE_CONSTANTS - len(params))]
 
 
 def piece_parameters(piece: Piece, derived: bool = False) -> np.ndarray:
@@ -265,7 +383,14 @@ def piece_parameters(piece: Piece, derived: bool = False) -> np.ndarray:
     ndarray, shape (6,) or (10,)
         Start point [m], unit tangent there, curvature [1/m] (0 for a line), arc length at the
         start [m]; with ``derived``, then centre [m], ``1 / k`` [m] and the turning sign.
+        A clothoid piece always has ten: those four, then its curvature rate ``c`` [1/m^2],
+        its length [m] and the chord projection ``h`` of :func:`~.transitions.spiral_formulas`.
     """
+    if piece.c != 0:
+        end = piece.end()[0]
+        chord = end - piece.p0
+        return np.r_[piece.p0, piece.d0, piece.k, piece.s0, piece.c, piece.length,
+                     piece.length * chord / float(chord @ chord)]
     base = np.r_[piece.p0, piece.d0, piece.k, piece.s0]
     if not derived:
         return base
@@ -286,15 +411,18 @@ def piece_formulas(sel, p, kind: str | None = None):
         the arc formula takes them instead of computing them (the same values).
     p : casadi.SX, shape (2,)
         A point in the path's frame [m].
-    kind : {None, "line", "arc"}
+    kind : {None, "line", "arc", "spiral"}
         None: one line and one arc formula, chosen by ``k != 0``; ``"line"`` or ``"arc"``: that
-        formula only (for a piece known to be of that kind; the same operations).
+        formula only (for a piece known to be of that kind; the same operations); ``"spiral"``:
+        the clothoid's (:func:`~.transitions.spiral_formulas`).
 
     Returns
     -------
     tuple of casadi.SX
         Signed distance and arc length [m].
     """
+    if kind == "spiral":
+        return spiral_formulas(sel, p)
     p0, d0, k, s0 = sel[0:2], sel[2:4], sel[4], sel[5]
     is_arc = k != 0
     n0 = ca.vertcat(-d0[1], d0[0])

@@ -34,6 +34,7 @@ from .errors import ConfigError
 from .motions import motion_to_spec
 from .params import as_param, as_point, evaluate
 from .path_pieces import build_pieces, closest_piece_formulas, finite_number, parse_segment, piece_formulas
+from .transitions import junction_transitions, segment_transition, transition_length
 
 
 def _rot(th, v):
@@ -57,6 +58,11 @@ class Path(Curve):
         Translation ``o(t)`` of the whole path [m].
     rotation : float or motion, optional
         Rotation ``th(t)`` of the whole path about ``start`` [rad].
+    transition : float, optional
+        Length of the clothoid transition at every junction [m] (:mod:`.transitions`); a segment's
+        own ``transition`` key sets the one at its start junction. None: the default,
+        :data:`~.transitions.DEFAULT_FRACTION` of the smaller radius joined, at most the length of
+        either segment; 0: the G1 path (curvature jumps at the junctions).
 
     Notes
     -----
@@ -75,16 +81,24 @@ class Path(Curve):
     kind = "path"
 
     def __init__(self, start: Sequence[float], heading: float, segments: Sequence[Any],
-                 offset: Any = (0.0, 0.0), rotation: Any = 0.0) -> None:
+                 offset: Any = (0.0, 0.0), rotation: Any = 0.0, transition: float | None = None) -> None:
         if not isinstance(start, (tuple, list, np.ndarray)) or len(start) != 2:
             raise ConfigError(f"curve.start: expected a pair (x, y), got {start!r}")
         self.start = np.array([finite_number(v, f"curve.start[{i}]") for i, v in enumerate(start)])
         self.heading = finite_number(heading, "curve.heading")
         if not isinstance(segments, (list, tuple)) or not segments:
             raise ConfigError("curve.segments: need a non-empty list of segments")
-        self.segments = [parse_segment(sg, f"curve.segments[{i}]") for i, sg in enumerate(segments)]
+        own = [segment_transition(sg, f"curve.segments[{i}]") for i, sg in enumerate(segments)]
+        self.segments = [parse_segment(sg, f"curve.segments[{i}]") for i, (sg, _) in enumerate(own)]
+        #: The ``transition`` given for the path (None: the default) and per segment [m].
+        self.transition = None if transition is None else transition_length(transition, "curve.transition")
+        self.segment_transitions = [L for _, L in own]
+        if self.segment_transitions[0] is not None:
+            raise ConfigError("curve.segments[0].transition: the first segment has no junction before it")
+        #: Transition length at each junction [m] (junction i before segment i + 1).
+        self.transitions = junction_transitions(self.segments, self.transition, self.segment_transitions[1:])
         self.offset, self.rotation = as_point(offset, "curve.offset"), as_param(rotation, "curve.rotation")
-        self.pieces = build_pieces(self.start, self.heading, self.segments)
+        self.pieces = build_pieces(self.start, self.heading, self.segments, self.transitions)
         radii = [r for kind, _, r in self.segments if kind == "arc"]
         #: Half-width of the tube in which ``phi``, ``psi`` are valid [m] (inf for lines only).
         self.tube_radius = min(radii) if radii else math.inf
@@ -92,7 +106,7 @@ class Path(Curve):
 
     @classmethod
     def from_waypoints(cls, points: Sequence[Sequence[float]], radius: float, offset: Any = (0.0, 0.0),
-                       rotation: Any = 0.0) -> "Path":
+                       rotation: Any = 0.0, transition: float | None = None) -> "Path":
         """The polyline through ``points`` with a circular fillet of ``radius`` at each interior corner.
 
         Parameters
@@ -105,6 +119,8 @@ class Path(Curve):
             Translation ``o(t)`` of the whole path [m], as for :class:`Path`.
         rotation : float or motion, optional
             Rotation ``th(t)`` of the whole path about the first point [rad].
+        transition : float, optional
+            Transition length at every junction of the filleted path [m], as for :class:`Path`.
 
         Returns
         -------
@@ -120,7 +136,7 @@ class Path(Curve):
             corners exceed the line between them).
         """
         segments, start, heading = waypoint_segments(points, radius)
-        path = cls(start, heading, segments, offset=offset, rotation=rotation)
+        path = cls(start, heading, segments, offset=offset, rotation=rotation, transition=transition)
         path.waypoints = (np.asarray(points, float).tolist(), float(radius))
         return path
 
@@ -175,7 +191,7 @@ class Path(Curve):
             Time [s].
         sel : casadi.SX, shape (6,) or (10,)
             The piece's constants (see :func:`piece_parameters`).
-        kind : {None, "line", "arc"}
+        kind : {None, "line", "arc", "spiral"}
             The piece's kind, when known (see :func:`piece_formulas`).
 
         Returns
@@ -266,9 +282,11 @@ class Path(Curve):
         if ray > 0:
             pts.append(inner[0].p0 - ray * inner[0].d0)
         for pc in inner:
-            k = max(2, int(n * pc.length / max(self.length, 1e-12)) + 2 if pc.k else 2)
+            k = max(2, int(n * pc.length / max(self.length, 1e-12)) + 2 if pc.k or pc.c else 2)
             for x in np.linspace(0.0, pc.length, k):
-                if pc.k == 0:
+                if pc.c != 0:
+                    pts.append(pc.point(x)[0])
+                elif pc.k == 0:
                     pts.append(pc.p0 + x * pc.d0)
                 else:
                     a = pc.k * x
@@ -336,7 +354,9 @@ class Path(Curve):
         for pc in self.pieces:
             if s <= pc.s0 + pc.length or pc is self.pieces[-1]:
                 x = s - pc.s0
-                if pc.k == 0:
+                if pc.c != 0:
+                    p = pc.point(x)[0]
+                elif pc.k == 0:
                     p = pc.p0 + x * pc.d0
                 else:
                     a = pc.k * x
@@ -344,6 +364,28 @@ class Path(Curve):
                     p = pc.centre + np.array([[c, -sn], [sn, c]]) @ (pc.p0 - pc.centre)
                 return self.to_world(p[None], t)[0]
         raise AssertionError("unreachable")
+
+    def curvature_at(self, s: np.ndarray) -> np.ndarray:
+        """Curvature of the path at arc lengths ``s`` (0 on the rays), + = turning left.
+
+        Parameters
+        ----------
+        s : array_like, shape (N,)
+            Arc lengths [m].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Curvature [1/m].
+        """
+        s = np.asarray(s, float)
+        out = np.zeros_like(s)
+        for pc in self.pieces:
+            if math.isfinite(pc.length) and pc.length > 0:
+                x = s - pc.s0
+                inside = (x >= 0) & (x <= pc.length)
+                out[inside] = pc.k + pc.c * x[inside]
+        return out
 
     def to_spec(self) -> dict:
         """The path as data (``kind = "path"``, or ``"waypoints"`` when built from waypoints).
@@ -354,9 +396,14 @@ class Path(Curve):
             Plain data that :func:`~symbolic.curve_specs.curve_from_spec` builds the same path from.
         """
         motion = {"offset": [motion_to_spec(c) for c in self.offset], "rotation": motion_to_spec(self.rotation)}
+        if self.transition is not None:
+            motion["transition"] = self.transition
         if getattr(self, "waypoints", None):
             return {"kind": "waypoints", "points": self.waypoints[0], "radius": self.waypoints[1], **motion}
         segs = [{"line": a} if kind == "line" else {"arc": a, "radius": r} for kind, a, r in self.segments]
+        for seg, L in zip(segs, self.segment_transitions):
+            if L is not None:
+                seg["transition"] = L
         return {"kind": "path", "start": self.start.tolist(), "heading": self.heading, "segments": segs, **motion}
 
 

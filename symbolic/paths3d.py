@@ -28,6 +28,9 @@ import numpy as np
 from .curves3d import SpatialCurve, as_column
 from .errors import ConfigError, shown
 from .vectors3d import finite, finite_vector, orthogonal_normal, rotate, unit_vector
+from .transitions import segment_transition, spiral_local, transition_length
+from .transitions3d import (curvature_vectors, junction_transitions3d, local_piece, ramps, segment_lengths3d,
+                            spiral_constants, spiral_formulas3d)
 from .waypoints3d import waypoint_segments3d
 
 #: Arcs turning more than this are split into equal pieces (each piece's ``atan2`` stays
@@ -57,6 +60,9 @@ class Piece3D:
         Turn direction ``cos(bank) n1 + sin(bank) n2`` of an arc [rad].
     ray_before : bool
         The line extends backwards without limit (the first piece).
+    k0, c : float
+        A clothoid piece of a transition (``c != 0``, :mod:`.transitions3d`): curvature ``k0 + c sigma``
+        [1/m] towards the ``bank`` direction (``radius`` 0).
     """
 
     p0: np.ndarray
@@ -68,6 +74,8 @@ class Piece3D:
     radius: float = 0.0
     bank: float = 0.0
     ray_before: bool = False
+    k0: float = 0.0
+    c: float = 0.0
 
     @property
     def toward(self) -> np.ndarray:
@@ -97,6 +105,9 @@ class Piece3D:
         ndarray, shape (3,)
             The point [m].
         """
+        if self.c != 0:
+            X, Y, _ = spiral_local(self.k0, self.c, x)
+            return self.p0 + X * self.tangent + Y * self.toward
         if self.radius == 0:
             return self.p0 + x * self.tangent
         c = self.centre
@@ -115,6 +126,9 @@ class Piece3D:
         tuple of 3 ndarray, shape (3,)
             Tangent, ``n_1``, ``n_2``.
         """
+        if self.c != 0:
+            w, a = self.axis, spiral_local(self.k0, self.c, x)[2]
+            return tuple(rotate(w, a, v) for v in (self.tangent, self.n1, self.n2))
         if self.radius == 0:
             return self.tangent, self.n1, self.n2
         w, a = self.axis, x / self.radius
@@ -148,6 +162,7 @@ def parse_segment3d(seg: Any, field: str) -> tuple[str, float, float, float]:
         seg = dict(zip(keys, seg[1:]))
     if not isinstance(seg, dict):
         raise ConfigError(f"{field}: expected {{line = L}} or {{arc = A, radius = R, bank = beta}}, got {shown(seg)}")
+    seg, _ = segment_transition(seg, field)                 # read by Path3D (its junction's transition)
     if set(seg) == {"line"}:
         length = finite(seg["line"], f"{field}.line")
         if not length > 0:
@@ -168,7 +183,8 @@ def parse_segment3d(seg: Any, field: str) -> tuple[str, float, float, float]:
 
 
 def build_pieces3d(start: np.ndarray, direction: np.ndarray, normal: np.ndarray,
-                   segments: Sequence[tuple[str, float, float, float]]) -> list[Piece3D]:
+                   segments: Sequence[tuple[str, float, float, float]],
+                   transitions: Sequence[float] | None = None) -> list[Piece3D]:
     """The path's pieces (arcs over :data:`MAX_PIECE` split), with rays at both ends.
 
     Parameters
@@ -179,6 +195,8 @@ def build_pieces3d(start: np.ndarray, direction: np.ndarray, normal: np.ndarray,
         Unit tangent and unit ``n_1`` (perpendicular) at the start.
     segments : sequence of tuple
         Parsed segments (:func:`parse_segment3d`).
+    transitions : sequence of float, optional
+        Transition length at each junction [m] (:mod:`.transitions3d`); None or all 0: G1.
 
     Returns
     -------
@@ -186,24 +204,48 @@ def build_pieces3d(start: np.ndarray, direction: np.ndarray, normal: np.ndarray,
         The pieces in order; the first extends backwards, the last has infinite length.
     """
     p, frame, s, pieces = np.asarray(start, float), (direction, normal, np.cross(direction, normal)), 0.0, []
-    for kind, a, r, bank in segments:
-        count = 1 if kind == "line" else max(1, math.ceil(a / MAX_PIECE - 1e-12))
-        parts = [(a, 0.0)] if kind == "line" else [(a * r / count, r)] * count
-        for length, radius in parts:
-            piece = Piece3D(p, *frame, s, length, radius, bank)
-            pieces.append(piece)
-            p, frame, s = piece.point_at(length), piece.frame_at(length), s + length
+    for length, radius, bank, k0, c in _parts3d(segments, transitions):
+        piece = Piece3D(p, *frame, s, length, radius, bank, k0=k0, c=c)
+        pieces.append(piece)
+        p, frame, s = piece.point_at(length), piece.frame_at(length), s + length
     first, last = pieces[0], pieces[-1]
-    if first.radius == 0:
+    if first.radius == 0 and first.c == 0:
         pieces[0] = Piece3D(first.p0, first.tangent, first.n1, first.n2, 0.0, first.length, ray_before=True)
     else:
         pieces.insert(0, Piece3D(first.p0, first.tangent, first.n1, first.n2, 0.0, 0.0, ray_before=True))
-    if last.radius == 0:
+    if last.radius == 0 and last.c == 0:
         last = pieces[-1]
         pieces[-1] = Piece3D(last.p0, last.tangent, last.n1, last.n2, last.s0, math.inf, ray_before=last.ray_before)
     else:
         pieces.append(Piece3D(p, *frame, s, math.inf))
     return pieces
+
+
+def _parts3d(segments, transitions) -> list[tuple[float, float, float, float, float]]:
+    """The pieces ``(length, radius, bank, k0, c)`` of the segments: G1 as before, or with the transitions' clothoids."""
+    out = []
+    if not transitions or not any(transitions):
+        for kind, a, r, bank in segments:
+            count = 1 if kind == "line" else max(1, math.ceil(a / MAX_PIECE - 1e-12))
+            parts = [(a, 0.0)] if kind == "line" else [(a * r / count, r)] * count
+            out += [(length, radius, bank, 0.0, 0.0) for length, radius in parts]
+        return out
+    K, ls = curvature_vectors(segments), segment_lengths3d(segments)
+    n = len(segments)
+    for i, (kind, a, r, bank) in enumerate(segments):
+        before = transitions[i - 1] if i > 0 else 0.0
+        after = transitions[i] if i < n - 1 else 0.0
+        core = ls[i] - 0.5 * (before + after)
+        if core < -1e-12 * max(1.0, ls[i]):
+            raise ConfigError(f"curve.segments[{i}]: {ls[i]:.6g} m is too short for its transitions "
+                              f"({before:.6g} m before, {after:.6g} m after; each takes half its length "
+                              f"from the segment): shorten curve.transition")
+        if core > 1e-12:
+            count = 1 if kind == "line" else max(1, math.ceil(core / r / MAX_PIECE - 1e-12))
+            out += [(core / count, 0.0 if kind == "line" else r, bank, 0.0, 0.0)] * count
+        if after > 0:
+            out += [(h, 0.0, b, k0, c) for b, k0, c, h in ramps(K[i], K[i + 1], after)]
+    return out
 
 
 def piece_constants(piece: Piece3D) -> np.ndarray:
@@ -221,6 +263,9 @@ def piece_constants(piece: Piece3D) -> np.ndarray:
         direction ``u`` (3 each) and the components ``(n1.u, n1.w, n2.u, n2.w)``. A line gets
         the finite stand-ins ``R = 1``, ``u = n1`` (its arc formula is never selected).
     """
+    if piece.c != 0:
+        return spiral_constants(piece.p0, piece.tangent, piece.n1, piece.n2, piece.s0, piece.bank, piece.k0,
+                                piece.c, piece.length)
     arc = piece.radius > 0
     u = piece.toward if arc else piece.n1
     radius = piece.radius if arc else 1.0
@@ -230,7 +275,7 @@ def piece_constants(piece: Piece3D) -> np.ndarray:
                  piece.p0 + radius * u, w, u, comps]
 
 
-def piece_formulas3d(sel, y):
+def piece_formulas3d(sel, y, spirals: bool = False):
     """``(psi, Phi, frame)`` at ``y`` by the formulas of the piece whose constants are ``sel``.
 
     Parameters
@@ -239,6 +284,9 @@ def piece_formulas3d(sel, y):
         The piece's :func:`piece_constants`.
     y : casadi.SX or casadi.MX, shape (3, 1)
         A point [m].
+    spirals : bool
+        The path has clothoid pieces (flag 2, :func:`~.transitions3d.spiral_formulas3d`): their
+        formulas are selected for them too.
 
     Returns
     -------
@@ -266,7 +314,13 @@ def piece_formulas3d(sel, y):
     tan_arc = ca.cross(w, u)
     frame_arc = (tan_arc, -c11 * u + c12 * w, -c21 * u + c22 * w)
     frame = tuple(ca.if_else(is_arc, fa, fl) for fa, fl in zip(frame_arc, (t0, n1, n2)))
-    return ca.if_else(is_arc, psi_arc, psi_line), ca.if_else(is_arc, phi_arc, phi_line), frame
+    psi, phi = ca.if_else(is_arc, psi_arc, psi_line), ca.if_else(is_arc, phi_arc, phi_line)
+    if not spirals:
+        return psi, phi, frame
+    spiral = sel[13] == 2
+    psi_s, phi_s, frame_s = spiral_formulas3d(sel, y)
+    return (ca.if_else(spiral, psi_s, psi), ca.if_else(spiral, phi_s, phi),
+            tuple(ca.if_else(spiral, a, b) for a, b in zip(frame_s, frame)))
 
 
 def closest_piece3d(pieces: list[Piece3D], y):
@@ -293,7 +347,14 @@ def closest_piece3d(pieces: list[Piece3D], y):
     best, sel, last = ca.inf, ca.DM(piece_constants(pieces[0])), len(pieces) - 1
     for i, pc in enumerate(pieces):
         tests = ([] if pc.ray_before or i == 0 else [g[i] >= 0]) + ([] if i == last else [g[i + 1] <= 0])
-        if pc.radius == 0:
+        if pc.c != 0:                       # a clothoid: by its approximating arc in its plane
+            c, radius, mid = local_piece(pc.k0, pc.c, pc.length).wedge()
+            u, w = pc.toward, pc.axis
+            full = y - ca.DM(pc.p0 + c[0] * pc.tangent + c[1] * u)
+            z = ca.dot(ca.DM(w), full)
+            dist = (ca.norm_2(full - z * ca.DM(w)) - radius) ** 2 + z ** 2
+            tests.append(ca.dot(ca.DM(mid[0] * pc.tangent + mid[1] * u), full) > 0)
+        elif pc.radius == 0:
             v = y - ca.DM(pc.p0)
             dist = ca.sumsqr(v) - ca.dot(ca.DM(pc.tangent), v) ** 2
         else:
@@ -307,7 +368,7 @@ def closest_piece3d(pieces: list[Piece3D], y):
             closer = ca.logic_and(closer, test)
         best = ca.if_else(closer, dist, best)
         sel = ca.if_else(closer, ca.DM(piece_constants(pc)), sel)
-    return piece_formulas3d(sel, y)
+    return piece_formulas3d(sel, y, any(pc.c != 0 for pc in pieces))
 
 
 class Path3D(SpatialCurve):
@@ -325,6 +386,10 @@ class Path3D(SpatialCurve):
         Each ``{"line": L}`` (length L [m]) or ``{"arc": A, "radius": R, "bank": beta}`` (turn by
         ``0 < A < 2 pi`` [rad] with radius R [m] towards ``cos(beta) n_1 + sin(beta) n_2`` of the frame
         at the arc's start; ``bank`` defaults to 0); tuples ``("line", L)``, ``("arc", A, R, beta)`` work too.
+        A segment's ``transition`` sets the one at its start junction.
+    transition : float, optional
+        Length of the clothoid transitions at the junctions [m] (:mod:`.transitions3d`); None: the
+        default (a quarter of the smaller radius joined, at most either segment's length); 0: G1.
 
     Notes
     -----
@@ -339,14 +404,23 @@ class Path3D(SpatialCurve):
 
     kind = "path"
 
-    def __init__(self, start: Any, direction: Any, normal: Any, segments: Sequence[Any]) -> None:
+    def __init__(self, start: Any, direction: Any, normal: Any, segments: Sequence[Any],
+                 transition: float | None = None) -> None:
         self.start = finite_vector(start, "curve.start")
         self.direction = unit_vector(direction, "curve.direction")
         self.normal = orthogonal_normal(self.direction, normal, "curve.normal")
         if not isinstance(segments, (list, tuple)) or not segments:
             raise ConfigError(f"curve.segments: need a non-empty list of segments, got {shown(segments)}")
         self.segments = [parse_segment3d(sg, f"curve.segments[{i}]") for i, sg in enumerate(segments)]
-        self.pieces = build_pieces3d(self.start, self.direction, self.normal, self.segments)
+        own = [segment_transition(sg, f"curve.segments[{i}]")[1] for i, sg in enumerate(segments)]
+        if own[0] is not None:
+            raise ConfigError("curve.segments[0].transition: the first segment has no junction before it")
+        #: The ``transition`` given for the path (None: the default) and per segment [m].
+        self.transition = None if transition is None else transition_length(transition, "curve.transition")
+        self.segment_transitions = own
+        #: Transition length at each junction [m] (:mod:`.transitions3d`).
+        self.transitions = junction_transitions3d(self.segments, self.transition, own[1:])
+        self.pieces = build_pieces3d(self.start, self.direction, self.normal, self.segments, self.transitions)
         radii = [r for kind, _, r, _ in self.segments if kind == "arc"]
         #: Half-width of the tube in which ``Phi``, ``psi`` are valid [m] (inf for lines only).
         self.tube_radius = min(radii) if radii else math.inf
@@ -355,7 +429,8 @@ class Path3D(SpatialCurve):
         self.waypoints = None
 
     @classmethod
-    def from_waypoints(cls, points: Sequence[Sequence[float]], radius: float, normal: Any = None) -> "Path3D":
+    def from_waypoints(cls, points: Sequence[Sequence[float]], radius: float, normal: Any = None,
+                       transition: float | None = None) -> "Path3D":
         """The polyline through 3-D ``points`` with a circular fillet of ``radius`` at each corner.
 
         Parameters
@@ -366,6 +441,8 @@ class Path3D(SpatialCurve):
             Fillet radius [m].
         normal : sequence of 3 float, optional
             ``n_1`` at the start (default: ``e_z x direction``, the left normal of a planar path).
+        transition : float, optional
+            Transition length at every junction [m], as for :class:`Path3D`.
 
         Returns
         -------
@@ -378,7 +455,7 @@ class Path3D(SpatialCurve):
             Fewer than two points, coinciding points, a 180 degree corner or a fillet that does not fit.
         """
         segments, start, direction, n1 = waypoint_segments3d(points, radius, normal)
-        path = cls(start, direction, n1, segments)
+        path = cls(start, direction, n1, segments, transition)
         path.waypoints = (np.asarray(points, float).tolist(), float(radius))
         return path
 
@@ -446,13 +523,17 @@ class Path3D(SpatialCurve):
         dict
             Accepted by :func:`~.curve3d_specs.curve3d_from_spec`.
         """
+        extra = {} if self.transition is None else {"transition": self.transition}
         if self.waypoints:
             return {"kind": "waypoints", "points": self.waypoints[0], "radius": self.waypoints[1],
-                    "normal": self.normal.tolist()}
+                    "normal": self.normal.tolist(), **extra}
         segs = [{"line": a} if kind == "line" else {"arc": a, "radius": r, "bank": b}
                 for kind, a, r, b in self.segments]
+        for seg, L in zip(segs, self.segment_transitions):
+            if L is not None:
+                seg["transition"] = L
         return {"kind": "path", "start": self.start.tolist(), "direction": self.direction.tolist(),
-                "normal": self.normal.tolist(), "segments": segs}
+                "normal": self.normal.tolist(), "segments": segs, **extra}
 
 
 Path3D.coordinates.__doc__ = SpatialCurve.coordinates.__doc__

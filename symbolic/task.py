@@ -113,7 +113,7 @@ class Task:
 
         Parameters
         ----------
-        kind : {"line", "arc"}
+        kind : {"line", "arc", "spiral"}
             The kind of piece (the curve is a :class:`~coordarm.symbolic.paths.Path`).
 
         Returns

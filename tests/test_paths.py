@@ -10,7 +10,7 @@ from coordarm.symbolic import ConfigError, CoordinatingController, PlanarChain, 
 from coordarm.symbolic.motions import Ramp, Sinusoid
 from coordarm.generated import compile as compile_controller
 
-ISSUE_PATH = {"kind": "path", "start": [0.3, -0.2], "heading": 0.4,
+ISSUE_PATH = {"kind": "path", "start": [0.3, -0.2], "heading": 0.4, "transition": 0,
               "segments": [{"line": 0.5}, {"arc": 1.0, "radius": 0.6}, {"arc": -1.5, "radius": 0.45},
                            {"line": 1.0}]}
 RAY = 3.0
@@ -71,7 +71,7 @@ def random_tube_points(path, rng, n, frac=0.8):
 
 
 @pytest.mark.parametrize("spec", [ISSUE_PATH,
-                                  {"kind": "path", "start": [0, 0], "heading": -1.0,
+                                  {"kind": "path", "start": [0, 0], "heading": -1.0, "transition": 0,
                                    "segments": [{"arc": 2.5, "radius": 0.5}, {"line": 0.3}, {"arc": -4.0, "radius": 0.4}]}],
                          ids=["issue-example", "arcs-at-both-ends-and-a-long-arc"])
 def test_phi_psi_match_brute_force_nearest_point(spec):
@@ -115,7 +115,7 @@ def test_junction_points_are_c1_by_finite_differences():
 
 def test_rigid_motion_moves_phi_psi_and_their_time_derivatives_match_finite_differences():
     moving = Path((0.3, -0.2), 0.4, ISSUE_PATH["segments"], offset=(Sinusoid(0.2, 0.7), Ramp(0.0, 0.05)),
-                  rotation=Sinusoid(0.3, 0.5))
+                  rotation=Sinusoid(0.3, 0.5), transition=0)
     geo = CoordinatingController(PlanarChain(3, 0.1), moving, 1.0, 0.0).task.geometry
     f = moving.functions()
     rng = np.random.default_rng(2)
@@ -144,7 +144,7 @@ def test_path_is_orthonormalised_on_it_at_several_times():
 def test_waypoints_fillets_against_independent_corner_geometry():
     pts = [[0.0, 0.0], [1.0, 0.0], [1.5, 0.8], [2.5, 0.8]]
     r = 0.3
-    path = Path.from_waypoints(pts, r)
+    path = Path.from_waypoints(pts, r, transition=0)
     f = path.functions()
     P = np.array(pts)
     for i in (1, 2):                                  # each fillet: tangent points at r tan(a/2) from the corner
@@ -240,7 +240,7 @@ def test_a_point_leaving_the_tube_stops_the_run_naming_link_time_and_radius():
     from coordarm.simulation.limits import GainStepWarning
     from coordarm.symbolic import follow_curve
     chain = PlanarChain(20, 0.1)
-    path = Path((0.0, 0.0), 0.0, [{"line": 0.4}, {"arc": 1.0, "radius": 0.25}, {"line": 1.5}])
+    path = Path((0.0, 0.0), 0.0, [{"line": 0.4}, {"arc": 1.0, "radius": 0.25}, {"line": 1.5}], transition=0)
     ctrl = CoordinatingController(chain, path, 40.0, 0.0)
     q0 = follow_curve(ctrl, 1.0) + np.random.default_rng(5).normal(scale=1e-3, size=chain.m)
     # K h = 4 is beyond RK4's stability limit (2.79): the deviations grow until one leaves the tube

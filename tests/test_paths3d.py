@@ -19,8 +19,9 @@ CORKSCREW = [("line", 0.5), ("arc", 1.2, 1.0, 0.0), ("arc", 1.0, 0.8, 1.2), ("li
              ("arc", 2.5, 1.2, -2.0), ("arc", 0.9, 1.0, math.pi / 2), ("line", 0.4)]
 
 
-def corkscrew():
-    return Path3D(START, DIRECTION, NORMAL, CORKSCREW)
+def corkscrew(transition=0.0):
+    """The corkscrew: G1 (``transition = 0``, what :func:`integrate` walks) or with transitions."""
+    return Path3D(START, DIRECTION, NORMAL, CORKSCREW, transition)
 
 
 def integrate(start, direction, normal, segments, h=2e-4):
@@ -188,7 +189,7 @@ def test_planar_waypoints_in_3d_reproduce_the_planar_waypoints(rng):
 def test_waypoints_in_3d_fillet_each_corner_in_the_plane_of_its_legs():
     P = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.5, 1.0, 0.5], [1.5, 1.5, 1.8], [0.5, 2.0, 2.0]])
     r = 0.25
-    path = curve3d_from_spec({"kind": "waypoints", "points": P.tolist(), "radius": r})
+    path = curve3d_from_spec({"kind": "waypoints", "points": P.tolist(), "radius": r, "transition": 0})
     f = outputs(path)
     ends = [evaluate(f, P[0])[0].ravel(), evaluate(f, P[-1])[0].ravel()]
     np.testing.assert_allclose(ends, [[0, 0, 0], [path.length, 0, 0]], atol=1e-12)
@@ -214,7 +215,7 @@ def test_random_banked_paths_match_the_integrated_path_and_have_the_frame_as_jac
     segments = []
     for angle, radius, bank, line in arcs:
         segments += [("arc", angle, radius, bank)] + ([("line", line)] if line > 0.05 else [])
-    path = Path3D(START, DIRECTION, NORMAL, segments)
+    path = Path3D(START, DIRECTION, NORMAL, segments, transition=0)
     ss, x, T, N1, N2 = integrate(START, DIRECTION, NORMAL, segments, h=2e-3)
     f = outputs(path)
     for i in np.linspace(0, len(ss) - 1, 8).astype(int):
@@ -257,3 +258,70 @@ def test_mx_points_give_the_same_values_as_sx():
     for y in ([0.7, 0.4, 0.9], [2.0, 0.5, 1.0], [-0.3, -0.4, 0.2]):
         out, _, _, frame = evaluate(fs, y)
         np.testing.assert_allclose(np.asarray(fm(y)).ravel(), np.r_[out.ravel(), frame.T.ravel()], atol=1e-14)
+
+
+def g2_curvature(segments, L):
+    """The G2 curvature vector ``s -> (k1, k2)`` in the twist-free frame, from its definition: the G1
+    steps replaced over ``[S - L/2, S + L/2]`` by a linear ramp when the two vectors are parallel, else
+    by a ramp down to 0 and one up from 0 (written here apart from coordarm's)."""
+    K = [np.zeros(2) if sg[0] == "line" else np.array([math.cos(sg[3]), math.sin(sg[3])]) / sg[2] for sg in segments]
+    ends = np.cumsum([sg[1] if sg[0] == "line" else sg[1] * sg[2] for sg in segments])
+
+    def k(s):
+        for S, ka, kb in zip(ends[:-1], K[:-1], K[1:]):
+            if abs(s - S) <= L / 2 and not np.array_equal(ka, kb):
+                lam = (s - S + L / 2) / L
+                if abs(ka[0] * kb[1] - ka[1] * kb[0]) < 1e-12:
+                    return (1 - lam) * ka + lam * kb
+                return ka * (1 - 2 * lam) if lam < 0.5 else kb * (2 * lam - 1)
+        i = min(int(np.searchsorted(ends, s, side="right")), len(K) - 1)
+        return K[i] if s >= 0 else np.zeros(2)
+    return k, ends[-1]
+
+
+def integrate_profile(start, direction, normal, k, total, h=1e-4):
+    """Dense (s, x, T, N1, N2) by RK4 of the twist-free frame equations with the curvature ``k(s)``."""
+    T = direction / np.linalg.norm(direction)
+    N1 = normal - (normal @ T) * T
+    N1 /= np.linalg.norm(N1)
+    z = np.r_[start, T, N1, np.cross(T, N1)]
+
+    def rhs(s, z):
+        k1, k2 = k(s)
+        return np.r_[z[3:6], k1 * z[6:9] + k2 * z[9:12], -k1 * z[3:6], -k2 * z[3:6]]
+    n = math.ceil(total / h)
+    dh = total / n
+    out = [z.copy()]
+    for i in range(n):
+        s = i * dh
+        a = rhs(s, z)
+        b = rhs(s + dh / 2, z + dh / 2 * a)
+        c = rhs(s + dh / 2, z + dh / 2 * b)
+        d = rhs(s + dh, z + dh * c)
+        z = z + dh / 6 * (a + 2 * b + 2 * c + d)
+        out.append(z.copy())
+    Z = np.array(out)
+    return np.arange(n + 1) * dh, Z[:, 0:3], Z[:, 3:6], Z[:, 6:9], Z[:, 9:12]
+
+
+def test_a_g2_corkscrew_matches_its_curvature_integrated_and_its_derivatives_fd(rng):
+    L = 0.3
+    path = corkscrew(L)
+    assert path.transitions == [L] * 6 and any(pc.c != 0 for pc in path.pieces)
+    k, total = g2_curvature(CORKSCREW, L)
+    ss, x, T, N1, N2 = integrate_profile(START, DIRECTION / np.linalg.norm(DIRECTION), NORMAL, k, total)
+    assert path.length == pytest.approx(total, abs=1e-12)
+    f = outputs(path)
+    for i in np.linspace(0, len(ss) - 1, 60).astype(int):
+        np.testing.assert_allclose(path.point_at(ss[i]), x[i], atol=1e-9)
+        e = rng.uniform(-0.15, 0.15, 2)
+        y = x[i] + e[0] * N1[i] + e[1] * N2[i]
+        out, J, _, frame = evaluate(f, y)
+        np.testing.assert_allclose(out.ravel(), [ss[i], e[0], e[1]], atol=1e-9)
+        np.testing.assert_allclose(frame, np.c_[T[i], N1[i], N2[i]], atol=1e-9)
+        h = 1e-6                                                # AD through the Newton steps = FD
+        fd = np.column_stack([(evaluate(f, y + h * v)[0] - evaluate(f, y - h * v)[0]).ravel() / (2 * h)
+                              for v in np.eye(3)])
+        np.testing.assert_allclose(J, fd, atol=1e-8)
+    kappa = np.array([np.linalg.norm(k(s)) for s in ss])
+    assert np.max(np.abs(np.diff(kappa))) < 1.01 * (1 / 0.8) / (L / 2) * (ss[1] - ss[0])   # no jump (G2)

@@ -174,7 +174,7 @@ def test_a_start_outside_a_paths_tube_is_refused():
     """A straight zig-zag past a banked arc of radius 0.1 m: the first centre 0.1 m or more from the path
     (brute force over dense samples of it) is named."""
     chain = SpatialChain(LINKS, XI)
-    path = Path3D((0, 0, 0), (1, 0, 0), (0, 1, 0), [("line", 0.3), ("arc", np.pi / 2, 0.1, np.pi / 2)])
+    path = Path3D((0, 0, 0), (1, 0, 0), (0, 1, 0), [("line", 0.3), ("arc", np.pi / 2, 0.1, np.pi / 2)], transition=0)
     q0 = chain.zigzag(1.0, (1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
     points = path.sample(0.0, 20001, extent=1.0)
     y = chain.centres_np(q0)
