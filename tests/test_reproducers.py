@@ -1,0 +1,46 @@
+"""The reproducers of issue 25: each ends in one line naming the file, field or flag, or works."""
+import re
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from coordarm.cli import main
+from coordarm.simulation.scenario import load_scenario
+from coordarm.symbolic.start import check_start
+
+
+def preset_text(name: str, **subs: str) -> str:
+    text = (resources.files("coordarm.simulation") / "presets" / f"{name}.toml").read_text()
+    for pattern, repl in subs.items():
+        text = re.sub(pattern, repl, text, count=1)
+    return text
+
+
+def one_line_error(capsys, *words):
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if "error" in ln]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    return lines[0]
+
+
+# item 1 ------------------------------------------------------------------------------------------
+def test_a_projected_start_on_a_rail_keeps_the_base_at_d_and_puts_every_centre_on_the_curve(tmp_path):
+    text = preset_text("arc", **{r"\[chain\]\nlinks = 64": '[chain]\nlinks = 8\n'
+                                 'base = { kind = "rail", angle = 0.0, limits = [0.0, 5.0] }'})
+    path = tmp_path / "arc_rail.toml"
+    path.write_text(text)
+    sc = load_scenario(path)
+    ctrl = sc.controller()
+    q = sc.start(ctrl)
+    assert q.shape == (9,) and q[0] == 0.0                  # d first, at the rail's lower limit
+    # independent check: the centres from plain trigonometry lie on the arc of radius 2.2 m
+    # through the origin with its tangent along x there (centre (0, 2.2))
+    alpha = np.cumsum(q[1:])
+    half = 0.05 * np.c_[np.cos(alpha), np.sin(alpha)]
+    centres = np.r_[[[0.0, 0.0]], np.cumsum(half[:-1] + half[1:], 0)]     # y^1 = the base at d = 0
+    radius = np.hypot(centres[1:, 0], centres[1:, 1] - 2.2)
+    np.testing.assert_allclose(radius, 2.2, atol=1e-9)
+    check_start(ctrl, q)
