@@ -97,6 +97,11 @@ def default_cond_rate(links: int) -> float:
     return COND_RATE * min(1.0, (64.0 / links) ** 2)
 
 
+#: The most steps between two samples (more than any run has: ``run.duration / run.step`` <= 1e12);
+#: a lower rate is this, so that step counters stay within int64.
+MOST_STEPS_BETWEEN = 2 ** 52
+
+
 def steps_between(rate: Any, step: float, name: str) -> int:
     """Steps between two samples at ``rate`` samples per simulated second (at least 1).
 
@@ -113,7 +118,8 @@ def steps_between(rate: Any, step: float, name: str) -> int:
     Returns
     -------
     int
-        ``round(1 / (rate * step))``, at least 1.
+        ``round(1 / (rate * step))``, at least 1 and at most :data:`MOST_STEPS_BETWEEN` (a rate
+        so low that no run reaches its second sample: only the first and last are written).
 
     Raises
     ------
@@ -122,7 +128,8 @@ def steps_between(rate: Any, step: float, name: str) -> int:
     """
     if not is_real(rate) or not rate > 0 or not np.isfinite(rate):
         raise ConfigError(f"{name}: need a positive number of samples per second, got {rate!r}")
-    return max(1, int(round(1.0 / (rate * step))))
+    between = 1.0 / (float(rate) * step)
+    return MOST_STEPS_BETWEEN if not between < MOST_STEPS_BETWEEN else max(1, int(round(between)))
 
 
 def log_time_ns(t: float | np.ndarray, origin: float) -> np.ndarray:

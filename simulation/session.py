@@ -166,6 +166,9 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
             echo(line)
 
     scenario = prepared_scenario(scenario, links, duration, step, law, governor, log_rate, yes)
+    if cond_rate is not None and cond_rate != 0:                    # 0 switches it off
+        from coordarm.simulation.mcap_writer import steps_between
+        steps_between(cond_rate, scenario.step, "--cond-rate")
     overwrite = overwrite or log is None   # the default log is a scratch file
     out = checked_log_path(Path("logs") / f"{scenario.name}.mcap" if log is None else Path(log), overwrite)
     ctrl = scenario.controller()
@@ -237,10 +240,13 @@ def prepared_scenario(scenario: Scenario | str | os.PathLike, links: int | None,
         A bad override, a cost above the limits or a large dense law without ``yes``.
     """
     from coordarm.simulation.limits import check_cost, estimate
+    from coordarm.simulation.mcap_writer import steps_between
     from coordarm.simulation.scenario import Scenario, load_scenario
 
     base = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     scenario = base.with_overrides(links, duration, step, law=law, governor=governor)
+    if log_rate is not None:
+        steps_between(log_rate, scenario.step, "--log-rate")
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, log_rate), yes)
     m = scenario.config.chain.links
     if scenario.config.control.law == Law.DENSE and m > DENSE_LINKS and not yes:

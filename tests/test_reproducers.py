@@ -44,3 +44,26 @@ def test_a_projected_start_on_a_rail_keeps_the_base_at_d_and_puts_every_centre_o
     radius = np.hypot(centres[1:, 0], centres[1:, 1] - 2.2)
     np.testing.assert_allclose(radius, 2.2, atol=1e-9)
     check_start(ctrl, q)
+
+
+# item 2 ------------------------------------------------------------------------------------------
+SMALL = ["--links", "6", "--duration", "0.05", "--quiet", "--no-figures"]
+
+
+@pytest.mark.parametrize("flag", ["--log-rate", "--cond-rate"])
+@pytest.mark.parametrize("rate", ["nan", "-1", "inf"])
+def test_a_log_or_cond_rate_that_is_not_a_positive_number_is_refused_naming_the_flag(flag, rate, tmp_path, capsys):
+    out = tmp_path / "r.mcap"
+    assert main(["run", "line", *SMALL, "--out", str(out), flag, rate]) == 2
+    one_line_error(capsys, flag, "positive")
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("flag", ["--log-rate", "--cond-rate"])
+def test_a_tiny_log_rate_runs_and_logs_the_first_and_last_sample(flag, tmp_path):
+    from coordarm.analysis.replay import load
+    out = tmp_path / "r.mcap"
+    assert main(["run", "line", *SMALL, "--out", str(out), flag, "1e-300"]) == 0
+    rep = load(out)
+    if flag == "--log-rate":
+        np.testing.assert_allclose(rep.t, [0.0, 0.05], atol=1e-9)
