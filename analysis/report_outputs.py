@@ -147,7 +147,7 @@ def source_run(src: str, links: int | None, duration: float | None, yes: bool,
         if not len(run.t):
             raise LogError(f"{src}: the log holds no samples; nothing to report")
         return run, run.scenario
-    scenario = load_scenario(src).with_overrides(links, duration)
+    scenario = load_scenario(src, links=links, duration=duration)
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, logged=False), yes)
     return simulate_scenario(scenario), scenario
 

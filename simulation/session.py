@@ -243,8 +243,10 @@ def prepared_scenario(scenario: Scenario | str | os.PathLike, links: int | None,
     from coordarm.simulation.mcap_writer import steps_between
     from coordarm.simulation.scenario import Scenario, load_scenario
 
-    base = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-    scenario = base.with_overrides(links, duration, step, law=law, governor=governor)
+    if isinstance(scenario, Scenario):
+        scenario = scenario.with_overrides(links, duration, step, law=law, governor=governor)
+    else:    # overridden before validation: K h is checked at the step the run uses
+        scenario = load_scenario(scenario, links=links, duration=duration, step=step, law=law, governor=governor)
     if log_rate is not None:
         steps_between(log_rate, scenario.step, "--log-rate")
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, log_rate), yes)

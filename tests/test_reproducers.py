@@ -67,3 +67,19 @@ def test_a_tiny_log_rate_runs_and_logs_the_first_and_last_sample(flag, tmp_path)
     rep = load(out)
     if flag == "--log-rate":
         np.testing.assert_allclose(rep.t, [0.0, 0.05], atol=1e-9)
+
+
+# item 4 ------------------------------------------------------------------------------------------
+STIFF = ('name = "stiff"\n[chain]\nlinks = 6\nlink_length = 0.1\n[curve]\nkind = "line"\n'
+         '[control]\ngain = 10000\nspeed = 0.0\n[run]\nduration = 0.01\nstep = 0.001\n')
+
+
+def test_the_gain_step_check_sees_the_step_of_the_command_line(tmp_path, capsys):
+    path = tmp_path / "stiff.toml"
+    path.write_text(STIFF)
+    out = tmp_path / "stiff.mcap"
+    assert main(["run", str(path), "--step", "1e-4", "--quiet", "--no-figures", "--out", str(out)]) == 0
+    assert main(["run", str(path), "--step", "3e-4", "--quiet", "--no-figures", "--out", str(out),
+                 "--overwrite"]) == 2
+    one_line_error(capsys, str(path), "K h = 1e+04 x 0.0003")
+    assert load_scenario(path, step=1e-4).step == 1e-4

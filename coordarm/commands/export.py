@@ -50,7 +50,7 @@ def main(args: argparse.Namespace) -> int:
     """
     from coordarm.generated.export import export_law
     from coordarm.simulation.scenario import load_scenario
-    scenario = load_scenario(args.scenario).with_overrides(args.links, args.duration, args.step)
+    scenario = load_scenario(args.scenario, links=args.links, duration=args.duration, step=args.step)
     ctrl = scenario.controller()
     result = export_law(ctrl, scenario.start(ctrl), args.out, step=scenario.step, duration=scenario.duration,
                         t0=scenario.t0, scenario=scenario.name, source=str(scenario.source))
