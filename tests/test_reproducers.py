@@ -83,3 +83,14 @@ def test_the_gain_step_check_sees_the_step_of_the_command_line(tmp_path, capsys)
                  "--overwrite"]) == 2
     one_line_error(capsys, str(path), "K h = 1e+04 x 0.0003")
     assert load_scenario(path, step=1e-4).step == 1e-4
+
+
+# found by the campaign ---------------------------------------------------------------------------
+@pytest.mark.parametrize("axis", ["[[], 0.0, 0.0]", "[[1.0], 0.0, 0.0]", "[1.0, 0.0]", '"x"'])
+def test_a_ragged_or_short_start_axis_of_a_spatial_chain_is_one_config_error(axis, tmp_path):
+    from coordarm.symbolic import ConfigError
+    path = tmp_path / "s.toml"
+    path.write_text(preset_text("line3d", **{r"\naxis = \[[^\n]*\]": f"\naxis = {axis}"}))
+    with pytest.raises(ConfigError, match=r"start\.axis: need three finite numbers") as err:
+        load_scenario(path)
+    assert "\n" not in str(err.value) and str(path) in str(err.value)
