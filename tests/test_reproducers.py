@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from coordarm.cli import main
+from coordarm.symbolic import ConfigError
 from coordarm.simulation.scenario import load_scenario
 from coordarm.symbolic.start import check_start
 
@@ -94,3 +95,65 @@ def test_a_ragged_or_short_start_axis_of_a_spatial_chain_is_one_config_error(axi
     with pytest.raises(ConfigError, match=r"start\.axis: need three finite numbers") as err:
         load_scenario(path)
     assert "\n" not in str(err.value) and str(path) in str(err.value)
+
+
+# item 3 ------------------------------------------------------------------------------------------
+def test_a_sweep_range_of_a_billion_values_is_refused_at_once_within_a_small_memory_limit():
+    import subprocess
+    import sys
+    code = ("import resource; resource.setrlimit(resource.RLIMIT_AS, (1 << 31, 1 << 31))\n"
+            "from coordarm.simulation.sweep_points import parse_vary\n"
+            "from coordarm.symbolic import ConfigError\n"
+            "try:\n    parse_vary('links=16:32:1000000000')\nexcept ConfigError as e:\n    print(e)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0 and "1,000,000,000 values" in done.stdout, done.stderr[-500:]
+
+
+@pytest.fixture
+def no_points_run(monkeypatch):
+    """The sweep's batches are recorded, not run (a check that comes too late shows as a batch)."""
+    from coordarm.simulation import sweep as sweep_module
+    ran = []
+    monkeypatch.setattr(sweep_module, "run_batch", lambda spec, pts, *a, **k: ran.extend(pts) or [])
+    return sweep_module.sweep, ran
+
+
+def test_a_grid_of_a_million_points_is_refused_before_any_point_runs(no_points_run, capsys):
+    sweep, ran = no_points_run
+    with pytest.raises(ConfigError, match=r"--vary: a grid of 1,000 x 1,000 = 1,000,000 points"):
+        sweep("line", {"links": list(range(4, 1004)), "speed": list(np.linspace(0, 1, 1000))}, client="serial")
+    assert ran == []
+    assert main(["sweep", "line", "--vary", "links=4:100:1000", "--vary", "speed=0:1:1000", "--quiet"]) == 2
+    one_line_error(capsys, "--vary", "1,000,000 points", "100,000")
+
+
+def test_a_sweep_too_costly_needs_yes(no_points_run):
+    sweep, ran = no_points_run
+    with pytest.raises(ConfigError, match=r"16,500,000,014 RK4 steps over 30 points.*--yes"):
+        sweep("line", {"step": [1e-6], "duration": list(np.linspace(100, 1000, 30))}, client="serial")
+    assert ran == []
+
+
+def test_a_sweep_value_the_scenario_refuses_is_named_before_any_point_runs(tmp_path, capsys):
+    out = tmp_path / "sw"
+    assert main(["sweep", "line", "--vary", "links=4,6", "--vary", "control.governor=true,false,maybe",
+                 "--out", str(out), "--quiet", "--no-figures"]) == 2
+    one_line_error(capsys, "--vary control.governor='maybe'", "true or false")
+    assert not out.exists()
+
+
+def test_a_damaged_results_table_is_one_line_naming_it(tmp_path, capsys):
+    out = tmp_path / "sw"
+    out.mkdir()
+    (out / "results.parquet").write_bytes(b"not parquet at all")
+    assert main(["sweep", "line", "--vary", "duration=0.01", "--out", str(out), "--quiet", "--no-figures"]) == 2
+    one_line_error(capsys, str(out / "results.parquet"), "delete it or choose another --out")
+
+
+def test_an_unwritable_sweep_out_is_refused_before_any_point_runs(tmp_path, no_points_run):
+    from coordarm.symbolic import LogError
+    sweep, ran = no_points_run
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(LogError, match="--out"):
+        sweep("line", {"duration": [0.01, 0.02]}, client="serial", out=tmp_path / "file" / "sub")
+    assert ran == []
