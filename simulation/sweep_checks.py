@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from pathlib import Path
 
 from coordarm.symbolic import ConfigError, LogError
@@ -138,7 +137,7 @@ def check_cost(spec: dict, points: list[dict], yes: bool) -> None:
 
 
 def check_out(out: Path | None) -> None:
-    """Make sure ``out`` is (or can become) a directory this process can write to.
+    """Make sure ``out`` is (or can become) a directory this process can write to; nothing is created.
 
     Parameters
     ----------
@@ -152,12 +151,10 @@ def check_out(out: Path | None) -> None:
     """
     if out is None:
         return
-    if out.exists() and not out.is_dir():
-        raise LogError(f"--out {out}: is a file, not a directory")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(prefix=".coordarm-probe-", dir=out)
-        os.close(fd)
-        os.unlink(probe)
-    except OSError as exc:
-        raise LogError(f"--out {out}: cannot write there ({exc.strerror or exc})") from None
+    there = out
+    while not there.exists() and there.parent != there:     # created only when the first rows are written
+        there = there.parent
+    if not there.is_dir():
+        raise LogError(f"--out {out}: {there} is a file, not a directory")
+    if not os.access(there, os.W_OK | os.X_OK):
+        raise LogError(f"--out {out}: cannot write in {there} (permission denied)")
