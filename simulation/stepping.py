@@ -10,10 +10,12 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from coordarm.symbolic import CollisionError, CoordarmError, CoordinatingController, SingularityError, TubeError
+from coordarm.symbolic.errors import BaseOffPathError
 from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import spatial_split, split
 
+from .base_margin import base_stop
 from .log_layout import PLANAR, ChainLayout, MarginCheck, layout_of_chain
 from .result import OPTIONAL, Run, deviation_norms
 
@@ -338,7 +340,8 @@ def stopped(ctrl: CoordinatingController, error: CoordarmError, parts: list[Run]
     return error
 
 
-_STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision"}
+_STOPS = {SingularityError: "singularity", TubeError: "tube", BaseOffPathError: "base_off_path",
+          CollisionError: "collision"}
 
 
 def _records(contacts: list) -> list[dict]:
@@ -362,6 +365,9 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
         if len(low) and (stop is None or low[0] < stop[0]):
             row = int(low[0])
             stop = row, SingularityError(part.t[row], 1, float(part.rail_margin[row]), "rail", thr["link"])
+    base = base_stop(loop.ctrl, part.t, part.q)
+    if base is not None and (stop is None or base[0] <= stop[0]):
+        stop = base
     out = tube_exit(part.e, tube, loop.layout.deviations_per_link)
     if out is not None and (stop is None or out[0] <= stop[0]):
         row, link, dist = out

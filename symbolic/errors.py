@@ -115,6 +115,48 @@ class TubeError(SingularityError):
         return (TubeError, (self.time, self.link, self.margin, self.kind, self.threshold, None))
 
 
+class BaseOffPathError(SingularityError):
+    """The base of a robot on a rail left the path and its first link stands across the path.
+
+    Where the path leaves the rail's line, the base (``y^1``, on the rail) can no longer be on
+    the path. Link 1 then turns towards the path's normal at link 2's centre; once it stands
+    across it, the free rate (link 1's) no longer moves the body and every rate blows up, while
+    the link, longitudinal and rail margins stay healthy (the longitudinal margin is scaled by
+    the same vanishing factor). The base margin is ``|n_1 . grad phi(y^2)| / |n_2 . grad phi(y^2)|``
+    (at most 1; 1 on a zig-zag along the path).
+
+    Parameters
+    ----------
+    time : float
+        Simulated time [s].
+    margin : float
+        The base margin [-].
+    threshold : float
+        The threshold it fell below [-].
+    d : float
+        The rail position [m].
+    offset : float
+        The base's distance from the path, ``|phi(y^1)|`` [m].
+    run : object, optional
+        The run up to (and including) that state.
+
+    Notes
+    -----
+    Attributes as :class:`SingularityError` (``kind`` is ``"base"``, ``link`` 1), plus ``d`` and ``offset``.
+    """
+
+    def __init__(self, time: float, margin: float, threshold: float, d: float, offset: float,
+                 run: object | None = None) -> None:
+        super().__init__(time, 1, margin, "base", threshold, run)
+        self.d, self.offset = float(d), float(offset)
+        self.args = (f"the base left the path at t = {self.time:.4f} s: at d = {self.d:.4f} m on the rail the base is "
+                     f"{self.offset:.3g} m off the path and link 1 stands almost across it (base margin "
+                     f"{self.margin:.3g} < {self.threshold:.3g}); run stopped",)
+
+    def __reduce__(self):
+        return (BaseOffPathError, (self.time, self.margin, self.threshold, self.d, self.offset, None))
+
+
 class CollisionError(CoordarmError):
     """The chain hit an obstacle, itself or a joint limit during a run.
 
