@@ -157,3 +157,24 @@ def test_an_unwritable_sweep_out_is_refused_before_any_point_runs(tmp_path, no_p
     with pytest.raises(LogError, match="--out"):
         sweep("line", {"duration": [0.01, 0.02]}, client="serial", out=tmp_path / "file" / "sub")
     assert ran == []
+
+
+# item 7 ------------------------------------------------------------------------------------------
+def test_export_refuses_to_replace_an_earlier_export_unless_overwrite(tmp_path, capsys):
+    out = tmp_path / "law"
+    assert main(["export", "line", "--links", "4", "--out", str(out)]) == 0
+    before = (out / "coordarm_law.c").read_text()
+    (out / "coordarm_law.c").write_text("/* edited by hand */")
+    capsys.readouterr()
+    assert main(["export", "line", "--links", "4", "--out", str(out)]) == 2
+    one_line_error(capsys, str(out), "coordarm_law.c exists", "--overwrite")
+    assert (out / "coordarm_law.c").read_text() == "/* edited by hand */"
+    assert main(["export", "line", "--links", "4", "--out", str(out), "--overwrite"]) == 0
+    assert (out / "coordarm_law.c").read_text() == before
+
+
+def test_export_to_an_empty_out_is_refused(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["export", "line", "--links", "4", "--out", ""]) == 2
+    one_line_error(capsys, "--out", "empty")
+    assert list(tmp_path.iterdir()) == []
