@@ -127,6 +127,11 @@ def _main(argv: list[str] | None) -> int:
         if signum is not None:
             print(f"{command}: interrupted by {signal.Signals(signum).name}", file=sys.stderr)
             return 130
+        if isinstance(exc, BrokenPipeError):   # the reader of standard output went away: end quietly
+            from coordarm.symbolic.pipes import BROKEN_PIPE_STATUS, quiet_stdout
+
+            quiet_stdout()
+            return BROKEN_PIPE_STATUS
         if isinstance(exc, CoordarmError):
             print(f"{command}: error: {exc}", file=sys.stderr)
             return 2

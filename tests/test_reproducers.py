@@ -178,3 +178,54 @@ def test_export_to_an_empty_out_is_refused(tmp_path, capsys, monkeypatch):
     assert main(["export", "line", "--links", "4", "--out", ""]) == 2
     one_line_error(capsys, "--out", "empty")
     assert list(tmp_path.iterdir()) == []
+
+
+# item 11 -----------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def two_logs(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("logs")
+    for name in ("line", "a"):
+        assert main(["run", "line", *SMALL, "--out", str(folder / f"{name}.mcap")]) == 0
+    return folder
+
+
+def test_report_of_a_log_is_named_after_the_log_not_its_scenario(two_logs, capsys):
+    for name in ("line", "a"):
+        assert main(["report", str(two_logs / f"{name}.mcap"), "--samples", "5"]) == 0
+        assert (two_logs / f"{name}_report" / "report.md").is_file()
+    a = (two_logs / "a_report" / "report.md").read_text()
+    assert str(two_logs / "a.mcap") in a or "a.mcap" in a
+
+
+def test_report_into_a_given_out_holding_a_report_needs_overwrite(two_logs, tmp_path, capsys):
+    out = tmp_path / "rep"
+    log = str(two_logs / "line.mcap")
+    assert main(["report", log, "--samples", "5", "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["report", log, "--samples", "5", "--out", str(out)]) == 2
+    one_line_error(capsys, str(out), "--overwrite")
+    assert main(["report", log, "--samples", "5", "--out", str(out), "--overwrite"]) == 0
+
+
+def test_bad_report_arguments_are_refused_before_casadi_or_matplotlib_load(tmp_path):
+    import subprocess
+    import sys
+    code = ("import sys\nfrom coordarm.cli import main\n"
+            "codes = [main(['report', 'x.mcap', '--samples', '-5']), main(['report', 'missing.mcap']),\n"
+            "         main(['report', 'x.mcap', '--links', '4'])]\n"
+            "print(codes, sorted(m for m in ('casadi', 'matplotlib', 'numpy') if m in sys.modules))\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert done.stdout.strip() == "[2, 2, 2] []", (done.stdout, done.stderr[-800:])
+
+
+def test_a_run_piped_into_a_reader_that_stops_early_completes_quietly(tmp_path):
+    import subprocess
+    proc = subprocess.Popen(["coordarm", "run", "line", "--links", "6", "--duration", "0.3", "--no-figures",
+                             "--out", str(tmp_path / "p.mcap")], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    first = proc.stdout.readline()
+    proc.stdout.close()                       # the reader goes away, like `| head -1`
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0 and first.startswith(b"scenario")
+    assert "rror" not in err and "Traceback" not in err, err
+    from coordarm.analysis.replay import load
+    assert load(tmp_path / "p.mcap").outcome["status"] == "completed"
