@@ -21,7 +21,7 @@ from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.laws import LAWS, Law
 
-from .limits import check_bounds, check_gain_step
+from .limits import MAX_LINKS, check_bounds, check_gain_step
 from .obstacles import Obstacle, obstacles_from_spec
 from .obstacles3d import Obstacle3D, obstacles3d_from_spec
 from .run import DEFAULT_THRESHOLDS, check_number
@@ -460,6 +460,8 @@ def _chain(ch: dict) -> ChainTable:
             raise ConfigError(f"chain.{k}: missing")
     if not is_integer(ch["links"]) or ch["links"] < 2:
         raise ConfigError(f"chain.links: need an integer >= 2, got {shown(ch['links'])}")
+    if ch["links"] > MAX_LINKS:      # before a chain of that size is built to check the joint limits
+        raise ConfigError(f"chain.links: at most {MAX_LINKS}, got {shown(ch['links'])}")
     check_number(ch["link_length"], "chain.link_length")
     for k in ("joint_limit", "clearance"):
         if k in ch:

@@ -165,10 +165,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         if echo is not None:
             echo(line)
 
-    scenario = prepared_scenario(scenario, links, duration, step, law, governor, log_rate, yes)
-    if cond_rate is not None and cond_rate != 0:                    # 0 switches it off
-        from coordarm.simulation.mcap_writer import steps_between
-        steps_between(cond_rate, scenario.step, "--cond-rate")
+    scenario = prepared_scenario(scenario, links, duration, step, law, governor, (log_rate, cond_rate), yes)
     overwrite = overwrite or log is None   # the default log is a scratch file
     out = checked_log_path(Path("logs") / f"{scenario.name}.mcap" if log is None else Path(log), overwrite)
     ctrl = scenario.controller()
@@ -215,8 +212,8 @@ def report_lines(run: Run, scenario: Scenario, compiled: Any, out: Path) -> list
 
 
 def prepared_scenario(scenario: Scenario | str | os.PathLike, links: int | None, duration: float | None,
-                      step: float | None, law: str | None, governor: bool | None, log_rate: float | None,
-                      yes: bool) -> Scenario:
+                      step: float | None, law: str | None, governor: bool | None,
+                      log_rate: float | None | tuple[float | None, float | None], yes: bool) -> Scenario:
     """The scenario with its overrides, once its cost and the size of a dense law are accepted.
 
     Parameters
@@ -225,8 +222,9 @@ def prepared_scenario(scenario: Scenario | str | os.PathLike, links: int | None,
         A scenario, a preset name or a TOML file.
     links, duration, step, law, governor : optional
         Overrides (see :meth:`Scenario.with_overrides`); duration and step in [s].
-    log_rate : float or None
-        Log samples per simulated second [Hz] (for the log size estimate).
+    log_rate : float or None, or (log_rate, cond_rate)
+        Log samples per simulated second [Hz] (for the log size estimate), optionally with the
+        rate of ``/margins/cond`` [Hz] (0 switches it off); both checked to be positive numbers.
     yes : bool
         Accept a cost above the limits and a dense law of more than ``DENSE_LINKS`` links.
 
@@ -247,8 +245,10 @@ def prepared_scenario(scenario: Scenario | str | os.PathLike, links: int | None,
         scenario = scenario.with_overrides(links, duration, step, law=law, governor=governor)
     else:    # overridden before validation: K h is checked at the step the run uses
         scenario = load_scenario(scenario, links=links, duration=duration, step=step, law=law, governor=governor)
-    if log_rate is not None:
-        steps_between(log_rate, scenario.step, "--log-rate")
+    log_rate, cond_rate = log_rate if isinstance(log_rate, tuple) else (log_rate, None)
+    for rate, flag in ((log_rate, "--log-rate"), (cond_rate, "--cond-rate")):
+        if rate is not None and (rate != 0 or flag == "--log-rate"):       # a cond rate of 0 switches it off
+            steps_between(rate, scenario.step, flag)
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, log_rate), yes)
     m = scenario.config.chain.links
     if scenario.config.control.law == Law.DENSE and m > DENSE_LINKS and not yes:

@@ -29,7 +29,7 @@ from coordarm.symbolic import ConfigError
 from coordarm.symbolic.errors import shown
 
 from .progress import Progress
-from .sweep_checks import check_cost, check_out, check_size, check_values
+from .sweep_checks import check_size, check_sweep
 from .scenario import Scenario, load_scenario
 from .sweep_points import (RESULT_COLUMNS, check_names, grid_points, integer_fields, latin_hypercube_points,
                            run_batch)
@@ -423,14 +423,8 @@ def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], 
     sc = as_scenario(scenario)
     names = list(vary)
     points = sweep_points(sc.spec, vary, samples, seed, check=point_fn is None)
-    if point_fn is None:
-        check_values(sc.spec, vary)
-        check_cost(sc.spec, points, yes)
-    if logs and out is None:
-        raise ConfigError("--logs needs --out (the logs go to OUT/logs/)")
-    out = Path(out) if out is not None else None
+    out = check_sweep(sc.spec, vary, points, yes=yes, logs=logs, out=out, simulated=point_fn is None)
     table = ResultsTable(out, names, sc.to_json(), points)
-    check_out(out)
     done = table.done()
     todo = [p for p in points if point_key(p, names) not in done]
     bar = SweepProgress(len(points), len(points) - len(todo)) if progress and points else None

@@ -158,3 +158,47 @@ def check_out(out: Path | None) -> None:
         raise LogError(f"--out {out}: {there} is a file, not a directory")
     if not os.access(there, os.W_OK | os.X_OK):
         raise LogError(f"--out {out}: cannot write in {there} (permission denied)")
+
+
+def check_sweep(spec: dict, vary: dict[str, list], points: list[dict], *, yes: bool, logs: bool,
+                out: str | os.PathLike | None, simulated: bool = True) -> Path | None:
+    """The checks of a sweep's points and output before any work (:func:`check_values`, :func:`check_cost`,
+    :func:`check_out`).
+
+    Parameters
+    ----------
+    spec : dict
+        The scenario as data.
+    vary : dict of str to list
+        Values of each varied name.
+    points : list of dict
+        The points.
+    yes : bool
+        Accept a cost above :data:`SWEEP_STEPS`.
+    logs : bool
+        Each point's log is kept (needs ``out``).
+    out : path-like or None
+        The results directory.
+    simulated : bool
+        The points are simulated (False for a custom point function: the values and cost are its own).
+
+    Returns
+    -------
+    Path or None
+        ``out`` as a Path.
+
+    Raises
+    ------
+    ConfigError
+        A value the scenario refuses, a cost above the limit without ``yes``, ``logs`` without ``out``.
+    LogError
+        ``out`` cannot be written.
+    """
+    if simulated:
+        check_values(spec, vary)
+        check_cost(spec, points, yes)
+    if logs and out is None:
+        raise ConfigError("--logs needs --out (the logs go to OUT/logs/)")
+    out = Path(out) if out is not None else None
+    check_out(out)
+    return out

@@ -229,3 +229,14 @@ def test_a_run_piped_into_a_reader_that_stops_early_completes_quietly(tmp_path):
     assert "rror" not in err and "Traceback" not in err, err
     from coordarm.analysis.replay import load
     assert load(tmp_path / "p.mcap").outcome["status"] == "completed"
+
+
+@pytest.mark.parametrize("preset", ["line", "line3d"])
+def test_a_huge_link_count_with_a_joint_limit_is_refused_before_a_chain_is_built(preset, tmp_path):
+    path = tmp_path / "s.toml"
+    text = preset_text(preset, **{r"links = \d+": "links = 99999999999999999999"})
+    if "joint_limit" not in text:
+        text = text.replace("link_length = 0.1", "link_length = 0.1\njoint_limit = 2.0", 1)
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=r"chain\.links: at most 4096"):
+        load_scenario(path)
