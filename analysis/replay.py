@@ -384,7 +384,9 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         problems.append(f"{dropped} incomplete sample(s) dropped")
     if error is not None:
         problems.append(f"reading stopped at damaged data: {type(error).__name__}: {error}")
-    if len(common) == 0 and not (complete and not messages):  # a closed log without samples is an empty run
+    if not complete and not messages:   # cut off (killed) before its first sample: an empty run, said so
+        problems.append("the log was cut off before its first sample")
+    if len(common) == 0 and messages:   # a log without samples (closed or cut off) is an empty run
         raise LogError(f"{where}: no complete sample could be read ({len(messages)} messages recovered before "
                        f"the break){detail}")
     cols = {}

@@ -46,6 +46,7 @@ import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController, LogError
 from coordarm.symbolic.checks import is_real
+from coordarm.symbolic.interrupts import interruption
 from coordarm.symbolic.task import BUILT_IN_CURVES
 
 from .choices import Backend, Compression
@@ -260,15 +261,30 @@ class RunLogger:
 
     @contextmanager
     def _removed_on_failure(self):
-        """A failure or Ctrl-C before the writer is complete leaves no half-made file."""
+        """A failure before the writer is complete leaves no half-made file; a Ctrl-C or SIGTERM once the
+        file exists leaves a closed log of no samples with outcome ``interrupted``."""
         try:
             yield
-        except BaseException:
+        except BaseException as exc:
             file = getattr(self, "file", None)
-            if file is not None:
+            if file is not None and not (interruption(exc) is not None and self._closed_empty(exc)):
                 file.abandon()
                 file.path.unlink(missing_ok=True)
             raise
+
+    def _closed_empty(self, error: BaseException) -> bool:
+        """Close the log begun in ``__init__`` with its scenario and the outcome of ``error``; whether it worked."""
+        try:
+            with _sigint_deferred():
+                if self.file.closed:
+                    return False
+                if not getattr(self, "_scenario_written", False):
+                    self.file.add_metadata("scenario", {"json": self.scenario.to_json(), "source": self.scenario.source})
+                self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in outcome_of(error, None).items()})
+                self.file.close(rename_to=self.path)
+                return True
+        except Exception:   # noqa: BLE001 - then the half-made file is removed as before
+            return False
 
     def _open(self, path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,
               overwrite, threaded) -> None:
@@ -293,8 +309,9 @@ class RunLogger:
         if not overwrite and self.path.exists():
             raise LogError(f"{self.path}: exists; choose another --out or pass --overwrite")
         try:
-            self.file = McapFile(partial_path(self.path), profile="ros2", compression=compression,
-                                 background=threaded)
+            with _sigint_deferred():   # a Ctrl-C while the file is made comes once it is ours to close
+                self.file = McapFile(partial_path(self.path), profile="ros2", compression=compression,
+                                     background=threaded)
         except OSError as exc:
             raise LogError(f"{self.path}: cannot create the log: {exc.strerror or exc}") from None
         self.ids: dict[str, int] = {}
@@ -313,10 +330,10 @@ class RunLogger:
         scenario = self.scenario
         self.origin = min(0.0, scenario.t0)  # log times are ns since this simulated time (>= 0)
         self.file.add_metadata("scenario", {"json": scenario.to_json(), "source": scenario.source})
+        self._scenario_written = True
         self._build: dict[str, str] | None = None
         self._build_written = False
         self._lock = threading.RLock()  # the worker's idle flush against flush() from the caller
-        self.set_backend(backend, library_key)
         self.file.add_metadata("run", {
             "command": json.dumps(list(sys.argv if command is None else command)),
             "started": datetime.now(timezone.utc).isoformat(timespec="seconds"), "host": socket.gethostname(),
@@ -324,6 +341,8 @@ class RunLogger:
             "scene_every_steps": str(self.scene_every), "cond_every_steps": str(self.cond_every),
             "time_origin": repr(self.origin),
             **({} if self.layout is PLANAR else {"chain_kind": self.layout.kind})})
+        self.file.flush()        # scenario and run on disk at once (a SIGKILL from here on keeps them)
+        self.set_backend(backend, library_key)
 
     def _prepare_buffers(self, chunk_size: int | None, threaded: bool) -> None:
         """The packed sample records, the pending queues and (``threaded``) the encoding worker."""
@@ -546,6 +565,10 @@ class RunLogger:
         """
         if self.file.closed:
             return
+        with _sigint_deferred():   # a Ctrl-C now is delivered once the log is closed (never a .partial left)
+            self._finish(error)
+
+    def _finish(self, error: BaseException | None) -> None:
         worker, self._worker = self._worker, None
         if worker is not None:
             worker.stop()
