@@ -33,6 +33,10 @@ if TYPE_CHECKING:   # numpy, CasADi, matplotlib and foxglove load only when a ru
     from coordarm.symbolic.controller import CoordinatingController
 
 
+#: Links of a dense law above which ``coordarm run`` says that building it can take minutes.
+DENSE_NOTICE_LINKS = 16
+
+
 @dataclass(frozen=True)
 class ScenarioResult:
     """What :func:`run_scenario` did: the run, how it ended, and the files it wrote.
@@ -352,6 +356,9 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
             say(f"live          {view.url} (Foxglove: Open connection, Foxglove WebSocket)")
             if live_wait:
                 view.wait_for_client()
+        if backend != "interpreted" and scenario.config.control.law == Law.DENSE and ctrl.chain.m > DENSE_NOTICE_LINKS:
+            say(f"law           dense, {ctrl.chain.m} links: generating and compiling its C can take minutes "
+                "(once: the library is cached)")
         holder: dict[str, Any] = {"backend": backend, "compiled": None}
         try:
             run = logged_run(scenario, ctrl, out, view, holder, overwrite=overwrite, log_rate=log_rate,
