@@ -45,7 +45,6 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController, LogError
-from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.interrupts import interruption
 from coordarm.symbolic.task import BUILT_IN_CURVES
 
@@ -54,6 +53,7 @@ from .log_layout import PLANAR, layout_of_chain, partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
 from .outcome import outcome_of
+from .rates import MOST_STEPS_BETWEEN, steps_between  # noqa: F401 (re-exported)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
 from .scenario import Scenario
@@ -96,41 +96,6 @@ def default_cond_rate(links: int) -> float:
     if links > COND_LINK_LIMIT:
         return 0.0
     return COND_RATE * min(1.0, (64.0 / links) ** 2)
-
-
-#: The most steps between two samples (more than any run has: ``run.duration / run.step`` <= 1e12);
-#: a lower rate is this, so that step counters stay within int64.
-MOST_STEPS_BETWEEN = 2 ** 52
-
-
-def steps_between(rate: Any, step: float, name: str) -> int:
-    """Steps between two samples at ``rate`` samples per simulated second (at least 1).
-
-    Parameters
-    ----------
-    rate : float
-        Samples per simulated second [Hz]; anything else (not a real number, not positive, not
-        finite) is refused.
-    step : float
-        The simulation step [s].
-    name : str
-        The rate's name in the error message.
-
-    Returns
-    -------
-    int
-        ``round(1 / (rate * step))``, at least 1 and at most :data:`MOST_STEPS_BETWEEN` (a rate
-        so low that no run reaches its second sample: only the first and last are written).
-
-    Raises
-    ------
-    ConfigError
-        ``rate`` (named ``name`` in the message) is not a positive number.
-    """
-    if not is_real(rate) or not rate > 0 or not np.isfinite(rate):
-        raise ConfigError(f"{name}: need a positive number of samples per second, got {rate!r}")
-    between = 1.0 / (float(rate) * step)
-    return MOST_STEPS_BETWEEN if not between < MOST_STEPS_BETWEEN else max(1, int(round(between)))
 
 
 def log_time_ns(t: float | np.ndarray, origin: float) -> np.ndarray:

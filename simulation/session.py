@@ -242,7 +242,7 @@ def prepared_scenario(scenario: Scenario | str | os.PathLike, links: int | None,
         A bad override, a cost above the limits or a large dense law without ``yes``.
     """
     from coordarm.simulation.limits import check_cost, estimate
-    from coordarm.simulation.mcap_writer import steps_between
+    from coordarm.simulation.rates import steps_between
     from coordarm.simulation.scenario import Scenario, load_scenario
 
     if isinstance(scenario, Scenario):
