@@ -218,10 +218,12 @@ class RunLogger:
                  compression: str = Compression.ZSTD.value, chunk_size: int | None = None, flush_interval: float = FLUSH_INTERVAL,
                  command: list[str] | None = None, backend: str = Backend.INTERPRETED.value, library_key: str | None = None,
                  threaded: bool = False, overwrite: bool = True) -> None:
+        ctrl = ctrl or scenario.controller()     # (may take a while: not with Ctrl-C held back)
         with self._removed_on_failure():
-            self._open(path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,
-                       overwrite, threaded)
-            self._write_header(command, backend, library_key)
+            with _sigint_deferred():   # a Ctrl-C while the file and its metadata are made comes after them
+                self._open(path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,
+                           overwrite, threaded)
+                self._write_header(command, backend, library_key)
             self._prepare_buffers(chunk_size, threaded)
 
     @contextmanager
@@ -245,6 +247,8 @@ class RunLogger:
                     return False
                 if not getattr(self, "_scenario_written", False):
                     self.file.add_metadata("scenario", {"json": self.scenario.to_json(), "source": self.scenario.source})
+                if not getattr(self, "_build_written", False) and getattr(self, "_build", None):
+                    self.file.add_metadata("build", self._build)
                 self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in outcome_of(error, None).items()})
                 self.file.close(rename_to=self.path)
                 return True
@@ -274,9 +278,8 @@ class RunLogger:
         if not overwrite and self.path.exists():
             raise LogError(f"{self.path}: exists; choose another --out or pass --overwrite")
         try:
-            with _sigint_deferred():   # a Ctrl-C while the file is made comes once it is ours to close
-                self.file = McapFile(partial_path(self.path), profile="ros2", compression=compression,
-                                     background=threaded)
+            self.file = McapFile(partial_path(self.path), profile="ros2", compression=compression,
+                                 background=threaded)
         except OSError as exc:
             raise LogError(f"{self.path}: cannot create the log: {exc.strerror or exc}") from None
         self.ids: dict[str, int] = {}
