@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from coordarm.symbolic import ConfigError, Curve, PlanarChain, SpatialChain, curve_from_spec, motion_from_spec
-from coordarm.symbolic.checks import is_integer, is_real
+from coordarm.symbolic.checks import bounded_motion, is_integer, is_real
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.laws import LAWS, Law
@@ -481,7 +481,7 @@ def _span(control: dict, chain: ChainTable) -> Any:
         return None
     if not chain.rail:
         raise ConfigError("control.span: only a chain on a rail (chain.base.kind = 'rail') has a span")
-    return motion_from_spec(control["span"], "control.span")
+    return motion_from_spec(bounded_motion(control["span"], "control.span"), "control.span")
 
 
 def _figures(fig: dict) -> FiguresTable:
@@ -501,7 +501,7 @@ def _control(c: dict, span_motion: Any) -> ControlTable:
     if "gain" not in c:
         raise ConfigError("control.gain: missing")
     check_number(c["gain"], "control.gain")
-    speed_motion = motion_from_spec(c.get("speed", 0.0), "control.speed")
+    speed_motion = motion_from_spec(bounded_motion(c.get("speed", 0.0), "control.speed"), "control.speed")
     if c["law"] not in LAWS:
         raise ConfigError(f"control.law: expected one of {LAWS}, got {shown(c['law'])}")
     if not isinstance(c["governor"], bool):

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from coordarm.symbolic import CollisionError, CoordarmError, CoordinatingController, SingularityError, TubeError
-from coordarm.symbolic.errors import BaseOffPathError
+from coordarm.symbolic.errors import BaseOffPathError, NonFiniteError
 from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import spatial_split, split
@@ -355,6 +355,12 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
     contact of every (kind, links, obstacle) is appended to ``contacts`` instead.
     """
     thr, tube, physical = loop.thresholds, loop.tube, loop.physical
+    broken = np.flatnonzero(~np.isfinite(part.q).all(axis=1))
+    if len(broken):    # inf or NaN: not a joint limit or a contact, whatever the checks below would say
+        row, joint = int(broken[0]), int(np.flatnonzero(~np.isfinite(part.q[broken[0]]))[0])
+        raise NonFiniteError(f"non-finite state at t = {part.t[row]:.4f} s: joint coordinate {joint + 1} is "
+                             f"{part.q[row, joint]}; the run diverged (a commanded speed, span or gain too large "
+                             "for the step?); run stopped")
     stop = None
     bad = margin_violation(part, loop.layout.margins, thr)
     if bad is not None:

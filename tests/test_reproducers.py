@@ -240,3 +240,33 @@ def test_a_huge_link_count_with_a_joint_limit_is_refused_before_a_chain_is_built
     path.write_text(text)
     with pytest.raises(ConfigError, match=r"chain\.links: at most 4096"):
         load_scenario(path)
+
+
+# item 12 -----------------------------------------------------------------------------------------
+@pytest.mark.parametrize("field, extra", [("speed = 1e300", ""), ("speed = 0.1\nspan = [1.0, 1e300]",
+                                          'base = { kind = "rail", angle = 0.0, limits = [0.0, 5.0] }\n')])
+def test_a_commanded_speed_or_span_beyond_a_million_is_refused(field, extra, tmp_path, capsys):
+    path = tmp_path / "fast.toml"
+    path.write_text(f'name = "fast"\n[chain]\nlinks = 6\nlink_length = 0.1\n{extra}[curve]\nkind = "line"\n'
+                    f'[control]\ngain = 2.0\n{field}\n[run]\nduration = 0.05\nstep = 0.001\n')
+    assert main(["run", str(path), "--quiet", "--no-figures", "--out", str(tmp_path / "f.mcap")]) == 2
+    line = one_line_error(capsys, str(path), "1e+300 is beyond")
+    assert len(line) < 200
+
+
+def test_a_state_that_turns_non_finite_is_said_so_not_called_a_joint_limit():
+    from coordarm import CoordinatingController, Line
+    from coordarm.simulation.run import simulate
+    from coordarm.symbolic.errors import NonFiniteError
+    sc = load_scenario("line").with_overrides(links=6)
+    chain = sc.chain()
+    ctrl = CoordinatingController(chain, Line(point=(0, 0), angle=0.0), gain=2.0, speed=1e308)   # (Python: no bound)
+    with pytest.raises(NonFiniteError, match=r"non-finite state at t = 0.5000 s: joint coordinate 1 is nan"):
+        simulate(ctrl, chain.zigzag(1.3), 2.0, 0.5, backend="interpreted",
+                 thresholds={"link": 0.0, "longitudinal": 0.0}, physical=sc.physical(chain))
+
+
+def test_a_huge_joint_value_is_shown_in_a_few_characters():
+    from coordarm.simulation.physical import Contact
+    text = Contact("joint_limit", 0.001, (1, 2), -3.9e297, 2.8).describe()
+    assert "-3.9e+297 rad" in text and len(text) < 200
