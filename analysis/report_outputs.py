@@ -93,19 +93,22 @@ def report_of(source: str | os.PathLike, out: str | os.PathLike | None = None, *
 
     from coordarm.analysis.report import default_samples, write_report
     from coordarm.analysis.replay_outputs import output_directory
+    from coordarm.simulation.figure_files import writing
 
     run, scenario = source_run(str(source), links, duration, yes, on_problem)
     out = output_directory(Path("logs") / f"{scenario.name}_report" if target is None else target)
     if scenario.universal:     # a spatial chain: its logged margins, read as they are (``samples`` unused)
         from coordarm.analysis.spatial_report import write_spatial_report
 
-        path = write_spatial_report(run, scenario, out)
+        with writing(out / "report.md"):
+            path = write_spatial_report(run, scenario, out)
         return ReportOutputs(scenario, run, path, tuple(sorted(path.parent.glob("*.png"))))
     m = np.shape(run.q)[1]
     if m > 128 and on_note is not None:  # about a second per 1000 samples at 64 links, a second per sample at 1024
         on_note(f"report: margins at {samples or default_samples(m)} samples of a {m}-link chain "
                 "(an SVD and a QR of the m x m decoupling matrix each) ...")
-    path = write_report(run, scenario, out, samples=samples)
+    with writing(out / "report.md"):   # a full disk names the report, not just "No space left"
+        path = write_report(run, scenario, out, samples=samples)
     return ReportOutputs(scenario, run, path, tuple(sorted(path.parent.glob("*.png"))))
 
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import signal
@@ -149,6 +150,8 @@ def _describe(exc: BaseException) -> str:
         return "input nested too deeply"
     text = exc.strerror or str(exc) if isinstance(exc, OSError) else str(exc)
     where = getattr(exc, "filename", None)
+    if not where and isinstance(exc, OSError) and exc.errno == errno.ENOSPC:
+        return f"{text} (while writing this command's outputs: its --out, logs/ or the build cache)"
     return f"{where}: {text}" if where else text
 
 if __name__ == "__main__":

@@ -433,7 +433,10 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
     meta = {"key": key, "sha256": digest, "compiler": cc_path, "compiler_version": _compiler_version(cc_path),
             "flags": list(flags), "casadi": ca.__version__, "codegen_options": CODEGEN_OPTIONS,
             "form": source.form, "links": source.m, "compile_seconds": seconds}
-    _write_atomic(entry / META, json.dumps(meta, indent=1).encode())
+    try:
+        _write_atomic(entry / META, json.dumps(meta, indent=1).encode())
+    except OSError as exc:
+        raise BuildError(f"{entry / META}: cannot write it: {exc.strerror or exc}") from None
     return Library(entry / LIBRARY, key, False, seconds)
 
 

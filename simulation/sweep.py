@@ -313,6 +313,12 @@ class ResultsTable:
         """Rewrite both files atomically (temporary name, then rename), if rows came since the last write."""
         if self.out is None or not self.dirty:
             return
+        from .figure_files import writing
+
+        with writing(self.out / RESULTS):      # a full disk names the table
+            self._write_files()
+
+    def _write_files(self) -> None:
         import pyarrow as pa
         import pyarrow.parquet as pq
 

@@ -270,3 +270,30 @@ def test_a_huge_joint_value_is_shown_in_a_few_characters():
     from coordarm.simulation.physical import Contact
     text = Contact("joint_limit", 0.001, (1, 2), -3.9e297, 2.8).describe()
     assert "-3.9e+297 rad" in text and len(text) < 200
+
+
+def _full_disk(*args, **kwargs):
+    import errno
+    raise OSError(errno.ENOSPC, "No space left on device")      # as a write() on a full disk: no file name
+
+
+def test_a_full_disk_while_writing_a_report_names_the_report(two_logs, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("coordarm.analysis.report.markdown", _full_disk)
+    out = tmp_path / "rep"
+    assert main(["report", str(two_logs / "line.mcap"), "--samples", "5", "--out", str(out)]) == 2
+    one_line_error(capsys, str(out / "report.md"), "No space left on device")
+
+
+def test_a_full_disk_while_writing_sweep_results_names_the_table(tmp_path, monkeypatch):
+    from coordarm.simulation import sweep as sweep_module
+    from coordarm.symbolic import LogError
+    monkeypatch.setattr(sweep_module.ResultsTable, "_write_files", _full_disk)
+    with pytest.raises(LogError, match=r"results\.parquet: cannot write it: No space left on device"):
+        sweep_module.sweep("line", {"links": [4], "duration": [0.01]}, client="serial", out=tmp_path / "sw")
+
+
+def test_a_full_disk_with_no_file_named_still_says_where_to_look(monkeypatch, capsys):
+    from coordarm.commands import layout
+    monkeypatch.setattr(layout, "main", _full_disk)
+    assert main(["layout", "--out", "x.json"]) == 2
+    one_line_error(capsys, "No space left on device", "--out")
