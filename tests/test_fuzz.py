@@ -40,8 +40,8 @@ def _clear(exc: Exception, path=None) -> None:
 
 
 @st.composite
-def mutated_toml(draw) -> str:
-    text = draw(st.sampled_from(BASES))
+def mutated_toml(draw, bases: list[str] = BASES) -> str:
+    text = draw(st.sampled_from(bases))
     for _ in range(draw(st.integers(1, 3))):
         op = draw(st.sampled_from(["flip", "cut", "number", "nest", "dup", "delete"]))
         if op == "flip" and text:
