@@ -355,12 +355,6 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
     contact of every (kind, links, obstacle) is appended to ``contacts`` instead.
     """
     thr, tube, physical = loop.thresholds, loop.tube, loop.physical
-    broken = np.flatnonzero(~np.isfinite(part.q).all(axis=1))
-    if len(broken):    # inf or NaN: not a joint limit or a contact, whatever the checks below would say
-        row, joint = int(broken[0]), int(np.flatnonzero(~np.isfinite(part.q[broken[0]]))[0])
-        raise NonFiniteError(f"non-finite state at t = {part.t[row]:.4f} s: joint coordinate {joint + 1} is "
-                             f"{part.q[row, joint]}; the run diverged (a commanded speed, span or gain too large "
-                             "for the step?); run stopped")
     stop = None
     bad = margin_violation(part, loop.layout.margins, thr)
     if bad is not None:
@@ -378,11 +372,18 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
     if out is not None and (stop is None or out[0] <= stop[0]):
         row, link, dist = out
         stop = row, TubeError(part.t[row], link, dist, "tube", tube)
+    broken = np.flatnonzero(~np.isfinite(part.q).all(axis=1))
+    if len(broken) and (stop is None or broken[0] < stop[0]):   # (a margin there is not finite either: a stop)
+        row, joint = int(broken[0]), int(np.flatnonzero(~np.isfinite(part.q[broken[0]]))[0])
+        raise NonFiniteError(f"non-finite state at t = {part.t[row]:.4f} s: joint coordinate {joint + 1} is "
+                             f"{part.q[row, joint]}; the run diverged (a commanded speed, span or gain too large "
+                             "for the step?); run stopped")
     if physical is not None:
         n = len(part.t)
         rows = np.flatnonzero(((k + np.arange(n)) % loop.check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
         if stop is not None:
             rows = np.union1d(rows[rows < stop[0]], [stop[0]])
+        rows = rows[np.isfinite(part.q[rows]).all(axis=1)]      # a NaN state is not a joint limit
         if len(rows):
             found = physical.check(part.t[rows], part.q[rows])
             if found and not loop.allow_contact:

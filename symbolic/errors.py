@@ -4,6 +4,8 @@ Every message names the field, file, time or link it is about.
 """
 from __future__ import annotations
 
+import math
+
 
 class CoordarmError(Exception):
     """Base class of all coordarm errors."""
@@ -71,9 +73,10 @@ class SingularityError(CoordarmError):
         self.kind, self.threshold, self.run, self.hint = kind, float(threshold), run, hint
         where = (f"{'joint' if kind == 'joint' else 'link'} {link}" if link is not None
                  else "the end point (longitudinal)" if kind == "longitudinal" else "the end point")
+        value = (f"is {self.margin:.3g} < threshold {self.threshold:.3g}" if math.isfinite(self.margin) else
+                 f"is {self.margin} (the state is no longer finite: the run diverged)")
         super().__init__(
-            f"singularity ahead at t = {self.time:.4f} s: {kind} margin of {where} "
-            f"is {self.margin:.3g} < threshold {self.threshold:.3g}; run stopped"
+            f"singularity ahead at t = {self.time:.4f} s: {kind} margin of {where} {value}; run stopped"
             + (f" (hint: {hint})" if hint else ""))
 
     def __reduce__(self):
