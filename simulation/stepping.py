@@ -15,7 +15,7 @@ from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import spatial_split, split
 
-from .base_margin import base_stop
+from .base_margin import BASE_THRESHOLD, base_stop
 from .log_layout import PLANAR, ChainLayout, MarginCheck, layout_of_chain
 from .result import OPTIONAL, Run, deviation_norms
 
@@ -365,7 +365,8 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
         if len(low) and (stop is None or low[0] < stop[0]):
             row = int(low[0])
             stop = row, SingularityError(part.t[row], 1, float(part.rail_margin[row]), "rail", thr["link"])
-    base = base_stop(loop.ctrl, part.t, part.q)
+    stops_on = any(v > 0 for v in thr.values())        # NO_STOP (report, threshold study): none of them either
+    base = base_stop(loop.ctrl, part.t, part.q, thr.get("base", BASE_THRESHOLD if stops_on else 0.0))
     if base is not None and (stop is None or base[0] <= stop[0]):
         stop = base
     out = tube_exit(part.e, tube, loop.layout.deviations_per_link)

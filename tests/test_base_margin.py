@@ -79,3 +79,15 @@ def test_a_run_on_the_straight_part_is_never_stopped_by_it():
     margin, offset = bm.base_margins(ctrl, run.t, run.q)
     np.testing.assert_allclose(margin, 1.0, atol=1e-9)
     assert offset.max() < 1e-12
+
+
+def test_with_every_stop_off_the_base_margin_does_not_stop_either():
+    from coordarm.analysis.report import NO_STOP
+    sc = Scenario.from_dict(BEND)
+    ctrl = sc.controller()
+    try:
+        run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted", thresholds=NO_STOP)
+    except SingularityError as err:       # only a non-finite margin stops such a run
+        assert not isinstance(err, BaseOffPathError) or not np.isfinite(err.margin)
+        run = err.run
+    assert np.abs(run.u).max() > 10 * NOMINAL_U          # the blow-up shows, as the report wants
