@@ -33,13 +33,14 @@ from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
-from coordarm.simulation.choices import Compression, lz4_frame
+from coordarm.simulation.choices import Backend, Compression, Outcome, lz4_frame
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
 from coordarm.simulation.log_layout import (DIGEST_KEY, OPTIONAL, PLANAR, ChainLayout, layout_of, layout_of_arrays,
                                            metadata_digest, partial_path)
 from coordarm.simulation.result import ExtraOutputs, Run
 from coordarm.simulation.scenario import USER_DEFINED, Scenario
 from coordarm.symbolic import ConfigError, CoordinatingController, LogError
+from coordarm.symbolic.errors import shown
 
 #: Exceptions the mcap reader raises on damaged input (it has no single base class for them).
 READ_ERRORS = (McapError, CRCValidationError, zstandard.ZstdError, struct.error, zlib.error, EOFError,
@@ -340,6 +341,8 @@ def load(path: str | Path, curve: Any = None) -> Replay:
                        f"before the break){detail}")
     try:
         spec = json.loads(meta["scenario"]["json"])
+        if not isinstance(spec, dict):
+            raise TypeError(f"a JSON {type(spec).__name__}, not a table")
         scenario = Scenario.from_dict(spec, f"{path} (scenario metadata)",
                                       curve=curve if spec.get("curve", {}).get("kind") == USER_DEFINED else None)
     except (KeyError, TypeError, ValueError, RecursionError, ConfigError) as exc:
@@ -385,7 +388,9 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         problems.append(f"{dropped} incomplete sample(s) dropped")
     if error is not None:
         problems.append(f"reading stopped at damaged data: {type(error).__name__}: {error}")
-    if len(common) == 0 and not (complete and not messages):  # a closed log without samples is an empty run
+    if not complete and not messages:   # cut off (killed) before its first sample: an empty run, said so
+        problems.append("the log was cut off before its first sample")
+    if len(common) == 0 and messages:   # a log without samples (closed or cut off) is an empty run
         raise LogError(f"{where}: no complete sample could be read ({len(messages)} messages recovered before "
                        f"the break){detail}")
     cols = {}
@@ -396,6 +401,11 @@ def load(path: str | Path, curve: Any = None) -> Replay:
         data = data[np.isin(data[:, 0], common)]
         for name, sl in specs[key].slices().items():
             cols.setdefault(name, data[:, sl])
+    dof = scenario.chain().dof
+    if cols["q"].shape[1] != dof:
+        raise LogError(f"{path}: the samples hold {cols['q'].shape[1]} joint values but the 'scenario' metadata "
+                       f"describes {m} links ({dof} joints): the metadata do not belong to these data")
+    problems += metadata_problems(meta, complete)
     current = _channels(m, rail, layout)
     for key in PER_STEP:      # fields added after the log was written: NaN, said in problems
         for name, n in current[key].fields:
@@ -419,6 +429,39 @@ def _channels(m: int, rail: bool, layout: ChainLayout) -> dict[str, NumericChann
     if layout is not PLANAR:
         return numeric_channels(m, rail, layout)
     return numeric_channels(m, True) if rail else numeric_channels(m)
+
+
+def metadata_problems(meta: dict[str, dict], complete: bool) -> list[str]:
+    """What is missing or unreadable in a log's ``run``, ``build`` and ``outcome`` metadata.
+
+    Parameters
+    ----------
+    meta : dict
+        The metadata records by name (string values).
+    complete : bool
+        The log was closed (then it must have an ``outcome``).
+
+    Returns
+    -------
+    list of str
+        One line per problem; empty when all three are there and readable.
+    """
+    problems = [f"no '{name}' metadata (damaged, or not written by coordarm run)"
+                for name in ("run", "build") if name not in meta]
+    if complete and "outcome" not in meta:
+        problems.append("no 'outcome' metadata: how the run ended is unknown")
+    if "outcome" in meta:
+        status = meta["outcome"].get("status", "")
+        known = {f'"{o.value}"' for o in Outcome}
+        if status not in known:
+            problems.append(f"the 'outcome' metadata names no known status ({shown(status)})")
+    every = meta.get("run", {}).get("log_every_steps")
+    if "run" in meta and not (every or "").isdigit():
+        problems.append(f"the 'run' metadata has no step count between samples ({shown(every)})")
+    backend = meta.get("build", {}).get("backend")
+    if "build" in meta and backend not in {b.value for b in Backend}:
+        problems.append(f"the 'build' metadata names no known backend ({shown(backend)})")
+    return problems
 
 
 def _strip(record: dict[str, str]) -> dict[str, str]:

@@ -221,10 +221,33 @@ def write_report(run: Any, scenario: Any, out_dir: str | Path, ctrl: Coordinatin
             plot_links(a, out / "links.png", title),
             plot_step_responses(ctrl.gain, step or 0.001, out / "step_responses.png", title)]
     path = out / "report.md"
-    path.write_text(markdown(a, scenario, ctrl, step, figs, checks), encoding="utf-8")
+    path.write_text(markdown(a, scenario, ctrl, step, figs, checks) + log_condition(run), encoding="utf-8")
     (out / "report.json").write_text(json.dumps(summary_json(a, run, scenario, ctrl), indent=2) + "\n",
                                      encoding="utf-8")
     return path
+
+
+def log_condition(run: Any) -> str:
+    """A Markdown section saying that the log read was cut off or damaged, with its problems ("" if intact).
+
+    Parameters
+    ----------
+    run : object
+        The run reported on; a :class:`~coordarm.analysis.replay.Replay` says its condition.
+
+    Returns
+    -------
+    str
+        The section, or "".
+    """
+    condition = run.condition() if hasattr(run, "condition") else None
+    problems = list(getattr(run, "problems", []) or [])
+    if condition is None and not problems:
+        return ""
+    lines = ["", "## Condition of the log", ""]
+    lines += [f"* **{condition}**"] if condition else []
+    lines += [f"* {p}" for p in problems]
+    return "\n".join(lines) + "\n"
 
 
 def summary_json(a: RunAnalysis, run: Any, scenario: Any, ctrl: CoordinatingController) -> dict:

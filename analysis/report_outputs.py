@@ -46,7 +46,7 @@ class ReportOutputs(NamedTuple):
 
 def report_of(source: str | os.PathLike, out: str | os.PathLike | None = None, *, links: int | None = None,
               duration: float | None = None, samples: int | None = None, yes: bool = False,
-              on_problem: Callable[[str], None] | None = None,
+              overwrite: bool = False, on_problem: Callable[[str], None] | None = None,
               on_note: Callable[[str], None] | None = None) -> ReportOutputs:
     """Write the singularity and condition report of a log (``*.mcap``) or of a scenario.
 
@@ -59,7 +59,9 @@ def report_of(source: str | os.PathLike, out: str | os.PathLike | None = None, *
     source : str or path-like
         A log ``*.mcap``, a preset name or a TOML file.
     out : str or path-like, optional
-        Output directory (default ``logs/<name>_report``; created if missing).
+        Output directory (created if missing). Default: ``<log's folder>/<log's stem>_report`` for a
+        log, ``logs/<scenario>_report`` for a scenario; a default folder is replaced, a given one
+        holding a ``report.md`` only with ``overwrite``.
     links, duration : optional
         Scenario only: overrides of the number of links and the duration [s].
     samples : int, optional
@@ -67,6 +69,8 @@ def report_of(source: str | os.PathLike, out: str | os.PathLike | None = None, *
         :func:`~coordarm.analysis.report.default_samples`).
     yes : bool, optional
         Scenario only: simulate even when the estimated steps or memory are above the limits.
+    overwrite : bool, optional
+        Replace the report in a given ``out``.
     on_problem : callable, optional
         Gets ``"<log>: <what>"`` for a cut-off or damaged log and each problem met reading it.
     on_note : callable, optional
@@ -81,30 +85,81 @@ def report_of(source: str | os.PathLike, out: str | os.PathLike | None = None, *
     ConfigError
         ``samples`` out of range, overrides given for a log, a bad scenario or a cost above the limits.
     LogError
-        The log cannot be read or holds no samples, or ``out`` cannot be made.
+        The log cannot be read or holds no samples, ``out`` cannot be made, or it holds a report
+        and ``overwrite`` is False.
     """
+    target = checked_arguments(str(source), out, links, duration, samples, overwrite)   # before the heavy imports
     import numpy as np
 
     from coordarm.analysis.report import default_samples, write_report
     from coordarm.analysis.replay_outputs import output_directory
+    from coordarm.simulation.figure_files import writing
 
-    if samples is not None and not SAMPLES_RANGE[0] <= samples <= SAMPLES_RANGE[1]:
-        raise ConfigError(f"--samples: need {SAMPLES_RANGE[0]} to {SAMPLES_RANGE[1]}, got {shown(samples)}")
     run, scenario = source_run(str(source), links, duration, yes, on_problem)
-    out = output_directory(Path("logs") / f"{scenario.name}_report" if out is None else Path(out))
+    out = output_directory(Path("logs") / f"{scenario.name}_report" if target is None else target)
     if scenario.universal:     # a spatial chain: its logged margins, read as they are (``samples`` unused)
         from coordarm.analysis.spatial_report import write_spatial_report
 
-        path = write_spatial_report(run, scenario, out)
+        with writing(out / "report.md"):
+            path = write_spatial_report(run, scenario, out)
         return ReportOutputs(scenario, run, path, tuple(sorted(path.parent.glob("*.png"))))
     m = np.shape(run.q)[1]
     if m > 128 and on_note is not None:  # about a second per 1000 samples at 64 links, a second per sample at 1024
         on_note(f"report: margins at {samples or default_samples(m)} samples of a {m}-link chain "
                 "(an SVD and a QR of the m x m decoupling matrix each) ...")
     from coordarm.simulation.progress import Phase
-    with Phase("report: margins along the run, stability, figures"):
+    with Phase("report: margins along the run, stability, figures"), writing(out / "report.md"):
+        # (a full disk names the report, not just "No space left")
         path = write_report(run, scenario, out, samples=samples)
     return ReportOutputs(scenario, run, path, tuple(sorted(path.parent.glob("*.png"))))
+
+
+def checked_arguments(src: str, out: str | os.PathLike | None, links: int | None, duration: float | None,
+                      samples: int | None, overwrite: bool) -> Path | None:
+    """Check the arguments of :func:`report_of` that need no heavy import; the output folder if known.
+
+    Parameters
+    ----------
+    src : str
+        A log ``*.mcap``, a preset name or a TOML file.
+    out : str or path-like or None
+        The given output directory.
+    links, duration : int or None, float or None
+        Scenario only: overrides.
+    samples : int or None
+        Margin samples.
+    overwrite : bool
+        Replace a report in a given ``out``.
+
+    Returns
+    -------
+    Path or None
+        The output directory: ``out``, or for a log ``<folder>/<stem>_report``; None for a scenario
+        without ``out`` (named after the scenario once it is read).
+
+    Raises
+    ------
+    ConfigError
+        ``samples`` out of range, overrides given for a log.
+    LogError
+        The log is not a file, ``out`` is a file, or ``out`` holds a report and ``overwrite`` is False.
+    """
+    if samples is not None and not SAMPLES_RANGE[0] <= samples <= SAMPLES_RANGE[1]:
+        raise ConfigError(f"--samples: need {SAMPLES_RANGE[0]} to {SAMPLES_RANGE[1]}, got {shown(samples)}")
+    if not src.endswith(".mcap"):
+        return None if out is None else Path(out)
+    if links is not None or duration is not None:
+        raise ConfigError("--links/--duration: only for a scenario, not for a log")
+    if not Path(src).is_file():
+        raise LogError(f"{shown(src)}: no such log file")
+    if out is None:
+        return Path(src).with_name(Path(src).stem + "_report")
+    target = Path(out)
+    if target.exists() and not target.is_dir():
+        raise LogError(f"--out {shown(str(target))}: is a file; need a directory for the figures")
+    if (target / "report.md").exists() and not overwrite:
+        raise LogError(f"--out {shown(str(target))}: holds a report already; pass --overwrite to replace it")
+    return target
 
 
 def source_run(src: str, links: int | None, duration: float | None, yes: bool,
@@ -149,7 +204,7 @@ def source_run(src: str, links: int | None, duration: float | None, yes: bool,
         if not len(run.t):
             raise LogError(f"{src}: the log holds no samples; nothing to report")
         return run, run.scenario
-    scenario = load_scenario(src).with_overrides(links, duration)
+    scenario = load_scenario(src, links=links, duration=duration)
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, logged=False), yes)
     return simulate_scenario(scenario), scenario
 

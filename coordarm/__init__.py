@@ -47,6 +47,7 @@ _EXPORTS = {
     "ConfigError": "coordarm.symbolic.errors",
     "SingularityError": "coordarm.symbolic.errors",
     "TubeError": "coordarm.symbolic.errors",
+    "BaseOffPathError": "coordarm.symbolic.errors",
     "CollisionError": "coordarm.symbolic.errors",
     "check_configuration": "coordarm.simulation.physical",
     "LogError": "coordarm.symbolic.errors",

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import signal
@@ -128,6 +129,11 @@ def _main(argv: list[str] | None) -> int:
         if signum is not None:
             print(f"{command}: interrupted by {signal.Signals(signum).name}", file=sys.stderr)
             return 130
+        if isinstance(exc, BrokenPipeError):   # the reader of standard output went away: end quietly
+            from coordarm.symbolic.pipes import BROKEN_PIPE_STATUS, quiet_stdout
+
+            quiet_stdout()
+            return BROKEN_PIPE_STATUS
         if isinstance(exc, CoordarmError):
             print(f"{command}: error: {exc}", file=sys.stderr)
             return 2
@@ -145,6 +151,8 @@ def _describe(exc: BaseException) -> str:
         return "input nested too deeply"
     text = exc.strerror or str(exc) if isinstance(exc, OSError) else str(exc)
     where = getattr(exc, "filename", None)
+    if not where and isinstance(exc, OSError) and exc.errno == errno.ENOSPC:
+        return f"{text} (while writing this command's outputs: its --out, logs/ or the build cache)"
     return f"{where}: {text}" if where else text
 
 if __name__ == "__main__":

@@ -17,9 +17,11 @@ import json
 import os
 import platform
 import pwd
+import re
 import shlex
 import shutil
 import stat
+import sys
 import subprocess
 import tempfile
 import time
@@ -46,6 +48,8 @@ REQUIRED_FLAGS = ("-fPIC", "-shared", "-fvisibility=hidden")   # before the user
 PROCESS_MODE_FLAGS = frozenset({"-Ofast", "-ffast-math", "-funsafe-math-optimizations", "-mpc32", "-mpc64",
                                 "-mpc80"})
 LIBRARY, SOURCE, META = "libcoordarm.so", "coordarm.c", "meta.json"
+#: A build's temporary files in a cache entry, named after the building process: ``<pid>-<random>``.
+STALE_NAME = re.compile(rf"^{re.escape(LIBRARY)}\.(\d+)-[^.]+\.(tmp|o)$")
 #: Seconds the compiler gets to answer ``--version`` [s].
 VERSION_TIMEOUT = 30.0
 #: Seconds a compilation may take before it is stopped (a hanging compiler) [s]; override with
@@ -399,7 +403,8 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
         entry.mkdir(mode=0o700, parents=True, exist_ok=True)
         src = entry / SOURCE
         _write_atomic(src, source.text.encode())
-        fd, tmp = tempfile.mkstemp(dir=entry, prefix=LIBRARY + ".", suffix=".tmp")
+        remove_stale_temporaries(entry)
+        fd, tmp = tempfile.mkstemp(dir=entry, prefix=f"{LIBRARY}.{os.getpid()}-", suffix=".tmp")
         os.close(fd)
     except OSError as exc:
         raise BuildError(f"build directory {entry}: {exc}") from None
@@ -428,8 +433,58 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
     meta = {"key": key, "sha256": digest, "compiler": cc_path, "compiler_version": _compiler_version(cc_path),
             "flags": list(flags), "casadi": ca.__version__, "codegen_options": CODEGEN_OPTIONS,
             "form": source.form, "links": source.m, "compile_seconds": seconds}
-    _write_atomic(entry / META, json.dumps(meta, indent=1).encode())
+    try:
+        _write_atomic(entry / META, json.dumps(meta, indent=1).encode())
+    except OSError as exc:
+        raise BuildError(f"{entry / META}: cannot write it: {exc.strerror or exc}") from None
     return Library(entry / LIBRARY, key, False, seconds)
+
+
+def remove_stale_temporaries(entry: Path) -> int:
+    """Remove the temporary files of builds whose process is gone (killed while compiling).
+
+    A build names its files ``libcoordarm.so.<pid>-<random>.tmp`` and ``.o``; those of a process
+    that no longer exists are removed (a build of the same library by a live process keeps its own).
+
+    Parameters
+    ----------
+    entry : Path
+        A cache entry (one library's directory).
+
+    Returns
+    -------
+    int
+        Files removed.
+    """
+    removed = 0
+    for path in entry.glob(f"{LIBRARY}.*"):
+        found = STALE_NAME.match(path.name)
+        if found is None or process_alive(int(found.group(1))):
+            continue
+        path.unlink(missing_ok=True)
+        removed += 1
+    return removed
+
+
+def process_alive(pid: int) -> bool:
+    """Whether process ``pid`` exists (also one of another user).
+
+    Parameters
+    ----------
+    pid : int
+        A process id.
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return pid > 0
 
 
 def compile_and_link(cc: str, flags: tuple[str, ...], src: str | Path, obj: str | Path,
@@ -461,13 +516,16 @@ def compile_and_link(cc: str, flags: tuple[str, ...], src: str | Path, obj: str 
 
 
 def _run_compiler(cmd: list[str], timeout: float | None) -> subprocess.CompletedProcess:
-    """Run the compiler in this process's group (a Ctrl-C or a kill of the group reaches it too),
-    with its temporary files in a private directory that is removed afterwards; on a timeout or an
-    interrupt kill it and every process it started (``gcc`` is a driver: ``cc1`` would compile on)."""
+    """Run the compiler under :mod:`.compiler_guard` (in this process's group, so a Ctrl-C or a kill of
+    the group reaches the guard, which stops the compiler's own group; and when this process dies,
+    even by SIGKILL, the kernel tells the guard to), with its temporary files in a private directory
+    that is removed afterwards; on a timeout or an interrupt kill it and every process it started
+    (``gcc`` is a driver: ``cc1`` would compile on)."""
     tmpdir = tempfile.mkdtemp(prefix="coordarm-cc-")
     env = dict(os.environ, TMPDIR=tmpdir, TMP=tmpdir, TEMP=tmpdir)
+    guarded = [sys.executable, "-I", "-S", str(Path(__file__).with_name("compiler_guard.py")), str(os.getpid()), *cmd]
     try:
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        proc = subprocess.Popen(guarded, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
         try:
             out, err = proc.communicate(timeout=timeout)
         except BaseException:

@@ -44,6 +44,7 @@ class Outcome(StrEnum):
 
     COMPLETED = "completed"
     SINGULARITY = "singularity"
+    BASE_OFF_PATH = "base_off_path"
     COLLISION = "collision"
     RATE_LIMIT = "rate_limit"
     INTERRUPTED = "interrupted"

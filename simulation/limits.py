@@ -27,6 +27,7 @@ import numpy as np
 
 from coordarm.symbolic import ConfigError
 from coordarm.symbolic.checks import is_integer
+from coordarm.symbolic.errors import shown
 
 from .choices import DENSE_LINKS  # noqa: F401 (re-exported)
 from .log_layout import PLANAR, ChainLayout
@@ -133,6 +134,24 @@ def check_gain_step(gain: float, step: float, refuse: bool = True, warn: bool = 
                       stacklevel=3)
 
 
+def check_links(links: int) -> None:
+    """Refuse a link count whose law alone would not fit in this machine's memory (there is no fixed cap).
+
+    Parameters
+    ----------
+    links : int
+        ``chain.links``, number of links.
+
+    Raises
+    ------
+    ConfigError
+        ``links`` times :data:`LAW_BYTES_PER_LINK` is more than the machine's memory.
+    """
+    if links * LAW_BYTES_PER_LINK > (total := machine_memory()):
+        raise ConfigError(f"chain.links: {shown(links)} links need at least {_size(links * LAW_BYTES_PER_LINK)} of "
+                          f"memory, more than this machine's {_size(total)}")
+
+
 def check_bounds(links: Any, link_length: float, step: float, duration: float, t0: float, gain: float) -> None:
     """Hard bounds on a scenario's numbers (see the module docstring); fields named as in the TOML.
 
@@ -156,16 +175,14 @@ def check_bounds(links: Any, link_length: float, step: float, duration: float, t
     ConfigError
         The first value outside its bound, or more links than the machine's memory holds.
     """
-    if links * LAW_BYTES_PER_LINK > (total := machine_memory()):
-        raise ConfigError(f"chain.links: {links} links need at least {_size(links * LAW_BYTES_PER_LINK)} of memory, "
-                          f"more than this machine's {_size(total)}")
+    check_links(links)
     checks = (("chain.link_length", link_length, *LINK_LENGTH_RANGE), ("run.step", step, *STEP_RANGE),
               ("run.duration", duration, 0.0, MAX_TIME), ("run.t0", abs(t0), 0.0, MAX_TIME),
               ("control.gain", gain, 0.0, MAX_GAIN))
     for name, value, lo, hi in checks:
         if not lo <= value <= hi:
-            shown = f"|{name}|" if name == "run.t0" else name
-            raise ConfigError(f"{shown}: need {lo:g} to {hi:g}, got {value:g}")
+            label = f"|{name}|" if name == "run.t0" else name
+            raise ConfigError(f"{label}: need {lo:g} to {hi:g}, got {value:g}")
 
 
 @dataclass(frozen=True)

@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController, LogError
-from coordarm.symbolic.checks import is_real
+from coordarm.symbolic.interrupts import interruption
 from coordarm.symbolic.task import BUILT_IN_CURVES
 
 from .choices import Backend, Compression
@@ -58,6 +58,7 @@ from .log_layout import PLANAR, layout_of_chain, partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
 from .outcome import outcome_of
+from .rates import MOST_STEPS_BETWEEN, steps_between  # noqa: F401 (re-exported)
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
 from .scenario import Scenario
@@ -73,34 +74,6 @@ CHUNK_SIZE = 1 << 20
 
 #: Default rate of the scene channels [Hz] (``/margins/cond``: :data:`~.cond_channel.COND_RATE`).
 SCENE_RATE = 20.0
-
-
-def steps_between(rate: Any, step: float, name: str) -> int:
-    """Steps between two samples at ``rate`` samples per simulated second (at least 1).
-
-    Parameters
-    ----------
-    rate : float
-        Samples per simulated second [Hz]; anything else (not a real number, not positive, not
-        finite) is refused.
-    step : float
-        The simulation step [s].
-    name : str
-        The rate's name in the error message.
-
-    Returns
-    -------
-    int
-        ``round(1 / (rate * step))``, at least 1.
-
-    Raises
-    ------
-    ConfigError
-        ``rate`` (named ``name`` in the message) is not a positive number.
-    """
-    if not is_real(rate) or not rate > 0 or not np.isfinite(rate):
-        raise ConfigError(f"{name}: need a positive number of samples per second, got {rate!r}")
-    return max(1, int(round(1.0 / (rate * step))))
 
 
 def log_time_ns(t: float | np.ndarray, origin: float) -> np.ndarray:
@@ -232,24 +205,43 @@ class RunLogger:
                  threaded: bool = False, overwrite: bool = True, cond_exact: bool = False,
                  frames: str = "ends") -> None:
         self.frames = frames
+        ctrl = ctrl or scenario.controller()     # (may take a while: not with Ctrl-C held back)
         with self._removed_on_failure():
             self.cond_exact = bool(cond_exact)
-            self._open(path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,
-                       overwrite, threaded)
-            self._write_header(command, backend, library_key)
+            with _sigint_deferred():   # a Ctrl-C while the file and its metadata are made comes after them
+                self._open(path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,
+                           overwrite, threaded)
+                self._write_header(command, backend, library_key)
             self._prepare_buffers(chunk_size, threaded)
 
     @contextmanager
     def _removed_on_failure(self):
-        """A failure or Ctrl-C before the writer is complete leaves no half-made file."""
+        """A failure before the writer is complete leaves no half-made file; a Ctrl-C or SIGTERM once the
+        file exists leaves a closed log of no samples with outcome ``interrupted``."""
         try:
             yield
-        except BaseException:
+        except BaseException as exc:
             file = getattr(self, "file", None)
-            if file is not None:
+            if file is not None and not (interruption(exc) is not None and self._closed_empty(exc)):
                 file.abandon()
                 file.path.unlink(missing_ok=True)
             raise
+
+    def _closed_empty(self, error: BaseException) -> bool:
+        """Close the log begun in ``__init__`` with its scenario and the outcome of ``error``; whether it worked."""
+        try:
+            with _sigint_deferred():
+                if self.file.closed:
+                    return False
+                if not getattr(self, "_scenario_written", False):
+                    self.file.add_metadata("scenario", {"json": self.scenario.to_json(), "source": self.scenario.source})
+                if not getattr(self, "_build_written", False) and getattr(self, "_build", None):
+                    self.file.add_metadata("build", self._build)
+                self.file.add_metadata("outcome", {k: json.dumps(v) for k, v in outcome_of(error, None).items()})
+                self.file.close(rename_to=self.path)
+                return True
+        except Exception:   # noqa: BLE001 - then the half-made file is removed as before
+            return False
 
     def _open(self, path, scenario, ctrl, log_rate, scene_rate, cond_rate, compression, flush_interval,
               overwrite, threaded) -> None:
@@ -293,10 +285,10 @@ class RunLogger:
         scenario = self.scenario
         self.origin = min(0.0, scenario.t0)  # log times are ns since this simulated time (>= 0)
         self.file.add_metadata("scenario", {"json": scenario.to_json(), "source": scenario.source})
+        self._scenario_written = True
         self._build: dict[str, str] | None = None
         self._build_written = False
         self._lock = threading.RLock()  # the worker's idle flush against flush() from the caller
-        self.set_backend(backend, library_key)
         self.file.add_metadata("run", {
             "command": json.dumps(list(sys.argv if command is None else command)),
             "started": datetime.now(timezone.utc).isoformat(timespec="seconds"), "host": socket.gethostname(),
@@ -305,6 +297,8 @@ class RunLogger:
             "cond": COND_KINDS[self.cond_exact],
             "time_origin": repr(self.origin),
             **({} if self.layout is PLANAR else {"chain_kind": self.layout.kind})})
+        self.file.flush()        # scenario and run on disk at once (a SIGKILL from here on keeps them)
+        self.set_backend(backend, library_key)
 
     def _prepare_buffers(self, chunk_size: int | None, threaded: bool) -> None:
         """The packed sample records, the pending queues and (``threaded``) the encoding worker."""
@@ -531,6 +525,10 @@ class RunLogger:
         """
         if self.file.closed:
             return
+        with _sigint_deferred():   # a Ctrl-C now is delivered once the log is closed (never a .partial left)
+            self._finish(error)
+
+    def _finish(self, error: BaseException | None) -> None:
         worker, self._worker = self._worker, None
         if worker is not None:
             worker.stop()

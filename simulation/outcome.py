@@ -4,14 +4,15 @@ from __future__ import annotations
 from typing import Any
 
 from coordarm.symbolic import CollisionError, SingularityError
-from coordarm.symbolic.errors import JointRateError
+from coordarm.symbolic.errors import BaseOffPathError, JointRateError
 from coordarm.symbolic.interrupts import interruption
 
 from .choices import Outcome
 
 
 #: Exit status of ``coordarm run`` per outcome (bad input is 2, Ctrl-C 130: see ``coordarm.cli``).
-EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.SINGULARITY: 3, Outcome.COLLISION: 4, Outcome.RATE_LIMIT: 5}
+EXIT_CODES = {Outcome.COMPLETED: 0, Outcome.SINGULARITY: 3, Outcome.BASE_OFF_PATH: 3, Outcome.COLLISION: 4,
+              Outcome.RATE_LIMIT: 5}
 
 
 def outcome_of(error: BaseException | None, last_t: float | None,
@@ -38,6 +39,10 @@ def outcome_of(error: BaseException | None, last_t: float | None,
     """
     if error is None:
         out = {"status": Outcome.COMPLETED.value, "t_end": last_t}
+    elif isinstance(error, BaseOffPathError):
+        out = {"status": Outcome.BASE_OFF_PATH.value, "t_end": last_t, "time": error.time, "link": 1,
+               "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "d": error.d,
+               "offset": error.offset, "message": str(error)}
     elif isinstance(error, SingularityError):
         out = {"status": Outcome.SINGULARITY.value, "t_end": last_t, "time": error.time, "link": error.link,
                "margin": error.margin, "kind": error.kind, "threshold": error.threshold, "message": str(error)}
@@ -63,7 +68,7 @@ def explain(error: SingularityError | CollisionError) -> list[str]:
     Parameters
     ----------
     error : SingularityError or CollisionError
-        The error that stopped the run; a SingularityError whose ``kind`` is not ``"longitudinal"``,
+        The error that stopped the run (a BaseOffPathError names the base and the rail); a SingularityError whose ``kind`` is not ``"longitudinal"``,
         ``"end"`` or ``"joint"`` (a spatial chain's) is explained as a link margin.
 
     Returns
@@ -78,6 +83,12 @@ def explain(error: SingularityError | CollisionError) -> list[str]:
                 "advice: lower the speed v*, use longer path transitions (curve.transition), or raise "
                 f"chain.{error.kind}_limit if the hardware allows"]
     t, v, thr = f"t = {error.time:.3f} s", f"{error.margin:.3g}", f"{error.threshold:.3g}"
+    if isinstance(error, BaseOffPathError):
+        return [f"the base left the path at {t}: at d = {error.d:.4f} m on the rail the base is {error.offset:.3g} m "
+                f"off the path (the path leaves the rail's line) and link 1 stands almost across the path at link 2 "
+                f"(base margin {v}, threshold {thr}): the body can no longer follow (|u| would blow up)",
+                "advice: end the rail's feed before the path leaves its line (chain.base.limits), put the first "
+                "bend further along the path, or grow the span (control.span) so the base stays on the straight part"]
     if error.kind == "longitudinal":
         return [f"singularity ahead at {t}: the longitudinal margin fell to {v} (threshold {thr}): the body is "
                 f"stretched along the curve and the end point can hardly be pushed further (|u| would blow up)",

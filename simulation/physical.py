@@ -59,11 +59,13 @@ class Contact:
         """
         t = f"t = {self.time:.3f} s"
         if self.kind == "rail_limit":
-            return (f"rail limit at {t}: the rail position d = {self.value:+.4f} m is beyond its limit "
+            return (f"rail limit at {t}: the rail position d = {self.value:+.4{'f' if abs(self.value) < 1e6 else 'g'}} m "
+                    f"is beyond its limit "
                     f"{self.threshold:+.4f} m: the introduction axis cannot feed the body further")
         if self.kind == "joint_limit":
             j = self.links[1]
-            return (f"joint limit at {t}: joint {j} (between links {j - 1} and {j}) is at {self.value:+.4f} rad, "
+            return (f"joint limit at {t}: joint {j} (between links {j - 1} and {j}) is at "
+                    f"{self.value:+.4{'f' if abs(self.value) < 1e6 else 'g'}} rad, "
                     f"beyond its limit ±{self.threshold:.4f} rad: the two links fold too far onto each other")
         if self.kind == "self":
             a, b = self.links

@@ -204,19 +204,7 @@ class Scenario:
         ConfigError
             An override that is not valid.
         """
-        spec = self.spec
-        if governor is not None:
-            spec["control"]["governor"] = governor
-        if damping is not None:
-            spec["control"]["damping"] = damping
-        if law is not None:
-            spec["control"]["law"] = law
-        if links is not None:
-            spec["chain"]["links"] = links
-        if duration is not None:
-            spec["run"]["duration"] = duration
-        if step is not None:
-            spec["run"]["step"] = step
+        spec = overridden(self.spec, links, duration, step, law, governor, damping)
         return Scenario.from_dict(spec, self.source)
 
     @property
@@ -326,13 +314,54 @@ class Scenario:
         return json.dumps(self.spec, sort_keys=True)
 
 
-def load_scenario(name_or_path: str | Path) -> Scenario:
+#: The overrides of the command line and the field each replaces.
+OVERRIDES = {"links": ("chain", "links"), "duration": ("run", "duration"), "step": ("run", "step"),
+             "law": ("control", "law"), "governor": ("control", "governor"), "damping": ("control", "damping")}
+
+
+def overridden(spec: Any, links: int | None = None, duration: float | None = None, step: float | None = None,
+               law: str | None = None, governor: bool | None = None, damping: dict | None = None) -> Any:
+    """``spec`` (scenario tables as read, not yet validated) with the given fields replaced, in place.
+
+    Parameters
+    ----------
+    spec : dict
+        The tables; anything else (a malformed file) is returned unchanged for validation to name.
+    links, duration, step, law, governor, damping : optional
+        ``chain.links``, ``run.duration`` [s], ``run.step`` [s], ``control.law``,
+        ``control.governor``, ``control.damping``; None keeps the file's value.
+
+    Returns
+    -------
+    dict
+        ``spec``.
+    """
+    values = {"links": links, "duration": duration, "step": step, "law": law, "governor": governor,
+              "damping": damping}
+    for name, value in values.items():
+        table, key = OVERRIDES[name]
+        if value is None or not isinstance(spec, dict):
+            continue
+        if table not in spec:
+            spec[table] = {}
+        if isinstance(spec[table], dict):
+            spec[table][key] = value
+    return spec
+
+
+def load_scenario(name_or_path: str | Path, **overrides: Any) -> Scenario:
     """Load a preset by name (``line``, ``arc``, ``hole``) or a TOML file by path.
+
+    The overrides replace the file's fields before it is validated, so that a check of two
+    fields together (``control.gain`` x ``run.step``) sees the values the run will use.
 
     Parameters
     ----------
     name_or_path : str or Path
         A preset name (see :func:`coordarm.simulation.choices.presets`) or a ``.toml`` file.
+    **overrides
+        ``links``, ``duration``, ``step``, ``law``, ``governor``, ``damping`` (see
+        :func:`overridden`); None keeps the file's value.
 
     Returns
     -------
@@ -363,4 +392,4 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         raise ConfigError(f"{source}: not valid TOML: {exc}") from None
     except RecursionError:
         raise ConfigError(f"{source}: not valid TOML: arrays or tables nested too deeply") from None
-    return Scenario.from_dict(parsed, source)
+    return Scenario.from_dict(overridden(parsed, **overrides), source)

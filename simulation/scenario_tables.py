@@ -16,12 +16,12 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from coordarm.symbolic import ConfigError, Curve, PlanarChain, SpatialChain, curve_from_spec, motion_from_spec
-from coordarm.symbolic.checks import is_integer
+from coordarm.symbolic.checks import bounded_motion, is_integer, is_real
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.laws import LAWS, Law
 
-from .limits import RATE_KEYS, check_bounds, check_gain_step, rate_limits
+from .limits import RATE_KEYS, check_bounds, check_gain_step, check_links, rate_limits
 from .obstacles import Obstacle, obstacles_from_spec
 from .obstacles3d import Obstacle3D, obstacles3d_from_spec
 from .run import DEFAULT_THRESHOLDS, check_number
@@ -428,6 +428,7 @@ def _chain(ch: dict) -> ChainTable:
             raise ConfigError(f"chain.{k}: missing")
     if not is_integer(ch["links"]) or ch["links"] < 2:
         raise ConfigError(f"chain.links: need an integer >= 2, got {shown(ch['links'])}")
+    check_links(ch["links"])         # before a chain of that size is built to check the joint limits
     check_number(ch["link_length"], "chain.link_length")
     for k in ("joint_limit", "clearance"):
         if k in ch:
@@ -449,7 +450,7 @@ def _span(control: dict, chain: ChainTable) -> Any:
         return None
     if not chain.rail:
         raise ConfigError("control.span: only a chain on a rail (chain.base.kind = 'rail') has a span")
-    return motion_from_spec(control["span"], "control.span")
+    return motion_from_spec(bounded_motion(control["span"], "control.span"), "control.span")
 
 
 def _figures(fig: dict) -> FiguresTable:
@@ -469,7 +470,7 @@ def _control(c: dict, span_motion: Any) -> ControlTable:
     if "gain" not in c:
         raise ConfigError("control.gain: missing")
     check_number(c["gain"], "control.gain")
-    speed_motion = motion_from_spec(c.get("speed", 0.0), "control.speed")
+    speed_motion = motion_from_spec(bounded_motion(c.get("speed", 0.0), "control.speed"), "control.speed")
     if c["law"] not in LAWS:
         raise ConfigError(f"control.law: expected one of {LAWS}, got {shown(c['law'])}")
     if not isinstance(c["governor"], bool):

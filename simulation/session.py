@@ -33,6 +33,10 @@ if TYPE_CHECKING:   # numpy, CasADi, matplotlib and foxglove load only when a ru
     from coordarm.symbolic.controller import CoordinatingController
 
 
+#: Links of a dense law above which ``coordarm run`` says that building it can take minutes.
+DENSE_NOTICE_LINKS = 16
+
+
 @dataclass(frozen=True)
 class ScenarioResult:
     """What :func:`run_scenario` did: the run, how it ended, and the files it wrote.
@@ -162,7 +166,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
 
     lines: list[str] = []
     say = collector(lines, echo)
-    scenario = prepared_scenario(scenario, links, duration, step, law, governor, log_rate, yes)
+    scenario = prepared_scenario(scenario, links, duration, step, law, governor, (log_rate, cond_rate), yes)
     overwrite = overwrite or log is None   # the default log is a scratch file
     out = checked_log_path(Path("logs") / f"{scenario.name}.mcap" if log is None else Path(log), overwrite)
     ctrl = scenario.controller()
@@ -231,8 +235,8 @@ def report_lines(run: Run, scenario: Scenario, compiled: Any, out: Path) -> list
 
 
 def prepared_scenario(scenario: Scenario | str | os.PathLike, links: int | None, duration: float | None,
-                      step: float | None, law: str | None, governor: bool | None, log_rate: float | None,
-                      yes: bool) -> Scenario:
+                      step: float | None, law: str | None, governor: bool | None,
+                      log_rate: float | None | tuple[float | None, float | None], yes: bool) -> Scenario:
     """The scenario with its overrides, once its cost and the size of a dense law are accepted.
 
     Parameters
@@ -241,8 +245,9 @@ def prepared_scenario(scenario: Scenario | str | os.PathLike, links: int | None,
         A scenario, a preset name or a TOML file.
     links, duration, step, law, governor : optional
         Overrides (see :meth:`Scenario.with_overrides`); duration and step in [s].
-    log_rate : float or None
-        Log samples per simulated second [Hz] (for the log size estimate).
+    log_rate : float or None, or (log_rate, cond_rate)
+        Log samples per simulated second [Hz] (for the log size estimate), optionally with the
+        rate of ``/margins/cond`` [Hz] (0 switches it off); both checked to be positive numbers.
     yes : bool
         Accept a cost above the limits and a dense law of more than ``DENSE_LINKS`` links.
 
@@ -256,10 +261,17 @@ def prepared_scenario(scenario: Scenario | str | os.PathLike, links: int | None,
         A bad override, a cost above the limits or a large dense law without ``yes``.
     """
     from coordarm.simulation.limits import check_cost, estimate
+    from coordarm.simulation.rates import steps_between
     from coordarm.simulation.scenario import Scenario, load_scenario
 
-    base = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-    scenario = base.with_overrides(links, duration, step, law=law, governor=governor)
+    if isinstance(scenario, Scenario):
+        scenario = scenario.with_overrides(links, duration, step, law=law, governor=governor)
+    else:    # overridden before validation: K h is checked at the step the run uses
+        scenario = load_scenario(scenario, links=links, duration=duration, step=step, law=law, governor=governor)
+    log_rate, cond_rate = log_rate if isinstance(log_rate, tuple) else (log_rate, None)
+    for rate, flag in ((log_rate, "--log-rate"), (cond_rate, "--cond-rate")):
+        if rate is not None and (rate != 0 or flag == "--log-rate"):       # a cond rate of 0 switches it off
+            steps_between(rate, scenario.step, flag)
     check_cost(estimate(scenario.chain().m, scenario.step, scenario.duration, log_rate), yes)
     m = scenario.config.chain.links
     if scenario.config.control.law == Law.DENSE and m > DENSE_LINKS and not yes:
@@ -367,6 +379,9 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
             say(f"live          {view.url} (Foxglove: Open connection, Foxglove WebSocket)")
             if live_wait:
                 view.wait_for_client()
+        if backend != "interpreted" and scenario.config.control.law == Law.DENSE and ctrl.chain.m > DENSE_NOTICE_LINKS:
+            say(f"law           dense, {ctrl.chain.m} links: generating and compiling its C can take minutes "
+                "(once: the library is cached)")
         holder: dict[str, Any] = {"backend": backend, "compiled": None}
         try:
             run = logged_run(scenario, ctrl, out, view, holder, overwrite=overwrite, log_rate=log_rate,

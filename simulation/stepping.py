@@ -10,11 +10,13 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from coordarm.symbolic import CollisionError, CoordarmError, CoordinatingController, SingularityError, TubeError
+from coordarm.symbolic.errors import BaseOffPathError, NonFiniteError
 from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.errors import JointRateError
 from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import spatial_split, split
 
+from .base_margin import BASE_THRESHOLD, base_stop
 from .joint_rates import JointRates
 from .log_layout import PLANAR, ChainLayout, MarginCheck, layout_of_chain
 from .result import OPTIONAL, Run, deviation_norms
@@ -347,8 +349,8 @@ def stopped(ctrl: CoordinatingController, error: CoordarmError, parts: list[Run]
     return error
 
 
-_STOPS = {SingularityError: "singularity", TubeError: "tube", CollisionError: "collision",
-          JointRateError: "rate_limit"}
+_STOPS = {SingularityError: "singularity", TubeError: "tube", BaseOffPathError: "base_off_path",
+          CollisionError: "collision", JointRateError: "rate_limit"}
 
 
 def _records(contacts: list) -> list[dict]:
@@ -372,15 +374,26 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
         if len(low) and (stop is None or low[0] < stop[0]):
             row = int(low[0])
             stop = row, SingularityError(part.t[row], 1, float(part.rail_margin[row]), "rail", thr["link"])
+    stops_on = any(v > 0 for v in thr.values())        # NO_STOP (report, threshold study): none of them either
+    base = base_stop(loop.ctrl, part.t, part.q, thr.get("base", BASE_THRESHOLD if stops_on else 0.0))
+    if base is not None and (stop is None or base[0] <= stop[0]):
+        stop = base
     out = tube_exit(part.e, tube, loop.layout.deviations_per_link)
     if out is not None and (stop is None or out[0] <= stop[0]):
         row, link, dist = out
         stop = row, TubeError(part.t[row], link, dist, "tube", tube)
+    broken = np.flatnonzero(~np.isfinite(part.q).all(axis=1))
+    if len(broken) and (stop is None or broken[0] < stop[0]):   # (a margin there is not finite either: a stop)
+        row, joint = int(broken[0]), int(np.flatnonzero(~np.isfinite(part.q[broken[0]]))[0])
+        raise NonFiniteError(f"non-finite state at t = {part.t[row]:.4f} s: joint coordinate {joint + 1} is "
+                             f"{part.q[row, joint]}; the run diverged (a commanded speed, span or gain too large "
+                             "for the step?); run stopped")
     if physical is not None:
         n = len(part.t)
         rows = np.flatnonzero(((k + np.arange(n)) % loop.check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
         if stop is not None:
             rows = np.union1d(rows[rows < stop[0]], [stop[0]])
+        rows = rows[np.isfinite(part.q[rows]).all(axis=1)]      # a NaN state is not a joint limit
         if len(rows):
             found = physical.check(part.t[rows], part.q[rows])
             if found and not loop.allow_contact:

@@ -27,8 +27,10 @@ from typing import TYPE_CHECKING, Any, Callable, TextIO
 import numpy as np
 
 from coordarm.symbolic import ConfigError
+from coordarm.symbolic.errors import shown
 
 from .progress import Progress
+from .sweep_checks import check_size, check_sweep
 from .scenario import Scenario, load_scenario
 from .sweep_points import (RESULT_COLUMNS, check_names, grid_points, integer_fields, latin_hypercube_points,
                            run_batch)
@@ -139,13 +141,15 @@ def sweep_points(spec: dict, vary: dict[str, list], samples: int | None = None, 
     Raises
     ------
     ConfigError
-        No varied name, an empty value list, or a name that is not a field of the scenario.
+        No varied name, an empty value list, more than
+        :data:`~.sweep_points.MOST_POINTS` points, or a name that is not a field of the scenario.
     """
     if not vary:
         raise ConfigError("sweep: nothing to vary (give at least one --vary NAME=VALUES)")
     for name, vals in vary.items():
         if not isinstance(vals, (list, tuple, np.ndarray)) or len(vals) == 0:
             raise ConfigError(f"--vary {name}: need a non-empty list of values")
+    check_size(vary, samples)
     vary = {n: [v.item() if isinstance(v, np.generic) else v for v in vals] for n, vals in vary.items()}
     if check:
         check_names(spec, list(vary))
@@ -245,7 +249,11 @@ class ResultsTable:
     def _load(self) -> None:
         import pyarrow.parquet as pq
 
-        table = pq.read_table(self.out / RESULTS)
+        try:
+            table = pq.read_table(self.out / RESULTS)
+        except Exception as exc:   # noqa: BLE001 - pyarrow raises ArrowInvalid, OSError, ... on a damaged file
+            raise ConfigError(f"{self.out / RESULTS}: cannot be read ({type(exc).__name__}: "
+                              f"{shown(str(exc))}); delete it or choose another --out") from None
         old = (table.schema.metadata or {}).get(SCENARIO_KEY, b"").decode()
         cols = list(table.column_names)
         if cols[:len(self.names)] != self.names or old != self.scenario_json:
@@ -306,6 +314,12 @@ class ResultsTable:
         """Rewrite both files atomically (temporary name, then rename), if rows came since the last write."""
         if self.out is None or not self.dirty:
             return
+        from .figure_files import writing
+
+        with writing(self.out / RESULTS):      # a full disk names the table
+            self._write_files()
+
+    def _write_files(self) -> None:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
@@ -361,7 +375,7 @@ def _error_rows(points: list[dict], exc: BaseException) -> list[dict]:
 def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], client: Any = None, *,
           samples: int | None = None, seed: int = 0, out: str | os.PathLike | None = None, logs: bool = False,
           workers: int | None = None, batch: int | None = None, progress: bool = False,
-          point_fn: Callable[..., dict] | None = None) -> pd.DataFrame:
+          point_fn: Callable[..., dict] | None = None, yes: bool = False) -> pd.DataFrame:
     """Run ``scenario`` at every point of ``vary`` on Dask and return one row per point.
 
     Parameters
@@ -392,6 +406,8 @@ def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], 
     point_fn : callable, optional
         ``point_fn(spec, point, log_path) -> dict`` replacing the simulation of a point (module-level,
         importable on the workers); e.g. the static margin maps of :mod:`coordarm.analysis.workspace`.
+    yes : bool
+        Run a sweep of more than :data:`~.sweep_checks.SWEEP_STEPS` RK4 steps (``--yes``).
 
     Returns
     -------
@@ -404,18 +420,20 @@ def sweep(scenario: Scenario | str | os.PathLike | dict, vary: dict[str, list], 
     Raises
     ------
     ConfigError
-        Nothing to vary, a name that is not a field of the scenario, ``logs`` without ``out``,
-        an ``out`` holding another sweep, or a scheduler address that does not answer; all
-        before any work.
+        Nothing to vary, a name that is not a field of the scenario, a value it refuses, more
+        than :data:`~.sweep_points.MOST_POINTS` points, a cost above
+        :data:`~.sweep_checks.SWEEP_STEPS` steps without ``yes``, ``logs`` without ``out``, an
+        ``out`` holding another sweep or an unreadable ``results.parquet``, or a scheduler
+        address that does not answer; all before any work.
+    LogError
+        ``out`` cannot be written (before any work).
     KeyboardInterrupt
         Ctrl-C; every finished row is written first.
     """
     sc = as_scenario(scenario)
     names = list(vary)
     points = sweep_points(sc.spec, vary, samples, seed, check=point_fn is None)
-    if logs and out is None:
-        raise ConfigError("--logs needs --out (the logs go to OUT/logs/)")
-    out = Path(out) if out is not None else None
+    out = check_sweep(sc.spec, vary, points, yes=yes, logs=logs, out=out, simulated=point_fn is None)
     table = ResultsTable(out, names, sc.to_json(), points)
     done = table.done()
     todo = [p for p in points if point_key(p, names) not in done]

@@ -23,6 +23,7 @@ import numpy as np
 
 from coordarm.symbolic import CollisionError, ConfigError, CoordarmError, SingularityError
 from coordarm.symbolic.checks import is_integer, is_real
+from coordarm.symbolic.errors import shown
 
 from .choices import SWEEP_ALIASES, Backend, Outcome
 from .result import deviation_norms
@@ -36,6 +37,9 @@ OUTCOMES = tuple(o.value for o in (Outcome.COMPLETED, Outcome.SINGULARITY, Outco
 #: Result columns after the varied names, in order.
 RESULT_COLUMNS = ("outcome", "message", "stop_time", "min_link_margin", "min_longitudinal", "final_max_e",
                   "peak_u", "min_clearance", "wall_time", "worker")
+
+#: The most points of one sweep (each is validated and becomes a row of the results table).
+MOST_POINTS = 100_000
 
 #: Controllers built in this process, by their (chain, curve, control) spec: a sweep over the start,
 #: the duration or the thresholds builds each controller (and loads its library) once per worker.
@@ -98,7 +102,7 @@ def parse_vary(text: str) -> tuple[str, list]:
     Raises
     ------
     ConfigError
-        No ``=``, a malformed range, or ``n < 1``.
+        No ``=``, a malformed range, ``n < 1`` or ``n >`` :data:`MOST_POINTS`.
     """
     name, sep, rest = text.partition("=")
     name = name.strip()
@@ -113,6 +117,9 @@ def parse_vary(text: str) -> tuple[str, list]:
             raise ConfigError(f"--vary {text!r}: a range is start:stop:count with an integer count")
         if vals[2] < 1:
             raise ConfigError(f"--vary {text!r}: count must be >= 1")
+        if vals[2] > MOST_POINTS:
+            raise ConfigError(f"--vary {shown(text)}: a range of {vals[2]:,} values; a sweep has at most "
+                              f"{MOST_POINTS:,} points")
         return name, [float(v) for v in np.linspace(vals[0], vals[1], vals[2])]
     return name, [_number(p, name) for p in rest.split(",")]
 

@@ -22,7 +22,7 @@ _EXPORTS = {
     "Constant": "motions", "Ramp": "motions", "Sinusoid": "motions", "Smoothstep": "motions",
     "motion_from_spec": "motions", "motion_to_spec": "motions",
     "CoordarmError": "errors", "ConfigError": "errors", "BuildError": "errors", "LogError": "errors", "NonFiniteError": "errors",
-    "SingularityError": "errors", "TubeError": "errors", "CollisionError": "errors",
+    "SingularityError": "errors", "TubeError": "errors", "BaseOffPathError": "errors", "CollisionError": "errors",
     "project_onto_curve": "start", "follow_curve": "start",
 }
 

@@ -50,3 +50,43 @@ def is_integer(value: Any, numpy: bool = False) -> bool:
     """
     kinds = (int,) + (_numpy_scalars("integer") if numpy else ())
     return isinstance(value, kinds) and not isinstance(value, bool)
+
+
+#: The largest magnitude of a number in a commanded motion (``control.speed`` [m/s], ``control.span`` [m]).
+MOST_MOTION_VALUE = 1e6
+
+
+def bounded_motion(spec: Any, field: str, most: float = MOST_MOTION_VALUE) -> Any:
+    """``spec`` (a motion as data), once every real number in it is at most ``most`` in magnitude.
+
+    Parameters
+    ----------
+    spec : object
+        A number, a motion table or a list of them (as read from TOML).
+    field : str
+        Its name in the error message (e.g. ``"control.speed"``).
+    most : float
+        The bound.
+
+    Returns
+    -------
+    object
+        ``spec``.
+
+    Raises
+    ------
+    ConfigError
+        A number beyond ``most`` (a commanded speed of 1e300 m/s turns the state into inf and NaN).
+    """
+    from .errors import ConfigError
+
+    todo = [spec]
+    while todo:
+        item = todo.pop()
+        if isinstance(item, dict):
+            todo += list(item.values())
+        elif isinstance(item, list):
+            todo += item
+        elif is_real(item) and abs(item) > most:
+            raise ConfigError(f"{field}: {float(item):.4g} is beyond ±{most:g}; no arm moves like that")
+    return spec

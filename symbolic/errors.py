@@ -4,6 +4,8 @@ Every message names the field, file, time or link it is about.
 """
 from __future__ import annotations
 
+import math
+
 
 class CoordarmError(Exception):
     """Base class of all coordarm errors."""
@@ -71,9 +73,10 @@ class SingularityError(CoordarmError):
         self.kind, self.threshold, self.run, self.hint = kind, float(threshold), run, hint
         where = (f"{'joint' if kind == 'joint' else 'link'} {link}" if link is not None
                  else "the end point (longitudinal)" if kind == "longitudinal" else "the end point")
+        value = (f"is {self.margin:.3g} < threshold {self.threshold:.3g}" if math.isfinite(self.margin) else
+                 f"is {self.margin} (the state is no longer finite: the run diverged)")
         super().__init__(
-            f"singularity ahead at t = {self.time:.4f} s: {kind} margin of {where} "
-            f"is {self.margin:.3g} < threshold {self.threshold:.3g}; run stopped"
+            f"singularity ahead at t = {self.time:.4f} s: {kind} margin of {where} {value}; run stopped"
             + (f" (hint: {hint})" if hint else ""))
 
     def __reduce__(self):
@@ -113,6 +116,48 @@ class TubeError(SingularityError):
 
     def __reduce__(self):
         return (TubeError, (self.time, self.link, self.margin, self.kind, self.threshold, None))
+
+
+class BaseOffPathError(SingularityError):
+    """The base of a robot on a rail left the path and its first link stands across the path.
+
+    Where the path leaves the rail's line, the base (``y^1``, on the rail) can no longer be on
+    the path. Link 1 then turns towards the path's normal at link 2's centre; once it stands
+    across it, the free rate (link 1's) no longer moves the body and every rate blows up, while
+    the link, longitudinal and rail margins stay healthy (the longitudinal margin is scaled by
+    the same vanishing factor). The base margin is ``|n_1 . grad phi(y^2)| / |n_2 . grad phi(y^2)|``
+    (at most 1; 1 on a zig-zag along the path).
+
+    Parameters
+    ----------
+    time : float
+        Simulated time [s].
+    margin : float
+        The base margin [-].
+    threshold : float
+        The threshold it fell below [-].
+    d : float
+        The rail position [m].
+    offset : float
+        The base's distance from the path, ``|phi(y^1)|`` [m].
+    run : object, optional
+        The run up to (and including) that state.
+
+    Notes
+    -----
+    Attributes as :class:`SingularityError` (``kind`` is ``"base"``, ``link`` 1), plus ``d`` and ``offset``.
+    """
+
+    def __init__(self, time: float, margin: float, threshold: float, d: float, offset: float,
+                 run: object | None = None) -> None:
+        super().__init__(time, 1, margin, "base", threshold, run)
+        self.d, self.offset = float(d), float(offset)
+        self.args = (f"the base left the path at t = {self.time:.4f} s: at d = {self.d:.4f} m on the rail the base is "
+                     f"{self.offset:.3g} m off the path and link 1 stands almost across it (base margin "
+                     f"{self.margin:.3g} < {self.threshold:.3g}); run stopped",)
+
+    def __reduce__(self):
+        return (BaseOffPathError, (self.time, self.margin, self.threshold, self.d, self.offset, None))
 
 
 class CollisionError(CoordarmError):

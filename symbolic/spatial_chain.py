@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike
 
 from .chain_model import KinematicChain, check_joint_vector
 from .checks import is_integer, is_real
-from .errors import ConfigError
+from .errors import ConfigError, shown
 from .vectors3d import vector_norm
 
 
@@ -136,12 +136,13 @@ def unit_vector(v: Any, name: str) -> np.ndarray:
     ConfigError
         Not three finite numbers, or zero.
     """
-    arr = np.asarray(v, dtype=float) if np.shape(v) == (3,) and all(is_real(x, numpy=True) for x in v) else None
+    three = (isinstance(v, (list, tuple)) or isinstance(v, np.ndarray) and v.ndim == 1) and len(v) == 3
+    arr = np.asarray(v, dtype=float) if three and all(is_real(x, numpy=True) for x in v) else None
     norm = 0.0
     if arr is not None and np.all(np.isfinite(arr)):
         arr, norm = vector_norm(arr)
     if norm == 0:
-        raise ConfigError(f"{name}: need three finite numbers, not all zero, got {v!r}")
+        raise ConfigError(f"{name}: need three finite numbers, not all zero, got {shown(v)}")
     return arr / norm
 
 

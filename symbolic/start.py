@@ -27,15 +27,15 @@ def place_on_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: float =
     ----------
     ctrl : CoordinatingController
         Chain and curve.
-    q_guess : array_like, shape (m,)
-        Start guess [rad].
+    q_guess : array_like, shape (dof,)
+        Start guess [rad] (on a rail ``d`` [m] first: the base stays at ``d``).
     t0 : float
         Time [s] of the curve to project onto.
 
     Returns
     -------
-    ndarray, shape (m,)
-        Joint coordinates [rad] with every centre on the curve.
+    ndarray, shape (dof,)
+        Joint coordinates [rad] with every centre on the curve (on a rail ``d`` first, kept).
 
     Raises
     ------
@@ -43,7 +43,8 @@ def place_on_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: float =
         No joint angle within the limit puts link j's centre on the curve (named).
     """
     chain = ctrl.chain
-    q_guess = chain.check_q(q_guess, "q_guess")
+    q_full = chain.check_q(q_guess, "q_guess")
+    q_guess = chain.revolute(q_full)
     xi, lim = chain.xi, chain.joint_limits
     mapped: dict[int, ca.Function] = {}
 
@@ -55,7 +56,7 @@ def place_on_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: float =
 
     q = np.empty(chain.m)
     q[0] = q_guess[0]
-    alpha, y = q[0], np.zeros(2)
+    alpha, y = q[0], chain.base_point(q_full)
     for j in range(1, chain.m):
         end = y + 0.5 * xi * direction(alpha)
 
@@ -82,7 +83,7 @@ def place_on_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: float =
         q[j] = roots[np.argmin(np.abs(roots - q_guess[j]))]
         alpha += q[j]
         y = end + 0.5 * xi * direction(alpha)
-    return q
+    return np.r_[q_full[0], q] if chain.rail else q
 
 
 def check_start(ctrl: CoordinatingController, q: np.ndarray) -> None:
@@ -132,8 +133,9 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: flo
     ----------
     ctrl : CoordinatingController
         Chain (with its joint limits and clearance) and curve.
-    q_guess : array_like, shape (m,)
-        Start guess [rad]: link 1's angle is kept, the other joint angles guide the choice.
+    q_guess : array_like, shape (dof,)
+        Start guess [rad]: link 1's angle (and on a rail the base's ``d`` [m], first) is kept,
+        the other joint angles guide the choice.
     t0 : float
         Time [s] of the curve to project onto.
     tol : float
@@ -141,8 +143,8 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: flo
 
     Returns
     -------
-    ndarray, shape (m,)
-        Joint coordinates [rad] with every centre on the curve.
+    ndarray, shape (dof,)
+        Joint coordinates [rad] with every centre on the curve (``d`` first on a rail).
 
     Raises
     ------
@@ -152,21 +154,24 @@ def project_onto_curve(ctrl: CoordinatingController, q_guess: ArrayLike, t0: flo
     """
     chain = ctrl.chain
     q_place = place_on_curve(ctrl, q_guess, t0)
+    base = [float(q_place[0])] if chain.rail else []        # the rail position stays where it is
     q = ca.SX.sym("q", chain.m)
-    y = chain.centres(q)
+    y = chain.centres(ca.vertcat(*base, q))
     geo = ctrl.task.geometry
     s_target = float(geo(chain.centres_np(q_place)[-1], t0)[3])
     res = [geo(y[:, chain.m - 1], t0)[3] - s_target] + [geo(y[:, j], t0)[0] for j in range(1, chain.m)]
     g = ca.Function("project_residual", [q], [ca.vertcat(*res)])
     solver = ca.rootfinder("project", "newton", g, {"abstol": tol, "max_iter": 50,
                                                     "error_on_fail": False})
-    q_star = np.asarray(solver(q_place)).ravel()
+    q_rev = chain.revolute(q_place)
+    q_star = np.asarray(solver(q_rev)).ravel()
     residual = float(np.max(np.abs(np.asarray(g(q_star))))) if np.all(np.isfinite(q_star)) else np.inf
-    if not residual <= 1e-9 or not np.max(np.abs(q_star - q_place)) < 1e-3:
+    q_star_full = np.r_[base, q_star]
+    if not residual <= 1e-9 or not np.max(np.abs(q_star - q_rev)) < 1e-3:
         raise ConfigError(f"start: could not project the chain onto the curve at t0 = {t0} "
                           f"(residual {residual:.3g} m); choose another start guess or curve")
-    check_start(ctrl, q_star)
-    return q_star
+    check_start(ctrl, q_star_full)
+    return q_star_full
 
 
 def follow_curve(ctrl: CoordinatingController, beta: float, t0: float = 0.0, d: float = 0.0,

@@ -320,7 +320,7 @@ def test_a_replaced_library_with_stale_metadata_is_rebuilt_not_loaded(tmp_path):
     assert again.cache_hit is False and again.path.name == LIBRARY and cached(again.path.parent, again.key)
 
 
-def test_ctrl_c_while_the_log_is_being_opened_leaves_no_half_made_file(tmp_path, monkeypatch):
+def test_ctrl_c_while_the_log_is_being_opened_leaves_a_closed_log_of_no_samples(tmp_path, monkeypatch):
     from coordarm.simulation import mcap_writer
 
     def interrupted(scenario):
@@ -329,6 +329,21 @@ def test_ctrl_c_while_the_log_is_being_opened_leaves_no_half_made_file(tmp_path,
     monkeypatch.setattr(mcap_writer, "build_info", interrupted)
     path = tmp_path / "half.mcap"
     with pytest.raises(KeyboardInterrupt):
+        RunLogger(path, load_scenario("line").with_overrides(links=4))
+    assert not partial_path(path).exists()       # issue 25: a log once started is kept, closed
+    rep = load(path)
+    assert rep.outcome["status"] == "interrupted" and len(rep.t) == 0 and rep.scenario.config.chain.links == 4
+
+
+def test_an_error_while_the_log_is_being_opened_leaves_no_half_made_file(tmp_path, monkeypatch):
+    from coordarm.simulation import mcap_writer
+
+    def broken(scenario):
+        raise RuntimeError("no build info")
+
+    monkeypatch.setattr(mcap_writer, "build_info", broken)
+    path = tmp_path / "half.mcap"
+    with pytest.raises(RuntimeError):
         RunLogger(path, load_scenario("line").with_overrides(links=4))
     assert not path.exists() and not partial_path(path).exists()
 

@@ -61,7 +61,7 @@ def main(args: argparse.Namespace) -> int:
     from coordarm.analysis.compare import compare, parse_methods, text_table, write_outputs
     from coordarm.simulation.scenario import load_scenario
 
-    scenario = load_scenario(args.scenario).with_overrides(duration=args.duration)
+    scenario = load_scenario(args.scenario, duration=args.duration)
     methods = parse_methods(args.methods, scenario)
     results = compare(scenario, methods, args.backend, progress=True)
     print(f"scenario {scenario.name} ({scenario.source}), {scenario.config.chain.links} links, "

@@ -63,7 +63,7 @@ def main(args: argparse.Namespace) -> int:
         return 0
 
     names = args.scenarios or presets()
-    scenarios = [load_scenario(n).with_overrides(args.links, law=args.law) for n in names]  # validate all first
+    scenarios = [load_scenario(n, links=args.links, law=args.law) for n in names]  # validate all first
     if args.clean:
         print(f"removed {clean()} cached libraries from {build_root()}")
     for scenario in scenarios:

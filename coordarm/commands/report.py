@@ -21,7 +21,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "run: a log (LOG.mcap) or a scenario (preset or TOML), simulated first without "
                                    "stopping at singularities so that a blow-up is visible.")
     p.add_argument("source", metavar="LOG.mcap|SCENARIO")
-    p.add_argument("--out", type=Path, help="output directory (default: logs/<name>_report)")
+    p.add_argument("--out", type=Path, help="output directory (default: <log folder>/<log name>_report for a log, "
+                                            "logs/<scenario>_report for a scenario)")
+    p.add_argument("--overwrite", action="store_true", help="replace the report in an existing --out")
     p.add_argument("--links", type=int, help="scenario only: override the number of links")
     p.add_argument("--duration", type=float, help="scenario only: override the duration [s]")
     p.add_argument("--samples", type=int,
@@ -55,7 +57,8 @@ def main(args: argparse.Namespace) -> int:
     from coordarm.analysis.report_outputs import report_of
 
     result = report_of(args.source, args.out, links=args.links, duration=args.duration, samples=args.samples,
-                       yes=args.yes, on_problem=lambda text: print(f"coordarm report: {text}", file=sys.stderr),
+                       yes=args.yes, overwrite=args.overwrite,
+                       on_problem=lambda text: print(f"coordarm report: {text}", file=sys.stderr),
                        on_note=lambda text: print(text, file=sys.stderr, flush=True))
     print(f"report        {result.path}", file=sys.stdout)
     for png in result.figures:

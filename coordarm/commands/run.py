@@ -157,8 +157,11 @@ def echo(line: str) -> None:
     ----------
     line : str
         A line of the run (``echo`` of :func:`~coordarm.simulation.session.run_scenario`).
+        Once the reader of standard output has gone (``| head``), the run goes on silently.
     """
-    print(line, flush=True)
+    from coordarm.symbolic.pipes import say
+
+    say(line)
 
 
 def warn(warning: Warning) -> None:

@@ -36,6 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--logs", action="store_true", help="keep each point's MCAP log in OUT/logs/")
     p.add_argument("--no-figures", action="store_true", help="do not draw figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--yes", action="store_true",
+                   help="run a sweep of more than 2e9 RK4 steps (summed over its points) anyway")
     p.set_defaults(func=main)
 
 
@@ -73,7 +75,8 @@ def main(args: argparse.Namespace) -> int:
     scenario = as_scenario(args.scenario)
     out = args.out or Path("logs") / f"{scenario.name}_sweep"
     df = sweep(scenario, vary, client=args.scheduler, samples=args.samples, seed=args.random, out=out,
-               logs=args.logs, workers=args.workers, batch=args.batch, progress=not args.quiet)
+               logs=args.logs, workers=args.workers, batch=args.batch, progress=not args.quiet,
+               yes=args.yes)
     counts = df["outcome"].value_counts()
     print(f"sweep         {scenario.name}: {len(df)} points, "
           + ", ".join(f"{counts.get(o, 0)} {o}" for o in OUTCOMES))

@@ -1,0 +1,91 @@
+"""The base margin of a planar robot on a rail: is its base still where the law can drive the body?
+
+Where a path leaves the rail's line the base ``y^1`` (on the rail) leaves the path. Link 1 then
+turns towards the path's normal at link 2's centre; as it comes to stand across it, the free
+rate of the O(m) solve (link 1's) stops moving the body, and every rate blows up (|u| from 1 to
+hundreds of rad/s in 0.2 s) while the link margins, the longitudinal margin (scaled by the same
+vanishing factor) and the rail margin stay healthy. The base margin
+
+``|n_1 . grad phi(y^2)| / |n_2 . grad phi(y^2)|``, at most 1,
+
+(``n_j`` link j's normal) is the factor by which link 1's rate moves link 2's centre across
+the path, relative to link 2's own: 1 on a zig-zag laid along the path, 0 when link 1 stands
+across it. :data:`BASE_THRESHOLD` stops a run before ``|u|`` passes 10 times its value on the
+path (evidence: ``tests/test_base_margin.py``).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from coordarm.symbolic.chain import PlanarChain
+from coordarm.symbolic.errors import BaseOffPathError
+
+#: The base margin below which a run on a rail stops (outcome ``base_off_path``).
+BASE_THRESHOLD = 0.5
+
+
+def base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The base margin and the base's distance from the path at each row.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        A planar chain on a rail and its curve.
+    t : (N,) ndarray
+        Times [s].
+    q : (N, dof) ndarray
+        Joint coordinates (``d`` [m] first, then the link angles [rad]).
+
+    Returns
+    -------
+    margin : (N,) ndarray
+        ``min(1, |n_1 . grad phi(y^2)| / |n_2 . grad phi(y^2)|)`` [-].
+    offset : (N,) ndarray
+        ``|phi(y^1)|`` [m].
+    """
+    chain = ctrl.chain
+    y = chain.centres_np(q)                              # (N, m, 2)
+    geometry = ctrl.task.geometry.map(len(t))
+    g = np.asarray(geometry(y[:, 1, :].T, t[None, :])[1])               # grad phi at y^2, (2, N)
+    offset = np.abs(np.asarray(geometry(y[:, 0, :].T, t[None, :])[0]).ravel())
+    rail = chain.rail_direction
+    a1 = np.arctan2(rail[1], rail[0]) + q[:, 1]
+    a2 = a1 + q[:, 2]
+    c1 = np.abs(-np.sin(a1) * g[0] + np.cos(a1) * g[1])
+    c2 = np.abs(-np.sin(a2) * g[0] + np.cos(a2) * g[1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        margin = np.where(c1 < c2, c1 / np.where(c2 > 0, c2, 1.0), 1.0)
+    return margin, offset
+
+
+def base_stop(ctrl: Any, t: np.ndarray, q: np.ndarray,
+              threshold: float = BASE_THRESHOLD) -> tuple[int, BaseOffPathError] | None:
+    """The first row whose base margin is below ``threshold`` (or not finite), with its error.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The closed loop; anything but a planar chain on a rail has no base margin (None).
+    t : (N,) ndarray
+        Times [s].
+    q : (N, dof) ndarray
+        Joint coordinates.
+    threshold : float
+        The base margin's threshold [-].
+
+    Returns
+    -------
+    (int, BaseOffPathError) or None
+        The row and the error to stop with, or None.
+    """
+    chain = ctrl.chain
+    if not isinstance(chain, PlanarChain) or not chain.rail or chain.m < 2 or not len(t):
+        return None
+    margin, offset = base_margins(ctrl, t, q)
+    low = np.flatnonzero(~(margin >= threshold))
+    if not len(low):
+        return None
+    row = int(low[0])
+    return row, BaseOffPathError(t[row], float(margin[row]), threshold, float(q[row, 0]), float(offset[row]))

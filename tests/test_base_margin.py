@@ -1,0 +1,93 @@
+"""A robot on a rail whose path bends away from the rail's line: the base margin stops the run before |u| blows up."""
+import numpy as np
+import pytest
+
+from coordarm.simulation import base_margin as bm
+from coordarm.simulation.outcome import EXIT_CODES, explain, outcome_of
+from coordarm.simulation.run import simulate
+from coordarm.simulation.scenario import Scenario
+from coordarm.symbolic.errors import BaseOffPathError, SingularityError
+
+#: 12 links fed in by a rail along x; the path bends 45 degrees (fillet 1.5 m) at x = 1.5, within the rail's reach.
+BEND = {"name": "bend", "chain": {"links": 12, "link_length": 0.1,
+                                  "base": {"kind": "rail", "angle": 0.0, "limits": [-0.1, 8.0]}},
+        "curve": {"kind": "waypoints", "points": [[-0.5, 0.0], [1.5, 0.0], [5.5, 4.0]], "radius": 1.5},
+        "control": {"gain": 2.0, "speed": 0.25}, "start": {"kind": "follow", "beta": 1.1},
+        "run": {"duration": 5.0, "step": 0.002}}
+NOMINAL_U = 0.25      # |u| on the straight part: the rail feeds at v*, the joints rest
+
+
+def _run(monkeypatch=None):
+    sc = Scenario.from_dict(BEND)
+    ctrl = sc.controller()
+    try:
+        return ctrl, simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted",
+                              thresholds=sc.thresholds), None
+    except SingularityError as err:
+        return ctrl, err.run, err
+
+
+def test_the_base_margin_stops_the_run_before_u_passes_ten_times_nominal():
+    ctrl, run, err = _run()
+    assert isinstance(err, BaseOffPathError), err
+    assert np.max(np.abs(run.u)) < 10 * NOMINAL_U
+    tangent_point = 1.5 - 1.5 * np.tan(np.pi / 8)          # where the fillet leaves the rail's line
+    assert err.d > tangent_point and err.offset > 0
+    out = outcome_of(err, float(run.t[-1]))
+    assert out["status"] == "base_off_path" and EXIT_CODES["base_off_path"] == 3
+    what, advice = explain(err)
+    assert "base" in what and "rail" in what and "chain.base.limits" in advice
+
+
+def test_without_it_u_blows_up_while_every_other_margin_stays_healthy(monkeypatch):
+    monkeypatch.setattr("coordarm.simulation.stepping.base_stop", lambda *a, **k: None)
+    ctrl, run, err = _run()
+    u = np.abs(run.u).max(1)
+    assert u.max() > 10 * NOMINAL_U
+    first = np.argmax(u > 10 * NOMINAL_U)
+    assert run.link_margins[:first + 1].min() > 0.3 and run.longitudinal[:first + 1].min() > 0.15
+    margin, _ = bm.base_margins(ctrl, run.t[:first + 1], run.q[:first + 1])
+    assert margin[0] == pytest.approx(1.0) and margin[-1] < bm.BASE_THRESHOLD
+
+
+def test_the_base_margin_is_the_ratio_of_finite_difference_sensitivities(rng):
+    ctrl, run, _ = _run()
+    chain, geo = ctrl.chain, ctrl.task.geometry
+    for i in rng.choice(len(run.t), 5, replace=False):
+        t, q = float(run.t[i]), run.q[i].copy()
+
+        def phi2(dq):
+            return float(geo(chain.centres_np(q + dq)[1], t)[0])
+
+        eps = 1e-6
+        link1 = np.zeros_like(q)
+        link1[1], link1[2] = eps, -eps           # link 1 turns, link 2 keeps its direction
+        link2 = np.zeros_like(q)
+        link2[2] = eps                           # link 2 turns about its joint with link 1
+        s1 = (phi2(link1) - phi2(-link1)) / (2 * eps)
+        s2 = (phi2(link2) - phi2(-link2)) / (2 * eps)
+        margin, offset = bm.base_margins(ctrl, run.t[i:i + 1], run.q[i:i + 1])
+        assert margin[0] == pytest.approx(min(1.0, abs(s1) / abs(s2)), rel=1e-6, abs=1e-9)
+        assert offset[0] == pytest.approx(abs(float(geo(chain.centres_np(q)[0], t)[0])), abs=1e-12)
+
+
+def test_a_run_on_the_straight_part_is_never_stopped_by_it():
+    spec = {**BEND, "curve": {"kind": "waypoints", "points": [[-0.5, 0.0], [9.0, 0.0], [12.0, 3.0]], "radius": 1.5}}
+    sc = Scenario.from_dict(spec)
+    ctrl = sc.controller()
+    run = simulate(ctrl, sc.start(ctrl), 2.0, sc.step, backend="interpreted", thresholds=sc.thresholds)
+    margin, offset = bm.base_margins(ctrl, run.t, run.q)
+    np.testing.assert_allclose(margin, 1.0, atol=1e-9)
+    assert offset.max() < 1e-12
+
+
+def test_with_every_stop_off_the_base_margin_does_not_stop_either():
+    from coordarm.analysis.report import NO_STOP
+    sc = Scenario.from_dict(BEND)
+    ctrl = sc.controller()
+    try:
+        run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted", thresholds=NO_STOP)
+    except SingularityError as err:       # only a non-finite margin stops such a run
+        assert not isinstance(err, BaseOffPathError) or not np.isfinite(err.margin)
+        run = err.run
+    assert np.abs(run.u).max() > 10 * NOMINAL_U          # the blow-up shows, as the report wants
