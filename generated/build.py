@@ -35,6 +35,7 @@ from coordarm.symbolic import BuildError
 from coordarm.symbolic.errors import shown
 
 from .codegen import CODEGEN_OPTIONS, Source
+from .compiler_guard import kill_process_tree, process_alive
 
 #: Optimisation flags (see benchmarks/RESULTS.md); override with COORDARM_CFLAGS. ``-fno-math-errno``
 #: lets the link angles' cosines and sines vectorise (glibc libmvec), ``-march=native`` uses the
@@ -466,27 +467,6 @@ def remove_stale_temporaries(entry: Path) -> int:
     return removed
 
 
-def process_alive(pid: int) -> bool:
-    """Whether process ``pid`` exists (also one of another user).
-
-    Parameters
-    ----------
-    pid : int
-        A process id.
-
-    Returns
-    -------
-    bool
-    """
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return pid > 0
-
-
 def compile_and_link(cc: str, flags: tuple[str, ...], src: str | Path, obj: str | Path,
                      out: str | Path) -> list[list[str]]:
     """The two compiler runs of a build: compile ``src`` to the object ``obj`` with every flag, then
@@ -535,31 +515,6 @@ def _run_compiler(cmd: list[str], timeout: float | None) -> subprocess.Completed
         return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
     finally:
         shutil.rmtree(tmpdir, ignore_errors=True)
-
-
-def kill_process_tree(pid: int) -> None:
-    """SIGKILL process ``pid`` and every process it started, recursively (children looked up first).
-
-    The compiler shares this process's group (so that a terminal's Ctrl-C reaches it), so the
-    group cannot be killed as a whole; psutil finds the descendants.
-
-    Parameters
-    ----------
-    pid : int
-        The process (the compiler driver).
-    """
-    import psutil
-
-    try:
-        root = psutil.Process(pid)
-        tree = [root, *root.children(recursive=True)]
-    except psutil.NoSuchProcess:
-        return
-    for proc in tree:
-        try:
-            proc.kill()
-        except (psutil.NoSuchProcess, psutil.AccessDenied):
-            pass
 
 
 def clean(build_dir: str | os.PathLike | None = None) -> int:

@@ -112,3 +112,49 @@ def main(argv: list[str]) -> int:
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1:]))
+
+
+def process_alive(pid: int) -> bool:
+    """Whether process ``pid`` exists (also one of another user).
+
+    Parameters
+    ----------
+    pid : int
+        A process id.
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return pid > 0
+
+
+def kill_process_tree(pid: int) -> None:
+    """SIGKILL process ``pid`` and every process it started, recursively (children looked up first).
+
+    The compiler shares this process's group (so that a terminal's Ctrl-C reaches it), so the
+    group cannot be killed as a whole; psutil finds the descendants.
+
+    Parameters
+    ----------
+    pid : int
+        The process (the compiler driver).
+    """
+    import psutil
+
+    try:
+        root = psutil.Process(pid)
+        tree = [root, *root.children(recursive=True)]
+    except psutil.NoSuchProcess:
+        return
+    for proc in tree:
+        try:
+            proc.kill()
+        except (psutil.NoSuchProcess, psutil.AccessDenied):
+            pass

@@ -1,5 +1,6 @@
 """The reproducers of issue 25: each ends in one line naming the file, field or flag, or works."""
 import re
+import sys
 from importlib import resources
 
 import numpy as np
@@ -220,7 +221,8 @@ def test_bad_report_arguments_are_refused_before_casadi_or_matplotlib_load(tmp_p
 
 def test_a_run_piped_into_a_reader_that_stops_early_completes_quietly(tmp_path):
     import subprocess
-    proc = subprocess.Popen(["coordarm", "run", "line", "--links", "6", "--duration", "0.3", "--no-figures",
+    proc = subprocess.Popen([sys.executable, "-m", "coordarm", "run", "line", "--links", "6", "--duration", "0.3",
+                             "--no-figures",
                              "--out", str(tmp_path / "p.mcap")], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     first = proc.stdout.readline()
     proc.stdout.close()                       # the reader goes away, like `| head -1`
@@ -238,7 +240,7 @@ def test_a_huge_link_count_with_a_joint_limit_is_refused_before_a_chain_is_built
     if "joint_limit" not in text:
         text = text.replace("link_length = 0.1", "link_length = 0.1\njoint_limit = 2.0", 1)
     path.write_text(text)
-    with pytest.raises(ConfigError, match=r"chain\.links: at most 4096"):
+    with pytest.raises(ConfigError, match=r"chain\.links: 99999999999999999999 links need at least .* of memory, more than this machine"):
         load_scenario(path)
 
 
