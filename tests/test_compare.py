@@ -252,8 +252,6 @@ def test_compare_on_a_rail_robot_runs_all_four_methods_and_holds_them_to_the_rai
     assert "peak rail rate [m/s]" in paths["md"].read_text() and paths["png"].stat().st_size > 10_000
 
 
-@pytest.mark.xfail(strict=True, reason="README's thread table shows the G1 path; issue 28 made thread's path G2 "
-                   "(coordinating: max dev < 1e-9, peak u 0.135): the README owner regenerates it")
 def test_compare_thread_reproduces_the_readme_table(tmp_path):
     out = tmp_path / "thread"
     assert cli_main(["compare", "thread", "--out", str(out)]) == 0
