@@ -96,8 +96,10 @@ class ChainTable:
         its ``joint_limit`` bounds the bend ``acos(d_{j-1} . d_j)`` between consecutive links).
     radius : float or None
         Capsule radius of a universal chain's links [m]; None: ``link_length / 10``.
-    rates : (float or None, float or None)
-        ``rate_limit`` [rad/s] and ``accel_limit`` [rad/s^2] (:mod:`.joint_rates`); None: unchecked.
+    rate_limit : float or None
+        Largest ``|u|`` of any joint [rad/s], checked at every step (:mod:`.joint_rates`); None: unchecked.
+    accel_limit : float or None
+        Largest joint acceleration ``|du/dt|`` [rad/s^2], checked at every step; None: unchecked.
     """
 
     links: int
@@ -108,7 +110,13 @@ class ChainTable:
     base_args: dict = field(default_factory=lambda: {"base": "fixed"}, compare=False, repr=False)
     joints: str = "revolute"
     radius: float | None = None
-    rates: tuple[float | None, float | None] = (None, None)
+    rate_limit: float | None = None
+    accel_limit: float | None = None
+
+    @property
+    def rates(self) -> tuple[float | None, float | None]:
+        """``(rate_limit, accel_limit)`` [rad/s, rad/s^2]."""
+        return self.rate_limit, self.accel_limit
 
     @property
     def universal(self) -> bool:
@@ -441,7 +449,7 @@ def _chain(ch: dict) -> ChainTable:
     joints = check_joints(ch.get("joints", "revolute"))
     return ChainTable(ch["links"], ch["link_length"], ch.get("joint_limit"), ch.get("clearance"), ch.get("base"),
                       base_args(ch.get("base", "fixed"), joints == "universal"), joints, ch.get("radius"),
-                      rate_limits(ch))
+                      *rate_limits(ch))
 
 
 def _span(control: dict, chain: ChainTable) -> Any:

@@ -17,7 +17,7 @@ def preset_text(name):
 
 
 def test_presets_are_the_papers_three_scenarios_and_load():
-    assert presets() == ["arc", "hole", "line", "line3d", "path3d", "pipe", "thread"]
+    assert presets() == ["arc", "hole", "line", "line3d", "path3d", "pipe", "pipe3d", "port", "thread"]
     assert load_scenario("line").chain().m == 64 and load_scenario("arc").chain().m == 64
     hole = load_scenario("hole")
     assert hole.chain().m == 50 and [o.name for o in hole.obstacles] == [f"wall {i}" for i in range(1, 6)]

@@ -136,9 +136,8 @@ def rows() -> list[Row]:
                            [k for k in keys if k not in need], "planar")
     spatial = {"line": ClassDoc(__import__("coordarm.symbolic.curves3d", fromlist=["Line3D"]).Line3D)}
     from coordarm.symbolic.curves3d import Arc3D, Circle3D
-    from coordarm.symbolic.waypoints3d import waypoint_segments3d
     spatial.update(circle=ClassDoc(Circle3D), arc=ClassDoc(Arc3D), path=ClassDoc(paths3d.Path3D),
-                   waypoints=FunctionDoc(waypoint_segments3d))
+                   waypoints=FunctionDoc(paths3d.Path3D.from_waypoints))
     for kind, (need, optional) in curve3d_specs.CURVE3D_KINDS.items():
         out += _class_rows(f"curve kind={kind} spatial", _docs(spatial[kind], "Parameters"), need, optional,
                            "spatial")
@@ -146,7 +145,9 @@ def rows() -> list[Row]:
             Row("curve.segments[]", "arc", "float", "rad", "—", "An arc turning by this angle (planar: + = left)."),
             Row("curve.segments[]", "radius", "float", "m", "required with `arc`", "The arc's radius."),
             Row("curve.segments[]", "bank", "float", "rad", "`0.0`",
-                "The arc turns towards `cos(bank) n_1 + sin(bank) n_2`.", "spatial")]
+                "The arc turns towards `cos(bank) n_1 + sin(bank) n_2`.", "spatial"),
+            Row("curve.segments[]", "transition", "float", "m", "the path's",
+                "Length of the clothoid transition at the junction before this segment (0: a G1 join).")]
     texts = {"a": "One end of the wall segment [m].", "b": "The other end [m].", "center": "Centre of the disc [m].",
              "radius": "Radius of the disc [m].", "points": "Corners of the closed (solid) polygon [m]."}
     for kind, keys in obstacles.KINDS.items():
