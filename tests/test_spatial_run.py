@@ -188,10 +188,10 @@ def test_a_start_outside_a_paths_tube_is_refused():
 
 @pytest.fixture(scope="module")
 def logged(setup, tmp_path_factory):
-    """The run logged by a RunLogger at every step (the scenario metadata: a planar preset of as many links,
-    standing in until spatial scenario files exist; the controller is the spatial one)."""
+    """The run logged by a RunLogger at every step (the scenario metadata: the line3d preset with as many links;
+    the controller is the fixture's own spatial one)."""
     _, _, q0, ctrl = setup
-    scenario = load_scenario("line").with_overrides(links=LINKS, duration=0.5, step=STEP)
+    scenario = load_scenario("line3d").with_overrides(links=LINKS, duration=0.5, step=STEP)
     path = tmp_path_factory.mktemp("spatial") / "spatial.mcap"
     with RunLogger(path, scenario, ctrl, chunk_size=8 * 1024, command=["test"]) as log:
         run = simulate(ctrl, q0, 0.5, STEP, backend="interpreted", chunk=37, on_chunk=log.on_chunk)
@@ -268,7 +268,7 @@ def test_a_logged_stop_at_a_joint_margin_is_the_logs_outcome(tmp_path):
     from coordarm.simulation.outcome import explain
 
     ctrl, q0 = rolling()
-    scenario = load_scenario("line").with_overrides(links=LINKS, duration=1.0, step=0.01)
+    scenario = load_scenario("line3d").with_overrides(links=LINKS, duration=1.0, step=0.01)
     path = tmp_path / "stop.mcap"
     with pytest.raises(SingularityError) as info:
         with RunLogger(path, scenario, ctrl, cond_rate=10.0) as log:
