@@ -2,7 +2,7 @@
 
 Where a path leaves the rail's line the base ``y^1`` (on the rail) leaves the path. Link 1 then
 turns towards the path's normal at link 2's centre; as it comes to stand across it, the free
-rate of the O(m) solve (link 1's) stops moving the body, and every rate blows up (|u| from 1 to
+rate of the O(m) solve (link 1's) stops moving the body, and every rate blows up (``|u|`` from 1 to
 hundreds of rad/s in 0.2 s) while the link margins, the longitudinal margin (scaled by the same
 vanishing factor) and the rail margin stay healthy. The base margin
 
