@@ -273,6 +273,51 @@ def compiled(fn: ca.Function, kind: str, m: int) -> ca.Function:
     return ca.external(fn.name(), str(lib.path))
 
 
+def mapped_once(cache: dict, fn: ca.Function, kind: str, m: int, n: int, backend: str) -> ca.Function:
+    """``fn`` mapped over ``n`` samples, as generated C for ``backend="compiled"``; kept in ``cache``.
+
+    The compiled ``fn`` is built once (under ``cache["compiled"]``) and shared by every ``n``; each map is
+    kept under ``("map", n, backend)``.
+
+    Parameters
+    ----------
+    cache : dict
+        The owner's cache of built Functions (written to).
+    fn : casadi.Function
+        The Function of one sample.
+    kind : str
+        What it is, for the build cache (see :func:`compiled`), e.g. ``"ftl"``.
+    m : int
+        Number of links (likewise).
+    n : int
+        Number of samples.
+    backend : {"compiled", "interpreted"}
+        Generated C (built or taken from the build cache), or CasADi's virtual machine.
+
+    Returns
+    -------
+    casadi.Function
+        ``fn.map(n)`` of the chosen backend.
+
+    Raises
+    ------
+    ConfigError
+        Unknown ``backend``.
+    BuildError
+        ``backend="compiled"`` and the C code cannot be built.
+    """
+    if backend not in BACKENDS:
+        raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+    key = ("map", n, backend)
+    if key not in cache:
+        if backend == "compiled":
+            if "compiled" not in cache:
+                cache["compiled"] = compiled(fn, kind, m)
+            fn = cache["compiled"]
+        cache[key] = fn.map(n)
+    return cache[key]
+
+
 def stop_at_rail_limit(run: Run, chain: PlanarChain) -> Run:
     """``run`` up to its last sample inside the rail's limits (then ``info["stopped"] = "rail_limit"``).
 

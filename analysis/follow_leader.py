@@ -35,7 +35,7 @@ from coordarm.simulation.run import Run
 from coordarm.symbolic import ConfigError, CoordinatingController
 from coordarm.symbolic.chain import direction, normal
 
-from .baselines import BACKENDS, compiled, stop_at_rail_limit
+from .baselines import mapped_once, stop_at_rail_limit
 
 #: Newton iterations placing one link's centre on the path (quadratic convergence from the mirror guess).
 NEWTON = 8
@@ -237,17 +237,7 @@ class FollowTheLeader:
         BuildError
             ``backend="compiled"`` and the C code cannot be built.
         """
-        if backend not in BACKENDS:
-            raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
-        key = ("map", n, backend)
-        if key not in self._cache:
-            fn = self.function()
-            if backend == "compiled":
-                if "compiled" not in self._cache:
-                    self._cache["compiled"] = compiled(fn, "ftl", self.ctrl.chain.m)
-                fn = self._cache["compiled"]
-            self._cache[key] = fn.map(n)
-        return self._cache[key]
+        return mapped_once(self._cache, self.function(), "ftl", self.ctrl.chain.m, n, backend)
 
 
 def simulate_ftl(law: FollowTheLeader, duration: float, step: float, backend: str = "compiled") -> Run:

@@ -31,7 +31,7 @@ import numpy as np
 
 from coordarm.symbolic import ConfigError
 
-from .baselines import BACKENDS, compiled
+from .baselines import mapped_once
 from .follow_leader import NEWTON
 from .follow_leader import TOLERANCE as LAID_TOLERANCE
 
@@ -395,17 +395,7 @@ class SpatialFollowTheLeader:
         BuildError
             ``backend="compiled"`` and the C code cannot be built.
         """
-        if backend not in BACKENDS:
-            raise ConfigError(f"backend: expected one of {BACKENDS}, got {backend!r}")
-        key = ("map", n, backend)
-        if key not in self._cache:
-            fn = self.function()
-            if backend == "compiled":
-                if "compiled" not in self._cache:
-                    self._cache["compiled"] = compiled(fn, "ftl3d", self.ctrl.chain.m)
-                fn = self._cache["compiled"]
-            self._cache[key] = fn.map(n)
-        return self._cache[key]
+        return mapped_once(self._cache, self.function(), "ftl3d", self.ctrl.chain.m, n, backend)
 
     def continuous(self, Q: np.ndarray) -> np.ndarray:
         """``Q`` (N, dof) with every ``a_j`` unwrapped in time (each is an ``atan2`` in ``(-pi, pi]``).

@@ -152,11 +152,7 @@ def outputs_of(rail: bool = False) -> tuple[Output, ...]:
     tuple of Output
         In packed order.
     """
-    if not rail:
-        return LAW_OUTPUTS
-    u = LAW_OUTPUTS[0]
-    return (Output(u.name, 1, 1, u.unit, u.channel, u.description + "; d_dot [m/s] first"),
-            *LAW_OUTPUTS[1:], *RAIL_LAW_OUTPUTS)
+    return _with_rail(LAW_OUTPUTS, 1) if rail else LAW_OUTPUTS
 
 
 def packed_width(m: int, rail: bool = False) -> int:
@@ -192,11 +188,7 @@ def offsets(m: int, rail: bool = False) -> dict[str, tuple[int, int]]:
     dict of str to (int, int)
         Start index and width of each output, in packing order.
     """
-    out, start = {}, 0
-    for o in outputs_of(rail):
-        out[o.name] = (start, o.width(m))
-        start += o.width(m)
-    return out
+    return _offsets_of(outputs_of(rail), m)
 
 
 def split(packed: Any, m: int, rail: bool = False) -> dict[str, Any]:
@@ -221,19 +213,7 @@ def split(packed: Any, m: int, rail: bool = False) -> dict[str, Any]:
     ValueError
         The last axis is not ``packed_width(m)`` long.
     """
-    if packed.shape[-1] != packed_width(m, rail):
-        raise ValueError(f"packed outputs: last axis of {packed.shape[-1]}, expected {packed_width(m, rail)} "
-                         f"for {m} links")
-    result: dict[str, Any] = {}
-    offs = offsets(m, rail)
-    for o in outputs_of(rail):
-        start, width = offs[o.name]
-        if o.scalar:
-            v = packed[..., start]
-            result[o.name] = float(v) if v.ndim == 0 else v
-        else:
-            result[o.name] = packed[..., start:start + width]
-    return result
+    return _split_rows(packed, outputs_of(rail), m, "packed outputs")
 
 
 def spatial_outputs_of(rail: bool = False) -> tuple[Output, ...]:
@@ -250,11 +230,7 @@ def spatial_outputs_of(rail: bool = False) -> tuple[Output, ...]:
     tuple of Output
         In packed order.
     """
-    if not rail:
-        return SPATIAL_LAW_OUTPUTS
-    u = SPATIAL_LAW_OUTPUTS[0]
-    return (Output(u.name, 2, 1, u.unit, u.channel, u.description + "; d_dot [m/s] first"),
-            *SPATIAL_LAW_OUTPUTS[1:], *RAIL_LAW_OUTPUTS)
+    return _with_rail(SPATIAL_LAW_OUTPUTS, 2) if rail else SPATIAL_LAW_OUTPUTS
 
 
 def spatial_packed_width(m: int, rail: bool = False) -> int:
@@ -294,11 +270,7 @@ def spatial_offsets(m: int, rail: bool = False) -> dict[str, tuple[int, int]]:
     dict of str to (int, int)
         Start index and width of each output, in packing order.
     """
-    out, start = {}, 0
-    for o in spatial_outputs_of(rail):
-        out[o.name] = (start, o.width(m))
-        start += o.width(m)
-    return out
+    return _offsets_of(spatial_outputs_of(rail), m)
 
 
 def spatial_split(packed: Any, m: int, rail: bool = False) -> dict[str, Any]:
@@ -323,12 +295,33 @@ def spatial_split(packed: Any, m: int, rail: bool = False) -> dict[str, Any]:
     ValueError
         The last axis is not ``spatial_packed_width(m, rail)`` long.
     """
-    width = spatial_packed_width(m, rail)
+    return _split_rows(packed, spatial_outputs_of(rail), m, "packed spatial outputs")
+
+
+def _with_rail(rows: tuple[Output, ...], u_rows: int) -> tuple[Output, ...]:
+    """``rows`` on a rail: ``u`` (``u_rows`` rows) one wider, ``d_dot`` [m/s] first; :data:`RAIL_LAW_OUTPUTS` last."""
+    u = rows[0]
+    return (Output(u.name, u_rows, 1, u.unit, u.channel, u.description + "; d_dot [m/s] first"),
+            *rows[1:], *RAIL_LAW_OUTPUTS)
+
+
+def _offsets_of(rows: tuple[Output, ...], m: int) -> dict[str, tuple[int, int]]:
+    """``name -> (start, width)`` of each of ``rows`` packed in order for ``m`` links."""
+    out, start = {}, 0
+    for o in rows:
+        out[o.name] = (start, o.width(m))
+        start += o.width(m)
+    return out
+
+
+def _split_rows(packed: Any, rows: tuple[Output, ...], m: int, label: str) -> dict[str, Any]:
+    """``packed`` (last axis the widths of ``rows`` summed) split by row; ``label`` names it in the error."""
+    width = sum(o.width(m) for o in rows)
     if packed.shape[-1] != width:
-        raise ValueError(f"packed spatial outputs: last axis of {packed.shape[-1]}, expected {width} for {m} links")
+        raise ValueError(f"{label}: last axis of {packed.shape[-1]}, expected {width} for {m} links")
     result: dict[str, Any] = {}
-    offs = spatial_offsets(m, rail)
-    for o in spatial_outputs_of(rail):
+    offs = _offsets_of(rows, m)
+    for o in rows:
         start, w = offs[o.name]
         if o.scalar:
             v = packed[..., start]
