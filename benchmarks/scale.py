@@ -46,6 +46,7 @@ from timing import fmt_ratio  # noqa: E402
 SIZES = (16, 64, 256, 1024, 4096, 16384)
 RT_SIZES = (64, 256, 1024, 4096)
 START, END = "<!-- scale.py: start -->", "<!-- scale.py: end -->"
+README_START, README_END = "<!-- speed: start (written by benchmarks/scale.py) -->", "<!-- speed: end -->"
 ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
 COORDARM = [sys.executable, "-m", "coordarm"]
 
@@ -295,16 +296,61 @@ def report(data: dict, load: list[float], rounds: int) -> list[str]:
     return out
 
 
-def write(lines: list[str]) -> None:
-    path = HERE / "RESULTS.md"
+def readme_block(data: dict) -> list[str]:
+    """The README's speed lines, from the numbers of ``scale.json`` (the same medians as :func:`report`).
+
+    Parameters
+    ----------
+    data : dict
+        The contents of ``benchmarks/scale.json`` (every part measured).
+
+    Returns
+    -------
+    list of str
+        Markdown lines: the law, the command, the sizes and the real-time loop.
+    """
+    cpu = next((ln.split(": ", 1)[1] for ln in data.get("machine", []) if ln.startswith("* Model name")), "")
+    loads = [x for v in data["loads"].values() for x in v]
+    law = {m: np.median(data["export"][m]["static (Makefile flags)"]) / 1e3 for m in ("64", "1024")}
+    cmd = data["command"]
+    links = data["links"]
+    ms = np.array(SIZES)
+    wall = [float(np.median(links["wall"][str(m)])) for m in SIZES]
+    rt = {m: data["rt"][f"{m} real-time"] for m in ("64", "1024")}
+    return [f"Measured by `benchmarks/scale.py` ({data['when']['command']}, 2-vCPU {cpu or 'machine'} shared with "
+            f"other jobs, load {min(loads):.1f}–{max(loads):.1f}; medians of interleaved rounds; all of it in "
+            "`benchmarks/RESULTS.md`):", "",
+            f"* **The law** (exported C, static build): {law['64']:.3g} µs per call at 64 links, "
+            f"{law['1024']:.3g} µs at 1024.",
+            f"* **A run** of 64 links for 30 s (30,000 RK4 steps): the bare simulation {np.median(cmd['bare']):.3g} s; "
+            f"`coordarm run --no-figures` (start-up, physical checks, log) {per_round(cmd['--no-figures'], cmd['bare'])} "
+            f"of it; the 100 Hz log {per_round(cmd['100 Hz log'], cmd['checked'])} and the full-rate log "
+            f"{per_round(cmd['full-rate log'], cmd['checked'])} the checked, unlogged run.",
+            f"* **Any size**: a 1 s run of 16 to 16384 links takes {wall[0]:.3g} to {wall[-1]:.3g} s "
+            f"(time ∝ m^{exponent(ms, wall):.2f}); 1024 links cost "
+            f"{per_round(links['cond']['1024'], links['cond']['4096'])} of 4096.",
+            f"* **Real time** (`example_rt`, 1 kHz, SCHED_FIFO): the law's p99 {rt['64']['law'][1]:.3g} µs at 64 "
+            f"links, {rt['1024']['law'][1]:.3g} µs at 1024; wake-up p99 {rt['64']['wake-up'][1]:.3g} µs."]
+
+
+def replace_block(path: Path, start: str, end: str, lines: list[str]) -> bool:
+    """Replace the text between two marker lines of a file; False when the markers are missing."""
     text = path.read_text()
-    block = "\n".join([START, *lines, END])
-    if START in text:
-        text = re.sub(re.escape(START) + ".*?" + re.escape(END), lambda _: block, text, flags=re.S)
-    else:
-        text = text.rstrip() + "\n\n## Every size, the command's cost, the export (issue 24; `benchmarks/scale.py`)\n\n" \
-               + block + "\n"
-    path.write_text(text)
+    if start not in text:
+        return False
+    block = "\n".join([start, *lines, end])
+    path.write_text(re.sub(re.escape(start) + ".*?" + re.escape(end), lambda _: block, text, flags=re.S))
+    return True
+
+
+def write(lines: list[str], data: dict) -> None:
+    """Write the report into RESULTS.md and the speed lines into the README."""
+    path = HERE / "RESULTS.md"
+    if not replace_block(path, START, END, lines):
+        path.write_text(path.read_text().rstrip() + "\n\n## Every size, the command's cost, the export (issue 24; "
+                        "`benchmarks/scale.py`)\n\n" + "\n".join([START, *lines, END]) + "\n")
+    if all(part in data for part in ("links", "command", "export", "rt")):
+        replace_block(HERE.parent / "README.md", README_START, README_END, readme_block(data))
 
 
 def main() -> None:
@@ -333,10 +379,11 @@ def main() -> None:
     print("\n".join(lines))
     if not args.no_write:
         merged["loads"] = loads
+        merged["machine"] = [line for line in machine() if "load average at start" not in line]
         merged["when"] = {**saved.get("when", {}), **{name: time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
                                                         for name in data}}
         (HERE / "scale.json").write_text(json.dumps(merged, indent=1, default=str))
-        write(lines)
+        write(lines, merged)
 
 
 if __name__ == "__main__":
