@@ -480,7 +480,7 @@ class SceneBuilder:
             return []
         chain = self.ctrl.chain
         joints = chain.joints_np(part.q[ks])
-        base = chain.centres_np(part.q[ks])[:, 0]
+        base = chain.base_point(part.q[ks])               # y^1, the first central point
         curves = self.curves(part.t[ks])
         if self.frames == "all":
             frames = frame_transforms_json(joints, ns)
