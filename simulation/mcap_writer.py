@@ -68,8 +68,9 @@ from .scene3d import scene_builder
 FLUSH_INTERVAL = 0.5
 
 
-#: Default uncompressed chunk size [bytes]: zstd level 1 compresses a 64-link run's 1 MiB chunks about
-#: 1.5x faster than 256 KiB ones, for a slightly smaller file (benchmarks/RESULTS_logging.md).
+#: Default uncompressed chunk size [bytes]: zstd level 1 once compressed a 64-link run's 1 MiB chunks about
+#: 1.5x faster than 256 KiB ones (benchmarks/RESULTS_logging.md); with zstandard 0.25 and lz4 4.4 the
+#: full-rate log of 64 links takes the same time in 256 KiB, 1 MiB or 4 MiB chunks (RESULTS.md, issue 24).
 CHUNK_SIZE = 1 << 20
 
 #: Default rate of the scene channels [Hz] (``/margins/cond``: :data:`~.cond_channel.COND_RATE`).
