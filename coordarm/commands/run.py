@@ -6,7 +6,7 @@ import math
 import sys
 from pathlib import Path
 
-from coordarm.simulation.choices import BACKENDS, COMPRESSIONS, DENSE_LINKS, presets
+from coordarm.simulation.choices import BACKENDS, COMPRESSIONS, DEFAULT_COMPRESSION, DENSE_LINKS, presets
 from coordarm.symbolic.laws import LAWS
 
 
@@ -47,7 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cond-exact", action="store_true",
                    help="log the exact 2-norm condition number instead (an SVD per sample, O(m^3): slow above "
                         "a few hundred links; default rate then 1 Hz up to 64 links, falling as 1/m^2, off above 1024)")
-    p.add_argument("--compression", choices=COMPRESSIONS, default="lz4",
+    p.add_argument("--compression", choices=COMPRESSIONS, default=DEFAULT_COMPRESSION,
                    help="chunk compression of the log: lz4 (default, 2-3x faster to write than zstd), zstd (a "
                         "~1.4x smaller file) or none (the cheapest to write, ~2.6x larger than zstd)")
     p.add_argument("--live", action="store_true",
