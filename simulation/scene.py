@@ -495,7 +495,7 @@ class SceneBuilder:
         colours = np.repeat(margin_colours(part.link_margins[ks]), 2, axis=1).reshape(len(ks), -1)
         scenes: list[bytes] = [b""] * len(ks)
         sizes = np.array([len(c) for c in curves])
-        for size in np.unique(sizes):        # one template per number of curve points (one for a line)
+        for size in sorted(set(sizes.tolist())):  # one template per number of curve points (one for a line)
             rows = np.flatnonzero(sizes == size)
             values = np.concatenate([       # in the template's order: stamp, target, joints, carriage, arm, curve
                 _stamps(np.asarray(ns)[rows]), np.round(targets[rows] * 1e12),
