@@ -26,9 +26,9 @@ class Backend(StrEnum):
 class Compression(StrEnum):
     """Chunk compression of the run log (all in the MCAP specification and read by Foxglove).
 
-    ``ZSTD`` (level 1, the smallest file), ``LZ4`` (needs the optional ``lz4`` package,
-    ``pip install coordarm[lz4]``) and ``NONE`` (chunks stored as they are: the cheapest to
-    write, a 2.6x larger file at 64 links).
+    ``LZ4`` (frame format, the default: compresses a 64-link full-rate log 2-3x faster than zstd, for a
+    file about 1.4x larger), ``ZSTD`` (level 1, the smallest file) and ``NONE`` (chunks stored as they
+    are, a 2.6x larger file at 64 links); :data:`DEFAULT_COMPRESSION`.
     """
 
     LZ4 = "lz4"
@@ -53,6 +53,8 @@ class Outcome(StrEnum):
 
 #: The backends as plain strings (argparse choices and error messages).
 BACKENDS = tuple(b.value for b in Backend)
+#: The log's chunk compression unless one is asked for (``--compression``; benchmarks/RESULTS.md, issue 24).
+DEFAULT_COMPRESSION = Compression.LZ4.value
 #: The compressions as plain strings, sorted (argparse choices and error messages).
 COMPRESSIONS = tuple(c.value for c in Compression)
 #: Methods of ``coordarm compare`` (:mod:`coordarm.analysis.compare`), in table order.
@@ -80,7 +82,7 @@ def presets() -> list[str]:
 
 
 def lz4_frame() -> ModuleType:
-    """The ``lz4.frame`` module, imported on first need (lz4 is an optional dependency).
+    """The ``lz4.frame`` module, imported on first need (imported only when a log uses it).
 
     Returns
     -------
@@ -96,4 +98,4 @@ def lz4_frame() -> ModuleType:
         return import_module("lz4.frame")
     except ImportError:
         raise ConfigError("compression lz4: the lz4 package is not installed; "
-                          "install it with: pip install 'coordarm[lz4]' (or use zstd)") from None
+                          "install it with: pip install lz4 (or use --compression zstd)") from None

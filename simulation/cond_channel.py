@@ -7,8 +7,11 @@ import numpy as np
 
 from coordarm.symbolic.numeric import EXACT_COND_DOF
 
-#: Default rate of ``/margins/cond`` [Hz].
-COND_RATE = 5.0
+#: Default rate of ``/margins/cond`` [Hz] up to :data:`~coordarm.symbolic.numeric.EXACT_COND_DOF` joints: one exact
+#: 1-norm value costs about 0.2 ms at 64 links on a quiet machine (the curve's geometry at every centre, the
+#: decoupling matrix, a dense inverse), about as much as 20 RK4 steps of the compiled law; at 1 Hz that is ~2 %
+#: of a run (5 Hz, the former default, made the 100 Hz log cost ~10 % more; benchmarks/RESULTS.md, issue 24).
+COND_RATE = 1.0
 #: Above this many links the exact ``/margins/cond`` is off unless a rate is given (one SVD of a
 #: 4096 x 4096 decoupling matrix takes about a minute; at 16384 links the matrix is 2 GiB).
 COND_LINK_LIMIT = 1024

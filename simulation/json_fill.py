@@ -18,22 +18,25 @@ import numpy as np
 LIMIT = 10 ** 18
 
 
-#: ASCII of "0000" .. "9999".
-_GROUPS = np.frombuffer("".join(f"{i:04d}" for i in range(10000)).encode(), np.uint8).reshape(10000, 4)
+#: ASCII of "0000" .. "9999", four bytes each as one little-endian uint32 (one gather per group of digits).
+_GROUPS = np.frombuffer("".join(f"{i:04d}" for i in range(10000)).encode(), "<u4")
 #: 10**0 .. 10**18: the number of these <= |v| is the number of digits of v (v != 0).
 _POWERS = 10 ** np.arange(19, dtype=np.int64)
 
 
 @functools.lru_cache(maxsize=None)
 def _padding(width: int) -> np.ndarray:
-    """What to subtract from ``width`` ASCII digits to blank ``b`` leading zeros (``'0' - ' '``) and,
-    if negative, turn the last of them into ``'-'``: row ``2 b + negative``."""
-    table = np.zeros((width + 1, 2, width), np.uint8)
+    """What to subtract from the ``width`` ASCII digits (right-aligned in whole groups of four bytes, as
+    uint32 words) to blank ``b`` leading zeros (``'0' - ' '``) and, if negative, turn the last of them
+    into ``'-'``: row ``2 b + negative``. No byte borrows from its neighbour (each digit >= ``'0'``)."""
+    groups = -(-width // 4)
+    table = np.zeros((width + 1, 2, 4 * groups), np.uint8)
+    lead = 4 * groups - width                     # bytes before the text (cut off by the caller)
     for b in range(width + 1):
-        table[b, :, :b] = ord("0") - ord(" ")
+        table[b, :, lead:lead + b] = ord("0") - ord(" ")
         if b:
-            table[b, 1, b - 1] = ord("0") - ord("-")
-    return table.reshape(-1, width)
+            table[b, 1, lead + b - 1] = ord("0") - ord("-")
+    return table.reshape(-1, 4 * groups).view("<u4")
 
 
 def int_text(values: np.ndarray, width: int) -> np.ndarray:
@@ -49,18 +52,23 @@ def int_text(values: np.ndarray, width: int) -> np.ndarray:
     Returns
     -------
     uint8 array, shape ``values.shape + (width,)``
-        ASCII codes, one row of ``width`` characters per value.
+        ASCII codes, one row of ``width`` characters per value (a view of a wider buffer).
     """
     v = np.asarray(values, np.int64)
     rest = np.abs(v)
+    blanks = np.zeros(v.shape, np.intp)          # leading blanks: width - digits (at least one digit)
+    for k in range(1, width):
+        blanks += rest < _POWERS[k]
     groups = -(-width // 4)
-    buf = np.empty(v.shape + (groups, 4), np.uint8)
-    blanks = width - np.maximum(1, np.searchsorted(_POWERS, rest, side="right"))
-    for j in range(groups - 1, -1, -1):          # four digits per integer division
-        rest, low = np.divmod(rest, 10000)
-        buf[..., j, :] = np.take(_GROUPS, low, axis=0)
-    out = buf.reshape(v.shape + (4 * groups,))[..., 4 * groups - width:]
-    return out - np.take(_padding(width), 2 * blanks + (v < 0), axis=0)
+    buf = np.empty(v.shape + (groups,), "<u4")
+    for j in range(groups - 1, 0, -1):           # four digits per integer division
+        buf[..., j] = _GROUPS[rest % 10000]
+        rest //= 10000
+    buf[..., 0] = _GROUPS[rest]
+    blanks *= 2
+    blanks += v < 0
+    buf -= np.take(_padding(width), blanks, axis=0)
+    return buf.view(np.uint8).reshape(v.shape + (4 * groups,))[..., 4 * groups - width:]
 
 
 def text_width(values: np.ndarray) -> int:

@@ -31,7 +31,7 @@ from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, M
                           Statistics, SummaryOffset)
 from mcap.writer import LIBRARY_IDENTIFIER, MCAP0_MAGIC
 
-from .choices import COMPRESSIONS, Compression, lz4_frame
+from .choices import COMPRESSIONS, DEFAULT_COMPRESSION, Compression, lz4_frame
 from .log_layout import DIGEST_KEY, metadata_digest
 
 
@@ -183,10 +183,10 @@ class McapFile:
         File to create (emptied if it exists), locked against a second writer until closed.
     profile : str
         MCAP profile written in the header (``"ros2"`` for ``cdr`` channels).
-    compression : {"zstd", "lz4", "none"}
-        Chunk compression: zstd (level 1) makes smaller files, lz4 (frame format, fast mode)
-        compresses about twice as fast, none stores the records as they are (MCAP's empty
-        compression string; benchmarks/RESULTS_logging.md).
+    compression : {"lz4", "zstd", "none"}
+        Chunk compression: lz4 (frame format, fast mode; the default) compresses 2-3x faster than
+        zstd (level 1), which makes files about 1.4x smaller; none stores the records as they are
+        (MCAP's empty compression string; benchmarks/RESULTS.md, issue 24).
     background : bool
         Compress and write chunks on a thread of their own (zstd, lz4 and zlib release the
         GIL), so that the caller can build the next chunk meanwhile; :meth:`flush` and
@@ -200,7 +200,7 @@ class McapFile:
         ``compression="lz4"`` without the lz4 package installed.
     """
 
-    def __init__(self, path: str | Path, profile: str = "", compression: str = Compression.ZSTD.value,
+    def __init__(self, path: str | Path, profile: str = "", compression: str = DEFAULT_COMPRESSION,
                  background: bool = False) -> None:
         if compression not in COMPRESSIONS:
             raise ValueError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")

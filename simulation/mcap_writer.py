@@ -5,7 +5,7 @@ Channels (timestamps: ns of simulated time)
 * ``/joint_state`` (``t``, ``q``, ``u``), ``/task_state`` (``t``, ``s``, ``v_star``, ``e``),
   ``/margins`` (``t``, ``link_margins`` of links 2..m, ``longitudinal``): every logged step;
 * ``/margins/cond``: condition number of the decoupling matrix: by default its 1-norm condition
-  number, exact up to 256 joints (5 Hz) and above that an O(m) estimate (0.5 Hz; a lower bound,
+  number, exact up to 256 joints (1 Hz) and above that an O(m) estimate (0.5 Hz; a lower bound,
   :mod:`coordarm.symbolic.cond_estimate`), with
   ``cond_exact=True`` the exact 2-norm one (an SVD, O(m^3)); the ``run`` metadata's ``cond`` says which;
 * ``/scene``: ``foxglove.SceneUpdate`` JSON (chain, curve, the end point's target, obstacles),
@@ -21,7 +21,7 @@ Metadata records: ``scenario`` (the whole scenario JSON), ``build`` (code hash, 
 ``run`` (command line, start time, host) and, when the run ends in any way short of a kill,
 ``outcome``; each carries the SHA-256 of its entries (key ``sha256``), checked by
 :func:`analysis.replay.load`. Chunks are built with numpy for a whole block of steps at once,
-compressed with zstd (default) or lz4 (or stored as they are), and pushed to the operating system every half second
+compressed with lz4 (default) or zstd (or stored as they are), and pushed to the operating system every half second
 (also while the simulation is busy with a long block), with at most two blocks queued, so a
 killed run loses at most the last second. The log is written as ``<name>.partial.mcap``
 (locked against a second writer) and renamed to its name when it is closed; a killed run
@@ -51,7 +51,7 @@ from coordarm.symbolic import ConfigError, CoordinatingController, LogError
 from coordarm.symbolic.interrupts import interruption
 from coordarm.symbolic.task import BUILT_IN_CURVES
 
-from .choices import Backend, Compression
+from .choices import DEFAULT_COMPRESSION, Backend
 from .cond_channel import COND_KINDS, COND_LINK_LIMIT, COND_RATE, cond_plan, cond_values  # noqa: F401 (re-exported)
 from .cond_channel import default_cond_rate  # noqa: F401 (re-exported)
 from .log_layout import PLANAR, layout_of_chain, partial_path
@@ -68,8 +68,9 @@ from .scene3d import scene_builder
 FLUSH_INTERVAL = 0.5
 
 
-#: Default uncompressed chunk size [bytes]: zstd level 1 compresses a 64-link run's 1 MiB chunks about
-#: 1.5x faster than 256 KiB ones, for a slightly smaller file (benchmarks/RESULTS_logging.md).
+#: Default uncompressed chunk size [bytes]: zstd level 1 once compressed a 64-link run's 1 MiB chunks about
+#: 1.5x faster than 256 KiB ones (benchmarks/RESULTS_logging.md); with zstandard 0.25 and lz4 4.4 the
+#: full-rate log of 64 links takes the same time in 256 KiB, 1 MiB or 4 MiB chunks (RESULTS.md, issue 24).
 CHUNK_SIZE = 1 << 20
 
 #: Default rate of the scene channels [Hz] (``/margins/cond``: :data:`~.cond_channel.COND_RATE`).
@@ -159,15 +160,15 @@ class RunLogger:
         Rate of ``/scene``, ``/tf`` and ``/tracking`` [Hz]; 0 switches them off.
     cond_rate : float, optional
         Rate of ``/margins/cond`` [Hz]; 0 switches it off. Default :func:`default_cond_rate`:
-        5 Hz up to 256 links and 0.5 Hz above for the 1-norm value; for the exact 2-norm value 5 Hz up
+        1 Hz up to 256 links and 0.5 Hz above for the 1-norm value; for the exact 2-norm value 1 Hz up
         to 64 links, then falling as ``1/m^2``
         (an SVD costs O(m^3), a step O(m)); 0 for a spatial chain (the ``run`` metadata's
         ``chain_kind`` is ``"universal"``).
     cond_exact : bool
         Log the exact 2-norm condition number (an SVD per sample) instead of the O(m) 1-norm
         estimate; a spatial chain always logs the exact value (when a rate is given).
-    compression : {"zstd", "lz4", "none"}
-        Chunk compression (see :class:`~simulation.mcap_file.McapFile`).
+    compression : {"lz4", "zstd", "none"}
+        Chunk compression, default :data:`~.choices.DEFAULT_COMPRESSION` (lz4; see :class:`~simulation.mcap_file.McapFile`).
     chunk_size : int, optional
         Target uncompressed chunk size [bytes] (default :data:`CHUNK_SIZE`, 1 MiB).
     flush_interval : float
@@ -200,7 +201,7 @@ class RunLogger:
 
     def __init__(self, path: str | Path, scenario: Scenario, ctrl: CoordinatingController | None = None, *,
                  log_rate: float | None = None, scene_rate: float = SCENE_RATE, cond_rate: float | None = None,
-                 compression: str = Compression.ZSTD.value, chunk_size: int | None = None, flush_interval: float = FLUSH_INTERVAL,
+                 compression: str = DEFAULT_COMPRESSION, chunk_size: int | None = None, flush_interval: float = FLUSH_INTERVAL,
                  command: list[str] | None = None, backend: str = Backend.INTERPRETED.value, library_key: str | None = None,
                  threaded: bool = False, overwrite: bool = True, cond_exact: bool = False,
                  frames: str = "ends") -> None:

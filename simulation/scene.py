@@ -480,7 +480,7 @@ class SceneBuilder:
             return []
         chain = self.ctrl.chain
         joints = chain.joints_np(part.q[ks])
-        base = chain.centres_np(part.q[ks])[:, 0]
+        base = chain.base_point(part.q[ks])               # y^1, the first central point
         curves = self.curves(part.t[ks])
         if self.frames == "all":
             frames = frame_transforms_json(joints, ns)
@@ -495,7 +495,7 @@ class SceneBuilder:
         colours = np.repeat(margin_colours(part.link_margins[ks]), 2, axis=1).reshape(len(ks), -1)
         scenes: list[bytes] = [b""] * len(ks)
         sizes = np.array([len(c) for c in curves])
-        for size in np.unique(sizes):        # one template per number of curve points (one for a line)
+        for size in sorted(set(sizes.tolist())):  # one template per number of curve points (one for a line)
             rows = np.flatnonzero(sizes == size)
             values = np.concatenate([       # in the template's order: stamp, target, joints, carriage, arm, curve
                 _stamps(np.asarray(ns)[rows]), np.round(targets[rows] * 1e12),

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
-from coordarm.simulation.choices import DENSE_LINKS
+from coordarm.simulation.choices import DEFAULT_COMPRESSION, DENSE_LINKS
 from coordarm.symbolic.errors import CollisionError, ConfigError, JointRateError, LogError, SingularityError
 from coordarm.symbolic.laws import Law
 
@@ -111,7 +111,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
                  duration: float | None = None, step: float | None = None, law: str | None = None,
                  governor: bool | None = None, backend: str = "auto", log: str | os.PathLike | None = None,
                  overwrite: bool = False, yes: bool = False, log_rate: float | None = None,
-                 cond_rate: float | None = None, cond_exact: bool = False, compression: str = "zstd", live: bool = False,
+                 cond_rate: float | None = None, cond_exact: bool = False, compression: str = DEFAULT_COMPRESSION, live: bool = False,
                  port: int = 8765, live_speed: float = 1.0, live_wait: bool = False, figures: bool = True,
                  stages: Sequence[float] | None = None, allow_contact: bool = False, progress: bool = False,
                  echo: Callable[[str], None] | None = None, on_warning: Callable[[Warning], None] | None = None,

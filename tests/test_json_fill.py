@@ -18,6 +18,18 @@ def test_int_text_equals_python_right_aligned_formatting_at_every_digit_count(rn
     assert [row.tobytes().decode() for row in text] == [f"{v:>{width}d}" for v in values.tolist()]
 
 
+def test_int_text_equals_python_formatting_at_every_width(rng):
+    for width in range(1, 20):                           # every number of four-digit groups, signs, edges
+        top = 10 ** min(width, 18) - 1                   # the widest unsigned value of this width
+        values = [0, top, 10 ** (width - 1) if width > 1 else 1, top // 7]
+        if width > 1:
+            values += [-(10 ** (width - 1) - 1), -1, -(top // 10)]
+        values += list(rng.integers(-(10 ** (width - 1) - 1) if width > 1 else 0, top, 300, endpoint=True))
+        text = int_text(np.array(values), width)
+        assert text.shape == (len(values), width)
+        assert [row.tobytes().decode() for row in text] == [f"{v:>{width}d}" for v in values], width
+
+
 def test_a_filled_template_parses_to_its_integers_and_each_kind_is_as_wide_as_its_widest_value(rng):
     t = JsonTemplate(kinds=2).text('{"a":[')
     for i in range(5):

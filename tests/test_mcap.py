@@ -27,10 +27,11 @@ def scenario():
 
 @pytest.fixture(scope="module")
 def logged(scenario, tmp_path_factory):
-    """A short run of the ``hole`` preset (it has walls) logged at every step, and what simulate returned."""
+    """A short run of the ``hole`` preset (it has walls) logged at every step, and what simulate returned
+    (``cond`` at 5 Hz: four values in 0.6 s for the bound test, where the 1 Hz default gives one)."""
     path = tmp_path_factory.mktemp("log") / "hole.mcap"
     ctrl = scenario.controller()
-    with RunLogger(path, scenario, ctrl, chunk_size=16 * 1024, command=["test"]) as log:
+    with RunLogger(path, scenario, ctrl, chunk_size=16 * 1024, command=["test"], cond_rate=5.0) as log:
         run = simulate(ctrl, scenario.start(ctrl), scenario.duration, scenario.step, scenario.t0,
                        chunk=97, on_chunk=log.on_chunk)
     return path, run
@@ -68,6 +69,7 @@ def test_the_plain_mcap_reader_sees_schemas_channels_metadata_and_statistics(log
         assert counts["/joint_state"] == counts["/task_state"] == counts["/margins"] == n
         assert counts["/scene"] == counts["/tf"] == counts["/tracking"] == len(range(0, n, 50))
         assert counts["/margins/cond"] == len(range(0, n, 200))
+        assert {c.compression for c in summary.chunk_indexes} == {"lz4"}      # the default compression
         assert summary.statistics.message_end_time == round(DURATION * 1e9)
         meta = {m.name: m.metadata for m in reader.iter_metadata()}
     assert set(meta) == {"scenario", "build", "run", "outcome"}
@@ -244,8 +246,8 @@ def test_lz4_zstd_and_uncompressed_logs_hold_the_same_messages_for_the_plain_rea
             names = {c.compression for c in reader.get_summary().chunk_indexes}
             assert names == {"" if compression == "none" else compression}   # MCAP names no compression ""
             seen[compression] = [(ch.topic, m.log_time, m.data) for _, ch, m in reader.iter_messages()]
-    # 3 per step, 7 x (scene, tf, tracking), 2 conds
-    assert len(seen["lz4"]) == 3 * 301 + 3 * 7 + 2 and seen["lz4"] == seen["zstd"] == seen["none"]
+    # 3 per step, 7 x (scene, tf, tracking), 1 cond (1 Hz: at t = 0 only)
+    assert len(seen["lz4"]) == 3 * 301 + 3 * 7 + 1 and seen["lz4"] == seen["zstd"] == seen["none"]
     assert paths["none"].stat().st_size > paths["zstd"].stat().st_size
     a = load(paths["zstd"])
     for other in ("lz4", "none"):
@@ -256,15 +258,17 @@ def test_lz4_zstd_and_uncompressed_logs_hold_the_same_messages_for_the_plain_rea
     assert not (tmp_path / "x.mcap").exists()
 
 
-def test_exact_cond_rate_defaults_to_5_hz_and_falls_as_one_over_m_squared_past_64_links(tmp_path):
-    assert default_cond_rate(8) == default_cond_rate(64) == COND_RATE == 5.0
-    assert default_cond_rate(128) == pytest.approx(1.25) and default_cond_rate(1024) == pytest.approx(5 / 256)
+def test_exact_cond_rate_defaults_to_1_hz_and_falls_as_one_over_m_squared_past_64_links(tmp_path):
+    assert default_cond_rate(8) == default_cond_rate(64) == COND_RATE == 1.0
+    assert default_cond_rate(128) == pytest.approx(0.25) and default_cond_rate(1024) == pytest.approx(1 / 256)
     assert default_cond_rate(1025) == default_cond_rate(16384) == 0.0   # an O(m^3) SVD per sample: off
     assert default_cond_rate(256, exact=False) == COND_RATE              # the exact 1-norm: cheap up to 256
     assert default_cond_rate(257, exact=False) == default_cond_rate(16384, exact=False) == ESTIMATE_RATE
     sc = load_scenario("line").with_overrides(links=128)
+    with RunLogger(tmp_path / "one.mcap", sc, command=["test"]) as log:   # the 1-norm value: 1 Hz up to 256 links
+        assert log.cond_every == round(1 / (COND_RATE * sc.step)) == 1000
     with RunLogger(tmp_path / "big.mcap", sc, command=["test"], cond_exact=True) as log:
-        assert log.cond_every == round(1 / (1.25 * sc.step))
+        assert log.cond_every == round(1 / (0.25 * sc.step))
         log.on_chunk(Run(*(np.zeros((1, n)) if n else np.zeros(1) for n in (0, 128, 128, 127, 0, 127, 0, 0))))
     assert load(tmp_path / "big.mcap").run_info["cond_every_steps"] == str(log.cond_every)
 
