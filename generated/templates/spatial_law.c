@@ -220,10 +220,10 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   arg[0] = &t; res[0] = wt;
   if (spatial_time_features(arg, res, iw, w, 0)) return 2;
   ca_spatial_trig(q + CA_RAIL, ang, c, s, ic);
+  /* ([d,] cos a_1, sin a_1, cos b_1, sin b_1, w): link 1's trigonometry from the passes, the time features */
+  arg[CA_RAIL] = c; arg[CA_RAIL + 1] = s; arg[CA_RAIL + 2] = c + CA_M; arg[CA_RAIL + 3] = s + CA_M; arg[CA_RAIL + 4] = wt;
 #if CA_RAIL
-  arg[0] = q; arg[1] = q + 1; arg[2] = &t;          /* (d, ab_1, t) */
-#else
-  arg[0] = q; arg[1] = &t;                          /* (ab_1, t) */
+  arg[0] = q;
 #endif
   res[0] = kin;
   if (spatial_kinematics_head(arg, res, iw, w, 0)) return 2;
@@ -231,7 +231,7 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   res[0] = carry; res[1] = &total; res[2] = out + CA_OUT_ROLL; res[3] = row; res[4] = &rhs; res[5] = &scale;
 #if CA_RAIL
   for (k = 0; k < 3; ++k) ym[k] = G[(6 + k) * CA_MS + CA_M - 1];      /* y^m (m >= 2) */
-  arg[3] = ym;
+  arg[6] = ym;
   res[6] = u; res[7] = out + CA_OUT_RAIL_MARGIN; res[8] = &psi1;     /* d_dot, rail margin, psi(y^1) */
 #endif
   if (spatial_rates_head(arg, res, iw, w, 0)) return 2;
@@ -239,7 +239,7 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   if (ca_spatial_rates(Pv, carry, W, iw, w)) return 2;
   for (k = 0; k < CA_NG; ++k) geo[k] = G[k * CA_MS + CA_M - 1];      /* link m */
   for (k = 0; k < 6; ++k) v[k] = W[k * CA_MS + CA_M - 1];
-  arg[0] = geo; arg[1] = carry; arg[2] = v; arg[3] = &t; arg[4] = row; arg[5] = &rhs;
+  arg[0] = geo; arg[1] = carry; arg[2] = v; arg[3] = wt; arg[4] = row; arg[5] = &rhs;
   res[0] = out + CA_OUT_S; res[1] = p; res[2] = srow;
   if (spatial_frame_tail(arg, res, iw, w, 0)) return 2;
 #if CA_RAIL
