@@ -261,7 +261,7 @@ def _shared(outs: list) -> list:
 
 def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ...]:
     """``(time_features, kinematics_step, link_pivot, link_inv_det, rates_step, kinematics_head, tail, rate_norm,
-    end_margin, rates_head)`` of ``ctrl``: every time-only term (of the pivots, heads and tail) in the time features."""
+    end_margin, rates_head, link_pivot_rates)`` of ``ctrl``: every time-only term (of the pivots, heads and tail) in the time features."""
     t, wexpr, (pivot_out, inv_out, kin_out, head_out, tail_out), w, inputs = _without_time(ctrl)
     (geo, inv, J, n), kin_in, (head_in, head_names), tail_in = inputs
     tf = ca.Function("spatial_time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
@@ -270,6 +270,9 @@ def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ...]:
     pivot = ca.Function("spatial_link_pivot", [*geo, w, inv], [body[k] for k in range(n + 3)],
                         names + ["w", "inv_det"], [f"pivot_{k}" for k in range(n)] + ["e_1", "e_2", "margin"])
     inv_det = ca.Function("spatial_link_inv_det", [*geo, w], [ca.cse(inv_out[0])], names + ["w"], ["inv_det"])
+    rates_only = ca.cse(pivot_out[0])
+    pivot_rates = ca.Function("spatial_link_pivot_rates", [*geo, w, inv], [rates_only[k] for k in range(n)],
+                              names + ["w", "inv_det"], [f"pivot_{k}" for k in range(n)])
     kin_head = ca.Function("spatial_kinematics_head", [*kin_in, w], _shared(kin_out),
                            (["d"] if ctrl.chain.rail else []) + list(HEAD_TRIG) + ["w"], ["kinematics"])
     if ctrl.chain.rail:
@@ -283,7 +286,7 @@ def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ...]:
     tail = ca.Function("spatial_frame_tail", [*tail_in[:3], w, *tail_in[3:]], _shared(tail_out),
                        ["geo", "carry", "v", "w", "roll_row", "roll_rhs"], ["s", "p", "s_row"])
     return (tf, _kinematics_function(ctrl), pivot, inv_det, _rates_function(ctrl, J, n), kin_head, tail,
-            _rate_norm_function(ctrl), _end_margin_function(ctrl), rates_head)
+            _rate_norm_function(ctrl), _end_margin_function(ctrl), rates_head, pivot_rates)
 
 
 def _cached(ctrl: SpatialController) -> tuple[ca.Function, ...]:
@@ -386,6 +389,24 @@ def spatial_link_pivot(ctrl: SpatialController) -> ca.Function:
     casadi.Function
     """
     return _cached(ctrl)[2]
+
+
+def spatial_link_pivot_rates(ctrl: SpatialController) -> ca.Function:
+    """:func:`spatial_link_pivot` without ``e^j`` and the link margin: ``(g_0, ..., g_8, w, inv_det) -> (pivot_0, ...)``.
+
+    The same arithmetic for the rates step's inputs; the C law calls it in the later stages of an RK4 step,
+    which read only the joint rates.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+
+    Returns
+    -------
+    casadi.Function
+    """
+    return _cached(ctrl)[10]
 
 
 def spatial_kinematics_head(ctrl: SpatialController) -> ca.Function:

@@ -130,6 +130,26 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4) static int ca_spatial_pivots(
   return 0;
 }
 
+/* Links 2..m as ca_spatial_pivots, only the rates step's inputs (spatial_link_pivot_rates: the same
+   arithmetic without e^j and the link margin, which the later stages of an RK4 step do not read). */
+CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3) static int ca_spatial_pivot_rates(
+    const casadi_real* restrict G, const casadi_real* restrict wt, casadi_real* restrict Pv, casadi_int* iw,
+    casadi_real* w) {
+  const casadi_real* arg[CA_SZ_ARG];
+  casadi_real* res[CA_SZ_RES];
+  casadi_real inv;
+  casadi_int j, k;
+  for (j = 1; j < CA_M; ++j) {
+    for (k = 0; k < CA_NG; ++k) arg[k] = G + k * CA_MS + j;
+    arg[CA_NG] = wt; res[0] = &inv;
+    if (spatial_link_inv_det(arg, res, iw, w, 0)) return 2;
+    arg[CA_NG + 1] = &inv;
+    for (k = 0; k < CA_NPV; ++k) res[k] = Pv + k * CA_MS + j;
+    if (spatial_link_pivot_rates(arg, res, iw, w, 0)) return 2;
+  }
+  return 0;
+}
+
 /* Links 2..m: the rates carry (A = A0 + A1 p, sum ||W1||) -> after link m; quantity k of
    xi/2 (W0_j, vec W1_j) to W[k CA_MS + j]. */
 CA_FLATTEN CA_NOINLINE static int ca_spatial_rates(const casadi_real* Pv, casadi_real* carry, casadi_real* W,
@@ -156,11 +176,12 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_rates(const casadi_real* Pv, casadi
    (x_j = alpha_j x_{j-1} + beta_j, see spatial_joints.py); the other loops have independent iterations
    (vectorised), two joints per step. Scratch J, one array of CA_MS each: w_1, w_2 (index 0 before
    link 1), alpha, beta, the norms ||W1_j||, x (index 0 before link 1), and the two-joint a2, b2.
-   Writes u and the joint margins |cos b_j|. */
+   Writes u and the joint margins |cos b_j|. Not full (RK4's later stages): no norms, total untouched. */
 CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spatial_joints(
     const casadi_real* restrict c, const casadi_real* restrict s, const casadi_real* restrict ic,
     const casadi_real* restrict W, const casadi_real* restrict p, casadi_real* restrict total,
-    casadi_real* restrict u, casadi_real* restrict out, casadi_real* restrict J, casadi_int* iw, casadi_real* w) {
+    casadi_real* restrict u, casadi_real* restrict out, casadi_real* restrict J, casadi_int* iw, casadi_real* w,
+    int full) {
   casadi_real *w1 = J, *w2 = w1 + CA_MS, *al = w2 + CA_MS, *be = al + CA_MS, *nrm = be + CA_MS;
   casadi_real *x = nrm + CA_MS, *a2 = x + CA_MS, *b2 = a2 + CA_MS, sum = *total;
   const casadi_real* arg[CA_SZ_ARG];
@@ -171,7 +192,7 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spati
     w1[j + 1] = (W[j] + W[2 * CA_MS + j] * p[0] + W[4 * CA_MS + j] * p[1]) * (1 / CA_HALF_XI);
     w2[j + 1] = (W[CA_MS + j] + W[3 * CA_MS + j] * p[0] + W[5 * CA_MS + j] * p[1]) * (1 / CA_HALF_XI);
   }
-  for (j = 1; j < CA_M; ++j) {
+  for (j = 1; full && j < CA_M; ++j) {
     arg[0] = W + 2 * CA_MS + j; arg[1] = W + 3 * CA_MS + j; arg[2] = W + 4 * CA_MS + j; arg[3] = W + 5 * CA_MS + j;
     res[0] = nrm + j;
     if (spatial_rate_norm(arg, res, iw, w, 0)) return 2;
@@ -186,16 +207,24 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spati
     b2[j] = al[j + 1] * be[j] + be[j + 1];
   }
   x[0] = 0;
-  for (j = 0; j + 1 < CA_M; j += 2) {   /* the only sequential part: the spin, two joints a step, and the norms' sum */
-    x[j + 1] = al[j] * x[j] + be[j];
-    x[j + 2] = a2[j] * x[j] + b2[j];
-    sum += nrm[j] + nrm[j + 1];
+  if (full) {
+    for (j = 0; j + 1 < CA_M; j += 2) {   /* the only sequential part: the spin, two joints a step, and the norms' sum */
+      x[j + 1] = al[j] * x[j] + be[j];
+      x[j + 2] = a2[j] * x[j] + b2[j];
+      sum += nrm[j] + nrm[j + 1];
+    }
+    if (j < CA_M) {
+      x[j + 1] = al[j] * x[j] + be[j];
+      sum += nrm[j];
+    }
+    *total = sum;
+  } else {
+    for (j = 0; j + 1 < CA_M; j += 2) {
+      x[j + 1] = al[j] * x[j] + be[j];
+      x[j + 2] = a2[j] * x[j] + b2[j];
+    }
+    if (j < CA_M) x[j + 1] = al[j] * x[j] + be[j];
   }
-  if (j < CA_M) {
-    x[j + 1] = al[j] * x[j] + be[j];
-    sum += nrm[j];
-  }
-  *total = sum;
   for (j = 0; j < CA_M; ++j) {
     arg[0] = c + j; arg[1] = s + j; arg[2] = c + CA_M + j; arg[3] = s + CA_M + j; arg[4] = ic + j;
     arg[5] = x + j; arg[6] = w1 + j; arg[7] = w2 + j; arg[8] = w1 + j + 1; arg[9] = w2 + j + 1;
@@ -205,9 +234,10 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spati
   return 0;
 }
 
-/* The law at (q, t): u (2m, d_dot first on a rail) to u, every other output to out at its offset. */
-static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
-                  casadi_real* w) {
+/* The law at (q, t): u (2m, d_dot first on a rail) to u, every other output to out at its offset; not full
+   (the later stages of an RK4 step, which read u only), without e^j and the margins. */
+static int ca_law_mode(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
+                       casadi_real* w, int full) {
   casadi_real wt[CA_NW + 1], kin[CA_NKC], carry[CA_NRC], total, row[2], rhs, scale, p[2], geo[CA_NG], v[6], srow[2];
   casadi_real *ang = w + CA_SZ_W + CA_RK4_SCRATCH, *c = ang + 2 * CA_MS, *s = c + 2 * CA_MS, *ic = s + 2 * CA_MS;
   casadi_real *W = ic + CA_MS, *G = W + 6 * CA_MS, *Pv = G + CA_NG * CA_MS;
@@ -235,7 +265,7 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
   res[6] = u; res[7] = out + CA_OUT_RAIL_MARGIN; res[8] = &psi1;     /* d_dot, rail margin, psi(y^1) */
 #endif
   if (spatial_rates_head(arg, res, iw, w, 0)) return 2;
-  if (ca_spatial_pivots(G, wt, Pv, out, iw, w)) return 2;
+  if (full ? ca_spatial_pivots(G, wt, Pv, out, iw, w) : ca_spatial_pivot_rates(G, wt, Pv, iw, w)) return 2;
   if (ca_spatial_rates(Pv, carry, W, iw, w)) return 2;
   for (k = 0; k < CA_NG; ++k) geo[k] = G[k * CA_MS + CA_M - 1];      /* link m */
   for (k = 0; k < 6; ++k) v[k] = W[k * CA_MS + CA_M - 1];
@@ -245,7 +275,20 @@ static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_re
 #if CA_RAIL
   out[CA_OUT_SIGMA] = out[CA_OUT_S] - psi1;          /* sigma = psi(y^m) - psi(y^1) */
 #endif
-  if (ca_spatial_joints(c, s, ic, W, p, &total, u + CA_RAIL, out, Pv, iw, w)) return 2;   /* Pv is free again */
+  if (ca_spatial_joints(c, s, ic, W, p, &total, u + CA_RAIL, out, Pv, iw, w, full)) return 2;   /* Pv is free again */
+  if (!full) return 0;
   arg[0] = srow; arg[1] = row; arg[2] = &scale; arg[3] = &total; res[0] = out + CA_OUT_END_MARGIN;
   return spatial_end_margin(arg, res, iw, w, 0) ? 2 : 0;
 }
+
+static int ca_law(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out, casadi_int* iw,
+                  casadi_real* w) {
+  return ca_law_mode(q, t, u, out, iw, w, 1);
+}
+
+/* u alone (out gets some outputs, not all): the later stages of an RK4 step (library_api.c, CA_LAW_STAGE) */
+static inline int ca_law_stage(const casadi_real* q, casadi_real t, casadi_real* u, casadi_real* out,
+                               casadi_int* iw, casadi_real* w) {
+  return ca_law_mode(q, t, u, out, iw, w, 0);
+}
+#define CA_LAW_STAGE ca_law_stage
