@@ -34,8 +34,8 @@ __attribute__((simd("notinbranch"))) double sin(double);
 /* scratch: the angles (a_1..a_m, b_1..b_m), their cosines and sines (2 arrays each), 1 / cos b_j, and
    per link (one array per quantity): xi/2 (W0_j, vec W1_j) (6), the geometry (vec E_j, y^j) (CA_NG),
    the pivot's outputs for the rates (CA_NPV: 8 on a line, else 12 or 18; after the rates, the joint
-   loop's 8 arrays) */
-#define CA_LAW_SCRATCH ((13 + CA_NG + CA_NPV) * CA_MS)
+   loop's 8 arrays), then the time at which the time features were last evaluated and the features */
+#define CA_LAW_SCRATCH ((13 + CA_NG + CA_NPV) * CA_MS + CA_NW + 2)
 
 /* ang = (a_1..a_m, b_1..b_m), then c = cos(ang), s = sin(ang), ic = 1 / cos(b): independent iterations.
    Vectorised (libmvec) as separate loops, since gcc would fuse one loop's cos and sin into a scalar sincos. */
@@ -240,15 +240,22 @@ static int ca_law_mode(const casadi_real* q, casadi_real t, casadi_real* u, casa
                        casadi_real* w, int full) {
   casadi_real wt[CA_NW + 1], kin[CA_NKC], carry[CA_NRC], total, row[2], rhs, scale, p[2], geo[CA_NG], v[6], srow[2];
   casadi_real *ang = w + CA_SZ_W + CA_RK4_SCRATCH, *c = ang + 2 * CA_MS, *s = c + 2 * CA_MS, *ic = s + 2 * CA_MS;
-  casadi_real *W = ic + CA_MS, *G = W + 6 * CA_MS, *Pv = G + CA_NG * CA_MS;
+  casadi_real *W = ic + CA_MS, *G = W + 6 * CA_MS, *Pv = G + CA_NG * CA_MS, *memo = Pv + CA_NPV * CA_MS;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int k;
 #if CA_RAIL
   casadi_real psi1, ym[3];
 #endif
-  arg[0] = &t; res[0] = wt;
-  if (spatial_time_features(arg, res, iw, w, 0)) return 2;
+  /* The time features at t; the later stages of an RK4 step reuse the previous call's at the same time (the
+     second and third stage, both at t + h/2). A full call always evaluates them, and every RK4 step starts
+     with one, so a stage never reads features it did not see computed (whatever the work array held). */
+  if (full || memcmp(&t, memo, sizeof t) != 0) {
+    arg[0] = &t; res[0] = memo + 1;
+    if (spatial_time_features(arg, res, iw, w, 0)) return 2;
+    memo[0] = t;
+  }
+  for (k = 0; k < CA_NW; ++k) wt[k] = memo[k + 1];     /* on the stack: the loops see it apart from w */
   ca_spatial_trig(q + CA_RAIL, ang, c, s, ic);
   /* ([d,] cos a_1, sin a_1, cos b_1, sin b_1, w): link 1's trigonometry from the passes, the time features */
   arg[CA_RAIL] = c; arg[CA_RAIL + 1] = s; arg[CA_RAIL + 2] = c + CA_M; arg[CA_RAIL + 3] = s + CA_M; arg[CA_RAIL + 4] = wt;
