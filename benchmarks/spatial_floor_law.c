@@ -128,12 +128,16 @@ static int fl_law_mode(const casadi_real* q, casadi_real t, casadi_real* u, casa
                        casadi_real* w, int full) {
   casadi_real wt[CA_NW + 1], kin[CA_NKC], carry[CA_NRC], total, row[2], rhs, scale, p[2], geo[CA_NG], v[6], srow[2];
   casadi_real *ang = w + CA_SZ_W + CA_RK4_SCRATCH, *c = ang + 2 * CA_MS, *s = c + 2 * CA_MS, *ic = s + 2 * CA_MS;
-  casadi_real *W = ic + CA_MS, *G = W + 6 * CA_MS, *Pv = G + CA_NG * CA_MS;
+  casadi_real *W = ic + CA_MS, *G = W + 6 * CA_MS, *Pv = G + CA_NG * CA_MS, *memo = Pv + CA_NPV * CA_MS;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int k;
-  arg[0] = &t; res[0] = wt;
-  if (spatial_time_features(arg, res, iw, w, 0)) return 2;
+  if (full || memcmp(&t, memo, sizeof t) != 0) {      /* as the law: the third stage reuses the second's */
+    arg[0] = &t; res[0] = memo + 1;
+    if (spatial_time_features(arg, res, iw, w, 0)) return 2;
+    memo[0] = t;
+  }
+  for (k = 0; k < CA_NW; ++k) wt[k] = memo[k + 1];
   ca_spatial_trig(q, ang, c, s, ic);
   arg[0] = c; arg[1] = s; arg[2] = c + CA_M; arg[3] = s + CA_M; arg[4] = wt; res[0] = kin;
   if (spatial_kinematics_head(arg, res, iw, w, 0)) return 2;
