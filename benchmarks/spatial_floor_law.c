@@ -78,7 +78,6 @@ static void fl_joints(const double* restrict c, const double* restrict s, const 
                       const double* restrict W, const double* restrict p, double* restrict total,
                       double* restrict u, double* restrict out, double* restrict J, int full) {
   double *w1 = J, *w2 = w1 + CA_MS, *al = w2 + CA_MS, *be = al + CA_MS, *nrm = be + CA_MS, *x = nrm + CA_MS;
-  double *a2 = x + CA_MS, *b2 = a2 + CA_MS;
   double sum = *total;
   long long j;
   w1[0] = 0; w2[0] = 0; w1[1] = p[0]; w2[1] = p[1]; nrm[0] = 0;
@@ -92,15 +91,11 @@ static void fl_joints(const double* restrict c, const double* restrict s, const 
     al[j] = ic[j] * c[j];
     be[j] = ic[j] * (s[j] * -w2[j] - s[CA_M + j] * w1[j + 1]);
   }
-  for (j = 0; j + 1 < CA_M; ++j) {
-    a2[j] = al[j + 1] * al[j];
-    b2[j] = al[j + 1] * be[j] + be[j + 1];
-  }
   x[0] = 0;
   if (full) {
     for (j = 0; j + 1 < CA_M; j += 2) {
       x[j + 1] = al[j] * x[j] + be[j];
-      x[j + 2] = a2[j] * x[j] + b2[j];
+      x[j + 2] = (al[j + 1] * al[j]) * x[j] + (al[j + 1] * be[j] + be[j + 1]);
       sum += nrm[j] + nrm[j + 1];
     }
     if (j < CA_M) {
@@ -111,7 +106,7 @@ static void fl_joints(const double* restrict c, const double* restrict s, const 
   } else {
     for (j = 0; j + 1 < CA_M; j += 2) {
       x[j + 1] = al[j] * x[j] + be[j];
-      x[j + 2] = a2[j] * x[j] + b2[j];
+      x[j + 2] = (al[j + 1] * al[j]) * x[j] + (al[j + 1] * be[j] + be[j + 1]);
     }
     if (j < CA_M) x[j + 1] = al[j] * x[j] + be[j];
   }

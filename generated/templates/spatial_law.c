@@ -34,7 +34,7 @@ __attribute__((simd("notinbranch"))) double sin(double);
 /* scratch: the angles (a_1..a_m, b_1..b_m), their cosines and sines (2 arrays each), 1 / cos b_j, and
    per link (one array per quantity): xi/2 (W0_j, vec W1_j) (6), the geometry (vec E_j, y^j) (CA_NG),
    the pivot's outputs for the rates (CA_NPV: 8 on a line, else 12 or 18; after the rates, the joint
-   loop's 8 arrays), then the time at which the time features were last evaluated and the features */
+   loop's 6 arrays), then the time at which the time features were last evaluated and the features */
 #define CA_LAW_SCRATCH ((13 + CA_NG + CA_NPV) * CA_MS + CA_NW + 2)
 
 /* ang = (a_1..a_m, b_1..b_m), then c = cos(ang), s = sin(ang), ic = 1 / cos(b): independent iterations.
@@ -174,8 +174,9 @@ CA_FLATTEN CA_NOINLINE static int ca_spatial_rates(const casadi_real* Pv, casadi
 /* Joint rates from the link rates w_1 = p, w_j = W0_j + W1_j p (W holds W0_j, W1_j times xi/2), and
    the end margin's sum ||W1_j|| (total, from the head's 1). Only the spin about each link is carried
    (x_j = alpha_j x_{j-1} + beta_j, see spatial_joints.py); the other loops have independent iterations
-   (vectorised), two joints per step. Scratch J, one array of CA_MS each: w_1, w_2 (index 0 before
-   link 1), alpha, beta, the norms ||W1_j||, x (index 0 before link 1), and the two-joint a2, b2.
+   (vectorised); the spin runs two joints per step, x_{j+2} = (alpha_{j+1} alpha_j) x_j +
+   (alpha_{j+1} beta_j + beta_{j+1}), the two products off its chain. Scratch J, one array of CA_MS each:
+   w_1, w_2 (index 0 before link 1), alpha, beta, the norms ||W1_j||, x (index 0 before link 1).
    Writes u and the joint margins |cos b_j|. Not full (RK4's later stages): no norms, total untouched. */
 CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spatial_joints(
     const casadi_real* restrict c, const casadi_real* restrict s, const casadi_real* restrict ic,
@@ -183,7 +184,7 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spati
     casadi_real* restrict u, casadi_real* restrict out, casadi_real* restrict J, casadi_int* iw, casadi_real* w,
     int full) {
   casadi_real *w1 = J, *w2 = w1 + CA_MS, *al = w2 + CA_MS, *be = al + CA_MS, *nrm = be + CA_MS;
-  casadi_real *x = nrm + CA_MS, *a2 = x + CA_MS, *b2 = a2 + CA_MS, sum = *total;
+  casadi_real *x = nrm + CA_MS, sum = *total;
   const casadi_real* arg[CA_SZ_ARG];
   casadi_real* res[CA_SZ_RES];
   casadi_int j;
@@ -202,15 +203,11 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spati
     res[0] = al + j; res[1] = be + j;
     if (spatial_joint_prep(arg, res, iw, w, 0)) return 2;
   }
-  for (j = 0; j + 1 < CA_M; ++j) {      /* two joints at once: x_{j+2} = a2_j x_j + b2_j */
-    a2[j] = al[j + 1] * al[j];
-    b2[j] = al[j + 1] * be[j] + be[j + 1];
-  }
   x[0] = 0;
   if (full) {
     for (j = 0; j + 1 < CA_M; j += 2) {   /* the only sequential part: the spin, two joints a step, and the norms' sum */
       x[j + 1] = al[j] * x[j] + be[j];
-      x[j + 2] = a2[j] * x[j] + b2[j];
+      x[j + 2] = (al[j + 1] * al[j]) * x[j] + (al[j + 1] * be[j] + be[j + 1]);
       sum += nrm[j] + nrm[j + 1];
     }
     if (j < CA_M) {
@@ -221,7 +218,7 @@ CA_FLATTEN CA_NOINLINE CA_NONNULL(1, 2, 3, 4, 5, 6, 7, 8, 9) static int ca_spati
   } else {
     for (j = 0; j + 1 < CA_M; j += 2) {
       x[j + 1] = al[j] * x[j] + be[j];
-      x[j + 2] = a2[j] * x[j] + b2[j];
+      x[j + 2] = (al[j + 1] * al[j]) * x[j] + (al[j + 1] * be[j] + be[j + 1]);
     }
     if (j < CA_M) x[j + 1] = al[j] * x[j] + be[j];
   }
