@@ -8,10 +8,13 @@ and sines of the joint angles, computed before in vectorised loops), which store
 :func:`spatial_link_inv_det`: independent per link, every argument a scalar so that the C loop
 vectorises); the rates (:func:`spatial_rates_step`: the affine link rates, carrying only
 ``A = y^j' + xi/2 E_j w_j``). On a line all of it works in the line's own frame (:mod:`.spatial_frame`),
-where the geometry and ``dPhi/dy`` cost nothing. The time-only terms are computed once per law call
-(:func:`spatial_time_features`); the heads and the end solve (:func:`spatial_kinematics_head`,
+where the geometry and ``dPhi/dy`` cost nothing. The heads and the end solve (:func:`spatial_kinematics_head`,
 :func:`spatial_rates_head`, :func:`spatial_frame_tail`, :func:`spatial_end_margin`) are the interpreted
-ones with their carries in this layout. The Functions are cached per controller here.
+ones with their carries in this layout, the heads on link 1's cosines and sines from the vectorised passes.
+The time-only terms of the pivots, the heads and the end solve are pulled out together and computed once
+per law call (:func:`spatial_time_features`). The later stages of an RK4 step, which read only the joint
+rates, call :func:`spatial_link_pivot_rates` (the pivot without ``e^j`` and the link margin). The
+Functions are cached per controller here.
 """
 from __future__ import annotations
 
@@ -297,7 +300,10 @@ def _cached(ctrl: SpatialController) -> tuple[ca.Function, ...]:
 
 
 def spatial_time_features(ctrl: SpatialController) -> ca.Function:
-    """``t -> w``: the time-only terms of :func:`spatial_rates_step`, computed once per law call.
+    """``t -> w``: the time-only terms of the link pivots, both heads and the end solve, computed once per law call.
+
+    For a line: its frame and point, their rates and the roll and speed commands (the C's third RK4 stage
+    reuses the second's, at the same time).
 
     Parameters
     ----------
@@ -332,10 +338,10 @@ def spatial_kinematics_step(ctrl: SpatialController) -> ca.Function:
 
 
 def spatial_rates_step(ctrl: SpatialController) -> ca.Function:
-    """One link ``j >= 2`` of the spatial solve's rates: ``(carry, geo_j, w, inv_det) -> (carry_next, out_j)``.
+    """One link ``j >= 2`` of the spatial solve's rates: ``(carry, pivot_0, ..., pivot_n-1) -> (carry_next, v_0, ..., v_5)``.
 
     The operations of :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` after the
-    kinematics, with the reciprocal of the link pivot's determinant from :func:`spatial_link_inv_det`.
+    kinematics and the link pivot (:func:`spatial_link_pivot`'s first outputs).
 
     Parameters
     ----------
@@ -345,10 +351,9 @@ def spatial_rates_step(ctrl: SpatialController) -> ca.Function:
     Returns
     -------
     casadi.Function
-        ``geo_j = (vec E_j, y^j)`` (:data:`LINK_GEOMETRY`); carry ``(A0 (3), vec A1 (6), sum ||W1||)``
-        (:data:`RATE_CARRY`, ``A0 + A1 p = y^j' + xi/2 E_j w_j`` [m/s]);
-        ``out_j = (e^j [m] (2), link margin [-], xi/2 W0_j [m/s] (2), xi/2 vec W1_j [m] (4))``
-        (the link rates ``w_j = W0_j + W1_j p`` times ``xi/2``).
+        Carry ``(A0 (3), vec A1 (6))`` (:data:`RATE_CARRY`, ``A0 + A1 p = y^j' + xi/2 E_j w_j`` [m/s]);
+        ``v = (xi/2 W0_j [m/s] (2), xi/2 vec W1_j [m] (4))`` (the link rates ``w_j = W0_j + W1_j p`` times
+        ``xi/2``).
     """
     return _cached(ctrl)[4]
 
@@ -410,7 +415,7 @@ def spatial_link_pivot_rates(ctrl: SpatialController) -> ca.Function:
 
 
 def spatial_kinematics_head(ctrl: SpatialController) -> ca.Function:
-    """Link 1's kinematics carry: ``([d,] ab_1, t) -> kinematics``.
+    """Link 1's kinematics carry: ``([d,] cos a_1, sin a_1, cos b_1, sin b_1, w) -> kinematics``.
 
     ``(vec R_1, y^1)`` (:data:`KIN_CARRY`) in the law's frame (:mod:`.spatial_frame`), ``y^1 = d r`` on a
     rail (``d`` first), the origin else.
@@ -423,19 +428,22 @@ def spatial_kinematics_head(ctrl: SpatialController) -> ca.Function:
     Returns
     -------
     casadi.Function
-        Inputs ``d`` [m] (on a rail only), ``ab`` (2,) [rad], ``t`` [s]; output the carry (12).
+        Inputs ``d`` [m] (on a rail only), the cosines and sines of ``a_1``, ``b_1`` [-] (:data:`HEAD_TRIG`),
+        the time features ``w`` (:func:`spatial_time_features`); output the carry (12).
     """
     return _cached(ctrl)[5]
 
 
 def spatial_rates_head(ctrl: SpatialController) -> ca.Function:
-    """Link 1's rates carry and the roll row: ``([d,] ab_1, t[, y_m]) -> (rates, total, roll, roll_row, roll_rhs,
-    roll_scale[, d_dot, rail_margin, psi_1])``.
+    """Link 1's rates carry and the roll row: ``([d,] cos a_1, sin a_1, cos b_1, sin b_1, w[, y_m]) -> (rates,
+    total, roll, roll_row, roll_rhs, roll_scale[, d_dot, rail_margin, psi_1])``.
 
     :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.head` (on a rail
     :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.rail_head`, given the end's centre ``y^m``
     in the law's frame for the span) with its carry as the rates carry ``A = y^1' + xi/2 E_1 w_1``
-    (:func:`spatial_rates_step`) in the law's frame, and the end margin's running sum (1).
+    (:func:`spatial_rates_step`) in the law's frame, and the end margin's running sum (1); built over ``R_1``
+    (:meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.head_terms`) from the cosines and sines,
+    its time-only terms read from the time features ``w``.
 
     Parameters
     ----------
@@ -452,11 +460,12 @@ def spatial_rates_head(ctrl: SpatialController) -> ca.Function:
 
 
 def spatial_frame_tail(ctrl: SpatialController) -> ca.Function:
-    """The 2x2 end solve: ``(geo_m, carry_m, v_m, t, roll_row, roll_rhs, roll_scale) -> (s, p, end_margin)``.
+    """The 2x2 end solve: ``(geo_m, carry_m, v_m, w, roll_row, roll_rhs) -> (s, p, s_row)``.
 
     :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.tail` on link m's geometry and the
     rates carry after link m, whose ``A = y^m' + xi/2 E_m w_m`` gives ``y^m' = A - E_m v_m`` with
-    ``v_m = xi/2 (W0_m, vec W1_m)`` (link m's second output, :func:`spatial_rates_step`).
+    ``v_m = xi/2 (W0_m, vec W1_m)`` (link m's second output, :func:`spatial_rates_step`); its time-only terms
+    read from the time features ``w`` (:func:`spatial_time_features`).
 
     Parameters
     ----------
@@ -466,7 +475,7 @@ def spatial_frame_tail(ctrl: SpatialController) -> ca.Function:
     Returns
     -------
     casadi.Function
-        ``s`` [m], ``p = w_1`` (2,) [rad/s], ``end_margin`` [-].
+        ``s`` [m], ``p = w_1`` (2,) [rad/s], the ``s`` row ``grad psi . Y1`` (1, 2) for the end margin.
     """
     return _cached(ctrl)[6]
 
