@@ -26,8 +26,8 @@ from .render import render
 from .spatial_joints import spatial_joint_prep, spatial_joint_rates
 from .spatial_variants import (KIN_CARRY, LINK_GEOMETRY, RATE_CARRY, spatial_end_margin, spatial_frame_tail,
                                spatial_kinematics_head, spatial_kinematics_step, spatial_link_inv_det,
-                               spatial_link_pivot, spatial_rate_norm, spatial_rates_head, spatial_rates_step,
-                               spatial_time_features)
+                               spatial_link_pivot, spatial_link_pivot_rates, spatial_rate_norm, spatial_rates_head,
+                               spatial_rates_step, spatial_time_features)
 
 
 def spatial_layout_macros(m: int, rail: bool = False) -> str:
@@ -64,11 +64,13 @@ def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
     -------
     list of casadi.Function
         Structured: time features, the two heads (on a rail the rail's), kinematics step, link pivot's 1/det,
-        link pivot, rates step, end solve, rate norm, end margin, joint prep, joint rates; dense: the whole law.
+        link pivot, link pivot without e^j and margin, rates step, end solve, rate norm, end margin, joint prep,
+        joint rates; dense: the whole law.
     """
     if form == Law.STRUCTURED:
         return [spatial_time_features(ctrl), spatial_kinematics_head(ctrl), spatial_rates_head(ctrl),
                 spatial_kinematics_step(ctrl), spatial_link_inv_det(ctrl), spatial_link_pivot(ctrl),
+                spatial_link_pivot_rates(ctrl),
                 spatial_rates_step(ctrl), spatial_frame_tail(ctrl), spatial_rate_norm(ctrl), spatial_end_margin(ctrl),
                 spatial_joint_prep(), spatial_joint_rates()]
     return [ctrl.law(form)]

@@ -8,10 +8,13 @@ and sines of the joint angles, computed before in vectorised loops), which store
 :func:`spatial_link_inv_det`: independent per link, every argument a scalar so that the C loop
 vectorises); the rates (:func:`spatial_rates_step`: the affine link rates, carrying only
 ``A = y^j' + xi/2 E_j w_j``). On a line all of it works in the line's own frame (:mod:`.spatial_frame`),
-where the geometry and ``dPhi/dy`` cost nothing. The time-only terms are computed once per law call
-(:func:`spatial_time_features`); the heads and the end solve (:func:`spatial_kinematics_head`,
+where the geometry and ``dPhi/dy`` cost nothing. The heads and the end solve (:func:`spatial_kinematics_head`,
 :func:`spatial_rates_head`, :func:`spatial_frame_tail`, :func:`spatial_end_margin`) are the interpreted
-ones with their carries in this layout. The Functions are cached per controller here.
+ones with their carries in this layout, the heads on link 1's cosines and sines from the vectorised passes.
+The time-only terms of the pivots, the heads and the end solve are pulled out together and computed once
+per law call (:func:`spatial_time_features`). The later stages of an RK4 step, which read only the joint
+rates, call :func:`spatial_link_pivot_rates` (the pivot without ``e^j`` and the link margin). The
+Functions are cached per controller here.
 """
 from __future__ import annotations
 
@@ -23,7 +26,6 @@ import numpy as np
 
 from coordarm.symbolic import SpatialController
 from coordarm.symbolic.recursion import split_time_terms
-from coordarm.symbolic.spatial_chain import rot_y, rot_z
 from coordarm.symbolic.spatial_recursion import singular_values_2x2, solve_2x2, unpack_carry
 
 from .spatial_frame import frame_geometry, frame_of
@@ -96,15 +98,15 @@ def _is_line_frame(J: Any) -> bool:
     return bool(J.is_constant()) and bool(np.array_equal(np.array(ca.DM(J)), np.eye(3)[1:3]))
 
 
-def _pivot_expressions(ctrl: SpatialController):
-    """Inputs ``(geo, t, inv)``, outputs ``(pivot, out, inv_expr)`` and ``dPhi/dy`` of one link's pivot (no carry).
+def _pivot_expressions(ctrl: SpatialController, t: Any):
+    """Inputs ``(geo, inv)``, outputs ``(pivot, out, inv_expr)`` and ``dPhi/dy`` of one link's pivot at ``t`` (no carry).
 
     ``pivot = (K Phi + Phit (2), vec(-P^-1) (4), vec M (6)[, vec dPhi/dy (6)])`` with ``M = 2 E_j (-P^-1)``,
     ``dPhi/dy`` only where it varies; on a line in its own frame only ``M``'s first row (2), the one
     :func:`_rates_function` reads there. ``out = (e^j (2), link margin)``.
     """
     K = ctrl.gain
-    geo, t, inv = [ca.SX.sym(f"g{k}") for k in range(LINK_GEOMETRY)], ca.SX.sym("t"), ca.SX.sym("inv_det")
+    geo, inv = [ca.SX.sym(f"g{k}") for k in range(LINK_GEOMETRY)], ca.SX.sym("inv_det")
     E, y = ca.reshape(ca.vertcat(*geo[0:6]), 3, 2), ca.vertcat(*geo[6:9])
     Phi, J, Phit, *_ = frame_geometry(ctrl)(y, t)
     P = ca.mtimes(J, E)                  # the link pivot over xi/2 (the xi/2 cancels from xi/2 E w_j)
@@ -119,7 +121,7 @@ def _pivot_expressions(ctrl: SpatialController):
             parts.append(ca.vec(J))
     out = ca.vertcat(Phi, singular_values_2x2_select(P)[0])
     inv_expr = 1 / (P[0, 0] * P[1, 1] - P[0, 1] * P[1, 0])
-    return (geo, t, inv), (ca.vertcat(*parts), out, inv_expr), J
+    return (geo, inv), (ca.vertcat(*parts), out, inv_expr), J
 
 
 def _rates_function(ctrl: SpatialController, J: Any, n_pivot: int) -> ca.Function:
@@ -165,11 +167,15 @@ def _end_margin_function(ctrl: SpatialController) -> ca.Function:
                        ["s_row", "roll_row", "roll_scale", "total"], ["end_margin"])
 
 
-def _head_inputs(ctrl: SpatialController) -> tuple[list, Any, Any, Any]:
-    """The heads' inputs ``([d,] ab_1, t)``, and ``d``, ``ab_1``, ``t`` (``d`` None for a fixed base)."""
-    ab, t = ca.SX.sym("ab", 2), ca.SX.sym("t")
+#: Link 1's trigonometry, the heads' inputs after the feed ``d`` (on a rail): from the law's vectorised passes.
+HEAD_TRIG = ("cos_a", "sin_a", "cos_b", "sin_b")
+
+
+def _head_inputs(ctrl: SpatialController) -> tuple[list, Any, Any]:
+    """The heads' inputs ``([d,] cos a_1, sin a_1, cos b_1, sin b_1)``, ``d`` (None for a fixed base) and ``R_1``."""
+    trig = [ca.SX.sym(n) for n in HEAD_TRIG]
     d = ca.SX.sym("d") if ctrl.chain.rail else None
-    return ([d] if ctrl.chain.rail else []) + [ab, t], d, ab, t
+    return ([d] if ctrl.chain.rail else []) + trig, d, ca.mtimes(*joint_rotation(*trig))
 
 
 def _to_frame(ctrl: SpatialController, t: Any, *pairs: tuple[Any, bool]) -> list:
@@ -181,49 +187,43 @@ def _to_frame(ctrl: SpatialController, t: Any, *pairs: tuple[Any, bool]) -> list
     return [ca.mtimes(F.T, v - p if point else v) for v, point in pairs]
 
 
-def _kinematics_head_function(ctrl: SpatialController) -> ca.Function:
-    """Link 1's frame and centre (``y^1 = d r`` on a rail, else 0) in the law's frame: the kinematics carry."""
-    inputs, d, ab, t = _head_inputs(ctrl)
-    R = ca.mtimes(rot_z(ab[0]), rot_y(ab[1]))
+def _kinematics_head_expressions(ctrl: SpatialController, t: Any) -> tuple[list, list]:
+    """Inputs and output of link 1's frame and centre (``y^1 = d r`` on a rail, else 0) in the law's frame at ``t``."""
+    inputs, d, R = _head_inputs(ctrl)
     y = d * ca.DM(ctrl.chain.rail_direction) if ctrl.chain.rail else ca.SX.zeros(3, 1)
     R, y = _to_frame(ctrl, t, (R, False), (y, True))
-    return ca.Function("spatial_kinematics_head", inputs, [ca.vertcat(ca.vec(R), y)],
-                       ["d", "ab", "t"][3 - len(inputs):], ["kinematics"])
+    return inputs, [ca.vertcat(ca.vec(R), y)]
 
 
-def _rates_head_function(ctrl: SpatialController) -> ca.Function:
-    """The interpreted head (on a rail the rail head) with its carry turned into the rates carry, in the law's frame.
+def _rates_head_expressions(ctrl: SpatialController, t: Any) -> tuple[list, list, list]:
+    """Inputs, outputs and input names of the interpreted head (on a rail the rail head) at ``t``, with its carry
+    turned into the rates carry in the law's frame.
 
     On a rail the last input is the end's centre ``y^m`` in the law's frame (from the kinematics loop),
     which gives the span ``sigma = psi(y^m) - psi(y^1)`` the rail head reads when the span is commanded.
     """
-    inputs, d, ab, t = _head_inputs(ctrl)
-    names = ["ab", "t"]
+    inputs, d, R = _head_inputs(ctrl)
+    names = list(HEAD_TRIG)
     if ctrl.chain.rail:
         y_m = ca.SX.sym("y_m", 3)
         frame = frame_of(ctrl, t)
         y_world = y_m if frame is None else ca.mtimes(frame[0], y_m) + frame[1]
         geometry = ctrl.task.geometry
         sigma = geometry(y_world, t)[3] - geometry(d * ca.DM(ctrl.chain.rail_direction), t)[3]
-        carry, *rest = ctrl.recursion.rail_head()(d, ab, t, sigma)
-        inputs, names = inputs + [y_m], ["d", "ab", "t", "y_m"]
+        carry, *rest = ctrl.recursion.rail_head_terms(d, R, t, sigma)
+        inputs, names = inputs + [y_m], ["d", *names, "y_m"]
     else:
-        carry, *rest = ctrl.recursion.head()(ab, t)
+        carry, *rest = ctrl.recursion.head_terms(R, t)
     _, _, Y0, Y1, H0, H1, total = unpack_carry(carry)
     A0, A1 = _to_frame(ctrl, t, (Y0 + H0, False), (Y1 + H1, False))
-    outs = [ca.vertcat(A0, ca.vec(A1)), total, *rest]
-    both = ca.cse(ca.vertcat(*[ca.vec(o) for o in outs]))         # one graph: the outputs share their terms
-    ends = np.cumsum([0] + [o.numel() for o in outs])
-    parts = [ca.reshape(both[i:j], o.size1(), o.size2()) for i, j, o in zip(ends[:-1], ends[1:], outs)]
-    rail = ["d_dot", "rail_margin", "psi_1"] if ctrl.chain.rail else []
-    return ca.Function("spatial_rates_head", inputs, parts, names,
-                       ["rates", "total", "roll", "roll_row", "roll_rhs", "roll_scale"] + rail)
+    return inputs, [ca.vertcat(A0, ca.vec(A1)), total, *rest], names
 
 
-def _tail_function(ctrl: SpatialController) -> ca.Function:
-    """The interpreted end solve on link m's geometry, the rates carry after it and its ``xi/2 (W0_m, vec W1_m)``."""
+def _tail_expressions(ctrl: SpatialController, t: Any) -> tuple[list, list]:
+    """Inputs (but ``t``) and outputs of the interpreted end solve on link m's geometry, the rates carry after it and
+    its ``xi/2 (W0_m, vec W1_m)``, at ``t``."""
     geo, carry, v = ca.SX.sym("geo", LINK_GEOMETRY), ca.SX.sym("carry", RATE_CARRY), ca.SX.sym("v", 6)
-    t, row, rhs = ca.SX.sym("t"), ca.SX.sym("roll_row", 1, 2), ca.SX.sym("roll_rhs")
+    row, rhs = ca.SX.sym("roll_row", 1, 2), ca.SX.sym("roll_rhs")
     E, y = ca.reshape(geo[0:6], 3, 2), geo[6:9]
     A0, A1 = carry[0:3], ca.reshape(carry[3:9], 3, 2)
     Y0, Y1 = A0 - ca.mtimes(E, v[0:2]), A1 - ca.mtimes(E, ca.reshape(v[2:6], 2, 2))   # y^m' = A - xi/2 E_m w_m
@@ -231,26 +231,65 @@ def _tail_function(ctrl: SpatialController) -> ca.Function:
     s_row = ca.mtimes(h.T, Y1)
     N = ca.vertcat(s_row, row)
     p = solve_2x2(N, ca.vertcat(ca.SX(ctrl.task.speed(t)) - psit - ca.dot(h, Y0), rhs))
-    return ca.Function("spatial_frame_tail", [geo, carry, v, t, row, rhs], [psi, p, s_row],
-                       ["geo", "carry", "v", "t", "roll_row", "roll_rhs"], ["s", "p", "s_row"])
+    return [geo, carry, v, row, rhs], [psi, p, s_row]
+
+
+def _without_time(ctrl: SpatialController) -> tuple[Any, Any, list[list], Any, list]:
+    """Every once-per-call and per-link expression of the law with its time-only terms pulled out together.
+
+    Returns ``(t, w(t), groups, w, inputs)``: ``groups`` = pivot (pivot, out), 1/det, kinematics head, rates head, tail,
+    each a list of expressions of ``w`` (the time features' symbols) instead of ``t``; ``inputs`` their other
+    inputs (geo, inv, J, pivot width; kinematics head's; rates head's and names; tail's).
+    """
+    t = ca.SX.sym("t")
+    (geo, inv), (piv, out, inv_expr), J = _pivot_expressions(ctrl, t)
+    kin_in, kin_out = _kinematics_head_expressions(ctrl, t)
+    head_in, head_out, head_names = _rates_head_expressions(ctrl, t)
+    tail_in, tail_out = _tail_expressions(ctrl, t)
+    groups = [[piv, out], [inv_expr], kin_out, head_out, tail_out]
+    flat = [e for g in groups for e in g]
+    expr, wsym, wexpr = split_time_terms(ca.vertcat(*[ca.vec(e) for e in flat]), t)
+    ends = np.cumsum([0] + [e.numel() for e in flat])
+    parts = iter(ca.reshape(expr[i:j], e.size1(), e.size2()) for i, j, e in zip(ends[:-1], ends[1:], flat))
+    groups = [[next(parts) for _ in g] for g in groups]
+    return t, wexpr, groups, wsym, [(geo, inv, J, piv.numel()), kin_in, (head_in, head_names), tail_in]
+
+
+def _shared(outs: list) -> list:
+    """``outs`` as one common-subexpression-eliminated graph (the outputs share their terms), in their shapes."""
+    both = ca.cse(ca.vertcat(*[ca.vec(o) for o in outs]))
+    ends = np.cumsum([0] + [o.numel() for o in outs])
+    return [ca.reshape(both[i:j], o.size1(), o.size2()) for i, j, o in zip(ends[:-1], ends[1:], outs)]
 
 
 def _link_functions(ctrl: SpatialController) -> tuple[ca.Function, ...]:
     """``(time_features, kinematics_step, link_pivot, link_inv_det, rates_step, kinematics_head, tail, rate_norm,
-    end_margin, rates_head)`` of ``ctrl``."""
-    (geo, t, inv), (piv, out, inv_expr), J = _pivot_expressions(ctrl)
-    expr, wsym, wexpr = split_time_terms(ca.vertcat(piv, out, inv_expr), t)
-    n = piv.numel()
+    end_margin, rates_head, link_pivot_rates)`` of ``ctrl``: every time-only term (of the pivots, heads and tail) in the time features."""
+    t, wexpr, (pivot_out, inv_out, kin_out, head_out, tail_out), w, inputs = _without_time(ctrl)
+    (geo, inv, J, n), kin_in, (head_in, head_names), tail_in = inputs
     tf = ca.Function("spatial_time_features", [t], [ca.cse(wexpr)], ["t"], ["w"])
-    body = ca.cse(expr[:n + 3])
+    body = ca.cse(ca.vertcat(*pivot_out))
     names = [f"g{k}" for k in range(LINK_GEOMETRY)]
-    pivot = ca.Function("spatial_link_pivot", [*geo, wsym, inv], [body[k] for k in range(n + 3)],
+    pivot = ca.Function("spatial_link_pivot", [*geo, w, inv], [body[k] for k in range(n + 3)],
                         names + ["w", "inv_det"], [f"pivot_{k}" for k in range(n)] + ["e_1", "e_2", "margin"])
-    inv_det = ca.Function("spatial_link_inv_det", [*geo, wsym], [ca.cse(expr[n + 3])], names + ["w"], ["inv_det"])
-    return (tf, _kinematics_function(ctrl), pivot, inv_det, _rates_function(ctrl, J, n),
-            _kinematics_head_function(ctrl), _tail_function(ctrl), _rate_norm_function(ctrl),
-            _end_margin_function(ctrl),
-            _rates_head_function(ctrl))
+    inv_det = ca.Function("spatial_link_inv_det", [*geo, w], [ca.cse(inv_out[0])], names + ["w"], ["inv_det"])
+    rates_only = ca.cse(pivot_out[0])
+    pivot_rates = ca.Function("spatial_link_pivot_rates", [*geo, w, inv], [rates_only[k] for k in range(n)],
+                              names + ["w", "inv_det"], [f"pivot_{k}" for k in range(n)])
+    kin_head = ca.Function("spatial_kinematics_head", [*kin_in, w], _shared(kin_out),
+                           (["d"] if ctrl.chain.rail else []) + list(HEAD_TRIG) + ["w"], ["kinematics"])
+    if ctrl.chain.rail:
+        head_in = head_in[:-1] + [w, head_in[-1]]
+        head_names = head_names[:-1] + ["w", head_names[-1]]
+    else:
+        head_in, head_names = head_in + [w], head_names + ["w"]
+    rail = ["d_dot", "rail_margin", "psi_1"] if ctrl.chain.rail else []
+    rates_head = ca.Function("spatial_rates_head", head_in, _shared(head_out), head_names,
+                             ["rates", "total", "roll", "roll_row", "roll_rhs", "roll_scale"] + rail)
+    tail = ca.Function("spatial_frame_tail", [*tail_in[:3], w, *tail_in[3:]], _shared(tail_out),
+                       ["geo", "carry", "v", "w", "roll_row", "roll_rhs"], ["s", "p", "s_row"])
+    return (tf, _kinematics_function(ctrl), pivot, inv_det, _rates_function(ctrl, J, n), kin_head, tail,
+            _rate_norm_function(ctrl), _end_margin_function(ctrl), rates_head, pivot_rates)
 
 
 def _cached(ctrl: SpatialController) -> tuple[ca.Function, ...]:
@@ -261,7 +300,10 @@ def _cached(ctrl: SpatialController) -> tuple[ca.Function, ...]:
 
 
 def spatial_time_features(ctrl: SpatialController) -> ca.Function:
-    """``t -> w``: the time-only terms of :func:`spatial_rates_step`, computed once per law call.
+    """``t -> w``: the time-only terms of the link pivots, both heads and the end solve, computed once per law call.
+
+    For a line: its frame and point, their rates and the roll and speed commands (the C's third RK4 stage
+    reuses the second's, at the same time).
 
     Parameters
     ----------
@@ -296,10 +338,10 @@ def spatial_kinematics_step(ctrl: SpatialController) -> ca.Function:
 
 
 def spatial_rates_step(ctrl: SpatialController) -> ca.Function:
-    """One link ``j >= 2`` of the spatial solve's rates: ``(carry, geo_j, w, inv_det) -> (carry_next, out_j)``.
+    """One link ``j >= 2`` of the spatial solve's rates: ``(carry, pivot_0, ..., pivot_n-1) -> (carry_next, v_0, ..., v_5)``.
 
     The operations of :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.link_step` after the
-    kinematics, with the reciprocal of the link pivot's determinant from :func:`spatial_link_inv_det`.
+    kinematics and the link pivot (:func:`spatial_link_pivot`'s first outputs).
 
     Parameters
     ----------
@@ -309,10 +351,9 @@ def spatial_rates_step(ctrl: SpatialController) -> ca.Function:
     Returns
     -------
     casadi.Function
-        ``geo_j = (vec E_j, y^j)`` (:data:`LINK_GEOMETRY`); carry ``(A0 (3), vec A1 (6), sum ||W1||)``
-        (:data:`RATE_CARRY`, ``A0 + A1 p = y^j' + xi/2 E_j w_j`` [m/s]);
-        ``out_j = (e^j [m] (2), link margin [-], xi/2 W0_j [m/s] (2), xi/2 vec W1_j [m] (4))``
-        (the link rates ``w_j = W0_j + W1_j p`` times ``xi/2``).
+        Carry ``(A0 (3), vec A1 (6))`` (:data:`RATE_CARRY`, ``A0 + A1 p = y^j' + xi/2 E_j w_j`` [m/s]);
+        ``v = (xi/2 W0_j [m/s] (2), xi/2 vec W1_j [m] (4))`` (the link rates ``w_j = W0_j + W1_j p`` times
+        ``xi/2``).
     """
     return _cached(ctrl)[4]
 
@@ -355,8 +396,26 @@ def spatial_link_pivot(ctrl: SpatialController) -> ca.Function:
     return _cached(ctrl)[2]
 
 
+def spatial_link_pivot_rates(ctrl: SpatialController) -> ca.Function:
+    """:func:`spatial_link_pivot` without ``e^j`` and the link margin: ``(g_0, ..., g_8, w, inv_det) -> (pivot_0, ...)``.
+
+    The same arithmetic for the rates step's inputs; the C law calls it in the later stages of an RK4 step,
+    which read only the joint rates.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+
+    Returns
+    -------
+    casadi.Function
+    """
+    return _cached(ctrl)[10]
+
+
 def spatial_kinematics_head(ctrl: SpatialController) -> ca.Function:
-    """Link 1's kinematics carry: ``([d,] ab_1, t) -> kinematics``.
+    """Link 1's kinematics carry: ``([d,] cos a_1, sin a_1, cos b_1, sin b_1, w) -> kinematics``.
 
     ``(vec R_1, y^1)`` (:data:`KIN_CARRY`) in the law's frame (:mod:`.spatial_frame`), ``y^1 = d r`` on a
     rail (``d`` first), the origin else.
@@ -369,19 +428,22 @@ def spatial_kinematics_head(ctrl: SpatialController) -> ca.Function:
     Returns
     -------
     casadi.Function
-        Inputs ``d`` [m] (on a rail only), ``ab`` (2,) [rad], ``t`` [s]; output the carry (12).
+        Inputs ``d`` [m] (on a rail only), the cosines and sines of ``a_1``, ``b_1`` [-] (:data:`HEAD_TRIG`),
+        the time features ``w`` (:func:`spatial_time_features`); output the carry (12).
     """
     return _cached(ctrl)[5]
 
 
 def spatial_rates_head(ctrl: SpatialController) -> ca.Function:
-    """Link 1's rates carry and the roll row: ``([d,] ab_1, t[, y_m]) -> (rates, total, roll, roll_row, roll_rhs,
-    roll_scale[, d_dot, rail_margin, psi_1])``.
+    """Link 1's rates carry and the roll row: ``([d,] cos a_1, sin a_1, cos b_1, sin b_1, w[, y_m]) -> (rates,
+    total, roll, roll_row, roll_rhs, roll_scale[, d_dot, rail_margin, psi_1])``.
 
     :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.head` (on a rail
     :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.rail_head`, given the end's centre ``y^m``
     in the law's frame for the span) with its carry as the rates carry ``A = y^1' + xi/2 E_1 w_1``
-    (:func:`spatial_rates_step`) in the law's frame, and the end margin's running sum (1).
+    (:func:`spatial_rates_step`) in the law's frame, and the end margin's running sum (1); built over ``R_1``
+    (:meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.head_terms`) from the cosines and sines,
+    its time-only terms read from the time features ``w``.
 
     Parameters
     ----------
@@ -398,11 +460,12 @@ def spatial_rates_head(ctrl: SpatialController) -> ca.Function:
 
 
 def spatial_frame_tail(ctrl: SpatialController) -> ca.Function:
-    """The 2x2 end solve: ``(geo_m, carry_m, v_m, t, roll_row, roll_rhs, roll_scale) -> (s, p, end_margin)``.
+    """The 2x2 end solve: ``(geo_m, carry_m, v_m, w, roll_row, roll_rhs) -> (s, p, s_row)``.
 
     :meth:`~coordarm.symbolic.spatial_recursion.SpatialRecursion.tail` on link m's geometry and the
     rates carry after link m, whose ``A = y^m' + xi/2 E_m w_m`` gives ``y^m' = A - E_m v_m`` with
-    ``v_m = xi/2 (W0_m, vec W1_m)`` (link m's second output, :func:`spatial_rates_step`).
+    ``v_m = xi/2 (W0_m, vec W1_m)`` (link m's second output, :func:`spatial_rates_step`); its time-only terms
+    read from the time features ``w`` (:func:`spatial_time_features`).
 
     Parameters
     ----------
@@ -412,7 +475,7 @@ def spatial_frame_tail(ctrl: SpatialController) -> ca.Function:
     Returns
     -------
     casadi.Function
-        ``s`` [m], ``p = w_1`` (2,) [rad/s], ``end_margin`` [-].
+        ``s`` [m], ``p = w_1`` (2,) [rad/s], the ``s`` row ``grad psi . Y1`` (1, 2) for the end margin.
     """
     return _cached(ctrl)[6]
 

@@ -129,6 +129,27 @@ class SpatialRecursion:
         self.chain, self.task = chain, task
         self._cache: dict = {}
 
+    def head_terms(self, R: Any, t: Any) -> tuple[Any, ...]:
+        """:meth:`head`'s outputs as expressions of link 1's frame ``R`` (3, 3) and the time ``t`` [s].
+
+        Parameters
+        ----------
+        R : casadi.SX, shape (3, 3)
+            ``R_1 = Rz(a_1) Ry(b_1)``.
+        t : casadi.SX
+            Time [s].
+
+        Returns
+        -------
+        tuple of casadi.SX
+            ``(carry, roll, roll_row, roll_rhs, roll_scale)`` as :meth:`head`.
+        """
+        E, zero = R[:, 1:3], ca.SX.zeros(3, 1)
+        theta, g, theta_t, _ = self.task.roll_geometry(zero, R[:, 0], t)
+        carry = pack_carry(R, zero, zero, ca.SX.zeros(3, 2), zero, 0.5 * self.chain.xi * E, 1)
+        row = ca.mtimes(g.T, E)
+        return carry, theta, row, self.task.roll_rate(theta, t) - theta_t, ca.norm_2(g)
+
     def head(self) -> ca.Function:
         """``(ab_1, t) -> (carry, roll, roll_row, roll_rhs, roll_scale)`` of link 1.
 
@@ -140,16 +161,41 @@ class SpatialRecursion:
         casadi.Function
         """
         if "head" not in self._cache:
-            ab, t, half = ca.SX.sym("ab", 2), ca.SX.sym("t"), 0.5 * self.chain.xi
-            R = ca.mtimes(rot_z(ab[0]), rot_y(ab[1]))
-            E, zero = R[:, 1:3], ca.SX.zeros(3, 1)
-            theta, g, theta_t, _ = self.task.roll_geometry(zero, R[:, 0], t)
-            carry = pack_carry(R, zero, zero, ca.SX.zeros(3, 2), zero, half * E, 1)
-            row = ca.mtimes(g.T, E)
+            ab, t = ca.SX.sym("ab", 2), ca.SX.sym("t")
             self._cache["head"] = ca.Function(
-                "spatial_head", [ab, t], [carry, theta, row, self.task.roll_rate(theta, t) - theta_t, ca.norm_2(g)],
+                "spatial_head", [ab, t], list(self.head_terms(ca.mtimes(rot_z(ab[0]), rot_y(ab[1])), t)),
                 ["ab", "t"], ["carry", "roll", "roll_row", "roll_rhs", "roll_scale"])
         return self._cache["head"]
+
+    def rail_head_terms(self, d: Any, R: Any, t: Any, sigma: Any) -> tuple[Any, ...]:
+        """:meth:`rail_head`'s outputs as expressions of ``d`` [m], link 1's frame ``R`` (3, 3), ``t`` [s], ``sigma`` [m].
+
+        Parameters
+        ----------
+        d : casadi.SX
+            The feed [m].
+        R : casadi.SX, shape (3, 3)
+            ``R_1 = Rz(a_1) Ry(b_1)``.
+        t : casadi.SX
+            Time [s].
+        sigma : casadi.SX
+            The span now [m].
+
+        Returns
+        -------
+        tuple of casadi.SX
+            ``(carry, roll, roll_row, roll_rhs, roll_scale, d_dot, rail_margin, psi_1)`` as :meth:`rail_head`.
+        """
+        half, rail = 0.5 * self.chain.xi, ca.DM(self.chain.rail_direction)
+        y1 = d * rail
+        _, _, _, psi1, h1, psit1 = self.task.geometry(y1, t)
+        pivot = ca.dot(h1, rail)
+        d_dot = (ca.SX(self.task.speed(t)) - self.task.span_rate(sigma, t) - psit1) / pivot
+        E = R[:, 1:3]
+        theta, g, theta_t, gy = self.task.roll_geometry(y1, R[:, 0], t)
+        carry = pack_carry(R, y1, d_dot * rail, ca.SX.zeros(3, 2), ca.SX.zeros(3, 1), half * E, 1)
+        rhs = self.task.roll_rate(theta, t) - theta_t - ca.dot(gy, rail) * d_dot
+        return (carry, theta, ca.mtimes(g.T, E), rhs, ca.norm_2(g), d_dot, ca.fabs(pivot) / ca.norm_2(h1), psi1)
 
     def rail_head(self) -> ca.Function:
         """``(d, ab_1, t, sigma) -> (carry, roll, roll_row, roll_rhs, roll_scale, d_dot, rail_margin, psi_1)`` on a rail.
@@ -165,19 +211,9 @@ class SpatialRecursion:
         """
         if "rail_head" not in self._cache:
             d, ab, t, sigma = ca.SX.sym("d"), ca.SX.sym("ab", 2), ca.SX.sym("t"), ca.SX.sym("sigma")
-            half, rail = 0.5 * self.chain.xi, ca.DM(self.chain.rail_direction)
-            y1 = d * rail
-            _, _, _, psi1, h1, psit1 = self.task.geometry(y1, t)
-            pivot = ca.dot(h1, rail)
-            d_dot = (ca.SX(self.task.speed(t)) - self.task.span_rate(sigma, t) - psit1) / pivot
             R = ca.mtimes(rot_z(ab[0]), rot_y(ab[1]))
-            E = R[:, 1:3]
-            theta, g, theta_t, gy = self.task.roll_geometry(y1, R[:, 0], t)
-            carry = pack_carry(R, y1, d_dot * rail, ca.SX.zeros(3, 2), ca.SX.zeros(3, 1), half * E, 1)
-            rhs = self.task.roll_rate(theta, t) - theta_t - ca.dot(gy, rail) * d_dot
             self._cache["rail_head"] = ca.Function(
-                "spatial_rail_head", [d, ab, t, sigma],
-                [carry, theta, ca.mtimes(g.T, E), rhs, ca.norm_2(g), d_dot, ca.fabs(pivot) / ca.norm_2(h1), psi1],
+                "spatial_rail_head", [d, ab, t, sigma], list(self.rail_head_terms(d, R, t, sigma)),
                 ["d", "ab", "t", "sigma"],
                 ["carry", "roll", "roll_row", "roll_rhs", "roll_scale", "d_dot", "rail_margin", "psi_1"])
         return self._cache["rail_head"]

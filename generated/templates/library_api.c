@@ -19,6 +19,11 @@ COORDARM_API int coordarm_control(const casadi_real* q, casadi_real t, casadi_re
          && ca_all_finite(out + CA_OUT_U + CA_NQ, CA_NOUT - CA_OUT_U - CA_NQ) ? 0 : 3;
 }
 
+/* The law of an RK4 step's later stages, of which only u is read: a law may define a leaner one. */
+#ifndef CA_LAW_STAGE
+#define CA_LAW_STAGE ca_law
+#endif
+
 /* Same operation order as CoordinatingController.rk4_step, so both agree to rounding. */
 static int ca_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_real* q_next,
                   casadi_real* out, casadi_int* iw, casadi_real* w) {
@@ -30,11 +35,11 @@ static int ca_rk4(const casadi_real* q, casadi_real t, casadi_real h, casadi_rea
   casadi_real *u = out + CA_OUT_U, *v = o + CA_OUT_U;
   if ((rc = ca_law(q, t, u, out, iw, w))) return rc;
   for (j = 0; j < CA_NQ; ++j) { k1[j] = CA_K_FROM_U(j, u[j]); x[j] = q[j] + h2 * k1[j]; }
-  if ((rc = ca_law(x, t + h2, v, o, iw, w))) return rc;
+  if ((rc = CA_LAW_STAGE(x, t + h2, v, o, iw, w))) return rc;
   for (j = 0; j < CA_NQ; ++j) { k2[j] = CA_K_FROM_U(j, v[j]); x[j] = q[j] + h2 * k2[j]; }
-  if ((rc = ca_law(x, t + h2, v, o, iw, w))) return rc;
+  if ((rc = CA_LAW_STAGE(x, t + h2, v, o, iw, w))) return rc;
   for (j = 0; j < CA_NQ; ++j) { k3[j] = CA_K_FROM_U(j, v[j]); x[j] = q[j] + h * k3[j]; }
-  if ((rc = ca_law(x, t + h, v, o, iw, w))) return rc;
+  if ((rc = CA_LAW_STAGE(x, t + h, v, o, iw, w))) return rc;
   for (j = 0; j < CA_NQ; ++j) {
     k4[j] = CA_K_FROM_U(j, v[j]);
     q_next[j] = q[j] + h6 * (((k1[j] + 2 * k2[j]) + 2 * k3[j]) + k4[j]);
