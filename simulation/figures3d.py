@@ -18,12 +18,11 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import LogFormatter, MaxNLocator, NullFormatter
 import numpy as np
 
-from .figures import envelope_indices, stage_indices
+from .contact_marks import contact_marks, draw_contact_marks, ended_note, recorded_contacts
+from .figures import FLOOR, decay_reference, envelope_indices, legend_beside, stage_indices
 from .obstacles3d import densified, wireframe
 from .spatial_view import clip_to_box, rail_ends, roll_command, span_command, spatial_joints, view_box
 
-#: The floor of the logarithmic error plots [m or rad]: below it lie only rounding errors.
-FLOOR = 1e-17
 #: Projections drawn beside the 3-D view: (title, the two coordinates shown).
 PROJECTIONS = (("top view (x-y)", (0, 1)), ("side view (x-z)", (0, 2)))
 AXIS_NAMES = ("x", "y", "z")
@@ -284,6 +283,9 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
                         stages: int = 4, title: str = "", obstacles: Sequence[Any] = (), stopped: bool = False) -> Path:
     """The chain at several times with the curve at those times: a perspective view and two projections; a PNG.
 
+    Contacts recorded in ``run.info["contacts"]`` are marked as on the planar figure
+    (:mod:`~.contact_marks`: red rings on the touching links, the body at the first contact drawn too).
+
     Parameters
     ----------
     run : Run or namespace
@@ -311,6 +313,9 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
     idx = stage_indices(run, stages, times)
     if stopped and len(run.t):                   # the configuration at the stop, drawn red
         idx = np.union1d(idx, [len(run.t) - 1]).astype(int)
+    marks = contact_marks(run, ctrl.chain)
+    if marks:                                    # the body at its first contact, where the rings are
+        idx = np.union1d(idx, [int(np.argmin(np.abs(run.t - marks[0].time)))]).astype(int)
     scene = stage_scene(run, ctrl, idx, obstacles)
     colours = matplotlib.colormaps["viridis"](np.linspace(0, 0.9, len(idx)))
     labels = [f"t = {run.t[k]:.2f} s" for k in idx]
@@ -322,9 +327,12 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
                             wspace=0.22, hspace=0.28)
     ax3 = fig.add_subplot(grid[:, 0], projection="3d")
     draw_view3d(ax3, scene, colours, labels)
+    draw_contact_marks(ax3, marks, (0, 1, 2), names=False)
     ax3.text2D(0.5, 0.97, "perspective", transform=ax3.transAxes, ha="center", fontsize=10)
     for (name, axes), cell in zip(PROJECTIONS, (grid[0, 1], grid[1, 1])):
-        draw_projection(fig.add_subplot(cell), scene, colours, name, axes)
+        ax = fig.add_subplot(cell)
+        draw_projection(ax, scene, colours, name, axes)
+        draw_contact_marks(ax, marks, axes)
     handles, names = ax3.get_legend_handles_labels()
     extra = [(Line2D([], [], ls="--", color="gray", lw=1.0), "curve at that time"),
              (Line2D([], [], ls="", marker="o", color="gray", mec="k", ms=6), "end point")]
@@ -371,7 +379,8 @@ def tracking_series(run: Any, ctrl: Any) -> dict[str, np.ndarray]:
 
 def draw_decay(ax: Any, t: np.ndarray, values: np.ndarray, gain: float, label: str, ylabel: str,
                symbol: str) -> None:
-    """``|values|`` on a log scale with ``|values(0)| exp(-K t)``, both floored at :data:`FLOOR`.
+    """``|values|`` on a log scale (floored at :data:`FLOOR`) with ``|values(0)| exp(-K t)`` down to that floor
+    (:func:`~.figures.decay_reference`: none when ``|values(0)|`` is at the rounding level).
 
     Parameters
     ----------
@@ -392,13 +401,13 @@ def draw_decay(ax: Any, t: np.ndarray, values: np.ndarray, gain: float, label: s
     """
     size = np.abs(values)
     ax.semilogy(t, np.maximum(size, FLOOR), label=label)
-    if size[0] > 0:
-        ax.semilogy(t, np.maximum(size[0] * np.exp(-gain * (t - t[0])), FLOOR), "--",
-                    label=f"{symbol} exp(-{gain:g} t)")
+    reference = decay_reference(t, size[0], gain, FLOOR)
+    if reference is not None:
+        ax.semilogy(t, reference, "--", label=f"{symbol} exp(-{gain:g} t)")
     ax.yaxis.set_major_formatter(LogFormatter())
     ax.yaxis.set_minor_formatter(NullFormatter())
     ax.set_ylabel(ylabel)
-    ax.legend(fontsize=8, loc="upper right")
+    legend_beside(ax)
 
 
 def plot_spatial_tracking(run: Any, ctrl: Any, path: str | Path, thresholds: dict[str, float] | None = None,
@@ -428,8 +437,8 @@ def plot_spatial_tracking(run: Any, ctrl: Any, path: str | Path, thresholds: dic
     keep = envelope_indices(np.column_stack([np.log10(np.maximum(ser["emax"], FLOOR)), ser["s_err"], ser["roll"],
                                              ser["link"], ser["end"], ser["joint"]]))
     t, s = run.t[keep], {k: v[keep] for k, v in ser.items()}
-    fig = Figure(figsize=(7.5, 11.0))
-    axes = fig.subplots(5, 1, sharex=True, gridspec_kw=dict(left=0.13, right=0.97, bottom=0.05, top=0.95,
+    fig = Figure(figsize=(10.0, 11.0))      # the legends stand right of the panels, off the data
+    axes = fig.subplots(5, 1, sharex=True, gridspec_kw=dict(left=0.1, right=0.7, bottom=0.05, top=0.95,
                                                             hspace=0.14))
     draw_decay(axes[0], t, s["emax"], ctrl.gain, "max$_j$ |e$^j$| (normal deviations)", "deviation [m]",
                "max|e(0)|")
@@ -455,7 +464,7 @@ def plot_spatial_tracking(run: Any, ctrl: Any, path: str | Path, thresholds: dic
     for ax in axes:
         ax.grid(alpha=0.3)
     for ax in axes[1:3].tolist() + [axes[4]]:
-        ax.legend(fontsize=8, loc="best")
+        legend_beside(ax)
     fig.suptitle(title or "tracking and singularity margins", fontsize=11)
     path = Path(path)
     fig.savefig(path, dpi=110)
@@ -489,7 +498,8 @@ def spatial_figures(run: Any, scenario: Any, ctrl: Any, stem: str | Path, stages
     """
     stem = Path(stem)
     name = getattr(scenario, "name", "") or "spatial run"
-    title = f"{name}: {ctrl.chain.m} links, universal joints" + (f" ({outcome})" if outcome else "")
+    ended = ended_note(outcome, len(recorded_contacts(run)))
+    title = f"{name}: {ctrl.chain.m} links, universal joints" + (f" ({ended})" if ended else "")
     times = stages if stages is not None else getattr(scenario, "stages", None)
     thresholds = getattr(scenario, "thresholds", None)
     return [plot_spatial_stages(run, ctrl, stem.with_name(stem.name + "_stages.png"), times=times,

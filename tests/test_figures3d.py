@@ -81,7 +81,7 @@ def test_the_figures_are_pngs_of_the_expected_size(swing, tmp_path):
                                       ctrl, tmp_path / "swing", outcome="valid")
     assert [p.name for p in paths] == ["swing_stages.png", "swing_tracking.png"]
     assert png_size(paths[0]) == (1430, 770)       # 13 x 7 in at 110 dpi
-    assert png_size(paths[1]) == (825, 1210)       # 7.5 x 11 in
+    assert png_size(paths[1]) == (1100, 1210)      # 10 x 11 in (the legends right of the panels)
 
 
 def test_drawn_links_are_the_centres_plus_minus_half_a_link_along_d(swing, tmp_path, recorded):
