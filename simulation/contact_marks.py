@@ -26,7 +26,7 @@ MOST_MARKED = 10
 class ContactMark:
     """One recorded contact, placed.
 
-    Parameters
+    Attributes
     ----------
     time : float
         When it happened [s].
@@ -143,7 +143,8 @@ def draw_contact_marks(ax: Any, marks: Sequence[ContactMark], axes: Sequence[int
     drawn, named = [], set()
     for i, mark in enumerate(marks[:MOST_MARKED]):
         label = contact_note(len(marks) if count is None else count, marks[0].time) if i == 0 else None
-        drawn += ax.plot(*(mark.points[:, a] for a in axes), **CONTACT_STYLE, zorder=31, label=label, **artist)
+        drawn += ax.plot(*(mark.points[:, a] for a in axes), **CONTACT_STYLE, zorder=31, label=label, gid="contact",
+                         **artist)
         if names and len(axes) == 2 and mark.what not in named and len(mark.points):
             named.add(mark.what)
             drawn.append(ax.annotate(mark.what, mark.points[0, list(axes)], xytext=(-8, -8), textcoords="offset points",

@@ -107,6 +107,25 @@ def test_drawn_links_are_the_centres_plus_minus_half_a_link_along_d(swing, tmp_p
     np.testing.assert_allclose(aspect / aspect[0], np.diff(lims).ravel() / np.diff(lims[0]), rtol=1e-9)
 
 
+def test_recorded_contacts_are_ringed_on_their_links_in_all_three_views_and_counted_in_the_title(swing, tmp_path,
+                                                                                                  recorded):
+    ctrl, run = swing
+    k = 17
+    contact = {"kind": "self", "time": float(run.t[k]), "links": [2, 5], "value": 0.0, "threshold": 0.0}
+    figures3d.spatial_figures(SimpleNamespace(**vars(run), info={"contacts": [contact]}), SimpleNamespace(name="swing"),
+                              ctrl, tmp_path / "c", outcome="completed")
+    fig = recorded[0]
+    ax3, top, side = fig.axes
+    at = ctrl.chain.centres_np(run.q[k])[[1, 4]]                   # links 2 and 5 at the contact's time
+    (ring3,), (ring_top,), (ring_side,) = drawn(ax3, "contact"), drawn(top, "contact"), drawn(side, "contact")
+    np.testing.assert_allclose(ring3, at, atol=1e-14)
+    np.testing.assert_allclose(ring_top, at[:, [0, 1]], atol=1e-14)
+    np.testing.assert_allclose(ring_side, at[:, [0, 2]], atol=1e-14)
+    assert len(drawn(ax3, "links")) == 5                  # four stages (rows 0, 13, 27, 40) and the body at the contact
+    assert fig._suptitle.get_text() == "swing: 6 links, universal joints (completed, 1 contact): stages of the motion"
+    assert f"contacts: 1, first {run.t[k]:.2f} s" in [t.get_text() for t in fig.legends[0].get_texts()]
+
+
 def test_the_top_projection_of_a_planar_run_is_the_planar_figure(tmp_path, recorded, monkeypatch):
     rng = np.random.default_rng(3)
     qp = 0.4 * rng.standard_normal((5, M))                 # planar joint angles q_j
