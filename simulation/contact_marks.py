@@ -57,23 +57,27 @@ def recorded_contacts(run: Any) -> list[dict]:
     return list((getattr(run, "info", None) or {}).get("contacts") or [])
 
 
-def contact_marks(run: Any, chain: Any) -> list[ContactMark]:
-    """Every recorded contact of ``run`` placed on ``chain``: the touching links' centres at the sample nearest its time.
+def contact_marks(run: Any, chain: Any, contacts: Sequence[Any] | None = None) -> list[ContactMark]:
+    """Contacts placed on ``chain``: the touching links' centres at the sample of ``run`` nearest each one's time.
 
     Parameters
     ----------
     run : Run or namespace
-        ``t`` (N,) [s], ``q`` (N, dof) and ``info["contacts"]``.
+        ``t`` (N,) [s], ``q`` (N, dof) and (without ``contacts``) ``info["contacts"]``.
     chain : PlanarChain or SpatialChain
         The chain (its ``centres_np``).
+    contacts : sequence of dict or Contact, optional
+        The contacts to place (default: :func:`recorded_contacts` of ``run``), records or
+        :class:`~.physical.Contact` objects (a run's check at given samples).
 
     Returns
     -------
     list of ContactMark
-        One per record, in time order (links outside ``1..m`` are left out).
+        One per contact, in the given order (links outside ``1..m`` are left out).
     """
     out = []
-    for c in recorded_contacts(run):
+    for c in recorded_contacts(run) if contacts is None else contacts:
+        c = c if isinstance(c, dict) else c.as_dict()
         k = int(np.argmin(np.abs(np.asarray(run.t) - float(c["time"]))))
         centres = chain.centres_np(run.q[k])
         links = [j - 1 for j in c.get("links", ()) if 1 <= j <= len(centres)]
@@ -117,7 +121,7 @@ def ended_note(outcome: str | None, contacts: int) -> str:
 
 
 def draw_contact_marks(ax: Any, marks: Sequence[ContactMark], axes: Sequence[int] = (0, 1), count: int | None = None,
-                       names: bool = True, **artist: Any) -> list[Any]:
+                       names: bool = True, note: str | None = None, **artist: Any) -> list[Any]:
     """Rings on the links of ``marks`` (:data:`CONTACT_STYLE`), the first labelled :func:`contact_note`.
 
     Parameters
@@ -132,6 +136,8 @@ def draw_contact_marks(ax: Any, marks: Sequence[ContactMark], axes: Sequence[int
         Contacts in the legend label (default: ``len(marks)``).
     names : bool
         Name each obstacle (or kind) once, beside its first ring, below left of it (off a wall's label); 2-D only.
+    note : str, optional
+        The legend label of the rings instead of :func:`contact_note`.
     **artist
         Further Line2D keywords (``animated=True`` for a GIF).
 
@@ -142,7 +148,7 @@ def draw_contact_marks(ax: Any, marks: Sequence[ContactMark], axes: Sequence[int
     """
     drawn, named = [], set()
     for i, mark in enumerate(marks[:MOST_MARKED]):
-        label = contact_note(len(marks) if count is None else count, marks[0].time) if i == 0 else None
+        label = (note or contact_note(len(marks) if count is None else count, marks[0].time)) if i == 0 else None
         drawn += ax.plot(*(mark.points[:, a] for a in axes), **CONTACT_STYLE, zorder=31, label=label, gid="contact",
                          **artist)
         if names and len(axes) == 2 and mark.what not in named and len(mark.points):
