@@ -77,7 +77,7 @@ def contact_marks(run: Any, chain: Any, contacts: Sequence[Any] | None = None) -
     """
     out = []
     for c in recorded_contacts(run) if contacts is None else contacts:
-        c = c if isinstance(c, dict) else c.as_dict()
+        c = c if isinstance(c, dict) else c.to_dict()
         k = int(np.argmin(np.abs(np.asarray(run.t) - float(c["time"]))))
         centres = chain.centres_np(run.q[k])
         links = [j - 1 for j in c.get("links", ()) if 1 <= j <= len(centres)]
