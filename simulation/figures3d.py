@@ -323,10 +323,11 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
         colours[-1] = matplotlib.colors.to_rgba("#d62728")
         labels[-1] = f"stop at t = {run.t[-1]:.2f} s"
     fig = Figure(figsize=(13.0, 7.0))
-    grid = fig.add_gridspec(2, 2, width_ratios=(1.5, 1.0), left=0.0, right=0.84, bottom=0.07, top=0.92,
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.5, 1.0), left=0.02, right=0.84, bottom=0.07, top=0.92,
                             wspace=0.22, hspace=0.28)
     ax3 = fig.add_subplot(grid[:, 0], projection="3d")
     draw_view3d(ax3, scene, colours, labels)
+    ax3.set_box_aspect(tuple(scene["hi"] - scene["lo"]), zoom=0.94)    # the box and its z label inside the cell
     draw_contact_marks(ax3, marks, (0, 1, 2), names=False)
     ax3.text2D(0.5, 0.97, "perspective", transform=ax3.transAxes, ha="center", fontsize=10)
     for (name, axes), cell in zip(PROJECTIONS, (grid[0, 1], grid[1, 1])):
@@ -457,7 +458,7 @@ def plot_spatial_tracking(run: Any, ctrl: Any, path: str | Path, thresholds: dic
     if "rail" in s:
         axes[4].plot(t, s["rail"], label="rail margin")
     for name, value in (thresholds or {}).items():
-        axes[4].axhline(value, ls=":", color="gray", label=f"{name} threshold")
+        axes[4].axhline(value, ls=":", color="red" if name == "longitudinal" else "gray", label=f"{name} threshold")
     axes[4].set_ylim(bottom=0)
     axes[4].set_ylabel("margin [-]")
     axes[4].set_xlabel("t [s]")

@@ -123,3 +123,13 @@ def test_the_tracking_figure_draws_no_reference_on_the_floor(short_run, captured
     assert np.isnan(y).any() and np.nanmin(y) >= figures.FLOOR
     legend = ax.get_legend()
     assert legend.get_window_extent().x0 >= ax.get_window_extent().x1      # the legend stands right of the data
+
+
+def test_the_report_step_responses_keep_their_legend_beside_the_curves(captured, tmp_path):
+    from coordarm.analysis.report_figures import plot_step_responses
+
+    plot_step_responses(2.0, 0.1, tmp_path / "s.png", title="x")
+    fig, = captured
+    ax = fig.axes[0]
+    assert ax.get_legend().get_window_extent().x0 >= ax.get_window_extent().x1
+    assert ax.get_xlabel() == "t [s]" and ax.get_ylabel().endswith("[-]")
