@@ -98,10 +98,17 @@ def draw_obstacles(ax: plt.Axes, obstacles: Sequence[Obstacle], labels: bool = T
             offset = 12.0 * (n if n[1] >= 0 else -n)       # beside the wall, on its upper side
         else:
             ax.fill(pts[:, 0], pts[:, 1], color="0.35", alpha=0.8, lw=1.5, edgecolor="k", zorder=2)
+            # a long wall is labelled a quarter along it (over its straight start, not off its end and out of
+            # the view, nor across a bend), a compact obstacle at its middle
+            span = np.ptp(pts, axis=0)
+            xm = pts[:, 0].min() + (0.25 if span[0] > 3 * span[1] else 0.5) * span[0]
+            ring = np.vstack([pts, pts[:1]])                     # the outline, 20 points per edge
+            dense = (ring[:-1, None] + np.linspace(0, 1, 20)[:, None] * (ring[1:] - ring[:-1])[:, None]).reshape(-1, 2)
+            mid = dense[np.abs(dense[:, 0] - xm) <= np.partition(np.abs(dense[:, 0] - xm), 3)[3]]
             if len(obstacles) > 1 and c[1] < np.mean([outline(o).mean(axis=0)[1] for o in obstacles]):
-                c, offset = pts[np.argmin(pts[:, 1])], np.array([0.0, -9.0])   # a lower wall: label below it
+                c, offset = mid[np.argmin(mid[:, 1])], np.array([0.0, -9.0])   # a lower wall: label below it
             else:
-                c, offset = pts[np.argmax(pts[:, 1])], np.array([0.0, 9.0])    # else above its top
+                c, offset = mid[np.argmax(mid[:, 1])], np.array([0.0, 9.0])    # else above its top
         if labels:
             ax.annotate(ob.name, c, fontsize=7, color="0.15", ha="center", va="center", xytext=tuple(offset),
                         textcoords="offset points", zorder=6,

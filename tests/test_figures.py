@@ -133,3 +133,27 @@ def test_the_report_step_responses_keep_their_legend_beside_the_curves(captured,
     ax = fig.axes[0]
     assert ax.get_legend().get_window_extent().x0 >= ax.get_window_extent().x1
     assert ax.get_xlabel() == "t [s]" and ax.get_ylabel().endswith("[-]")
+
+
+def test_a_long_walls_label_stands_a_quarter_along_it_off_the_wall_and_inside_the_view():
+    import matplotlib.pyplot as plt
+
+    from coordarm.simulation.obstacles import outline
+
+    obstacles = load_scenario("pipe").obstacles
+    fig, ax = plt.subplots()
+    try:
+        figures.draw_obstacles(ax, obstacles)
+        labels = {t.get_text(): t for t in ax.texts}
+        for ob, above in zip(obstacles, (True, False)):      # the left wall (upper) and the right wall (lower)
+            pts = outline(ob)
+            x, y = labels[ob.name].xy
+            lo, hi = pts[:, 0].min(), pts[:, 0].max()
+            assert abs(x - (lo + 0.25 * (hi - lo))) < 0.05 * (hi - lo)
+            a, b = pts, np.roll(pts, -1, axis=0)             # the outline's edges that cross the label's x
+            cross = (a[:, 0] - x) * (b[:, 0] - x) <= 0
+            ys = a[cross, 1] + (x - a[cross, 0]) / (b[cross, 0] - a[cross, 0]) * (b[cross, 1] - a[cross, 1])
+            assert y == pytest.approx(ys.max() if above else ys.min(), abs=1e-3)
+            assert labels[ob.name].xyann[1] * (1 if above else -1) > 0     # written beside it, away from the bore
+    finally:
+        plt.close(fig)
