@@ -124,7 +124,8 @@ def stage_scene(run: Any, ctrl: Any, idx: np.ndarray, obstacles: Sequence[Any] =
     dict
         ``joints`` (k, m+1, 3), ``curves`` list of (n, 3), ``targets`` (k, 3) or None, ``lo``, ``hi`` (3,) [m],
         ``obstacles`` list of (n, 3) polylines (clipped to the box), ``bases`` (k, 3) [m] (the base at each
-        stage) and ``rail`` (n, 3) or None (the rail between its limits, clipped to the box).
+        stage), ``rail`` (n, 3) or None (the rail between its limits, clipped to the box) and ``names``: each
+        obstacle's name with the points of its clipped wireframe, (n, 3) [m].
     """
     chain, curve = ctrl.chain, ctrl.curve
     every = np.unique(np.linspace(0, len(run.t) - 1, 60).round().astype(int))
@@ -141,9 +142,11 @@ def stage_scene(run: Any, ctrl: Any, idx: np.ndarray, obstacles: Sequence[Any] =
     curves = [clip_to_box(curve_points(curve, float(run.t[k]), reach), lo, hi) for k in idx]
     targets = target_points3d(ctrl, reference_arc_length(run)[idx], run.t[idx])
     ends = rail_ends(chain, reach)
+    names = [(ob.name, np.concatenate([clip_to_box(densified(p), lo, hi).reshape(-1, 3) for p in wireframe(ob)]))
+             for ob in obstacles]
     return dict(joints=spatial_joints(chain, run.q[idx]), curves=curves, targets=targets, lo=lo, hi=hi,
                 obstacles=[clip_to_box(p, lo, hi) for p in lines], bases=chain.base_point(run.q[idx]),
-                rail=None if ends is None else clip_to_box(densified(ends, 200), lo, hi))
+                rail=None if ends is None else clip_to_box(densified(ends, 200), lo, hi), names=names)
 
 
 def draw_stage(ax: Any, scene: dict[str, Any], i: int, colour: Any, label: str, axes: Sequence[int]) -> None:
@@ -216,6 +219,34 @@ def draw_obstacles(ax: Any, scene: dict[str, Any], axes: Sequence[int]) -> None:
         ax.plot(*(p[:, a] for a in axes), "-", color="0.4", lw=0.8, gid="obstacle")
 
 
+#: Most obstacles named on a projection (a pipe built of dozens of rods is left unnamed).
+MOST_NAMED = 6
+
+
+def label_obstacles(ax: Any, scene: dict[str, Any], axes: Sequence[int]) -> None:
+    """Each obstacle's name above its highest point in the projection on ``axes`` (none above :data:`MOST_NAMED`).
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+        A projection.
+    scene : dict
+        From :func:`stage_scene` (its ``names``; none if absent).
+    axes : sequence of int
+        The two coordinates shown.
+    """
+    named = scene.get("names") or []
+    if len(named) > MOST_NAMED:
+        return
+    for name, pts in named:
+        pts = pts[np.all(np.isfinite(pts), axis=1)]
+        if len(pts):
+            top = pts[np.argmax(pts[:, axes[1]])]
+            ax.annotate(name, (top[axes[0]], top[axes[1]]), xytext=(0, 6), textcoords="offset points", ha="center",
+                        va="bottom", fontsize=7, color="0.15", zorder=6,
+                        bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))
+
+
 def draw_view3d(ax: Any, scene: dict[str, Any], colours: np.ndarray, labels: Sequence[str]) -> None:
     """The stages in perspective on a 3-D axes, equal scales on x, y, z (box aspect = the box's extents).
 
@@ -269,6 +300,7 @@ def draw_projection(ax: Any, scene: dict[str, Any], colours: np.ndarray, title: 
         draw_stage(ax, scene, i, c, "", axes)
     draw_base(ax, axes, scene)
     draw_obstacles(ax, scene, axes)
+    label_obstacles(ax, scene, axes)
     ax.set_xlim(lo[axes[0]], hi[axes[0]])
     ax.set_ylim(lo[axes[1]], hi[axes[1]])
     ax.set_aspect("equal")

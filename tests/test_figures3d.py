@@ -198,3 +198,9 @@ def test_a_bounded_obstacle_away_from_the_arm_is_in_the_view_box_and_drawn(swing
     assert lines and all(np.all(p >= lo - 1e-12) and np.all(p <= hi + 1e-12) for p in lines if len(p))
     # the unbounded plate is cut to the box, not drawn at its nominal extent
     assert hi[1] - lo[1] < 10
+    # each projection names the obstacles above their highest point (the sphere's top: its centre + radius)
+    for ax, (a, b) in zip(recorded[0].axes[1:], ((0, 1), (0, 2))):
+        names = {t.get_text(): t.xy for t in ax.texts}
+        assert set(names) == {"ball", "wall"}
+        assert names["ball"][1] == pytest.approx(ball["centre"][b] + ball["radius"], abs=0.01)
+        assert names["ball"][0] == pytest.approx(ball["centre"][a], abs=0.02)
