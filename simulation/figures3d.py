@@ -204,7 +204,8 @@ def draw_base(ax: Any, axes: Sequence[int], scene: dict[str, Any] | None = None)
 
 
 def draw_obstacles(ax: Any, scene: dict[str, Any], axes: Sequence[int]) -> None:
-    """The obstacles' wireframes (grey, gid ``"obstacle"``), as clipped in ``scene["obstacles"]`` (none if absent).
+    """The obstacles' wireframes (grey, half transparent: a body in a cage shows; gid ``"obstacle"``), as clipped in
+    ``scene["obstacles"]`` (none if absent).
 
     Parameters
     ----------
@@ -216,7 +217,7 @@ def draw_obstacles(ax: Any, scene: dict[str, Any], axes: Sequence[int]) -> None:
         The coordinates shown (0 = x, 1 = y, 2 = z).
     """
     for p in scene.get("obstacles", ()):
-        ax.plot(*(p[:, a] for a in axes), "-", color="0.4", lw=0.8, gid="obstacle")
+        ax.plot(*(p[:, a] for a in axes), "-", color="0.4", lw=0.7, alpha=0.5, gid="obstacle")   # a body inside shows
 
 
 #: Most obstacles named on a projection (a pipe built of dozens of rods is left unnamed).
@@ -315,7 +316,8 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
                         stages: int = 4, title: str = "", obstacles: Sequence[Any] = (), stopped: bool = False) -> Path:
     """The chain at several times with the curve at those times: a perspective view and two projections; a PNG.
 
-    Contacts recorded in ``run.info["contacts"]`` are marked as on the planar figure
+    Earlier stages are drawn lighter (as on the planar figure) so that a body moving along itself does
+    not smear into one. Contacts recorded in ``run.info["contacts"]`` are marked as on the planar figure
     (:mod:`~.contact_marks`: red rings on the touching links, the body at the first contact drawn too).
 
     Parameters
@@ -350,6 +352,7 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
         idx = np.union1d(idx, [int(np.argmin(np.abs(run.t - marks[0].time)))]).astype(int)
     scene = stage_scene(run, ctrl, idx, obstacles)
     colours = matplotlib.colormaps["viridis"](np.linspace(0, 0.9, len(idx)))
+    colours[:, 3] = np.linspace(0.35, 1.0, len(idx)) if len(idx) > 1 else 1.0   # earlier stages lighter (no smear)
     labels = [f"t = {run.t[k]:.2f} s" for k in idx]
     if stopped and len(run.t):
         colours[-1] = matplotlib.colors.to_rgba("#d62728")
