@@ -204,3 +204,15 @@ def test_a_bounded_obstacle_away_from_the_arm_is_in_the_view_box_and_drawn(swing
         assert set(names) == {"ball", "wall"}
         assert names["ball"][1] == pytest.approx(ball["centre"][b] + ball["radius"], abs=0.01)
         assert names["ball"][0] == pytest.approx(ball["centre"][a], abs=0.02)
+
+
+def test_earlier_stages_are_lighter_and_the_obstacles_half_transparent(swing, tmp_path, recorded):
+    from coordarm.simulation.obstacles3d import obstacles3d_from_spec
+
+    ctrl, run = swing
+    ball = obstacles3d_from_spec([{"name": "ball", "kind": "sphere", "centre": [0.3, 0.5, 0.4], "radius": 0.1}])
+    figures3d.plot_spatial_stages(run, ctrl, tmp_path / "f.png", times=[0.0, 0.2, 0.4], obstacles=ball)
+    for ax in recorded[0].axes:
+        alphas = [line.get_color()[3] for line in ax.get_lines() if line.get_gid() == "links"]
+        assert alphas[0] < alphas[1] < alphas[2] == 1.0
+        assert {line.get_alpha() for line in ax.get_lines() if line.get_gid() == "obstacle"} == {0.5}
