@@ -205,8 +205,10 @@ def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, ob
         ax.plot(J[:, 0], J[:, 1], "-", color=c, lw=1.0 + 1.2 * alpha, alpha=alpha, zorder=3 + i,
                 label=f"stop at t = {run.t[k]:.2f} s" if last else None)
         ax.plot(J[-1, 0], J[-1, 1], "o", color=c, ms=4, zorder=3 + i)
-        ax.annotate(f"{run.t[k]:.{2 if last else 1}f} s", J[-1], xytext=(4, -10 if i % 2 else 4),
-                    textcoords="offset points", fontsize=7, color=c, zorder=20)
+        crowd = 9 * sum(float(np.hypot(*(J[-1] - P[-1]))) < 0.05 * extent for P in joints[:i])  # end points near
+        ax.annotate(f"{run.t[k]:.{2 if last else 1}f} s", J[-1], xytext=(4, -10 - crowd if i % 2 else 4 + crowd),
+                    textcoords="offset points", fontsize=7, color=c, zorder=32,
+                    bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7))
         if targets is not None:
             ax.plot(*targets[i], "x", color=c, ms=7, mew=1.5, zorder=3 + i)
     if stop is not None:

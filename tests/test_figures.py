@@ -157,3 +157,14 @@ def test_a_long_walls_label_stands_a_quarter_along_it_off_the_wall_and_inside_th
             assert labels[ob.name].xyann[1] * (1 if above else -1) > 0     # written beside it, away from the bore
     finally:
         plt.close(fig)
+
+
+def test_time_labels_of_end_points_close_together_are_moved_apart(short_run, captured, tmp_path):
+    scenario, ctrl, run = short_run
+    figures.plot_stages(run, ctrl, tmp_path / "s.png", times=[0.0, 0.3, 0.6])
+    ax = captured[0].axes[0]
+    ends = ctrl.chain.joints_np(run.q[figures.stage_indices(run, times=[0.0, 0.3, 0.6])])[:, -1]
+    extent = np.hypot(np.ptp(ax.get_xlim()), np.ptp(ax.get_ylim()))
+    assert np.all(np.hypot(*(ends[1:] - ends[0]).T) < 0.05 * extent)          # all three end points close
+    offsets = [t.xyann[1] for t in ax.texts if t.get_text().endswith(" s")]
+    assert offsets == [4, -10 - 9, 4 + 18]          # up, down one step further, up two steps further
