@@ -178,9 +178,10 @@ def draw_time_plots(axes: Sequence[Any], results: Sequence[Any], ctrl: Any) -> N
         ax.set_ylim(bottom=floor * 0.5)
         ax.set_xlabel("t [s]")
         ax.set_ylabel(label)
-        ax.set_title(title, fontsize=10)
+        ax.set_title(title, fontsize=10, pad=20)
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=8, loc="best")
+        ax.legend(fontsize=8, loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=len(results), frameon=False,
+                  borderaxespad=0.1)                              # above the plot, under its title: off the data
 
 
 def panel_title(result: Any) -> str:
