@@ -1,7 +1,9 @@
 """Animation of a replayed run: the chain, the curve at that time and the obstacles, as a GIF.
 
 Each frame is labelled with the scenario, the time and the outcome, has its axes labelled in
-metres, and shows the rail and the moving base of a rail robot; a bar under the axes shows how far
+metres, and shows the rail and the moving base of a rail robot; the recorded contacts (``--allow-contact``)
+are marked as on the stage figure (:mod:`coordarm.simulation.contact_marks`) from their time on, the body
+drawn red in the frame of a new contact and the title counting them; a bar under the axes shows how far
 into the run the frame is, and a progress bar on stderr follows the rendering.
 """
 from __future__ import annotations
@@ -9,9 +11,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+from matplotlib.lines import Line2D
 import numpy as np
 from PIL import Image
 
+from coordarm.simulation.contact_marks import (CONTACT_COLOUR, CONTACT_STYLE, MOST_MARKED, contact_marks,
+                                               draw_contact_marks)
 from coordarm.simulation.figures import draw_obstacles, draw_rail
 from coordarm.simulation.obstacles import outline
 from coordarm.simulation.progress import Progress
@@ -76,6 +81,59 @@ def frame_indices(t: np.ndarray, fps: float, max_frames: int) -> np.ndarray:
     return np.unique(np.clip(np.searchsorted(t, targets), 0, len(t) - 1))
 
 
+def frame_legend(rail: bool, contacts: bool) -> tuple[list[Line2D], list[str]]:
+    """The legend of a planar GIF frame: the body, the curve, the base (and the rail), the contact rings.
+
+    Parameters
+    ----------
+    rail : bool
+        The robot is on a rail.
+    contacts : bool
+        The run recorded contacts.
+
+    Returns
+    -------
+    handles : list of Line2D
+    labels : list of str
+    """
+    items = [(Line2D([], [], color="tab:blue", lw=1.5), "body (red: a new contact)" if contacts else "body"),
+             (Line2D([], [], ls="--", color="tab:orange", lw=1), "curve at that time"),
+             (Line2D([], [], ls="", marker="s", color="k", ms=5), "base" + " (on the rail)" * rail)]
+    if rail:
+        items.append((Line2D([], [], color="0.55", lw=5, alpha=0.5), "rail"))
+    if contacts:
+        items.append((Line2D([], [], **CONTACT_STYLE), "contact"))
+    return [h for h, _ in items], [lab for _, lab in items]
+
+
+def frame_contacts(times: np.ndarray, frame_times: np.ndarray, i: int) -> tuple[slice, str]:
+    """The contacts marked on frame ``i`` (the latest :data:`~coordarm.simulation.contact_marks.MOST_MARKED` of
+    those at or before its time) and the note of its title.
+
+    Parameters
+    ----------
+    times : ndarray, shape (C,)
+        The recorded contacts' times [s], increasing.
+    frame_times : ndarray, shape (F,)
+        The frames' times [s].
+    i : int
+        Frame number.
+
+    Returns
+    -------
+    marked : slice
+        Into the contacts; ``marked.stop`` is how many happened up to frame ``i``.
+    note : str
+        ``""`` before the first contact, else ``", contacts: n so far"``, ending ``" (contact)"`` when one
+        happened since the previous frame.
+    """
+    upto = int(np.searchsorted(times, frame_times[i], side="right"))
+    if not upto:
+        return slice(0, 0), ""
+    new = times[upto - 1] > (frame_times[i - 1] if i else -np.inf)
+    return slice(max(0, upto - MOST_MARKED), upto), f", contacts: {upto} so far" + (" (contact)" * bool(new))
+
+
 def animate(replay: Replay, path: str | Path, fps: float = 15.0, max_frames: int = 200,
             ctrl: CoordinatingController | None = None, progress: bool = True) -> Path:
     """Write a GIF of the run in ``replay`` to ``path``.
@@ -110,7 +168,7 @@ def animate(replay: Replay, path: str | Path, fps: float = 15.0, max_frames: int
     extent = float(np.linalg.norm(hi - lo))
     rail = ctrl.chain.rail
     bases = ctrl.chain.base_point(replay.q[idx]) if rail else np.zeros((len(idx), 2))
-    width, left, right, below, above = 5.5, 0.8, 0.2, 0.8, 0.4        # inches: the axes fit the scene's shape
+    width, left, right, below, above = 5.5, 0.8, 0.2, 1.05, 0.4       # inches: the axes fit the scene's shape
     height = float(np.clip((width - left - right) * (hi[1] - lo[1]) / (hi[0] - lo[0]), 1.6, 6.0)) + below + above
     fig, ax = plt.subplots(figsize=(width, height))
     fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=below / height, top=1 - above / height)
@@ -138,16 +196,24 @@ def animate(replay: Replay, path: str | Path, fps: float = 15.0, max_frames: int
                      animated=True)
     fig.add_artist(bar)
 
+    marks = contact_marks(replay.to_run(), ctrl.chain)
+    rings = [draw_contact_marks(ax, [m], names=False, animated=True) for m in marks]   # one set per contact
+    times = np.array([m.time for m in marks])
+    fig.legend(*frame_legend(rail, bool(marks)), loc="lower center", bbox_to_anchor=(0.5, 0.2 / height),
+               ncol=5, fontsize=7, frameon=False, handlelength=1.6, columnspacing=1.0)
+
     def draw(i: int):
         k = idx[i]
         c = ctrl.curve.sample(float(replay.t[k]), n=200, extent=extent)
         curve.set_data(c[:, 0], c[:, 1])
         arm.set_data(joints[i, :, 0], joints[i, :, 1])
         base.set_data(bases[i, :1], bases[i, 1:])
-        label.set_text(f"{name}: t = {replay.t[k]:.2f} / {t_end:.2f} s ({outcome})")
+        seen, note = frame_contacts(times, replay.t[idx], i)
+        arm.set_color(CONTACT_COLOUR if note.endswith("(contact)") else "tab:blue")
+        label.set_text(f"{name}: t = {replay.t[k]:.2f} / {t_end:.2f} s ({outcome}){note}")
         frac = (replay.t[k] - replay.t[0]) / max(t_end - replay.t[0], 1e-12)
         bar.set_data([x0, x0 + (x1 - x0) * frac], [y_bar, y_bar])
-        return curve, arm, base, label, bar
+        return [curve, arm, base, label, bar] + [a for r in rings[seen] for a in r]
 
     # Blitting: the axes, grid and obstacles are rendered once; each frame redraws only the
     # moving artists on a copy of that background (the full redraw cost 0.2 s a frame).

@@ -1,7 +1,7 @@
 """Animation of a replayed spatial run (universal joints) as a GIF: the chain in a 3-D perspective view.
 
 Each frame shows the links, the curve at that time, the end point's target, the rail and the base on it
-(when there is one) and the obstacles, drawn by the stage figure's helpers of
+(when there is one), the obstacles and the recorded contacts so far (as on the planar GIF), drawn by the stage figure's helpers of
 :mod:`coordarm.simulation.figures3d`; the camera is fixed and framed on the whole motion (equal scales on
 x, y, z). Frames are sampled like the planar GIF's (:func:`coordarm.analysis.animation.frame_indices`).
 """
@@ -16,9 +16,10 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from PIL import Image
 
+from coordarm.simulation.contact_marks import CONTACT_COLOUR, CONTACT_STYLE, contact_marks, draw_contact_marks
 from coordarm.simulation.figures3d import draw_stage, draw_view3d, stage_scene
 
-from .animation import FrameProgress, frame_indices
+from .animation import FrameProgress, frame_contacts, frame_indices
 from .replay import Replay
 
 #: Colour of the chain, its curve and target in every frame (the planar GIF's arm colour).
@@ -50,13 +51,15 @@ def spatial_frame_scene(replay: Replay, ctrl: Any, idx: np.ndarray) -> dict[str,
     return stage_scene(replay.to_run(), ctrl, idx, tuple(replay.scenario.obstacles))
 
 
-def spatial_view_figure(scene: dict[str, Any]) -> tuple[Figure, Any]:
+def spatial_view_figure(scene: dict[str, Any], contacts: bool = False) -> tuple[Figure, Any]:
     """The fixed frame of the animation: the axes, the obstacles, the rail (or the base) and a legend; no stage.
 
     Parameters
     ----------
     scene : dict
         From :func:`spatial_frame_scene`.
+    contacts : bool
+        The run recorded contacts: the legend names their rings.
 
     Returns
     -------
@@ -82,12 +85,15 @@ def spatial_view_figure(scene: dict[str, Any]) -> tuple[Figure, Any]:
     if scene.get("obstacles"):
         handles.append(Line2D([], [], color="0.4", lw=0.8))
         names.append("obstacles")
+    if contacts:
+        handles.append(Line2D([], [], **CONTACT_STYLE))
+        names.append("contact (links red: a new one)")
     fig.legend(handles, names, loc="lower left", fontsize=7, frameon=True, ncols=2)
     fig.canvas.draw()
     return fig, ax
 
 
-def stage_artists(ax: Any, scene: dict[str, Any], i: int) -> list[Any]:
+def stage_artists(ax: Any, scene: dict[str, Any], i: int, colour: Any = ARM_COLOUR) -> list[Any]:
     """Draw frame ``i``'s moving parts (curve, links, joints, end point, target, base on the rail); return them.
 
     Parameters
@@ -98,6 +104,8 @@ def stage_artists(ax: Any, scene: dict[str, Any], i: int) -> list[Any]:
         From :func:`spatial_frame_scene`.
     i : int
         Frame number.
+    colour : colour
+        Of the links, the curve and the target (red in the frame of a new contact).
 
     Returns
     -------
@@ -105,7 +113,7 @@ def stage_artists(ax: Any, scene: dict[str, Any], i: int) -> list[Any]:
         The artists added (remove them before the next frame).
     """
     before = set(ax.lines)
-    draw_stage(ax, scene, i, ARM_COLOUR, "", (0, 1, 2))
+    draw_stage(ax, scene, i, colour, "", (0, 1, 2))
     return [a for a in ax.lines if a not in before]
 
 
@@ -136,7 +144,9 @@ def animate3d(replay: Replay, path: str | Path, fps: float = 15.0, max_frames: i
     ctrl = ctrl or replay.controller()
     idx = frame_indices(replay.t, fps, max_frames)
     scene = spatial_frame_scene(replay, ctrl, idx)
-    fig, ax = spatial_view_figure(scene)
+    marks = contact_marks(replay.to_run(), ctrl.chain)
+    times = np.array([m.time for m in marks])
+    fig, ax = spatial_view_figure(scene, contacts=bool(marks))
     name, outcome = replay.scenario.name, replay.outcome.get("status", "?")
     t_end = float(replay.t[-1])
     label = fig.text(0.5, 0.965, "", ha="center", va="center", fontsize=9, animated=True)
@@ -146,8 +156,10 @@ def animate3d(replay: Replay, path: str | Path, fps: float = 15.0, max_frames: i
 
     def render(i: int) -> Image.Image:
         fig.canvas.restore_region(background)
-        label.set_text(f"{name}: t = {replay.t[idx[i]]:.2f} / {t_end:.2f} s ({outcome})")
-        moving = stage_artists(ax, scene, i)
+        seen, note = frame_contacts(times, replay.t[idx], i)
+        label.set_text(f"{name}: t = {replay.t[idx[i]]:.2f} / {t_end:.2f} s ({outcome}){note}")
+        colour = CONTACT_COLOUR if note.endswith("(contact)") else ARM_COLOUR
+        moving = stage_artists(ax, scene, i, colour) + draw_contact_marks(ax, marks[seen], (0, 1, 2), names=False)
         for artist in moving + [label]:
             fig.draw_artist(artist)
         for artist in moving:

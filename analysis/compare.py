@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from coordarm.simulation.contact_marks import contact_marks, draw_contact_marks
 from coordarm.simulation.obstacles import outline
 from coordarm.simulation.choices import COMPARE_METHODS
 from coordarm.simulation.run import Run, even_indices, select_backend, simulate
@@ -27,7 +28,7 @@ from coordarm.symbolic import (BuildError, CollisionError, ConfigError, Coordina
 
 from .baselines import BACKENDS, BASELINES, EndPointRate, simulate_baseline, stop_at_rail_limit
 from .compare_figures3d import plot_bodies3d
-from .compare_scores import CONTACT_RATE, RAIL_SCORES, SCORE_TABLE, SCORES, score, score_rows
+from .compare_scores import CONTACT_RATE, SINCE, contacts_between, RAIL_SCORES, SCORE_TABLE, SCORES, score, score_rows
 from .follow_leader import FollowTheLeader, simulate_ftl
 from .follow_leader3d import SpatialFollowTheLeader, check_rail
 
@@ -370,7 +371,9 @@ def rail_segment(chain: PlanarChain, lo: np.ndarray, hi: np.ndarray) -> np.ndarr
 def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, stages: int = 4) -> Path:
     """One panel per stage time with every method's body (and the curve, the walls, the rail) then; a PNG.
 
-    A scene much wider than tall (a path) gets one panel per row.
+    A scene much wider than tall (a path) gets one panel per row. The links that touched a wall or the body
+    itself since the previous panel (:func:`~.compare_scores.contacts_between`) are ringed red where they
+    touched (:mod:`coordarm.simulation.contact_marks`); the walls are named in the first panel.
 
     Parameters
     ----------
@@ -392,6 +395,7 @@ def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, 
 
     ctrl = scenario.controller()
     chain = ctrl.chain
+    physical = scenario.physical(chain)
     times = stage_times(scenario, stages)
     colours = dict(zip(METHODS, ("tab:blue", "tab:orange", "tab:green", "tab:red")))
     pts = [chain.joints_np(r.run.q[even_indices(len(r.run.t), 50)]).reshape(-1, 2) for r in results]
@@ -406,23 +410,25 @@ def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, 
     # each method its own colour, width and dash, widest first, so a body drawn on top of another shows both
     widths = dict(zip(METHODS, (4.0, 2.8, 1.6, 1.0)))
     dashes = dict(zip(METHODS, ("-", "-", (0, (4, 2)), (0, (1, 1.5)))))
-    for ax, t in zip(axes.ravel(), times):
+    for i, (ax, t) in enumerate(zip(axes.ravel(), times)):
         cur = ctrl.curve.sample(float(t), extent=extent)
         ax.plot(cur[:, 0], cur[:, 1], "k--", lw=0.8, alpha=0.6, label="curve")
         if chain.rail:
             rail = rail_segment(chain, lo, hi)
             ax.plot(rail[:, 0], rail[:, 1], "-", color="0.6", lw=5, alpha=0.5, solid_capstyle="butt",
                     label="rail", zorder=0)
-        draw_obstacles(ax, scenario.obstacles, labels=False)
+        draw_obstacles(ax, scenario.obstacles, labels=ax is axes.flat[0])     # walls named in the first panel
         for r in results:
             k = int(np.argmin(np.abs(r.run.t - t)))
             late = r.run.t[-1] < t - 0.5 * scenario.step
             J = chain.joints_np(r.run.q[k])
             ax.plot(J[:, 0], J[:, 1], linestyle=dashes[r.method], color=colours[r.method], lw=widths[r.method],
-                    alpha=0.35 if late else 0.9, zorder=3,
-                    label=r.method + (f" (stopped at {r.run.t[-1]:.2f} s)" if late else ""))
+                    alpha=0.35 if late else 0.9, zorder=3)
             base = chain.base_point(r.run.q[k])
             ax.plot(base[0], base[1], "s", color=colours[r.method] if chain.rail else "k", ms=5, zorder=4)
+            after = times[i - 1] if i else -np.inf           # the contacts since the previous panel, where they were
+            touched = contact_marks(r.run, chain, contacts_between(physical, r.run, scenario.step, after, t))
+            draw_contact_marks(ax, touched, names=False, note=SINCE)
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
@@ -430,11 +436,46 @@ def plot_bodies(results: list[MethodRun], scenario: Scenario, path: str | Path, 
         ax.set_ylabel("y$_2$ [m]")
         ax.set_title(f"t = {t:.1f} s")
         ax.grid(alpha=0.3)
-    handles, labels = axes.ravel()[-1].get_legend_handles_labels()
+    handles, labels = method_legend(results, times, colours, widths, dashes, chain.rail)
+    rings = [h for ax in axes.flat for h, lab in zip(*ax.get_legend_handles_labels()) if lab == SINCE]
+    handles, labels = handles + rings[:1], labels + [SINCE] * bool(rings)
     fig.legend(handles, labels, loc="outside lower center", ncol=len(labels), fontsize=8, frameon=False)
     what = "the curve" + (", grey: the rail, squares: the bases" if chain.rail else "")
     fig.suptitle(f"{scenario.name}: {chain.m} links, the same task under each method (dashed: {what})")
     return save_figure(fig, path)
+
+
+def method_legend(results: list[MethodRun], times: np.ndarray, colours: dict, widths: dict, dashes: dict,
+                  rail: bool = False) -> tuple[list, list[str]]:
+    """The legend entries of ``compare.png``'s methods, opaque, each saying when it stopped if it did early.
+
+    Parameters
+    ----------
+    results : list of MethodRun
+        The runs drawn.
+    times : ndarray
+        The panels' times [s].
+    colours, widths, dashes : dict
+        Each method's colour, line width and dash pattern.
+    rail : bool
+        The robot is on a rail (drawn grey).
+
+    Returns
+    -------
+    handles : list of Line2D
+    labels : list of str
+    """
+    from matplotlib.lines import Line2D
+
+    handles, labels = [Line2D([], [], ls="--", color="k", lw=0.8, alpha=0.6)], ["curve"]
+    if rail:
+        handles.append(Line2D([], [], color="0.6", lw=5, alpha=0.5))
+        labels.append("rail")
+    for r in results:
+        handles.append(Line2D([], [], linestyle=dashes[r.method], color=colours[r.method], lw=widths[r.method]))
+        early = r.run.t[-1] < times[-1] - 1e-9
+        labels.append(r.method + (f" (stopped at {r.run.t[-1]:.2f} s)" if early else ""))
+    return handles, labels
 
 
 def write_outputs(scenario: Scenario, results: list[MethodRun], out: Path, backend: str = "compiled"

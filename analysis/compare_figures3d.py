@@ -2,8 +2,8 @@
 
 Top row: one perspective panel per method (none is drawn over another), each with that method's body
 at the same stage times (colour = time), the path at those times (dashed), the obstacles and the base
-(on a rail: the rail, grey, and the base on it at each stage),
-in one shared view box with equal scales (axes in metres). Bottom row: the shape deviation (mean
+(on a rail: the rail, grey, and the base on it at each stage), the links that touched an obstacle or
+each other ringed red where they first did (:mod:`coordarm.simulation.contact_marks`), in one shared view box with equal scales (axes in metres). Bottom row: the shape deviation (mean
 distance of the centres ``y^2..y^m`` from the path, in percent of the body length) and the end point's
 arc-length error ``|psi(y^m) - s*(t)|`` over time, on log scales, one line style per method so that
 lines that coincide stay visible. The obstacles are drawn light (a body inside a cage stays visible).
@@ -19,16 +19,19 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 import numpy as np
 
+from coordarm.simulation.contact_marks import CONTACT_STYLE, contact_marks, draw_contact_marks
 from coordarm.simulation.figures import stage_indices
 from coordarm.simulation.figures3d import curve_points, draw_view3d, target_points3d
 from coordarm.simulation.obstacles3d import densified, wireframe
 from coordarm.simulation.spatial_view import clip_to_box, rail_ends, spatial_joints, view_box
 
-from .compare_scores import centre_distances
+from .compare_scores import centre_distances, contacts_between
 
 #: Line style of each method in the time plots (colour, dashes, width): later lines are thinner.
 STYLES = {"coordinating": ("tab:blue", "-", 2.6), "pinv": ("tab:orange", "--", 2.0),
           "dls": ("tab:green", "-.", 1.6), "ftl": ("tab:red", ":", 1.4)}
+#: Legend label of the red rings: each method's panel shows all its stages, so all its contacts.
+FIRST = "where links touched (first of each link and obstacle)"
 #: Rows of a run sampled for the time plots.
 TIME_SAMPLES = 400
 #: The log plots' floor (values below are rounding noise): percent and metres.
@@ -175,9 +178,10 @@ def draw_time_plots(axes: Sequence[Any], results: Sequence[Any], ctrl: Any) -> N
         ax.set_ylim(bottom=floor * 0.5)
         ax.set_xlabel("t [s]")
         ax.set_ylabel(label)
-        ax.set_title(title, fontsize=10)
+        ax.set_title(title, fontsize=10, pad=20)
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=8, loc="best")
+        ax.legend(fontsize=8, loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=len(results), frameon=False,
+                  borderaxespad=0.1)                              # above the plot, under its title: off the data
 
 
 def panel_title(result: Any) -> str:
@@ -221,6 +225,7 @@ def plot_bodies3d(results: Sequence[Any], scenario: Any, path: str | Path, stage
         The file written.
     """
     ctrl = scenario.controller()
+    physical = scenario.physical(ctrl.chain)
     times = scenario.t0 + np.linspace(0.0, scenario.duration, stages)
     box = shared_box(results, ctrl, scenario.obstacles)
     s0 = float(centre_distances(ctrl, results[0].run.q[:1], results[0].run.t[:1])[1][0, -1])
@@ -228,7 +233,7 @@ def plot_bodies3d(results: Sequence[Any], scenario: Any, path: str | Path, stage
     s_ref = np.interp(times, fine, reference_arc_length(ctrl, fine, s0))
     n = len(results)
     fig = Figure(figsize=(4.6 * max(n, 2), 9.2))
-    grid = fig.add_gridspec(2, max(n, 2) * 2, height_ratios=(1.8, 1.0), left=0.05, right=0.98, bottom=0.07,
+    grid = fig.add_gridspec(2, max(n, 2) * 2, height_ratios=(1.8, 1.0), left=0.05, right=0.97, bottom=0.07,
                             top=0.86, hspace=0.18, wspace=0.6)
     colours = matplotlib.colormaps["viridis"](np.linspace(0, 0.9, stages))
     for i, r in enumerate(results):
@@ -240,12 +245,18 @@ def plot_bodies3d(results: Sequence[Any], scenario: Any, path: str | Path, stage
             if line.get_gid() == "obstacle":
                 line.set_alpha(0.3)
                 line.set_linewidth(0.6)
+        ax.set_box_aspect(tuple(box[1] - box[0]), zoom=0.86)      # the z label inside the panel's own cell
+        touched = contact_marks(r.run, ctrl.chain, contacts_between(physical, r.run, scenario.step, -np.inf, times[-1]))
+        draw_contact_marks(ax, touched, (0, 1, 2), names=False, note=FIRST)
         ax.set_title(panel_title(r), fontsize=11, color=STYLES.get(r.method, ("k",))[0])
     half = max(n, 2)
     draw_time_plots([fig.add_subplot(grid[1, :half]), fig.add_subplot(grid[1, half:])], results, ctrl)
     handles = [Line2D([], [], color=c, lw=2.5) for c in colours]
     handles += [Line2D([], [], ls="--", color="gray"), Line2D([], [], ls="", marker="x", color="gray", mew=2)]
     names = [f"t = {t:.1f} s" for t in times] + ["path at that time", "target s*(t)"]
+    if any(line.get_gid() == "contact" for ax in fig.axes for line in ax.get_lines()):
+        handles.append(Line2D([], [], **CONTACT_STYLE))
+        names.append(FIRST)
     fig.legend(handles, names, loc="upper center", ncol=len(names), fontsize=9, bbox_to_anchor=(0.5, 0.96))
     fig.suptitle(f"{scenario.name}: {ctrl.chain.m} links with universal joints, the same task under each method",
                  fontsize=12)

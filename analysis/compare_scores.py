@@ -27,6 +27,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from coordarm.simulation.physical import distinct
+
 #: Samples per simulated second at which contacts are counted [Hz].
 CONTACT_RATE = 100.0
 #: Lengths below this are rounding noise in the table (the JSON keeps them) [m].
@@ -83,6 +85,36 @@ def shape_deviation(distance: np.ndarray, body_length: float) -> float:
         [%].
     """
     return float(100.0 * np.mean(distance[:, 1:]) / body_length)
+
+
+#: Legend label of the red rings of ``compare.png`` (planar and spatial): :func:`contacts_between`.
+SINCE = "contact since the previous panel (where)"
+
+
+def contacts_between(physical: Any, run: Any, step: float, after: float, upto: float) -> list[Any]:
+    """The first contact of every (kind, links, obstacle) among the samples :data:`CONTACT_RATE` apart with
+    ``after < t <= upto`` (what ``compare.png`` rings in the panel at ``upto``).
+
+    Parameters
+    ----------
+    physical : Physical or Physical3D
+        The scenario's checks (:meth:`Scenario.physical`).
+    run : Run
+        A method's run.
+    step : float
+        Its RK4 step [s].
+    after, upto : float
+        The window [s].
+
+    Returns
+    -------
+    list of Contact
+        In time order.
+    """
+    every = max(1, int(round(1.0 / (CONTACT_RATE * step))))
+    rows = np.arange(0, len(run.t), every)
+    rows = rows[(run.t[rows] > after) & (run.t[rows] <= upto)]
+    return distinct(physical.check(run.t[rows], run.q[rows])) if len(rows) else []
 
 
 @dataclass

@@ -6,8 +6,9 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 
-from coordarm.simulation.figures import save_figure
+from coordarm.simulation.figures import legend_beside, save_figure
 
 from .run_analysis import BLOWUP_FACTOR, LABELS, RunAnalysis
 from .singularity import MARGINS
@@ -70,7 +71,7 @@ def plot_margins(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
     Path
         The written file.
     """
-    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+    fig, axes = plt.subplots(3, 1, figsize=(10, 9), sharex=True)       # the legends right of the panels
     floor = 1e-12
     for ax, names in ((axes[0], ("links", "longitudinal")),
                       (axes[1], ("sigma_min", "inverse_cond", "inverse_cond_scaled"))):
@@ -81,7 +82,7 @@ def plot_margins(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
                 ax.plot(a.crossings[n], a.thresholds[n], "v", color=COLORS[n], ms=8)
         mark_blowup(ax, a)
         ax.set_ylabel("margin [-] (0 = singular)")
-        ax.legend(fontsize=7, loc="lower left", ncol=2)
+        legend_beside(ax)
     axes[0].set_title(title + ": singularity margins (triangles: first below threshold)")
     axes[1].set_title("margins of the decoupling matrix M", fontsize=10)
     plot_effort(axes[2], a.t_all, a.u_norm, a.nominal_u, floor)
@@ -92,7 +93,7 @@ def plot_margins(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
     mark_blowup(axes[2], a)
     axes[2].set_ylabel("|u|, amplification, cond")
     axes[2].set_xlabel("t [s]")
-    axes[2].legend(fontsize=7, loc="upper left")
+    legend_beside(axes[2])
     axes[2].set_title("control effort", fontsize=10)
     for ax in axes:
         ax.grid(alpha=0.3, which="both")
@@ -121,6 +122,7 @@ def plot_links(a: RunAnalysis, path: str | Path, title: str = "") -> Path:
     axes[0].step(a.t, a.margins["worst_link"], where="post", color="tab:blue", label="worst link (smallest margin)")
     mark_blowup(axes[0], a)
     axes[0].set_ylabel("link index [-]")
+    axes[0].yaxis.set_major_locator(MaxNLocator(integer=True))       # links are whole numbers
     axes[0].legend(fontsize=8, loc="best")
     axes[0].set_title(title + ": which link is closest to perpendicular")
     L = a.margins["links"]
@@ -157,7 +159,7 @@ def plot_step_responses(gain: float, period: float, path: str | Path, title: str
     Path
         The written file.
     """
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, ax = plt.subplots(figsize=(10, 4.5))      # the legend right of the axes
     h = period
     if gain * h < 0.05:          # the run's own step is too fine to show the effect: use a telling one
         h = 0.5 * sampled_limit(2) / gain
@@ -170,6 +172,6 @@ def plot_step_responses(gain: float, period: float, path: str | Path, title: str
     ax.set_ylabel("deviation response to a unit reference step [-]")
     note = "" if h == period else f" (h chosen at 0.5x the 2-sample-delay limit; the run's h = {period:g} s)"
     ax.set_title(f"{title}: linear error model, sampled-data and delay effects\n{note}", fontsize=10)
-    ax.legend(fontsize=8)
+    legend_beside(ax)
     ax.grid(alpha=0.3)
     return save_figure(fig, path)

@@ -6,7 +6,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from coordarm.simulation.figures import save_figure
+from coordarm.simulation.figures import legend_beside, save_figure
 
 from .report_figures import mark_blowup, plot_effort
 from .spatial_analysis import SPATIAL_LABELS, SPATIAL_MARGINS, SpatialAnalysis
@@ -31,7 +31,7 @@ def plot_spatial_margins(a: SpatialAnalysis, path: str | Path, title: str = "") 
     Path
         The written file.
     """
-    fig, axes = plt.subplots(2, 1, figsize=(8, 7.5), sharex=True, layout="constrained")
+    fig, axes = plt.subplots(2, 1, figsize=(10.5, 7.5), sharex=True, layout="constrained")   # legends beside
     floor = 1e-12
     ax = axes[0]
     for value in sorted(set(a.thresholds.values())):      # one line per threshold, naming its margins
@@ -44,7 +44,7 @@ def plot_spatial_margins(a: SpatialAnalysis, path: str | Path, title: str = "") 
             ax.plot(a.crossings[name], a.thresholds[name], "v", color=COLORS[name], ms=8)
     mark_blowup(ax, a)
     ax.set_ylabel("margin [-] (0 = singular)")
-    ax.legend(fontsize=7, loc="lower right", ncol=2)
+    legend_beside(ax)
     ax.set_title(title + "\nsingularity margins (triangles: first below threshold)", fontsize=10)
     ax = axes[1]
     plot_effort(ax, a.t, a.u_norm, a.nominal_u, floor)
@@ -55,7 +55,7 @@ def plot_spatial_margins(a: SpatialAnalysis, path: str | Path, title: str = "") 
         ax.set_ylim(bottom=max(ax.get_ylim()[0], 1e-3 * a.nominal_u))
     ax.set_ylabel("|u| [rad/s], cond [-]" if len(a.cond) else "|u| [rad/s]")
     ax.set_xlabel("t [s]")
-    ax.legend(fontsize=7, loc="best")
+    legend_beside(ax)
     ax.set_title("control effort" + ("" if len(a.cond) else " (cond(M) not sampled above 32 links)"), fontsize=10)
     for ax in axes:
         ax.grid(alpha=0.3, which="both")

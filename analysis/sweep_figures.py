@@ -16,7 +16,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import BoundaryNorm, ListedColormap
 
-from coordarm.simulation.figures import save_figure
+from coordarm.simulation.choices import SWEEP_ALIASES
+from coordarm.simulation.figures import legend_beside, save_figure
 from coordarm.simulation.sweep_points import OUTCOMES
 
 if TYPE_CHECKING:
@@ -24,6 +25,30 @@ if TYPE_CHECKING:
 
 #: Colour of each outcome (same order as OUTCOMES).
 OUTCOME_COLOURS = ("#2ca02c", "#ff7f0e", "#9467bd", "#d62728")
+#: Units of the scenario keys a sweep varies most (dotted names; aliases are mapped by :func:`axis_label`).
+UNITS = {"chain.links": "-", "chain.link_length": "m", "chain.clearance": "m", "chain.joint_limit": "rad",
+         "chain.radius": "m", "chain.rate_limit": "rad/s", "chain.accel_limit": "rad/s²", "control.gain": "1/s",
+         "control.speed": "m/s", "control.span": "m", "start.beta": "rad", "start.heading": "rad",
+         "start.fold": "rad", "start.roll": "rad", "run.duration": "s", "run.step": "s", "run.t0": "s",
+         "curve.radius": "m", "curve.angle": "rad", "curve.amplitude": "m", "curve.omega": "rad/s",
+         "thresholds.link": "-", "thresholds.longitudinal": "-"}
+
+
+def axis_label(name: str) -> str:
+    """``name`` with its unit, ``"gain [1/s]"``, when :data:`UNITS` knows it (by dotted name or alias).
+
+    Parameters
+    ----------
+    name : str
+        A varied name (dotted, or an alias of :data:`~coordarm.simulation.choices.SWEEP_ALIASES`).
+
+    Returns
+    -------
+    str
+        The label; ``name`` alone for a key of unknown unit.
+    """
+    unit = UNITS.get(SWEEP_ALIASES.get(name, name))
+    return f"{name} [{unit}]" if unit else name
 
 
 def smallest_margin(df: pd.DataFrame) -> np.ndarray:
@@ -67,7 +92,7 @@ def plot_line(df: pd.DataFrame, name: str, path: str | Path) -> Path:
     Path
         The file written.
     """
-    fig, ax = plt.subplots(figsize=(7, 4.2))
+    fig, ax = plt.subplots(figsize=(8.5, 4.2))      # the legend right of the axes
     d = df.sort_values(name) if _numeric(df[name]) else df
     x = d[name].to_numpy() if _numeric(d[name]) else np.arange(len(d))
     ax.plot(x, d["min_link_margin"], "-", color="0.5", label="smallest link margin")
@@ -79,10 +104,10 @@ def plot_line(df: pd.DataFrame, name: str, path: str | Path) -> Path:
             ax.scatter(x[sel], y, color=colour, zorder=3, label=outcome)
     if not _numeric(d[name]):
         ax.set_xticks(x, [str(v) for v in d[name]], rotation=30, ha="right")
-    ax.set_xlabel(name)
+    ax.set_xlabel(axis_label(name))
     ax.set_ylabel("margin [-] (0 = singular)")
-    ax.set_title(f"sweep over {name}: smallest margins (points: smallest of both, by outcome)")
-    ax.legend(fontsize=8)
+    ax.set_title(f"sweep over {name}: smallest margins (points: smallest of both, by outcome)", fontsize=10)
+    legend_beside(ax)
     ax.grid(alpha=0.3)
     return save_figure(fig, path)
 
@@ -121,11 +146,11 @@ def plot_pair(df: pd.DataFrame, a: str, b: str, path: str | Path) -> Path:
             xa = data[a].to_numpy() if _numeric(data[a]) else data[a].astype("category").cat.codes
             xb = data[b].to_numpy() if _numeric(data[b]) else data[b].astype("category").cat.codes
             im = ax.scatter(xa, xb, c=data[col], cmap=cm, norm=nm, s=40, **({} if nm else {"vmin": 0.0}))
-        bar = fig.colorbar(im, ax=ax, label=label)
+        bar = fig.colorbar(im, ax=ax, label=None if nm is not None else label)   # outcomes: named by the ticks
         if nm is not None:
             bar.set_ticks(range(len(OUTCOMES)), labels=list(OUTCOMES))
-        ax.set_xlabel(a)
-        ax.set_ylabel(b)
+        ax.set_xlabel(axis_label(a))
+        ax.set_ylabel(axis_label(b))
         ax.set_title(label.split(" [")[0], fontsize=10)
     fig.suptitle(f"sweep: {b} x {a} ({len(data)} points)")
     return save_figure(fig, path, dpi=100)

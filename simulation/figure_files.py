@@ -47,6 +47,7 @@ def write_figures(run: Run, scenario: Scenario, ctrl: CoordinatingController, st
     LogError
         A figure cannot be written (a full disk, a directory in the way), naming the file.
     """
+    from coordarm.simulation.contact_marks import ended_note, recorded_contacts
     from coordarm.simulation.log_layout import PLANAR, layout_of_chain
 
     if layout_of_chain(ctrl.chain) is not PLANAR:    # a spatial chain: 3-D figures (matplotlib loads there)
@@ -54,8 +55,7 @@ def write_figures(run: Run, scenario: Scenario, ctrl: CoordinatingController, st
         return spatial_figures(run, scenario, ctrl, stem, stages, outcome)
     from coordarm.simulation.figures import plot_panels, plot_stages, plot_tracking
 
-    contacts = len(run.info.get("contacts") or []) if getattr(run, "info", None) else 0
-    ended = ", ".join([outcome] * bool(outcome) + [f"{contacts} contact{'s' * (contacts != 1)}"] * bool(contacts))
+    ended = ended_note(outcome, len(recorded_contacts(run)))
     title = f"{scenario.name}: {ctrl.chain.m} links" + (f" ({ended})" if ended else "")
     stopped = outcome not in ("", "completed")
     stages_png = stem.with_name(stem.name + "_stages.png")

@@ -11,6 +11,7 @@ import numpy as np
 from coordarm.symbolic import CoordinatingController, PlanarChain
 from coordarm.symbolic.paths import Path as PathCurve
 
+from .contact_marks import CONTACT_COLOUR, contact_marks, contact_note, draw_contact_marks, recorded_contacts
 from .obstacles import Obstacle, outline
 from .run import Run, even_indices
 
@@ -97,10 +98,17 @@ def draw_obstacles(ax: plt.Axes, obstacles: Sequence[Obstacle], labels: bool = T
             offset = 12.0 * (n if n[1] >= 0 else -n)       # beside the wall, on its upper side
         else:
             ax.fill(pts[:, 0], pts[:, 1], color="0.35", alpha=0.8, lw=1.5, edgecolor="k", zorder=2)
+            # a long wall is labelled a quarter along it (over its straight start, not off its end and out of
+            # the view, nor across a bend), a compact obstacle at its middle
+            span = np.ptp(pts, axis=0)
+            xm = pts[:, 0].min() + (0.25 if span[0] > 3 * span[1] else 0.5) * span[0]
+            ring = np.vstack([pts, pts[:1]])                     # the outline, 20 points per edge
+            dense = (ring[:-1, None] + np.linspace(0, 1, 20)[:, None] * (ring[1:] - ring[:-1])[:, None]).reshape(-1, 2)
+            mid = dense[np.abs(dense[:, 0] - xm) <= np.partition(np.abs(dense[:, 0] - xm), 3)[3]]
             if len(obstacles) > 1 and c[1] < np.mean([outline(o).mean(axis=0)[1] for o in obstacles]):
-                c, offset = pts[np.argmin(pts[:, 1])], np.array([0.0, -9.0])   # a lower wall: label below it
+                c, offset = mid[np.argmin(mid[:, 1])], np.array([0.0, -9.0])   # a lower wall: label below it
             else:
-                c, offset = pts[np.argmax(pts[:, 1])], np.array([0.0, 9.0])    # else above its top
+                c, offset = mid[np.argmax(mid[:, 1])], np.array([0.0, 9.0])    # else above its top
         if labels:
             ax.annotate(ob.name, c, fontsize=7, color="0.15", ha="center", va="center", xytext=tuple(offset),
                         textcoords="offset points", zorder=6,
@@ -152,8 +160,8 @@ def draw_rail(ax: plt.Axes, chain: PlanarChain, lo: np.ndarray, hi: np.ndarray) 
             label="rail", zorder=0)
 
 
-#: Colour of the stage at which a run stopped, and of contact marks.
-STOP_COLOR = "#d62728"
+#: Colour of the stage at which a run stopped (that of the contact marks).
+STOP_COLOR = CONTACT_COLOUR
 
 
 def _view_box(run: Run, ctrl: CoordinatingController, idx: np.ndarray, obstacles: Sequence[Obstacle],
@@ -173,15 +181,15 @@ def _view_box(run: Run, ctrl: CoordinatingController, idx: np.ndarray, obstacles
 
 def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, obstacles: Sequence[Obstacle],
                  frame: np.ndarray | None = None, legend: str = "right", stop: int | None = None,
-                 palette: np.ndarray | None = None) -> float:
+                 palette: np.ndarray | None = None, window: tuple[float, float] | None = None) -> float:
     """The chain at rows ``idx`` with the curve at those times, the obstacles, the rail and the base, on ``ax``.
 
     Earlier stages fade (lighter, thinner) under later ones so that a body moving along itself does not
     smear into one line; each stage's time is written at its end point. Row ``stop`` (in ``idx``) is
     the configuration at which the run stopped, drawn red and marked; contacts recorded in
-    ``run.info["contacts"]`` are marked on their links. ``legend``: ``"right"`` (beside the axes) or
-    ``"none"``; ``palette``: the stages' colours (default viridis). Returns the height-to-width ratio of
-    the drawn extent (the axes' equal-aspect shape)."""
+    ``run.info["contacts"]`` (those in ``window`` = (after, up to) [s], when given) are marked on their
+    links. ``legend``: ``"right"`` (beside the axes) or ``"none"``; ``palette``: the stages' colours
+    (default viridis). Returns the height-to-width ratio of the drawn extent (the axes' equal-aspect shape)."""
     joints = ctrl.chain.joints_np(run.q[idx])
     colors = plt.cm.viridis(np.linspace(0, 0.9, len(idx))) if palette is None else palette
     lo, hi = _view_box(run, ctrl, idx, obstacles, frame)
@@ -197,13 +205,15 @@ def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, ob
         ax.plot(J[:, 0], J[:, 1], "-", color=c, lw=1.0 + 1.2 * alpha, alpha=alpha, zorder=3 + i,
                 label=f"stop at t = {run.t[k]:.2f} s" if last else None)
         ax.plot(J[-1, 0], J[-1, 1], "o", color=c, ms=4, zorder=3 + i)
-        ax.annotate(f"{run.t[k]:.{2 if last else 1}f} s", J[-1], xytext=(4, -10 if i % 2 else 4),
-                    textcoords="offset points", fontsize=7, color=c, zorder=20)
+        crowd = 9 * sum(float(np.hypot(*(J[-1] - P[-1]))) < 0.05 * extent for P in joints[:i])  # end points near
+        ax.annotate(f"{run.t[k]:.{2 if last else 1}f} s", J[-1], xytext=(4, -10 - crowd if i % 2 else 4 + crowd),
+                    textcoords="offset points", fontsize=7, color=c, zorder=32,
+                    bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.7))
         if targets is not None:
             ax.plot(*targets[i], "x", color=c, ms=7, mew=1.5, zorder=3 + i)
     if stop is not None:
         ax.plot(*joints[list(idx).index(stop)][-1], "*", color=STOP_COLOR, ms=14, mec="k", mew=0.6, zorder=30)
-    _mark_contacts(ax, run, ctrl)
+    _mark_contacts(ax, run, ctrl, window)
     draw_obstacles(ax, obstacles)
     if ctrl.chain.rail:
         draw_rail(ax, ctrl.chain, lo, hi)
@@ -226,21 +236,14 @@ def _draw_stages(ax, run: Run, ctrl: CoordinatingController, idx: np.ndarray, ob
     return float((hi[1] - lo[1]) / (hi[0] - lo[0]))
 
 
-def _mark_contacts(ax, run: Run, ctrl: CoordinatingController) -> None:
-    """A red ring on each link of the first contacts in ``run.info["contacts"]`` (at most 10), at its time."""
-    contacts = list((getattr(run, "info", None) or {}).get("contacts") or [])[:10]
-    named: set[str] = set()
-    for i, c in enumerate(contacts):
-        k = int(np.argmin(np.abs(run.t - float(c["time"]))))
-        centres = ctrl.chain.centres_np(run.q[k])
-        pts = centres[[j - 1 for j in c["links"] if 1 <= j <= len(centres)]]
-        what = c.get("obstacle") or c["kind"].replace("_", " ")
-        ax.plot(pts[:, 0], pts[:, 1], "o", mfc="none", mec=STOP_COLOR, ms=11, mew=1.8, zorder=31,
-                label=f"contacts: {len(contacts)}, first {float(c['time']):.2f} s" if i == 0 else None)
-        if what not in named:      # each obstacle (or kind) named once, at its first contact
-            named.add(what)
-            ax.annotate(what, pts[0], xytext=(8, 6), textcoords="offset points", fontsize=7, color=STOP_COLOR,
-                        zorder=31)
+def _mark_contacts(ax, run: Run, ctrl: CoordinatingController, window: tuple[float, float] | None = None) -> None:
+    """The first contacts in ``run.info["contacts"]`` (within ``window`` [s], when given) as
+    :func:`~.contact_marks.draw_contact_marks` rings on their links, at their time."""
+    marks = contact_marks(run, ctrl.chain)
+    if window is not None:
+        marks = [c for c in marks if window[0] < c.time <= window[1]]
+    if marks:
+        draw_contact_marks(ax, marks, count=len(marks))
 
 
 def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages: int = 5,
@@ -273,7 +276,7 @@ def plot_stages(run: Run, ctrl: CoordinatingController, path: str | Path, stages
         The written file.
     """
     idx, stop = _with_stop(run, stage_indices(run, stages, times), stopped)
-    contacts = (getattr(run, "info", None) or {}).get("contacts") or []
+    contacts = recorded_contacts(run)
     if contacts:                         # the body at its first contact, where the rings are
         idx = np.union1d(idx, [int(np.argmin(np.abs(run.t - float(contacts[0]["time"]))))]).astype(int)
     lo, hi = _view_box(run, ctrl, idx, list(obstacles), None)
@@ -337,13 +340,17 @@ def _plot_stage_rows(run: Run, ctrl: CoordinatingController, path: str | Path, i
     gap, below, above = 0.4, 0.55, 0.75                                  # inches
     height = row * len(idx) + gap * (len(idx) - 1) + below + above
     fig, axes = plt.subplots(len(idx), 1, figsize=(width, height), sharex=True, sharey=True)
-    for i, (ax, k) in enumerate(zip(axes, idx)):
+    for i, (ax, k) in enumerate(zip(axes, idx)):       # each row marks the contacts since the row above
+        window = (float(run.t[idx[i - 1]]) if i else -np.inf, float(run.t[k]) if i < len(idx) - 1 else np.inf)
         _draw_stages(ax, run, ctrl, np.array([k]), obstacles, frame=frame, legend="right" if i == 0 else "none",
-                     stop=stop if k == stop else None, palette=colors[i:i + 1])
+                     stop=stop if k == stop else None, palette=colors[i:i + 1], window=window)
         ax.set_title(f"t = {run.t[k]:.{2 if k == stop else 1}f} s" + (" (stop)" if k == stop else ""),
                      fontsize=9, loc="left")
         if i < len(idx) - 1:
             ax.set_xlabel("")
+    if recorded_contacts(run):      # the first row's legend names the rings drawn in any row
+        axes[0].legend(*_panel_legend(axes, run, 0), loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8,
+                       borderaxespad=0)
     fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=below / height, top=1 - above / height,
                         hspace=gap / row)
     fig.suptitle(title or f"{ctrl.chain.m}-link robot: stages of the motion", fontsize=11)
@@ -391,20 +398,33 @@ def plot_panels(run: Run, ctrl: CoordinatingController, path: str | Path, panels
     if obstacles:
         frame = np.concatenate([frame] + [outline(ob) for ob in obstacles])
     fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 5.4), squeeze=False)
-    for ax, panel in zip(axes[0], panels):
+    ends = [max(p["stages"]) if p["stages"] else -np.inf for p in panels]
+    for i, (ax, panel) in enumerate(zip(axes[0], panels)):    # each panel marks the contacts of its phase
         inside = [t for t in panel["stages"] if t <= run.t[-1] + 1e-9]
         idx = stage_indices(run, times=inside) if inside else np.zeros(0, int)
         later = stopped and len(inside) < len(panel["stages"])
         idx, stop = _with_stop(run, idx, later)
+        window = (ends[i - 1] if i else -np.inf, ends[i] if i < len(panels) - 1 else np.inf)
         _draw_stages(ax, run, ctrl, idx if len(idx) else np.array([len(run.t) - 1]), list(obstacles), frame=frame,
-                     legend="none", stop=stop)
+                     legend="none", stop=stop, window=window)
         ax.set_title(panel["title"], fontsize=10)
-    handles, labels = axes[0][-1].get_legend_handles_labels()
+    handles, labels = _panel_legend(axes[0], run)
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=8, frameon=False,
                bbox_to_anchor=(0.5, -0.06))
     fig.suptitle(title or f"{ctrl.chain.m}-link robot: phases of the motion")
     # tight_layout leaves equal-aspect panels' x labels outside the canvas: the saved box is fitted instead
     return save_figure(fig, path, tight=False, bbox_inches="tight")
+
+
+def _panel_legend(axes, run: Run, source: int = -1) -> tuple[list, list[str]]:
+    """The legend entries of panel ``source``; the rings' entry (of any panel) names every contact of the run."""
+    handles, labels = axes[source].get_legend_handles_labels()
+    pairs = [(h, lab) for h, lab in zip(handles, labels) if not lab.startswith("contacts: ")]
+    rings = [h for ax in axes for h, lab in zip(*ax.get_legend_handles_labels()) if lab.startswith("contacts: ")]
+    contacts = recorded_contacts(run)
+    if rings:
+        pairs.insert(0, (rings[0], contact_note(len(contacts), float(contacts[0]["time"]))))
+    return [h for h, _ in pairs], [lab for _, lab in pairs]
 
 
 def envelope_indices(Y: np.ndarray, points: int = 2000) -> np.ndarray:
@@ -441,6 +461,52 @@ def envelope_indices(Y: np.ndarray, points: int = 2000) -> np.ndarray:
     return np.unique(np.minimum(np.concatenate(picks), n - 1))
 
 
+def legend_beside(ax: plt.Axes) -> None:
+    """The legend of ``ax`` right of it, top-aligned, off the data (leave room: the figure's right margin).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        A plot with labelled lines.
+    """
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+
+
+#: Floor of the logarithmic error plots [m or rad]: below it lie only rounding errors.
+FLOOR = 1e-17
+#: A start's error at or below this [m or rad] is rounding, not a deviation whose decay could be compared.
+ROUNDING = 1e-14
+
+
+def decay_reference(t: np.ndarray, e0: float, gain: float, floor: float = FLOOR) -> np.ndarray | None:
+    """The reference decay ``e0 exp(-K (t - t[0]))``, NaN (not drawn) where it falls below ``floor``.
+
+    The reference ends where it reaches the floor instead of lying on it (below the floor there are only
+    rounding errors, no decay to compare); a start at the rounding level (``e0 <= ROUNDING``) has none.
+
+    Parameters
+    ----------
+    t : ndarray, shape (k,)
+        Times [s].
+    e0 : float
+        The error at ``t[0]`` [m or rad] (its size is used).
+    gain : float
+        K [1/s].
+    floor : float
+        Where the reference ends [m or rad].
+
+    Returns
+    -------
+    ndarray, shape (k,), or None
+        The reference [m or rad], None when ``|e0| <= ROUNDING``.
+    """
+    e0 = abs(float(e0))
+    if not e0 > ROUNDING:
+        return None
+    ref = e0 * np.exp(-gain * (np.asarray(t, float) - t[0]))
+    return np.where(ref >= floor, ref, np.nan)
+
+
 def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str, float] | None = None,
                   title: str = "") -> Path:
     """Three panels over time: ``max|e|`` vs ``e(0) exp(-K t)``, ``s`` tracking error, margins.
@@ -468,27 +534,25 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     emax = np.max(np.abs(run.e), axis=1)
     s_err = run.s - run.s_reference()
     link, longitudinal = np.min(run.link_margins, axis=1), run.longitudinal
-    keep = envelope_indices(np.column_stack([np.log10(np.maximum(emax, 1e-17)), s_err, link, longitudinal]))
+    keep = envelope_indices(np.column_stack([np.log10(np.maximum(emax, FLOOR)), s_err, link, longitudinal]))
     t = run.t[keep]
     # Fixed margins (room for the tick labels, axis labels and title of these three panels): tight_layout
     # would measure every text first, which took longer than drawing the figure.
     # the legends stand right of the panels, off the data
     fig, axes = plt.subplots(3, 1, figsize=(9.2, 8), sharex=True,
                              gridspec_kw=dict(left=0.1, right=0.74, bottom=0.06, top=0.95, hspace=0.16))
-    axes[0].semilogy(t, np.maximum(emax[keep], 1e-17), label="max$_j$ |e$^j$|")
-    if emax[0] > 1e-14:
-        # only when there is a decay to see (a start on the curve, e(0) at the rounding floor, has none);
-        # held at the same 1e-17 m floor as the data: below it lie only rounding errors, not a decay to compare
-        axes[0].semilogy(t, np.maximum(emax[0] * np.exp(-gain * (t - t[0])), 1e-17), "--",
-                         label=f"e(0) exp(-{gain:g} t)")
+    axes[0].semilogy(t, np.maximum(emax[keep], FLOOR), label="max$_j$ |e$^j$|")
+    reference = decay_reference(t, emax[0], gain)
+    if reference is not None:
+        axes[0].semilogy(t, reference, "--", label=f"e(0) exp(-{gain:g} t)")
     # Plain "1e-05" tick labels: the default 10^k labels are typeset with mathtext, a quarter of the figure's time.
     axes[0].yaxis.set_major_formatter(LogFormatter())
     axes[0].yaxis.set_minor_formatter(NullFormatter())
     axes[0].set_ylabel("deviation [m]")
-    axes[0].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    legend_beside(axes[0])
     axes[1].plot(t, s_err[keep], label="s - (s(0) + ∫v*)")
     axes[1].set_ylabel("s tracking error [m]")
-    axes[1].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    legend_beside(axes[1])
     axes[2].plot(t, link[keep], label="smallest link margin")
     axes[2].plot(t, longitudinal[keep], label="longitudinal margin")
     for name, thr in (thresholds or {}).items():
@@ -497,7 +561,7 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
     axes[2].set_ylabel("margin [-]")
     axes[2].set_xlabel("t [s]")
     axes[2].set_ylim(bottom=0)
-    axes[2].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
+    legend_beside(axes[2])
     for ax in axes:
         ax.grid(alpha=0.3)
     axes[0].set_title(title or "tracking and singularity margins")

@@ -18,12 +18,11 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import LogFormatter, MaxNLocator, NullFormatter
 import numpy as np
 
-from .figures import envelope_indices, stage_indices
+from .contact_marks import contact_marks, draw_contact_marks, ended_note, recorded_contacts
+from .figures import FLOOR, decay_reference, envelope_indices, legend_beside, stage_indices
 from .obstacles3d import densified, wireframe
 from .spatial_view import clip_to_box, rail_ends, roll_command, span_command, spatial_joints, view_box
 
-#: The floor of the logarithmic error plots [m or rad]: below it lie only rounding errors.
-FLOOR = 1e-17
 #: Projections drawn beside the 3-D view: (title, the two coordinates shown).
 PROJECTIONS = (("top view (x-y)", (0, 1)), ("side view (x-z)", (0, 2)))
 AXIS_NAMES = ("x", "y", "z")
@@ -125,7 +124,8 @@ def stage_scene(run: Any, ctrl: Any, idx: np.ndarray, obstacles: Sequence[Any] =
     dict
         ``joints`` (k, m+1, 3), ``curves`` list of (n, 3), ``targets`` (k, 3) or None, ``lo``, ``hi`` (3,) [m],
         ``obstacles`` list of (n, 3) polylines (clipped to the box), ``bases`` (k, 3) [m] (the base at each
-        stage) and ``rail`` (n, 3) or None (the rail between its limits, clipped to the box).
+        stage), ``rail`` (n, 3) or None (the rail between its limits, clipped to the box) and ``names``: each
+        obstacle's name with the points of its clipped wireframe, (n, 3) [m].
     """
     chain, curve = ctrl.chain, ctrl.curve
     every = np.unique(np.linspace(0, len(run.t) - 1, 60).round().astype(int))
@@ -142,9 +142,11 @@ def stage_scene(run: Any, ctrl: Any, idx: np.ndarray, obstacles: Sequence[Any] =
     curves = [clip_to_box(curve_points(curve, float(run.t[k]), reach), lo, hi) for k in idx]
     targets = target_points3d(ctrl, reference_arc_length(run)[idx], run.t[idx])
     ends = rail_ends(chain, reach)
+    names = [(ob.name, np.concatenate([clip_to_box(densified(p), lo, hi).reshape(-1, 3) for p in wireframe(ob)]))
+             for ob in obstacles]
     return dict(joints=spatial_joints(chain, run.q[idx]), curves=curves, targets=targets, lo=lo, hi=hi,
                 obstacles=[clip_to_box(p, lo, hi) for p in lines], bases=chain.base_point(run.q[idx]),
-                rail=None if ends is None else clip_to_box(densified(ends, 200), lo, hi))
+                rail=None if ends is None else clip_to_box(densified(ends, 200), lo, hi), names=names)
 
 
 def draw_stage(ax: Any, scene: dict[str, Any], i: int, colour: Any, label: str, axes: Sequence[int]) -> None:
@@ -202,7 +204,8 @@ def draw_base(ax: Any, axes: Sequence[int], scene: dict[str, Any] | None = None)
 
 
 def draw_obstacles(ax: Any, scene: dict[str, Any], axes: Sequence[int]) -> None:
-    """The obstacles' wireframes (grey, gid ``"obstacle"``), as clipped in ``scene["obstacles"]`` (none if absent).
+    """The obstacles' wireframes (grey, half transparent: a body in a cage shows; gid ``"obstacle"``), as clipped in
+    ``scene["obstacles"]`` (none if absent).
 
     Parameters
     ----------
@@ -214,7 +217,35 @@ def draw_obstacles(ax: Any, scene: dict[str, Any], axes: Sequence[int]) -> None:
         The coordinates shown (0 = x, 1 = y, 2 = z).
     """
     for p in scene.get("obstacles", ()):
-        ax.plot(*(p[:, a] for a in axes), "-", color="0.4", lw=0.8, gid="obstacle")
+        ax.plot(*(p[:, a] for a in axes), "-", color="0.4", lw=0.7, alpha=0.5, gid="obstacle")   # a body inside shows
+
+
+#: Most obstacles named on a projection (a pipe built of dozens of rods is left unnamed).
+MOST_NAMED = 6
+
+
+def label_obstacles(ax: Any, scene: dict[str, Any], axes: Sequence[int]) -> None:
+    """Each obstacle's name above its highest point in the projection on ``axes`` (none above :data:`MOST_NAMED`).
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+        A projection.
+    scene : dict
+        From :func:`stage_scene` (its ``names``; none if absent).
+    axes : sequence of int
+        The two coordinates shown.
+    """
+    named = scene.get("names") or []
+    if len(named) > MOST_NAMED:
+        return
+    for name, pts in named:
+        pts = pts[np.all(np.isfinite(pts), axis=1)]
+        if len(pts):
+            top = pts[np.argmax(pts[:, axes[1]])]
+            ax.annotate(name, (top[axes[0]], top[axes[1]]), xytext=(0, 6), textcoords="offset points", ha="center",
+                        va="bottom", fontsize=7, color="0.15", zorder=6,
+                        bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))
 
 
 def draw_view3d(ax: Any, scene: dict[str, Any], colours: np.ndarray, labels: Sequence[str]) -> None:
@@ -270,6 +301,7 @@ def draw_projection(ax: Any, scene: dict[str, Any], colours: np.ndarray, title: 
         draw_stage(ax, scene, i, c, "", axes)
     draw_base(ax, axes, scene)
     draw_obstacles(ax, scene, axes)
+    label_obstacles(ax, scene, axes)
     ax.set_xlim(lo[axes[0]], hi[axes[0]])
     ax.set_ylim(lo[axes[1]], hi[axes[1]])
     ax.set_aspect("equal")
@@ -283,6 +315,10 @@ def draw_projection(ax: Any, scene: dict[str, Any], colours: np.ndarray, title: 
 def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[float] | None = None,
                         stages: int = 4, title: str = "", obstacles: Sequence[Any] = (), stopped: bool = False) -> Path:
     """The chain at several times with the curve at those times: a perspective view and two projections; a PNG.
+
+    Earlier stages are drawn lighter (as on the planar figure) so that a body moving along itself does
+    not smear into one. Contacts recorded in ``run.info["contacts"]`` are marked as on the planar figure
+    (:mod:`~.contact_marks`: red rings on the touching links, the body at the first contact drawn too).
 
     Parameters
     ----------
@@ -311,20 +347,28 @@ def plot_spatial_stages(run: Any, ctrl: Any, path: str | Path, times: Sequence[f
     idx = stage_indices(run, stages, times)
     if stopped and len(run.t):                   # the configuration at the stop, drawn red
         idx = np.union1d(idx, [len(run.t) - 1]).astype(int)
+    marks = contact_marks(run, ctrl.chain)
+    if marks:                                    # the body at its first contact, where the rings are
+        idx = np.union1d(idx, [int(np.argmin(np.abs(run.t - marks[0].time)))]).astype(int)
     scene = stage_scene(run, ctrl, idx, obstacles)
     colours = matplotlib.colormaps["viridis"](np.linspace(0, 0.9, len(idx)))
+    colours[:, 3] = np.linspace(0.35, 1.0, len(idx)) if len(idx) > 1 else 1.0   # earlier stages lighter (no smear)
     labels = [f"t = {run.t[k]:.2f} s" for k in idx]
     if stopped and len(run.t):
         colours[-1] = matplotlib.colors.to_rgba("#d62728")
         labels[-1] = f"stop at t = {run.t[-1]:.2f} s"
     fig = Figure(figsize=(13.0, 7.0))
-    grid = fig.add_gridspec(2, 2, width_ratios=(1.5, 1.0), left=0.0, right=0.84, bottom=0.07, top=0.92,
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.5, 1.0), left=0.02, right=0.84, bottom=0.07, top=0.92,
                             wspace=0.22, hspace=0.28)
     ax3 = fig.add_subplot(grid[:, 0], projection="3d")
     draw_view3d(ax3, scene, colours, labels)
+    ax3.set_box_aspect(tuple(scene["hi"] - scene["lo"]), zoom=0.94)    # the box and its z label inside the cell
+    draw_contact_marks(ax3, marks, (0, 1, 2), names=False)
     ax3.text2D(0.5, 0.97, "perspective", transform=ax3.transAxes, ha="center", fontsize=10)
     for (name, axes), cell in zip(PROJECTIONS, (grid[0, 1], grid[1, 1])):
-        draw_projection(fig.add_subplot(cell), scene, colours, name, axes)
+        ax = fig.add_subplot(cell)
+        draw_projection(ax, scene, colours, name, axes)
+        draw_contact_marks(ax, marks, axes)
     handles, names = ax3.get_legend_handles_labels()
     extra = [(Line2D([], [], ls="--", color="gray", lw=1.0), "curve at that time"),
              (Line2D([], [], ls="", marker="o", color="gray", mec="k", ms=6), "end point")]
@@ -371,7 +415,8 @@ def tracking_series(run: Any, ctrl: Any) -> dict[str, np.ndarray]:
 
 def draw_decay(ax: Any, t: np.ndarray, values: np.ndarray, gain: float, label: str, ylabel: str,
                symbol: str) -> None:
-    """``|values|`` on a log scale with ``|values(0)| exp(-K t)``, both floored at :data:`FLOOR`.
+    """``|values|`` on a log scale (floored at :data:`FLOOR`) with ``|values(0)| exp(-K t)`` down to that floor
+    (:func:`~.figures.decay_reference`: none when ``|values(0)|`` is at the rounding level).
 
     Parameters
     ----------
@@ -392,13 +437,13 @@ def draw_decay(ax: Any, t: np.ndarray, values: np.ndarray, gain: float, label: s
     """
     size = np.abs(values)
     ax.semilogy(t, np.maximum(size, FLOOR), label=label)
-    if size[0] > 0:
-        ax.semilogy(t, np.maximum(size[0] * np.exp(-gain * (t - t[0])), FLOOR), "--",
-                    label=f"{symbol} exp(-{gain:g} t)")
+    reference = decay_reference(t, size[0], gain, FLOOR)
+    if reference is not None:
+        ax.semilogy(t, reference, "--", label=f"{symbol} exp(-{gain:g} t)")
     ax.yaxis.set_major_formatter(LogFormatter())
     ax.yaxis.set_minor_formatter(NullFormatter())
     ax.set_ylabel(ylabel)
-    ax.legend(fontsize=8, loc="upper right")
+    legend_beside(ax)
 
 
 def plot_spatial_tracking(run: Any, ctrl: Any, path: str | Path, thresholds: dict[str, float] | None = None,
@@ -428,8 +473,8 @@ def plot_spatial_tracking(run: Any, ctrl: Any, path: str | Path, thresholds: dic
     keep = envelope_indices(np.column_stack([np.log10(np.maximum(ser["emax"], FLOOR)), ser["s_err"], ser["roll"],
                                              ser["link"], ser["end"], ser["joint"]]))
     t, s = run.t[keep], {k: v[keep] for k, v in ser.items()}
-    fig = Figure(figsize=(7.5, 11.0))
-    axes = fig.subplots(5, 1, sharex=True, gridspec_kw=dict(left=0.13, right=0.97, bottom=0.05, top=0.95,
+    fig = Figure(figsize=(10.0, 11.0))      # the legends stand right of the panels, off the data
+    axes = fig.subplots(5, 1, sharex=True, gridspec_kw=dict(left=0.1, right=0.7, bottom=0.05, top=0.95,
                                                             hspace=0.14))
     draw_decay(axes[0], t, s["emax"], ctrl.gain, "max$_j$ |e$^j$| (normal deviations)", "deviation [m]",
                "max|e(0)|")
@@ -448,14 +493,14 @@ def plot_spatial_tracking(run: Any, ctrl: Any, path: str | Path, thresholds: dic
     if "rail" in s:
         axes[4].plot(t, s["rail"], label="rail margin")
     for name, value in (thresholds or {}).items():
-        axes[4].axhline(value, ls=":", color="gray", label=f"{name} threshold")
+        axes[4].axhline(value, ls=":", color="red" if name == "longitudinal" else "gray", label=f"{name} threshold")
     axes[4].set_ylim(bottom=0)
     axes[4].set_ylabel("margin [-]")
     axes[4].set_xlabel("t [s]")
     for ax in axes:
         ax.grid(alpha=0.3)
     for ax in axes[1:3].tolist() + [axes[4]]:
-        ax.legend(fontsize=8, loc="best")
+        legend_beside(ax)
     fig.suptitle(title or "tracking and singularity margins", fontsize=11)
     path = Path(path)
     fig.savefig(path, dpi=110)
@@ -489,7 +534,8 @@ def spatial_figures(run: Any, scenario: Any, ctrl: Any, stem: str | Path, stages
     """
     stem = Path(stem)
     name = getattr(scenario, "name", "") or "spatial run"
-    title = f"{name}: {ctrl.chain.m} links, universal joints" + (f" ({outcome})" if outcome else "")
+    ended = ended_note(outcome, len(recorded_contacts(run)))
+    title = f"{name}: {ctrl.chain.m} links, universal joints" + (f" ({ended})" if ended else "")
     times = stages if stages is not None else getattr(scenario, "stages", None)
     thresholds = getattr(scenario, "thresholds", None)
     return [plot_spatial_stages(run, ctrl, stem.with_name(stem.name + "_stages.png"), times=times,

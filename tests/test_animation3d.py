@@ -67,3 +67,24 @@ def test_replay_of_a_spatial_log_writes_its_gif(logged, tmp_path, capsys):
     gif = tmp_path / f"{logged.path.stem}.gif"
     assert f"animation     {gif}" in capsys.readouterr().out.splitlines()
     assert Image.open(gif).n_frames == 3                # 1 s at 2 frames/s
+
+
+def test_a_recorded_contact_is_ringed_where_its_link_was_from_its_time_on(logged, tmp_path):
+    rows = np.searchsorted(logged.t, np.linspace(0.0, 1.0, 6))
+    when, link = float(logged.t[rows[2]]) - 1e-3, 3                  # between frames 1 and 2
+    logged.outcome = dict(logged.outcome, contacts=[{"kind": "self", "time": when, "links": [link, link + 2]}])
+    try:
+        image = Image.open(animate3d(logged, tmp_path / "c.gif", fps=5, progress=False))
+    finally:
+        logged.outcome.pop("contacts")
+    ctrl = logged.controller()
+    fig, ax = spatial_view_figure(spatial_frame_scene(logged, ctrl, rows), contacts=True)
+    at = pixels(ax, ctrl.chain.centres_np(logged.q[np.argmin(np.abs(logged.t - when))])[[link - 1]], image.size[1])[0]
+
+    def red_near(k):
+        image.seek(k)
+        rgb = np.asarray(image.convert("RGB"), float)
+        red = np.linalg.norm(rgb - [214, 39, 40], axis=-1) < 40
+        return red[at[1] - 12:at[1] + 13, at[0] - 12:at[0] + 13].sum()
+
+    assert red_near(1) == 0 and red_near(2) > 20 and red_near(5) > 20

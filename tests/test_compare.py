@@ -131,6 +131,35 @@ def test_contacts_are_counted_per_sample_for_a_folded_chain_and_a_wall():
     assert scores["self_collisions"] == 2 and scores["wall_contacts"] == 1
 
 
+def test_compare_png_rings_the_links_that_touched_since_the_previous_panel_where_they_touched(monkeypatch, tmp_path):
+    from matplotlib.figure import Figure
+
+    from coordarm.analysis.compare import MethodRun, plot_bodies
+    from coordarm.analysis.compare_scores import SINCE, contacts_between
+
+    spec = {"chain": {"links": 6, "link_length": 0.1, "joint_limit": 3.14}, "curve": {"kind": "line"},
+            "control": {"gain": K, "speed": 0.1}, "start": {"beta": 1.2}, "run": {"duration": 0.03, "step": 0.01},
+            "obstacles": [{"name": "post", "a": [0.15, -1.0], "b": [0.15, 1.0]}]}
+    sc = Scenario.from_dict(spec)
+    chain = sc.chain()
+    run = simulate_baseline(EndPointRate(sc.controller(), chain.zigzag(1.2)), chain.zigzag(1.2), 0.03, 0.01)
+    folded = np.array([0, 2.8, 0.0, 0.0, 0, 0])       # within x < 0.15 m, no crossing
+    run.q[:] = np.stack([folded, folded, chain.zigzag(1.2), folded])     # past the wall at t = 0.02 s only
+    found = contacts_between(sc.physical(chain), run, sc.step, 0.01, 0.03)
+    assert [(c.kind, c.time, c.obstacle) for c in found] == [("wall", 0.02, "post")]
+    assert contacts_between(sc.physical(chain), run, sc.step, -np.inf, 0.01) == []
+    seen = []
+    monkeypatch.setattr(Figure, "savefig", lambda fig, *a, **k: seen.append(fig))
+    plot_bodies([MethodRun("pinv", run)], sc, tmp_path / "c.png", stages=2)   # panels at t = 0 and 0.03 s
+    first, last = seen[0].axes
+    assert not [ln for ln in first.get_lines() if ln.get_gid() == "contact"]
+    ring, = [ln for ln in last.get_lines() if ln.get_gid() == "contact"]
+    np.testing.assert_allclose(np.column_stack(ring.get_data()),
+                               chain.centres_np(run.q[2])[[j - 1 for j in found[0].links]], atol=1e-12)
+    assert SINCE in [t.get_text() for t in seen[0].legends[0].get_texts()]
+    assert {"post"} <= {t.get_text() for t in first.texts}                  # the walls named in the first panel
+
+
 def test_methods_are_checked_and_ftl_needs_a_rail(capsys):
     sc = load_scenario("line")
     assert parse_methods(None, sc) == ["coordinating", "pinv", "dls"]

@@ -81,7 +81,7 @@ def test_the_figures_are_pngs_of_the_expected_size(swing, tmp_path):
                                       ctrl, tmp_path / "swing", outcome="valid")
     assert [p.name for p in paths] == ["swing_stages.png", "swing_tracking.png"]
     assert png_size(paths[0]) == (1430, 770)       # 13 x 7 in at 110 dpi
-    assert png_size(paths[1]) == (825, 1210)       # 7.5 x 11 in
+    assert png_size(paths[1]) == (1100, 1210)      # 10 x 11 in (the legends right of the panels)
 
 
 def test_drawn_links_are_the_centres_plus_minus_half_a_link_along_d(swing, tmp_path, recorded):
@@ -105,6 +105,25 @@ def test_drawn_links_are_the_centres_plus_minus_half_a_link_along_d(swing, tmp_p
     lims = np.array([ax3.get_xlim(), ax3.get_ylim(), ax3.get_zlim()])
     aspect = np.asarray(ax3.get_box_aspect(), float)
     np.testing.assert_allclose(aspect / aspect[0], np.diff(lims).ravel() / np.diff(lims[0]), rtol=1e-9)
+
+
+def test_recorded_contacts_are_ringed_on_their_links_in_all_three_views_and_counted_in_the_title(swing, tmp_path,
+                                                                                                  recorded):
+    ctrl, run = swing
+    k = 17
+    contact = {"kind": "self", "time": float(run.t[k]), "links": [2, 5], "value": 0.0, "threshold": 0.0}
+    figures3d.spatial_figures(SimpleNamespace(**vars(run), info={"contacts": [contact]}), SimpleNamespace(name="swing"),
+                              ctrl, tmp_path / "c", outcome="completed")
+    fig = recorded[0]
+    ax3, top, side = fig.axes
+    at = ctrl.chain.centres_np(run.q[k])[[1, 4]]                   # links 2 and 5 at the contact's time
+    (ring3,), (ring_top,), (ring_side,) = drawn(ax3, "contact"), drawn(top, "contact"), drawn(side, "contact")
+    np.testing.assert_allclose(ring3, at, atol=1e-14)
+    np.testing.assert_allclose(ring_top, at[:, [0, 1]], atol=1e-14)
+    np.testing.assert_allclose(ring_side, at[:, [0, 2]], atol=1e-14)
+    assert len(drawn(ax3, "links")) == 5                  # four stages (rows 0, 13, 27, 40) and the body at the contact
+    assert fig._suptitle.get_text() == "swing: 6 links, universal joints (completed, 1 contact): stages of the motion"
+    assert f"contacts: 1, first {run.t[k]:.2f} s" in [t.get_text() for t in fig.legends[0].get_texts()]
 
 
 def test_the_top_projection_of_a_planar_run_is_the_planar_figure(tmp_path, recorded, monkeypatch):
@@ -179,3 +198,21 @@ def test_a_bounded_obstacle_away_from_the_arm_is_in_the_view_box_and_drawn(swing
     assert lines and all(np.all(p >= lo - 1e-12) and np.all(p <= hi + 1e-12) for p in lines if len(p))
     # the unbounded plate is cut to the box, not drawn at its nominal extent
     assert hi[1] - lo[1] < 10
+    # each projection names the obstacles above their highest point (the sphere's top: its centre + radius)
+    for ax, (a, b) in zip(recorded[0].axes[1:], ((0, 1), (0, 2))):
+        names = {t.get_text(): t.xy for t in ax.texts}
+        assert set(names) == {"ball", "wall"}
+        assert names["ball"][1] == pytest.approx(ball["centre"][b] + ball["radius"], abs=0.01)
+        assert names["ball"][0] == pytest.approx(ball["centre"][a], abs=0.02)
+
+
+def test_earlier_stages_are_lighter_and_the_obstacles_half_transparent(swing, tmp_path, recorded):
+    from coordarm.simulation.obstacles3d import obstacles3d_from_spec
+
+    ctrl, run = swing
+    ball = obstacles3d_from_spec([{"name": "ball", "kind": "sphere", "centre": [0.3, 0.5, 0.4], "radius": 0.1}])
+    figures3d.plot_spatial_stages(run, ctrl, tmp_path / "f.png", times=[0.0, 0.2, 0.4], obstacles=ball)
+    for ax in recorded[0].axes:
+        alphas = [line.get_color()[3] for line in ax.get_lines() if line.get_gid() == "links"]
+        assert alphas[0] < alphas[1] < alphas[2] == 1.0
+        assert {line.get_alpha() for line in ax.get_lines() if line.get_gid() == "obstacle"} == {0.5}

@@ -280,3 +280,35 @@ def test_a_lost_chunk_in_the_middle_shows_as_sequence_gaps(tmp_path):
     lost = len(run.t) - len(rep.t)
     assert lost > 0 and rep.recovered is False
     assert any(p.startswith("/joint_state: ") and f"{lost} message(s) missing" in p for p in rep.problems)
+
+
+def _red(frame):
+    """Pixels of the contact marks' red (#d62728) in a GIF frame."""
+    rgb = np.asarray(frame.convert("RGB"), float)
+    return np.linalg.norm(rgb - [214, 39, 40], axis=-1) < 40
+
+
+def test_the_gif_marks_a_recorded_contact_from_its_time_on_and_reddens_the_body_in_its_frame(full_log, tmp_path):
+    from PIL import Image
+
+    from coordarm.analysis.animation import animate, frame_contacts, frame_indices
+    path, _ = full_log
+    rep = load(path)
+    rows = frame_indices(rep.t, 4, 200)
+    when = float(rep.t[rows[3]]) - 0.01                  # between frames 2 and 3
+    rep.outcome = dict(rep.outcome, contacts=[{"kind": "wall", "time": when, "links": [4], "obstacle": "wall X"}])
+    gif = animate(rep, tmp_path / "c.gif", fps=4, progress=False)
+    with Image.open(gif) as im:
+        red = []
+        for k in range(im.n_frames):
+            im.seek(k)
+            red.append(_red(im))
+    legend = red[0]                                      # the legend's ring, in every frame
+    assert 0 < legend.sum() < 200 and (red[2] == legend).all()        # nothing else before the contact
+    red = [r & ~legend for r in red]
+    assert red[3].sum() > 3 * red[4].sum() > 0           # its frame: the ring and the whole body red; then the ring
+    ring = [np.argwhere(r).mean(axis=0) for r in red[4:]]
+    assert np.ptp(ring, axis=0).max() < 1.0              # the ring stays where the link touched
+    assert frame_contacts(np.array([when]), rep.t[rows], 2) == (slice(0, 0), "")
+    assert frame_contacts(np.array([when]), rep.t[rows], 3) == (slice(0, 1), ", contacts: 1 so far (contact)")
+    assert frame_contacts(np.array([when]), rep.t[rows], 4) == (slice(0, 1), ", contacts: 1 so far")

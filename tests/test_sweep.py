@@ -163,6 +163,27 @@ def test_figures_one_line_plot_or_one_heat_map_per_pair(tmp_path):
     assert line.name == "sweep_b.png" and line.stat().st_size > 10_000
 
 
+def test_sweep_figure_axes_carry_the_units_of_the_varied_names(tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+
+    from coordarm.analysis.sweep_figures import axis_label, plot_sweep
+
+    assert axis_label("gain") == "gain [1/s]" and axis_label("control.speed") == "control.speed [m/s]"
+    assert axis_label("links") == "links [-]" and axis_label("curve.kind") == "curve.kind"
+    seen = []
+    monkeypatch.setattr(Figure, "savefig", lambda fig, *a, **k: seen.append(fig))
+    df = pd.DataFrame({"gain": [1.0, 1.0, 2.0, 2.0], "speed": [0.1, 0.2, 0.1, 0.2], "outcome": ["completed"] * 4,
+                       "min_link_margin": [0.5, 0.3, 0.4, 0.2], "min_longitudinal": [0.4, 0.1, 0.3, 0.6]})
+    plot_sweep(df, ["gain", "speed"], tmp_path)
+    plot_sweep(df, ["gain"], tmp_path)
+    pair, line = seen
+    assert [(ax.get_xlabel(), ax.get_ylabel()) for ax in pair.axes[:2]] == [("gain [1/s]", "speed [m/s]")] * 2
+    ax = line.axes[0]
+    assert ax.get_xlabel() == "gain [1/s]"
+    line.canvas.draw()
+    assert ax.get_legend().get_window_extent().x0 >= ax.get_window_extent().x1     # the legend off the data
+
+
 def test_default_local_cluster_gives_the_serial_rows(tmp_path):
     vary = {"links": [8, 12], "gain": [1.0, 3.0], "run.duration": [1.0]}
     local = sweep("line", vary, workers=2, out=tmp_path)
