@@ -18,6 +18,7 @@ derives both).
 from __future__ import annotations
 
 import math
+import os
 import warnings
 from dataclasses import dataclass
 from fractions import Fraction
@@ -260,13 +261,21 @@ def estimate(links: int, step: float, duration: float, log_rate: float | None = 
 
 
 def machine_memory() -> int:
-    """The machine's physical memory [bytes] (``psutil.virtual_memory().total``).
+    """The machine's physical memory [bytes]: ``sysconf`` pages times page size where the system
+    has them (Linux, macOS: the value ``psutil.virtual_memory().total`` reads, without importing
+    psutil, which costs a run's start-up 15-20 ms), else ``psutil.virtual_memory().total``.
 
     Returns
     -------
     int
         Total physical memory [bytes].
     """
+    try:
+        pages, size = os.sysconf("SC_PHYS_PAGES"), os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):       # no sysconf (Windows) or no such name
+        pages = size = -1
+    if pages > 0 and size > 0:
+        return int(pages) * int(size)
     import psutil
 
     return int(psutil.virtual_memory().total)
