@@ -501,7 +501,8 @@ class KeptRows:
             if isinstance(rows, slice):
                 self.arrays[a][self.n:self.n + size] = v
             else:
-                np.take(v, rows, axis=0, out=self.arrays[a][self.n:self.n + size])
+                # rows are valid indices, so "clip" changes nothing; "raise" would buffer the copy
+                np.take(v, rows, axis=0, out=self.arrays[a][self.n:self.n + size], mode="clip")
         self.n += size
 
     def run(self, info: dict) -> Run:
