@@ -36,13 +36,19 @@ class _Version(argparse.Action):
         parser.exit()
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The full ``coordarm`` argument parser.
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The ``coordarm`` argument parser: the full one, or the one that parses a single command.
+
+    Parameters
+    ----------
+    only : str, optional
+        A name of :data:`COMMANDS`: register only that command (its module alone is imported; the
+        command's own parsing, help and errors are the same as with the full parser).
 
     Returns
     -------
     argparse.ArgumentParser
-        With ``--version`` and one sub-parser per entry of :data:`COMMANDS` that is installed.
+        With ``--version`` and one sub-parser per entry of :data:`COMMANDS` that is installed (or ``only``).
 
     Raises
     ------
@@ -57,6 +63,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action=_Version, help="print the installed version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module in COMMANDS.items():
+        if only is not None and name != only:
+            continue
         try:
             importlib.import_module(module).register(sub)
         except ModuleNotFoundError as exc:
@@ -117,7 +125,9 @@ def _main(argv: list[str] | None) -> int:
 
     command = "coordarm"
     try:
-        args = build_parser().parse_args(argv)
+        words = sys.argv[1:] if argv is None else argv
+        first = words[0] if words else None       # a command's line is parsed by its parser alone
+        args = build_parser(first if first in COMMANDS else None).parse_args(argv)
         command = f"coordarm {args.command}"
         if "matplotlib" not in sys.modules:
             os.environ["MPLBACKEND"] = "Agg"

@@ -55,3 +55,40 @@ def test_importing_the_figure_modules_keeps_the_users_matplotlib_backend():
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == "svg"
+
+
+@pytest.mark.parametrize("argv", [["run", "line", "--links", "8", "--bogus"], ["run"], ["run", "line", "--links", "x"],
+                                  ["run", "--help"], ["run", "line", "--backend", "fast"], ["sweep", "line"],
+                                  ["report", "--help"], ["export", "line", "--links", "8"], ["run", "line", "--yes"],
+                                  ["replay", "x.mcap", "--fps", "0"]])
+def test_a_command_parsed_by_its_own_parser_gives_the_same_result_help_and_errors(argv, capsys):
+    """``coordarm CMD ...`` registers CMD alone (the other command modules are not imported): the
+    namespace, the help text, the error message and the exit status equal those of the full parser."""
+    from coordarm.cli import build_parser
+
+    def parse(parser):
+        try:
+            ns = vars(parser.parse_args(argv))
+            out = (0, {k: v for k, v in ns.items() if k != "func"}, ns["func"].__module__)
+        except SystemExit as exc:
+            out = (exc.code,)
+        text = capsys.readouterr()
+        return out, text.out, text.err
+
+    assert parse(build_parser(argv[0])) == parse(build_parser())
+
+
+def test_a_run_imports_no_module_it_does_not_use():
+    """A cache-hit ``coordarm run --no-figures`` without --live: no live view, no psutil, no matplotlib,
+    no other command's module."""
+    code = ("import sys; from coordarm.cli import main; "
+            "main(['run', 'line', '--links', '4', '--duration', '0.002', '--no-figures', '--quiet', '--overwrite', "
+            "'--out', sys.argv[1]]); "
+            "print(sorted(m for m in ('coordarm.simulation.live', 'coordarm.simulation.ws_bridge', 'psutil', "
+            "'matplotlib', 'coordarm.commands.report', 'coordarm.commands.sweep', 'coordarm.analysis.report_outputs') "
+            "if m in sys.modules))")
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        res = subprocess.run([sys.executable, "-c", code, f"{tmp}/x.mcap"], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip().splitlines()[-1] == "[]"
