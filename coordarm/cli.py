@@ -8,6 +8,7 @@ import os
 import signal
 import sys
 import threading
+from typing import NoReturn
 
 #: Sub-command name -> module defining ``register(subparsers)``; the parser it adds sets ``func``.
 COMMANDS = {
@@ -105,6 +106,43 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+def console(argv: list[str] | None = None) -> NoReturn:
+    """Entry point of the ``coordarm`` console script and of ``python -m coordarm``: :func:`main`, then exit.
+
+    When nothing is left to clean up (no ``atexit`` callback registered, no thread but this one),
+    the process ends with ``os._exit`` once standard output and error are flushed: the
+    interpreter's teardown of some 400 modules (numpy, CasADi, ...) changes nothing on disk and
+    costs 40-130 ms, a quarter of a small run. Otherwise it exits the usual way.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: ``sys.argv[1:]``).
+
+    Raises
+    ------
+    SystemExit
+        With :func:`main`'s status (or argparse's, for ``--help``, ``--version`` and usage errors).
+    """
+    status = main(argv)
+    if _nothing_to_clean_up():
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        except (OSError, ValueError):       # a stream gone or closed: let the interpreter deal with it
+            sys.exit(status)
+        os._exit(status)
+    sys.exit(status)
+
+
+def _nothing_to_clean_up() -> bool:
+    """No ``atexit`` callback (logging, a temporary directory's finalizer, matplotlib, dask) and no other thread."""
+    import atexit
+
+    count = getattr(atexit, "_ncallbacks", None)       # CPython's count of registered callbacks
+    return count is not None and count() == 0 and threading.active_count() == 1
 
 
 def _early_handlers() -> dict:

@@ -92,3 +92,38 @@ def test_a_run_imports_no_module_it_does_not_use():
         res = subprocess.run([sys.executable, "-c", code, f"{tmp}/x.mcap"], capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip().splitlines()[-1] == "[]"
+
+
+CONSOLE = """
+import atexit, sys
+class Witness:
+    def __del__(self):
+        print("teardown", flush=True)
+witness = Witness()
+if sys.argv[1] == "atexit":
+    atexit.register(print, "atexit ran")
+from coordarm.cli import console
+console(sys.argv[2:])
+"""
+
+
+@pytest.mark.parametrize("cleanup", ["none", "atexit"])
+def test_the_console_skips_the_teardown_only_when_nothing_is_registered_and_keeps_status_output_and_log(cleanup, tmp_path):
+    """``coordarm`` (``console``) ends with ``os._exit`` when no atexit callback and no other thread is
+    left: the interpreter's teardown (here a witness object's ``__del__``) does not run, yet every
+    line is on standard output, the status is main's and the log is complete. With an atexit
+    callback registered the usual exit runs it (and the teardown)."""
+    from mcap.reader import make_reader
+
+    log = tmp_path / "x.mcap"
+    argv = [sys.executable, "-c", CONSOLE, cleanup, "run", "line", "--links", "4", "--duration", "0.05",
+            "--no-figures", "--quiet", "--out", str(log)]
+    res = subprocess.run(argv, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.splitlines()[0].startswith("scenario") and f"log           {log}" in res.stdout
+    assert ("teardown" in res.stdout) == ("atexit ran" in res.stdout) == (cleanup == "atexit")
+    with open(log, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None and summary.statistics.message_count > 50
+    again = subprocess.run(argv, capture_output=True, text=True, timeout=300)        # exists: refused, status 2
+    assert again.returncode == 2 and "exists" in again.stderr
