@@ -256,7 +256,7 @@ def estimate(links: int, step: float, duration: float, log_rate: float | None = 
     every = max(1, int(round(1.0 / (log_rate * step)))) if log_rate else 1
     log_bytes = (steps // every + 1) * record if logged else 0
     kept = min(steps + 1, KEEP_ROWS + 4 * (steps // block + 1)) if logged else steps + 1
-    memory = 2 * kept * row + 4 * min(block, steps) * row      # concatenation doubles, one block in flight
+    memory = 2 * kept * row + 4 * min(block, steps) * row      # a block copied into the kept rows doubles, one block in flight
     return Cost(steps, log_bytes, memory + LAW_BYTES_PER_LINK * links)
 
 
