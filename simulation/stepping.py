@@ -506,7 +506,8 @@ class KeptRows:
         self.n += size
 
     def run(self, info: dict) -> Run:
-        """The kept rows as a Run (its arrays: views of the first rows of the arrays allocated once).
+        """The kept rows as a Run: views of the arrays allocated once, or copies when a stop left
+        more than an eighth of them unused (so a stopped run does not hold the memory of a whole one).
 
         Parameters
         ----------
@@ -517,4 +518,5 @@ class KeptRows:
         -------
         Run
         """
-        return Run.from_arrays({a: v[:self.n] for a, v in self.arrays.items()}, info)
+        trim = self.capacity - self.n > self.capacity // 8
+        return Run.from_arrays({a: v[:self.n].copy() if trim else v[:self.n] for a, v in self.arrays.items()}, info)

@@ -192,3 +192,16 @@ def test_a_run_from_states_has_no_law_diagnostics_and_keeps_its_rows():
     head = run.rows(slice(0, 2), dict(run.info, stopped="rail_limit"))
     assert np.array_equal(head.q, q[:2]) and np.array_equal(head.t, t[:2]) and head.info["stopped"] == "rail_limit"
     assert run.info["stopped"] == "completed"
+
+
+def test_a_stopped_run_holds_only_its_own_rows():
+    """A run stopped early keeps arrays of its own length (not views of arrays sized for the whole run)."""
+    chain = PlanarChain(8, 0.1)
+    ctrl = CoordinatingController(chain, Line(angle=lambda t: 0.3 * ca.sin(t)), 2.0, -0.05)
+    with pytest.raises(SingularityError) as info:
+        simulate(ctrl, chain.zigzag(1.3), 20.0, 0.001)
+    run = info.value.run
+    assert len(run.t) < 20000 // 2
+    for a in run.array_names():
+        v = getattr(run, a)
+        assert v.base is None or v.base.shape[0] == len(run.t), a
