@@ -111,8 +111,8 @@ def main(argv: list[str] | None = None) -> int:
 def console(argv: list[str] | None = None) -> NoReturn:
     """Entry point of the ``coordarm`` console script and of ``python -m coordarm``: :func:`main`, then exit.
 
-    When nothing is left to clean up (no ``atexit`` callback registered, no thread but this one),
-    the process ends with ``os._exit`` once standard output and error are flushed: the
+    When nothing is left to clean up (no ``atexit`` callback registered, no thread but this one,
+    no profiler or tracer), the process ends with ``os._exit`` once standard output and error are flushed: the
     interpreter's teardown of some 400 modules (numpy, CasADi, ...) changes nothing on disk and
     costs 40-130 ms, a quarter of a small run. Otherwise it exits the usual way.
 
@@ -138,11 +138,13 @@ def console(argv: list[str] | None = None) -> NoReturn:
 
 
 def _nothing_to_clean_up() -> bool:
-    """No ``atexit`` callback (logging, a temporary directory's finalizer, matplotlib, dask) and no other thread."""
+    """No ``atexit`` callback (logging, a temporary directory's finalizer, matplotlib, dask), no other
+    thread, and no profiler or tracer (``python -m cProfile``, coverage, a debugger) that writes after."""
     import atexit
 
     count = getattr(atexit, "_ncallbacks", None)       # CPython's count of registered callbacks
-    return count is not None and count() == 0 and threading.active_count() == 1
+    return (count is not None and count() == 0 and threading.active_count() == 1
+            and sys.getprofile() is None and sys.gettrace() is None)
 
 
 def _early_handlers() -> dict:

@@ -127,3 +127,15 @@ def test_the_console_skips_the_teardown_only_when_nothing_is_registered_and_keep
     assert summary is not None and summary.statistics.message_count > 50
     again = subprocess.run(argv, capture_output=True, text=True, timeout=300)        # exists: refused, status 2
     assert again.returncode == 2 and "exists" in again.stderr
+
+
+def test_python_m_cprofile_of_the_command_still_writes_its_profile(tmp_path):
+    """A profiler outlives the command (it writes after the module returns): then the usual exit."""
+    import pstats
+
+    out = tmp_path / "run.prof"
+    res = subprocess.run([sys.executable, "-m", "cProfile", "-o", str(out), "-m", "coordarm", "run", "line", "--links", "4",
+                          "--duration", "0.02", "--no-figures", "--quiet", "--out", str(tmp_path / "x.mcap")],
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert any(name == "run_scenario" for _, _, name in pstats.Stats(str(out)).stats)
