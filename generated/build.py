@@ -36,7 +36,7 @@ from coordarm.symbolic.errors import shown
 
 from .codegen import CODEGEN_OPTIONS, Source
 from .compiler_guard import kill_process_tree, process_alive
-from .compiler_memo import compiler_version, write_atomic
+from .compiler_memo import MEMO, compiler_version, write_atomic
 
 #: Optimisation flags (see benchmarks/RESULTS.md); override with COORDARM_CFLAGS. ``-fno-math-errno``
 #: lets the link angles' cosines and sines vectorise (glibc libmvec), ``-march=native`` uses the
@@ -519,8 +519,9 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
 
     The cache is :func:`private_root` of :func:`build_root`, the directory :func:`build` writes to (a
     private temporary one, with a :class:`CacheWarning`, when the wanted one is not this user's alone;
-    it is not created when missing). Only cache entries (:func:`is_cache_entry`) are deleted: nothing
-    else in the directory, no symbolic link and nothing a link points to.
+    it is not created when missing). Only cache entries (:func:`is_cache_entry`) and the remembered
+    compiler versions (:data:`~coordarm.generated.compiler_memo.MEMO`, a regular file) are deleted:
+    nothing else in the directory, no symbolic link and nothing a link points to.
 
     Parameters
     ----------
@@ -541,6 +542,9 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
         if is_cache_entry(entry):
             shutil.rmtree(entry, ignore_errors=True)
             n += not entry.exists()
+    memo = root / MEMO
+    if memo.is_file() and not memo.is_symlink():
+        memo.unlink(missing_ok=True)
     return n
 
 

@@ -113,3 +113,17 @@ def test_the_cache_key_is_the_same_with_the_memo_and_a_cache_hit_runs_no_process
     monkeypatch.setattr(build_mod, "_run_compiler", no_process)
     again = build_mod.build(src, build_dir=tmp_path)
     assert again.cache_hit and again.key == lib.key
+
+
+def test_clean_forgets_the_versions_but_not_a_link_named_like_the_memo(tmp_path, binary):
+    root = tmp_path / "cache"
+    root.mkdir(mode=0o700)
+    compiler_version(binary, Asker(), root)
+    assert (root / MEMO).is_file()
+    build_mod.clean(root)
+    assert not (root / MEMO).exists()
+    target = tmp_path / "users-file.json"
+    target.write_text("{}")
+    (root / MEMO).symlink_to(target)
+    build_mod.clean(root)
+    assert (root / MEMO).is_symlink() and target.read_text() == "{}"
