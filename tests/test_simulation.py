@@ -205,3 +205,12 @@ def test_a_stopped_run_holds_only_its_own_rows():
     for a in run.array_names():
         v = getattr(run, a)
         assert v.base is None or v.base.shape[0] == len(run.t), a
+
+
+@pytest.mark.parametrize("preset", ["line", "arc", "hole", "thread", "line3d", "path3d", "port"])
+def test_base_offsets_in_one_call_equal_the_offsets_one_time_at_a_time(preset):
+    """The mapped offsets the start check uses are the scalar ``base_offset`` values, bit for bit."""
+    sc = load_scenario(preset)
+    ctrl = sc.controller()
+    T = np.linspace(0.0, 40.0, 57)
+    np.testing.assert_array_equal(ctrl.base_offsets(T), [ctrl.base_offset(float(t)) for t in T])
