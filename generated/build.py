@@ -36,6 +36,7 @@ from coordarm.symbolic.errors import shown
 
 from .codegen import CODEGEN_OPTIONS, Source
 from .compiler_guard import kill_process_tree, process_alive
+from .compiler_memo import MEMO, compiler_version, write_atomic
 
 #: Optimisation flags (see benchmarks/RESULTS.md); override with COORDARM_CFLAGS. ``-fno-math-errno``
 #: lets the link angles' cosines and sines vectorise (glibc libmvec), ``-march=native`` uses the
@@ -289,7 +290,7 @@ def cpu_identity() -> str:
     return platform.machine() + " " + json.dumps(seen, sort_keys=True)
 
 
-def cache_key(source: Source, cc: str, flags: tuple[str, ...]) -> str:
+def cache_key(source: Source, cc: str, flags: tuple[str, ...], memo_dir: Path | None = None) -> str:
     """SHA-256 over source, compiler path and version, flags, CasADi version, codegen options,
     the CPU when a flag asks for ``native`` code (a shared cache then never serves another CPU), and
     with a flag of :data:`PROCESS_MODE_FLAGS` the separate link (older entries were linked with it).
@@ -299,9 +300,13 @@ def cache_key(source: Source, cc: str, flags: tuple[str, ...]) -> str:
     source : Source
         The generated C source.
     cc : str
-        Absolute path of the compiler (:func:`find_compiler`); it is run once for ``--version``.
+        Absolute path of the compiler (:func:`find_compiler`); it is run for ``--version`` once per
+        process, or once per executable with ``memo_dir``.
     flags : tuple of str
         The optimisation flags (:func:`compile_flags`).
+    memo_dir : Path, optional
+        The private cache directory that remembers the version of an unchanged compiler executable
+        (:func:`~coordarm.generated.compiler_memo.compiler_version`); None: the compiler is asked.
 
     Returns
     -------
@@ -317,7 +322,8 @@ def cache_key(source: Source, cc: str, flags: tuple[str, ...]) -> str:
     cpu = cpu_identity() if any("native" in f for f in flags) else ""
     # Libraries of such flags were linked with them before compile_and_link: never serve those again.
     link = "linked without " + " ".join(sorted(PROCESS_MODE_FLAGS)) if set(flags) & PROCESS_MODE_FLAGS else ""
-    for part in (source.text, cc, _compiler_version(cc), json.dumps(list(flags)), ca.__version__,
+    version = compiler_version(cc, _compiler_version, memo_dir)
+    for part in (source.text, cc, version, json.dumps(list(flags)), ca.__version__,
                  json.dumps(CODEGEN_OPTIONS, sort_keys=True), json.dumps(list(REQUIRED_FLAGS)), cpu, link):
         h.update(part.encode())
         h.update(b"\0")
@@ -326,17 +332,6 @@ def cache_key(source: Source, cc: str, flags: tuple[str, ...]) -> str:
 
 def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-def _write_atomic(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def cached(entry: Path, key: str) -> bool:
@@ -396,14 +391,15 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
     cc_path = find_compiler(cc)
     flags = compile_flags(flags)
     timeout = compile_timeout() if timeout is None else timeout
-    key = cache_key(source, cc_path, flags)
-    entry = private_root(build_root(build_dir)) / key[:16]
+    root = private_root(build_root(build_dir))
+    key = cache_key(source, cc_path, flags, memo_dir=root)
+    entry = root / key[:16]
     if not force and cached(entry, key):
         return Library(entry / LIBRARY, key, True, 0.0)
     try:
         entry.mkdir(mode=0o700, parents=True, exist_ok=True)
         src = entry / SOURCE
-        _write_atomic(src, source.text.encode())
+        write_atomic(src, source.text.encode())
         remove_stale_temporaries(entry)
         fd, tmp = tempfile.mkstemp(dir=entry, prefix=f"{LIBRARY}.{os.getpid()}-", suffix=".tmp")
         os.close(fd)
@@ -431,11 +427,12 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
         Path(obj).unlink(missing_ok=True)
         if not placed:   # any failure or an interrupt: no half-written library left
             Path(tmp).unlink(missing_ok=True)
-    meta = {"key": key, "sha256": digest, "compiler": cc_path, "compiler_version": _compiler_version(cc_path),
+    meta = {"key": key, "sha256": digest, "compiler": cc_path,
+            "compiler_version": compiler_version(cc_path, _compiler_version, root),
             "flags": list(flags), "casadi": ca.__version__, "codegen_options": CODEGEN_OPTIONS,
             "form": source.form, "links": source.m, "compile_seconds": seconds}
     try:
-        _write_atomic(entry / META, json.dumps(meta, indent=1).encode())
+        write_atomic(entry / META, json.dumps(meta, indent=1).encode())
     except OSError as exc:
         raise BuildError(f"{entry / META}: cannot write it: {exc.strerror or exc}") from None
     return Library(entry / LIBRARY, key, False, seconds)
@@ -522,8 +519,9 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
 
     The cache is :func:`private_root` of :func:`build_root`, the directory :func:`build` writes to (a
     private temporary one, with a :class:`CacheWarning`, when the wanted one is not this user's alone;
-    it is not created when missing). Only cache entries (:func:`is_cache_entry`) are deleted: nothing
-    else in the directory, no symbolic link and nothing a link points to.
+    it is not created when missing). Only cache entries (:func:`is_cache_entry`) and the remembered
+    compiler versions (:data:`~coordarm.generated.compiler_memo.MEMO`, a regular file) are deleted:
+    nothing else in the directory, no symbolic link and nothing a link points to.
 
     Parameters
     ----------
@@ -544,6 +542,9 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
         if is_cache_entry(entry):
             shutil.rmtree(entry, ignore_errors=True)
             n += not entry.exists()
+    memo = root / MEMO
+    if memo.is_file() and not memo.is_symlink():
+        memo.unlink(missing_ok=True)
     return n
 
 

@@ -106,7 +106,7 @@ def check_curve_reaches_base(ctrl: CoordinatingController, t0: float, t1: float,
     Parameters
     ----------
     ctrl : CoordinatingController
-        The closed loop (its curve and chain, :meth:`~CoordinatingController.base_offset`).
+        The closed loop (its curve and chain, :meth:`~CoordinatingController.base_offsets`).
     t0, t1 : float
         Time span checked [s].
     samples : int, optional
@@ -118,11 +118,13 @@ def check_curve_reaches_base(ctrl: CoordinatingController, t0: float, t1: float,
         At a sampled time the curve is farther than one link length ``xi`` [m] from the base
         (or its distance is not a number).
     """
-    for t in np.linspace(t0, t1, samples):
-        off = ctrl.base_offset(float(t))
-        if not off <= ctrl.chain.xi:
-            raise ConfigError(f"curve: passes {off:.4g} m from the base at t = {t:.3f} s, more than "
-                              f"one link length ({ctrl.chain.xi} m); the pinned base cannot follow it")
+    times = np.linspace(t0, t1, samples)
+    offsets = ctrl.base_offsets(times)                     # one mapped call, not one per time
+    far = np.flatnonzero(~(offsets <= ctrl.chain.xi))
+    if len(far):
+        t, off = times[far[0]], offsets[far[0]]
+        raise ConfigError(f"curve: passes {off:.4g} m from the base at t = {t:.3f} s, more than "
+                          f"one link length ({ctrl.chain.xi} m); the pinned base cannot follow it")
 
 
 def even_indices(n: int, k: int) -> np.ndarray:

@@ -369,11 +369,11 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
     LogError, BuildError, Interrupted
         As for :func:`logged_run`.
     """
-    from coordarm.simulation.live import LiveView
-
     with ExitStack() as stack:
         view = None
-        if live:
+        if live:                        # imported only for a live view (its server and scenes)
+            from coordarm.simulation.live import LiveView
+
             view = stack.enter_context(LiveView(scenario, ctrl, port=port, speed=live_speed, cond_rate=cond_rate,
                                                 frames=log_frames, cond_exact=cond_exact))
             say(f"live          {view.url} (Foxglove: Open connection, Foxglove WebSocket)")

@@ -225,7 +225,7 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
     SingularityError, TubeError, CollisionError
         The run stopped; ``err.run`` holds it up to there.
     """
-    parts: list[Run] = []
+    kept = KeptRows(loop)
     contacts: list = []
     q, k, wall = q0, 0, _time.perf_counter()
     rates = JointRates(bool(getattr(loop.ctrl.chain, "rail", False)),       # peaks, and the physical's limits
@@ -244,12 +244,12 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
         if stop is not None:
             row, error = stop
             part = part.rows(slice(0, row + 1))
-            parts.append(_thin(part, k, loop.every))
+            kept.add(part, k)
             if on_chunk:
                 on_chunk(part)
-            raise stopped(loop.ctrl, error, parts, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
-                                                        steps=k + row, wall_time=_time.perf_counter() - wall))
-        parts.append(_thin(part, k, loop.every))
+            raise stopped(loop.ctrl, error, kept, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
+                                                       steps=k + row, wall_time=_time.perf_counter() - wall))
+        kept.add(part, k)
         if on_chunk:
             on_chunk(part)
         check_interrupt()
@@ -259,7 +259,7 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
         if bar:
             bar.update(loop.step * k)
     info = dict(info, contacts=_records(contacts))
-    run = _concat(parts, dict(info, stopped="completed", steps=loop.n_steps, wall_time=_time.perf_counter() - wall))
+    run = kept.run(dict(info, stopped="completed", steps=loop.n_steps, wall_time=_time.perf_counter() - wall))
     run.info["governed"] = run.governed_time()
     return run
 
@@ -321,7 +321,7 @@ def commands(ctrl: Any, times: np.ndarray | float) -> dict[str, Any]:
     return dict(out, roll_star=ctrl.roll_targets(times)) if spatial else out
 
 
-def stopped(ctrl: CoordinatingController, error: CoordarmError, parts: list[Run], info: dict) -> CoordarmError:
+def stopped(ctrl: CoordinatingController, error: CoordarmError, kept: KeptRows, info: dict) -> CoordarmError:
     """``error``, holding the run up to the stop (with a hint for a longitudinal stop without the governor).
 
     Parameters
@@ -330,8 +330,8 @@ def stopped(ctrl: CoordinatingController, error: CoordarmError, parts: list[Run]
         The closed loop (its ``governor`` decides the hint).
     error : SingularityError, TubeError or CollisionError
         Why the run stopped.
-    parts : list of Run
-        The chunks run, the last one cut at the stop.
+    kept : KeptRows
+        The rows kept of the chunks run, the last one cut at the stop.
     info : dict
         Info of the run up to the stop.
 
@@ -344,7 +344,7 @@ def stopped(ctrl: CoordinatingController, error: CoordarmError, parts: list[Run]
         error = SingularityError(error.time, error.link, error.margin, error.kind, error.threshold,
                                  hint="the speed governor ([control] governor = true, --governor) "
                                       "slows v* instead of stopping")
-    error.run = _concat(parts, info)
+    error.run = kept.run(info)
     error.run.info["governed"] = error.run.governed_time()
     return error
 
@@ -392,7 +392,7 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
         n = len(part.t)
         rows = np.flatnonzero(((k + np.arange(n)) % loop.check_every == 0) | (np.arange(n) % (n - 1 or 1) == 0))
         if stop is not None:
-            rows = np.union1d(rows[rows < stop[0]], [stop[0]])
+            rows = np.append(rows[rows < stop[0]], stop[0])        # (sorted, unique: no np.unique)
         rows = rows[np.isfinite(part.q[rows]).all(axis=1)]      # a NaN state is not a joint limit
         if len(rows):
             found = physical.check(part.t[rows], part.q[rows])
@@ -426,18 +426,97 @@ def _advance(ctrl, compiled, q, times, step, layout):
     return Q.T, {a: (v.ravel() if a in scalars else v.T) for a, v in zip(ctrl.run_outputs, outs)}
 
 
-def _thin(part: Run, k0: int, every: int) -> Run:
-    """Rows of ``part`` (steps ``k0, k0+1, ...``) kept in memory: every ``every``-th, the extremes, the last."""
+def kept_rows(part: Run, k0: int, every: int) -> np.ndarray | slice:
+    """Rows of ``part`` (steps ``k0, k0+1, ...``) kept in memory: every ``every``-th, the extremes, the last.
+
+    Parameters
+    ----------
+    part : Run
+        One chunk's rows.
+    k0 : int
+        Global step of its first row.
+    every : int
+        Keep every this many steps (1: every row).
+
+    Returns
+    -------
+    ndarray of int or slice
+        Sorted row indices (every row: ``slice(None)``); with the rows of each margin's smallest
+        value and of the largest ``|u|``, and the last row.
+    """
     n = len(part.t)
     if every == 1 or n == 0:
-        return part
-    lowest = [np.argmin(np.min(v, axis=1) if v.ndim == 2 else v)
-              for v in (np.asarray(getattr(part, c.array)) for c in part.layout.margins)]
-    rows = np.concatenate([np.flatnonzero((k0 + np.arange(n)) % every == 0),
-                           [*lowest, np.argmax(np.max(np.abs(part.u), axis=1)), n - 1]])
-    return part.rows(np.unique(rows))
+        return slice(None)
+    keep = (k0 + np.arange(n)) % every == 0
+    for c in part.layout.margins:
+        v = np.asarray(getattr(part, c.array))
+        keep[np.argmin(np.min(v, axis=1) if v.ndim == 2 else v)] = True
+    keep[np.argmax(np.max(np.abs(part.u), axis=1))] = True
+    keep[n - 1] = True
+    return np.flatnonzero(keep)
 
 
-def _concat(parts: list[Run], info: dict) -> Run:
-    return Run.from_arrays({a: np.concatenate([getattr(p, a) for p in parts]) for a in parts[0].array_names()},
-                          info)
+class KeptRows:
+    """The rows of a run kept in memory, gathered chunk by chunk into arrays allocated once.
+
+    One copy per kept row (a chunk's rows straight into place), instead of a thinned copy of each
+    chunk and a concatenation of them all. The arrays hold at most every ``loop.every``-th step
+    plus, per chunk, its extremes and last row, and the final state's row.
+
+    Parameters
+    ----------
+    loop : Stepping
+        The run's settings (steps, chunk length, ``every``).
+    """
+
+    def __init__(self, loop: Stepping) -> None:
+        self.every = loop.every
+        chunks = -(-loop.n_steps // loop.chunk) + 1                        # + the final state's row
+        extremes = len(loop.layout.margins) + 2
+        self.capacity = (loop.n_steps + 1 if loop.every == 1 else
+                         loop.n_steps // loop.every + 1 + chunks * (1 + extremes))
+        self.arrays: dict[str, np.ndarray] = {}
+        self.n = 0
+
+    def add(self, part: Run, k0: int) -> None:
+        """Keep the rows of ``part`` (global steps ``k0, k0+1, ...``) that :func:`kept_rows` selects.
+
+        Parameters
+        ----------
+        part : Run
+            One chunk's rows (or the final state's one row).
+        k0 : int
+            Global step of its first row.
+        """
+        rows = kept_rows(part, k0, self.every)
+        names = part.array_names()
+        if not self.arrays:
+            self.arrays = {a: np.empty((self.capacity,) + np.shape(v)[1:], dtype=np.asarray(v).dtype)
+                           for a, v in ((a, getattr(part, a)) for a in names)}
+        size = len(part.t) if isinstance(rows, slice) else len(rows)
+        if self.n + size > self.capacity or set(names) != set(self.arrays):
+            raise RuntimeError(f"kept rows: {self.n} + {size} rows exceed {self.capacity} or arrays changed")
+        for a in names:
+            v = np.asarray(getattr(part, a))
+            if isinstance(rows, slice):
+                self.arrays[a][self.n:self.n + size] = v
+            else:
+                # rows are valid indices, so "clip" changes nothing; "raise" would buffer the copy
+                np.take(v, rows, axis=0, out=self.arrays[a][self.n:self.n + size], mode="clip")
+        self.n += size
+
+    def run(self, info: dict) -> Run:
+        """The kept rows as a Run: views of the arrays allocated once, or copies when a stop left
+        more than an eighth of them unused (so a stopped run does not hold the memory of a whole one).
+
+        Parameters
+        ----------
+        info : dict
+            The run's info.
+
+        Returns
+        -------
+        Run
+        """
+        trim = self.capacity - self.n > self.capacity // 8
+        return Run.from_arrays({a: v[:self.n].copy() if trim else v[:self.n] for a, v in self.arrays.items()}, info)

@@ -373,12 +373,16 @@ class PlanarChain(ChainModel):
         ndarray, shape (..., m, 2)
             Link centres [m].
         """
+        return self._centres_directions(q)[0]
+
+    def _centres_directions(self, q: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """Link centres ``(..., m, 2)`` [m] and link directions ``(..., m, 2)`` [-] of ``q``."""
         q = np.asarray(q, float)
         alpha = np.cumsum(self.revolute(q), axis=-1)
         d = direction(alpha)
         steps = 0.5 * self.xi * (d[..., :-1, :] + d[..., 1:, :])
         base = self.base_point(q)[..., None, :]
-        return np.concatenate([base, base + np.cumsum(steps, axis=-2)], axis=-2)
+        return np.concatenate([base, base + np.cumsum(steps, axis=-2)], axis=-2), d
 
     def joints_np(self, q: ArrayLike) -> np.ndarray:
         """Link end points: the chain drawn as a polyline.
@@ -393,12 +397,9 @@ class PlanarChain(ChainModel):
         ndarray, shape (..., m+1, 2)
             Joint positions [m], from the first link's free end to the end point.
         """
-        q = np.asarray(q, float)
-        alpha = np.cumsum(self.revolute(q), axis=-1)
-        d = direction(alpha)
-        y = self.centres_np(q)
-        first = y[..., :1, :] - 0.5 * self.xi * d[..., :1, :]
-        return np.concatenate([first, y + 0.5 * self.xi * d], axis=-2)
+        y, d = self._centres_directions(q)                 # the directions computed once
+        half = 0.5 * self.xi * d
+        return np.concatenate([y[..., :1, :] - half[..., :1, :], y + half], axis=-2)
 
     def jacobians_closed_form(self, q: ArrayLike) -> np.ndarray:
         """``C^j(q)`` by the closed form of eq. 7; ``C^1 = 0`` (on a rail: the rail column).

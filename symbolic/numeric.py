@@ -272,6 +272,23 @@ class NumericAPI:
         """
         return abs(float(self.task.geometry([0, 0], t)[0]))
 
+    def base_offsets(self, T: Sequence[float] | np.ndarray) -> np.ndarray:
+        """:meth:`base_offset` at each of the times ``T``, in one call (the same values).
+
+        Parameters
+        ----------
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Distances [m].
+        """
+        T = np.atleast_1d(np.asarray(T, float))
+        phi = self.task.mapped("geometry", len(T))(np.zeros((2, len(T))), T[None])[0]
+        return np.abs(np.asarray(phi, dtype=float).ravel())
+
     def speed_at(self, t: float) -> float:
         """The commanded speed at one time.
 

@@ -248,10 +248,33 @@ class SpatialController(LawFace):
         float
             Distance [m].
         """
+        return float(self._base_function()(t))
+
+    def base_offsets(self, T: Any) -> np.ndarray:
+        """:meth:`base_offset` at each of the times ``T``, in one call (the same values).
+
+        Parameters
+        ----------
+        T : array_like, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Distances [m].
+        """
+        T = np.atleast_1d(np.asarray(T, float))
+        key = ("base map", len(T))
+        if key not in self._cache:
+            self._cache[key] = self._base_function().map(len(T))
+        return np.asarray(self._cache[key](T[None]), dtype=float).ravel()
+
+    def _base_function(self) -> ca.Function:
+        """``t -> |Phi(0, t)|`` (built once)."""
         if "base" not in self._cache:
             ts = ca.SX.sym("t")
             self._cache["base"] = ca.Function("base_offset", [ts], [ca.norm_2(self.curve.Phi(ca.SX.zeros(3), ts))])
-        return float(self._cache["base"](t))
+        return self._cache["base"]
 
     def conds(self, Q: Any, T: Any) -> np.ndarray:
         """2-norm condition numbers of the dense decoupling matrices at N states (an SVD each, O(m^3)).

@@ -55,3 +55,87 @@ def test_importing_the_figure_modules_keeps_the_users_matplotlib_backend():
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == "svg"
+
+
+@pytest.mark.parametrize("argv", [["run", "line", "--links", "8", "--bogus"], ["run"], ["run", "line", "--links", "x"],
+                                  ["run", "--help"], ["run", "line", "--backend", "fast"], ["sweep", "line"],
+                                  ["report", "--help"], ["export", "line", "--links", "8"], ["run", "line", "--yes"],
+                                  ["replay", "x.mcap", "--fps", "0"]])
+def test_a_command_parsed_by_its_own_parser_gives_the_same_result_help_and_errors(argv, capsys):
+    """``coordarm CMD ...`` registers CMD alone (the other command modules are not imported): the
+    namespace, the help text, the error message and the exit status equal those of the full parser."""
+    from coordarm.cli import build_parser
+
+    def parse(parser):
+        try:
+            ns = vars(parser.parse_args(argv))
+            out = (0, {k: v for k, v in ns.items() if k != "func"}, ns["func"].__module__)
+        except SystemExit as exc:
+            out = (exc.code,)
+        text = capsys.readouterr()
+        return out, text.out, text.err
+
+    assert parse(build_parser(argv[0])) == parse(build_parser())
+
+
+def test_a_run_imports_no_module_it_does_not_use():
+    """A cache-hit ``coordarm run --no-figures`` without --live: no live view, no psutil, no matplotlib,
+    no other command's module."""
+    code = ("import sys; from coordarm.cli import main; "
+            "main(['run', 'line', '--links', '4', '--duration', '0.002', '--no-figures', '--quiet', '--overwrite', "
+            "'--out', sys.argv[1]]); "
+            "print(sorted(m for m in ('coordarm.simulation.live', 'coordarm.simulation.ws_bridge', 'psutil', "
+            "'matplotlib', 'coordarm.commands.report', 'coordarm.commands.sweep', 'coordarm.analysis.report_outputs') "
+            "if m in sys.modules))")
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        res = subprocess.run([sys.executable, "-c", code, f"{tmp}/x.mcap"], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip().splitlines()[-1] == "[]"
+
+
+CONSOLE = """
+import atexit, sys
+class Witness:
+    def __del__(self):
+        print("teardown", flush=True)
+witness = Witness()
+if sys.argv[1] == "atexit":
+    atexit.register(print, "atexit ran")
+from coordarm.cli import console
+console(sys.argv[2:])
+"""
+
+
+@pytest.mark.parametrize("cleanup", ["none", "atexit"])
+def test_the_console_skips_the_teardown_only_when_nothing_is_registered_and_keeps_status_output_and_log(cleanup, tmp_path):
+    """``coordarm`` (``console``) ends with ``os._exit`` when no atexit callback and no other thread is
+    left: the interpreter's teardown (here a witness object's ``__del__``) does not run, yet every
+    line is on standard output, the status is main's and the log is complete. With an atexit
+    callback registered the usual exit runs it (and the teardown)."""
+    from mcap.reader import make_reader
+
+    log = tmp_path / "x.mcap"
+    argv = [sys.executable, "-c", CONSOLE, cleanup, "run", "line", "--links", "4", "--duration", "0.05",
+            "--no-figures", "--quiet", "--out", str(log)]
+    res = subprocess.run(argv, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.splitlines()[0].startswith("scenario") and f"log           {log}" in res.stdout
+    assert ("teardown" in res.stdout) == ("atexit ran" in res.stdout) == (cleanup == "atexit")
+    with open(log, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None and summary.statistics.message_count > 50
+    again = subprocess.run(argv, capture_output=True, text=True, timeout=300)        # exists: refused, status 2
+    assert again.returncode == 2 and "exists" in again.stderr
+
+
+def test_python_m_cprofile_of_the_command_still_writes_its_profile(tmp_path):
+    """A profiler outlives the command (it writes after the module returns): then the usual exit."""
+    import pstats
+
+    out = tmp_path / "run.prof"
+    res = subprocess.run([sys.executable, "-m", "cProfile", "-o", str(out), "-m", "coordarm", "run", "line", "--links", "4",
+                          "--duration", "0.02", "--no-figures", "--quiet", "--out", str(tmp_path / "x.mcap")],
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert any(name == "run_scenario" for _, _, name in pstats.Stats(str(out)).stats)

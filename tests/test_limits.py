@@ -48,3 +48,17 @@ def test_estimate_counts_the_law_per_link_on_top_of_the_arrays():
     a, b = estimate(1000, 1e-3, 0.001), estimate(2000, 1e-3, 0.001)
     row_growth = b.memory_bytes - a.memory_bytes - 1000 * LAW_BYTES_PER_LINK
     assert 0 < row_growth < a.memory_bytes
+
+
+def test_machine_memory_is_what_psutil_reads_and_psutil_is_the_fallback(monkeypatch):
+    """sysconf's pages times page size (no psutil import on the start-up path) equal psutil's total;
+    without sysconf the psutil value is used."""
+    import os
+
+    psutil = pytest.importorskip("psutil")
+    assert limits.machine_memory() == psutil.virtual_memory().total
+
+    def missing(name):
+        raise ValueError(name)
+    monkeypatch.setattr(os, "sysconf", missing)
+    assert limits.machine_memory() == psutil.virtual_memory().total

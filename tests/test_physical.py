@@ -64,6 +64,31 @@ def test_sort_and_sweep_finds_every_close_pair_of_all_pairs(m, seed):
         assert got[key] == pytest.approx(want[key], abs=1e-15)
 
 
+def test_sweep_over_many_samples_of_a_folding_chain_equals_all_pairs_with_contacts_and_touching():
+    """Hundreds of samples at once (the flat indices of every sample's pairs), compact zig-zags
+    shaken until links cross, touch end to end (distance exactly 0) and come within the clearance:
+    the pairs within the clearance and their distances equal the all-pairs computation per sample,
+    and the distances are those of a pair-by-pair scalar call."""
+    m, clearance = 24, 0.03
+    chain = PlanarChain(m, 0.1)
+    rng = np.random.default_rng(11)
+    q = chain.zigzag(1.45)[None] + rng.normal(scale=0.25, size=(200, m))
+    q[0] = [0.0, math.pi / 2, math.pi / 2, math.pi / 2] + [0.0] * (m - 4)   # link 5 ends on link 1's end
+    J = chain.joints_np(q)
+    s, la, lb, d = self_distances(J, clearance)
+    got = {(int(k), int(a), int(b)): float(x) for k, a, b, x in zip(s, la, lb, d) if x < clearance}
+    i, j = np.triu_indices(m, k=2)
+    want = {}
+    for k in range(len(q)):
+        dist = segment_distance(J[k, i], J[k, i + 1], J[k, j], J[k, j + 1])
+        want.update({(k, int(a) + 1, int(b) + 1): float(x) for a, b, x in zip(i, j, dist) if x < clearance})
+    assert got.keys() == want.keys() and got == want
+    assert sum(x == 0 for x in got.values()) > 20 and sum(0 < x < clearance for x in got.values()) > 20
+    assert got[(0, 1, 5)] < 1e-15                                          # touching, to rounding
+    for (k, a, b), x in list(got.items())[::7]:
+        assert float(segment_distance(J[k, a - 1], J[k, a], J[k, b - 1], J[k, b])) == x
+
+
 def test_obstacles_parse_with_default_names_from_1_and_draw_their_outline():
     obs = obstacles_from_spec([{"a": [0, 0], "b": [1, 0]}, {"center": [2, 0], "radius": 0.5, "name": "post"},
                                {"points": [[0, 1], [1, 1], [1, 2]]}])

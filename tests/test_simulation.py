@@ -83,6 +83,29 @@ def test_run_nearing_the_longitudinal_singularity_stops_with_time_margin_and_no_
     assert np.max(np.abs(run.u)) < 10 * nominal               # stopped before |u| blew up
 
 
+@pytest.mark.parametrize("backend", ["compiled", "interpreted"])
+def test_kept_rows_of_a_logged_run_are_the_rows_the_rule_picks_from_the_full_run(backend):
+    """The rows kept in memory (gathered chunk by chunk into arrays allocated once) equal, value for
+    value, the rows of the unthinned run that the rule names: every 10th step, each chunk's smallest
+    link and longitudinal margins, largest |u| and last row, and the final state."""
+    chain = PlanarChain(8, 0.1)
+    ctrl = CoordinatingController(chain, Line(angle=lambda t: 0.3 * ca.sin(t)), 2.0, 0.05)
+    q0, n_steps, chunk = chain.zigzag(1.3), 3000, 700
+    full = simulate(ctrl, q0, 3.0, 0.001, backend=backend, chunk=chunk)
+    kept = simulate(ctrl, q0, 3.0, 0.001, backend=backend, chunk=chunk, on_chunk=lambda part: None, keep=300)
+    assert kept.info["kept_every"] == 10 and len(full.t) == n_steps + 1
+    want = set(range(0, n_steps, 10)) | {n_steps}
+    for k0 in range(0, n_steps, chunk):
+        rows = np.arange(k0, min(k0 + chunk, n_steps))
+        want |= {int(rows[np.argmin(full.link_margins[rows].min(axis=1))]), int(rows[np.argmin(full.longitudinal[rows])]),
+                 int(rows[np.argmax(np.abs(full.u[rows]).max(axis=1))]), int(rows[-1])}
+    index = np.array(sorted(want))
+    assert kept.array_names() == full.array_names()
+    for a in full.array_names():
+        np.testing.assert_array_equal(getattr(kept, a), getattr(full, a)[index], err_msg=a)
+    np.testing.assert_array_equal(kept.speed_factor(), full.speed_factor()[index])
+
+
 def test_link_singularity_stops_naming_the_link():
     chain = PlanarChain(8, 0.1)
     ctrl = CoordinatingController(chain, Line(angle=lambda t: 0.3 * ca.sin(t)), 2.0, -0.05)
@@ -169,3 +192,25 @@ def test_a_run_from_states_has_no_law_diagnostics_and_keeps_its_rows():
     head = run.rows(slice(0, 2), dict(run.info, stopped="rail_limit"))
     assert np.array_equal(head.q, q[:2]) and np.array_equal(head.t, t[:2]) and head.info["stopped"] == "rail_limit"
     assert run.info["stopped"] == "completed"
+
+
+def test_a_stopped_run_holds_only_its_own_rows():
+    """A run stopped early keeps arrays of its own length (not views of arrays sized for the whole run)."""
+    chain = PlanarChain(8, 0.1)
+    ctrl = CoordinatingController(chain, Line(angle=lambda t: 0.3 * ca.sin(t)), 2.0, -0.05)
+    with pytest.raises(SingularityError) as info:
+        simulate(ctrl, chain.zigzag(1.3), 20.0, 0.001)
+    run = info.value.run
+    assert len(run.t) < 20000 // 2
+    for a in run.array_names():
+        v = getattr(run, a)
+        assert v.base is None or v.base.shape[0] == len(run.t), a
+
+
+@pytest.mark.parametrize("preset", ["line", "arc", "hole", "thread", "line3d", "path3d", "port"])
+def test_base_offsets_in_one_call_equal_the_offsets_one_time_at_a_time(preset):
+    """The mapped offsets the start check uses are the scalar ``base_offset`` values, bit for bit."""
+    sc = load_scenario(preset)
+    ctrl = sc.controller()
+    T = np.linspace(0.0, 40.0, 57)
+    np.testing.assert_array_equal(ctrl.base_offsets(T), [ctrl.base_offset(float(t)) for t in T])

@@ -1,0 +1,111 @@
+"""The build cache's small files: written atomically, and the compiler's version memoised in one.
+
+The cache key holds the compiler's ``--version`` (:func:`coordarm.generated.build.cache_key`). Asking
+it costs a compiler run under the compiler guard (two processes, 30-130 ms): more than everything
+else a cache hit does. The answer is a property of the executable, so :func:`compiler_version`
+keeps it in :data:`MEMO` in the cache directory under the executable's identity (its resolved
+path, device, inode, size, modification and change times) and asks again as soon as any of them
+changes (an upgraded or switched compiler). A script (``#!``, e.g. a ccache wrapper, whose answer
+can depend on what it runs) is asked every time.
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Callable
+
+#: File of the cache directory holding the memoised versions: ``{identity: version}``.
+MEMO = "compilers.json"
+#: Most executables remembered (the least recently asked go first).
+MEMO_ENTRIES = 16
+
+
+def write_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` under a temporary name in its directory, then rename it into place.
+
+    Parameters
+    ----------
+    path : Path
+        The file to write; a reader sees either the old or the new content, never part of it.
+    data : bytes
+        Its content.
+
+    Raises
+    ------
+    OSError
+        The directory is not writable (the temporary file is removed).
+    """
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def compiler_identity(path: str) -> str | None:
+    """What identifies the executable ``path`` runs: its resolved path and its file's metadata.
+
+    Parameters
+    ----------
+    path : str
+        The compiler's absolute path (a symbolic link is followed to its file).
+
+    Returns
+    -------
+    str or None
+        ``path``, the resolved path, device, inode, size, modification and change times [ns]; None
+        for a script (it starts with ``#!``) or a file that cannot be read.
+    """
+    real = os.path.realpath(path)
+    try:
+        with open(real, "rb") as f:
+            if f.read(2) == b"#!":
+                return None
+            st = os.fstat(f.fileno())
+    except OSError:
+        return None
+    return "\0".join(str(v) for v in (path, real, st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns))
+
+
+def compiler_version(path: str, ask: Callable[[str], str], memo_dir: Path | None = None) -> str:
+    """The compiler's ``--version`` text: from :data:`MEMO` in ``memo_dir`` when its identity is unchanged.
+
+    Parameters
+    ----------
+    path : str
+        The compiler's absolute path.
+    ask : callable
+        Runs the compiler for its version: ``ask(path) -> str`` (raises when it does not run).
+    memo_dir : Path, optional
+        The (private) cache directory holding :data:`MEMO`; None: always ask.
+
+    Returns
+    -------
+    str
+        The version text.
+    """
+    ident = compiler_identity(path) if memo_dir is not None else None
+    if ident is None:
+        return ask(path)
+    memo_file = Path(memo_dir) / MEMO
+    try:
+        memo = json.loads(memo_file.read_text())
+        memo = memo if isinstance(memo, dict) else {}
+    except (OSError, ValueError):
+        memo = {}
+    if isinstance(memo.get(ident), str):
+        return memo[ident]
+    version = ask(path)
+    memo.pop(ident, None)
+    memo[ident] = version                               # last: the most recently asked
+    kept = dict(list(memo.items())[-MEMO_ENTRIES:])
+    try:
+        write_atomic(memo_file, json.dumps(kept).encode())
+    except OSError:
+        pass                                            # a read-only cache: asked again next time
+    return version
