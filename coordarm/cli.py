@@ -23,6 +23,12 @@ COMMANDS = {
     "init": "coordarm.commands.init",
 }
 
+#: OpenBLAS threads of a command unless ``OPENBLAS_NUM_THREADS`` is set: the command's matrices are small
+#: (``cond`` of the decoupling matrix, at most a few hundred joints by default), where a second BLAS thread
+#: gains nothing on an idle machine and, on a loaded one, made one ``cond`` value 50x dearer (80-90 ms of CPU
+#: instead of 1.2-1.7 ms at 160-192 joints); its Dask workers inherit it.
+BLAS_THREADS = "1"
+
 
 class _Version(argparse.Action):
     """``--version``: the installed version, looked up only when asked (importlib.metadata is slow)."""
@@ -125,7 +131,12 @@ def console(argv: list[str] | None = None) -> NoReturn:
     ------
     SystemExit
         With :func:`main`'s status (or argparse's, for ``--help``, ``--version`` and usage errors).
+
+    Notes
+    -----
+    Sets ``OPENBLAS_NUM_THREADS=1`` unless the environment sets it (:data:`BLAS_THREADS`), before numpy loads.
     """
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", BLAS_THREADS)
     status = main(argv)
     if _nothing_to_clean_up():
         try:

@@ -139,3 +139,36 @@ def test_python_m_cprofile_of_the_command_still_writes_its_profile(tmp_path):
                          capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stderr
     assert any(name == "run_scenario" for _, _, name in pstats.Stats(str(out)).stats)
+
+
+
+BLAS = """
+import json, os, sys
+seen = {}
+class Witness:
+    # records OPENBLAS_NUM_THREADS when numpy is first imported: OpenBLAS reads it as numpy loads it
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy" and "at numpy import" not in seen:
+            seen["at numpy import"] = os.environ.get("OPENBLAS_NUM_THREADS")
+        return None
+sys.meta_path.insert(0, Witness())
+import atexit
+atexit.register(lambda: print(json.dumps(seen), flush=True))
+from coordarm.cli import console
+console(["run", "line", "--links", "4", "--duration", "0.002", "--no-figures", "--quiet", "--out", sys.argv[1]])
+"""
+
+
+@pytest.mark.parametrize("preset", [None, "2"])
+def test_the_console_runs_numpy_on_one_blas_thread_unless_the_environment_says_otherwise(preset, tmp_path):
+    """Small matrices on a shared machine: ``OPENBLAS_NUM_THREADS`` is 1 when numpy loads (an import hook
+    reads it at that moment), unless the user's environment sets it."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if preset:
+        env["OPENBLAS_NUM_THREADS"] = preset
+    res = subprocess.run([sys.executable, "-c", BLAS, str(tmp_path / "x.mcap")], capture_output=True, text=True,
+                         timeout=300, env=env)
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout.strip().splitlines()[-1]) == {"at numpy import": preset or "1"}
