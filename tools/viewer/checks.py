@@ -1,0 +1,122 @@
+"""What the viewer check fails on: problems the app lists, and panels that show nothing or the wrong thing.
+
+Each check reads either the page (the DOM through :class:`browser.Browser`) or the screenshot (a PNG,
+read with Pillow), and returns a list of one-line problems (empty: passed).
+"""
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+
+import numpy as np
+from PIL import Image
+
+#: Colours of coordarm's scene (0-255), from ``coordarm.simulation.scene``: the links at a margin of
+#: 0.5 or more, the curve, obstacles (walls, outlines) and the rail.
+LINK_BLUE, CURVE_ORANGE, WALL_GREY, RAIL_GREY = (38, 115, 230), (230, 128, 26), (51, 51, 51), (115, 115, 115)
+
+#: JavaScript: every canvas on the page with its rectangle [CSS px] and the title of its panel.
+CANVASES_JS = """
+[...document.querySelectorAll('canvas')].map(c => {
+  const r = c.getBoundingClientRect();
+  const panel = c.closest('.mosaic-window');
+  const title = panel ? (panel.querySelector('.mosaic-window-toolbar, [data-testid=mosaic-drag-handle]') || panel)
+    .innerText.split('\\n')[0] : '';
+  return {x: r.x, y: r.y, w: r.width, h: r.height, title};
+}).filter(c => c.w > 40 && c.h > 40)
+"""
+
+#: JavaScript: the text of the data source sidebar's tabs (``Problems`` carries a count when the
+#: player lists problems) and of the problem list when it is shown.
+PROBLEMS_JS = """
+(() => {
+  const tabs = [...document.querySelectorAll('[role=tab]')].map(t => t.innerText.replace(/\\s+/g, ' ').trim());
+  const body = document.body.innerText;
+  return {tabs, body};
+})()
+"""
+
+#: Text the app shows when it cannot read or reach the data source.
+FAILURE_TEXTS = ("Connection failed", "Failed to fetch", "Unsupported extension", "Missing url argument",
+                 "Error loading", "Insufficient data", "Check that the WebSocket server")
+
+
+@dataclass(frozen=True)
+class Rect:
+    """A rectangle of the page [CSS px = screenshot px]."""
+
+    x: int
+    y: int
+    w: int
+    h: int
+    title: str = ""
+
+
+def canvases(page) -> list[Rect]:
+    """The page's canvases larger than 40 px square, with their panel titles."""
+    return [Rect(round(c["x"]), round(c["y"]), round(c["w"]), round(c["h"]), c["title"])
+            for c in page.evaluate(CANVASES_JS)]
+
+
+def listed_problems(page) -> list[str]:
+    """Problems the app lists for the data source (the *Problems* tab's count) or failures it shows."""
+    state = page.evaluate(PROBLEMS_JS)
+    found = [f"the app lists problems: tab '{t}'" for t in state["tabs"] if t.startswith("Problems") and t != "Problems"]
+    found += [f"the page shows '{text}'" for text in FAILURE_TEXTS if text in state["body"]]
+    return found
+
+
+def pixels(png: bytes, rect: Rect) -> np.ndarray:
+    """The RGB pixels of ``rect`` in a screenshot, shape (h, w, 3), uint8."""
+    image = Image.open(io.BytesIO(png)).convert("RGB")
+    return np.asarray(image.crop((rect.x, rect.y, rect.x + rect.w, rect.y + rect.h)))
+
+
+def near(rgb: np.ndarray, colour: tuple[int, int, int], tolerance: int = 28) -> np.ndarray:
+    """Mask of the pixels within ``tolerance`` (per channel, 0-255) of ``colour``, shape (h, w)."""
+    return np.all(np.abs(rgb.astype(int) - np.array(colour)) <= tolerance, axis=-1)
+
+
+def scene_problems(png: bytes, rect: Rect, *, obstacles: bool, rail: bool, margin: int = 4,
+                   least: int = 150) -> list[str]:
+    """What is missing or cut off in the 3D panel: the links (blue), the curve (orange), the obstacles
+    (dark grey), the rail (grey); the links must lie inside the panel, ``margin`` px clear of its edges.
+
+    Parameters
+    ----------
+    png : bytes
+        The screenshot.
+    rect : Rect
+        The 3D panel's canvas.
+    obstacles, rail : bool
+        Whether the scene has obstacles, a rail.
+    margin : int
+        Clearance of the links from the panel's edges [px].
+    least : int
+        Fewest pixels of a drawn item's colour that count as drawn.
+    """
+    rgb = pixels(png, rect)
+    found = []
+    wanted = [("links (blue)", LINK_BLUE), ("curve (orange)", CURVE_ORANGE)]
+    wanted += [("obstacles (dark grey)", WALL_GREY)] if obstacles else []
+    wanted += [("rail (grey)", RAIL_GREY)] if rail else []
+    for name, colour in wanted:
+        count = int(near(rgb, colour).sum())
+        if count < least:
+            found.append(f"3D panel: {name} not drawn ({count} px of its colour)")
+    rows, cols = np.nonzero(near(rgb, LINK_BLUE))
+    if len(rows) >= least:
+        h, w = rgb.shape[:2]
+        if rows.min() < margin or cols.min() < margin or rows.max() >= h - margin or cols.max() >= w - margin:
+            found.append(f"3D panel: the links reach the panel's edge (rows {rows.min()}-{rows.max()} of {h}, "
+                         f"columns {cols.min()}-{cols.max()} of {w})")
+    return found
+
+
+def plot_problems(png: bytes, rect: Rect, least: int = 60) -> list[str]:
+    """A plot that draws no curve: fewer than ``least`` saturated pixels (series colours; the axes,
+    grid and labels are grey) in its canvas."""
+    rgb = pixels(png, rect).astype(int)
+    saturated = (rgb.max(axis=-1) - rgb.min(axis=-1)) > 80
+    count = int(saturated.sum())
+    return [] if count >= least else [f"plot '{rect.title}': no curve drawn ({count} coloured px)"]
