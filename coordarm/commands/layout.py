@@ -68,7 +68,8 @@ def main(args: argparse.Namespace) -> int:
             raise ConfigError("--for: give --out FILE for the fitted layout")
         from coordarm.simulation.scene_view import fitted_layout
 
-        text = json.dumps(fitted_layout(json.loads(source.read_text()), _scene_points(args.fit)), indent=2) + "\n"
+        points, spatial = _scene_points(args.fit)
+        text = json.dumps(fitted_layout(json.loads(source.read_text()), points, spatial), indent=2) + "\n"
         data = text.encode()
     elif args.out is None:
         print(source)
@@ -84,7 +85,8 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _scene_points(name: str):
-    """The points of the scene of a preset, scenario file or log (every logged pose) [m], shape (k, 3)."""
+    """The points of the scene of a preset, scenario file or log (every logged pose) [m], shape (k, 3), and
+    whether its chain is spatial."""
     from coordarm.simulation.scenario import load_scenario
     from coordarm.simulation.scene_view import scene_points
 
@@ -95,5 +97,7 @@ def _scene_points(name: str):
             run = load(name)
         except OSError as exc:
             raise ConfigError(f"--for {name}: cannot read the log: {exc.strerror or exc}") from None
-        return scene_points(run.scenario, run.q[:: max(1, len(run.q) // 200)] if len(run.q) else None)
-    return scene_points(load_scenario(name))
+        return (scene_points(run.scenario, run.q[:: max(1, len(run.q) // 200)] if len(run.q) else None),
+                run.scenario.universal)
+    scenario = load_scenario(name)
+    return scene_points(scenario), scenario.universal

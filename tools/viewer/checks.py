@@ -20,10 +20,8 @@ CANVASES_JS = """
 [...document.querySelectorAll('canvas')].map(c => {
   const r = c.getBoundingClientRect();
   const panel = c.closest('.mosaic-window');
-  const title = panel ? (panel.querySelector('.mosaic-window-toolbar, [data-testid=mosaic-drag-handle]') || panel)
-    .innerText.split('\\n')[0] : '';
-  return {x: r.x, y: r.y, w: r.width, h: r.height, title};
-}).filter(c => c.w > 40 && c.h > 40)
+  return {x: r.x, y: r.y, w: r.width, h: r.height, title: panel ? panel.innerText.split('\\n')[0] : ''};
+}).filter(c => c.w > 0 && c.h > 0)
 """
 
 #: JavaScript: the text of the data source sidebar's tabs (``Problems`` carries a count when the
@@ -53,7 +51,7 @@ class Rect:
 
 
 def canvases(page) -> list[Rect]:
-    """The page's canvases larger than 40 px square, with their panel titles."""
+    """The page's visible canvases, with the titles of their panels."""
     return [Rect(round(c["x"]), round(c["y"]), round(c["w"]), round(c["h"]), c["title"])
             for c in page.evaluate(CANVASES_JS)]
 
@@ -113,9 +111,12 @@ def scene_problems(png: bytes, rect: Rect, *, obstacles: bool, rail: bool, margi
     return found
 
 
-def plot_problems(png: bytes, rect: Rect, least: int = 60) -> list[str]:
-    """A plot that draws no curve: fewer than ``least`` saturated pixels (series colours; the axes,
-    grid and labels are grey) in its canvas."""
+def plot_problems(png: bytes, rect: Rect, least: int = 60, height: int = 80) -> list[str]:
+    """A plot whose drawing area is under ``height`` px high (its legend or neighbours took the rest), or
+    that draws no curve: fewer than ``least`` saturated pixels (series colours; the axes, grid and labels
+    are grey) in its canvas."""
+    if rect.h < height:
+        return [f"plot '{rect.title}': drawing area {rect.h} px high (under {height})"]
     rgb = pixels(png, rect).astype(int)
     saturated = (rgb.max(axis=-1) - rgb.min(axis=-1)) > 80
     count = int(saturated.sum())
