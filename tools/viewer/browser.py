@@ -65,7 +65,7 @@ class StaticServer:
                 rest = url_path[len(prefix):] or "index.html"
                 path = (folder / rest).resolve()
                 base = folder.resolve()
-                if (path == base or base in path.parents or folder.is_symlink()) and path.is_file():
+                if (path == base or base in path.parents) and path.is_file():
                     return path
                 return None
         return None

@@ -20,11 +20,13 @@ from __future__ import annotations
 import argparse
 import io
 import json
+import queue
 import re
 import shutil
 import socket
 import subprocess
 import sys
+import threading
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -153,25 +155,33 @@ def free_port() -> int:
 def live(page: Browser, server: StaticServer, build: Path, out: Path) -> list[str]:
     """Run ``LIVE_PRESET`` live, connect the app to it, screenshot mid-run; its problems."""
     port = free_port()
+    errors = build / "logs" / f"{LIVE_PRESET}_live.err"
     run = subprocess.Popen([sys.executable, "-m", "coordarm", "run", LIVE_PRESET, "--live", "--live-wait",
                             "--port", str(port), "--live-speed", str(LIVE_SPEED), "--overwrite", "--no-figures",
                             "--out", str(build / "logs" / f"{LIVE_PRESET}_live.mcap")],
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                           stdout=subprocess.PIPE, stderr=errors.open("w"), text=True)
+    lines: queue.Queue = queue.Queue()
+    threading.Thread(target=lambda: [lines.put(x) for x in run.stdout], daemon=True).start()
     try:
-        line = run.stdout.readline()
-        while line and "live ws://" not in line:
-            line = run.stdout.readline()
-        if not line:
-            return [f"live: coordarm run --live printed no address: {run.stderr.read().strip()[:300]}"]
+        address = None
+        end = time.monotonic() + 180
+        while address is None and time.monotonic() < end and run.poll() is None:
+            try:
+                address = re.search(r"ws://127\.0\.0\.1:\d+", lines.get(timeout=1.0))
+            except queue.Empty:
+                pass
+        if address is None:
+            return ["coordarm run --live printed no address within 180 s"]
         url = (f"{server.url}/index.html?ds=foxglove-websocket&ds.url=ws://127.0.0.1:{port}"
                f"&layoutId={LIVE_PRESET}")
         ready = f"document.body.innerText.includes('ws://127.0.0.1:{port}')"
         png, found = capture(page, url, ready, LIVE_PRESET, settle=4.0, timeout=40.0)
         save(png, out / f"foxglove_live_{LIVE_PRESET}.png")
-        rest, err = run.communicate(timeout=120)
+        run.wait(timeout=120)
+        err = errors.read_text()
         if run.returncode:
-            found.append(f"live: the run exited with {run.returncode}: {err.strip()[-300:]}")
-        found += [f"live: the run printed '{m}'" for m in re.findall(r"[^\n]*handshake failed[^\n]*", err)]
+            found.append(f"the run exited with {run.returncode}: {err.strip()[-300:]}")
+        found += [f"the run printed '{m}'" for m in re.findall(r"[^\n]*handshake failed[^\n]*", err)]
         return [f"live: {p}" for p in found]
     finally:
         if run.poll() is None:
