@@ -46,7 +46,7 @@ OBSTACLES = {"hole", "pipe", "thread", "path3d", "pipe3d", "port"}
 RAIL = {"pipe", "thread", "pipe3d", "port"}
 #: Where in the run each screenshot is taken [fraction of the log's duration].
 AT = 0.6
-LIVE_PRESET, LIVE_SPEED = "thread", 2.0
+LIVE_PRESET, LIVE_SPEED = "thread", 1.0
 WIDTH, HEIGHT = 1600, 900
 
 
@@ -174,8 +174,8 @@ def live(page: Browser, server: StaticServer, build: Path, out: Path) -> list[st
             return ["coordarm run --live printed no address within 180 s"]
         url = (f"{server.url}/index.html?ds=foxglove-websocket&ds.url=ws://127.0.0.1:{port}"
                f"&layoutId={LIVE_PRESET}")
-        ready = f"document.body.innerText.includes('ws://127.0.0.1:{port}')"
-        png, found = capture(page, url, ready, LIVE_PRESET, settle=4.0, timeout=40.0)
+        ready = "document.body.innerText.includes('/scene')"   # the topic list: the server is connected
+        png, found = capture(page, url, ready, LIVE_PRESET, settle=5.0, timeout=10.0)
         save(png, out / f"foxglove_live_{LIVE_PRESET}.png")
         run.wait(timeout=120)
         err = errors.read_text()
