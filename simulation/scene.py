@@ -42,6 +42,9 @@ ARM_COLOR, CURVE_COLOR, WALL_COLOR, TARGET_COLOR = ((0.15, 0.45, 0.9, 1.0), (0.9
 JOINT_COLOR, RAIL_COLOR, CARRIAGE_COLOR = (0.1, 0.1, 0.1, 1.0), (0.45, 0.45, 0.45, 1.0), (0.3, 0.3, 0.3, 0.9)
 #: Widths [px, at any zoom] of the arm, the curve, the obstacles and the rail.
 ARM_PX, CURVE_PX, WALL_PX, RAIL_PX = 6.0, 3.0, 4.0, 5.0
+#: How far the curve is drawn below the arm's plane [link lengths]: the arm runs along the curve, and a
+#: viewer draws the later of two lines at the same depth on top (the curve would hide the links' colours).
+CURVE_DEPTH = 0.25
 #: The link margin colour scale: margins (stops) and their colours (r, g, b); linear in between.
 MARGIN_STOPS = (0.0, 0.25, 0.5)
 MARGIN_COLOURS = ((0.85, 0.1, 0.1), (0.95, 0.6, 0.1), ARM_COLOR[:3])
@@ -89,10 +92,13 @@ def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
     return [outline(ob) for ob in obstacles]
 
 
-def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0, pixels: bool = False) -> tuple[str, str]:
-    """The text of a ``foxglove.LinePrimitive`` before and after its points (``pixels``: thickness in px)."""
+def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0, pixels: bool = False,
+                depth: float = 0.0) -> tuple[str, str]:
+    """The text of a ``foxglove.LinePrimitive`` before and after its points (``pixels``: thickness in px;
+    ``depth`` [m]: the line's pose lies that far below the plane z = 0)."""
     r, g, b, a = color
-    return (f'{{"type":{kind},"pose":{_POSE0},"thickness":{thickness},"scale_invariant":{str(pixels).lower()},'
+    pose = _POSE0 if depth == 0 else _POSE0.replace('"z":0}', f'"z":{-depth!r}}}', 1)
+    return (f'{{"type":{kind},"pose":{pose},"thickness":{thickness},"scale_invariant":{str(pixels).lower()},'
             '"points":[', f'],"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}},"colors":[],"indices":[]}}')
 
 
@@ -131,9 +137,10 @@ def _point_slots(template: JsonTemplate, points: int, slot_kind: int) -> None:
 
 
 def _line_slots(template: JsonTemplate, points: int, thickness: float, color: tuple[float, ...],
-                slot_kind: int, pixels: bool = True) -> None:
-    """Append a line strip of ``points`` points whose coordinates [µm] are slots of ``slot_kind``."""
-    head, tail = _line_parts(thickness, color, 0, pixels)
+                slot_kind: int, pixels: bool = True, depth: float = 0.0) -> None:
+    """Append a line strip of ``points`` points whose coordinates [µm] are slots of ``slot_kind`` (``depth``
+    [m] below the plane, as :func:`_line_parts`)."""
+    head, tail = _line_parts(thickness, color, 0, pixels, depth)
     template.text(head)
     _point_slots(template, points, slot_kind)
     template.text(tail)
@@ -540,7 +547,7 @@ class SceneBuilder:
             t.text('],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":[')
             _coloured_segments_slots(t, joints - 1, ARM_PX, 2, 5)
             t.text(",")
-            _line_slots(t, curve_points, CURVE_PX, CURVE_COLOR, 3)
+            _line_slots(t, curve_points, CURVE_PX, CURVE_COLOR, 3, depth=CURVE_DEPTH * xi)
             extra = "".join("," + x for x in (*self._rail_lines, *self._obstacle_lines))
             self._scene_templates[key] = t.text(extra + "]}]}")
         return self._scene_templates[key]

@@ -22,6 +22,9 @@ THREE_D_PANEL = "3D!coordarm"
 FIT_PHI = 35.0
 #: Room left around the scene in the fitted view (1 = the box touches the edges).
 FIT_MARGIN = 1.5
+#: Height of the frame labels (base, tip) in the fitted view [fraction of the radius of the sphere around
+#: the scene's box] (the viewers' default, 0.2 m, hides a small scene and is lost in a large one).
+LABEL_SIZE = 0.04
 
 
 def scene_points(scenario: Scenario, poses: np.ndarray | None = None) -> np.ndarray:
@@ -108,8 +111,9 @@ SPATIAL_ONLY_PANELS = ("Plot!roll",)
 
 
 def fitted_layout(layout: dict[str, Any], points: np.ndarray, spatial: bool | None = None) -> dict[str, Any]:
-    """A copy of ``layout`` whose 3D panel's camera is :func:`fitted_camera` on ``points``, and, when the
-    chain kind is given, without the series and panels that draw nothing for that kind.
+    """A copy of ``layout`` whose 3D panel's camera is :func:`fitted_camera` on ``points`` and whose frame
+    labels are :data:`LABEL_SIZE` of the scene's size, and, when the chain kind is given, without the series
+    and panels that draw nothing for that kind.
 
     Parameters
     ----------
@@ -131,6 +135,8 @@ def fitted_layout(layout: dict[str, Any], points: np.ndarray, spatial: bool | No
     panel = out["configById"][THREE_D_PANEL]
     panel["cameraState"] = fitted_camera(points, panel["cameraState"])
     panel["followMode"], panel["followTf"] = "follow-none", "world"
+    radius = 0.5 * float(np.linalg.norm(np.ptp(points, axis=0)))
+    panel.setdefault("scene", {}).setdefault("transforms", {})["labelSize"] = round(max(LABEL_SIZE * radius, 0.01), 3)
     if spatial is None:
         return out
     key, path = PLANAR_ONLY_SERIES if spatial else SPATIAL_ONLY_SERIES

@@ -151,6 +151,8 @@ def test_every_scene_message_validates_and_draws_arm_curve_target_and_walls(hole
         colours = np.array([[c["r"], c["g"], c["b"]] for c in arm["colors"]])
         np.testing.assert_allclose(colours[0::2], margin_colours(run.link_margins[k]), atol=1e-3)
         np.testing.assert_array_equal(colours[0::2], colours[1::2])
+        # the curve lies a quarter link below the arm's plane: a viewer draws the arm over it
+        assert curve["pose"]["position"]["z"] == pytest.approx(-0.25 * chain.xi) and arm["pose"]["position"]["z"] == 0
         line = np.array([[p["x"], p["y"]] for p in curve["points"]])  # evaluated for many times at once
         np.testing.assert_allclose(line, ctrl.curve.sample(run.t[k], n=2, extent=2.2 * LINKS * chain.xi), atol=1e-6)
         assert len(walls) == len(scenario.obstacles)

@@ -57,7 +57,7 @@ def _png(draw):
 
 def test_the_scene_check_finds_each_missing_item_and_a_cut_off_arm():
     def full(rgb):
-        rgb[100:104, 50:200] = LINK_BLUE
+        rgb[100:104, 30:200] = LINK_BLUE
         rgb[90:93, 0:300] = CURVE_ORANGE
         rgb[20:180, 220:224] = WALL_GREY
         rgb[110:114, 10:120] = RAIL_GREY

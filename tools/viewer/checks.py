@@ -14,6 +14,9 @@ from PIL import Image
 #: Colours of coordarm's scene (0-255), from ``coordarm.simulation.scene``: the links at a margin of
 #: 0.5 or more, the curve, obstacles (walls, outlines) and the rail.
 LINK_BLUE, CURVE_ORANGE, WALL_GREY, RAIL_GREY = (38, 115, 230), (230, 128, 26), (51, 51, 51), (115, 115, 115)
+#: The links' hues [deg] and least saturation: blue (margin 0.5 and above; lit cylinders are shaded, so
+#: the hue is what stays) down to about margin 0.4; the grid's light blue is less saturated.
+LINK_HUES, LINK_SATURATION = (200.0, 235.0), 0.35
 
 #: JavaScript: every canvas on the page with its rectangle [CSS px] and the title of its panel.
 CANVASES_JS = """
@@ -75,8 +78,22 @@ def near(rgb: np.ndarray, colour: tuple[int, int, int], tolerance: int = 28) -> 
     return np.all(np.abs(rgb.astype(int) - np.array(colour)) <= tolerance, axis=-1)
 
 
+def link_mask(rgb: np.ndarray) -> np.ndarray:
+    """Mask of the pixels drawn in the links' colour (hue within :data:`LINK_HUES`, saturation above
+    :data:`LINK_SATURATION`), shape (h, w)."""
+    x = rgb.astype(float) / 255.0
+    hi, lo = x.max(axis=-1), x.min(axis=-1)
+    chroma = hi - lo
+    r, g, b = x[..., 0], x[..., 1], x[..., 2]
+    safe = np.where(chroma > 0, chroma, 1.0)
+    hue = np.where(hi == b, 240.0 + 60.0 * (r - g) / safe,
+                   np.where(hi == g, 120.0 + 60.0 * (b - r) / safe, (60.0 * (g - b) / safe) % 360.0))
+    saturation = np.where(hi > 0, chroma / np.where(hi > 0, hi, 1.0), 0.0)
+    return (chroma > 0) & (hue >= LINK_HUES[0]) & (hue <= LINK_HUES[1]) & (saturation > LINK_SATURATION)
+
+
 def scene_problems(png: bytes, rect: Rect, *, obstacles: bool, rail: bool, margin: int = 4,
-                   least: int = 150) -> list[str]:
+                   least: int = 150, least_links: int = 500) -> list[str]:
     """What is missing or cut off in the 3D panel: the links (blue), the curve (orange), the obstacles
     (dark grey), the rail (grey); the links must lie inside the panel, ``margin`` px clear of its edges.
 
@@ -90,19 +107,21 @@ def scene_problems(png: bytes, rect: Rect, *, obstacles: bool, rail: bool, margi
         Whether the scene has obstacles, a rail.
     margin : int
         Clearance of the links from the panel's edges [px].
-    least : int
-        Fewest pixels of a drawn item's colour that count as drawn.
+    least, least_links : int
+        Fewest pixels of a drawn item's colour that count as drawn (the links: more, as the frame
+        axes' z arrows are blue too).
     """
     rgb = pixels(png, rect)
     found = []
-    wanted = [("links (blue)", LINK_BLUE), ("curve (orange)", CURVE_ORANGE)]
-    wanted += [("obstacles (dark grey)", WALL_GREY)] if obstacles else []
-    wanted += [("rail (grey)", RAIL_GREY)] if rail else []
-    for name, colour in wanted:
-        count = int(near(rgb, colour).sum())
-        if count < least:
+    links = link_mask(rgb)
+    masks = [("links (blue)", links), ("curve (orange)", near(rgb, CURVE_ORANGE))]
+    masks += [("obstacles (dark grey)", near(rgb, WALL_GREY))] if obstacles else []
+    masks += [("rail (grey)", near(rgb, RAIL_GREY))] if rail else []
+    for name, mask in masks:
+        count = int(mask.sum())
+        if count < (least_links if mask is links else least):
             found.append(f"3D panel: {name} not drawn ({count} px of its colour)")
-    rows, cols = np.nonzero(near(rgb, LINK_BLUE))
+    rows, cols = np.nonzero(links)
     if len(rows) >= least:
         h, w = rgb.shape[:2]
         if rows.min() < margin or cols.min() < margin or rows.max() >= h - margin or cols.max() >= w - margin:
