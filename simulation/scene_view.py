@@ -24,7 +24,7 @@ FIT_PHI = 35.0
 FIT_MARGIN = 1.5
 #: Height of the frame labels (base, tip) in the fitted view [fraction of the radius of the sphere around
 #: the scene's box] (the viewers' default, 0.2 m, hides a small scene and is lost in a large one).
-LABEL_SIZE = 0.04
+LABEL_SIZE = 0.08
 
 
 def scene_points(scenario: Scenario, poses: np.ndarray | None = None) -> np.ndarray:

@@ -170,9 +170,9 @@ def test_layout_for_a_scenario_aims_the_camera_so_that_the_whole_scene_is_in_vie
         rays = points - eye
         angles = np.arccos(np.clip(rays @ axis / np.linalg.norm(rays, axis=1), -1, 1))
         assert np.max(angles) < 0.8 * half, (preset, np.degrees(np.max(angles)))   # room for a narrow panel
-    # frame labels scaled to the scene: 4 % of the radius of the sphere around its box
+    # frame labels scaled to the scene: 8 % of the radius of the sphere around its box
     radius = 0.5 * np.linalg.norm(np.ptp(points, axis=0))
-    assert layout["configById"]["3D!coordarm"]["scene"]["transforms"]["labelSize"] == pytest.approx(0.04 * radius,
+    assert layout["configById"]["3D!coordarm"]["scene"]["transforms"]["labelSize"] == pytest.approx(0.08 * radius,
                                                                                                      abs=1e-3)
     # aimed at the scene: the box's centre
     np.testing.assert_allclose(centre, 0.5 * (points.min(axis=0) + points.max(axis=0)), atol=1e-3)

@@ -11,12 +11,17 @@ from dataclasses import dataclass
 import numpy as np
 from PIL import Image
 
+from coordarm.simulation.scene import margin_colours
+
 #: Colours of coordarm's scene (0-255), from ``coordarm.simulation.scene``: the links at a margin of
 #: 0.5 or more, the curve, obstacles (walls, outlines) and the rail.
 LINK_BLUE, CURVE_ORANGE, WALL_GREY, RAIL_GREY = (38, 115, 230), (230, 128, 26), (51, 51, 51), (115, 115, 115)
 #: The links' hues [deg] and least saturation: blue (margin 0.5 and above; lit cylinders are shaded, so
 #: the hue is what stays) down to about margin 0.4; the grid's light blue is less saturated.
 LINK_HUES, LINK_SATURATION = (200.0, 235.0), 0.35
+#: The link colours of margins 0.28 to 0.5 (coordarm's scale), 0-255.
+LINK_SCALE = tuple(tuple(int(round(255 * c)) for c in rgb)
+                   for rgb in margin_colours(np.linspace(0.28, 0.5, 23)[None])[0, 1:].tolist())
 
 #: JavaScript: every canvas on the page with its rectangle [CSS px] and the title of its panel.
 CANVASES_JS = """
@@ -79,8 +84,8 @@ def near(rgb: np.ndarray, colour: tuple[int, int, int], tolerance: int = 28) -> 
 
 
 def link_mask(rgb: np.ndarray) -> np.ndarray:
-    """Mask of the pixels drawn in the links' colour (hue within :data:`LINK_HUES`, saturation above
-    :data:`LINK_SATURATION`), shape (h, w)."""
+    """Mask of the pixels drawn in the links' colours (hue within :data:`LINK_HUES`, saturation above
+    :data:`LINK_SATURATION`, or a colour of :data:`LINK_SCALE`), shape (h, w)."""
     x = rgb.astype(float) / 255.0
     hi, lo = x.max(axis=-1), x.min(axis=-1)
     chroma = hi - lo
@@ -89,7 +94,11 @@ def link_mask(rgb: np.ndarray) -> np.ndarray:
     hue = np.where(hi == b, 240.0 + 60.0 * (r - g) / safe,
                    np.where(hi == g, 120.0 + 60.0 * (b - r) / safe, (60.0 * (g - b) / safe) % 360.0))
     saturation = np.where(hi > 0, chroma / np.where(hi > 0, hi, 1.0), 0.0)
-    return (chroma > 0) & (hue >= LINK_HUES[0]) & (hue <= LINK_HUES[1]) & (saturation > LINK_SATURATION)
+    blue = (chroma > 0) & (hue >= LINK_HUES[0]) & (hue <= LINK_HUES[1]) & (saturation > LINK_SATURATION)
+    scale = np.zeros(blue.shape, bool)
+    for colour in LINK_SCALE:      # the unlit planar links at every margin from 0.28 up (greyish mid-scale)
+        scale |= near(rgb, colour, 8)
+    return blue | scale
 
 
 def scene_problems(png: bytes, rect: Rect, *, obstacles: bool, rail: bool, margin: int = 4,
@@ -130,13 +139,18 @@ def scene_problems(png: bytes, rect: Rect, *, obstacles: bool, rail: bool, margi
     return found
 
 
-def plot_problems(png: bytes, rect: Rect, least: int = 60, height: int = 80) -> list[str]:
-    """A plot whose drawing area is under ``height`` px high (its legend or neighbours took the rest), or
-    that draws no curve: fewer than ``least`` saturated pixels (series colours; the axes, grid and labels
-    are grey) in its canvas."""
+def plot_problems(png: bytes, rect: Rect, least: int = 60, height: int = 80, whole: bool = False) -> list[str]:
+    """A plot whose drawing area is under ``height`` px high (its legend or neighbours took the rest), that
+    draws no curve (fewer than ``least`` saturated pixels: series colours; the axes, grid and labels are
+    grey), or, if ``whole``, whose curves stop short of the right end (the last 3 % of the width: the
+    data of the whole log is not drawn yet)."""
     if rect.h < height:
         return [f"plot '{rect.title}': drawing area {rect.h} px high (under {height})"]
     rgb = pixels(png, rect).astype(int)
     saturated = (rgb.max(axis=-1) - rgb.min(axis=-1)) > 80
     count = int(saturated.sum())
-    return [] if count >= least else [f"plot '{rect.title}': no curve drawn ({count} coloured px)"]
+    if count < least:
+        return [f"plot '{rect.title}': no curve drawn ({count} coloured px)"]
+    if whole and not saturated[:, -max(3, rect.w * 3 // 100):].any():
+        return [f"plot '{rect.title}': the curves stop short of the log's end"]
+    return []

@@ -41,9 +41,6 @@ from checks import canvases, listed_problems, plot_problems, scene_problems  # n
 
 ROOT = HERE.parent.parent
 PRESETS = ("line", "arc", "hole", "pipe", "thread", "line3d", "path3d", "pipe3d", "port")
-#: Presets whose scene has obstacles / a rail (what the 3D check expects to see).
-OBSTACLES = {"hole", "pipe", "thread", "path3d", "pipe3d", "port"}
-RAIL = {"pipe", "thread", "pipe3d", "port"}
 #: Where in the run each screenshot is taken [fraction of the log's duration].
 AT = 0.6
 LIVE_PRESET, LIVE_SPEED = "thread", 1.0
@@ -107,23 +104,35 @@ def close_sidebar(page: Browser) -> None:
         if (b) b.click(); return !!b; })()""")
 
 
-def check_page(page: Browser, png: bytes, name: str) -> list[str]:
-    """Every problem of one screenshot: listed by the app, or a panel that draws nothing."""
+def scene_items(name: str) -> tuple[bool, bool]:
+    """Whether the scene of preset ``name`` has obstacles, and a rail (what the 3D check expects)."""
+    from coordarm.simulation.scenario import load_scenario
+
+    scenario = load_scenario(name)
+    base = scenario.config.chain.base
+    return bool(scenario.obstacles), isinstance(base, dict) and base.get("kind") == "rail"
+
+
+def check_page(page: Browser, png: bytes, name: str, whole: bool) -> list[str]:
+    """Every problem of one screenshot: listed by the app, or a panel that draws nothing (``whole``: the
+    plots must reach their right end, the log's end)."""
     found = listed_problems(page)
     rects = canvases(page)
     if not rects:
         return found + ["no panel drew anything (no canvas)"]
     scene = max(rects, key=lambda r: r.w * r.h)
-    found += scene_problems(png, scene, obstacles=name in OBSTACLES, rail=name in RAIL)
+    obstacles, rail = scene_items(name)
+    found += scene_problems(png, scene, obstacles=obstacles, rail=rail)
     for rect in rects:
         if rect != scene:
-            found += plot_problems(png, rect)
+            found += plot_problems(png, rect, whole=whole)
     return found
 
 
-def capture(page: Browser, url: str, ready_js: str, name: str, settle: float, timeout: float) -> tuple[bytes, list]:
+def capture(page: Browser, url: str, ready_js: str, name: str, settle: float, timeout: float,
+            whole: bool = True) -> tuple[bytes, list]:
     """Open ``url``, wait for ``ready_js`` and then ``settle`` seconds, and screenshot until the checks
-    pass (or ``timeout``); the last screenshot and its problems."""
+    pass (or ``timeout``); the last screenshot and its problems (``whole``: as :func:`check_page`)."""
     page.open(url)
     if not page.wait_for(ready_js, timeout):
         return page.screenshot(), [f"the app did not open the data source within {timeout:.0f} s"]
@@ -133,7 +142,7 @@ def capture(page: Browser, url: str, ready_js: str, name: str, settle: float, ti
         close_sidebar(page)
         time.sleep(1.0)
         png = page.screenshot()
-        found = check_page(page, png, name)
+        found = check_page(page, png, name, whole)
         if not found or time.monotonic() > end:
             return png, found
         time.sleep(2.0)
@@ -175,7 +184,7 @@ def live(page: Browser, server: StaticServer, build: Path, out: Path) -> list[st
         url = (f"{server.url}/index.html?ds=foxglove-websocket&ds.url=ws://127.0.0.1:{port}"
                f"&layoutId={LIVE_PRESET}")
         ready = "document.body.innerText.includes('/scene')"   # the topic list: the server is connected
-        png, found = capture(page, url, ready, LIVE_PRESET, settle=5.0, timeout=10.0)
+        png, found = capture(page, url, ready, LIVE_PRESET, settle=5.0, timeout=10.0, whole=False)
         save(png, out / f"foxglove_live_{LIVE_PRESET}.png")
         run.wait(timeout=120)
         err = errors.read_text()
