@@ -142,7 +142,7 @@ def scene_problems(png: bytes, rect: Rect, *, obstacles: bool, rail: bool, margi
 def plot_problems(png: bytes, rect: Rect, least: int = 60, height: int = 80, whole: bool = False) -> list[str]:
     """A plot whose drawing area is under ``height`` px high (its legend or neighbours took the rest), that
     draws no curve (fewer than ``least`` saturated pixels: series colours; the axes, grid and labels are
-    grey), or, if ``whole``, whose curves stop short of the right end (the last 3 % of the width: the
+    grey), or, if ``whole``, whose curves stop short of the right end (the last 8 % of the width: the
     data of the whole log is not drawn yet)."""
     if rect.h < height:
         return [f"plot '{rect.title}': drawing area {rect.h} px high (under {height})"]
@@ -151,6 +151,6 @@ def plot_problems(png: bytes, rect: Rect, least: int = 60, height: int = 80, who
     count = int(saturated.sum())
     if count < least:
         return [f"plot '{rect.title}': no curve drawn ({count} coloured px)"]
-    if whole and not saturated[:, -max(3, rect.w * 3 // 100):].any():
+    if whole and not saturated[:, -max(3, rect.w * 8 // 100):].any():
         return [f"plot '{rect.title}': the curves stop short of the log's end"]
     return []
