@@ -2,7 +2,7 @@
 and ``/tracking`` messages of a run, built from blocks of its steps.
 
 The scene, in frame ``world``: the chain as solid segments (a line list, 6 px wide at any zoom)
-coloured by each link's margin (:func:`margin_colours`: blue at 0.5 or more, orange at 0.25, red at
+coloured by each link's margin (:func:`margin_colours`: blue at 0.5 or more, violet at 0.375, orange at 0.25, red at
 0; the first link, which has no margin, blue) with a dark sphere at every joint, the whole curve at
 its current pose (a solid line, 3 px), the end point's target (a red sphere at the point of the
 curve whose arc length is ``s(0) + integral of v*``), the rail with its end stops and the carriage
@@ -45,15 +45,17 @@ ARM_PX, CURVE_PX, WALL_PX, RAIL_PX = 6.0, 3.0, 4.0, 5.0
 #: How far the curve is drawn below the arm's plane [link lengths]: the arm runs along the curve, and a
 #: viewer draws the later of two lines at the same depth on top (the curve would hide the links' colours).
 CURVE_DEPTH = 0.25
-#: The link margin colour scale: margins (stops) and their colours (r, g, b); linear in between.
-MARGIN_STOPS = (0.0, 0.25, 0.5)
-MARGIN_COLOURS = ((0.85, 0.1, 0.1), (0.95, 0.6, 0.1), ARM_COLOR[:3])
+#: The link margin colour scale: margins (stops) and their colours (r, g, b); linear in between. The
+#: violet stop keeps the colours saturated between orange and blue (a straight blend passes through grey,
+#: which reads as "no colour" in a viewer).
+MARGIN_STOPS = (0.0, 0.25, 0.375, 0.5)
+MARGIN_COLOURS = ((0.85, 0.1, 0.1), (0.95, 0.6, 0.1), (0.6, 0.3, 0.8), ARM_COLOR[:3])
 #: Which frames ``/tf`` carries: ``ends`` (world -> base, world -> tip) or ``all`` (a frame per link).
 FRAME_SETS = ("ends", "all")
 
 
 def margin_colours(margins: np.ndarray) -> np.ndarray:
-    """The colour of each link from its margin: red at 0, orange at 0.25, blue at 0.5 or more.
+    """The colour of each link from its margin: red at 0, orange at 0.25, violet at 0.375, blue at 0.5 or more.
 
     Parameters
     ----------
