@@ -1,18 +1,18 @@
 """What Foxglove draws: the ``/scene`` (``foxglove.SceneUpdate``), ``/tf`` (``foxglove.FrameTransforms``)
 and ``/tracking`` messages of a run, built from blocks of its steps.
 
-The scene, in frame ``world``: the chain as solid segments (a line list, 6 px wide at any zoom)
-coloured by each link's margin (:func:`margin_colours`: blue at 0.5 or more, violet at 0.375, orange at 0.25, red at
-0; the first link, which has no margin, blue) with a dark sphere at every joint, the whole curve at
-its current pose (a solid line, 3 px), the end point's target (a red sphere at the point of the
-curve whose arc length is ``s(0) + integral of v*``), the rail with its end stops and the carriage
-(a cube at ``y^1``) on a rail robot, and the obstacles, each drawn from :func:`obstacle_outlines`
-(4 px). The frame transforms give, by default (``frames="ends"``), the frames ``base`` (at the
-pinned first central point ``y^1``, x along the rail on a rail robot) and ``tip`` (at the free end
-of the last link, x along it), both parented to ``world``; with ``frames="all"`` a frame ``link1`` ..
-``linkm`` per link (origin at the link's central point, x along the link), each parented to the
-previous one and ``link1`` to ``world``, so that users can attach their own models to the links.
-The messages follow the official Foxglove JSON Schemas shipped in ``foxglove_schemas/`` (see
+The scene, in frame ``world``: the chain as solid segments (a line list, 6 px wide at any zoom) coloured
+by each link's margin (:func:`margin_colours`: blue at 0.5 or more, violet at 0.375, orange at 0.25, red
+at 0; the first link, which has no margin, blue) with a dark sphere at every joint, the whole curve at its
+current pose (a solid line, 3 px, a quarter link below the arm's plane), the end point's target (a red
+sphere at the point of the curve whose arc length is ``s(0) + integral of v*``), the rail with its end
+stops and the carriage (a cube at ``y^1``) on a rail robot, and the obstacles, each drawn from
+:func:`obstacle_outlines` (4 px). The frame transforms give, by default (``frames="ends"``), the frames
+``base`` (at the pinned first central point ``y^1``, x along the rail on a rail robot) and ``tip`` (at the
+free end of the last link, x along it), both parented to ``world``; with ``frames="all"`` a frame
+``link1`` .. ``linkm`` per link (origin at the link's central point, x along the link), each parented to
+the previous one and ``link1`` to ``world``, so that users can attach their own models to the links. The
+messages follow the official Foxglove JSON Schemas shipped in ``foxglove_schemas/`` (see
 :mod:`.log_schemas`).
 """
 from __future__ import annotations
