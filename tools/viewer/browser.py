@@ -234,6 +234,8 @@ class Browser:
         """Close the connection and end the browser (only the process this object started)."""
         try:
             self.ws.close()
+        except Exception:  # noqa: BLE001  the browser may drop the connection first; it is ended below
+            pass
         finally:
             self.proc.terminate()
             try:

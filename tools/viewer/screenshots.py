@@ -165,12 +165,14 @@ def live(page: Browser, server: StaticServer, build: Path, out: Path) -> list[st
     """Run ``LIVE_PRESET`` live, connect the app to it, screenshot mid-run; its problems."""
     port = free_port()
     errors = build / "logs" / f"{LIVE_PRESET}_live.err"
+    err_file = errors.open("w")
     run = subprocess.Popen([sys.executable, "-m", "coordarm", "run", LIVE_PRESET, "--live", "--live-wait",
                             "--port", str(port), "--live-speed", str(LIVE_SPEED), "--overwrite", "--no-figures",
                             "--out", str(build / "logs" / f"{LIVE_PRESET}_live.mcap")],
-                           stdout=subprocess.PIPE, stderr=errors.open("w"), text=True)
+                           stdout=subprocess.PIPE, stderr=err_file, text=True)
     lines: queue.Queue = queue.Queue()
-    threading.Thread(target=lambda: [lines.put(x) for x in run.stdout], daemon=True).start()
+    reader = threading.Thread(target=lambda: [lines.put(x) for x in run.stdout], daemon=True)
+    reader.start()
     try:
         address = None
         end = time.monotonic() + 180
@@ -196,6 +198,10 @@ def live(page: Browser, server: StaticServer, build: Path, out: Path) -> list[st
         if run.poll() is None:
             run.terminate()
             run.wait(timeout=20)
+        reader.join(timeout=10)       # it ends at the end of the run's output
+        if not reader.is_alive():
+            run.stdout.close()
+        err_file.close()
 
 
 def main(argv: list[str] | None = None) -> int:
