@@ -37,8 +37,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "file), then Layouts > Import layout and pick this file.")
     p.add_argument("--out", type=Path, metavar="FILE", help="write a copy of the layout to FILE")
     p.add_argument("--for", dest="fit", metavar="SCENARIO|LOG",
-                   help="aim the 3D panel's camera at this scene: a preset name, a scenario TOML or a run log "
-                        "(.mcap: every logged pose); needs --out")
+                   help="fit the layout to this scene: a preset name, a scenario TOML or a run log (.mcap: "
+                        "every logged pose); the 3D panel's camera aimed at it, frame labels sized to it, and "
+                        "no plot or series the chain kind never draws (the roll on a planar chain); needs --out")
     p.set_defaults(func=main)
 
 
