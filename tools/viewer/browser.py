@@ -163,7 +163,8 @@ class Browser:
         port = self._devtools_port()
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=10) as answer:
             pages = [t for t in json.load(answer) if t["type"] == "page"]
-        self.ws = connect(pages[0]["webSocketDebuggerUrl"], max_size=None, open_timeout=20)
+        self.ws = connect(pages[0]["webSocketDebuggerUrl"], max_size=None, open_timeout=20, ping_interval=None,
+                          close_timeout=2)   # a local connection: no keepalive pings (Chromium answers no close frame)
         self.call("Page.enable")
         self.call("Runtime.enable")
         self.call("Emulation.setDeviceMetricsOverride", width=width, height=height, deviceScaleFactor=1,
