@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 PYTHON ?= python3
 
-.PHONY: install demo test lint bench clean docs
+.PHONY: install demo test lint bench clean docs viewer
 
 install: $(VENV)/.installed
 
@@ -29,6 +29,12 @@ docs: $(VENV)/.docs-installed
 $(VENV)/.docs-installed: $(VENV)/.installed
 	$(PY) -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[test,docs]'
 	touch $@
+
+# The viewer check: every preset's log and a live run opened in the open-source Foxglove Studio 1.48
+# (installed from npm into build/viewer, pinned by tools/viewer/package-lock.json) in headless Chromium;
+# screenshots into docs/figures/foxglove_*.png, exit 1 on a listed problem. Needs node/npm and chromium.
+viewer: install
+	$(PY) tools/viewer/screenshots.py --out docs/figures
 
 bench: install
 	$(PY) benchmarks/performance.py

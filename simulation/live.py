@@ -41,7 +41,8 @@ LIVE_RATE = 50.0
 SUBSCRIPTIONS_SETTLE = 1.0
 
 
-def sdk_channels(context: Any, links: int, scenes: bool = True, layout: ChainLayout = PLANAR) -> dict[str, Any]:
+def sdk_channels(context: Any, links: int, scenes: bool = True, layout: ChainLayout = PLANAR,
+                 rail: bool = False) -> dict[str, Any]:
     """foxglove-sdk channels on ``context`` for the log's topics: the per-step ones and, if ``scenes``,
     ``/margins/cond``, ``/tracking``, ``/scene`` and ``/tf`` (same schemas and encodings as the log; keys as
     in the log).
@@ -56,6 +57,8 @@ def sdk_channels(context: Any, links: int, scenes: bool = True, layout: ChainLay
         Also the ``/tracking``, ``/scene`` and ``/tf`` channels.
     layout : ChainLayout
         The chain kind's layout (:data:`~.log_layout.PLANAR` or :data:`~.log_layout.SPATIAL`).
+    rail : bool
+        The chain's base moves on a rail (``q``, ``u`` hold ``d``, ``d_dot`` first; as in the log).
 
     Returns
     -------
@@ -64,7 +67,7 @@ def sdk_channels(context: Any, links: int, scenes: bool = True, layout: ChainLay
     """
     import foxglove
 
-    numeric = numeric_channels(links, layout=layout)
+    numeric = numeric_channels(links, rail, layout)
     out = {}
     for key in (*PER_STEP, "cond", "tracking") if scenes else PER_STEP:
         ch = numeric[key]
@@ -154,7 +157,7 @@ class LiveView:
         self.scene = scene_builder(ctrl, scenario.obstacles, getattr(scenario.physical(ctrl.chain), "radius", None),
                                    frames)
         layout = layout_of_chain(ctrl.chain)
-        self.numeric = numeric_channels(ctrl.chain.m, layout=layout)
+        self.numeric = numeric_channels(ctrl.chain.m, ctrl.chain.rail, layout)
         cond_rate, self.cond_exact = cond_plan(ctrl, cond_rate, cond_exact, layout is PLANAR)
         self.cond_every = steps_between(cond_rate, scenario.step, "cond_rate") if cond_rate else 0
         self.ctrl = ctrl
@@ -171,7 +174,7 @@ class LiveView:
         except (OSError, OverflowError) as exc:
             self.server.stop()
             raise ConfigError(f"--port {port}: cannot start the live server on {host}: {exc}") from None
-        self.channels = sdk_channels(self.context, ctrl.chain.m, layout=layout)
+        self.channels = sdk_channels(self.context, ctrl.chain.m, layout=layout, rail=ctrl.chain.rail)
         self.host = host
         self._seen = 0
         self._clock: tuple[float, int] | None = None  # (wall time, log time) of the first message

@@ -1,18 +1,18 @@
 """What Foxglove draws: the ``/scene`` (``foxglove.SceneUpdate``), ``/tf`` (``foxglove.FrameTransforms``)
 and ``/tracking`` messages of a run, built from blocks of its steps.
 
-The scene, in frame ``world``: the chain as solid segments (a line list, 6 px wide at any zoom)
-coloured by each link's margin (:func:`margin_colours`: blue at 0.5 or more, orange at 0.25, red at
-0; the first link, which has no margin, blue) with a dark sphere at every joint, the whole curve at
-its current pose (a solid line, 3 px), the end point's target (a red sphere at the point of the
-curve whose arc length is ``s(0) + integral of v*``), the rail with its end stops and the carriage
-(a cube at ``y^1``) on a rail robot, and the obstacles, each drawn from :func:`obstacle_outlines`
-(4 px). The frame transforms give, by default (``frames="ends"``), the frames ``base`` (at the
-pinned first central point ``y^1``, x along the rail on a rail robot) and ``tip`` (at the free end
-of the last link, x along it), both parented to ``world``; with ``frames="all"`` a frame ``link1`` ..
-``linkm`` per link (origin at the link's central point, x along the link), each parented to the
-previous one and ``link1`` to ``world``, so that users can attach their own models to the links.
-The messages follow the official Foxglove JSON Schemas shipped in ``foxglove_schemas/`` (see
+The scene, in frame ``world``: the chain as solid segments (a line list, 6 px wide at any zoom) coloured
+by each link's margin (:func:`margin_colours`: blue at 0.5 or more, violet at 0.375, orange at 0.25, red
+at 0; the first link, which has no margin, blue) with a dark sphere at every joint, the whole curve at its
+current pose (a solid line, 3 px, a quarter link below the arm's plane), the end point's target (a red
+sphere at the point of the curve whose arc length is ``s(0) + integral of v*``), the rail with its end
+stops and the carriage (a cube at ``y^1``) on a rail robot, and the obstacles, each drawn from
+:func:`obstacle_outlines` (4 px). The frame transforms give, by default (``frames="ends"``), the frames
+``base`` (at the pinned first central point ``y^1``, x along the rail on a rail robot) and ``tip`` (at the
+free end of the last link, x along it), both parented to ``world``; with ``frames="all"`` a frame
+``link1`` .. ``linkm`` per link (origin at the link's central point, x along the link), each parented to
+the previous one and ``link1`` to ``world``, so that users can attach their own models to the links. The
+messages follow the official Foxglove JSON Schemas shipped in ``foxglove_schemas/`` (see
 :mod:`.log_schemas`).
 """
 from __future__ import annotations
@@ -42,15 +42,20 @@ ARM_COLOR, CURVE_COLOR, WALL_COLOR, TARGET_COLOR = ((0.15, 0.45, 0.9, 1.0), (0.9
 JOINT_COLOR, RAIL_COLOR, CARRIAGE_COLOR = (0.1, 0.1, 0.1, 1.0), (0.45, 0.45, 0.45, 1.0), (0.3, 0.3, 0.3, 0.9)
 #: Widths [px, at any zoom] of the arm, the curve, the obstacles and the rail.
 ARM_PX, CURVE_PX, WALL_PX, RAIL_PX = 6.0, 3.0, 4.0, 5.0
-#: The link margin colour scale: margins (stops) and their colours (r, g, b); linear in between.
-MARGIN_STOPS = (0.0, 0.25, 0.5)
-MARGIN_COLOURS = ((0.85, 0.1, 0.1), (0.95, 0.6, 0.1), ARM_COLOR[:3])
+#: How far the curve is drawn below the arm's plane [link lengths]: the arm runs along the curve, and a
+#: viewer draws the later of two lines at the same depth on top (the curve would hide the links' colours).
+CURVE_DEPTH = 0.25
+#: The link margin colour scale: margins (stops) and their colours (r, g, b); linear in between. The
+#: violet stop keeps the colours saturated between orange and blue (a straight blend passes through grey,
+#: which reads as "no colour" in a viewer).
+MARGIN_STOPS = (0.0, 0.25, 0.375, 0.5)
+MARGIN_COLOURS = ((0.85, 0.1, 0.1), (0.95, 0.6, 0.1), (0.6, 0.3, 0.8), ARM_COLOR[:3])
 #: Which frames ``/tf`` carries: ``ends`` (world -> base, world -> tip) or ``all`` (a frame per link).
 FRAME_SETS = ("ends", "all")
 
 
 def margin_colours(margins: np.ndarray) -> np.ndarray:
-    """The colour of each link from its margin: red at 0, orange at 0.25, blue at 0.5 or more.
+    """The colour of each link from its margin: red at 0, orange at 0.25, violet at 0.375, blue at 0.5 or more.
 
     Parameters
     ----------
@@ -89,10 +94,13 @@ def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
     return [outline(ob) for ob in obstacles]
 
 
-def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0, pixels: bool = False) -> tuple[str, str]:
-    """The text of a ``foxglove.LinePrimitive`` before and after its points (``pixels``: thickness in px)."""
+def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0, pixels: bool = False,
+                depth: float = 0.0) -> tuple[str, str]:
+    """The text of a ``foxglove.LinePrimitive`` before and after its points (``pixels``: thickness in px;
+    ``depth`` [m]: the line's pose lies that far below the plane z = 0)."""
     r, g, b, a = color
-    return (f'{{"type":{kind},"pose":{_POSE0},"thickness":{thickness},"scale_invariant":{str(pixels).lower()},'
+    pose = _POSE0 if depth == 0 else _POSE0.replace('"z":0}', f'"z":{-depth!r}}}', 1)
+    return (f'{{"type":{kind},"pose":{pose},"thickness":{thickness},"scale_invariant":{str(pixels).lower()},'
             '"points":[', f'],"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}},"colors":[],"indices":[]}}')
 
 
@@ -131,9 +139,10 @@ def _point_slots(template: JsonTemplate, points: int, slot_kind: int) -> None:
 
 
 def _line_slots(template: JsonTemplate, points: int, thickness: float, color: tuple[float, ...],
-                slot_kind: int, pixels: bool = True) -> None:
-    """Append a line strip of ``points`` points whose coordinates [µm] are slots of ``slot_kind``."""
-    head, tail = _line_parts(thickness, color, 0, pixels)
+                slot_kind: int, pixels: bool = True, depth: float = 0.0) -> None:
+    """Append a line strip of ``points`` points whose coordinates [µm] are slots of ``slot_kind`` (``depth``
+    [m] below the plane, as :func:`_line_parts`)."""
+    head, tail = _line_parts(thickness, color, 0, pixels, depth)
     template.text(head)
     _point_slots(template, points, slot_kind)
     template.text(tail)
@@ -540,7 +549,7 @@ class SceneBuilder:
             t.text('],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":[')
             _coloured_segments_slots(t, joints - 1, ARM_PX, 2, 5)
             t.text(",")
-            _line_slots(t, curve_points, CURVE_PX, CURVE_COLOR, 3)
+            _line_slots(t, curve_points, CURVE_PX, CURVE_COLOR, 3, depth=CURVE_DEPTH * xi)
             extra = "".join("," + x for x in (*self._rail_lines, *self._obstacle_lines))
             self._scene_templates[key] = t.text(extra + "]}]}")
         return self._scene_templates[key]

@@ -29,6 +29,10 @@ from .tracking_record import log10_floored
 JOINT_COLOR = (0.1, 0.1, 0.1, 1.0)
 #: Colour of the rail (feed axis) (r, g, b, a).
 RAIL_COLOR = (0.45, 0.45, 0.45, 0.8)
+#: Widths [px, at any zoom] of the links' axis line (drawn over the curve, so the body reads when its
+#: cylinders are thinner than a few pixels) and of the obstacles' wireframes (thin: a cage of rods
+#: around the body must not hide it).
+ARM_AXIS_PX, WIREFRAME_PX = 4.0, 1.5
 #: The quaternion (x, y, z, w) of ``Ry(pi/2)``: it turns a cylinder's axis (z) onto the link's x axis.
 _Z_TO_X = np.array([0.0, np.sin(np.pi / 4), 0.0, np.cos(np.pi / 4)])
 
@@ -127,6 +131,18 @@ def _line(points: np.ndarray, thickness: float, colour: tuple[float, ...], pixel
             "points": [_vec(p) for p in pts], "color": _colour(colour), "colors": [], "indices": []}
 
 
+def _axis_line(pose: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The links' axes as a ``foxglove.LinePrimitive`` line list (one segment per link, joint to joint,
+    coloured as its cylinder), :data:`ARM_AXIS_PX` wide at any zoom; drawn after the curve, which runs
+    along the same axes."""
+    joints = np.asarray(pose["joints"], float)
+    colours = np.repeat(np.asarray(pose["colours"], float), 2, axis=0)
+    ends = np.stack([joints[:-1], joints[1:]], axis=1).reshape(-1, 3)
+    return {"type": 2, "pose": _pose((0, 0, 0)), "thickness": ARM_AXIS_PX, "scale_invariant": True,
+            "points": [_vec(p) for p in ends], "color": _colour((0.0, 0.0, 0.0, 1.0)),
+            "colors": [_colour((*c, 1.0)) for c in colours.tolist()], "indices": []}
+
+
 class SpatialSceneBuilder(SceneBuilder):
     """Builds the ``/scene``, ``/tf`` and ``/tracking`` messages of a spatial run, block by block.
 
@@ -159,7 +175,7 @@ class SpatialSceneBuilder(SceneBuilder):
 
     def __init__(self, ctrl: Any, obstacles: Any, radius: float | None = None, frames: str = "ends") -> None:
         super().__init__(ctrl, [], frames)
-        self._walls = [_line(p, WALL_PX, WALL_COLOR, pixels=True) for ob in obstacles for p in wireframe(ob)]
+        self._walls = [_line(p, WIREFRAME_PX, WALL_COLOR, pixels=True) for ob in obstacles for p in wireframe(ob)]
         self.radius = 0.12 * ctrl.chain.xi if radius is None else float(radius)     # of the link cylinders [m]
         self._joint_size = 2.6 * self.radius if radius is None else 2 * self.radius  # capsules: caps of the radius
         self._path_points: np.ndarray | None = None     # a path's polyline (it does not move)
@@ -246,7 +262,8 @@ class SpatialSceneBuilder(SceneBuilder):
         return {"timestamp": {"sec": int(ns // 10**9), "nsec": int(ns % 10**9)}, "frame_id": "world",
                 "id": "coordarm", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
                 "arrows": [], "cubes": [base], "spheres": spheres, "cylinders": cylinders,
-                "lines": [_line(curve, CURVE_PX, CURVE_COLOR, pixels=True)] + self._walls, "triangles": [], "texts": [],
+                "lines": [_line(curve, CURVE_PX, CURVE_COLOR, pixels=True)] + self._walls + [_axis_line(pose)],
+                "triangles": [], "texts": [],
                 "models": []}
 
     def poses(self, q: np.ndarray) -> list[dict[str, np.ndarray]]:

@@ -22,6 +22,9 @@ THREE_D_PANEL = "3D!coordarm"
 FIT_PHI = 35.0
 #: Room left around the scene in the fitted view (1 = the box touches the edges).
 FIT_MARGIN = 1.5
+#: Height of the frame labels (base, tip) in the fitted view [fraction of the radius of the sphere around
+#: the scene's box] (the viewers' default, 0.2 m, hides a small scene and is lost in a large one).
+LABEL_SIZE = 0.08
 
 
 def scene_points(scenario: Scenario, poses: np.ndarray | None = None) -> np.ndarray:
@@ -101,8 +104,16 @@ def fitted_camera(points: np.ndarray, camera: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def fitted_layout(layout: dict[str, Any], points: np.ndarray) -> dict[str, Any]:
-    """A copy of ``layout`` whose 3D panel's camera is :func:`fitted_camera` on ``points``.
+#: Plot series and panels that draw only in a log of one chain kind: (panel, series path) of the other
+#: kind's margin, and the panel of spatial outputs only.
+PLANAR_ONLY_SERIES, SPATIAL_ONLY_SERIES = ("Plot!margins", "/margins.longitudinal"), ("Plot!margins", "/margins.end_margin")
+SPATIAL_ONLY_PANELS = ("Plot!roll",)
+
+
+def fitted_layout(layout: dict[str, Any], points: np.ndarray, spatial: bool | None = None) -> dict[str, Any]:
+    """A copy of ``layout`` whose 3D panel's camera is :func:`fitted_camera` on ``points`` and whose frame
+    labels are :data:`LABEL_SIZE` of the scene's size, and, when the chain kind is given, without the series
+    and panels that draw nothing for that kind.
 
     Parameters
     ----------
@@ -110,6 +121,10 @@ def fitted_layout(layout: dict[str, Any], points: np.ndarray) -> dict[str, Any]:
         A Foxglove layout with the panel :data:`THREE_D_PANEL` (the shipped one).
     points : ndarray, shape (k, 3)
         The scene's points [m].
+    spatial : bool, optional
+        The scene's chain kind: a planar chain drops :data:`SPATIAL_ONLY_SERIES` and
+        :data:`SPATIAL_ONLY_PANELS` (an empty plot reads as a fault), a spatial one drops
+        :data:`PLANAR_ONLY_SERIES`; None keeps every panel.
 
     Returns
     -------
@@ -120,4 +135,28 @@ def fitted_layout(layout: dict[str, Any], points: np.ndarray) -> dict[str, Any]:
     panel = out["configById"][THREE_D_PANEL]
     panel["cameraState"] = fitted_camera(points, panel["cameraState"])
     panel["followMode"], panel["followTf"] = "follow-none", "world"
+    radius = 0.5 * float(np.linalg.norm(np.ptp(points, axis=0)))
+    panel.setdefault("scene", {}).setdefault("transforms", {})["labelSize"] = round(max(LABEL_SIZE * radius, 0.01), 3)
+    if spatial is None:
+        return out
+    key, path = PLANAR_ONLY_SERIES if spatial else SPATIAL_ONLY_SERIES
+    if key in out["configById"]:
+        config = out["configById"][key]
+        config["paths"] = [s for s in config["paths"] if s["value"] != path]
+    for key in () if spatial else SPATIAL_ONLY_PANELS:
+        if key in out["configById"]:
+            del out["configById"][key]
+            out["layout"] = _without_panel(out["layout"], key)
     return out
+
+
+def _without_panel(tree: Any, key: str) -> Any:
+    """A layout tree (a panel key, or a split ``{"first", "second", ...}``) without the panel ``key``: its
+    split is replaced by the other side."""
+    if not isinstance(tree, dict):
+        return tree
+    if tree["first"] == key:
+        return tree["second"]
+    if tree["second"] == key:
+        return tree["first"]
+    return {**tree, "first": _without_panel(tree["first"], key), "second": _without_panel(tree["second"], key)}

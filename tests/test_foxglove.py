@@ -151,6 +151,8 @@ def test_every_scene_message_validates_and_draws_arm_curve_target_and_walls(hole
         colours = np.array([[c["r"], c["g"], c["b"]] for c in arm["colors"]])
         np.testing.assert_allclose(colours[0::2], margin_colours(run.link_margins[k]), atol=1e-3)
         np.testing.assert_array_equal(colours[0::2], colours[1::2])
+        # the curve lies a quarter link below the arm's plane: a viewer draws the arm over it
+        assert curve["pose"]["position"]["z"] == pytest.approx(-0.25 * chain.xi) and arm["pose"]["position"]["z"] == 0
         line = np.array([[p["x"], p["y"]] for p in curve["points"]])  # evaluated for many times at once
         np.testing.assert_allclose(line, ctrl.curve.sample(run.t[k], n=2, extent=2.2 * LINKS * chain.xi), atol=1e-6)
         assert len(walls) == len(scenario.obstacles)
@@ -215,12 +217,17 @@ def test_obstacle_outlines_draw_each_wall_segment_disc_and_polygon():
 
 # ------------------------------------------------------------------------------ the link frames
 def test_margin_colours_run_from_red_at_0_through_orange_at_a_quarter_to_blue_from_a_half():
-    red, orange, blue = (0.85, 0.1, 0.1), (0.95, 0.6, 0.1), (0.15, 0.45, 0.9)
-    got = margin_colours(np.array([[0.0, 0.25, 0.5, 0.9, 0.125, np.nan]]))[0]
+    red, orange, violet, blue = (0.85, 0.1, 0.1), (0.95, 0.6, 0.1), (0.6, 0.3, 0.8), (0.15, 0.45, 0.9)
+    got = margin_colours(np.array([[0.0, 0.25, 0.5, 0.9, 0.125, np.nan, 0.375, 0.4375]]))[0]
     np.testing.assert_allclose(got[0], blue)            # link 1 has no margin
     np.testing.assert_allclose(got[1:5], [red, orange, blue, blue], atol=1e-15)
     np.testing.assert_allclose(got[5], [(r + o) / 2 for r, o in zip(red, orange)], atol=1e-15)
     np.testing.assert_allclose(got[6], red)             # a NaN margin reads as singular
+    np.testing.assert_allclose(got[7], violet, atol=1e-15)
+    np.testing.assert_allclose(got[8], [(v + b) / 2 for v, b in zip(violet, blue)], atol=1e-15)
+    # saturated all along (no grey between orange and blue): max - min channel above 0.3
+    scale = margin_colours(np.linspace(0, 0.5, 201)[None])[0, 1:]
+    assert np.min(scale.max(axis=1) - scale.min(axis=1)) > 0.3
 
 
 def test_the_default_frames_are_base_and_tip_from_world(hole, thread):

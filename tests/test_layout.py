@@ -151,8 +151,14 @@ def test_layout_for_a_scenario_aims_the_camera_so_that_the_whole_scene_is_in_vie
     layout = json.loads(out.read_text())
     camera = layout["configById"]["3D!coordarm"]["cameraState"]
     shipped = json.loads(layout_path().read_text())
-    assert {k: v for k, v in layout["configById"].items() if k != "3D!coordarm"} == \
-        {k: v for k, v in shipped["configById"].items() if k != "3D!coordarm"}
+    # the other panels are the shipped ones, less what draws nothing for this chain kind
+    spatial = load_scenario(preset).universal
+    kept = {k: v for k, v in shipped["configById"].items() if k != "3D!coordarm" and (spatial or k != "Plot!roll")}
+    drop = "/margins.longitudinal" if spatial else "/margins.end_margin"
+    kept["Plot!margins"] = {**kept["Plot!margins"],
+                            "paths": [s for s in kept["Plot!margins"]["paths"] if s["value"] != drop]}
+    assert {k: v for k, v in layout["configById"].items() if k != "3D!coordarm"} == kept
+    assert sorted(_panels(layout["layout"])) == sorted(layout["configById"])
     points = scene_points(load_scenario(preset))
     centre = np.array(camera["targetOffset"])
     half = math.radians(camera["fovy"]) / 2
@@ -164,6 +170,10 @@ def test_layout_for_a_scenario_aims_the_camera_so_that_the_whole_scene_is_in_vie
         rays = points - eye
         angles = np.arccos(np.clip(rays @ axis / np.linalg.norm(rays, axis=1), -1, 1))
         assert np.max(angles) < 0.8 * half, (preset, np.degrees(np.max(angles)))   # room for a narrow panel
+    # frame labels scaled to the scene: 8 % of the radius of the sphere around its box
+    radius = 0.5 * np.linalg.norm(np.ptp(points, axis=0))
+    assert layout["configById"]["3D!coordarm"]["scene"]["transforms"]["labelSize"] == pytest.approx(0.08 * radius,
+                                                                                                     abs=1e-3)
     # aimed at the scene: the box's centre
     np.testing.assert_allclose(centre, 0.5 * (points.min(axis=0) + points.max(axis=0)), atol=1e-3)
 

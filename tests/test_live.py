@@ -141,6 +141,19 @@ def test_a_live_spatial_run_serves_the_spatial_channels_and_its_3d_scene(tmp_pat
     assert [f["child_frame_id"] for f in frames] == ["base", "tip"]      # the default --log-frames ends
 
 
+def test_a_live_rail_run_serves_the_rail_coordinates_as_the_log_does(tmp_path):
+    """A rail robot's ``q`` and ``u`` hold ``d`` and its rate first (m + 1 entries), live as in the log."""
+    links = 80     # the preset's (fewer links start outside the rail's limits)
+    out = tmp_path / "rail.mcap"
+    channels, received, times, _, stderr = _watch_live_run("pipe", links, 0.3, out)
+    _check_the_live_messages_are_the_logs(channels, received, times, out)
+    assert _advertised_fields(channels, "/joint_state") == {"t": 0, "q": links + 1, "u": links + 1}
+    assert "sigma" in _advertised_fields(channels, "/task_state")
+    assert "rail_margin" in _advertised_fields(channels, "/margins")
+    _, data = received["/joint_state"][0]
+    assert len(data) == 4 + 8 * (1 + 2 * (links + 1)) and "Traceback" not in stderr, stderr
+
+
 def test_a_client_that_stops_reading_never_slows_the_run(tmp_path):
     """A real client subscribes to every channel, then reads nothing (a tiny receive buffer, so the server
     feels it at once): the run still ends at its paced time, and the client missed messages (the server

@@ -93,6 +93,24 @@ def test_link_cylinders_sit_on_the_centres_along_the_link_directions(ctrl, drawn
         np.testing.assert_allclose(joints[1:], c + 0.5 * XI * d, atol=1e-15)
 
 
+def test_the_axis_line_joins_the_link_ends_in_the_cylinders_colours_after_the_curve(ctrl, drawn):
+    """The links' axes are also a line list (px wide at any zoom) drawn after the curve: segment j runs from
+    centre_j - xi/2 d_j to centre_j + xi/2 d_j, in the colour of cylinder j."""
+    part, ks, msgs = drawn
+    scenes = [json.loads(data) for key, _, data in msgs if key == "scene"]
+    centres, dirs = ctrl.chain.centres_np(part.q[ks]), ctrl.chain.directions_np(part.q[ks])
+    for scene, c, d in zip(scenes, centres, dirs):
+        entity, = scene["entities"]
+        curve, *_, axis = entity["lines"]
+        assert curve["color"]["g"] == 0.5 and axis["type"] == 2 and axis["scale_invariant"]   # curve first
+        ends = np.array([xyz(p) for p in axis["points"]])
+        np.testing.assert_allclose(ends[0::2], c - 0.5 * XI * d, atol=1e-14)
+        np.testing.assert_allclose(ends[1::2], c + 0.5 * XI * d, atol=1e-14)
+        colours = [[k["r"], k["g"], k["b"]] for k in axis["colors"]]
+        cylinders = [[k["color"]["r"], k["color"]["g"], k["color"]["b"]] for k in entity["cylinders"]]
+        assert colours[0::2] == cylinders and colours[1::2] == cylinders
+
+
 def test_the_default_frames_are_the_base_at_the_first_centre_and_the_tip_at_the_last_joint(ctrl, drawn):
     part, ks, msgs = drawn
     tfs = [json.loads(data)["transforms"] for key, _, data in msgs if key == "tf"]

@@ -37,8 +37,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "file), then Layouts > Import layout and pick this file.")
     p.add_argument("--out", type=Path, metavar="FILE", help="write a copy of the layout to FILE")
     p.add_argument("--for", dest="fit", metavar="SCENARIO|LOG",
-                   help="aim the 3D panel's camera at this scene: a preset name, a scenario TOML or a run log "
-                        "(.mcap: every logged pose); needs --out")
+                   help="fit the layout to this scene: a preset name, a scenario TOML or a run log (.mcap: "
+                        "every logged pose); the 3D panel's camera aimed at it, frame labels sized to it, and "
+                        "no plot or series the chain kind never draws (the roll on a planar chain); needs --out")
     p.set_defaults(func=main)
 
 
@@ -68,7 +69,8 @@ def main(args: argparse.Namespace) -> int:
             raise ConfigError("--for: give --out FILE for the fitted layout")
         from coordarm.simulation.scene_view import fitted_layout
 
-        text = json.dumps(fitted_layout(json.loads(source.read_text()), _scene_points(args.fit)), indent=2) + "\n"
+        points, spatial = _scene_points(args.fit)
+        text = json.dumps(fitted_layout(json.loads(source.read_text()), points, spatial), indent=2) + "\n"
         data = text.encode()
     elif args.out is None:
         print(source)
@@ -84,7 +86,8 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _scene_points(name: str):
-    """The points of the scene of a preset, scenario file or log (every logged pose) [m], shape (k, 3)."""
+    """The points of the scene of a preset, scenario file or log (every logged pose) [m], shape (k, 3), and
+    whether its chain is spatial."""
     from coordarm.simulation.scenario import load_scenario
     from coordarm.simulation.scene_view import scene_points
 
@@ -95,5 +98,7 @@ def _scene_points(name: str):
             run = load(name)
         except OSError as exc:
             raise ConfigError(f"--for {name}: cannot read the log: {exc.strerror or exc}") from None
-        return scene_points(run.scenario, run.q[:: max(1, len(run.q) // 200)] if len(run.q) else None)
-    return scene_points(load_scenario(name))
+        return (scene_points(run.scenario, run.q[:: max(1, len(run.q) // 200)] if len(run.q) else None),
+                run.scenario.universal)
+    scenario = load_scenario(name)
+    return scene_points(scenario), scenario.universal
