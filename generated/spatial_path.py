@@ -3,23 +3,25 @@
 The interpreted geometry of a :class:`~coordarm.symbolic.paths3d.Path3D` selects the closest piece's
 constants over every piece and evaluates the line, the arc and (with transitions) the clothoid formulas,
 keeping one (:func:`~coordarm.symbolic.paths3d.closest_piece3d`): per link, the clothoid's Newton steps and
-their derivatives cost most of the law. The generated C instead finds the piece first
-(``spatial_path_piece``: :func:`~coordarm.symbolic.paths3d.closest_piece_index3d`, the same tests and
-comparisons as the selection, so the same piece) and calls the pivot of that piece's kind
-(``spatial_link_pivot_<kind>``, :func:`~coordarm.symbolic.piece_formulas3d.kind_formulas3d`) with its row of
-the constants' table: the same operations on the selected branch, without the others. The wrappers
-``spatial_link_pivot`` and ``spatial_link_pivot_rates`` (:func:`path_source`) have the signature of the
-Functions they stand for, so the law's C (``templates/spatial_law.c``) is the same; the pivot of a kind
-computes ``1 / det P_j`` itself (the wrapper ``spatial_link_inv_det`` only writes a placeholder), so the
-geometry is evaluated once per link, not twice.
+their derivatives cost most of the law, and the geometry was evaluated twice (for ``1 / det P_j`` and for the
+pivot). The generated C instead finds the piece first (``ca_path3d_piece``: every piece's tests,
+``spatial_path_valid``, then the distance ``spatial_path_dist_<i>`` of the pieces whose tests hold, keeping
+the first of the smallest: the selection's own tests and comparisons, so the same piece as
+:func:`piece_selector`), evaluates ``Phi`` and ``dPhi/dy`` by that piece's kind only
+(``spatial_path_geometry_<kind>``, :func:`~coordarm.symbolic.piece_formulas3d.kind_formulas3d`, with the
+piece's row of the constants' table) and the pivot after it (``spatial_path_inv_det``, ``spatial_path_pivot``
+or ``spatial_path_pivot_rates``): the same operations as the selected branch, once per link. The wrappers
+``spatial_link_inv_det`` (a placeholder), ``spatial_link_pivot`` and ``spatial_link_pivot_rates``
+(:func:`path_source`) have the names and signatures of the Functions they stand for, so the law's C
+(``templates/spatial_law.c``) is the same.
 """
 from __future__ import annotations
 
 import casadi as ca
 
 from coordarm.symbolic import SpatialController
-from coordarm.symbolic.paths3d import (PIECE3D_CONSTANTS, PIECE_KINDS, Path3D, closest_piece_index3d, piece_constants,
-                                       piece_kind)
+from coordarm.symbolic.paths3d import (PIECE3D_CONSTANTS, PIECE_KINDS, Path3D, closest_piece_index3d, piece_candidates3d,
+                                       piece_constants, piece_kind)
 from coordarm.symbolic.piece_formulas3d import kind_formulas3d
 
 from .spatial_variants import LINK_GEOMETRY, link_pivot_expressions, spatial_time_features
@@ -123,6 +125,10 @@ def path_pivots(ctrl: SpatialController) -> tuple[ca.Function, ca.Function, ca.F
 def piece_selector(ctrl: SpatialController) -> ca.Function:
     """``spatial_path_piece``: ``(y_1, y_2, y_3) -> piece``, the index of the piece the geometry selects at ``y``.
 
+    The selection over every piece in one Function (:func:`~coordarm.symbolic.paths3d.closest_piece_index3d`);
+    the C computes the same index with :func:`piece_tests` and :func:`piece_distances`, a piece's distance only
+    where its tests hold.
+
     Parameters
     ----------
     ctrl : SpatialController
@@ -138,8 +144,52 @@ def piece_selector(ctrl: SpatialController) -> ca.Function:
     return ca.Function("spatial_path_piece", y, [index], [f"y_{k}" for k in (1, 2, 3)], ["piece"])
 
 
+def piece_tests(ctrl: SpatialController) -> ca.Function:
+    """``spatial_path_valid``: ``(y_1, y_2, y_3) -> valid``, 1 for each piece whose closest-point range holds ``y``.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (on a :class:`~coordarm.symbolic.paths3d.Path3D`).
+
+    Returns
+    -------
+    casadi.Function
+        Three scalars, a point [m]; output ``valid`` (n,), 1 or 0 (the tests of
+        :func:`~coordarm.symbolic.paths3d.piece_candidates3d`, all of them).
+    """
+    y = [ca.SX.sym(f"y_{k}") for k in (1, 2, 3)]
+    valid = []
+    for _, tests in piece_candidates3d(ctrl.task.curve.pieces, ca.vertcat(*y)):
+        ok = ca.SX(1)
+        for test in tests:
+            ok = ca.logic_and(ok, test)
+        valid.append(ok)
+    return ca.Function("spatial_path_valid", y, [ca.vertcat(*valid)], [f"y_{k}" for k in (1, 2, 3)], ["valid"])
+
+
+def piece_distances(ctrl: SpatialController) -> list[ca.Function]:
+    """``spatial_path_dist_<i>``: ``(y_1, y_2, y_3) -> dist``, piece ``i``'s distance of the selection.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller (on a :class:`~coordarm.symbolic.paths3d.Path3D`).
+
+    Returns
+    -------
+    list of casadi.Function
+        One per piece: three scalars, a point [m]; output the approximate squared distance [m^2] of
+        :func:`~coordarm.symbolic.paths3d.piece_candidates3d`.
+    """
+    y = [ca.SX.sym(f"y_{k}") for k in (1, 2, 3)]
+    return [ca.Function(f"spatial_path_dist_{i}", y, [dist], [f"y_{k}" for k in (1, 2, 3)], ["dist"])
+            for i, (dist, _) in enumerate(piece_candidates3d(ctrl.task.curve.pieces, ca.vertcat(*y)))]
+
+
 def path_functions(ctrl: SpatialController) -> list[ca.Function]:
-    """The Functions the wrappers of :func:`path_source` call: the selector, each kind's geometry, the pivots.
+    """The Functions the wrappers of :func:`path_source` call: the pieces' tests and distances, each kind's
+    geometry, the pivots.
 
     Parameters
     ----------
@@ -150,7 +200,8 @@ def path_functions(ctrl: SpatialController) -> list[ca.Function]:
     -------
     list of casadi.Function
     """
-    return [piece_selector(ctrl)] + [piece_geometry(kind) for kind in path_kinds(ctrl)] + list(path_pivots(ctrl))
+    return ([piece_tests(ctrl), *piece_distances(ctrl)] + [piece_geometry(kind) for kind in path_kinds(ctrl)]
+            + list(path_pivots(ctrl)))
 
 
 def _rows(rows) -> str:
@@ -200,12 +251,17 @@ def path_source(ctrl: SpatialController) -> str:
              f"static const casadi_real ca_pp3[CA_NP3][{PIECE3D_CONSTANTS}] = "
              f"{{{_rows(piece_constants(pc) for pc in pieces)}}};\n"
              f"static const int ca_pk3[CA_NP3] = {{{', '.join(str(PIECE_KINDS.index(piece_kind(pc))) for pc in pieces)}}};\n")
-    search = ("/* The piece of the path the geometry selects at the link's centre y^j (the pivot's arguments 6-8). */\n"
+    tested = "".join(f"  if (ok[{i}] != 0) {{\n    if (spatial_path_dist_{i}(a, r, iw, w, 0)) return -1;\n"
+                     f"    if (d < best) {{\n      best = d;\n      k = {i};\n    }}\n  }}\n" for i in range(len(pieces)))
+    search = ("/* The piece of the path the geometry selects at the link's centre y^j (the pivot's arguments 6-8): the\n"
+              "   first valid piece of the smallest distance, as spatial_path_piece, a distance computed only where\n"
+              "   the piece's tests hold. */\n"
               "static casadi_int ca_path3d_piece(const casadi_real** arg, casadi_int* iw, casadi_real* w) {\n"
-              "  const casadi_real* a[3];\n  casadi_real k = -1;\n  casadi_real* r[1];\n"
-              "  a[0] = arg[6]; a[1] = arg[7]; a[2] = arg[8]; r[0] = &k;\n"
-              "  if (spatial_path_piece(a, r, iw, w, 0)) return -1;\n"
-              "  return (casadi_int)k;\n}\n"
+              "  const casadi_real* a[3];\n  casadi_real ok[CA_NP3], d, best = INFINITY;\n  casadi_real* r[1];\n"
+              "  casadi_int k = 0;\n"
+              "  a[0] = arg[6]; a[1] = arg[7]; a[2] = arg[8]; r[0] = ok;\n"
+              "  if (spatial_path_valid(a, r, iw, w, 0)) return -1;\n"
+              "  r[0] = &d;\n" + tested + "  return k;\n}\n"
               "/* Each kind's pivot computes 1 / det P_j itself: nothing to do here. */\n"
               "static int spatial_link_inv_det(const casadi_real** arg, casadi_real** res, casadi_int* iw, "
               "casadi_real* w, int mem) {\n"

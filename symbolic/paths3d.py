@@ -345,8 +345,35 @@ def closest_piece_index3d(pieces: list[Piece3D], y):
 def _closer_pieces(pieces: list[Piece3D], y):
     """``(i, closer)`` for each piece in order: ``closer`` is true where piece ``i`` is valid and closer than
     every piece before it (approximate squared distances: a clothoid by its approximating arc)."""
+    best = ca.inf
+    for i, (dist, tests) in enumerate(piece_candidates3d(pieces, y)):
+        closer = dist < best
+        for test in tests:
+            closer = ca.logic_and(closer, test)
+        best = ca.if_else(closer, dist, best)
+        yield i, closer
+
+
+def piece_candidates3d(pieces: list[Piece3D], y) -> list[tuple[Any, list]]:
+    """Each piece's approximate squared distance to ``y`` and the tests that ``y`` is in its closest-point range.
+
+    The selection (:func:`closest_piece3d`) takes, among the pieces whose tests all hold, the first of the
+    smallest distance. A clothoid is measured by its approximating arc in its plane.
+
+    Parameters
+    ----------
+    pieces : list of Piece3D
+        The path's pieces (:func:`build_pieces3d`).
+    y : casadi.SX, shape (3, 1)
+        A point [m].
+
+    Returns
+    -------
+    list of (casadi.SX, list of casadi.SX)
+        Per piece, in order: the distance [m^2] and its tests (the junction planes at its ends, an arc's wedge).
+    """
     g = [ca.dot(ca.DM(pc.tangent), y) - float(pc.tangent @ pc.p0) for pc in pieces]
-    best, last = ca.inf, len(pieces) - 1
+    last, out = len(pieces) - 1, []
     for i, pc in enumerate(pieces):
         tests = ([] if pc.ray_before or i == 0 else [g[i] >= 0]) + ([] if i == last else [g[i + 1] <= 0])
         if pc.c != 0:                       # a clothoid: by its approximating arc in its plane
@@ -365,11 +392,8 @@ def _closer_pieces(pieces: list[Piece3D], y):
             z = ca.dot(ca.DM(w), full)
             dist = (ca.norm_2(full - z * ca.DM(w)) - pc.radius) ** 2 + z ** 2
             tests.append(ca.dot(ca.DM(pc.p0 + pc.point_at(pc.length) - 2 * c), full) > 0)
-        closer = dist < best
-        for test in tests:
-            closer = ca.logic_and(closer, test)
-        best = ca.if_else(closer, dist, best)
-        yield i, closer
+        out.append((dist, tests))
+    return out
 
 
 class Path3D(SpatialCurve):

@@ -8,7 +8,8 @@ import pytest
 
 import coordarm.generated.spatial_codegen as spatial_codegen
 from coordarm.generated.compiled import CompiledController
-from coordarm.generated.spatial_path import path_kinds, path_pivots, piece_geometry, piece_selector
+from coordarm.generated.spatial_path import (path_kinds, path_pivots, piece_distances, piece_geometry, piece_selector,
+                                             piece_tests)
 from coordarm.generated.spatial_variants import spatial_link_inv_det, spatial_link_pivot, spatial_time_features
 from coordarm.symbolic.motions import Sinusoid
 from coordarm.symbolic.paths3d import Path3D, closest_piece3d, closest_piece_index3d, piece_constants, piece_kind
@@ -65,6 +66,24 @@ def test_the_piece_found_first_gives_the_selection_over_every_piece(transition, 
     assert found == ({"line", "arc", "spiral"} if transition != 0.0 else {"line", "arc"})
 
 
+@pytest.mark.parametrize("transition", [None, 0.0])
+def test_the_search_of_the_c_finds_the_piece_of_the_selection(transition, rng):
+    """The C's search (the tests, then a valid piece's distance, the first smallest kept) against the selection."""
+    ctrl = SpatialController(SpatialChain(6, 0.1), path(transition), 2.0, 0.1, roll=0.0)
+    select, tests, distances = piece_selector(ctrl), piece_tests(ctrl), piece_distances(ctrl)
+    assert len(distances) == len(ctrl.task.curve.pieces)
+    far = [np.array([0.0, 0.0, 40.0]), np.array([-30.0, 5.0, 2.0]), np.array([1e3, -1e3, 0.0])]
+    for yy in centres(ctrl.task.curve, rng, 40) + far:
+        ok = np.array(tests(*yy)).ravel()
+        assert set(ok) <= {0.0, 1.0}
+        best, k = np.inf, 0
+        for i in np.flatnonzero(ok):
+            d = float(distances[i](*yy))
+            if d < best:
+                best, k = d, i
+        assert k == int(select(*yy)), yy
+
+
 def test_the_pivot_on_the_piece_s_geometry_is_the_pivot_over_every_piece(rng):
     ctrl = SpatialController(SpatialChain(6, 0.1), path(), 2.0, 0.1, roll=Sinusoid(0.2, 1.3))
     pivot, inv_det = spatial_link_pivot(ctrl), spatial_link_inv_det(ctrl)
@@ -83,7 +102,7 @@ def test_the_pivot_on_the_piece_s_geometry_is_the_pivot_over_every_piece(rng):
 
 def test_the_compiled_law_with_the_search_is_the_law_over_every_piece(rng, tmp_path, monkeypatch):
     ctrl = SpatialController(SpatialChain(40, 0.1), path(), 2.0, 0.1, roll=Sinusoid(0.2, 1.3))
-    flags = ["-O2", "-fno-math-errno", "-ffp-contract=off"]      # the same products and sums, not fused differently
+    flags = ["-O0", "-ffp-contract=off"]      # the same products and sums, not fused differently; a quick build
     searched = CompiledController(ctrl, flags=flags, build_dir=tmp_path)
     monkeypatch.setattr(spatial_codegen, "searched", lambda c: False)
     every = CompiledController(ctrl, flags=flags, build_dir=tmp_path)
