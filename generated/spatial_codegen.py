@@ -24,6 +24,7 @@ from coordarm.symbolic.outputs import spatial_offsets, spatial_packed_width
 from .codegen import Source, casadi_code, dense_law
 from .render import render
 from .spatial_joints import spatial_joint_prep, spatial_joint_rates
+from .spatial_path import path_functions, path_source, searched
 from .spatial_variants import (KIN_CARRY, LINK_GEOMETRY, RATE_CARRY, spatial_end_margin, spatial_frame_tail,
                                spatial_kinematics_head, spatial_kinematics_step, spatial_link_inv_det,
                                spatial_link_pivot, spatial_link_pivot_rates, spatial_rate_norm, spatial_rates_head,
@@ -65,15 +66,17 @@ def spatial_functions(ctrl: SpatialController, form: str) -> list[ca.Function]:
     list of casadi.Function
         Structured: time features, the two heads (on a rail the rail's), kinematics step, link pivot's 1/det,
         link pivot, link pivot without e^j and margin, rates step, end solve, rate norm, end margin, joint prep,
-        joint rates; dense: the whole law.
+        joint rates (on a 3-D path without the three pivot Functions, followed by the piece selector and each
+        piece kind's pivots, :mod:`.spatial_path`); dense: the whole law.
     """
-    if form == Law.STRUCTURED:
-        return [spatial_time_features(ctrl), spatial_kinematics_head(ctrl), spatial_rates_head(ctrl),
-                spatial_kinematics_step(ctrl), spatial_link_inv_det(ctrl), spatial_link_pivot(ctrl),
-                spatial_link_pivot_rates(ctrl),
-                spatial_rates_step(ctrl), spatial_frame_tail(ctrl), spatial_rate_norm(ctrl), spatial_end_margin(ctrl),
-                spatial_joint_prep(), spatial_joint_rates()]
-    return [ctrl.law(form)]
+    if form != Law.STRUCTURED:
+        return [ctrl.law(form)]
+    pivots = ([spatial_link_inv_det(ctrl), spatial_link_pivot(ctrl), spatial_link_pivot_rates(ctrl)]
+              if not searched(ctrl) else [])
+    funcs = [spatial_time_features(ctrl), spatial_kinematics_head(ctrl), spatial_rates_head(ctrl),
+             spatial_kinematics_step(ctrl), *pivots, spatial_rates_step(ctrl), spatial_frame_tail(ctrl),
+             spatial_rate_norm(ctrl), spatial_end_margin(ctrl), spatial_joint_prep(), spatial_joint_rates()]
+    return funcs + (path_functions(ctrl) if searched(ctrl) else [])
 
 
 def spatial_law(ctrl: SpatialController) -> str:
@@ -87,13 +90,14 @@ def spatial_law(ctrl: SpatialController) -> str:
     Returns
     -------
     str
-        ``CA_NW``, ``CA_NKC``, ``CA_NRC``, ``CA_NG``, ``CA_NPV`` definitions followed by the law's C (``ca_law``,
+        ``CA_NW``, ``CA_NKC``, ``CA_NRC``, ``CA_NG``, ``CA_NPV`` definitions (on a 3-D path the pieces' tables and
+        the pivot wrappers of :func:`~.spatial_path.path_source`) followed by the law's C (``ca_law``,
         ``CA_LAW_SCRATCH``).
     """
     return (f"#define CA_NW {int(spatial_time_features(ctrl).numel_out(0))}\n#define CA_NKC {KIN_CARRY}\n"
             f"#define CA_NRC {RATE_CARRY}\n#define CA_NG {LINK_GEOMETRY}\n"
             f"#define CA_NPV {spatial_rates_step(ctrl).n_in() - 1}\n"
-            + render("spatial_law.c"))
+            + (path_source(ctrl) if searched(ctrl) else "") + render("spatial_law.c"))
 
 
 def generate_spatial_source(ctrl: SpatialController, form: str = "structured") -> Source:

@@ -98,17 +98,32 @@ def _is_line_frame(J: Any) -> bool:
     return bool(J.is_constant()) and bool(np.array_equal(np.array(ca.DM(J)), np.eye(3)[1:3]))
 
 
-def _pivot_expressions(ctrl: SpatialController, t: Any):
+def link_pivot_expressions(ctrl: SpatialController, t: Any, geometry: Any = None) -> tuple[tuple, tuple, Any]:
     """Inputs ``(geo, inv)``, outputs ``(pivot, out, inv_expr)`` and ``dPhi/dy`` of one link's pivot at ``t`` (no carry).
 
     ``pivot = (K Phi + Phit (2), vec(-P^-1) (4), vec M (6)[, vec dPhi/dy (6)])`` with ``M = 2 E_j (-P^-1)``,
     ``dPhi/dy`` only where it varies; on a line in its own frame only ``M``'s first row (2), the one
-    :func:`_rates_function` reads there. ``out = (e^j (2), link margin)``.
+    the rates step (:func:`spatial_rates_step`) reads there. ``out = (e^j (2), link margin)``.
+
+    Parameters
+    ----------
+    ctrl : SpatialController
+        The controller.
+    t : casadi.SX
+        Time [s].
+    geometry : callable, optional
+        ``(y, t) -> (Phi, dPhi/dy, dPhi/dt, ...)`` (default: :func:`~.spatial_frame.frame_geometry`, the
+        curve's; :mod:`.spatial_path` passes one piece kind's).
+
+    Returns
+    -------
+    tuple
+        ``(geo (9 SX), inv (SX))``, ``(pivot, out, inv_expr)`` and ``dPhi/dy`` (2, 3).
     """
     K = ctrl.gain
     geo, inv = [ca.SX.sym(f"g{k}") for k in range(LINK_GEOMETRY)], ca.SX.sym("inv_det")
     E, y = ca.reshape(ca.vertcat(*geo[0:6]), 3, 2), ca.vertcat(*geo[6:9])
-    Phi, J, Phit, *_ = frame_geometry(ctrl)(y, t)
+    Phi, J, Phit, *_ = (frame_geometry(ctrl) if geometry is None else geometry)(y, t)
     P = ca.mtimes(J, E)                  # the link pivot over xi/2 (the xi/2 cancels from xi/2 E w_j)
     neg_inv = ca.vertcat(ca.horzcat(-P[1, 1], P[0, 1]), ca.horzcat(P[1, 0], -P[0, 0])) * inv   # -P^-1
     M = 2 * ca.mtimes(E, neg_inv)
@@ -242,7 +257,7 @@ def _without_time(ctrl: SpatialController) -> tuple[Any, Any, list[list], Any, l
     inputs (geo, inv, J, pivot width; kinematics head's; rates head's and names; tail's).
     """
     t = ca.SX.sym("t")
-    (geo, inv), (piv, out, inv_expr), J = _pivot_expressions(ctrl, t)
+    (geo, inv), (piv, out, inv_expr), J = link_pivot_expressions(ctrl, t)
     kin_in, kin_out = _kinematics_head_expressions(ctrl, t)
     head_in, head_out, head_names = _rates_head_expressions(ctrl, t)
     tail_in, tail_out = _tail_expressions(ctrl, t)

@@ -26,11 +26,11 @@ import casadi as ca
 import numpy as np
 
 from .curves3d import SpatialCurve, as_column
+from .piece_formulas3d import piece_formulas3d
 from .errors import ConfigError, shown
 from .vectors3d import finite, finite_vector, orthogonal_normal, rotate, unit_vector
 from .transitions import segment_transition, spiral_local, transition_length
-from .transitions3d import (curvature_vectors, junction_transitions3d, local_piece, ramps, segment_lengths3d,
-                            spiral_constants, spiral_formulas3d)
+from .transitions3d import curvature_vectors, junction_transitions3d, local_piece, ramps, segment_lengths3d, spiral_constants
 from .waypoints3d import waypoint_segments3d
 
 #: Arcs turning more than this are split into equal pieces (each piece's ``atan2`` stays
@@ -275,52 +275,24 @@ def piece_constants(piece: Piece3D) -> np.ndarray:
                  piece.p0 + radius * u, w, u, comps]
 
 
-def piece_formulas3d(sel, y, spirals: bool = False):
-    """``(psi, Phi, frame)`` at ``y`` by the formulas of the piece whose constants are ``sel``.
+#: The kinds of piece (:func:`piece_kind`), in the order of their index in the generated C's table.
+PIECE_KINDS = ("line", "arc", "spiral")
+
+
+def piece_kind(piece: Piece3D) -> str:
+    """``"line"``, ``"arc"`` or ``"spiral"`` (a transition's clothoid): which formulas hold on ``piece``.
 
     Parameters
     ----------
-    sel : casadi.SX, casadi.MX or casadi.DM, shape (28,)
-        The piece's :func:`piece_constants`.
-    y : casadi.SX or casadi.MX, shape (3, 1)
-        A point [m].
-    spirals : bool
-        The path has clothoid pieces (flag 2, :func:`~.transitions3d.spiral_formulas3d`): their
-        formulas are selected for them too.
+    piece : Piece3D
+        One piece of a path.
 
     Returns
     -------
-    psi : casadi.SX
-        Arc length [m].
-    Phi : casadi.SX, shape (2, 1)
-        Normal coordinates [m].
-    frame : tuple of 3 casadi.SX, shape (3, 1)
-        Tangent, ``n_1``, ``n_2`` at the closest point.
+    str
+        One of :data:`PIECE_KINDS`.
     """
-    y = as_column(y)
-    p0, t0, n1, n2 = sel[0:3], sel[3:6], sel[6:9], sel[9:12]
-    s0, is_arc, R, C, w, u0 = sel[12], sel[13] != 0, sel[14], sel[15:18], sel[18:21], sel[21:24]
-    c11, c12, c21, c22 = sel[24], sel[25], sel[26], sel[27]
-    v = y - p0
-    psi_line, phi_line = s0 + ca.dot(t0, v), ca.vertcat(ca.dot(n1, v), ca.dot(n2, v))
-    full = y - C
-    z = ca.dot(full, w)
-    r = full - z * w
-    rho = ca.norm_2(r)
-    u = r / rho
-    a = ca.atan2(ca.dot(ca.cross(-u0, r), w), ca.dot(-u0, r))
-    dev = R - rho
-    psi_arc, phi_arc = s0 + R * a, ca.vertcat(c11 * dev + c12 * z, c21 * dev + c22 * z)
-    tan_arc = ca.cross(w, u)
-    frame_arc = (tan_arc, -c11 * u + c12 * w, -c21 * u + c22 * w)
-    frame = tuple(ca.if_else(is_arc, fa, fl) for fa, fl in zip(frame_arc, (t0, n1, n2)))
-    psi, phi = ca.if_else(is_arc, psi_arc, psi_line), ca.if_else(is_arc, phi_arc, phi_line)
-    if not spirals:
-        return psi, phi, frame
-    spiral = sel[13] == 2
-    psi_s, phi_s, frame_s = spiral_formulas3d(sel, y)
-    return (ca.if_else(spiral, psi_s, psi), ca.if_else(spiral, phi_s, phi),
-            tuple(ca.if_else(spiral, a, b) for a, b in zip(frame_s, frame)))
+    return "spiral" if piece.c != 0 else ("arc" if piece.radius > 0 else "line")
 
 
 def closest_piece3d(pieces: list[Piece3D], y):
@@ -343,8 +315,65 @@ def closest_piece3d(pieces: list[Piece3D], y):
         As :func:`piece_formulas3d`.
     """
     y = as_column(y)
+    sel = ca.DM(piece_constants(pieces[0]))
+    for i, closer in _closer_pieces(pieces, y):
+        sel = ca.if_else(closer, ca.DM(piece_constants(pieces[i])), sel)
+    return piece_formulas3d(sel, y, any(pc.c != 0 for pc in pieces))
+
+
+def closest_piece_index3d(pieces: list[Piece3D], y):
+    """Index of the piece :func:`closest_piece3d` selects at ``y`` (the same tests and comparisons).
+
+    Parameters
+    ----------
+    pieces : list of Piece3D
+        The path's pieces (:func:`build_pieces3d`).
+    y : casadi.SX, shape (3, 1)
+        A point [m].
+
+    Returns
+    -------
+    casadi.SX
+        The index into ``pieces`` (a whole number; 0 when no piece is valid, as the selection).
+    """
+    index = ca.SX(0)
+    for i, closer in _closer_pieces(pieces, as_column(y)):
+        index = ca.if_else(closer, i, index)
+    return index
+
+
+def _closer_pieces(pieces: list[Piece3D], y):
+    """``(i, closer)`` for each piece in order: ``closer`` is true where piece ``i`` is valid and closer than
+    every piece before it (approximate squared distances: a clothoid by its approximating arc)."""
+    best = ca.inf
+    for i, (dist, tests) in enumerate(piece_candidates3d(pieces, y)):
+        closer = dist < best
+        for test in tests:
+            closer = ca.logic_and(closer, test)
+        best = ca.if_else(closer, dist, best)
+        yield i, closer
+
+
+def piece_candidates3d(pieces: list[Piece3D], y) -> list[tuple[Any, list]]:
+    """Each piece's approximate squared distance to ``y`` and the tests that ``y`` is in its closest-point range.
+
+    The selection (:func:`closest_piece3d`) takes, among the pieces whose tests all hold, the first of the
+    smallest distance. A clothoid is measured by its approximating arc in its plane.
+
+    Parameters
+    ----------
+    pieces : list of Piece3D
+        The path's pieces (:func:`build_pieces3d`).
+    y : casadi.SX, shape (3, 1)
+        A point [m].
+
+    Returns
+    -------
+    list of (casadi.SX, list of casadi.SX)
+        Per piece, in order: the distance [m^2] and its tests (the junction planes at its ends, an arc's wedge).
+    """
     g = [ca.dot(ca.DM(pc.tangent), y) - float(pc.tangent @ pc.p0) for pc in pieces]
-    best, sel, last = ca.inf, ca.DM(piece_constants(pieces[0])), len(pieces) - 1
+    last, out = len(pieces) - 1, []
     for i, pc in enumerate(pieces):
         tests = ([] if pc.ray_before or i == 0 else [g[i] >= 0]) + ([] if i == last else [g[i + 1] <= 0])
         if pc.c != 0:                       # a clothoid: by its approximating arc in its plane
@@ -363,12 +392,8 @@ def closest_piece3d(pieces: list[Piece3D], y):
             z = ca.dot(ca.DM(w), full)
             dist = (ca.norm_2(full - z * ca.DM(w)) - pc.radius) ** 2 + z ** 2
             tests.append(ca.dot(ca.DM(pc.p0 + pc.point_at(pc.length) - 2 * c), full) > 0)
-        closer = dist < best
-        for test in tests:
-            closer = ca.logic_and(closer, test)
-        best = ca.if_else(closer, dist, best)
-        sel = ca.if_else(closer, ca.DM(piece_constants(pc)), sel)
-    return piece_formulas3d(sel, y, any(pc.c != 0 for pc in pieces))
+        out.append((dist, tests))
+    return out
 
 
 class Path3D(SpatialCurve):
