@@ -47,6 +47,8 @@ SIZES = (16, 64, 256, 1024, 4096, 16384)
 RT_SIZES = (64, 256, 1024, 4096)
 START, END = "<!-- scale.py: start -->", "<!-- scale.py: end -->"
 README_START, README_END = "<!-- speed: start (written by benchmarks/scale.py) -->", "<!-- speed: end -->"
+DOCS_START, DOCS_END = "<!-- targets: start (written by benchmarks/scale.py) -->", "<!-- targets: end -->"
+DOCS_PAGE = HERE.parent / "docs" / "guide" / "performance.md"
 ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
 COORDARM = [sys.executable, "-m", "coordarm"]
 
@@ -323,7 +325,7 @@ def readme_block(data: dict) -> list[str]:
             f"* **The law** (exported C, static build): {law['64']:.3g} µs per call at 64 links, "
             f"{law['1024']:.3g} µs at 1024.",
             f"* **A run** of 64 links for 30 s (30,000 RK4 steps): the bare simulation {np.median(cmd['bare']):.3g} s; "
-            f"`coordarm run --no-figures` (start-up, physical checks, log) {per_round(cmd['--no-figures'], cmd['bare'])} "
+            f"`coordarm run --no-figures` (start-up, physical checks, full-rate log) {per_round(cmd['--no-figures'], cmd['bare'])} "
             f"of it; the 100 Hz log {per_round(cmd['100 Hz log'], cmd['checked'])} and the full-rate log "
             f"{per_round(cmd['full-rate log'], cmd['checked'])} the checked, unlogged run.",
             f"* **Any size**: a 1 s run of 16 to 16384 links takes {wall[0]:.3g} to {wall[-1]:.3g} s "
@@ -331,6 +333,42 @@ def readme_block(data: dict) -> list[str]:
             f"{per_round(links['cond']['1024'], links['cond']['4096'])} of 4096.",
             f"* **Real time** (`example_rt`, 1 kHz, SCHED_FIFO): the law's p99 {rt['64']['law'][1]:.3g} µs at 64 "
             f"links, {rt['1024']['law'][1]:.3g} µs at 1024; wake-up p99 {rt['64']['wake-up'][1]:.3g} µs."]
+
+
+def targets_block(data: dict) -> list[str]:
+    """Issue 24's targets against the last run, for the performance page (the medians of :func:`report`).
+
+    Parameters
+    ----------
+    data : dict
+        The contents of ``benchmarks/scale.json`` (the links and command parts measured).
+
+    Returns
+    -------
+    list of str
+        A Markdown paragraph and table.
+    """
+    loads = [x for k in ("links", "command") for x in data["loads"].get(k, [])]
+    cmd, links = data["command"], data["links"]
+    ms = np.array(SIZES)
+    wall = [float(np.median(links["wall"][str(m)])) for m in SIZES]
+    bare = [float(np.median(links["bare"][str(m)])) for m in SIZES]
+    big = ms >= 256
+    c = links["cond"]
+    return [f"The last run of `benchmarks/scale.py` (command part {data['when']['command']}, links part "
+            f"{data['when']['links']}; load {min(loads):.1f}–{max(loads):.1f} on 2 cores; "
+            f"{data['rounds']['command']} interleaved rounds):", "",
+            "| | measured | target (issue 24) |", "| --- | --- | --- |",
+            f"| full-rate log / checked run | {per_round(cmd['full-rate log'], cmd['checked'])} | ≤ 2.5× |",
+            f"| 100 Hz log / checked run | {per_round(cmd['100 Hz log'], cmd['checked'])} | ≤ 1.3× |",
+            f"| `coordarm run --no-figures` / bare simulation | {per_round(cmd['--no-figures'], cmd['bare'])} | ≤ 3× |",
+            f"| `coordarm run` with figures / bare simulation | {per_round(cmd['figures'], cmd['bare'])} | — |",
+            f"| 1 s run: 1024 / 4096 links | {per_round(c['1024'], c['4096'])} | about 0.25× |",
+            f"| 1 s run: 1024 / 4096 links, `--cond-rate 0` | {per_round(c['1024 off'], c['4096 off'])} | |",
+            f"| `coordarm run line --links 16384 --duration 1 --no-figures` | {wall[-1]:.3g} s | < 60 s |",
+            f"| exponent of a 1 s run's time, m = 16–16384 (256–16384): command | {exponent(ms, wall):.2f} "
+            f"({exponent(ms[big], np.array(wall)[big]):.2f}) | ≤ 1.1 |",
+            f"| the same, bare simulation | {exponent(ms, bare):.2f} ({exponent(ms[big], np.array(bare)[big]):.2f}) | |"]
 
 
 def replace_block(path: Path, start: str, end: str, lines: list[str]) -> bool:
@@ -351,6 +389,7 @@ def write(lines: list[str], data: dict) -> None:
                         "`benchmarks/scale.py`)\n\n" + "\n".join([START, *lines, END]) + "\n")
     if all(part in data for part in ("links", "command", "export", "rt")):
         replace_block(HERE.parent / "README.md", README_START, README_END, readme_block(data))
+        replace_block(DOCS_PAGE, DOCS_START, DOCS_END, targets_block(data))
 
 
 def main() -> None:

@@ -22,6 +22,13 @@ def test_readme_speed_block_is_what_scale_py_writes_from_scale_json():
     assert block.strip("\n").splitlines() == scale.readme_block(data)
 
 
+def test_performance_page_targets_are_what_scale_py_writes_from_scale_json():
+    data = json.loads((ROOT / "benchmarks" / "scale.json").read_text())
+    page = scale.DOCS_PAGE.read_text()
+    block = page.split(scale.DOCS_START, 1)[1].split(scale.DOCS_END, 1)[0]
+    assert block.strip("\n").splitlines() == scale.targets_block(data)
+
+
 def test_readme_speed_figures_outside_the_block_are_in_results():
     section = speed_section()
     prose = re.sub(re.escape(scale.README_START) + ".*?" + re.escape(scale.README_END), "", section, flags=re.S)
