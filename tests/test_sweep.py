@@ -258,6 +258,9 @@ def _sync_interrupted_before_the_call_started() -> list:
                 return
             time.sleep(0.001)
 
+    # Ctrl-C must raise here even when this process was started with SIGINT ignored (a background job of a
+    # non-interactive shell), else `sync` would wait forever for the blocked loop.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         runner.loop.add_callback(gate.wait)           # the loop thread is busy: `sync` cannot start its call
         threading.Thread(target=interrupt_when_waiting, daemon=True).start()
@@ -267,6 +270,7 @@ def _sync_interrupted_before_the_call_started() -> list:
         sync(runner.loop, asyncio.sleep, 0)           # queued after the first call and its `cancel`
     finally:
         gate.set()
+        signal.signal(signal.SIGINT, previous)
         runner.stop()
         log.removeHandler(keep)
     return records
