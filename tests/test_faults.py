@@ -381,25 +381,26 @@ def test_figures_that_cannot_be_written_are_a_one_line_error(small_log, tmp_path
 
 
 def test_a_ctrl_c_swallowed_by_a_casadi_call_still_stops_the_run_before_its_first_step(monkeypatch):
-    """What CasADi does to 16 of 40 Ctrl-Cs in ``base_offset``: the exception is lost, the call returns."""
+    """What CasADi does to 16 of 40 Ctrl-Cs in ``base_offset(s)`` (the start check's mapped call): the
+    exception is lost, the call returns."""
     import signal
 
     from coordarm.simulation.run import simulate
     from coordarm.symbolic import interrupts
     sc = load_scenario("line").with_overrides(links=4, duration=0.2)
     ctrl = sc.controller()
-    original, steps = ctrl.base_offset, []
+    original, steps = ctrl.base_offsets, []
 
-    def swallowing(t):
+    def swallowing(T):
         try:
             if not steps:
-                steps.append(t)
+                steps.append(T)
                 os.kill(os.getpid(), signal.SIGINT)
         except KeyboardInterrupt:
             pass   # swallowed, as inside a CasADi call
-        return original(t)
+        return original(T)
 
-    monkeypatch.setattr(ctrl, "base_offset", swallowing)
+    monkeypatch.setattr(ctrl, "base_offsets", swallowing)
     seen = []
     with interrupts.handled():
         with pytest.raises(interrupts.Interrupted, match="SIGINT"):
