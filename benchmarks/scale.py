@@ -219,6 +219,11 @@ def rt_part(tmp: Path) -> dict:
     return res
 
 
+def link_medians(links: dict, key: str) -> dict[int, float]:
+    """Median over rounds of one quantity of the links part (``"wall"``, ``"bare"`` or ``"rss"``) per link count."""
+    return {int(m): float(np.median(v)) for m, v in links[key].items()}
+
+
 def per_round(a: list[float], b: list[float]) -> str:
     r = np.asarray(a) / np.asarray(b)
     return fmt_ratio((float(np.median(r)), float(r.min()), float(r.max())))
@@ -235,7 +240,7 @@ def report(data: dict, load: list[float], rounds: int) -> list[str]:
            + " (rt: one run of 2000 cycles per case); raw numbers in `benchmarks/scale.json`", ""]
     if "links" in data:
         d = data["links"]
-        med = {k: {int(m): float(np.median(v)) for m, v in d[k].items()} for k in ("wall", "bare", "rss")}
+        med = {k: link_medians(d, k) for k in ("wall", "bare", "rss")}
         out += ["### Link counts: `coordarm run line --links m --duration 1 --no-figures` (1000 RK4 steps)", "",
                 "| m | " + " | ".join(str(m) for m in SIZES) + " |", "|---|" + "---|" * len(SIZES),
                 "| command, new process [s] | " + " | ".join(f"{med['wall'][m]:.3g}" for m in SIZES) + " |",
@@ -317,7 +322,7 @@ def readme_block(data: dict) -> list[str]:
     cmd = data["command"]
     links = data["links"]
     ms = np.array(SIZES)
-    wall = [float(np.median(links["wall"][str(m)])) for m in SIZES]
+    wall = [link_medians(links, "wall")[m] for m in SIZES]
     rt = {m: data["rt"][f"{m} real-time"] for m in ("64", "1024")}
     return [f"Measured by `benchmarks/scale.py` ({data['when']['command']}, 2-vCPU {cpu or 'machine'} shared with "
             f"other jobs, load {min(loads):.1f}–{max(loads):.1f}; medians of interleaved rounds; all of it in "
@@ -351,8 +356,8 @@ def targets_block(data: dict) -> list[str]:
     loads = [x for k in ("links", "command") for x in data["loads"].get(k, [])]
     cmd, links = data["command"], data["links"]
     ms = np.array(SIZES)
-    wall = [float(np.median(links["wall"][str(m)])) for m in SIZES]
-    bare = [float(np.median(links["bare"][str(m)])) for m in SIZES]
+    wall = [link_medians(links, "wall")[m] for m in SIZES]
+    bare = [link_medians(links, "bare")[m] for m in SIZES]
     big = ms >= 256
     c = links["cond"]
     return [f"The last run of `benchmarks/scale.py` (command part {data['when']['command']}, links part "
