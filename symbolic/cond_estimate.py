@@ -8,10 +8,13 @@ matrix and its transpose. Here those products are O(m) each (:class:`DecouplingO
   sums of the joint rates) the centre velocities are ``ydot^j = ydot^{j-1} + xi/2 (n_{j-1} w_{j-1}
   + n_j w_j)``, and the rows are ``grad psi(y^m) . ydot^m`` and ``grad phi(y^j) . ydot^j``; the
   transpose runs the same prefix sums backwards;
-* ``C^-1 b`` and ``C^-T y`` from one sparse LU of the same relations written as a sparse square
-  system in ``(u, w, ydot)`` (about 10 m nonzeros; the LU keeps O(m) fill, as the structured solve
-  shows an O(m) elimination exists); the LU pivots by itself, so a link across the curve (a small
-  link pivot of the structured solve) is no trouble.
+* ``C^-1 b`` and ``C^-T y`` from one sparse QR factorisation (CasADi's ``Linsol`` plugin ``qr``) of the
+  same relations written as a sparse square system in ``(u, w, ydot)`` (about 10 m nonzeros; the
+  factorisation keeps O(m) fill, as the structured solve shows an O(m) elimination exists); QR needs
+  no pivots, so a link across the curve (a small link pivot of the structured solve) is no trouble.
+  The symbolic analysis depends only on ``m`` and the rail, and is made once per pattern
+  (:func:`system_pattern`). CasADi rather than SciPy's sparse LU: importing ``scipy.sparse.linalg``
+  costs about 0.2 s, as much as a whole 1024-link, 1 s run (``benchmarks/RESULTS.md``).
 
 Every estimate is ``||A v||_1 / ||v||_1`` for some ``v``, so the estimated ``cond_1`` is a **lower
 bound** of the exact one; Higham reports each norm estimate within a factor 3 in nearly all cases, and on the chains of
@@ -21,12 +24,12 @@ bound** of the exact one; Higham reports each norm estimate within a factor 3 in
 """
 from __future__ import annotations
 
-from typing import Callable
+import threading
+from functools import lru_cache
+from typing import Callable, NamedTuple
 
+import casadi as ca
 import numpy as np
-import scipy.linalg
-import scipy.sparse
-import scipy.sparse.linalg
 
 #: The estimated ``cond_1`` is at least the exact one divided by this on every tested chain
 #: (tests/test_cond_estimate.py: the worst of 800 random states of 3 to 30 links of the line, arc, thread
@@ -91,11 +94,11 @@ class DecouplingOperator:
     xi : float
         Link length [m].
     b_diagonal : ndarray, shape (m,), optional
-        Diagonal of ``B`` (``qdot = B u``); None with ``B_lu``.
-    B_lu : tuple, optional
-        ``scipy.linalg.lu_factor(B)`` of a non-diagonal ``B`` (products then cost O(m^2)).
+        Diagonal of ``B`` (``qdot = B u``); None with ``B``.
     B : ndarray, shape (m, m), optional
-        The non-diagonal ``B`` itself (with ``B_lu``).
+        A non-diagonal ``B`` (products and solves then cost O(m^2)).
+    B_inverse : ndarray, shape (m, m), optional
+        Its inverse (with ``B``; computed here when not given: pass it when many states share ``B``).
     rail : ndarray, shape (2,), optional
         Rail direction on a rail (column ``u_d`` first, row ``sigma`` second).
     base_gradient : ndarray, shape (2,), optional
@@ -103,14 +106,16 @@ class DecouplingOperator:
     """
 
     def __init__(self, normals: np.ndarray, row_gradients: np.ndarray, xi: float,
-                 b_diagonal: np.ndarray | None = None, B_lu: tuple | None = None, B: np.ndarray | None = None,
-                 rail: np.ndarray | None = None, base_gradient: np.ndarray | None = None) -> None:
+                 b_diagonal: np.ndarray | None = None, B: np.ndarray | None = None,
+                 B_inverse: np.ndarray | None = None, rail: np.ndarray | None = None,
+                 base_gradient: np.ndarray | None = None) -> None:
         self.n, self.g, self.xi = np.asarray(normals, float), np.asarray(row_gradients, float), float(xi)
         self.m = len(self.n)
-        self.bd, self.B_lu, self.Bmat = b_diagonal, B_lu, B
+        self.bd, self.Bmat = b_diagonal, B
+        self.Binv = None if B is None else (np.linalg.inv(B) if B_inverse is None else B_inverse)
         self.rail, self.h1 = rail, base_gradient
         self.dof = self.m + (rail is not None)
-        self._lu = None
+        self._matrix = None
 
     # ------------------------------------------------------------------ products
     def _velocities(self, v: np.ndarray, d_dot: float) -> np.ndarray:
@@ -170,54 +175,59 @@ class DecouplingOperator:
         return ub if self.rail is None else np.concatenate([[self.rail @ tail[0]], ub])
 
     # ------------------------------------------------------------------ solves
-    def sparse_system(self) -> scipy.sparse.csc_matrix:
-        """The square sparse system in ``(a, w, ydot)`` whose last rows are ``C`` (``a = (d_dot, v)``, ``v = B u``).
+    def system_values(self) -> np.ndarray:
+        """The nonzeros of the square sparse system whose last rows are ``C``, in the order of
+        :func:`system_pattern` (``a = (d_dot, v)``, ``v = B u``).
+
+        Unknowns ``(a [dof], w [m], ydot [2 m])``; rows: ``w_j - w_{j-1} - v_j = 0``,
+        ``ydot^1 - rail d_dot = 0``, ``ydot^j - ydot^{j-1} - xi/2 (n_{j-1} w_{j-1} + n_j w_j) = 0``,
+        then the rows of ``C`` in terms of ``ydot`` (right-hand side ``(0, 0, b)``).
 
         Returns
         -------
-        scipy.sparse.csc_matrix, shape (dof + m + 2 m,) * 2
-            Unknowns ``(a [dof], w [m], ydot [2 m])``; rows: ``w_j - w_{j-1} - v_j = 0``,
-            ``ydot^1 - rail d_dot = 0``, ``ydot^j - ydot^{j-1} - xi/2 (n_{j-1} w_{j-1} + n_j w_j) = 0``,
-            then the rows of ``C`` in terms of ``ydot`` (right-hand side ``(0, 0, b)``).
+        ndarray, shape (nnz,)
+            The entries, one per ``(row, col)`` of the pattern's triplets.
         """
-        m, dof, r = self.m, self.dof, self.rail is not None
-        W, Y = dof, dof + m                     # first columns of w and of ydot
-        I, J, X = [], [], []
-
-        def put(i, j, x):
-            I.append(np.broadcast_to(i, np.shape(x)).ravel() if np.ndim(x) else [i])
-            J.append(np.broadcast_to(j, np.shape(x)).ravel() if np.ndim(x) else [j])
-            X.append(np.ravel(x))
-
-        k = np.arange(m)
-        put(k, W + k, np.ones(m))                                    # w_j
-        put(k[1:], W + k[:-1], -np.ones(m - 1))                      # - w_{j-1}
-        put(k, r + k, -np.ones(m))                                   # - v_j
-        rows = m + 2 * k[:, None] + np.arange(2)                     # (m, 2) rows of ydot^j
-        put(rows, Y + 2 * k[:, None] + np.arange(2), np.ones((m, 2)))
-        put(rows[1:], Y + 2 * k[:-1, None] + np.arange(2), -np.ones((m - 1, 2)))
+        m, r = self.m, self.rail is not None
         half = 0.5 * self.xi * self.n
-        put(rows[1:], np.broadcast_to(W + k[:-1, None], (m - 1, 2)), -half[:-1])
-        put(rows[1:], np.broadcast_to(W + k[1:, None], (m - 1, 2)), -half[1:])
+        parts = [np.ones(m), -np.ones(m - 1), -np.ones(m), np.ones(2 * m), -np.ones(2 * (m - 1)),
+                 -half[:-1].ravel(), -half[1:].ravel()]
         if r:
-            put(rows[0], np.zeros(2, int), -self.rail)
-        out = 3 * m                                                  # first row of C
-        targets = np.r_[m - 1, 1:m]
-        crow = out + np.r_[0, 1 + r:m + r] if r else out + np.arange(m)
-        put(np.broadcast_to(crow[:, None], (m, 2)), Y + 2 * targets[:, None] + np.arange(2), self.g)
+            parts.append(-np.asarray(self.rail, float))
+        parts.append(self.g.ravel())
         if r:
-            put(np.full(2, out + 1), Y + 2 * (m - 1) + np.arange(2), self.g[0])
-            put(np.full(2, out + 1), Y + np.arange(2), -self.h1)
-        size = dof + 3 * m
-        return scipy.sparse.csc_matrix((np.concatenate(X), (np.concatenate(I), np.concatenate(J))), (size, size))
+            parts += [self.g[0], -np.asarray(self.h1, float)]
+        return np.concatenate(parts)
 
-    def _factor(self):
-        if self._lu is None:
-            self._lu = scipy.sparse.linalg.splu(self.sparse_system())
-        return self._lu
+    def sparse_system(self) -> np.ndarray:
+        """The square sparse system of :meth:`system_values` as a dense array (for tests and small chains).
+
+        Returns
+        -------
+        ndarray, shape (dof + 3 m, dof + 3 m)
+            Unknowns ``(a, w, ydot)``, rows as :meth:`system_values`.
+        """
+        pattern = system_pattern(self.m, self.rail is not None)
+        A = np.zeros((pattern.size, pattern.size))
+        np.add.at(A, (pattern.rows, pattern.cols), self.system_values())
+        return A
+
+    def _factored(self) -> "ca.DM":
+        if self._matrix is None:
+            pattern = system_pattern(self.m, self.rail is not None)
+            nz = np.zeros(pattern.sparsity.nnz())
+            np.add.at(nz, pattern.nonzero, self.system_values())
+            self._matrix = ca.DM(pattern.sparsity, nz)
+        return self._matrix
+
+    def _system_solve(self, rhs: np.ndarray, transposed: bool) -> np.ndarray:
+        pattern = system_pattern(self.m, self.rail is not None)
+        with pattern.lock:                       # one Linsol memory per pattern: one solve at a time
+            x = pattern.solver.solve(self._factored(), ca.DM(rhs), transposed)
+        return np.asarray(x, dtype=float).ravel()
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        """``C^-1 b`` by the sparse LU, O(m) (plus a solve with ``B`` when it is not diagonal).
+        """``C^-1 b`` by the sparse QR, O(m) (plus a product with ``B^-1`` when ``B`` is not diagonal).
 
         Parameters
         ----------
@@ -231,18 +241,17 @@ class DecouplingOperator:
         """
         rhs = np.zeros(self.dof + 3 * self.m)
         rhs[3 * self.m:] = b
-        a = self._factor().solve(rhs)[:self.dof]
-        return self._unscale(a)
+        return self._unscale(self._system_solve(rhs, False)[:self.dof])
 
     def _unscale(self, a: np.ndarray) -> np.ndarray:
         """``(d_dot, B^-1 v)`` of ``a = (d_dot, v)``."""
         r = self.rail is not None
         v = a[r:]
-        u = v / self.bd if self.Bmat is None else scipy.linalg.lu_solve(self.B_lu, v)
+        u = v / self.bd if self.Bmat is None else self.Binv @ v
         return np.concatenate([a[:r], u])
 
     def solve_transposed(self, y: np.ndarray) -> np.ndarray:
-        """``C^-T y`` by the transposed sparse LU, O(m).
+        """``C^-T y`` by the transposed sparse QR, O(m).
 
         Parameters
         ----------
@@ -256,10 +265,10 @@ class DecouplingOperator:
         """
         r = self.rail is not None
         u = y[r:]
-        v = u / self.bd if self.Bmat is None else scipy.linalg.lu_solve(self.B_lu, u, trans=1)
+        v = u / self.bd if self.Bmat is None else self.Binv.T @ u
         rhs = np.zeros(self.dof + 3 * self.m)
         rhs[:r], rhs[r:self.dof] = y[:r], v
-        return self._factor().solve(rhs, trans="T")[3 * self.m:]
+        return self._system_solve(rhs, True)[3 * self.m:]
 
     def cond_estimate(self) -> float:
         """Estimated ``cond_1(C) = ||C||_1 ||C^-1||_1``, a lower bound (see the module notes).
@@ -267,12 +276,83 @@ class DecouplingOperator:
         Returns
         -------
         float
-            The estimate (inf when the sparse LU finds ``C`` singular).
+            The estimate (inf when the sparse QR finds ``C`` singular).
         """
         try:
             inverse = onenorm_estimate(self.solve, self.solve_transposed, self.dof)
-        except RuntimeError:                    # splu: "Factor is exactly singular"
+        except RuntimeError as exc:             # Linsol: "'nfact' failed" on an exactly singular C
+            if "nfact" not in str(exc):
+                raise
             return float("inf")
         if not np.isfinite(inverse):
             return float("inf")
         return onenorm_estimate(self.matvec, self.rmatvec, self.dof) * inverse
+
+
+class SystemPattern(NamedTuple):
+    """The sparsity of :meth:`DecouplingOperator.system_values` and its symbolically analysed QR solver.
+
+    Attributes
+    ----------
+    size : int
+        Order of the system, ``dof + 3 m``.
+    rows, cols : ndarray of int, shape (nnz,)
+        Row and column of each value, in the order of :meth:`DecouplingOperator.system_values`.
+    sparsity : casadi.Sparsity
+        The pattern (duplicates merged).
+    nonzero : ndarray of int, shape (nnz,)
+        Nonzero of ``sparsity`` that each value adds to.
+    solver : casadi.Linsol
+        CasADi's sparse QR (plugin ``qr``) for this pattern.
+    lock : threading.Lock
+        Held while the solver runs (its memory is shared by the states of one pattern).
+    """
+
+    size: int
+    rows: np.ndarray
+    cols: np.ndarray
+    sparsity: "ca.Sparsity"
+    nonzero: np.ndarray
+    solver: "ca.Linsol"
+    lock: threading.Lock
+
+
+@lru_cache(maxsize=8)
+def system_pattern(m: int, rail: bool) -> SystemPattern:
+    """The pattern of the sparse system of an ``m``-link chain (with a rail or not), analysed once.
+
+    Parameters
+    ----------
+    m : int
+        Links.
+    rail : bool
+        Whether the base slides on a rail (one more unknown and one more row).
+
+    Returns
+    -------
+    SystemPattern
+        Its triplets, sparsity and solver.
+    """
+    r = int(rail)
+    dof = m + r
+    W, Y, out = dof, dof + m, 3 * m             # first columns of w and ydot, first row of C
+    k = np.arange(m)
+    two = np.arange(2)
+    yrow = m + 2 * k[:, None] + two             # (m, 2) rows of ydot^j
+    ycol = Y + 2 * k[:, None] + two
+    targets = np.r_[m - 1, 1:m]
+    crow = out + np.r_[0, 1 + r:m + r] if r else out + k
+    pairs = [(k, W + k), (k[1:], W + k[:-1]), (k, r + k), (yrow, ycol), (yrow[1:], ycol[:-1]),
+             (yrow[1:], np.broadcast_to(W + k[:-1, None], (m - 1, 2))),
+             (yrow[1:], np.broadcast_to(W + k[1:, None], (m - 1, 2)))]
+    if r:
+        pairs.append((yrow[0], np.zeros(2, int)))
+    pairs.append((np.broadcast_to(crow[:, None], (m, 2)), Y + 2 * targets[:, None] + two))
+    if r:
+        pairs += [(np.full(2, out + 1), Y + 2 * (m - 1) + two), (np.full(2, out + 1), Y + two)]
+    rows = np.concatenate([np.ravel(i) for i, _ in pairs])
+    cols = np.concatenate([np.ravel(j) for _, j in pairs])
+    size = dof + 3 * m
+    sparsity, nonzero = ca.Sparsity.triplet(size, size, rows.tolist(), cols.tolist(), True)
+    return SystemPattern(size, rows, cols, sparsity, np.asarray(nonzero, int),
+                         ca.Linsol(f"cond_qr_{m}_{r}", "qr", sparsity), threading.Lock())

@@ -244,14 +244,12 @@ class NumericAPI:
             except np.linalg.LinAlgError:
                 return np.array([_exact_cond_1(A) for A in M])
             return np.abs(M).sum(axis=1).max(axis=1) * np.abs(inverse).sum(axis=1).max(axis=1)
-        import scipy.linalg                      # scipy loads only for a chain above EXACT_COND_DOF
-
         from .cond_estimate import DecouplingOperator
 
         normals = normal(np.cumsum(self.chain.revolute(Q), axis=-1))
         rows = np.concatenate([geo["gpsi"][:, m - 1:], geo["gphi"][:, 1:]], axis=1)
         bd = self.chain.b_diagonal
-        dense = {} if bd is not None else {"B": self.chain.B, "B_lu": scipy.linalg.lu_factor(self.chain.B)}
+        dense = {} if bd is not None else {"B": self.chain.B, "B_inverse": np.linalg.inv(self.chain.B)}
         rail = self.chain.rail_direction if self.chain.rail else None
         return np.array([DecouplingOperator(normals[i], rows[i], self.chain.xi, bd, rail=rail,
                                             base_gradient=geo["gpsi"][i, 0] if rail is not None else None,

@@ -21,7 +21,7 @@ def operators(ctrl, Q, T):
     rows = np.concatenate([geo["gpsi"][:, m - 1:], geo["gphi"][:, 1:]], axis=1)
     normals = normal(np.cumsum(chain.revolute(Q), axis=-1))
     bd = chain.b_diagonal
-    dense = {} if bd is not None else {"B": chain.B, "B_lu": __import__("scipy.linalg").linalg.lu_factor(chain.B)}
+    dense = {} if bd is not None else {"B": chain.B}
     rail = chain.rail_direction if chain.rail else None
     ops = [DecouplingOperator(normals[i], rows[i], chain.xi, bd, rail=rail,
                               base_gradient=geo["gpsi"][i, 0] if chain.rail else None, **dense) for i in range(len(Q))]
@@ -124,3 +124,34 @@ def test_the_run_command_logs_the_1_norm_cond_by_default_and_the_2_norm_with_con
         A = ctrl.decoupling_matrices(rep.q[k:k + 1], [tk])[0][0]
         sv = np.linalg.svd(A, compute_uv=False)
         assert c == pytest.approx(sv[0] / sv[-1] if kind else exact_cond_1(A), rel=1e-9)
+
+
+def test_estimator_above_the_threshold_bounds_the_exact_cond_of_a_300_link_chain():
+    from coordarm.symbolic.numeric import EXACT_COND_DOF
+    m = 300
+    assert m > EXACT_COND_DOF
+    sc = load_scenario("line").with_overrides(links=m)
+    ctrl = sc.controller()
+    q0 = sc.start(ctrl)
+    rng = np.random.default_rng(11)
+    Q = np.stack([q0, q0 + 0.05 * rng.normal(size=q0.shape)])
+    T = np.array([0.0, 0.7])
+    est = ctrl.cond_estimates(Q, T)
+    exact = np.array([exact_cond_1(A) for A in ctrl.decoupling_matrices(Q, T)[0]])
+    assert np.all(est <= exact * (1 + 1e-6)) and np.all(est >= exact / DOCUMENTED_FACTOR)
+
+
+def test_a_run_above_the_exact_threshold_estimates_cond_without_importing_scipy(tmp_path):
+    # scipy.sparse.linalg costs ~0.2 s to import, as much as a whole 1024-link, 1 s run (RESULTS.md):
+    # the estimate uses CasADi's sparse QR. A real command in a new process, then its modules.
+    import subprocess
+    import sys
+    code = ("import sys; from coordarm.cli import main; "
+            f"rc = main(['run', 'line', '--links', '300', '--duration', '0.2', '--quiet', '--no-figures', "
+            f"'--cond-rate', '10', '--out', {str(tmp_path / 'c.mcap')!r}]); "
+            "print(rc, sorted({n.split('.')[0] for n in sys.modules} & {'scipy'}))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split("\n")[-2] == "0 []"
+    from coordarm.analysis.replay import load
+    rep = load(tmp_path / "c.mcap")
+    assert len(rep.cond) == 3 and np.all(np.isfinite(rep.cond))    # 10 Hz over 0.2 s: t = 0, 0.1, 0.2
