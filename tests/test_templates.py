@@ -12,6 +12,7 @@ import pytest
 import coordarm
 import coordarm.generated.render as render_module
 from coordarm.generated.build import build
+from coordarm.generated.chain_geometry import geometry_source
 from coordarm.generated.codegen import generate_source
 from coordarm.generated.export import export_law
 from coordarm.generated.spatial_codegen import generate_spatial_source
@@ -68,6 +69,7 @@ def test_every_template_is_rendered_by_the_generator_or_the_export_with_nothing_
     texts.append(generate_source(diagonal, "dense").text)
     spatial = SpatialController(SpatialChain(4, 0.1), Line3D(), 2.0, 0.05, roll=0.0)
     texts.append(generate_spatial_source(spatial, "structured").text)
+    texts.append(geometry_source().text)
     spatial_export = export_law(spatial, spatial.chain.zigzag(1.0), tmp_path / "spatial", step=0.01, duration=0.1)
     texts += [f.read_text() for f in spatial_export.files]
     export = export_law(ctrl, scenario.start(ctrl), tmp_path, step=scenario.step, duration=0.1)
