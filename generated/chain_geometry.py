@@ -1,11 +1,10 @@
 """The physical checks' geometry in C: a planar chain's joints and its self-distance sweep, many samples per call.
 
 ``templates/chain_geometry.c`` repeats :meth:`~coordarm.symbolic.chain.PlanarChain.joints_np` and
-:func:`~coordarm.symbolic.geometry.self_distances` operation by operation; it is compiled once into the
-build cache (:func:`~coordarm.generated.build.build`, keyed like the law's library) with the fixed
-:data:`FLAGS`, not ``$COORDARM_CFLAGS``: without contraction, vector maths or ``-ffast-math`` its joints and
-distances are the numpy reference's to the last bit. Where no C compiler works, :func:`chain_joints` and
-:func:`self_distances` run the numpy reference instead (same results, ~10x slower at 64 links).
+:func:`~coordarm.symbolic.geometry.self_distances` operation by operation; compiled as a
+:mod:`~coordarm.generated.kernels` library (fixed flags, no contraction), its joints and distances are
+the numpy reference's to the last bit. Where no C compiler works, :func:`chain_joints` and
+:func:`self_distances` run the numpy reference instead (same results, 2.5-6x slower at 64 links).
 """
 from __future__ import annotations
 
@@ -15,46 +14,28 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.symbolic import BuildError
 from coordarm.symbolic.geometry import self_distances as reference_self_distances
 
-from .build import build
-from .codegen import Source
-from .render import render
+from .kernels import kernel_library
 
-#: Compiler flags of the geometry library: optimised scalar code, no floating-point contraction, so it
-#: computes what numpy computes (``$COORDARM_CFLAGS`` does not apply).
-FLAGS = ("-O3", "-ffp-contract=off")
 #: Template of the library's source.
 TEMPLATE = "chain_geometry.c"
 
 _P, _I, _D = ctypes.c_void_p, ctypes.c_longlong, ctypes.c_double
 
 
-def geometry_source() -> Source:
-    """The C source of the geometry library (``templates/chain_geometry.c``, no placeholders).
-
-    Returns
-    -------
-    Source
-        Its text, form ``"geometry"``, ``m = 0`` (one library serves every chain).
-    """
-    return Source(render(TEMPLATE), "geometry", 0)
-
-
 @functools.cache
 def geometry_library() -> ctypes.CDLL | None:
-    """The compiled geometry library, built (or taken from the cache) and loaded once per process.
+    """The compiled geometry library (:func:`~coordarm.generated.kernels.kernel_library`), its functions typed.
 
     Returns
     -------
     ctypes.CDLL or None
-        Its two functions typed; None when it cannot be built or loaded (no working C compiler):
-        the callers then run the numpy reference.
+        None when it cannot be built or loaded (no working C compiler): the callers then run the numpy
+        reference.
     """
-    try:
-        lib = ctypes.CDLL(str(build(geometry_source(), flags=FLAGS).path))
-    except (BuildError, OSError):
+    lib = kernel_library(TEMPLATE)
+    if lib is None:
         return None
     lib.coordarm_chain_joints.argtypes = [_P, _P, _I, _I, _D, _P, _P]
     lib.coordarm_chain_joints.restype = None

@@ -7,12 +7,19 @@ string formatting). A number is right-aligned in its slot and padded with spaces
 allows between tokens, so the text parses to exactly the integers given (``"x":  -1234e-9``
 is the number -1.234e-6). Each slot's *kind* shares one width, the digits (and sign) of the
 widest value of that kind in the batch, so the messages stay about as short as formatted ones.
+
+The digits are written by a small C kernel (``generated/templates/json_digits.c``, a
+:mod:`~coordarm.generated.kernels` library) when a C compiler works, else by :func:`int_text` (the
+same bytes).
 """
 from __future__ import annotations
 
+import ctypes
 import functools
 
 import numpy as np
+
+from coordarm.generated.kernels import kernel_library
 
 #: Largest magnitude a slot takes (int64 powers of ten stop at 10**18).
 LIMIT = 10 ** 18
@@ -159,7 +166,8 @@ class JsonTemplate:
         return self
 
     def _layout(self, widths: tuple[int, ...]):
-        """The blank message (spaces in the slots) and, per width, which slots and where."""
+        """The blank message (spaces in the slots), per width which slots and where, and each slot's
+        start and width (int64, for the C kernel)."""
         if widths not in self._layouts:
             kinds = np.array(self._slot_kinds, int)
             w = np.array(widths, int)[kinds] if len(kinds) else np.zeros(0, int)
@@ -170,7 +178,7 @@ class JsonTemplate:
             for width in sorted(set(w.tolist())):
                 idx = np.flatnonzero(w == width)
                 groups.append((width, idx, starts[idx, None] + np.arange(width)))
-            self._layouts[widths] = blank, groups
+            self._layouts[widths] = blank, groups, starts.astype(np.int64), w.astype(np.int64)
         return self._layouts[widths]
 
     def fill(self, values: np.ndarray) -> list[bytes]:
@@ -197,9 +205,27 @@ class JsonTemplate:
             raise ValueError(f"values: expected shape (n, {self.slots}), got {values.shape}")
         kinds = np.array(self._slot_kinds, int)
         widths = tuple(text_width(values[:, kinds == k]) for k in range(self.kinds))
-        blank, groups = self._layout(widths)
+        blank, groups, starts, slot_widths = self._layout(widths)
         out = np.empty((n, len(blank)), np.uint8)
-        out[:] = blank
-        for width, idx, pos in groups:
-            out[:, pos] = int_text(values[:, idx], width)
+        fill = _digits_kernel()
+        if fill is not None and n:
+            values = np.ascontiguousarray(values)
+            fill(blank.ctypes.data, len(blank), starts.ctypes.data, slot_widths.ctypes.data, self.slots,
+                 values.ctypes.data, n, out.ctypes.data)
+        else:
+            out[:] = blank
+            for width, idx, pos in groups:
+                out[:, pos] = int_text(values[:, idx], width)
         return [row.tobytes() for row in out]
+
+
+@functools.cache
+def _digits_kernel():
+    """The C kernel's ``coordarm_json_fill``, typed; None without a working C compiler."""
+    lib = kernel_library("json_digits.c")
+    if lib is None:
+        return None
+    p, i = ctypes.c_void_p, ctypes.c_longlong
+    lib.coordarm_json_fill.argtypes = [p, i, p, p, i, p, i, p]
+    lib.coordarm_json_fill.restype = None
+    return lib.coordarm_json_fill

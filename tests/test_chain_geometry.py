@@ -102,9 +102,3 @@ def test_without_a_compiler_the_checks_run_numpy_with_the_same_contacts(monkeypa
     monkeypatch.setattr(chain_geometry, "geometry_library", lambda: None)
     assert check_configuration(chain, q) == compiled and any(c.kind == "self" for c in compiled)
 
-
-def test_the_geometry_source_compiles_without_a_warning(tmp_path):
-    from coordarm.generated.build import build
-    lib = build(chain_geometry.geometry_source(), flags=chain_geometry.FLAGS + ("-Wall", "-Wextra", "-Werror"),
-                build_dir=tmp_path)
-    assert lib.path.is_file() and not lib.cache_hit
