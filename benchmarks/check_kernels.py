@@ -37,17 +37,17 @@ TMP = Path(tempfile.mkdtemp())
 sc = load_scenario("line").with_overrides(64, 30.0, None)
 ctrl = sc.controller()
 q0 = sc.start(ctrl)
-KERNELS = {"geometry_library": chain_geometry.geometry_library, "_digits_kernel": json_fill._digits_kernel}
+KERNELS = {"geometry_library": chain_geometry.geometry_library, "digits_kernel": json_fill.digits_kernel}
 #: The child process of the command, with the kernels switched off when asked.
 CHILD = ("import sys, coordarm.generated.chain_geometry as g, coordarm.simulation.json_fill as j\n"
-         "if sys.argv.pop(1) == 'numpy':\n    g.geometry_library = j._digits_kernel = lambda: None\n"
+         "if sys.argv.pop(1) == 'numpy':\n    g.geometry_library = j.digits_kernel = lambda: None\n"
          "from coordarm.cli import main\nsys.exit(main(sys.argv[1:]))")
 
 
 def use(kind: str) -> None:
     """Switch the kernels on (``"C"``) or off (``"numpy"``)."""
     chain_geometry.geometry_library = KERNELS["geometry_library"] if kind == "C" else (lambda: None)
-    json_fill._digits_kernel = KERNELS["_digits_kernel"] if kind == "C" else (lambda: None)
+    json_fill.digits_kernel = KERNELS["digits_kernel"] if kind == "C" else (lambda: None)
 
 
 def checked():

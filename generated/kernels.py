@@ -9,12 +9,15 @@ computes what its numpy reference computes, to the last bit. Where no C compiler
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
+import threading
+import warnings
 
 from coordarm.symbolic import BuildError
 
-from .build import build
+from .build import CacheWarning, build
 from .codegen import Source
 from .render import render
 
@@ -53,8 +56,18 @@ def kernel_library(template: str) -> ctypes.CDLL | None:
     ctypes.CDLL or None
         The loaded library (the caller types its functions); None when it cannot be built or loaded
         (no working C compiler).
+
+    Notes
+    -----
+    In the main thread an unsafe cache directory's :class:`~coordarm.generated.build.CacheWarning` is not
+    repeated here (the law's build gives it); the warnings filter is the process's, so another thread
+    (a log's worker making the first scene) leaves it alone.
     """
+    main = threading.current_thread() is threading.main_thread()
     try:
-        return ctypes.CDLL(str(build(kernel_source(template), flags=FLAGS).path))
+        with warnings.catch_warnings() if main else contextlib.nullcontext():
+            if main:
+                warnings.simplefilter("ignore", CacheWarning)
+            return ctypes.CDLL(str(build(kernel_source(template), flags=FLAGS).path))
     except (BuildError, OSError):
         return None

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+from typing import Any
 
 import numpy as np
 
@@ -207,7 +208,7 @@ class JsonTemplate:
         widths = tuple(text_width(values[:, kinds == k]) for k in range(self.kinds))
         blank, groups, starts, slot_widths = self._layout(widths)
         out = np.empty((n, len(blank)), np.uint8)
-        fill = _digits_kernel()
+        fill = digits_kernel()
         if fill is not None and n:
             values = np.ascontiguousarray(values)
             fill(blank.ctypes.data, len(blank), starts.ctypes.data, slot_widths.ctypes.data, self.slots,
@@ -220,8 +221,16 @@ class JsonTemplate:
 
 
 @functools.cache
-def _digits_kernel():
-    """The C kernel's ``coordarm_json_fill``, typed; None without a working C compiler."""
+def digits_kernel() -> Any:
+    """The C kernel's ``coordarm_json_fill``, typed: built or loaded on the first call (from the main thread
+    where possible, see :func:`~coordarm.generated.kernels.kernel_library`).
+
+    Returns
+    -------
+    ctypes function or None
+        ``(blank, size, starts, widths, slots, values, n, out)``; None without a working C compiler (the
+        numpy path then writes the digits).
+    """
     lib = kernel_library("json_digits.c")
     if lib is None:
         return None

@@ -57,7 +57,7 @@ def test_the_compiled_digits_equal_python_formatting_and_the_numpy_fill(rng, mon
     """Every width 1..19, signs, zeros and the edges of each digit count, in slots of two kinds between
     literals: the C kernel's messages are Python's right-aligned formatting, and the numpy path's bytes."""
     import coordarm.simulation.json_fill as json_fill
-    if json_fill._digits_kernel() is None:
+    if json_fill.digits_kernel() is None:
         pytest.skip("no working C compiler")
     edges = [0, 1, -1, 9, -9]
     for k in range(1, 18):
@@ -71,6 +71,6 @@ def test_the_compiled_digits_equal_python_formatting_and_the_numpy_fill(rng, mon
     assert compiled == [f"[{a:>{wb}d},{b:>{ws}d}, \"x\": {c:>{wb}d}]".encode() for a, b, c in values.tolist()]
     batches = [rng.integers(-top, top + 1, (rows, 3)) for top in (0, 1, 9, 99999) for rows in (1, 4)]
     with_kernel = [t.fill(b) for b in batches]                # narrow batches, one and several rows
-    monkeypatch.setattr(json_fill, "_digits_kernel", lambda: None)
+    monkeypatch.setattr(json_fill, "digits_kernel", lambda: None)
     assert t.fill(values) == compiled
     assert [t.fill(b) for b in batches] == with_kernel
