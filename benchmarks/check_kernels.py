@@ -112,9 +112,9 @@ use("C")
 bare = np.array(T["bare simulation"])
 print(f"load average (1 min) during the rounds: {min(load):.2f}-{max(load):.2f}; {rounds} rounds")
 print(f"same log records and outcome with the kernels and with numpy: full rate {same[None]}, 100 Hz {same[100.0]}")
-print("| variant | median [s] | / bare (per round, min–max) | / checked run of the same kind | CPU [s] | "
-      "CPU / checked CPU |")
-print("|---|---|---|---|---|---|")
+print("| variant | median [s] | / bare (per round, min–max) | / checked run of the same kind | C / numpy (per round) "
+      "| CPU [s] | CPU / checked CPU |")
+print("|---|---|---|---|---|---|---|")
 for k, v in T.items():
     v = np.array(v)
     kind = k[k.rfind("(") + 1:-1] if "(" in k else None
@@ -124,5 +124,7 @@ for k, v in T.items():
     cpu = "" if "coordarm" in k else f"{np.median(C[k]):.3f}"
     cpu_ratio = (f"{np.median(C[k]) / np.median(C[f'checked, 200 Hz ({kind})']):.2f}×"
                  if kind and "coordarm" not in k else "")
+    twin = np.array(T[k.replace("(C)", "(numpy)")]) if kind == "C" else None
+    vs_numpy = f"{np.median(v / twin):.2f}× ({np.min(v / twin):.2f}–{np.max(v / twin):.2f})" if kind == "C" else ""
     print(f"| {k} | {np.median(v):.3f} | {np.median(v / bare):.2f}× ({np.min(v / bare):.2f}–{np.max(v / bare):.2f}) | "
-          f"{vs_checked} | {cpu} | {cpu_ratio} |")
+          f"{vs_checked} | {vs_numpy} | {cpu} | {cpu_ratio} |")
