@@ -3,9 +3,10 @@
 ``templates/chain_geometry.c`` repeats :meth:`~coordarm.symbolic.chain.PlanarChain.joints_np` and
 :func:`~coordarm.symbolic.geometry.self_distances` operation by operation; compiled as a
 :mod:`~coordarm.generated.kernels` library (fixed flags, no contraction), its joints and distances are
-the numpy reference's to the last bit (the joints where numpy's ``cos`` and ``sin`` are the C library's,
-as on the machine of the tests, numpy 2.4 on x86-64 without AVX-512; elsewhere to an ulp). Where no C compiler works, :func:`chain_joints` and
-:func:`self_distances` run the numpy reference instead (same results, 2.5-6x slower at 64 links).
+the numpy reference's to the last bit (the joints where numpy's ``cos`` and ``sin`` are the C
+library's, as on the machine of the tests, numpy 2.4 on x86-64 without AVX-512; elsewhere to an ulp).
+Where no C compiler works, :func:`chain_joints` and :func:`self_distances` run the numpy reference
+instead (same results, 2.5-6x slower at 64 links).
 """
 from __future__ import annotations
 
