@@ -51,7 +51,7 @@ def _c_array(a: Any) -> np.ndarray:
 
 
 def chain_joints(chain: Any, q: np.ndarray) -> np.ndarray:
-    """Link end points of a planar chain's configurations, as :meth:`PlanarChain.joints_np <coordarm.symbolic.chain.PlanarChain.joints_np>`.
+    """Link end points of a planar chain's configurations, as :meth:`~coordarm.symbolic.chain.PlanarChain.joints_np`.
 
     Parameters
     ----------
