@@ -119,6 +119,7 @@ class JsonTemplate:
         self.kinds = kinds
         self._literals: list[str] = [""]
         self._slot_kinds: list[int] = []
+        self._kind_columns: list[np.ndarray] = []       # the slots of each kind (made again when slots are added)
         self._layouts: dict[tuple[int, ...], tuple[np.ndarray, list[tuple[int, np.ndarray, np.ndarray]]]] = {}
 
     @property
@@ -166,6 +167,17 @@ class JsonTemplate:
         self._literals.append("")
         return self
 
+    def _widths(self, values: np.ndarray) -> tuple[int, ...]:
+        """Each kind's width in this batch: :func:`text_width` of the kind's smallest and largest value
+        (what decides the width of all its values: the largest magnitude and whether one is negative)."""
+        if len(self._kind_columns) != self.kinds or sum(map(len, self._kind_columns)) != self.slots:
+            kinds = np.array(self._slot_kinds, int)
+            self._kind_columns = [np.flatnonzero(kinds == k) for k in range(self.kinds)]
+        if not len(values):
+            return (1,) * self.kinds
+        lo, hi = values.min(axis=0), values.max(axis=0)
+        return tuple(text_width(np.array([lo[c].min(), hi[c].max()])) if len(c) else 1 for c in self._kind_columns)
+
     def _layout(self, widths: tuple[int, ...]):
         """The blank message (spaces in the slots), per width which slots and where, and each slot's
         start and width (int64, for the C kernel)."""
@@ -204,9 +216,7 @@ class JsonTemplate:
         n = len(values)
         if values.shape != (n, self.slots):
             raise ValueError(f"values: expected shape (n, {self.slots}), got {values.shape}")
-        kinds = np.array(self._slot_kinds, int)
-        widths = tuple(text_width(values[:, kinds == k]) for k in range(self.kinds))
-        blank, groups, starts, slot_widths = self._layout(widths)
+        blank, groups, starts, slot_widths = self._layout(self._widths(values))
         out = np.empty((n, len(blank)), np.uint8)
         fill = digits_kernel()
         if fill is not None and n:

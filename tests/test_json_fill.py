@@ -74,3 +74,22 @@ def test_the_compiled_digits_equal_python_formatting_and_the_numpy_fill(rng, mon
     monkeypatch.setattr(json_fill, "digits_kernel", lambda: None)
     assert t.fill(values) == compiled
     assert [t.fill(b) for b in batches] == with_kernel
+
+
+def test_each_kind_is_as_wide_as_text_width_of_all_its_values(rng):
+    """Kinds of negative, mixed, non-negative and zero values, interleaved: every message is Python's
+    right-aligned formatting at the width text_width gives all of the kind's values; no rows, no messages."""
+    kinds = np.arange(12) % 4
+    t = JsonTemplate(kinds=4).text("[")
+    for i, k in enumerate(kinds):
+        t.text("," if i else "").number(int(k))
+    t.text("]")
+    for _ in range(20):
+        values = np.zeros((7, 12), np.int64)
+        values[:, kinds == 0] = -rng.integers(1, 10 ** int(rng.integers(1, 15)), (7, 3))
+        values[:, kinds == 1] = rng.integers(-10 ** 6, 10 ** 4, (7, 3))
+        values[:, kinds == 2] = rng.integers(0, 10 ** 9, (7, 3))
+        width = [text_width(values[:, kinds == k]) for k in range(4)]
+        want = ["[" + ",".join(f"{v:>{width[k]}d}" for v, k in zip(row, kinds)) + "]" for row in values.tolist()]
+        assert [x.decode() for x in t.fill(values)] == want
+    assert t.fill(np.zeros((0, 12), np.int64)) == []
