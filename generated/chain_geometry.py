@@ -18,8 +18,6 @@ import numpy as np
 
 from coordarm.symbolic.geometry import self_distances as reference_self_distances
 
-from .kernels import kernel_library
-
 #: Template of the library's source.
 TEMPLATE = "chain_geometry.c"
 
@@ -36,6 +34,7 @@ def geometry_library() -> ctypes.CDLL | None:
         None when it cannot be built or loaded (no working C compiler): the callers then run the numpy
         reference.
     """
+    from .kernels import kernel_library        # here: the build machinery loads on the first check, not on import
     lib = kernel_library(TEMPLATE)
     if lib is None:
         return None

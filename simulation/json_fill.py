@@ -20,8 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.generated.kernels import kernel_library
-
 #: Largest magnitude a slot takes (int64 powers of ten stop at 10**18).
 LIMIT = 10 ** 18
 
@@ -241,6 +239,7 @@ def digits_kernel() -> Any:
         ``(blank, size, starts, widths, slots, values, n, out)``; None without a working C compiler (the
         numpy path then writes the digits).
     """
+    from coordarm.generated.kernels import kernel_library    # here: the build machinery loads on first use
     lib = kernel_library("json_digits.c")
     if lib is None:
         return None
