@@ -1,6 +1,7 @@
 """Cost of the physical checks (joint limits + self-collision) per sample, 64 to 1024 links.
 
-Compares the sort-and-sweep self-collision search (``symbolic.geometry.self_distances``) with
+Compares the sort-and-sweep self-collision search (``symbolic.geometry.self_distances``, numpy; and
+its compiled twin ``generated.chain_geometry.self_distances``, which ``check_configuration`` runs) with
 the vectorised all-pairs O(m^2) check, interleaved, on blocks of samples of two shapes:
 the compact zig-zag along a line (beta = 1.3) and the zig-zag wrapped along a circle of
 radius m xi cos(beta) / (2 pi) (the body closes on itself: the worst case for a sweep along
@@ -18,6 +19,7 @@ import time
 
 import numpy as np
 
+from coordarm.generated.chain_geometry import self_distances as compiled_self_distances
 from coordarm.simulation.physical import check_configuration
 from coordarm.symbolic import Arc, CoordinatingController, PlanarChain, project_onto_curve
 from coordarm.symbolic.geometry import segment_distance, self_distances, touching
@@ -58,22 +60,23 @@ def main() -> None:
     links = (64, 256) if args.quick else (64, 256, 1024)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, "
           f"load {os.getloadavg()[0]:.1f}, numpy {np.__version__}")
-    print("| links | shape | check_configuration [µs/sample] | sort and sweep [µs/sample] | "
-          "all pairs O(m^2) [µs/sample] | all pairs / sweep |")
-    print("|---|---|---|---|---|---|")
+    print("| links | shape | check_configuration [µs/sample] | sort and sweep, numpy [µs/sample] | "
+          "the same in C [µs/sample] | all pairs O(m^2) [µs/sample] | all pairs / sweep (numpy) |")
+    print("|---|---|---|---|---|---|---|")
     for m in links:
         n = max(4, 4096 // m)
         chain = PlanarChain(m, 0.1)
         for name, q in shapes(m, n).items():
             J = chain.joints_np(q)
-            sweep, brute, full = [], [], []
+            sweep, brute, full, compiled = [], [], [], []
             for _ in range(7):                 # interleaved: load changes hit both alike
                 sweep.append(median_time(lambda: self_distances(J), 1) / n)
+                compiled.append(median_time(lambda: compiled_self_distances(J), 1) / n)
                 brute.append(median_time(lambda: all_pairs(J), 1) / n)
                 full.append(median_time(lambda: check_configuration(chain, q), 1) / n)
             ratio = np.median(np.array(brute) / np.array(sweep))
-            print(f"| {m} | {name} | {1e6 * np.median(full):.0f} | {1e6 * np.median(sweep):.0f} | "
-                  f"{1e6 * np.median(brute):.0f} | {ratio:.1f}x |")
+            print(f"| {m} | {name} | {1e6 * np.median(full):.1f} | {1e6 * np.median(sweep):.1f} | "
+                  f"{1e6 * np.median(compiled):.1f} | {1e6 * np.median(brute):.0f} | {ratio:.1f}x |")
     print("\n| links | simulated | physical checks | wall time (median) | / no checks (median of ratios) |")
     print("|---|---|---|---|---|")
     run_overhead(64, 20.0 if not args.quick else 5.0)

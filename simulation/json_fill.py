@@ -7,10 +7,16 @@ string formatting). A number is right-aligned in its slot and padded with spaces
 allows between tokens, so the text parses to exactly the integers given (``"x":  -1234e-9``
 is the number -1.234e-6). Each slot's *kind* shares one width, the digits (and sign) of the
 widest value of that kind in the batch, so the messages stay about as short as formatted ones.
+
+The digits are written by a small C kernel (``generated/templates/json_digits.c``, a
+:mod:`~coordarm.generated.kernels` library) when a C compiler works, else by :func:`int_text` (the
+same bytes).
 """
 from __future__ import annotations
 
+import ctypes
 import functools
+from typing import Any
 
 import numpy as np
 
@@ -111,6 +117,7 @@ class JsonTemplate:
         self.kinds = kinds
         self._literals: list[str] = [""]
         self._slot_kinds: list[int] = []
+        self._kind_columns: list[np.ndarray] = []       # the slots of each kind (made again when slots are added)
         self._layouts: dict[tuple[int, ...], tuple[np.ndarray, list[tuple[int, np.ndarray, np.ndarray]]]] = {}
 
     @property
@@ -158,8 +165,20 @@ class JsonTemplate:
         self._literals.append("")
         return self
 
+    def _widths(self, values: np.ndarray) -> tuple[int, ...]:
+        """Each kind's width in this batch: :func:`text_width` of the kind's smallest and largest value
+        (what decides the width of all its values: the largest magnitude and whether one is negative)."""
+        if len(self._kind_columns) != self.kinds or sum(map(len, self._kind_columns)) != self.slots:
+            kinds = np.array(self._slot_kinds, int)
+            self._kind_columns = [np.flatnonzero(kinds == k) for k in range(self.kinds)]
+        if not len(values):
+            return (1,) * self.kinds
+        lo, hi = values.min(axis=0), values.max(axis=0)
+        return tuple(text_width(np.array([lo[c].min(), hi[c].max()])) if len(c) else 1 for c in self._kind_columns)
+
     def _layout(self, widths: tuple[int, ...]):
-        """The blank message (spaces in the slots) and, per width, which slots and where."""
+        """The blank message (spaces in the slots), per width which slots and where, and each slot's
+        start and width (int64, for the C kernel)."""
         if widths not in self._layouts:
             kinds = np.array(self._slot_kinds, int)
             w = np.array(widths, int)[kinds] if len(kinds) else np.zeros(0, int)
@@ -170,7 +189,7 @@ class JsonTemplate:
             for width in sorted(set(w.tolist())):
                 idx = np.flatnonzero(w == width)
                 groups.append((width, idx, starts[idx, None] + np.arange(width)))
-            self._layouts[widths] = blank, groups
+            self._layouts[widths] = blank, groups, starts.astype(np.int64), w.astype(np.int64)
         return self._layouts[widths]
 
     def fill(self, values: np.ndarray) -> list[bytes]:
@@ -195,11 +214,36 @@ class JsonTemplate:
         n = len(values)
         if values.shape != (n, self.slots):
             raise ValueError(f"values: expected shape (n, {self.slots}), got {values.shape}")
-        kinds = np.array(self._slot_kinds, int)
-        widths = tuple(text_width(values[:, kinds == k]) for k in range(self.kinds))
-        blank, groups = self._layout(widths)
+        blank, groups, starts, slot_widths = self._layout(self._widths(values))
         out = np.empty((n, len(blank)), np.uint8)
-        out[:] = blank
-        for width, idx, pos in groups:
-            out[:, pos] = int_text(values[:, idx], width)
+        fill = digits_kernel()
+        if fill is not None and n:
+            values = np.ascontiguousarray(values)
+            fill(blank.ctypes.data, len(blank), starts.ctypes.data, slot_widths.ctypes.data, self.slots,
+                 values.ctypes.data, n, out.ctypes.data)
+        else:
+            out[:] = blank
+            for width, idx, pos in groups:
+                out[:, pos] = int_text(values[:, idx], width)
         return [row.tobytes() for row in out]
+
+
+@functools.cache
+def digits_kernel() -> Any:
+    """The C kernel's ``coordarm_json_fill``, typed: built or loaded on the first call (from the main thread
+    where possible, see :func:`~coordarm.generated.kernels.kernel_library`).
+
+    Returns
+    -------
+    ctypes function or None
+        ``(blank, size, starts, widths, slots, values, n, out)``; None without a working C compiler (the
+        numpy path then writes the digits).
+    """
+    from coordarm.generated.kernels import kernel_library    # here: the build machinery loads on first use
+    lib = kernel_library("json_digits.c")
+    if lib is None:
+        return None
+    p, i = ctypes.c_void_p, ctypes.c_longlong
+    lib.coordarm_json_fill.argtypes = [p, i, p, p, i, p, i, p]
+    lib.coordarm_json_fill.restype = None
+    return lib.coordarm_json_fill

@@ -12,8 +12,9 @@ from typing import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
+from coordarm.generated.chain_geometry import chain_joints, self_distances
 from coordarm.symbolic import PlanarChain
-from coordarm.symbolic.geometry import self_distances, touching
+from coordarm.symbolic.geometry import touching
 
 from .obstacles import Obstacle, link_distances
 
@@ -224,7 +225,7 @@ def check_configuration(chain: PlanarChain, q: ArrayLike, obstacles: Sequence[Ob
         for k in np.flatnonzero(~((q[:, 0] >= lo) & (q[:, 0] <= hi))).tolist():
             found.append((k, 0, Contact("rail_limit", float(t[k]), (1,), float(q[k, 0]),
                                         lo if q[k, 0] < lo else hi)))
-    joints = chain.joints_np(q)
+    joints = chain_joints(chain, q)                        # compiled (numpy's to the last bit), or numpy
     s, la, lb, d = self_distances(joints, c)
     hit = touching(d, c)
     for k, a, b, dist in zip(s[hit].tolist(), la[hit].tolist(), lb[hit].tolist(), d[hit].tolist()):

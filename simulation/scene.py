@@ -26,7 +26,7 @@ import numpy as np
 from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
 
-from .json_fill import JsonTemplate
+from .json_fill import JsonTemplate, digits_kernel
 from .log_schemas import CDR_HEADER
 from .obstacles import outline
 from .run import Run
@@ -391,6 +391,7 @@ class SceneBuilder:
             raise ValueError(f"frames: need one of {', '.join(FRAME_SETS)}, got {frames!r}")
         self.ctrl = ctrl
         self.frames = frames
+        digits_kernel()           # the JSON digits' C kernel loaded now, not by a log's worker thread
         self.reach = 2.2 * ctrl.chain.m * ctrl.chain.xi
         outlines = obstacle_outlines(obstacles)
         # the same in every scene: obstacles and the rail

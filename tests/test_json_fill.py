@@ -51,3 +51,45 @@ def test_a_value_too_large_for_a_slot_or_a_wrong_shape_is_refused():
         t.fill(np.array([[LIMIT]]))
     with pytest.raises(ValueError, match="shape"):
         t.fill(np.zeros((3, 2), int))
+
+
+def test_the_compiled_digits_equal_python_formatting_and_the_numpy_fill(rng, monkeypatch):
+    """Every width 1..19, signs, zeros and the edges of each digit count, in slots of two kinds between
+    literals: the C kernel's messages are Python's right-aligned formatting, and the numpy path's bytes."""
+    import coordarm.simulation.json_fill as json_fill
+    if json_fill.digits_kernel() is None:
+        pytest.skip("no working C compiler")
+    edges = [0, 1, -1, 9, -9]
+    for k in range(1, 18):
+        edges += [10 ** k - 1, 10 ** k, -(10 ** k - 1), -(10 ** k)]
+    big = np.array(edges + list(rng.integers(-LIMIT + 1, LIMIT, 300)))
+    small = rng.integers(0, 10 ** rng.integers(1, 12, len(big)))
+    t = JsonTemplate(kinds=2).text("[").number(0).text(",").number(1).text(', "x": ').number(0).text("]")
+    values = np.column_stack([big, small, big[::-1]])
+    compiled = t.fill(values)
+    wb, ws = text_width(values[:, [0, 2]]), text_width(values[:, 1])
+    assert compiled == [f"[{a:>{wb}d},{b:>{ws}d}, \"x\": {c:>{wb}d}]".encode() for a, b, c in values.tolist()]
+    batches = [rng.integers(-top, top + 1, (rows, 3)) for top in (0, 1, 9, 99999) for rows in (1, 4)]
+    with_kernel = [t.fill(b) for b in batches]                # narrow batches, one and several rows
+    monkeypatch.setattr(json_fill, "digits_kernel", lambda: None)
+    assert t.fill(values) == compiled
+    assert [t.fill(b) for b in batches] == with_kernel
+
+
+def test_each_kind_is_as_wide_as_text_width_of_all_its_values(rng):
+    """Kinds of negative, mixed, non-negative and zero values, interleaved: every message is Python's
+    right-aligned formatting at the width text_width gives all of the kind's values; no rows, no messages."""
+    kinds = np.arange(12) % 4
+    t = JsonTemplate(kinds=4).text("[")
+    for i, k in enumerate(kinds):
+        t.text("," if i else "").number(int(k))
+    t.text("]")
+    for _ in range(20):
+        values = np.zeros((7, 12), np.int64)
+        values[:, kinds == 0] = -rng.integers(1, 10 ** int(rng.integers(1, 15)), (7, 3))
+        values[:, kinds == 1] = rng.integers(-10 ** 6, 10 ** 4, (7, 3))
+        values[:, kinds == 2] = rng.integers(0, 10 ** 9, (7, 3))
+        width = [text_width(values[:, kinds == k]) for k in range(4)]
+        want = ["[" + ",".join(f"{v:>{width[k]}d}" for v, k in zip(row, kinds)) + "]" for row in values.tolist()]
+        assert [x.decode() for x in t.fill(values)] == want
+    assert t.fill(np.zeros((0, 12), np.int64)) == []

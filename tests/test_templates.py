@@ -12,6 +12,7 @@ import pytest
 import coordarm
 import coordarm.generated.render as render_module
 from coordarm.generated.build import build
+from coordarm.generated.kernels import FLAGS, kernel_source
 from coordarm.generated.codegen import generate_source
 from coordarm.generated.export import export_law
 from coordarm.generated.spatial_codegen import generate_spatial_source
@@ -22,6 +23,8 @@ from coordarm.symbolic.curves3d import Line3D
 ROOT = Path(__file__).resolve().parent.parent
 #: Any leftover ``@name@`` (the renderer's placeholder syntax), written out here independently.
 LEFTOVER = re.compile(r"@[A-Za-z_][A-Za-z0-9_]*@")
+#: The hand-written kernel libraries (coordarm.generated.kernels).
+KERNELS = ("chain_geometry.c", "json_digits.c")
 
 
 def template_files() -> set[str]:
@@ -68,6 +71,7 @@ def test_every_template_is_rendered_by_the_generator_or_the_export_with_nothing_
     texts.append(generate_source(diagonal, "dense").text)
     spatial = SpatialController(SpatialChain(4, 0.1), Line3D(), 2.0, 0.05, roll=0.0)
     texts.append(generate_spatial_source(spatial, "structured").text)
+    texts += [kernel_source(name).text for name in KERNELS]
     spatial_export = export_law(spatial, spatial.chain.zigzag(1.0), tmp_path / "spatial", step=0.01, duration=0.1)
     texts += [f.read_text() for f in spatial_export.files]
     export = export_law(ctrl, scenario.start(ctrl), tmp_path, step=scenario.step, duration=0.1)
@@ -92,4 +96,10 @@ def test_the_rendered_source_of_a_governed_rail_preset_on_a_path_compiles_withou
     for macro in ("CA_RAIL 1", "CA_SPAN 1", "CA_GOVERNED 1", "CA_PATH 1"):
         assert f"#define {macro}\n" in source.text
     lib = build(source, flags="-O2 -Wall -Wextra -Werror", build_dir=tmp_path)
+    assert lib.path.is_file() and not lib.cache_hit
+
+
+@pytest.mark.parametrize("name", KERNELS)
+def test_the_kernel_sources_compile_without_a_warning(tmp_path, name):
+    lib = build(kernel_source(name), flags=FLAGS + ("-Wall", "-Wextra", "-Werror"), build_dir=tmp_path)
     assert lib.path.is_file() and not lib.cache_hit

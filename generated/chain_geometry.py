@@ -1,0 +1,116 @@
+"""The physical checks' geometry in C: a planar chain's joints and its self-distance sweep, many samples per call.
+
+``templates/chain_geometry.c`` repeats :meth:`~coordarm.symbolic.chain.PlanarChain.joints_np` and
+:func:`~coordarm.symbolic.geometry.self_distances` operation by operation; compiled as a
+:mod:`~coordarm.generated.kernels` library (fixed flags, no contraction), its joints and distances are
+the numpy reference's to the last bit (the joints where numpy's ``cos`` and ``sin`` are the C
+library's, as on the machine of the tests, numpy 2.4 on x86-64 without AVX-512; elsewhere to an ulp).
+Where no C compiler works, :func:`chain_joints` and :func:`self_distances` run the numpy reference
+instead (same results, 2.5-6x slower at 64 links).
+"""
+from __future__ import annotations
+
+import ctypes
+import functools
+from typing import Any
+
+import numpy as np
+
+from coordarm.symbolic.geometry import self_distances as reference_self_distances
+
+#: Template of the library's source.
+TEMPLATE = "chain_geometry.c"
+
+_P, _I, _D = ctypes.c_void_p, ctypes.c_longlong, ctypes.c_double
+
+
+@functools.cache
+def geometry_library() -> ctypes.CDLL | None:
+    """The compiled geometry library (:func:`~coordarm.generated.kernels.kernel_library`), its functions typed.
+
+    Returns
+    -------
+    ctypes.CDLL or None
+        None when it cannot be built or loaded (no working C compiler): the callers then run the numpy
+        reference.
+    """
+    from .kernels import kernel_library        # here: the build machinery loads on the first check, not on import
+    lib = kernel_library(TEMPLATE)
+    if lib is None:
+        return None
+    lib.coordarm_chain_joints.argtypes = [_P, _P, _I, _I, _D, _P, _P]
+    lib.coordarm_chain_joints.restype = None
+    lib.coordarm_self_distances.argtypes = [_P, _I, _I, _D, _I, _P, _P, _P, _P, _P, _P]
+    lib.coordarm_self_distances.restype = _I
+    return lib
+
+
+def _c_array(a: Any) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def chain_joints(chain: Any, q: np.ndarray) -> np.ndarray:
+    """Link end points of a planar chain's configurations, as :meth:`~coordarm.symbolic.chain.PlanarChain.joints_np`.
+
+    Parameters
+    ----------
+    chain : PlanarChain
+        The chain (``m``, ``xi``, its base point).
+    q : (N, dof) ndarray
+        Configurations [rad] (``d`` [m] first on a rail).
+
+    Returns
+    -------
+    (N, m+1, 2) ndarray
+        Joint positions [m]; the numpy reference's, bit for bit.
+    """
+    lib = geometry_library()
+    q = np.asarray(q, dtype=float)
+    if lib is None or q.ndim != 2 or not len(q):
+        return chain.joints_np(q)
+    n, m = len(q), chain.m
+    angles, base = _c_array(chain.revolute(q)), _c_array(chain.base_point(q))
+    joints, scratch = np.empty((n, m + 1, 2)), np.empty((m, 2))
+    lib.coordarm_chain_joints(angles.ctypes.data, base.ctypes.data, n, m, float(chain.xi), scratch.ctypes.data,
+                              joints.ctypes.data)
+    return joints
+
+
+def self_distances(joints: np.ndarray, clearance: float = 0.0
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The pairs of non-adjacent links the sweep compares and their distances, as the numpy reference.
+
+    Same contract as :func:`coordarm.symbolic.geometry.self_distances` (every pair closer than or at
+    ``clearance`` is among the pairs, with its exact distance), computed in C; the pairs come sorted
+    by sample, then by their place along the sweep, not in the reference's order.
+
+    Parameters
+    ----------
+    joints : (N, m+1, 2) array
+        Link end points [m]; a sample that is not finite makes the whole call run the reference.
+    clearance : float
+        Distance of interest [m] (>= 0).
+
+    Returns
+    -------
+    sample, link_a, link_b : int arrays (K,)
+        0-based sample and 1-based links (``link_a < link_b - 1``).
+    distance : float array (K,)
+        Their distance [m] (0 when they cross or touch), the reference's to the last bit.
+    """
+    lib = geometry_library()
+    joints = _c_array(joints)
+    if lib is None or joints.ndim != 3 or not np.isfinite(joints).all():
+        return reference_self_distances(joints, clearance)
+    n, m = joints.shape[0], joints.shape[1] - 1
+    scratch, iscratch = np.empty(8 * max(m, 1)), np.empty(2 * max(m, 1), np.int64)
+    cap = 16 * n + 1024                     # pairs (a compact chain: ~10 a sample; more: a second call)
+    while True:
+        s, la, lb = (np.empty(cap, np.int64) for _ in range(3))
+        d = np.empty(cap)
+        found = lib.coordarm_self_distances(joints.ctypes.data, n, m, float(clearance), cap, s.ctypes.data,
+                                            la.ctypes.data, lb.ctypes.data, d.ctypes.data, scratch.ctypes.data,
+                                            iscratch.ctypes.data)
+        if found <= cap:
+            return s[:found], la[:found], lb[:found], d[:found]
+        cap = found
