@@ -127,7 +127,7 @@ def replace_in_background(src: str | os.PathLike, dst: str | os.PathLike) -> Non
         As :func:`os.replace` raises it.
     """
     try:
-        old = os.open(dst, os.O_RDONLY | os.O_NONBLOCK)
+        old = os.open(dst, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except OSError:                 # nothing there (or not readable): a plain rename
         old = None
     try:
@@ -143,9 +143,13 @@ def replace_in_background(src: str | os.PathLike, dst: str | os.PathLike) -> Non
 
 
 def wait_released() -> None:
-    """Wait until the files replaced by :func:`replace_in_background` so far are freed."""
-    while _releasing:
-        _releasing.pop().join()
+    """Wait until the files replaced by :func:`replace_in_background` so far are freed (from any thread)."""
+    while True:
+        try:
+            thread = _releasing.pop()
+        except IndexError:       # none left (another thread may have taken the last one)
+            return
+        thread.join()
 
 
 class Worker:
