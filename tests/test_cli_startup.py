@@ -132,6 +132,34 @@ def test_the_console_skips_the_teardown_only_when_nothing_is_registered_and_keep
     assert again.returncode == 2 and "exists" in again.stderr
 
 
+LOGGING = """
+import sys
+class Witness:
+    def __del__(self):
+        print("teardown", flush=True)
+witness = Witness()
+if sys.argv[1] in ("logging", "handler"):
+    import logging
+    if sys.argv[1] == "handler":
+        logging.getLogger("user").addHandler(logging.StreamHandler(sys.stdout))
+from coordarm.cli import console
+console(sys.argv[2:])
+"""
+
+
+@pytest.mark.parametrize("case", ["bar", "logging", "handler"])
+def test_an_imported_logging_without_handlers_keeps_the_short_exit_and_a_handler_the_usual_one(case, tmp_path):
+    """``import logging`` registers ``logging.shutdown`` with atexit (tqdm, which formats the progress bar,
+    imports it): without a handler on any logger the console still ends with ``os._exit`` (no teardown),
+    the progress bar and the summary complete; a handler on a logger keeps the usual exit (teardown)."""
+    log = tmp_path / "x.mcap"
+    res = subprocess.run([sys.executable, "-c", LOGGING, case, "run", "line", "--links", "4", "--duration", "0.05",
+                          "--no-figures", "--out", str(log)], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert "100.0%" in res.stderr and f"log           {log}" in res.stdout
+    assert ("teardown" in res.stdout) == (case == "handler")
+
+
 def test_python_m_cprofile_of_the_command_still_writes_its_profile(tmp_path):
     """A profiler outlives the command (it writes after the module returns): then the usual exit."""
     import pstats
