@@ -149,13 +149,29 @@ def console(argv: list[str] | None = None) -> NoReturn:
 
 
 def _nothing_to_clean_up() -> bool:
-    """No ``atexit`` callback (logging, a temporary directory's finalizer, matplotlib, dask), no other
-    thread, and no profiler or tracer (``python -m cProfile``, coverage, a debugger) that writes after."""
+    """No ``atexit`` callback (a temporary directory's finalizer, matplotlib, dask, logging with a handler)
+    but an idle logging's (:func:`_idle_logging_callbacks`), no other thread, and no profiler or tracer
+    (``python -m cProfile``, coverage, a debugger) that writes after."""
     import atexit
 
     count = getattr(atexit, "_ncallbacks", None)       # CPython's count of registered callbacks
-    return (count is not None and count() == 0 and threading.active_count() == 1
+    return (count is not None and count() == _idle_logging_callbacks() and threading.active_count() == 1
             and sys.getprofile() is None and sys.gettrace() is None)
+
+
+def _idle_logging_callbacks() -> int:
+    """1 when :mod:`logging` is imported and no logger has a handler, else 0.
+
+    ``import logging`` registers one ``atexit`` callback, ``logging.shutdown`` (tqdm, which formats the
+    progress bar, imports logging); with no handler it would only flush logging's last-resort handler,
+    standard error, which :func:`console` flushes itself.
+    """
+    logging = sys.modules.get("logging")
+    if logging is None:
+        return 0
+    loggers = [logging.getLogger(), *(v for v in logging.Logger.manager.loggerDict.values()
+                                      if isinstance(v, logging.Logger))]
+    return 0 if any(logger.handlers for logger in loggers) else 1
 
 
 def _early_handlers() -> dict:

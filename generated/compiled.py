@@ -21,7 +21,6 @@ from coordarm.symbolic.outputs import packed_width, spatial_packed_width, spatia
 
 from .build import Library, build
 from .codegen import Source, generate_source
-from .spatial_codegen import generate_spatial_source
 
 _P, _D, _I = ctypes.c_void_p, ctypes.c_double, ctypes.c_longlong
 _SIGNATURES = {"coordarm_law": [_P, _D, _P, _P, _P],
@@ -105,6 +104,7 @@ def controller_source(ctrl: CoordinatingController | SpatialController, form: st
         A non-diagonal B or an unknown form.
     """
     if isinstance(ctrl, SpatialController):
+        from .spatial_codegen import generate_spatial_source
         return generate_spatial_source(ctrl, form)
     return generate_source(ctrl, form, path_search)
 

@@ -24,8 +24,10 @@ import numpy as np
 LIMIT = 10 ** 18
 
 
-#: ASCII of "0000" .. "9999", four bytes each as one little-endian uint32 (one gather per group of digits).
-_GROUPS = np.frombuffer("".join(f"{i:04d}" for i in range(10000)).encode(), "<u4")
+#: ASCII of "0000" .. "9999", four bytes each as one little-endian uint32 (one gather per group of digits);
+#: built with array operations (formatting 10,000 strings took ~3 ms of every command's start).
+_GROUPS = (np.arange(10000)[:, None] // np.array([1000, 100, 10, 1]) % 10 + ord("0")).astype(np.uint8).view("<u4")[:, 0]
+_GROUPS.flags.writeable = False
 #: 10**0 .. 10**18: the number of these <= |v| is the number of digits of v (v != 0).
 _POWERS = 10 ** np.arange(19, dtype=np.int64)
 

@@ -51,21 +51,23 @@ import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from coordarm.symbolic import (ConfigError, CoordinatingController, Curve, PlanarChain, SpatialChain,
-                               SpatialController, follow_curve, project_onto_curve)
+from coordarm.symbolic import ConfigError, CoordinatingController, Curve, PlanarChain, follow_curve, project_onto_curve
 from coordarm.symbolic.start import check_start
 
 from .choices import presets
 from .obstacles import Obstacle
-from .obstacles3d import Obstacle3D
 from .physical import Physical
 from .scenario_tables import USER_DEFINED, ScenarioConfig, check_stages, parse_scenario
-from .physical3d import Physical3D
-from .spatial_scenario import spatial_controller, spatial_physical, spatial_start
+
+if TYPE_CHECKING:   # a spatial chain's modules load when a universal scenario is run
+    from coordarm.symbolic import SpatialChain, SpatialController
+
+    from .obstacles3d import Obstacle3D
+    from .physical3d import Physical3D
 
 
 @dataclass(frozen=True)
@@ -242,6 +244,7 @@ class Scenario:
             The checks of a run (a universal chain's: bend limits, capsules apart, obstacles in 3-D).
         """
         if self.universal:
+            from .spatial_scenario import spatial_physical
             return spatial_physical(self.config, chain or self.chain())
         return Physical(chain or self.chain(), self.obstacles, self.config.chain.rates)
 
@@ -257,6 +260,7 @@ class Scenario:
         c = self.config.control
         curve = self.curve if self.curve is not None else self.config.curve_object
         if self.universal:
+            from .spatial_scenario import spatial_controller
             return spatial_controller(self.config, curve)
         return CoordinatingController(self.chain(), curve, float(c.gain), c.speed_motion, law=c.law,
                                       span=c.span_motion, governor=c.governor,
@@ -286,6 +290,7 @@ class Scenario:
         st = self.config.start
         ctrl = ctrl or self.controller()
         if self.universal:
+            from .spatial_scenario import spatial_start
             return spatial_start(self.config, ctrl.chain, ctrl.curve)
         d0 = max(ctrl.chain.rail_limits[0], 0.0) if ctrl.chain.rail else 0.0
         if st.kind == "follow":

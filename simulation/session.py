@@ -170,16 +170,20 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     overwrite = overwrite or log is None   # the default log is a scratch file
     out = checked_log_path(Path("logs") / f"{scenario.name}.mcap" if log is None else Path(log), overwrite)
     ctrl = scenario.controller()
-    run, stopped, chosen, compiled = simulate_logged(
-        scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
-        cond_exact=cond_exact, compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
-        allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue, log_frames=log_frames)
-    status = outcome_of(stopped, None)["status"]
-    for line in report_lines(run, scenario, compiled, out):
-        say(line)
-    drawn = write_figures(run, scenario, ctrl, out.with_suffix(""), stages, outcome=status) if figures else []
-    for p in drawn:
-        say(f"figure        {p}")
+    try:     # a log replaced by this one is freed on another thread meanwhile (RunLogger free_replaced_later)
+        run, stopped, chosen, compiled = simulate_logged(
+            scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
+            cond_exact=cond_exact, compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
+            allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue, log_frames=log_frames)
+        status = outcome_of(stopped, None)["status"]
+        for line in report_lines(run, scenario, compiled, out):
+            say(line)
+        drawn = write_figures(run, scenario, ctrl, out.with_suffix(""), stages, outcome=status) if figures else []
+        for p in drawn:
+            say(f"figure        {p}")
+    finally:
+        from coordarm.simulation.mcap_file import wait_released
+        wait_released()
     return ScenarioResult(scenario, run, status, EXIT_CODES[status], out, tuple(drawn), chosen,
                           Path(compiled.library.path) if compiled else None, compiled.cache_hit if compiled else None,
                           tuple(lines), stopped)
@@ -453,7 +457,7 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
     # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
     with RunLogger(out, scenario, ctrl, log_rate=log_rate, cond_rate=cond_rate, cond_exact=cond_exact,
                    compression=compression, overwrite=overwrite, frames=log_frames,
-                   threaded=(os.cpu_count() or 1) > 1) as logger:
+                   threaded=(os.cpu_count() or 1) > 1, free_replaced_later=True) as logger:
         q0 = scenario.start(ctrl)
         with warnings.catch_warnings(record=True) as caught:   # builds or loads the library
             warnings.simplefilter("always", BackendFallbackWarning)

@@ -11,19 +11,20 @@ options its law does not have (governor, damping, a projected start); its obstac
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from coordarm.symbolic import ConfigError, motion_from_spec
 from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.chain import DEFAULT_JOINT_LIMIT
-from coordarm.symbolic.curve3d_specs import curve3d_from_spec
-from coordarm.symbolic.curves3d import SpatialCurve
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.spatial_chain import unit_vector
 
 from .run import check_number
+
+if TYPE_CHECKING:   # the 3-D curves load when a universal chain's curve is read
+    from coordarm.symbolic.curves3d import SpatialCurve
 
 #: ``[chain] joints``: planar revolute joints, or two-axis (universal) joints of a spatial chain.
 JOINTS = ("revolute", "universal")
@@ -154,6 +155,8 @@ def spatial_curve(spec: dict, curve: Any) -> SpatialCurve | None:
             raise ConfigError(f"curve: the run used a user-defined 3-D curve ({spec.get('class', '?')}), "
                               f"which data cannot describe: pass the curve object in (curve=...)")
         return None
+    from coordarm.symbolic.curve3d_specs import curve3d_from_spec
+
     check_curve_kind(spec, "universal")
     return curve3d_from_spec(spec, "curve")
 

@@ -187,7 +187,8 @@ def physical_lines(run: Run, scenario: Scenario) -> list[str]:
 
     chain = scenario.chain()
     qr = chain.revolute(run.q)
-    rel = np.abs(qr[:, 1:]) / chain.joint_limits
+    rel = np.abs(qr[:, 1:])
+    rel /= chain.joint_limits          # in place: one array of the run's size, not two
     k, j = np.unravel_index(int(np.argmax(rel)), rel.shape)
     lines = [f"joints        max |q_j|/limit = {rel[k, j]:.3f} (joint {j + 2}: {qr[k, j + 1]:+.3f} rad of "
              f"±{chain.joint_limits[j]:.3f}, t = {run.t[k]:.2f} s)"]

@@ -80,12 +80,15 @@ def test_a_command_parsed_by_its_own_parser_gives_the_same_result_help_and_error
 
 def test_a_run_imports_no_module_it_does_not_use():
     """A cache-hit ``coordarm run --no-figures`` without --live: no live view, no psutil, no matplotlib,
-    no other command's module."""
+    no other command's module, no numpy.ma (~10 ms to import; ``np.unique`` loads it), no fractions, and
+    for a planar chain none of the spatial scenario, 3-D curve and spatial code-generation modules."""
     code = ("import sys; from coordarm.cli import main; "
             "main(['run', 'line', '--links', '4', '--duration', '0.002', '--no-figures', '--quiet', '--overwrite', "
             "'--out', sys.argv[1]]); "
             "print(sorted(m for m in ('coordarm.simulation.live', 'coordarm.simulation.ws_bridge', 'psutil', "
-            "'matplotlib', 'coordarm.commands.report', 'coordarm.commands.sweep', 'coordarm.analysis.report_outputs') "
+            "'matplotlib', 'coordarm.commands.report', 'coordarm.commands.sweep', 'coordarm.analysis.report_outputs', "
+            "'numpy.ma', 'fractions', 'coordarm.simulation.spatial_scenario', 'coordarm.symbolic.curve3d_specs', "
+            "'coordarm.generated.spatial_codegen') "
             "if m in sys.modules))")
     import tempfile
     with tempfile.TemporaryDirectory() as tmp:
@@ -127,6 +130,34 @@ def test_the_console_skips_the_teardown_only_when_nothing_is_registered_and_keep
     assert summary is not None and summary.statistics.message_count > 50
     again = subprocess.run(argv, capture_output=True, text=True, timeout=300)        # exists: refused, status 2
     assert again.returncode == 2 and "exists" in again.stderr
+
+
+LOGGING = """
+import sys
+class Witness:
+    def __del__(self):
+        print("teardown", flush=True)
+witness = Witness()
+if sys.argv[1] in ("logging", "handler"):
+    import logging
+    if sys.argv[1] == "handler":
+        logging.getLogger("user").addHandler(logging.StreamHandler(sys.stdout))
+from coordarm.cli import console
+console(sys.argv[2:])
+"""
+
+
+@pytest.mark.parametrize("case", ["bar", "logging", "handler"])
+def test_an_imported_logging_without_handlers_keeps_the_short_exit_and_a_handler_the_usual_one(case, tmp_path):
+    """``import logging`` registers ``logging.shutdown`` with atexit (tqdm, which formats the progress bar,
+    imports it): without a handler on any logger the console still ends with ``os._exit`` (no teardown),
+    the progress bar and the summary complete; a handler on a logger keeps the usual exit (teardown)."""
+    log = tmp_path / "x.mcap"
+    res = subprocess.run([sys.executable, "-c", LOGGING, case, "run", "line", "--links", "4", "--duration", "0.05",
+                          "--no-figures", "--out", str(log)], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert "100.0%" in res.stderr and f"log           {log}" in res.stdout
+    assert ("teardown" in res.stdout) == (case == "handler")
 
 
 def test_python_m_cprofile_of_the_command_still_writes_its_profile(tmp_path):
