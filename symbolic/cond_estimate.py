@@ -292,7 +292,7 @@ class DecouplingOperator:
 class SystemPattern(NamedTuple):
     """The sparsity of :meth:`DecouplingOperator.system_values` and its symbolically analysed QR solver.
 
-    Attributes
+    Parameters
     ----------
     size : int
         Order of the system, ``dof + 3 m``.
