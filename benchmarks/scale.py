@@ -417,24 +417,25 @@ def main() -> None:
     tmp = Path(tempfile.mkdtemp(prefix="coordarm-scale-"))
     load = [os.getloadavg()[0]]
     data: dict = {}
+    stamps: dict[str, str] = {}
     started = time.perf_counter()
     for name, fn in (("links", lambda: links_part(args.rounds, tmp)), ("command", lambda: command_part(args.rounds, tmp)),
                      ("export", lambda: export_part(args.rounds, tmp)), ("rt", lambda: rt_part(tmp))):
         if name in parts:
             data[name] = fn()
+            stamps[name] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
             load.append(os.getloadavg()[0])
             print(f"{name}: done after {time.perf_counter() - started:.0f} s", file=sys.stderr)
     saved = json.loads((HERE / "scale.json").read_text()) if (HERE / "scale.json").exists() else {}
     merged = {**saved, **data}        # parts not run this time keep their last numbers
     merged["rounds"] = {**saved.get("rounds", {}), **{name: args.rounds for name in data if name != "rt"}}
     loads = {**saved.get("loads", {}), **{name: load for name in data}}
+    merged["when"] = {**saved.get("when", {}), **stamps}     # when each part finished
     lines = report(merged, [x for v in loads.values() for x in v], args.rounds)
     print("\n".join(lines))
     if not args.no_write:
         merged["loads"] = loads
         merged["machine"] = [line for line in machine() if "load average at start" not in line]
-        merged["when"] = {**saved.get("when", {}), **{name: time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-                                                        for name in data}}
         (HERE / "scale.json").write_text(json.dumps(merged, indent=1, default=str))
         write(lines, merged)
 
