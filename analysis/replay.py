@@ -31,9 +31,9 @@ from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, DataEnd, Footer, Metadata, Schema
 from mcap.data_stream import ReadDataStream
 from mcap.stream_reader import CRCValidationError
-from mcap.writer import MCAP0_MAGIC as MCAP_MAGIC
 
 from coordarm.simulation.choices import Backend, Compression, Outcome, lz4_frame
+from coordarm.simulation.mcap_file import MCAP0_MAGIC as MCAP_MAGIC
 from coordarm.simulation.log_schemas import CDR_HEADER, PER_STEP, NumericChannel, fields_from_schema, numeric_channels
 from coordarm.simulation.log_layout import (DIGEST_KEY, OPTIONAL, PLANAR, ChainLayout, layout_of, layout_of_arrays,
                                            metadata_digest, partial_path)

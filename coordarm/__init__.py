@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from coordarm.version import __version__
 from coordarm.symbolic.lazy import lazy_exports
 
 #: Public name -> module that defines it (loaded on first attribute access).
@@ -74,24 +75,11 @@ _ALIASES = {"load_log": "load"}
 __all__ = sorted(_EXPORTS)
 
 
-def _version() -> str:
-    """The installed distribution's version (importlib.metadata is slow to import: done on demand)."""
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("coordarm")
-    except PackageNotFoundError:  # pragma: no cover - running from a source tree without an install
-        return "0+unknown"
-
-
 _lazy = lazy_exports(__name__, _EXPORTS, _ALIASES)
 
 
 def __getattr__(name: str) -> Any:
-    """Load a public name from its module on first use (PEP 562); also ``__version__``."""
-    if name == "__version__":
-        globals()[name] = value = _version()
-        return value
+    """Load a public name from its module on first use (PEP 562)."""
     return _lazy(name)
 
 

@@ -31,7 +31,7 @@ BLAS_THREADS = "1"
 
 
 class _Version(argparse.Action):
-    """``--version``: the installed version, looked up only when asked (importlib.metadata is slow)."""
+    """``--version``: the version (``coordarm.version``), printed only when asked."""
 
     def __init__(self, option_strings: list[str], dest: str, **kwargs) -> None:
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)

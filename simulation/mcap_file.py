@@ -22,6 +22,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any, BinaryIO, Callable
 
+import mcap
 import numpy as np
 import zstandard
 
@@ -29,11 +30,17 @@ from mcap.data_stream import RecordBuilder
 from mcap.opcode import Opcode
 from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex, Schema,
                           Statistics, SummaryOffset)
-from mcap.writer import LIBRARY_IDENTIFIER, MCAP0_MAGIC
 
 from .choices import COMPRESSIONS, DEFAULT_COMPRESSION, Compression, lz4_frame
 from .log_layout import DIGEST_KEY, metadata_digest
 
+
+#: The magic bytes that open and close an MCAP file (the MCAP specification: 0x89, "MCAP0", CR, LF); as
+#: ``mcap.writer.MCAP0_MAGIC``, which is not imported: ``mcap.writer`` loads ``importlib.metadata``
+#: (~25 ms at every start-up; ``tests/test_mcap_file_constants.py`` checks the two agree).
+MCAP0_MAGIC = b"\x89MCAP0\r\n"
+#: The header's ``library`` field: mcap-python's, as ``mcap.writer.LIBRARY_IDENTIFIER`` (whose records we write).
+LIBRARY_IDENTIFIER = f"mcap-python/{mcap.__version__}"
 
 #: Bytes of a Message record before its data: opcode, length, channel id, sequence, log and publish time.
 MESSAGE_HEADER_SIZE = 1 + 8 + 2 + 4 + 8 + 8

@@ -80,15 +80,16 @@ def test_a_command_parsed_by_its_own_parser_gives_the_same_result_help_and_error
 
 def test_a_run_imports_no_module_it_does_not_use():
     """A cache-hit ``coordarm run --no-figures`` without --live: no live view, no psutil, no matplotlib,
-    no other command's module, no numpy.ma (~10 ms to import; ``np.unique`` loads it), no fractions, and
-    for a planar chain none of the spatial scenario, 3-D curve and spatial code-generation modules."""
+    no other command's module, no numpy.ma (~10 ms to import; ``np.unique`` loads it), no fractions, no
+    mcap.writer or importlib.metadata (~25 ms), and for a planar chain none of the spatial scenario, 3-D
+    curve and spatial code-generation modules."""
     code = ("import sys; from coordarm.cli import main; "
             "main(['run', 'line', '--links', '4', '--duration', '0.002', '--no-figures', '--quiet', '--overwrite', "
             "'--out', sys.argv[1]]); "
             "print(sorted(m for m in ('coordarm.simulation.live', 'coordarm.simulation.ws_bridge', 'psutil', "
             "'matplotlib', 'coordarm.commands.report', 'coordarm.commands.sweep', 'coordarm.analysis.report_outputs', "
             "'numpy.ma', 'fractions', 'coordarm.simulation.spatial_scenario', 'coordarm.symbolic.curve3d_specs', "
-            "'coordarm.generated.spatial_codegen') "
+            "'coordarm.generated.spatial_codegen', 'mcap.writer', 'importlib.metadata') "
             "if m in sys.modules))")
     import tempfile
     with tempfile.TemporaryDirectory() as tmp:
