@@ -20,6 +20,7 @@ from __future__ import annotations
 import casadi as ca
 
 from coordarm.symbolic import SpatialController
+from coordarm.symbolic.path_pieces import all_hold
 from coordarm.symbolic.paths3d import (PIECE3D_CONSTANTS, PIECE_KINDS, Path3D, closest_piece_index3d, piece_candidates3d,
                                        piece_constants, piece_kind)
 from coordarm.symbolic.piece_formulas3d import kind_formulas3d
@@ -122,6 +123,20 @@ def path_pivots(ctrl: SpatialController) -> tuple[ca.Function, ca.Function, ca.F
     return inv_det, pivot, pivot_rates
 
 
+def centre_symbols() -> tuple[list[ca.SX], list[str]]:
+    """The three scalar inputs ``y_1, y_2, y_3`` of the per-link path Functions (a link's centre [m]) and their names.
+
+    Returns
+    -------
+    symbols : list of casadi.SX
+        ``y_1``, ``y_2``, ``y_3``.
+    names : list of str
+        ``["y_1", "y_2", "y_3"]``.
+    """
+    names = [f"y_{k}" for k in (1, 2, 3)]
+    return [ca.SX.sym(n) for n in names], names
+
+
 def piece_selector(ctrl: SpatialController) -> ca.Function:
     """``spatial_path_piece``: ``(y_1, y_2, y_3) -> piece``, the index of the piece the geometry selects at ``y``.
 
@@ -139,9 +154,9 @@ def piece_selector(ctrl: SpatialController) -> ca.Function:
     casadi.Function
         Three scalars, a link's centre [m]; output the piece's index (a whole number).
     """
-    y = [ca.SX.sym(f"y_{k}") for k in (1, 2, 3)]
+    y, names = centre_symbols()
     index = closest_piece_index3d(ctrl.task.curve.pieces, ca.vertcat(*y))
-    return ca.Function("spatial_path_piece", y, [index], [f"y_{k}" for k in (1, 2, 3)], ["piece"])
+    return ca.Function("spatial_path_piece", y, [index], names, ["piece"])
 
 
 def piece_tests(ctrl: SpatialController) -> ca.Function:
@@ -158,14 +173,9 @@ def piece_tests(ctrl: SpatialController) -> ca.Function:
         Three scalars, a point [m]; output ``valid`` (n,), 1 or 0 (the tests of
         :func:`~coordarm.symbolic.paths3d.piece_candidates3d`, all of them).
     """
-    y = [ca.SX.sym(f"y_{k}") for k in (1, 2, 3)]
-    valid = []
-    for _, tests in piece_candidates3d(ctrl.task.curve.pieces, ca.vertcat(*y)):
-        ok = ca.SX(1)
-        for test in tests:
-            ok = ca.logic_and(ok, test)
-        valid.append(ok)
-    return ca.Function("spatial_path_valid", y, [ca.vertcat(*valid)], [f"y_{k}" for k in (1, 2, 3)], ["valid"])
+    y, names = centre_symbols()
+    valid = [all_hold(ca.SX(1), tests) for _, tests in piece_candidates3d(ctrl.task.curve.pieces, ca.vertcat(*y))]
+    return ca.Function("spatial_path_valid", y, [ca.vertcat(*valid)], names, ["valid"])
 
 
 def piece_distances(ctrl: SpatialController) -> list[ca.Function]:
@@ -182,8 +192,8 @@ def piece_distances(ctrl: SpatialController) -> list[ca.Function]:
         One per piece: three scalars, a point [m]; output the approximate squared distance [m^2] of
         :func:`~coordarm.symbolic.paths3d.piece_candidates3d`.
     """
-    y = [ca.SX.sym(f"y_{k}") for k in (1, 2, 3)]
-    return [ca.Function(f"spatial_path_dist_{i}", y, [dist], [f"y_{k}" for k in (1, 2, 3)], ["dist"])
+    y, names = centre_symbols()
+    return [ca.Function(f"spatial_path_dist_{i}", y, [dist], names, ["dist"])
             for i, (dist, _) in enumerate(piece_candidates3d(ctrl.task.curve.pieces, ca.vertcat(*y)))]
 
 

@@ -321,6 +321,27 @@ def _abs_phi(piece: Piece, p):
     return ca.fabs(ca.sqrt(rx * rx + ry * ry) - radius), mid[0] * rx + mid[1] * ry > 0
 
 
+
+def all_hold(first: Any, tests: Sequence[Any]) -> Any:
+    """``first and tests[0] and tests[1] ...``, folded left with :func:`casadi.logic_and` (the piece
+    selections of planar and spatial paths and the C's per-piece tests build their conditions so).
+
+    Parameters
+    ----------
+    first : casadi.SX
+        The first condition (e.g. ``dist < best``, or ``SX(1)``).
+    tests : sequence of casadi.SX
+        The further conditions, in order.
+
+    Returns
+    -------
+    casadi.SX
+        Their conjunction (1 or 0).
+    """
+    for test in tests:
+        first = ca.logic_and(first, test)
+    return first
+
 def closest_piece_formulas(pieces: list[Piece], p):
     """``(phi, psi)`` of the path at ``p`` (path frame): select the closest piece, evaluate its formula.
 
@@ -349,9 +370,7 @@ def closest_piece_formulas(pieces: list[Piece], p):
         dist, extra = _abs_phi(pc, p)
         tests = ([] if pc.ray_before or i == 0 else [g[i] >= 0]) + ([] if i == last else [g[i + 1] <= 0])
         tests += [extra] if extra is not None else []
-        closer = dist < best
-        for tst in tests:
-            closer = ca.logic_and(closer, tst)
+        closer = all_hold(dist < best, tests)
         best = ca.if_else(closer, dist, best)
         sel = ca.if_else(closer, par, sel)
     if spirals:

@@ -26,6 +26,7 @@ import casadi as ca
 import numpy as np
 
 from .curves3d import SpatialCurve, as_column
+from .path_pieces import all_hold
 from .piece_formulas3d import piece_formulas3d
 from .errors import ConfigError, shown
 from .vectors3d import finite, finite_vector, orthogonal_normal, rotate, unit_vector
@@ -347,9 +348,7 @@ def _closer_pieces(pieces: list[Piece3D], y):
     every piece before it (approximate squared distances: a clothoid by its approximating arc)."""
     best = ca.inf
     for i, (dist, tests) in enumerate(piece_candidates3d(pieces, y)):
-        closer = dist < best
-        for test in tests:
-            closer = ca.logic_and(closer, test)
+        closer = all_hold(dist < best, tests)
         best = ca.if_else(closer, dist, best)
         yield i, closer
 
