@@ -68,7 +68,8 @@ class JointRates:
                 k, j = bad[0]
                 stop = (int(k), JointRateError(float(tt[k]), int(j) // self.per_joint + 1, float(abs(rev[k, j])),
                                                self.rate_limit, "rate"))
-        acc = np.abs(np.diff(rev, axis=0)) / np.diff(tt)[:, None]       # step k ends at row k + 1
+        acc = np.subtract(rev[1:], rev[:-1])                             # step k ends at row k + 1
+        np.divide(np.abs(acc, out=acc), np.diff(tt)[:, None], out=acc)  # (in place: no fresh pages per block)
         if self.accel_limit is not None:
             bad = np.argwhere(acc > self.accel_limit)
             if len(bad) and (stop is None or bad[0][0] + 1 < stop[0]):
