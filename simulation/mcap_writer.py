@@ -486,23 +486,26 @@ class RunLogger:
             self._extras = [x for x in self._extras if x[1] > end]
         else:
             extras, self._extras = self._extras, []
-        parts, pos = [block.view(np.uint8)], n * size    # (a view: the block is never written again)
-        found: dict[int, tuple[list[int], list[int]]] = {}   # channel -> log times, offsets of the extras
-        for key, lt, data in extras:
-            cid = self.ids[key]
-            record = message_records(cid, [lt], [data], self._sequence[key])
-            self._sequence[key] += 1
-            lts, offs = found.setdefault(cid, ([], []))
-            lts.append(lt)
-            offs.append(pos)
-            parts.append(record)
-            pos += len(record)
-        for cid, (lts, offs) in found.items():
-            new = np.array(lts, np.uint64), np.array(offs, np.uint64)
-            if cid in index:
-                new = np.concatenate([index[cid][0], new[0]]), np.concatenate([index[cid][1], new[1]])
-            index[cid] = new
-        self.file.write_chunk(b"".join(parts) if len(parts) > 1 else parts[0], index)
+        parts = [block.view(np.uint8)]       # (a view: the block is never written again)
+        if extras:
+            keys = [key for key, _, _ in extras]
+            sequences = [self._next_sequence(key) for key in keys]
+            channels = np.array([self.ids[key] for key in keys])
+            records, offsets = message_records(channels, sequences, [lt for _, lt, _ in extras],
+                                               [data for _, _, data in extras], n * size)
+            parts.append(records)
+            log_times = np.array([lt for _, lt, _ in extras], np.uint64)
+            for cid in dict.fromkeys(channels.tolist()):   # in the order of their first message
+                new = log_times[channels == cid], offsets[channels == cid]
+                if cid in index:
+                    new = np.concatenate([index[cid][0], new[0]]), np.concatenate([index[cid][1], new[1]])
+                index[cid] = new
+        self.file.write_chunk(parts, index)
+
+    def _next_sequence(self, key: str) -> int:
+        """The sequence number of the next message of channel ``key`` (counting it)."""
+        self._sequence[key] += 1
+        return (self._sequence[key] - 1) & 0xFFFFFFFF
 
     def flush(self) -> None:
         """Wait for the queued blocks, write them as a chunk, push the file to the operating system."""
