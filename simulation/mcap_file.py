@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import errno
 import fcntl
+import functools
 import os
 import queue
 import struct
@@ -111,6 +112,24 @@ def parts_compressor(compression: str) -> Callable[[Sequence[Any], int], list]:
             return [frames.begin(size), *(frames.compress(p) for p in parts), frames.flush()]
         return lz4_parts
     return lambda parts, size: list(parts)
+
+
+@functools.cache
+def crc32_function() -> Callable[..., int]:
+    """The CRC-32 of the chunks: zlib-ng's (carry-less multiplication, ~4x faster than zlib 1.2's) where the
+    ``zlib-ng`` package is installed, else :func:`zlib.crc32`; the same values (the MCAP and zlib CRC-32).
+    Loaded on the first chunk (the chunk thread's), not at start-up.
+
+    Returns
+    -------
+    callable
+        ``crc32(data, value=0)`` -> int, releasing the GIL on large buffers.
+    """
+    try:
+        from zlib_ng.zlib_ng import crc32
+    except ImportError:
+        return zlib.crc32
+    return crc32
 
 
 def open_locked(path: Path) -> BinaryIO:
@@ -421,9 +440,9 @@ class McapFile:
     def _write_chunk_now(self, parts: Sequence[Any], index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
         start = min(int(lt.min()) for lt, _ in index.values() if len(lt))
         end = max(int(lt.max()) for lt, _ in index.values() if len(lt))
-        size, crc = 0, 0
+        size, crc, crc32 = 0, 0, crc32_function()
         for part in parts:                  # the CRC-32 of the whole, part by part
-            crc = zlib.crc32(part, crc)
+            crc = crc32(part, crc)
             size += memoryview(part).nbytes
         data = self._compress(parts, size)
         compressed = sum(memoryview(d).nbytes for d in data)

@@ -124,3 +124,11 @@ def test_a_file_of_chunks_in_parts_reads_back_with_mcaps_readers_and_crc_checks(
         for cid, offset in ci.message_index_offsets.items():
             index = next(StreamReader(io.BytesIO(raw[offset:]), skip_magic=True).records)
             assert isinstance(index, MessageIndex) and index.channel_id == cid and len(index.records) == 2
+
+
+def test_the_chunks_crc32_is_zlibs_whole_and_part_by_part(rng):
+    from coordarm.simulation.mcap_file import crc32_function
+    crc32 = crc32_function()
+    data = rng.integers(0, 256, 3_000_001, dtype=np.uint8)
+    assert crc32(data) == zlib.crc32(data) and crc32(b"") == 0
+    assert crc32(data[1_000_000:], crc32(data[:1_000_000])) == zlib.crc32(data.tobytes())
