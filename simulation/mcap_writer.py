@@ -59,6 +59,7 @@ from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChanne
                           numeric_channels)
 from .outcome import outcome_of
 from .rates import MOST_STEPS_BETWEEN, steps_between  # noqa: F401 (re-exported)
+from .recycled_arrays import RecycledArrays
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
 from .scenario import Scenario
@@ -318,7 +319,7 @@ class RunLogger:
             layout += [(key + "_hdr", MESSAGE_HEADER_DTYPE), (key + "_cdr", "V4"), (key, "<f8", (ch.width,))]
         self.sample_dtype = np.dtype(layout)
         self.samples_per_chunk = max(1, (chunk_size or CHUNK_SIZE) // self.sample_dtype.itemsize)
-        self._pending = np.empty(0, self.sample_dtype)
+        self._pending, self._arrays = np.empty(0, self.sample_dtype), RecycledArrays(self.sample_dtype)
         self._extras: list[tuple[str, int, bytes]] = []  # (channel key, log time, data) at reduced rates
         self._sequence = {key: 0 for key in self.ids}
         self._seen = 0          # steps received so far (the global index of the next one)
@@ -453,7 +454,7 @@ class RunLogger:
         n, held = len(rows), len(self._pending)
         if n and rows[-1] - rows[0] == n - 1:
             rows = slice(int(rows[0]), int(rows[-1]) + 1)   # every step: no gathered copies
-        whole = np.empty(held + n, self.sample_dtype)      # the samples not yet in a chunk, then these
+        whole = self._arrays.take(held + n, self.samples_per_chunk)   # the samples not yet in a chunk, then these
         whole[:held] = self._pending
         rec = whole[held:]
         ns = self._ns(part.t[rows])
@@ -491,10 +492,9 @@ class RunLogger:
             keys = [key for key, _, _ in extras]
             sequences = [self._next_sequence(key) for key in keys]
             channels = np.array([self.ids[key] for key in keys])
-            records, offsets = message_records(channels, sequences, [lt for _, lt, _ in extras],
-                                               [data for _, _, data in extras], n * size)
-            parts.append(records)
             log_times = np.array([lt for _, lt, _ in extras], np.uint64)
+            records, offsets = message_records(channels, sequences, log_times, [d for _, _, d in extras], n * size)
+            parts.append(records)
             for cid in dict.fromkeys(channels.tolist()):   # in the order of their first message
                 new = log_times[channels == cid], offsets[channels == cid]
                 if cid in index:
