@@ -132,3 +132,19 @@ def test_the_chunks_crc32_is_zlibs_whole_and_part_by_part(rng):
     data = rng.integers(0, 256, 3_000_001, dtype=np.uint8)
     assert crc32(data) == zlib.crc32(data) and crc32(b"") == 0
     assert crc32(data[1_000_000:], crc32(data[:1_000_000])) == zlib.crc32(data.tobytes())
+
+
+def test_a_logged_run_loads_none_of_mcaps_record_classes(tmp_path):
+    """mcap.records (~7 ms to import) and its RecordBuilder are the readers' business, not a run's."""
+    import subprocess
+    import sys
+    code = ("import sys; from coordarm.cli import main; "
+            "main(['run', 'line', '--links', '4', '--duration', '0.05', '--no-figures', '--quiet', '--overwrite', "
+            "'--out', sys.argv[1]]); "
+            "print(sorted(m for m in ('mcap.records', 'mcap.data_stream', 'mcap.opcode') if m in sys.modules))")
+    res = subprocess.run([sys.executable, "-c", code, str(tmp_path / "x.mcap")], capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip().splitlines()[-1] == "[]"
+    with open(tmp_path / "x.mcap", "rb") as f:
+        assert make_reader(f).get_summary().statistics.message_count > 50
