@@ -319,7 +319,8 @@ class RunLogger:
             layout += [(key + "_hdr", MESSAGE_HEADER_DTYPE), (key + "_cdr", "V4"), (key, "<f8", (ch.width,))]
         self.sample_dtype = np.dtype(layout)
         self.samples_per_chunk = max(1, (chunk_size or CHUNK_SIZE) // self.sample_dtype.itemsize)
-        self._pending, self._arrays = np.empty(0, self.sample_dtype), RecycledArrays(self.sample_dtype)
+        self._pending = np.empty(0, self.sample_dtype)
+        self._arrays = RecycledArrays(self.sample_dtype, self._constant_fields)   # the blocks' records
         self._extras: list[tuple[str, int, bytes]] = []  # (channel key, log time, data) at reduced rates
         self._sequence = {key: 0 for key in self.ids}
         self._seen = 0          # steps received so far (the global index of the next one)
@@ -456,26 +457,25 @@ class RunLogger:
             rows = slice(int(rows[0]), int(rows[-1]) + 1)   # every step: no gathered copies
         whole = self._arrays.take(held + n, self.samples_per_chunk)   # the samples not yet in a chunk, then these
         whole[:held] = self._pending
-        rec = whole[held:]
-        ns = self._ns(part.t[rows])
-        for key in PER_STEP:
-            ch = self.channels[key]
+        rec, ns = whole[held:], self._ns(part.t[rows])
+        for key in PER_STEP:         # (opcode, length, channel and CDR header: _constant_fields)
             hdr = rec[key + "_hdr"]
-            hdr["opcode"] = 0x05
-            hdr["length"] = MESSAGE_HEADER_SIZE - 9 + ch.size
-            hdr["channel"] = self.ids[key]
             hdr["sequence"] = (self._sequence[key] + np.arange(n)) & 0xFFFFFFFF
-            hdr["log_time"] = ns
-            hdr["publish_time"] = ns
+            hdr["log_time"] = hdr["publish_time"] = ns
             self._sequence[key] += n
-            rec[key + "_cdr"] = np.frombuffer(CDR_HEADER, "V4")[0]
-            ch.fill(rec[key], part, rows)
+            self.channels[key].fill(rec[key], part, rows)
         self._pending = whole
+
+    def _constant_fields(self, records: np.ndarray) -> None:
+        """Write the fields that every sample record has alike (a new array's, once: the arrays are recycled)."""
+        for key in PER_STEP:
+            hdr, size = records[key + "_hdr"], MESSAGE_HEADER_SIZE - 9 + self.channels[key].size
+            hdr["opcode"], hdr["length"], hdr["channel"] = 0x05, size, self.ids[key]
+            records[key + "_cdr"] = np.frombuffer(CDR_HEADER, "V4")[0]
 
     def _write_chunk(self, n: int) -> None:
         block, self._pending = self._pending[:n], self._pending[n:]
-        size = self.sample_dtype.itemsize
-        index = {}
+        size, index = self.sample_dtype.itemsize, {}
         base = np.arange(n, dtype=np.uint64) * np.uint64(size)
         for key in PER_STEP:
             if n:

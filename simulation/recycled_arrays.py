@@ -9,6 +9,7 @@ reference count tells.
 from __future__ import annotations
 
 import sys
+from typing import Callable
 
 import numpy as np
 
@@ -20,13 +21,16 @@ class RecycledArrays:
     ----------
     dtype : numpy.dtype
         The items' dtype.
+    prepare : callable or None
+        ``prepare(array)``, applied to each new array, whole (e.g. to write what every item holds alike;
+        the caller keeps it true of what it writes, since the array comes back as it was left).
     keep : int
         Most arrays kept (the smallest is let go first).
     """
 
-    def __init__(self, dtype: np.dtype, keep: int = 4) -> None:
+    def __init__(self, dtype: np.dtype, prepare: Callable[[np.ndarray], None] | None = None, keep: int = 4) -> None:
         self.dtype = np.dtype(dtype)
-        self.keep = keep
+        self.prepare, self.keep = prepare, keep
         self._arrays: list[np.ndarray] = []
 
     def take(self, n: int, spare: int = 0) -> np.ndarray:
@@ -42,13 +46,16 @@ class RecycledArrays:
         Returns
         -------
         ndarray, shape (n,)
-            Not shared with any live array (the caller's until it drops every view of it).
+            Not shared with any live array (the caller's until it drops every view of it); a new array's
+            items as ``prepare`` left them, a recycled one's as the caller did.
         """
         for i in range(len(self._arrays)):
             # references: the list's and getrefcount's argument; a live view (its .base) adds one
             if len(self._arrays[i]) >= n and sys.getrefcount(self._arrays[i]) == 2:
                 return self._arrays[i][:n]
         array = np.empty(n + spare, self.dtype)
+        if self.prepare is not None:
+            self.prepare(array)
         self._arrays.append(array)
         if len(self._arrays) > self.keep:
             del self._arrays[min(range(len(self._arrays)), key=lambda i: len(self._arrays[i]))]
