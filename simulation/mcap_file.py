@@ -81,9 +81,10 @@ def message_records(channels: Sequence[int], sequences: Sequence[int], log_times
 def parts_compressor(compression: str) -> Callable[[Sequence[Any], int], list]:
     """What compresses a chunk's records given in parts: ``compress(parts, size)`` -> the data, in parts.
 
-    lz4 compresses the parts one after the other into one frame (the same bytes as ``lz4.frame.compress``
-    of the whole); zstd (level 1) compresses them joined (its streaming interface is ~10 % slower than a
-    join and one call); none returns them as they are. Nothing is copied but for zstd's join.
+    lz4 compresses the parts one after the other into one frame with ``lz4.frame.compress``'s settings (for
+    one part its very bytes; for several, blocks may fall elsewhere: the frame decompresses to the whole);
+    zstd (level 1) compresses them joined (its streaming interface is ~10 % slower than a join and one
+    call); none returns them as they are. Nothing is copied but for zstd's join.
 
     Parameters
     ----------
