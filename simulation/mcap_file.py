@@ -439,8 +439,8 @@ class McapFile:
             self._write_chunk_now(parts, index)
 
     def _write_chunk_now(self, parts: Sequence[Any], index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
-        start = min(int(lt.min()) for lt, _ in index.values() if len(lt))
-        end = max(int(lt.max()) for lt, _ in index.values() if len(lt))
+        times = np.concatenate([lt for lt, _ in index.values()])
+        start, end = int(times.min()), int(times.max())
         size, crc, crc32 = 0, 0, crc32_function()
         for part in parts:                  # the CRC-32 of the whole, part by part
             crc = crc32(part, crc)
