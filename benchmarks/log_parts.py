@@ -91,7 +91,7 @@ for k, v in T.items():
 blocks, chunks = [], []
 simulate(ctrl, q0, sc.duration, sc.step, sc.t0, backend="compiled", progress=False, on_chunk=blocks.append)
 grab = mcap_file.McapFile._write_chunk_now
-mcap_file.McapFile._write_chunk_now = lambda self, rec, idx: (chunks.append(bytes(rec)), grab(self, rec, idx))[1]
+mcap_file.McapFile._write_chunk_now = lambda self, rec, idx: (chunks.append(b"".join(rec)), grab(self, rec, idx))[1]
 with RunLogger(OUT, sc, ctrl, command=["b"], threaded=False) as log:
     for part in blocks:
         log.on_chunk(part)

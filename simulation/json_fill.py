@@ -106,6 +106,14 @@ def text_width(values: np.ndarray) -> int:
     return len(str(top)) + int(bool(np.any(v < 0)))
 
 
+def _width(lo: int, hi: int) -> int:
+    """:func:`text_width` of values from ``lo`` to ``hi`` (``lo <= hi``), on Python integers."""
+    top = max(-lo, hi)
+    if top >= LIMIT:
+        raise ValueError(f"integer {top} too large for a JSON slot (limit 1e18)")
+    return len(str(top)) + (lo < 0)
+
+
 class JsonTemplate:
     """Literal JSON text with integer slots, built by :meth:`text` and :meth:`number` calls in order.
 
@@ -120,7 +128,8 @@ class JsonTemplate:
         self._literals: list[str] = [""]
         self._slot_kinds: list[int] = []
         self._kind_columns: list[np.ndarray] = []       # the slots of each kind (made again when slots are added)
-        self._layouts: dict[tuple[int, ...], tuple[np.ndarray, list[tuple[int, np.ndarray, np.ndarray]]]] = {}
+        self._layouts: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._kind_order, self._kind_starts = np.zeros(0, int), np.zeros(0, int)
 
     @property
     def slots(self) -> int:
@@ -173,25 +182,26 @@ class JsonTemplate:
         if len(self._kind_columns) != self.kinds or sum(map(len, self._kind_columns)) != self.slots:
             kinds = np.array(self._slot_kinds, int)
             self._kind_columns = [np.flatnonzero(kinds == k) for k in range(self.kinds)]
-        if not len(values):
+            used = [c for c in self._kind_columns if len(c)]
+            self._kind_order = np.concatenate(used) if used else np.zeros(0, int)    # the slots, kind by kind
+            self._kind_starts = np.cumsum([0] + [len(c) for c in used])[:-1]
+        if not len(values) or not self.slots:
             return (1,) * self.kinds
-        lo, hi = values.min(axis=0), values.max(axis=0)
-        return tuple(text_width(np.array([lo[c].min(), hi[c].max()])) if len(c) else 1 for c in self._kind_columns)
+        lo = iter(np.minimum.reduceat(values.min(axis=0)[self._kind_order], self._kind_starts).tolist())
+        hi = iter(np.maximum.reduceat(values.max(axis=0)[self._kind_order], self._kind_starts).tolist())
+        return tuple(_width(next(lo), next(hi)) if len(c) else 1 for c in self._kind_columns)
 
     def _layout(self, widths: tuple[int, ...]):
-        """The blank message (spaces in the slots), per width which slots and where, and each slot's
-        start and width (int64, for the C kernel)."""
+        """The blank message (spaces in the slots) and each slot's start and width (int64, for the C kernel)."""
         if widths not in self._layouts:
             kinds = np.array(self._slot_kinds, int)
-            w = np.array(widths, int)[kinds] if len(kinds) else np.zeros(0, int)
-            lit = [s.encode() for s in self._literals]
-            starts = np.cumsum([len(lit[0])] + [len(lit[i + 1]) + w[i] for i in range(len(w) - 1)]).astype(int)
-            blank = np.frombuffer(b"".join(l + b" " * int(wi) for l, wi in zip(lit, [*w, 0])), np.uint8).copy()
-            groups = []
-            for width in sorted(set(w.tolist())):
-                idx = np.flatnonzero(w == width)
-                groups.append((width, idx, starts[idx, None] + np.arange(width)))
-            self._layouts[widths] = blank, groups, starts.astype(np.int64), w.astype(np.int64)
+            w = np.array(widths, np.int64)[kinds] if len(kinds) else np.zeros(0, np.int64)
+            lit = [x.encode() for x in self._literals]
+            starts = np.cumsum([len(x) for x in lit[:-1]]) + np.concatenate([[0], np.cumsum(w[:-1])]).astype(np.int64)
+            spaces = [b" " * k for k in range(int(w.max(initial=0)) + 1)]
+            blank = np.frombuffer(b"".join([x for i, wi in enumerate(w.tolist()) for x in (lit[i], spaces[wi])]
+                                           + [lit[-1]]), np.uint8)
+            self._layouts[widths] = blank, starts.astype(np.int64), w
         return self._layouts[widths]
 
     def fill(self, values: np.ndarray) -> list[bytes]:
@@ -216,7 +226,7 @@ class JsonTemplate:
         n = len(values)
         if values.shape != (n, self.slots):
             raise ValueError(f"values: expected shape (n, {self.slots}), got {values.shape}")
-        blank, groups, starts, slot_widths = self._layout(self._widths(values))
+        blank, starts, slot_widths = self._layout(self._widths(values))
         out = np.empty((n, len(blank)), np.uint8)
         fill = digits_kernel()
         if fill is not None and n:
@@ -225,8 +235,9 @@ class JsonTemplate:
                  values.ctypes.data, n, out.ctypes.data)
         else:
             out[:] = blank
-            for width, idx, pos in groups:
-                out[:, pos] = int_text(values[:, idx], width)
+            for width in sorted(set(slot_widths.tolist())):
+                idx = np.flatnonzero(slot_widths == width)
+                out[:, starts[idx, None] + np.arange(width)] = int_text(values[:, idx], width)
         return [row.tobytes() for row in out]
 
 

@@ -3,16 +3,17 @@
 ``mcap.writer.Writer.add_message`` costs a few microseconds of Python per message (a
 ``Message`` object, statistics, a message-index entry, five ``struct.pack`` calls); at
 30,000 steps and three channels that is more than a fast simulation itself. Here the caller
-hands over the message records of a whole chunk as one ``bytes`` object built with numpy,
-plus the (log time, offset) pairs of each channel, and this class frames the chunk, its
-message indexes, and at the end the summary section exactly as the MCAP specification (and
-``mcap.writer.Writer``) does. Every record other than messages is written by the record
-classes of the ``mcap`` library itself.
+hands over the message records of a whole chunk, built with numpy, as one buffer or a few parts
+(compressed one after the other, never joined: :func:`parts_compressor`), plus the (log time,
+offset) pairs of each channel, and this class frames the chunk, its message indexes, and at the
+end the summary section exactly as the MCAP specification (and ``mcap.writer.Writer``) does. The
+records are encoded by :mod:`.mcap_records` (``mcap.records`` costs ~7 ms to import).
 """
 from __future__ import annotations
 
 import errno
 import fcntl
+import functools
 import os
 import queue
 import struct
@@ -20,17 +21,12 @@ import threading
 import zlib
 from collections import defaultdict
 from pathlib import Path
-from typing import Any, BinaryIO, Callable
+from typing import Any, BinaryIO, Callable, Sequence
 
 import mcap
 import numpy as np
-import zstandard
 
-from mcap.data_stream import RecordBuilder
-from mcap.opcode import Opcode
-from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, Metadata, MetadataIndex, Schema,
-                          Statistics, SummaryOffset)
-
+from . import mcap_records as rec
 from .choices import COMPRESSIONS, DEFAULT_COMPRESSION, Compression, lz4_frame
 from .log_layout import DIGEST_KEY, metadata_digest
 
@@ -51,31 +47,90 @@ MESSAGE_HEADER_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel"
                                  ("log_time", "<u8"), ("publish_time", "<u8")])
 
 
-def message_records(channel_id: int, log_times: np.ndarray, data: list[bytes], sequence0: int = 0) -> bytes:
-    """Message records for a few messages of variable size (the slow path, for low-rate channels).
+def message_records(channels: Sequence[int], sequences: Sequence[int], log_times: Sequence[int],
+                    data: Sequence[Any], offset: int = 0) -> tuple[bytes, np.ndarray]:
+    """Message records of a few messages of any channels and sizes, back to back (for the low-rate channels).
 
     Parameters
     ----------
-    channel_id : int
-        The channel's id.
-    log_times : ndarray of int, shape (n,)
-        Log (and publish) time of each message [ns].
-    data : list of bytes
-        The n message bodies.
-    sequence0 : int
-        Sequence number of the first message (wraps at 2^32).
+    channels, sequences, log_times : sequence of int, length n
+        Each message's channel id, sequence number (< 2^32) and log (and publish) time [ns].
+    data : sequence of bytes-like, length n
+        The message bodies.
+    offset : int
+        Where the first record will sit in its chunk [bytes].
 
     Returns
     -------
-    bytes
-        The encoded records, back to back.
+    records : bytes
+        The n records.
+    offsets : uint64 ndarray, shape (n,)
+        Where each record sits in the chunk: ``offset`` plus its position in ``records`` [bytes].
     """
-    out = bytearray()
-    for i, (lt, d) in enumerate(zip(log_times, data)):
-        out += struct.pack("<BQHIQQ", Opcode.MESSAGE, MESSAGE_HEADER_SIZE - 9 + len(d), channel_id,
-                           (sequence0 + i) & 0xFFFFFFFF, int(lt), int(lt))
-        out += d
-    return bytes(out)
+    n = len(data)
+    sizes = np.fromiter((memoryview(d).nbytes for d in data), np.uint64, n) + np.uint64(MESSAGE_HEADER_SIZE)
+    head = np.empty(n, MESSAGE_HEADER_DTYPE)
+    head["opcode"], head["length"], head["channel"] = rec.MESSAGE, sizes - np.uint64(9), channels
+    head["sequence"], head["log_time"] = sequences, log_times
+    head["publish_time"] = head["log_time"]
+    heads, h = memoryview(head.tobytes()), MESSAGE_HEADER_SIZE
+    records = b"".join([piece for k in range(n) for piece in (heads[k * h:(k + 1) * h], data[k])])
+    return records, np.cumsum(sizes) - sizes + np.uint64(offset)
+
+
+def parts_compressor(compression: str) -> Callable[[Sequence[Any], int], list]:
+    """What compresses a chunk's records given in parts: ``compress(parts, size)`` -> the data, in parts.
+
+    lz4 compresses the parts one after the other into one frame with ``lz4.frame.compress``'s settings (for
+    one part its very bytes; for several, blocks may fall elsewhere: the frame decompresses to the whole);
+    zstd (level 1) compresses them joined (its streaming interface is ~10 % slower than a join and one
+    call); none returns them as they are. Nothing is copied but for zstd's join.
+
+    Parameters
+    ----------
+    compression : {"lz4", "zstd", "none"}
+        The chunk compression.
+
+    Returns
+    -------
+    callable
+        ``compress(parts, size)``: ``parts`` a sequence of bytes-like objects of ``size`` bytes in all;
+        returns a list of bytes-like objects whose concatenation is the chunk's data. Not for two threads at once.
+
+    Raises
+    ------
+    ConfigError
+        ``compression="lz4"`` without the lz4 package installed.
+    """
+    if compression == Compression.ZSTD:
+        from zstandard import ZstdCompressor     # here: only a zstd log loads it
+        one_call = ZstdCompressor(level=1).compress
+        return lambda parts, size: [one_call(parts[0] if len(parts) == 1 else b"".join(parts))]
+    if compression == Compression.LZ4:
+        frames = lz4_frame().LZ4FrameCompressor()   # lz4.frame.compress's defaults; the size stored in the frame
+
+        def lz4_parts(parts: Sequence[Any], size: int) -> list:
+            return [frames.begin(size), *(frames.compress(p) for p in parts), frames.flush()]
+        return lz4_parts
+    return lambda parts, size: list(parts)
+
+
+@functools.cache
+def crc32_function() -> Callable[..., int]:
+    """The CRC-32 of the chunks: zlib-ng's (carry-less multiplication, ~4x faster than zlib 1.2's) where the
+    ``zlib-ng`` package is installed, else :func:`zlib.crc32`; the same values (the MCAP and zlib CRC-32).
+    Loaded on the first chunk (the chunk thread's), not at start-up.
+
+    Returns
+    -------
+    callable
+        ``crc32(data, value=0)`` -> int, releasing the GIL on large buffers.
+    """
+    try:
+        from zlib_ng.zlib_ng import crc32
+    except ImportError:
+        return zlib.crc32
+    return crc32
 
 
 def open_locked(path: Path) -> BinaryIO:
@@ -261,22 +316,18 @@ class McapFile:
             raise ValueError(f"compression: expected one of {COMPRESSIONS}, got {compression!r}")
         self.path = Path(path)
         self.compression = "" if compression == Compression.NONE else compression   # as the Chunk record names it
-        self._compress: Callable[[bytes], bytes] = bytes          # none: the records as they are
-        if compression == Compression.ZSTD:
-            self._compress = zstandard.ZstdCompressor(level=1).compress
-        elif compression == Compression.LZ4:
-            self._compress = lz4_frame().compress
+        self._compress = parts_compressor(compression)
         self._stream: BinaryIO = open_locked(self.path)
-        self._schemas: list[Schema] = []
-        self._channels: list[Channel] = []
-        self._chunk_indexes: list[ChunkIndex] = []
-        self._metadata_indexes: list[MetadataIndex] = []
+        self._schemas: list[bytes] = []          # the summary's records, encoded (mcap_records)
+        self._channels: list[bytes] = []
+        self._chunk_indexes: list[bytes] = []
+        self._metadata_indexes: list[bytes] = []
         self._counts: dict[int, int] = defaultdict(int)
         self._time = [None, 0]
         self._metadata_count = 0
         self._closed = False
         self._stream.write(MCAP0_MAGIC)
-        self._write(Header(profile, LIBRARY_IDENTIFIER))
+        self._write(rec.header_record(profile, LIBRARY_IDENTIFIER))
         self._worker = Worker(lambda job: self._write_chunk_now(*job), "mcap-chunks", 4) if background else None
 
     def _wait(self) -> None:
@@ -291,13 +342,10 @@ class McapFile:
         """Whether :meth:`close` has run."""
         return self._closed
 
-    def _write(self, *records) -> int:
-        """Write records; return the offset of the first."""
-        builder = RecordBuilder()
-        for r in records:
-            r.write(builder)
+    def _write(self, raw: bytes) -> int:
+        """Write an encoded record; return its offset."""
         offset = self._stream.tell()
-        self._stream.write(builder.end())
+        self._stream.write(raw)
         return offset
 
     def add_schema(self, name: str, encoding: str, data: bytes) -> int:
@@ -317,10 +365,10 @@ class McapFile:
         int
             The schema id.
         """
-        schema = Schema(id=len(self._schemas) + 1, name=name, encoding=encoding, data=data)
-        self._schemas.append(schema)
-        self._write(schema)
-        return schema.id
+        schema_id = len(self._schemas) + 1
+        self._schemas.append(rec.schema_record(schema_id, name, encoding, data))
+        self._write(self._schemas[-1])
+        return schema_id
 
     def add_channel(self, topic: str, message_encoding: str, schema_id: int,
                     metadata: dict[str, str] | None = None) -> int:
@@ -342,11 +390,10 @@ class McapFile:
         int
             The channel id.
         """
-        channel = Channel(id=len(self._channels) + 1, topic=topic, message_encoding=message_encoding,
-                          schema_id=schema_id, metadata=dict(metadata or {}))
-        self._channels.append(channel)
-        self._write(channel)
-        return channel.id
+        channel_id = len(self._channels) + 1
+        self._channels.append(rec.channel_record(channel_id, schema_id, topic, message_encoding, dict(metadata or {})))
+        self._write(self._channels[-1])
+        return channel_id
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         """Write a Metadata record (string values only) with its checksum (:func:`metadata_digest`) and index it.
@@ -359,25 +406,22 @@ class McapFile:
             Its entries.
         """
         self._wait()
-        builder = RecordBuilder()
-        Metadata(name=name, metadata={**data, DIGEST_KEY: metadata_digest(data)}).write(builder)
-        raw = builder.end()
-        offset = self._stream.tell()
-        self._stream.write(raw)
-        self._metadata_indexes.append(MetadataIndex(offset=offset, length=len(raw), name=name))
+        raw = rec.metadata_record(name, {**data, DIGEST_KEY: metadata_digest(data)})
+        self._metadata_indexes.append(rec.metadata_index_record(self._write(raw), len(raw), name))
         self._metadata_count += 1
 
-    def write_chunk(self, records: bytes, index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
+    def write_chunk(self, records: Any, index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
         """Compress and write one chunk and its message indexes.
 
         Parameters
         ----------
-        records : bytes-like
-            Concatenated Message records (see :data:`MESSAGE_HEADER_DTYPE`); ``bytes`` or a contiguous
-            uint8 array, which must not change afterwards (it may be compressed later, on the chunk thread).
+        records : bytes-like or list of bytes-like
+            Concatenated Message records (see :data:`MESSAGE_HEADER_DTYPE`), or parts to be concatenated
+            (they are compressed one after the other, never joined): ``bytes`` or contiguous uint8 arrays,
+            which must not change afterwards (they may be compressed later, on the chunk thread).
         index : dict
             Channel id -> ``(log_times, offsets)`` (uint64 arrays) of that channel's messages
-            inside ``records``; empty: nothing is written.
+            inside the records; empty: nothing is written.
 
         Raises
         ------
@@ -386,39 +430,38 @@ class McapFile:
         """
         if not index:
             return
+        parts = records if isinstance(records, (list, tuple)) else [records]
         if self._worker is not None:
             if self._worker.error is not None:
                 raise self._worker.error
-            self._worker.put((records, index))
+            self._worker.put((parts, index))
         else:
-            self._write_chunk_now(records, index)
+            self._write_chunk_now(parts, index)
 
-    def _write_chunk_now(self, records: bytes, index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
+    def _write_chunk_now(self, parts: Sequence[Any], index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
         times = np.concatenate([lt for lt, _ in index.values()])
         start, end = int(times.min()), int(times.max())
-        data = self._compress(records)
-        chunk = Chunk(compression=self.compression, data=data, message_start_time=start, message_end_time=end,
-                      uncompressed_crc=zlib.crc32(records), uncompressed_size=len(records))
-        builder = RecordBuilder()
-        chunk.write(builder)
-        chunk_raw = builder.end()
-        chunk_offset = self._stream.tell()
-        self._stream.write(chunk_raw)
-        index_offset = self._stream.tell()
-        parts, offsets, pos = [], {}, index_offset
+        size, crc, crc32 = 0, 0, crc32_function()
+        for part in parts:                  # the CRC-32 of the whole, part by part
+            crc = crc32(part, crc)
+            size += memoryview(part).nbytes
+        data = self._compress(parts, size)
+        compressed = sum(memoryview(d).nbytes for d in data)
+        head = rec.chunk_head(start, end, size, crc, self.compression, compressed)
+        chunk_offset = self._write(head)
+        for d in data:
+            self._stream.write(d)
+        index_offset = pos = chunk_offset + len(head) + compressed
+        indexes, offsets = [], {}
         for channel_id, (lt, off) in index.items():
-            pairs = np.empty((len(lt), 2), "<u8")
-            pairs[:, 0], pairs[:, 1] = lt, off
-            body = struct.pack("<HI", channel_id, pairs.nbytes) + pairs.tobytes()
-            parts.append(struct.pack("<BQ", Opcode.MESSAGE_INDEX, len(body)) + body)
+            indexes.append(rec.message_index_record(channel_id, lt, off))
             offsets[channel_id] = pos
-            pos += len(parts[-1])
+            pos += len(indexes[-1])
             self._counts[channel_id] += len(lt)
-        self._stream.write(b"".join(parts))
-        self._chunk_indexes.append(ChunkIndex(
-            message_start_time=start, message_end_time=end, chunk_start_offset=chunk_offset,
-            chunk_length=len(chunk_raw), message_index_offsets=offsets, message_index_length=pos - index_offset,
-            compression=self.compression, compressed_size=len(data), uncompressed_size=len(records)))
+        self._stream.write(b"".join(indexes))
+        self._chunk_indexes.append(rec.chunk_index_record(
+            start, end, chunk_offset, index_offset - chunk_offset, offsets, pos - index_offset, self.compression,
+            compressed, size))
         self._time = [start if self._time[0] is None else min(self._time[0], start), max(self._time[1], end)]
 
     def flush(self) -> None:
@@ -444,27 +487,21 @@ class McapFile:
         self._wait()
         self._stop()
         self._closed = True
-        self._write(DataEnd(0))
+        self._write(rec.data_end_record(0))
         summary_start = self._stream.tell()
-        builder = RecordBuilder()
-        groups = []
-        for opcode, records in ((Opcode.SCHEMA, self._schemas), (Opcode.CHANNEL, self._channels),
-                                (Opcode.STATISTICS, [self._statistics()]),
-                                (Opcode.CHUNK_INDEX, self._chunk_indexes),
-                                (Opcode.METADATA_INDEX, self._metadata_indexes)):
-            group_start = builder.count
-            for r in records:
-                r.write(builder)
-            groups.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + group_start,
-                                        group_length=builder.count - group_start))
-        offset_start = summary_start + builder.count
-        for g in groups:
-            g.write(builder)
-        summary = builder.end()
+        groups, pos, statistics = [], summary_start, [self._statistics()]
+        for opcode, records in ((rec.SCHEMA, self._schemas), (rec.CHANNEL, self._channels),
+                                (rec.STATISTICS, statistics), (rec.CHUNK_INDEX, self._chunk_indexes),
+                                (rec.METADATA_INDEX, self._metadata_indexes)):
+            length = sum(map(len, records))
+            groups.append(rec.summary_offset_record(opcode, pos, length))
+            pos += length
+        summary = b"".join([*self._schemas, *self._channels, *statistics, *self._chunk_indexes,
+                            *self._metadata_indexes, *groups])
         crc = zlib.crc32(summary)
-        crc = zlib.crc32(struct.pack("<BQQQ", Opcode.FOOTER, 20, summary_start, offset_start), crc)
+        crc = zlib.crc32(struct.pack("<BQQQ", rec.FOOTER, 20, summary_start, pos), crc)
         self._stream.write(summary)
-        self._write(Footer(summary_start=summary_start, summary_offset_start=offset_start, summary_crc=crc))
+        self._write(rec.footer_record(summary_start, pos, crc))
         self._stream.write(MCAP0_MAGIC)
         self._stream.flush()
         if rename_to is not None:
@@ -484,9 +521,7 @@ class McapFile:
             self._worker.stop()
             self._worker = None
 
-    def _statistics(self) -> Statistics:
-        return Statistics(attachment_count=0, channel_count=len(self._channels),
-                          channel_message_counts=dict(self._counts), chunk_count=len(self._chunk_indexes),
-                          message_count=sum(self._counts.values()), metadata_count=self._metadata_count,
-                          message_start_time=self._time[0] or 0, message_end_time=self._time[1],
-                          schema_count=len(self._schemas))
+    def _statistics(self) -> bytes:
+        return rec.statistics_record(sum(self._counts.values()), len(self._schemas), len(self._channels),
+                                     self._metadata_count, len(self._chunk_indexes), self._time[0] or 0,
+                                     self._time[1], dict(self._counts))

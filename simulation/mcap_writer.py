@@ -59,6 +59,7 @@ from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChanne
                           numeric_channels)
 from .outcome import outcome_of
 from .rates import MOST_STEPS_BETWEEN, steps_between  # noqa: F401 (re-exported)
+from .recycled_arrays import RecycledArrays
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
 from .scenario import Scenario
@@ -319,6 +320,7 @@ class RunLogger:
         self.sample_dtype = np.dtype(layout)
         self.samples_per_chunk = max(1, (chunk_size or CHUNK_SIZE) // self.sample_dtype.itemsize)
         self._pending = np.empty(0, self.sample_dtype)
+        self._arrays = RecycledArrays(self.sample_dtype, self._constant_fields)   # the blocks' records
         self._extras: list[tuple[str, int, bytes]] = []  # (channel key, log time, data) at reduced rates
         self._sequence = {key: 0 for key in self.ids}
         self._seen = 0          # steps received so far (the global index of the next one)
@@ -453,28 +455,27 @@ class RunLogger:
         n, held = len(rows), len(self._pending)
         if n and rows[-1] - rows[0] == n - 1:
             rows = slice(int(rows[0]), int(rows[-1]) + 1)   # every step: no gathered copies
-        whole = np.empty(held + n, self.sample_dtype)      # the samples not yet in a chunk, then these
+        whole = self._arrays.take(held + n, self.samples_per_chunk)   # the samples not yet in a chunk, then these
         whole[:held] = self._pending
-        rec = whole[held:]
-        ns = self._ns(part.t[rows])
-        for key in PER_STEP:
-            ch = self.channels[key]
+        rec, ns = whole[held:], self._ns(part.t[rows])
+        for key in PER_STEP:         # (opcode, length, channel and CDR header: _constant_fields)
             hdr = rec[key + "_hdr"]
-            hdr["opcode"] = 0x05
-            hdr["length"] = MESSAGE_HEADER_SIZE - 9 + ch.size
-            hdr["channel"] = self.ids[key]
             hdr["sequence"] = (self._sequence[key] + np.arange(n)) & 0xFFFFFFFF
-            hdr["log_time"] = ns
-            hdr["publish_time"] = ns
+            hdr["log_time"] = hdr["publish_time"] = ns
             self._sequence[key] += n
-            rec[key + "_cdr"] = np.frombuffer(CDR_HEADER, "V4")[0]
-            ch.fill(rec[key], part, rows)
+            self.channels[key].fill(rec[key], part, rows)
         self._pending = whole
+
+    def _constant_fields(self, records: np.ndarray) -> None:
+        """Write the fields that every sample record has alike (a new array's, once: the arrays are recycled)."""
+        for key in PER_STEP:
+            hdr, size = records[key + "_hdr"], MESSAGE_HEADER_SIZE - 9 + self.channels[key].size
+            hdr["opcode"], hdr["length"], hdr["channel"] = 0x05, size, self.ids[key]
+            records[key + "_cdr"] = np.frombuffer(CDR_HEADER, "V4")[0]
 
     def _write_chunk(self, n: int) -> None:
         block, self._pending = self._pending[:n], self._pending[n:]
-        size = self.sample_dtype.itemsize
-        index = {}
+        size, index = self.sample_dtype.itemsize, {}
         base = np.arange(n, dtype=np.uint64) * np.uint64(size)
         for key in PER_STEP:
             if n:
@@ -486,23 +487,25 @@ class RunLogger:
             self._extras = [x for x in self._extras if x[1] > end]
         else:
             extras, self._extras = self._extras, []
-        parts, pos = [block.view(np.uint8)], n * size    # (a view: the block is never written again)
-        found: dict[int, tuple[list[int], list[int]]] = {}   # channel -> log times, offsets of the extras
-        for key, lt, data in extras:
-            cid = self.ids[key]
-            record = message_records(cid, [lt], [data], self._sequence[key])
-            self._sequence[key] += 1
-            lts, offs = found.setdefault(cid, ([], []))
-            lts.append(lt)
-            offs.append(pos)
-            parts.append(record)
-            pos += len(record)
-        for cid, (lts, offs) in found.items():
-            new = np.array(lts, np.uint64), np.array(offs, np.uint64)
-            if cid in index:
-                new = np.concatenate([index[cid][0], new[0]]), np.concatenate([index[cid][1], new[1]])
-            index[cid] = new
-        self.file.write_chunk(b"".join(parts) if len(parts) > 1 else parts[0], index)
+        parts = [block.view(np.uint8)]       # (a view: the block is never written again)
+        if extras:
+            keys = [key for key, _, _ in extras]
+            sequences = [self._next_sequence(key) for key in keys]
+            channels = np.array([self.ids[key] for key in keys])
+            log_times = np.array([lt for _, lt, _ in extras], np.uint64)
+            records, offsets = message_records(channels, sequences, log_times, [d for _, _, d in extras], n * size)
+            parts.append(records)
+            for cid in dict.fromkeys(channels.tolist()):   # in the order of their first message
+                new = log_times[channels == cid], offsets[channels == cid]
+                if cid in index:
+                    new = np.concatenate([index[cid][0], new[0]]), np.concatenate([index[cid][1], new[1]])
+                index[cid] = new
+        self.file.write_chunk(parts, index)
+
+    def _next_sequence(self, key: str) -> int:
+        """The sequence number of the next message of channel ``key`` (counting it)."""
+        self._sequence[key] += 1
+        return (self._sequence[key] - 1) & 0xFFFFFFFF
 
     def flush(self) -> None:
         """Wait for the queued blocks, write them as a chunk, push the file to the operating system."""

@@ -5,7 +5,38 @@
  * integer written right-aligned in its slot, a minus sign just before its digits if negative. The
  * caller checks |v| < 10^18 and that every value fits its slot's width.
  */
+#include <string.h>
+
 #define JSON_EXPORT __attribute__((visibility("default")))
+
+/* "00" .. "99": two digits per division by 100. */
+static const char PAIRS[201] =
+    "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+    "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+    "8081828384858687888990919293949596979899";
+
+/* Write x right-aligned so that its last digit is at end[-1]. */
+static inline void put_integer(unsigned char *end, long long x) {
+  const int negative = x < 0;
+  unsigned long long rest = negative ? 0ULL - (unsigned long long)x : (unsigned long long)x;
+  unsigned char *p = end;
+  while (rest >= 100) {
+    const unsigned long long q = rest / 100;
+    const unsigned r = (unsigned)(rest - 100 * q);
+    p -= 2;
+    p[0] = (unsigned char)PAIRS[2 * r];
+    p[1] = (unsigned char)PAIRS[2 * r + 1];
+    rest = q;
+  }
+  if (rest >= 10) {
+    p -= 2;
+    p[0] = (unsigned char)PAIRS[2 * rest];
+    p[1] = (unsigned char)PAIRS[2 * rest + 1];
+  } else {
+    *--p = (unsigned char)('0' + rest);
+  }
+  if (negative) *--p = '-';
+}
 
 /* out (n x size): n copies of blank (size bytes) with values (n x slots) written into the slots
  * (start[i], width[i]). */
@@ -15,17 +46,7 @@ JSON_EXPORT void coordarm_json_fill(const unsigned char *blank, long long size, 
   for (long long k = 0; k < n; ++k) {
     unsigned char *row = out + k * size;
     const long long *v = values + k * slots;
-    for (long long b = 0; b < size; ++b) row[b] = blank[b];
-    for (long long i = 0; i < slots; ++i) {
-      long long x = v[i];
-      const int negative = x < 0;
-      unsigned long long rest = negative ? (unsigned long long)(-x) : (unsigned long long)x;
-      unsigned char *p = row + start[i] + width[i] - 1;
-      do {
-        *p-- = (unsigned char)('0' + rest % 10);
-        rest /= 10;
-      } while (rest);
-      if (negative) *p = '-';
-    }
+    memcpy(row, blank, (size_t)size);
+    for (long long i = 0; i < slots; ++i) put_integer(row + start[i] + width[i], v[i]);
   }
 }
