@@ -163,11 +163,7 @@ def private_root(root: Path) -> Path:
     """
     try:
         root.mkdir(mode=0o700, parents=True, exist_ok=True)
-        st = root.stat()
-        problem = (f"owned by uid {st.st_uid}, not {os.getuid()}" if st.st_uid != os.getuid() else
-                   "writable by others" if st.st_mode & stat.S_IWOTH else
-                   f"writable by group {st.st_gid}" if st.st_mode & stat.S_IWGRP and not own_group(st.st_gid)
-                   else None)
+        problem = root_problem(root)
     except OSError as exc:
         problem = f"unusable ({exc.strerror or exc})"
     if problem is None:
@@ -177,6 +173,30 @@ def private_root(root: Path) -> Path:
     warnings.warn(f"build cache {root} is {problem}: building in the private directory {_private_fallback[0]} "
                   "instead", CacheWarning, stacklevel=3)
     return _private_fallback[0]
+
+
+def root_problem(root: Path) -> str | None:
+    """Why the directory ``root`` is not this user's alone, or None when it is.
+
+    Parameters
+    ----------
+    root : Path
+        A cache directory.
+
+    Returns
+    -------
+    str or None
+        ``"owned by uid ..."``, ``"writable by others"``, ``"writable by group ..."`` (a group not the
+        user's own, :func:`own_group`) or ``"unusable (...)"`` (missing or unreadable); None: private.
+    """
+    try:
+        st = root.stat()
+    except OSError as exc:
+        return f"unusable ({exc.strerror or exc})"
+    return (f"owned by uid {st.st_uid}, not {os.getuid()}" if st.st_uid != os.getuid() else
+            "writable by others" if st.st_mode & stat.S_IWOTH else
+            f"writable by group {st.st_gid}" if st.st_mode & stat.S_IWGRP and not own_group(st.st_gid)
+            else None)
 
 
 def compile_timeout() -> float:

@@ -1,4 +1,5 @@
-"""The build cache's small files: written atomically, and the compiler's version memoised in one.
+"""The build cache's small files: written atomically, and memos kept in them (:func:`recall`), the
+compiler's version among them.
 
 The cache key holds the compiler's ``--version`` (:func:`coordarm.generated.build.cache_key`). Asking
 it costs a compiler run under the compiler guard (two processes, 30-130 ms): more than everything
@@ -72,6 +73,49 @@ def compiler_identity(path: str) -> str | None:
     return "\0".join(str(v) for v in (path, real, st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns))
 
 
+def recall(memo_dir: Path, name: str, key: str, compute: Callable[[], str], *, entries: int = MEMO_ENTRIES,
+           store: bool = True) -> str:
+    """The value remembered under ``key`` in the memo file ``name`` of ``memo_dir``, else ``compute()``'s (remembered).
+
+    Parameters
+    ----------
+    memo_dir : Path
+        The (private) cache directory holding the memo file.
+    name : str
+        The memo file: a JSON object ``{key: value}``, the most recently computed last.
+    key : str
+        What identifies the value; it must change whenever the value would.
+    compute : callable
+        ``compute() -> str``, called when ``key`` is not remembered.
+    entries : int
+        Most values kept (the least recently computed go first).
+    store : bool
+        Remember a computed value (False: compute it and leave the file alone).
+
+    Returns
+    -------
+    str
+        The value; a missing, unreadable or read-only memo file only costs the computation.
+    """
+    memo_file = Path(memo_dir) / name
+    try:
+        memo = json.loads(memo_file.read_text())
+        memo = memo if isinstance(memo, dict) else {}
+    except (OSError, ValueError):
+        memo = {}
+    if isinstance(memo.get(key), str):
+        return memo[key]
+    value = compute()
+    if store:
+        memo.pop(key, None)
+        memo[key] = value                               # last: the most recently computed
+        try:
+            write_atomic(memo_file, json.dumps(dict(list(memo.items())[-entries:])).encode())
+        except OSError:
+            pass                                        # a read-only cache: computed again next time
+    return value
+
+
 def compiler_version(path: str, ask: Callable[[str], str], memo_dir: Path | None = None) -> str:
     """The compiler's ``--version`` text: from :data:`MEMO` in ``memo_dir`` when its identity is unchanged.
 
@@ -92,20 +136,4 @@ def compiler_version(path: str, ask: Callable[[str], str], memo_dir: Path | None
     ident = compiler_identity(path) if memo_dir is not None else None
     if ident is None:
         return ask(path)
-    memo_file = Path(memo_dir) / MEMO
-    try:
-        memo = json.loads(memo_file.read_text())
-        memo = memo if isinstance(memo, dict) else {}
-    except (OSError, ValueError):
-        memo = {}
-    if isinstance(memo.get(ident), str):
-        return memo[ident]
-    version = ask(path)
-    memo.pop(ident, None)
-    memo[ident] = version                               # last: the most recently asked
-    kept = dict(list(memo.items())[-MEMO_ENTRIES:])
-    try:
-        write_atomic(memo_file, json.dumps(kept).encode())
-    except OSError:
-        pass                                            # a read-only cache: asked again next time
-    return version
+    return recall(memo_dir, MEMO, ident, lambda: ask(path))
