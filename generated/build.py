@@ -101,9 +101,9 @@ def build_root(build_dir: str | os.PathLike | None = None) -> Path:
     env = os.environ.get("COORDARM_BUILD_DIR")
     if env:
         return Path(env)
-    from platformdirs import user_cache_dir
+    from .cache_dir import user_cache_dir
 
-    return Path(user_cache_dir("coordarm", appauthor=False))
+    return Path(user_cache_dir("coordarm"))
 
 
 class CacheWarning(UserWarning):

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import ctypes
 import math
-import time
 import warnings
 from typing import Any
 
@@ -19,8 +18,9 @@ from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.outputs import packed_width, spatial_packed_width, spatial_split, split
 
-from .build import Library, build
+from .build import Library
 from .codegen import Source, generate_source
+from .source_memo import compiled_library
 
 _P, _D, _I = ctypes.c_void_p, ctypes.c_double, ctypes.c_longlong
 _SIGNATURES = {"coordarm_law": [_P, _D, _P, _P, _P],
@@ -136,7 +136,8 @@ class CompiledController:
     library : Library
         Path, cache key, whether the build hit the cache, compile time.
     generate_seconds : float
-        Time spent generating the C source.
+        Time spent generating the C source [s]: 0 when the library of the controller's recipe was
+        remembered (:mod:`.source_memo`: the C is then not generated).
 
     Raises
     ------
@@ -153,10 +154,10 @@ class CompiledController:
                  cc: str | None = None,
                  flags=None, build_dir=None, force: bool = False, path_search: bool = True) -> None:
         self.ctrl, self.form, self.chain = ctrl, form, ctrl.chain
-        start = time.perf_counter()
-        source = controller_source(ctrl, form, path_search)
-        self.generate_seconds = time.perf_counter() - start
-        self.library: Library = build(source, cc=cc, flags=flags, build_dir=build_dir, force=force)
+        self.library: Library
+        self.library, self.generate_seconds = compiled_library(
+            ctrl, form, path_search, lambda: controller_source(ctrl, form, path_search), cc=cc, flags=flags,
+            build_dir=build_dir, force=force)
         self._lib = load_library(self.library.path)
         sizes = np.zeros(4, dtype=np.int64)
         self._lib.coordarm_sizes(sizes.ctypes.data)

@@ -73,22 +73,77 @@ def compiler_identity(path: str) -> str | None:
     return "\0".join(str(v) for v in (path, real, st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns))
 
 
-def recall(memo_dir: Path, name: str, key: str, compute: Callable[[], str], *, entries: int = MEMO_ENTRIES,
-           store: bool = True) -> str:
-    """The value remembered under ``key`` in the memo file ``name`` of ``memo_dir``, else ``compute()``'s (remembered).
+def lookup(memo_dir: Path, name: str, key: str) -> str | None:
+    """The value remembered under ``key`` in the memo file ``name`` of ``memo_dir`` (:func:`remember`).
 
     Parameters
     ----------
     memo_dir : Path
         The (private) cache directory holding the memo file.
     name : str
-        The memo file: a JSON object ``{key: value}``, the most recently computed last.
+        The memo file: a JSON object ``{key: value}``, the most recently remembered last.
+    key : str
+        What identifies the value.
+
+    Returns
+    -------
+    str or None
+        None when the file is missing or unreadable or does not hold ``key``.
+    """
+    try:
+        memo = json.loads((Path(memo_dir) / name).read_text())
+    except (OSError, ValueError):
+        return None
+    value = memo.get(key) if isinstance(memo, dict) else None
+    return value if isinstance(value, str) else None
+
+
+def remember(memo_dir: Path, name: str, key: str, value: str, entries: int = MEMO_ENTRIES) -> None:
+    """Remember ``value`` under ``key`` in the memo file ``name`` of ``memo_dir`` (atomically replaced).
+
+    Parameters
+    ----------
+    memo_dir : Path
+        The (private) cache directory holding the memo file.
+    name : str
+        The memo file (see :func:`lookup`).
+    key : str
+        What identifies the value; it must change whenever the value would.
+    value : str
+        The value.
+    entries : int
+        Most values kept (the least recently remembered go first). A read-only cache keeps none.
+    """
+    memo_file = Path(memo_dir) / name
+    try:
+        memo = json.loads(memo_file.read_text())
+        memo = memo if isinstance(memo, dict) else {}
+    except (OSError, ValueError):
+        memo = {}
+    memo.pop(key, None)
+    memo[key] = value                                   # last: the most recently remembered
+    try:
+        write_atomic(memo_file, json.dumps(dict(list(memo.items())[-entries:])).encode())
+    except OSError:
+        pass                                            # a read-only cache: computed again next time
+
+
+def recall(memo_dir: Path, name: str, key: str, compute: Callable[[], str], *, entries: int = MEMO_ENTRIES,
+           store: bool = True) -> str:
+    """The value remembered under ``key`` (:func:`lookup`), else ``compute()``'s, remembered (:func:`remember`).
+
+    Parameters
+    ----------
+    memo_dir : Path
+        The (private) cache directory holding the memo file.
+    name : str
+        The memo file.
     key : str
         What identifies the value; it must change whenever the value would.
     compute : callable
         ``compute() -> str``, called when ``key`` is not remembered.
     entries : int
-        Most values kept (the least recently computed go first).
+        Most values kept.
     store : bool
         Remember a computed value (False: compute it and leave the file alone).
 
@@ -97,22 +152,11 @@ def recall(memo_dir: Path, name: str, key: str, compute: Callable[[], str], *, e
     str
         The value; a missing, unreadable or read-only memo file only costs the computation.
     """
-    memo_file = Path(memo_dir) / name
-    try:
-        memo = json.loads(memo_file.read_text())
-        memo = memo if isinstance(memo, dict) else {}
-    except (OSError, ValueError):
-        memo = {}
-    if isinstance(memo.get(key), str):
-        return memo[key]
-    value = compute()
-    if store:
-        memo.pop(key, None)
-        memo[key] = value                               # last: the most recently computed
-        try:
-            write_atomic(memo_file, json.dumps(dict(list(memo.items())[-entries:])).encode())
-        except OSError:
-            pass                                        # a read-only cache: computed again next time
+    value = lookup(memo_dir, name, key)
+    if value is None:
+        value = compute()
+        if store:
+            remember(memo_dir, name, key, value, entries)
     return value
 
 

@@ -408,7 +408,7 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
     q0 = ctrl.chain.check_q(q0, "q0")
     if not ctrl.chain.rail:          # a rail carries the base along; its own margin guards it
         check_curve_reaches_base(ctrl, t0, t0 + duration)
-    start = ctrl.evaluate(q0, t0)
+    start = ctrl.evaluate(q0, t0, once=True)
     layout = layout_of_chain(ctrl.chain)
     bad = margin_violation({c.array: np.asarray(start[c.array])[None] for c in layout.margins}, layout.margins, thr)
     if bad is not None:

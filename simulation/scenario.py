@@ -256,16 +256,22 @@ class Scenario:
         CoordinatingController or SpatialController
             A new controller; its ``governor_threshold`` is the longitudinal stop threshold
             (a universal chain's: a SpatialController, roll held at the start's unless commanded).
+            Without a user-defined curve its recipe is the scenario's JSON
+            (:meth:`~coordarm.symbolic.law_face.LawFace.set_recipe`).
         """
         c = self.config.control
         curve = self.curve if self.curve is not None else self.config.curve_object
         if self.universal:
             from .spatial_scenario import spatial_controller
-            return spatial_controller(self.config, curve)
-        return CoordinatingController(self.chain(), curve, float(c.gain), c.speed_motion, law=c.law,
-                                      span=c.span_motion, governor=c.governor,
-                                      governor_threshold=float(self.config.thresholds.longitudinal),
-                                      damping=c.damping)
+            ctrl = spatial_controller(self.config, curve)
+        else:
+            ctrl = CoordinatingController(self.chain(), curve, float(c.gain), c.speed_motion, law=c.law,
+                                          span=c.span_motion, governor=c.governor,
+                                          governor_threshold=float(self.config.thresholds.longitudinal),
+                                          damping=c.damping)
+        if self.curve is None:      # the data says it all (a user's curve object is code of its own)
+            ctrl.set_recipe(f"{type(ctrl).__module__}.{type(ctrl).__qualname__} of scenario {self.to_json()}")
+        return ctrl
 
     def start(self, ctrl: CoordinatingController | SpatialController | None = None) -> np.ndarray:
         """The start configuration ``q0`` (a zig-zag, projected onto a curve if asked).

@@ -1,0 +1,115 @@
+"""A controller built from data finds its library without generating its C: the library's key, remembered.
+
+Generating the C of a law (building its CasADi Functions, CasADi's code generator) takes about 10 ms
+at 64 links, and a cache hit needs the source only for the library's key (:func:`.build.cache_key`).
+A controller that declares its recipe (:meth:`~coordarm.symbolic.law_face.LawFace.set_recipe`: a
+scenario's JSON, which with coordarm's code determines it) is looked up in :data:`SOURCES` instead,
+under a key (:func:`recipe_key`) over everything the generated text depends on: the recipe, the law's
+form and path search, the identity of every file of ``symbolic``, ``generated`` (templates included)
+and ``simulation`` (presets included; :mod:`.code_identity`), CasADi's and numpy's versions and
+binaries, the interpreter, the C library and the CPU, plus the compiler, its version and the flags
+(the parts of :func:`.build.cache_key`). What is remembered is the library's full key, written after
+the library was built from the generated text: a hit loads only a library whose checksum matches
+its metadata under that key, so a key that changes whenever the text would never loads a stale one
+(``tests/test_source_memo.py`` checks it for every preset and changed parameters).
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+from .build import LIBRARY, Library, build, build_root, cache_key, cached, compile_flags, cpu_identity, find_compiler
+from .build import private_root
+from .code_identity import files_key, package_files
+from .codegen import Source
+from .compiler_memo import lookup, remember
+
+#: Memo file of the cache directory: ``{recipe key: library key}``.
+SOURCES = "sources.json"
+#: Most recipes remembered.
+SOURCE_ENTRIES = 64
+#: The folders whose files the generated C can depend on (recursively).
+CODE_FOLDERS = ("symbolic", "generated", "simulation")
+
+
+def recipe_key(ctrl: Any, form: str, path_search: bool) -> tuple[str, bool] | None:
+    """A key over everything the generated C of ``ctrl`` depends on, when ``ctrl`` has a recipe.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController or SpatialController
+        The controller.
+    form : {"structured", "dense"}
+        Law form.
+    path_search : bool
+        See :func:`coordarm.generated.codegen.structured_law`.
+
+    Returns
+    -------
+    (key, settled) or None
+        SHA-256 hex and whether it may be remembered (:func:`.code_identity.files_key`: no file
+        changed in the last seconds); None when ``ctrl`` declares no recipe (or was changed since).
+    """
+    recipe = getattr(ctrl, "recipe", None)
+    if recipe is None:
+        return None
+    import casadi
+    import numpy
+
+    root = Path(__file__).resolve().parent.parent
+    binaries = [getattr(sys.modules.get(name), "__file__", None) or name
+                for name in ("casadi.casadi", "casadi._casadi", "numpy._core._multiarray_umath")]
+    libc = os.confstr("CS_GNU_LIBC_VERSION") if "CS_GNU_LIBC_VERSION" in os.confstr_names else ""
+    return files_key([*package_files(root, CODE_FOLDERS, suffix="", recursive=True), *binaries, sys.executable],
+                     recipe, form, repr(bool(path_search)), casadi.__version__, numpy.__version__, sys.version,
+                     libc or "", cpu_identity())
+
+
+def compiled_library(ctrl: Any, form: str, path_search: bool, make_source: Callable[[], Source], *,
+                     cc: str | None = None, flags=None, build_dir=None, force: bool = False) -> tuple[Library, float]:
+    """The library of ``ctrl``'s law: by its remembered key when its recipe is known, else generated and built.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController or SpatialController
+        The controller.
+    form : {"structured", "dense"}
+        Law form.
+    path_search : bool
+        See :func:`coordarm.generated.codegen.structured_law`.
+    make_source : callable
+        ``make_source() -> Source``: generates the C (only when the memo does not know the library).
+    cc, flags, build_dir, force : optional
+        See :func:`.build.build` (``force`` generates and compiles anew).
+
+    Returns
+    -------
+    library : Library
+        As :func:`.build.build` returns it.
+    generate_seconds : float
+        Time spent generating the source [s] (0 when the library was found by its recipe).
+
+    Raises
+    ------
+    BuildError
+        See :func:`.build.build`.
+    """
+    key = None if force else recipe_key(ctrl, form, path_search)
+    if key is not None:
+        root = private_root(build_root(build_dir))
+        cc_path, flag_list = find_compiler(cc), compile_flags(flags)
+        memo_key = cache_key(Source(key[0], form, ctrl.chain.m), cc_path, flag_list, memo_dir=root)
+        known = lookup(root, SOURCES, memo_key)
+        if known is not None and len(known) == 64 and cached(root / known[:16], known):
+            return Library(root / known[:16] / LIBRARY, known, True, 0.0), 0.0
+        build_dir = root
+    start = time.perf_counter()
+    source = make_source()
+    seconds = time.perf_counter() - start
+    library = build(source, cc=cc, flags=flags, build_dir=build_dir, force=force)
+    if key is not None and key[1]:
+        remember(root, SOURCES, memo_key, library.key, SOURCE_ENTRIES)
+    return library, seconds
