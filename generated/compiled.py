@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import ctypes
 import math
+import sys
 import warnings
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError, SpatialController
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError
 from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.outputs import packed_width, spatial_packed_width, spatial_split, split
@@ -21,6 +22,9 @@ from coordarm.symbolic.outputs import packed_width, spatial_packed_width, spatia
 from .build import Library
 from .codegen import Source, generate_source
 from .source_memo import compiled_library
+
+if TYPE_CHECKING:   # a planar run does not load the spatial modules
+    from coordarm.symbolic import SpatialController
 
 _P, _D, _I = ctypes.c_void_p, ctypes.c_double, ctypes.c_longlong
 _SIGNATURES = {"coordarm_law": [_P, _D, _P, _P, _P],
@@ -80,6 +84,23 @@ def load_library(path) -> ctypes.CDLL:
     return lib
 
 
+def is_spatial(ctrl: Any) -> bool:
+    """Whether ``ctrl`` is a :class:`~coordarm.symbolic.SpatialController` (without importing its module: if it
+    was never imported, there is none).
+
+    Parameters
+    ----------
+    ctrl : object
+        A controller.
+
+    Returns
+    -------
+    bool
+    """
+    module = sys.modules.get("coordarm.symbolic.spatial_controller")
+    return module is not None and isinstance(ctrl, module.SpatialController)
+
+
 def controller_source(ctrl: CoordinatingController | SpatialController, form: str,
                       path_search: bool = True) -> Source:
     """The C source of a planar or a spatial controller's law.
@@ -103,7 +124,7 @@ def controller_source(ctrl: CoordinatingController | SpatialController, form: st
     BuildError
         A non-diagonal B or an unknown form.
     """
-    if isinstance(ctrl, SpatialController):
+    if is_spatial(ctrl):
         from .spatial_codegen import generate_spatial_source
         return generate_spatial_source(ctrl, form)
     return generate_source(ctrl, form, path_search)
@@ -163,7 +184,7 @@ class CompiledController:
         self._lib.coordarm_sizes(sizes.ctypes.data)
         m, self.n_out, n_iw, n_w = (int(v) for v in sizes)
         self.rail = self.chain.rail
-        spatial = isinstance(ctrl, SpatialController)
+        spatial = is_spatial(ctrl)
         width = spatial_packed_width(self.chain.m, self.rail) if spatial else packed_width(self.chain.m, self.rail)
         self._split = ((lambda packed: spatial_split(packed, self.m, self.rail)) if spatial
                        else (lambda packed: split(packed, self.m, self.rail)))

@@ -49,13 +49,13 @@ import dataclasses
 import json
 import tomllib
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController, Curve, PlanarChain, follow_curve, project_onto_curve
+from coordarm.symbolic.lazy import package_folder
 from coordarm.symbolic.start import check_start
 
 from .choices import presets
@@ -387,7 +387,7 @@ def load_scenario(name_or_path: str | Path, **overrides: Any) -> Scenario:
     text = str(name_or_path)
     if text in presets():
         source = f"preset '{text}'"
-        data = (resources.files("coordarm.simulation") / "presets" / f"{text}.toml").read_text()
+        data = (package_folder("coordarm.simulation", "presets") / f"{text}.toml").read_text()
     else:
         path = Path(text)
         if not path.is_file():
