@@ -11,18 +11,13 @@ processes building the same key both end with a valid library.
 from __future__ import annotations
 
 import functools
-import grp
 import hashlib
 import json
 import os
 import platform
-import pwd
 import re
-import shlex
 import shutil
-import stat
 import sys
-import subprocess
 import tempfile
 import time
 import warnings
@@ -34,8 +29,8 @@ import casadi as ca
 from coordarm.symbolic import BuildError
 from coordarm.symbolic.errors import shown
 
-from .codegen import CODEGEN_OPTIONS, Source
-from .compiler_guard import kill_process_tree, process_alive
+from .cache_dir import own_group, root_problem  # noqa: F401 (re-exported)
+from .source import CODEGEN_OPTIONS, Source
 from .compiler_memo import MEMO, compiler_version, write_atomic
 
 #: Optimisation flags (see benchmarks/RESULTS.md); override with COORDARM_CFLAGS. ``-fno-math-errno``
@@ -113,30 +108,6 @@ class CacheWarning(UserWarning):
 _private_fallback: list[Path] = []
 
 
-def own_group(gid: int) -> bool:
-    """Whether group ``gid`` is this user's own: the user's primary group, with no other members listed
-    (the "user private group" of most Linux systems, where ``umask 002`` makes directories group-writable).
-
-    Parameters
-    ----------
-    gid : int
-        A group id.
-
-    Returns
-    -------
-    bool
-        False for any other group, or when the group database does not know ``gid``.
-    """
-    if gid != os.getgid():
-        return False
-    try:
-        members = set(grp.getgrgid(gid).gr_mem)
-        name = pwd.getpwuid(os.getuid()).pw_name
-    except KeyError:
-        return False
-    return members <= {name}
-
-
 def private_root(root: Path) -> Path:
     """``root`` (created 0700) if it is owned by this user and writable by no one else, else a private
     temporary directory (made once per process) with a :class:`CacheWarning`.
@@ -173,30 +144,6 @@ def private_root(root: Path) -> Path:
     warnings.warn(f"build cache {root} is {problem}: building in the private directory {_private_fallback[0]} "
                   "instead", CacheWarning, stacklevel=3)
     return _private_fallback[0]
-
-
-def root_problem(root: Path) -> str | None:
-    """Why the directory ``root`` is not this user's alone, or None when it is.
-
-    Parameters
-    ----------
-    root : Path
-        A cache directory.
-
-    Returns
-    -------
-    str or None
-        ``"owned by uid ..."``, ``"writable by others"``, ``"writable by group ..."`` (a group not the
-        user's own, :func:`own_group`) or ``"unusable (...)"`` (missing or unreadable); None: private.
-    """
-    try:
-        st = root.stat()
-    except OSError as exc:
-        return f"unusable ({exc.strerror or exc})"
-    return (f"owned by uid {st.st_uid}, not {os.getuid()}" if st.st_uid != os.getuid() else
-            "writable by others" if st.st_mode & stat.S_IWOTH else
-            f"writable by group {st.st_gid}" if st.st_mode & stat.S_IWGRP and not own_group(st.st_gid)
-            else None)
 
 
 def compile_timeout() -> float:
@@ -253,6 +200,8 @@ def find_compiler(cc: str | None = None) -> str:
 
 @functools.lru_cache(maxsize=None)
 def _compiler_version(path: str) -> str:
+    import subprocess
+
     try:
         res = _run_compiler([path, "--version"], VERSION_TIMEOUT)
     except OSError as exc:
@@ -288,6 +237,8 @@ def compile_flags(flags: tuple[str, ...] | list[str] | str | None = None) -> tup
             return DEFAULT_FLAGS
     if not isinstance(flags, str):
         return tuple(flags)
+    import shlex
+
     try:
         return tuple(shlex.split(flags))
     except ValueError as exc:
@@ -425,6 +376,9 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
         os.close(fd)
     except OSError as exc:
         raise BuildError(f"build directory {entry}: {exc}") from None
+    import shlex
+    import subprocess
+
     obj = tmp[:-len(".tmp")] + ".o"
     start = time.perf_counter()
     placed = False
@@ -474,6 +428,8 @@ def remove_stale_temporaries(entry: Path) -> int:
     int
         Files removed.
     """
+    from .compiler_guard import process_alive
+
     removed = 0
     for path in entry.glob(f"{LIBRARY}.*"):
         found = STALE_NAME.match(path.name)
@@ -512,12 +468,16 @@ def compile_and_link(cc: str, flags: tuple[str, ...], src: str | Path, obj: str 
             [cc, *REQUIRED_FLAGS, *link_flags, "-o", str(out), str(obj), "-lm"]]
 
 
-def _run_compiler(cmd: list[str], timeout: float | None) -> subprocess.CompletedProcess:
+def _run_compiler(cmd: list[str], timeout: float | None) -> "subprocess.CompletedProcess":
     """Run the compiler under :mod:`.compiler_guard` (in this process's group, so a Ctrl-C or a kill of
     the group reaches the guard, which stops the compiler's own group; and when this process dies,
     even by SIGKILL, the kernel tells the guard to), with its temporary files in a private directory
     that is removed afterwards; on a timeout or an interrupt kill it and every process it started
     (``gcc`` is a driver: ``cc1`` would compile on)."""
+    import subprocess
+
+    from .compiler_guard import kill_process_tree
+
     tmpdir = tempfile.mkdtemp(prefix="coordarm-cc-")
     env = dict(os.environ, TMPDIR=tmpdir, TMP=tmpdir, TEMP=tmpdir)
     guarded = [sys.executable, "-I", "-S", str(Path(__file__).with_name("compiler_guard.py")), str(os.getpid()), *cmd]

@@ -101,7 +101,8 @@ def memo_root() -> Path | None:
         :func:`~coordarm.generated.build.build_root`, never created here (nor warned about: a build
         does both).
     """
-    from .build import build_root, root_problem
+    from .build import build_root
+    from .cache_dir import root_problem
 
     root = build_root()
     return root if root_problem(root) is None else None

@@ -20,7 +20,7 @@ from coordarm.symbolic.errors import shown
 from coordarm.symbolic.outputs import packed_width, spatial_packed_width, spatial_split, split
 
 from .build import Library
-from .codegen import Source, generate_source
+from .source import Source
 from .source_memo import compiled_library
 
 if TYPE_CHECKING:   # a planar run does not load the spatial modules
@@ -127,6 +127,7 @@ def controller_source(ctrl: CoordinatingController | SpatialController, form: st
     if is_spatial(ctrl):
         from .spatial_codegen import generate_spatial_source
         return generate_spatial_source(ctrl, form)
+    from .codegen import generate_source
     return generate_source(ctrl, form, path_search)
 
 
@@ -151,6 +152,9 @@ class CompiledController:
     path_search : bool
         On a path, the C glue searches the closest piece near the previous link's (default); False
         selects it over every piece inside the generated step (the slower reference form).
+    library : Library, optional
+        The library of this controller's law, already found in the cache
+        (:func:`~coordarm.generated.source_memo.remembered_library`): loaded as it is.
 
     Attributes
     ----------
@@ -173,10 +177,11 @@ class CompiledController:
 
     def __init__(self, ctrl: CoordinatingController | SpatialController, form: str = "structured", *,
                  cc: str | None = None,
-                 flags=None, build_dir=None, force: bool = False, path_search: bool = True) -> None:
+                 flags=None, build_dir=None, force: bool = False, path_search: bool = True,
+                 library: Library | None = None) -> None:
         self.ctrl, self.form, self.chain = ctrl, form, ctrl.chain
         self.library: Library
-        self.library, self.generate_seconds = compiled_library(
+        self.library, self.generate_seconds = (library, 0.0) if library is not None else compiled_library(
             ctrl, form, path_search, lambda: controller_source(ctrl, form, path_search), cc=cc, flags=flags,
             build_dir=build_dir, force=force)
         self._lib = load_library(self.library.path)

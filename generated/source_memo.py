@@ -24,7 +24,7 @@ from typing import Any, Callable
 from .build import LIBRARY, Library, build, build_root, cache_key, cached, compile_flags, cpu_identity, find_compiler
 from .build import private_root
 from .code_identity import files_key, package_files
-from .codegen import Source
+from .source import Source
 from .compiler_memo import lookup, remember
 
 #: Memo file of the cache directory: ``{recipe key: library key}``.
@@ -68,6 +68,48 @@ def recipe_key(ctrl: Any, form: str, path_search: bool) -> tuple[str, bool] | No
                      libc or "", cpu_identity())
 
 
+def remembered_library(ctrl: Any, form: str, path_search: bool, *, cc: str | None = None, flags=None,
+                       build_dir=None) -> Library | None:
+    """The library of ``ctrl``'s law when its recipe's key is remembered and the library is in the cache.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController or SpatialController
+        The controller.
+    form : {"structured", "dense"}
+        Law form.
+    path_search : bool
+        See :func:`coordarm.generated.codegen.structured_law`.
+    cc, flags, build_dir : optional
+        See :func:`.build.build`.
+
+    Returns
+    -------
+    Library or None
+        A cache hit (its checksum checked), or None: no recipe, not remembered or not in the cache.
+
+    Raises
+    ------
+    BuildError
+        No compiler, bad flags (see :func:`.build.build`).
+    """
+    found = _remembered(ctrl, form, path_search, cc, flags, build_dir)
+    return found[0] if found is not None else None
+
+
+def _remembered(ctrl: Any, form: str, path_search: bool, cc: str | None, flags: Any,
+                build_dir: Any) -> tuple[Library | None, Path, str, bool] | None:
+    """``(library or None, cache root, memo key, settled)`` for a controller with a recipe, else None."""
+    key = recipe_key(ctrl, form, path_search)
+    if key is None:
+        return None
+    root = private_root(build_root(build_dir))
+    memo_key = cache_key(Source(key[0], form, ctrl.chain.m), find_compiler(cc), compile_flags(flags), memo_dir=root)
+    known = lookup(root, SOURCES, memo_key)
+    hit = known is not None and len(known) == 64 and cached(root / known[:16], known)
+    return (Library(root / known[:16] / LIBRARY, known, True, 0.0) if hit else None), root, memo_key, key[1]
+
+
 def compiled_library(ctrl: Any, form: str, path_search: bool, make_source: Callable[[], Source], *,
                      cc: str | None = None, flags=None, build_dir=None, force: bool = False) -> tuple[Library, float]:
     """The library of ``ctrl``'s law: by its remembered key when its recipe is known, else generated and built.
@@ -97,19 +139,13 @@ def compiled_library(ctrl: Any, form: str, path_search: bool, make_source: Calla
     BuildError
         See :func:`.build.build`.
     """
-    key = None if force else recipe_key(ctrl, form, path_search)
-    if key is not None:
-        root = private_root(build_root(build_dir))
-        cc_path, flag_list = find_compiler(cc), compile_flags(flags)
-        memo_key = cache_key(Source(key[0], form, ctrl.chain.m), cc_path, flag_list, memo_dir=root)
-        known = lookup(root, SOURCES, memo_key)
-        if known is not None and len(known) == 64 and cached(root / known[:16], known):
-            return Library(root / known[:16] / LIBRARY, known, True, 0.0), 0.0
-        build_dir = root
+    found = None if force else _remembered(ctrl, form, path_search, cc, flags, build_dir)
+    if found is not None and found[0] is not None:
+        return found[0], 0.0
     start = time.perf_counter()
     source = make_source()
     seconds = time.perf_counter() - start
-    library = build(source, cc=cc, flags=flags, build_dir=build_dir, force=force)
-    if key is not None and key[1]:
-        remember(root, SOURCES, memo_key, library.key, SOURCE_ENTRIES)
+    library = build(source, cc=cc, flags=flags, build_dir=found[1] if found else build_dir, force=force)
+    if found is not None and found[3]:
+        remember(found[1], SOURCES, found[2], library.key, SOURCE_ENTRIES)
     return library, seconds

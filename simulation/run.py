@@ -13,7 +13,8 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from coordarm.generated import compile as compile_controller
-from coordarm.symbolic import BuildError, ConfigError, CoordinatingController
+from coordarm.generated import compiled_at_hand
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError
 from coordarm.symbolic.checks import is_integer, is_real
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
@@ -270,7 +271,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         ``err.contact`` is the first, ``err.run`` holds the run up to there.
     """
     duration, step, t0, thr = check_settings(ctrl, duration, step, t0, chunk, backend, thresholds)
-    q0, tube = check_start(ctrl, q0, t0, duration, thr, check_every, physical)
+    at_hand = compiled_at_hand(ctrl) if backend != Backend.INTERPRETED else None
+    q0, tube = check_start(ctrl, q0, t0, duration, thr, check_every, physical, law=at_hand)
     backend, compiled, info = select_backend(ctrl, backend, progress=bool(progress))
     check_interrupt()
     n_steps = int(round(duration / step))
@@ -373,8 +375,36 @@ def check_settings(ctrl: CoordinatingController, duration: Any, step: Any, t0: A
     return duration, step, t0, thr
 
 
+def start_outputs(ctrl: CoordinatingController, q0: np.ndarray, t0: float, law: Any = None) -> dict[str, Any]:
+    """The law's outputs at the start: from the compiled ``law`` when given, else the controller's, evaluated once.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller.
+    q0 : (dof,) ndarray
+        Start configuration [rad].
+    t0 : float
+        Start time [s].
+    law : CompiledController, optional
+        The compiled law (a non-finite output there is left to the controller's evaluation, whose
+        margins then name the singular start).
+
+    Returns
+    -------
+    dict
+        Outputs by name (see :meth:`~coordarm.symbolic.law_face.LawFace.evaluate`).
+    """
+    if law is not None:
+        try:
+            return law.evaluate(q0, t0)
+        except NonFiniteError:
+            pass
+    return ctrl.evaluate(q0, t0, once=True)
+
+
 def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: float, thr: dict[str, float],
-                check_every: Any, physical: Any) -> tuple[np.ndarray, float]:
+                check_every: Any, physical: Any, law: Any = None) -> tuple[np.ndarray, float]:
     """Check the start of a run: ``q0``, the curve's reach, the margins, the contacts and the tube at ``t0``.
 
     Parameters
@@ -391,6 +421,9 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
         Physical check stride [steps] (checked here, where its error has always been reported).
     physical : Physical or None
         Joint limits, self-collision and obstacles.
+    law : CompiledController, optional
+        The compiled law when it is at hand (:func:`coordarm.generated.compiled_at_hand`): it evaluates
+        the start; else the controller does, once (:meth:`~coordarm.symbolic.law_face.LawFace.evaluate`).
 
     Returns
     -------
@@ -408,7 +441,7 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
     q0 = ctrl.chain.check_q(q0, "q0")
     if not ctrl.chain.rail:          # a rail carries the base along; its own margin guards it
         check_curve_reaches_base(ctrl, t0, t0 + duration)
-    start = ctrl.evaluate(q0, t0, once=True)
+    start = start_outputs(ctrl, q0, t0, law)
     layout = layout_of_chain(ctrl.chain)
     bad = margin_violation({c.array: np.asarray(start[c.array])[None] for c in layout.margins}, layout.margins, thr)
     if bad is not None:

@@ -59,9 +59,8 @@ def package_folder(package: str, *parts: str) -> Any:
     Path or importlib.resources.abc.Traversable
         ``/``, ``iterdir``, ``read_text`` and ``read_bytes`` work on either.
     """
-    import coordarm
-
-    here = os.path.join(os.path.dirname(coordarm.__file__), *package.split(".")[1:], *parts)
+    top = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))        # coordarm/ (this is coordarm/symbolic/lazy.py)
+    here = os.path.join(top, *package.split(".")[1:], *parts)
     if os.path.isdir(here):
         return Path(here)
     from importlib import resources
