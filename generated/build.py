@@ -376,23 +376,12 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
         os.close(fd)
     except OSError as exc:
         raise BuildError(f"build directory {entry}: {exc}") from None
-    import shlex
-    import subprocess
-
     obj = tmp[:-len(".tmp")] + ".o"
     start = time.perf_counter()
     placed = False
     try:
         for cmd in compile_and_link(cc_path, flags, src, obj, tmp):
-            try:
-                res = _run_compiler(cmd, max(1e-3, timeout - (time.perf_counter() - start)))
-            except subprocess.TimeoutExpired:
-                raise BuildError(f"compiling {src} took longer than {timeout:g} s; stopped "
-                                 "(COORDARM_COMPILE_TIMEOUT sets the limit)") from None
-            except OSError as exc:
-                raise BuildError(f"C compiler {cc_path} did not run: {exc}") from None
-            if res.returncode != 0:
-                raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
+            _compile_step(cmd, src, max(1e-3, timeout - (time.perf_counter() - start)), timeout)
         seconds = time.perf_counter() - start
         digest = _sha256(Path(tmp))
         os.replace(tmp, entry / LIBRARY)
@@ -410,6 +399,22 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
     except OSError as exc:
         raise BuildError(f"{entry / META}: cannot write it: {exc.strerror or exc}") from None
     return Library(entry / LIBRARY, key, False, seconds)
+
+
+def _compile_step(cmd: list[str], src: Path, left: float, timeout: float) -> None:
+    """Run one compiler command of a build with ``left`` seconds; BuildError when it fails, times out or does not run."""
+    import shlex
+    import subprocess
+
+    try:
+        res = _run_compiler(cmd, left)
+    except subprocess.TimeoutExpired:
+        raise BuildError(f"compiling {src} took longer than {timeout:g} s; stopped "
+                         "(COORDARM_COMPILE_TIMEOUT sets the limit)") from None
+    except OSError as exc:
+        raise BuildError(f"C compiler {cmd[0]} did not run: {exc}") from None
+    if res.returncode != 0:
+        raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
 
 
 def remove_stale_temporaries(entry: Path) -> int:
