@@ -504,8 +504,10 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
 
     The cache is :func:`private_root` of :func:`build_root`, the directory :func:`build` writes to (a
     private temporary one, with a :class:`CacheWarning`, when the wanted one is not this user's alone;
-    it is not created when missing). Only cache entries (:func:`is_cache_entry`) and the remembered
-    compiler versions (:data:`~coordarm.generated.compiler_memo.MEMO`, a regular file) are deleted:
+    it is not created when missing). Only cache entries (:func:`is_cache_entry`) and the memo files (regular
+    files: the compiler versions :data:`~coordarm.generated.compiler_memo.MEMO`, the digests
+    :data:`~coordarm.generated.code_identity.DIGESTS`, the recipes' libraries
+    :data:`~coordarm.generated.source_memo.SOURCES`) are deleted:
     nothing else in the directory, no symbolic link and nothing a link points to.
 
     Parameters
@@ -527,9 +529,12 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
         if is_cache_entry(entry):
             shutil.rmtree(entry, ignore_errors=True)
             n += not entry.exists()
-    memo = root / MEMO
-    if memo.is_file() and not memo.is_symlink():
-        memo.unlink(missing_ok=True)
+    from .code_identity import DIGESTS
+    from .source_memo import SOURCES
+
+    for memo in (root / MEMO, root / DIGESTS, root / SOURCES):
+        if memo.is_file() and not memo.is_symlink():
+            memo.unlink(missing_ok=True)
     return n
 
 
