@@ -18,7 +18,6 @@ import platform
 import re
 import shutil
 import sys
-import tempfile
 import time
 import warnings
 from dataclasses import dataclass
@@ -31,7 +30,7 @@ from coordarm.symbolic.errors import shown
 
 from .cache_dir import own_group, root_problem  # noqa: F401 (re-exported)
 from .source import CODEGEN_OPTIONS, Source
-from .compiler_memo import MEMO, compiler_version, write_atomic
+from .compiler_memo import DIGESTS, MEMO, SOURCES, compiler_version, write_atomic
 
 #: Optimisation flags (see benchmarks/RESULTS.md); override with COORDARM_CFLAGS. ``-fno-math-errno``
 #: lets the link angles' cosines and sines vectorise (glibc libmvec), ``-march=native`` uses the
@@ -140,6 +139,7 @@ def private_root(root: Path) -> Path:
     if problem is None:
         return root
     if not _private_fallback:
+        import tempfile
         _private_fallback.append(Path(tempfile.mkdtemp(prefix="coordarm-build-")))
     warnings.warn(f"build cache {root} is {problem}: building in the private directory {_private_fallback[0]} "
                   "instead", CacheWarning, stacklevel=3)
@@ -372,6 +372,7 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
         src = entry / SOURCE
         write_atomic(src, source.text.encode())
         remove_stale_temporaries(entry)
+        import tempfile
         fd, tmp = tempfile.mkstemp(dir=entry, prefix=f"{LIBRARY}.{os.getpid()}-", suffix=".tmp")
         os.close(fd)
     except OSError as exc:
@@ -483,6 +484,8 @@ def _run_compiler(cmd: list[str], timeout: float | None) -> "subprocess.Complete
 
     from .compiler_guard import kill_process_tree
 
+    import tempfile
+
     tmpdir = tempfile.mkdtemp(prefix="coordarm-cc-")
     env = dict(os.environ, TMPDIR=tmpdir, TMP=tmpdir, TEMP=tmpdir)
     guarded = [sys.executable, "-I", "-S", str(Path(__file__).with_name("compiler_guard.py")), str(os.getpid()), *cmd]
@@ -506,8 +509,8 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
     private temporary one, with a :class:`CacheWarning`, when the wanted one is not this user's alone;
     it is not created when missing). Only cache entries (:func:`is_cache_entry`) and the memo files (regular
     files: the compiler versions :data:`~coordarm.generated.compiler_memo.MEMO`, the digests
-    :data:`~coordarm.generated.code_identity.DIGESTS`, the recipes' libraries
-    :data:`~coordarm.generated.source_memo.SOURCES`) are deleted:
+    :data:`~coordarm.generated.compiler_memo.DIGESTS`, the recipes' libraries
+    :data:`~coordarm.generated.compiler_memo.SOURCES`) are deleted:
     nothing else in the directory, no symbolic link and nothing a link points to.
 
     Parameters
@@ -529,9 +532,6 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
         if is_cache_entry(entry):
             shutil.rmtree(entry, ignore_errors=True)
             n += not entry.exists()
-    from .code_identity import DIGESTS
-    from .source_memo import SOURCES
-
     for memo in (root / MEMO, root / DIGESTS, root / SOURCES):
         if memo.is_file() and not memo.is_symlink():
             memo.unlink(missing_ok=True)

@@ -18,12 +18,10 @@ import time
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
-from .compiler_memo import recall
+from .compiler_memo import DIGESTS, recall
 
 #: Seconds a file must be left alone before a key built from its identity is remembered [s].
 SETTLE_SECONDS = 2.0
-#: Memo file of the cache directory holding the remembered digests: ``{"<name> <key>": value}``.
-DIGESTS = "digests.json"
 #: Most digests remembered.
 DIGEST_ENTRIES = 64
 
@@ -115,7 +113,7 @@ def remembered_digest(name: str, paths: Sequence[str], compute: Callable[[], str
     Parameters
     ----------
     name : str
-        What the value is (it prefixes the key in the memo file :data:`DIGESTS`).
+        What the value is (it prefixes the key in the memo file :data:`~.compiler_memo.DIGESTS`).
     paths : sequence of str
         The files the value is computed from.
     compute : callable

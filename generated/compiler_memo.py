@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from pathlib import Path
 from typing import Callable
 
@@ -21,6 +20,10 @@ from typing import Callable
 MEMO = "compilers.json"
 #: Most executables remembered (the least recently asked go first).
 MEMO_ENTRIES = 16
+#: Memo file of the digests remembered under files' identities (:mod:`.code_identity`): ``{"<name> <key>": value}``.
+DIGESTS = "digests.json"
+#: Memo file of the libraries of controllers' recipes (:mod:`.source_memo`): ``{recipe key: library key}``.
+SOURCES = "sources.json"
 
 
 def write_atomic(path: Path, data: bytes) -> None:
@@ -38,6 +41,8 @@ def write_atomic(path: Path, data: bytes) -> None:
     OSError
         The directory is not writable (the temporary file is removed).
     """
+    import tempfile                                     # 1.6 ms to import: only a write needs it
+
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as f:

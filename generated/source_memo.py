@@ -3,7 +3,7 @@
 Generating the C of a law (building its CasADi Functions, CasADi's code generator) takes about 10 ms
 at 64 links, and a cache hit needs the source only for the library's key (:func:`.build.cache_key`).
 A controller that declares its recipe (:meth:`~coordarm.symbolic.law_face.LawFace.set_recipe`: a
-scenario's JSON, which with coordarm's code determines it) is looked up in :data:`SOURCES` instead,
+scenario's JSON, which with coordarm's code determines it) is looked up in :data:`~.compiler_memo.SOURCES` instead,
 under a key (:func:`recipe_key`) over everything the generated text depends on: the recipe, the law's
 form and path search, the identity of every file of ``symbolic``, ``generated`` (templates included)
 and ``simulation`` (presets included; :mod:`.code_identity`), CasADi's and numpy's versions and
@@ -25,10 +25,8 @@ from .build import LIBRARY, Library, build, build_root, cache_key, cached, compi
 from .build import private_root
 from .code_identity import files_key, package_files
 from .source import Source
-from .compiler_memo import lookup, remember
+from .compiler_memo import SOURCES, lookup, remember
 
-#: Memo file of the cache directory: ``{recipe key: library key}``.
-SOURCES = "sources.json"
 #: Most recipes remembered.
 SOURCE_ENTRIES = 64
 #: The folders whose files the generated C can depend on (recursively).

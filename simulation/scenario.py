@@ -421,8 +421,8 @@ def parsed_toml(text: str, source: str) -> Any:
     ConfigError
         ``source: not valid TOML: ...``.
     """
-    from coordarm.generated.code_identity import DIGEST_ENTRIES, DIGESTS, memo_root
-    from coordarm.generated.compiler_memo import lookup, remember
+    from coordarm.generated.code_identity import DIGEST_ENTRIES, memo_root
+    from coordarm.generated.compiler_memo import DIGESTS, lookup, remember
 
     root = memo_root()
     key = "toml " + hashlib.sha256(text.encode()).hexdigest()

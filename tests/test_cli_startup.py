@@ -88,10 +88,10 @@ UNUSED_BY_A_RUN = ('coordarm.simulation.live', 'coordarm.simulation.ws_bridge', 
                    # issue 24, the fixed cost: package data without importlib.resources, a remembered TOML parse,
                    # Gauss-Legendre nodes on first need, no spatial controller, the kernel's host name, the cache
                    # directory without platformdirs, and with the recipe's library remembered no code generator,
-                   # no compiler process (subprocess), no group database
+                   # no compiler process (subprocess), no group database, no temporary file (all memos known)
                    'importlib.resources', 'tomllib', 'numpy.polynomial', 'coordarm.symbolic.spatial_controller',
                    'coordarm.symbolic.spatial_dense', 'socket', 'platformdirs', 'coordarm.generated.codegen',
-                   'coordarm.generated.link_variants', 'subprocess', 'grp', 'shlex')
+                   'coordarm.generated.link_variants', 'subprocess', 'grp', 'shlex', 'tempfile')
 
 
 def test_a_run_imports_no_module_it_does_not_use(tmp_path):

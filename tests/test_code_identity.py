@@ -12,7 +12,8 @@ import pytest
 
 from coordarm.generated import code_identity
 from coordarm.generated.cache_dir import user_cache_dir
-from coordarm.generated.code_identity import DIGESTS, sources_digest
+from coordarm.generated.code_identity import sources_digest
+from coordarm.generated.compiler_memo import DIGESTS
 from coordarm.simulation.choices import presets
 from coordarm.simulation.host import host_name, host_platform
 from coordarm.simulation.mcap_writer import code_hash

@@ -7,7 +7,8 @@ import pytest
 from coordarm.generated import build as build_mod
 from coordarm.generated import code_identity, source_memo
 from coordarm.generated.compiled import CompiledController, controller_source
-from coordarm.generated.source_memo import SOURCES, recipe_key
+from coordarm.generated.compiler_memo import SOURCES
+from coordarm.generated.source_memo import recipe_key
 from coordarm.simulation.choices import presets
 from coordarm.simulation.scenario import Scenario, load_scenario
 from coordarm.symbolic import PlanarChain
