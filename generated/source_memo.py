@@ -21,8 +21,8 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
-from .build import LIBRARY, Library, build, build_root, cache_key, cached, compile_flags, cpu_identity, find_compiler
-from .build import private_root
+from .build import LIBRARY, Library, build, build_root, cache_key, cached, compile_flags, compile_timeout
+from .build import cpu_identity, find_compiler, private_root
 from .code_identity import files_key, package_files
 from .source import Source
 from .compiler_memo import SOURCES, lookup, remember
@@ -101,8 +101,10 @@ def _remembered(ctrl: Any, form: str, path_search: bool, cc: str | None, flags: 
     key = recipe_key(ctrl, form, path_search)
     if key is None:
         return None
+    cc_path, flag_list = find_compiler(cc), compile_flags(flags)      # as build() does: no cache made without them,
+    compile_timeout()                                                  # and a bad setting refused even on a hit
     root = private_root(build_root(build_dir))
-    memo_key = cache_key(Source(key[0], form, ctrl.chain.m), find_compiler(cc), compile_flags(flags), memo_dir=root)
+    memo_key = cache_key(Source(key[0], form, ctrl.chain.m), cc_path, flag_list, memo_dir=root)
     known = lookup(root, SOURCES, memo_key)
     hit = known is not None and len(known) == 64 and cached(root / known[:16], known)
     return (Library(root / known[:16] / LIBRARY, known, True, 0.0) if hit else None), root, memo_key, key[1]
