@@ -375,8 +375,16 @@ def check_settings(ctrl: CoordinatingController, duration: Any, step: Any, t0: A
     return duration, step, t0, thr
 
 
-def start_outputs(ctrl: CoordinatingController, q0: np.ndarray, t0: float, law: Any = None) -> dict[str, Any]:
-    """The law's outputs at the start: from the compiled ``law`` when given, else the controller's, evaluated once.
+#: Margins within this of their thresholds (and deviations within this fraction of a path's tube) at the
+#: start are decided by the controller's own law, not the compiled one (which differs by ~1e-13, a spatial
+#: chain's by ~1e-9): the start check then decides and reports exactly as with the interpreted law [-].
+START_GUARD = 1e-6
+
+
+def start_outputs(ctrl: CoordinatingController, q0: np.ndarray, t0: float, law: Any, thr: dict[str, float],
+                  tube: float) -> dict[str, Any]:
+    """The law's outputs at the start: the compiled ``law``'s when every margin and deviation is clear of its
+    limit by :data:`START_GUARD`, else (or without ``law``) the controller's, evaluated once.
 
     Parameters
     ----------
@@ -386,9 +394,12 @@ def start_outputs(ctrl: CoordinatingController, q0: np.ndarray, t0: float, law: 
         Start configuration [rad].
     t0 : float
         Start time [s].
-    law : CompiledController, optional
-        The compiled law (a non-finite output there is left to the controller's evaluation, whose
-        margins then name the singular start).
+    law : CompiledController or None
+        The compiled law at hand.
+    thr : dict
+        Margin thresholds [-].
+    tube : float
+        Tube radius of a path [m] (inf without one).
 
     Returns
     -------
@@ -397,9 +408,15 @@ def start_outputs(ctrl: CoordinatingController, q0: np.ndarray, t0: float, law: 
     """
     if law is not None:
         try:
-            return law.evaluate(q0, t0)
+            out = law.evaluate(q0, t0)
         except NonFiniteError:
-            pass
+            out = None
+        layout = layout_of_chain(ctrl.chain)
+        near = {k: v + START_GUARD for k, v in thr.items()}
+        if out is not None and margin_violation({c.array: np.asarray(out[c.array])[None] for c in layout.margins},
+                                                layout.margins, near) is None and tube_exit(
+                np.asarray(out["e"])[None], tube * (1 - START_GUARD), layout.deviations_per_link) is None:
+            return out
     return ctrl.evaluate(q0, t0, once=True)
 
 
@@ -423,7 +440,8 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
         Joint limits, self-collision and obstacles.
     law : CompiledController, optional
         The compiled law when it is at hand (:func:`coordarm.generated.compiled_at_hand`): it evaluates
-        the start; else the controller does, once (:meth:`~coordarm.symbolic.law_face.LawFace.evaluate`).
+        the start unless a margin or deviation is near its limit (:func:`start_outputs`); else the
+        controller does, once (:meth:`~coordarm.symbolic.law_face.LawFace.evaluate`).
 
     Returns
     -------
@@ -441,7 +459,8 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
     q0 = ctrl.chain.check_q(q0, "q0")
     if not ctrl.chain.rail:          # a rail carries the base along; its own margin guards it
         check_curve_reaches_base(ctrl, t0, t0 + duration)
-    start = start_outputs(ctrl, q0, t0, law)
+    tube = float(getattr(ctrl.curve, "tube_radius", math.inf))
+    start = start_outputs(ctrl, q0, t0, law, thr, tube)
     layout = layout_of_chain(ctrl.chain)
     bad = margin_violation({c.array: np.asarray(start[c.array])[None] for c in layout.margins}, layout.margins, thr)
     if bad is not None:
@@ -455,7 +474,6 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
         invalid = physical.check(np.array([t0]), q0[None])
         if invalid:
             raise ConfigError(f"q0: start configuration is not physically valid: {invalid[0].describe()}")
-    tube = float(getattr(ctrl.curve, "tube_radius", math.inf))
     start_out = tube_exit(np.asarray(start["e"])[None], tube, layout.deviations_per_link)
     if start_out is not None:
         raise ConfigError(f"q0: the central point of link {start_out[1]} is {start_out[2]:.4g} m from the path, "

@@ -129,3 +129,53 @@ def test_a_remembered_key_whose_library_is_gone_or_stale_is_built_again(tmp_path
     assert not again.cache_hit and again.generate_seconds > 0 and again.library.key == first.library.key
     forced = CompiledController(sc.controller(), build_dir=tmp_path, force=True)
     assert not forced.cache_hit and forced.generate_seconds > 0
+
+
+def test_the_compiled_law_at_hand_is_never_compiled_for_it(tmp_path, monkeypatch):
+    """``compiled_at_hand`` (the start check's law when no C need be generated): None for an unknown recipe,
+    without generating or compiling anything; the remembered library or the one ``compile`` kept otherwise."""
+    from coordarm.generated import compile as compile_law
+    from coordarm.generated import compiled_at_hand
+
+    monkeypatch.setattr(code_identity, "SETTLE_SECONDS", -1e9)
+    sc = small("line", links=4)
+    real_build = build_mod.build
+    monkeypatch.setattr(source_memo, "build", lambda *a, **k: pytest.fail("compiled"))
+    assert compiled_at_hand(sc.controller(), build_dir=tmp_path) is None
+    assert not (tmp_path / SOURCES).exists()
+    monkeypatch.setattr(source_memo, "build", real_build)
+    ctrl = sc.controller()
+    kept = compile_law(ctrl, build_dir=tmp_path)
+    assert compiled_at_hand(ctrl, build_dir=tmp_path) is kept
+    monkeypatch.setattr(source_memo, "build", lambda *a, **k: pytest.fail("compiled"))
+    other = sc.controller()
+    found = compiled_at_hand(other, build_dir=tmp_path)
+    assert found is not None and found.library.key == kept.library.key and found.generate_seconds == 0
+    assert compile_law(other, build_dir=tmp_path) is found
+    q = sc.start(other)
+    assert found.evaluate(q, 0.0).keys() >= {"e", "link_margins", "longitudinal"}
+
+
+def test_a_singular_start_is_refused_alike_with_the_compiled_law_at_hand(tmp_path, monkeypatch):
+    """The start check with the compiled law gives the interpreted check's error, the margin in it included
+    (the compiled law says 2.5e-19 where the controller's says 0: a margin near its threshold, or a
+    non-finite output, leaves the decision and the message to the controller's own evaluation)."""
+    import numpy as np
+
+    from coordarm.generated import compile as compile_law
+    from coordarm.simulation.run import simulate
+    from coordarm.symbolic import ConfigError
+
+    from coordarm.generated import compiled_at_hand
+
+    sc = small("line", links=4)
+    ctrl = sc.controller()
+    kept = compile_law(ctrl)                              # in the session's cache, where simulate() looks
+    assert compiled_at_hand(ctrl) is kept
+    q = np.zeros(4)                                      # stretched straight: the longitudinal margin is 0
+    errors = []
+    for backend in ("auto", "interpreted"):
+        with pytest.raises(ConfigError) as err:
+            simulate(ctrl, q, 0.01, backend=backend)
+        errors.append(str(err.value))
+    assert errors[0] == errors[1] and "singular" in errors[0]
