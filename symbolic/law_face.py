@@ -8,6 +8,7 @@ Functions' names, the scalar outputs and how the control enters ``q'``.
 """
 from __future__ import annotations
 
+import hashlib
 import math
 from typing import Any, Callable, Sequence
 
@@ -35,6 +36,16 @@ def condition_numbers(M: np.ndarray) -> np.ndarray:
     sv = np.linalg.svd(M, compute_uv=False)
     with np.errstate(divide="ignore"):
         return sv[:, 0] / sv[:, -1]
+
+
+def _array_digest(a: np.ndarray) -> bytes:
+    """SHA-256 of an array's values, shape and type (its buffer read in place when contiguous: no copy)."""
+    h = hashlib.sha256(f"{a.dtype.str} {a.shape}".encode())
+    try:
+        h.update(memoryview(a).cast("B"))
+    except (TypeError, ValueError):                     # not contiguous, 0-d, or objects: a copy
+        h.update(a.tobytes())
+    return h.digest()
 
 
 class LawFace:
@@ -114,7 +125,7 @@ class LawFace:
                 items = vars(owner).items()
             except TypeError:                          # no __dict__: nothing to compare
                 return None
-            state += [(name, value, value.tobytes() if isinstance(value, np.ndarray) else None)
+            state += [(name, value, _array_digest(value) if isinstance(value, np.ndarray) else None)
                       for name, value in items if not (owner is self and name in ("_cache", "_recipe"))]
         return state
 
