@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 from importlib import import_module
-from pathlib import Path
 from typing import Any, Callable
 
 
@@ -62,6 +61,7 @@ def package_folder(package: str, *parts: str) -> Any:
     top = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))        # coordarm/ (this is coordarm/symbolic/lazy.py)
     here = os.path.join(top, *package.split(".")[1:], *parts)
     if os.path.isdir(here):
+        from pathlib import Path                        # not on the path of ``coordarm --help``
         return Path(here)
     from importlib import resources
     return resources.files(package).joinpath(*parts)
