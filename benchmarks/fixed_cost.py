@@ -1,7 +1,8 @@
 """Issue 24, item 5: the fixed cost of ``coordarm run`` (all but the ``simulate`` call), two trees interleaved.
 
 Each round, for each tree in turn (``PYTHONPATH`` = the tree, child processes with bytecode caching on,
-library cached) and each variant (``--quiet``; the progress bar, on a pipe):
+library cached) and each variant (``--quiet``; the progress bar, on a pipe; ``--duration 0.01 --quiet``,
+the fixed cost alone):
 ``python -m coordarm run line --links 64 --duration 30 --no-figures --overwrite`` timed from outside
 (interpreter start to process end), with the wall time of its ``simulation.run.simulate`` call measured
 inside the process (the per-chunk log work overlaps it; the writer's tail after it does not). The fixed
@@ -46,7 +47,9 @@ from coordarm.cli import console
 console(sys.argv[2:])
 """
 
-VARIANTS = {"--quiet": ["--quiet"], "progress bar": []}
+VARIANTS = {"--quiet": ["--quiet"], "progress bar": [],
+            # the fixed cost alone: the same command simulating 0.01 s (10 steps)
+            "--duration 0.01 --quiet": ["--quiet", "--duration", "0.01"]}
 
 
 def one(tree: Path, work: Path, extra: list[str]) -> tuple[float, float]:

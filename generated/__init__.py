@@ -63,16 +63,70 @@ def compile(ctrl: "CoordinatingController | SpatialController", form: str | None
     """
     from coordarm.generated.compiled import CompiledController
     form = form or ctrl.law_form
-    options = {k: v for k, v in build_options.items() if k != "force"}
-    try:
-        key = (id(ctrl), form, tuple(sorted((k, _frozen(v)) for k, v in options.items())))
-        hash(key)
-    except TypeError:                      # an option that cannot be a key: nothing kept
+    key = _key(ctrl, form, build_options)
+    if key is None:                        # an option that cannot be a key: nothing kept
         return CompiledController(ctrl, form, **build_options)
     if key in _compiled and not build_options.get("force"):
         _compiled.move_to_end(key)
         return _compiled[key][1]
-    compiled = CompiledController(ctrl, form, **build_options)
+    return _keep(key, ctrl, CompiledController(ctrl, form, **build_options))
+
+
+def compiled_at_hand(ctrl: "CoordinatingController | SpatialController", form: str | None = None,
+                     **build_options: Any) -> "CompiledController | None":
+    """The compiled law :func:`compile` would return, when it is at hand without generating or compiling C.
+
+    That is: kept from an earlier :func:`compile`, or a library in the cache found by the
+    controller's recipe (:func:`coordarm.generated.source_memo.remembered_library`), loaded (and kept).
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController or SpatialController
+        The controller.
+    form : {"structured", "dense"}, optional
+        Law form (default: the controller's).
+    **build_options
+        As for :func:`compile` (``force`` gives None).
+
+    Returns
+    -------
+    CompiledController or None
+        None when the law would have to be generated or compiled, or its library does not load.
+    """
+    from coordarm.generated.compiled import CompiledController
+    from coordarm.generated.source_memo import remembered_library
+    from coordarm.symbolic import BuildError
+
+    form = form or ctrl.law_form
+    key = _key(ctrl, form, build_options)
+    if key is None or build_options.get("force"):
+        return None
+    if key in _compiled:
+        _compiled.move_to_end(key)
+        return _compiled[key][1]
+    options = {k: v for k, v in build_options.items() if k != "path_search"}
+    try:
+        library = remembered_library(ctrl, form, build_options.get("path_search", True), **options)
+        return None if library is None else _keep(key, ctrl, CompiledController(ctrl, form, library=library,
+                                                                               **build_options))
+    except BuildError:                     # compile() meets it again and reports it
+        return None
+
+
+def _key(ctrl: Any, form: str, build_options: dict[str, Any]) -> tuple | None:
+    """The key of :data:`_compiled` for ``ctrl``, ``form`` and the options (``force`` aside), or None when an
+    option cannot be part of a key."""
+    options = {k: v for k, v in build_options.items() if k != "force"}
+    try:
+        key = (id(ctrl), form, tuple(sorted((k, _frozen(v)) for k, v in options.items())))
+        hash(key)
+    except TypeError:
+        return None
+    return key
+
+
+def _keep(key: tuple, ctrl: Any, compiled: "CompiledController") -> "CompiledController":
+    """Keep ``compiled`` under ``key`` (the most recent of :data:`KEEP_COMPILED`) and return it."""
     _compiled[key] = (ctrl, compiled)
     _compiled.move_to_end(key)
     while len(_compiled) > KEEP_COMPILED:

@@ -11,19 +11,13 @@ processes building the same key both end with a valid library.
 from __future__ import annotations
 
 import functools
-import grp
 import hashlib
 import json
 import os
 import platform
-import pwd
 import re
-import shlex
 import shutil
-import stat
 import sys
-import subprocess
-import tempfile
 import time
 import warnings
 from dataclasses import dataclass
@@ -34,9 +28,9 @@ import casadi as ca
 from coordarm.symbolic import BuildError
 from coordarm.symbolic.errors import shown
 
-from .codegen import CODEGEN_OPTIONS, Source
-from .compiler_guard import kill_process_tree, process_alive
-from .compiler_memo import MEMO, compiler_version, write_atomic
+from .cache_dir import own_group, root_problem  # noqa: F401 (re-exported)
+from .source import CODEGEN_OPTIONS, Source
+from .compiler_memo import DIGESTS, MEMO, SOURCES, compiler_version, write_atomic
 
 #: Optimisation flags (see benchmarks/RESULTS.md); override with COORDARM_CFLAGS. ``-fno-math-errno``
 #: lets the link angles' cosines and sines vectorise (glibc libmvec), ``-march=native`` uses the
@@ -101,9 +95,9 @@ def build_root(build_dir: str | os.PathLike | None = None) -> Path:
     env = os.environ.get("COORDARM_BUILD_DIR")
     if env:
         return Path(env)
-    from platformdirs import user_cache_dir
+    from .cache_dir import user_cache_dir
 
-    return Path(user_cache_dir("coordarm", appauthor=False))
+    return Path(user_cache_dir("coordarm"))
 
 
 class CacheWarning(UserWarning):
@@ -111,30 +105,6 @@ class CacheWarning(UserWarning):
 
 
 _private_fallback: list[Path] = []
-
-
-def own_group(gid: int) -> bool:
-    """Whether group ``gid`` is this user's own: the user's primary group, with no other members listed
-    (the "user private group" of most Linux systems, where ``umask 002`` makes directories group-writable).
-
-    Parameters
-    ----------
-    gid : int
-        A group id.
-
-    Returns
-    -------
-    bool
-        False for any other group, or when the group database does not know ``gid``.
-    """
-    if gid != os.getgid():
-        return False
-    try:
-        members = set(grp.getgrgid(gid).gr_mem)
-        name = pwd.getpwuid(os.getuid()).pw_name
-    except KeyError:
-        return False
-    return members <= {name}
 
 
 def private_root(root: Path) -> Path:
@@ -163,16 +133,13 @@ def private_root(root: Path) -> Path:
     """
     try:
         root.mkdir(mode=0o700, parents=True, exist_ok=True)
-        st = root.stat()
-        problem = (f"owned by uid {st.st_uid}, not {os.getuid()}" if st.st_uid != os.getuid() else
-                   "writable by others" if st.st_mode & stat.S_IWOTH else
-                   f"writable by group {st.st_gid}" if st.st_mode & stat.S_IWGRP and not own_group(st.st_gid)
-                   else None)
+        problem = root_problem(root)
     except OSError as exc:
         problem = f"unusable ({exc.strerror or exc})"
     if problem is None:
         return root
     if not _private_fallback:
+        import tempfile
         _private_fallback.append(Path(tempfile.mkdtemp(prefix="coordarm-build-")))
     warnings.warn(f"build cache {root} is {problem}: building in the private directory {_private_fallback[0]} "
                   "instead", CacheWarning, stacklevel=3)
@@ -233,6 +200,8 @@ def find_compiler(cc: str | None = None) -> str:
 
 @functools.lru_cache(maxsize=None)
 def _compiler_version(path: str) -> str:
+    import subprocess
+
     try:
         res = _run_compiler([path, "--version"], VERSION_TIMEOUT)
     except OSError as exc:
@@ -268,6 +237,8 @@ def compile_flags(flags: tuple[str, ...] | list[str] | str | None = None) -> tup
             return DEFAULT_FLAGS
     if not isinstance(flags, str):
         return tuple(flags)
+    import shlex
+
     try:
         return tuple(shlex.split(flags))
     except ValueError as exc:
@@ -401,6 +372,7 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
         src = entry / SOURCE
         write_atomic(src, source.text.encode())
         remove_stale_temporaries(entry)
+        import tempfile
         fd, tmp = tempfile.mkstemp(dir=entry, prefix=f"{LIBRARY}.{os.getpid()}-", suffix=".tmp")
         os.close(fd)
     except OSError as exc:
@@ -410,15 +382,7 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
     placed = False
     try:
         for cmd in compile_and_link(cc_path, flags, src, obj, tmp):
-            try:
-                res = _run_compiler(cmd, max(1e-3, timeout - (time.perf_counter() - start)))
-            except subprocess.TimeoutExpired:
-                raise BuildError(f"compiling {src} took longer than {timeout:g} s; stopped "
-                                 "(COORDARM_COMPILE_TIMEOUT sets the limit)") from None
-            except OSError as exc:
-                raise BuildError(f"C compiler {cc_path} did not run: {exc}") from None
-            if res.returncode != 0:
-                raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
+            _compile_step(cmd, src, max(1e-3, timeout - (time.perf_counter() - start)), timeout)
         seconds = time.perf_counter() - start
         digest = _sha256(Path(tmp))
         os.replace(tmp, entry / LIBRARY)
@@ -438,6 +402,22 @@ def build(source: Source, *, cc: str | None = None, flags: tuple[str, ...] | lis
     return Library(entry / LIBRARY, key, False, seconds)
 
 
+def _compile_step(cmd: list[str], src: Path, left: float, timeout: float) -> None:
+    """Run one compiler command of a build with ``left`` seconds; BuildError when it fails, times out or does not run."""
+    import shlex
+    import subprocess
+
+    try:
+        res = _run_compiler(cmd, left)
+    except subprocess.TimeoutExpired:
+        raise BuildError(f"compiling {src} took longer than {timeout:g} s; stopped "
+                         "(COORDARM_COMPILE_TIMEOUT sets the limit)") from None
+    except OSError as exc:
+        raise BuildError(f"C compiler {cmd[0]} did not run: {exc}") from None
+    if res.returncode != 0:
+        raise BuildError(f"compiling {src} failed ({shlex.join(cmd)}):\n{res.stderr.strip()[-4000:]}")
+
+
 def remove_stale_temporaries(entry: Path) -> int:
     """Remove the temporary files of builds whose process is gone (killed while compiling).
 
@@ -454,6 +434,8 @@ def remove_stale_temporaries(entry: Path) -> int:
     int
         Files removed.
     """
+    from .compiler_guard import process_alive
+
     removed = 0
     for path in entry.glob(f"{LIBRARY}.*"):
         found = STALE_NAME.match(path.name)
@@ -492,12 +474,18 @@ def compile_and_link(cc: str, flags: tuple[str, ...], src: str | Path, obj: str 
             [cc, *REQUIRED_FLAGS, *link_flags, "-o", str(out), str(obj), "-lm"]]
 
 
-def _run_compiler(cmd: list[str], timeout: float | None) -> subprocess.CompletedProcess:
+def _run_compiler(cmd: list[str], timeout: float | None) -> "subprocess.CompletedProcess":
     """Run the compiler under :mod:`.compiler_guard` (in this process's group, so a Ctrl-C or a kill of
     the group reaches the guard, which stops the compiler's own group; and when this process dies,
     even by SIGKILL, the kernel tells the guard to), with its temporary files in a private directory
     that is removed afterwards; on a timeout or an interrupt kill it and every process it started
     (``gcc`` is a driver: ``cc1`` would compile on)."""
+    import subprocess
+
+    from .compiler_guard import kill_process_tree
+
+    import tempfile
+
     tmpdir = tempfile.mkdtemp(prefix="coordarm-cc-")
     env = dict(os.environ, TMPDIR=tmpdir, TMP=tmpdir, TEMP=tmpdir)
     guarded = [sys.executable, "-I", "-S", str(Path(__file__).with_name("compiler_guard.py")), str(os.getpid()), *cmd]
@@ -519,8 +507,10 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
 
     The cache is :func:`private_root` of :func:`build_root`, the directory :func:`build` writes to (a
     private temporary one, with a :class:`CacheWarning`, when the wanted one is not this user's alone;
-    it is not created when missing). Only cache entries (:func:`is_cache_entry`) and the remembered
-    compiler versions (:data:`~coordarm.generated.compiler_memo.MEMO`, a regular file) are deleted:
+    it is not created when missing). Only cache entries (:func:`is_cache_entry`) and the memo files (regular
+    files: the compiler versions :data:`~coordarm.generated.compiler_memo.MEMO`, the digests
+    :data:`~coordarm.generated.compiler_memo.DIGESTS`, the recipes' libraries
+    :data:`~coordarm.generated.compiler_memo.SOURCES`) are deleted:
     nothing else in the directory, no symbolic link and nothing a link points to.
 
     Parameters
@@ -542,9 +532,9 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
         if is_cache_entry(entry):
             shutil.rmtree(entry, ignore_errors=True)
             n += not entry.exists()
-    memo = root / MEMO
-    if memo.is_file() and not memo.is_symlink():
-        memo.unlink(missing_ok=True)
+    for memo in (root / MEMO, root / DIGESTS, root / SOURCES):
+        if memo.is_file() and not memo.is_symlink():
+            memo.unlink(missing_ok=True)
     return n
 
 

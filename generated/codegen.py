@@ -30,7 +30,6 @@ finiteness checks test the IEEE bits, so they hold under ``-ffast-math`` too.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Sequence
 
 import casadi as ca
@@ -46,29 +45,7 @@ from coordarm.symbolic.paths import Path
 from . import link_variants
 from .path_search import search_source
 from .render import render
-
-#: Options of CasADi's CodeGenerator (part of the cache key).
-CODEGEN_OPTIONS = {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"}
-
-
-@dataclass(frozen=True)
-class Source:
-    """Generated C source of one controller.
-
-    Attributes
-    ----------
-    text : str
-        The complete C translation unit.
-    form : str
-        ``"structured"`` or ``"dense"``.
-    m : int
-        Number of links.
-    """
-
-    text: str
-    form: str
-    m: int
-
+from .source import CODEGEN_OPTIONS, Source  # noqa: F401 (re-exported)
 
 def _split(ctrl: CoordinatingController, form: str) -> bool:
     """Whether the law is emitted as per-link Functions and a C loop (structured, undamped)."""

@@ -8,19 +8,23 @@ from __future__ import annotations
 
 import ctypes
 import math
-import time
+import sys
 import warnings
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError, SpatialController
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError
 from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.outputs import packed_width, spatial_packed_width, spatial_split, split
 
-from .build import Library, build
-from .codegen import Source, generate_source
+from .build import Library
+from .source import Source
+from .source_memo import compiled_library
+
+if TYPE_CHECKING:   # a planar run does not load the spatial modules
+    from coordarm.symbolic import SpatialController
 
 _P, _D, _I = ctypes.c_void_p, ctypes.c_double, ctypes.c_longlong
 _SIGNATURES = {"coordarm_law": [_P, _D, _P, _P, _P],
@@ -80,6 +84,23 @@ def load_library(path) -> ctypes.CDLL:
     return lib
 
 
+def is_spatial(ctrl: Any) -> bool:
+    """Whether ``ctrl`` is a :class:`~coordarm.symbolic.SpatialController` (without importing its module: if it
+    was never imported, there is none).
+
+    Parameters
+    ----------
+    ctrl : object
+        A controller.
+
+    Returns
+    -------
+    bool
+    """
+    module = sys.modules.get("coordarm.symbolic.spatial_controller")
+    return module is not None and isinstance(ctrl, module.SpatialController)
+
+
 def controller_source(ctrl: CoordinatingController | SpatialController, form: str,
                       path_search: bool = True) -> Source:
     """The C source of a planar or a spatial controller's law.
@@ -103,9 +124,10 @@ def controller_source(ctrl: CoordinatingController | SpatialController, form: st
     BuildError
         A non-diagonal B or an unknown form.
     """
-    if isinstance(ctrl, SpatialController):
+    if is_spatial(ctrl):
         from .spatial_codegen import generate_spatial_source
         return generate_spatial_source(ctrl, form)
+    from .codegen import generate_source
     return generate_source(ctrl, form, path_search)
 
 
@@ -130,13 +152,17 @@ class CompiledController:
     path_search : bool
         On a path, the C glue searches the closest piece near the previous link's (default); False
         selects it over every piece inside the generated step (the slower reference form).
+    library : Library, optional
+        The library of this controller's law, already found in the cache
+        (:func:`~coordarm.generated.source_memo.remembered_library`): loaded as it is.
 
     Attributes
     ----------
     library : Library
         Path, cache key, whether the build hit the cache, compile time.
     generate_seconds : float
-        Time spent generating the C source.
+        Time spent generating the C source [s]: 0 when the library of the controller's recipe was
+        remembered (:mod:`.source_memo`: the C is then not generated).
 
     Raises
     ------
@@ -151,18 +177,19 @@ class CompiledController:
 
     def __init__(self, ctrl: CoordinatingController | SpatialController, form: str = "structured", *,
                  cc: str | None = None,
-                 flags=None, build_dir=None, force: bool = False, path_search: bool = True) -> None:
+                 flags=None, build_dir=None, force: bool = False, path_search: bool = True,
+                 library: Library | None = None) -> None:
         self.ctrl, self.form, self.chain = ctrl, form, ctrl.chain
-        start = time.perf_counter()
-        source = controller_source(ctrl, form, path_search)
-        self.generate_seconds = time.perf_counter() - start
-        self.library: Library = build(source, cc=cc, flags=flags, build_dir=build_dir, force=force)
+        self.library: Library
+        self.library, self.generate_seconds = (library, 0.0) if library is not None else compiled_library(
+            ctrl, form, path_search, lambda: controller_source(ctrl, form, path_search), cc=cc, flags=flags,
+            build_dir=build_dir, force=force)
         self._lib = load_library(self.library.path)
         sizes = np.zeros(4, dtype=np.int64)
         self._lib.coordarm_sizes(sizes.ctypes.data)
         m, self.n_out, n_iw, n_w = (int(v) for v in sizes)
         self.rail = self.chain.rail
-        spatial = isinstance(ctrl, SpatialController)
+        spatial = is_spatial(ctrl)
         width = spatial_packed_width(self.chain.m, self.rail) if spatial else packed_width(self.chain.m, self.rail)
         self._split = ((lambda packed: spatial_split(packed, self.m, self.rail)) if spatial
                        else (lambda packed: split(packed, self.m, self.rail)))

@@ -18,7 +18,7 @@ import warnings
 from coordarm.symbolic import BuildError
 
 from .build import CacheWarning, build
-from .codegen import Source
+from .source import Source
 from .render import render
 
 #: Compiler flags of the kernels: optimised scalar code, no floating-point contraction, so a kernel

@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import re
 from functools import cache
-from importlib.resources import files
+
+from coordarm.symbolic.lazy import package_folder
 
 #: A placeholder: ``@name@``.
 PLACEHOLDER = re.compile(r"@([a-z_][a-z0-9_]*)@")
@@ -48,7 +49,7 @@ def template_text(name: str) -> str:
     FileNotFoundError
         No such template.
     """
-    return files(__package__).joinpath(FOLDER, *name.split("/")).read_text(encoding="utf-8")
+    return package_folder(__package__, FOLDER).joinpath(*name.split("/")).read_text(encoding="utf-8")
 
 
 def placeholders(name: str) -> frozenset[str]:

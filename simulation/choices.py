@@ -6,10 +6,11 @@ them from here.
 from __future__ import annotations
 
 from enum import StrEnum
-from importlib import import_module, resources
+from importlib import import_module
 from types import ModuleType
 
 from coordarm.symbolic.errors import ConfigError
+from coordarm.symbolic.lazy import package_folder
 
 class Backend(StrEnum):
     """How a run evaluates the law; a member equals (and prints as) its string value.
@@ -77,7 +78,7 @@ def presets() -> list[str]:
     list of str
         Sorted preset names, e.g. ``["arc", "hole", "line"]``.
     """
-    return sorted(p.name[:-5] for p in (resources.files("coordarm.simulation") / "presets").iterdir()
+    return sorted(p.name[:-5] for p in package_folder("coordarm.simulation", "presets").iterdir()
                   if p.name.endswith(".toml"))
 
 

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from importlib import resources
 from typing import Any
 
+from coordarm.symbolic.lazy import package_folder
 from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name, outputs_of, spatial_outputs_of
 
 from .log_layout import PLANAR, SPATIAL, ChainLayout
@@ -336,7 +336,7 @@ def foxglove_schema_bytes(name: str) -> bytes:
     FileNotFoundError
         No schema of that name ships with coordarm.
     """
-    return (resources.files(__package__) / "foxglove_schemas" / f"{name}.json").read_bytes()
+    return (package_folder(__package__, "foxglove_schemas") / f"{name}.json").read_bytes()
 
 
 def foxglove_schema(name: str) -> dict:

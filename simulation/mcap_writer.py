@@ -35,7 +35,6 @@ import hashlib
 import json
 import platform
 import signal
-import socket
 import sys
 import threading
 import time
@@ -57,6 +56,7 @@ from .cond_channel import default_cond_rate  # noqa: F401 (re-exported)
 from .log_layout import PLANAR, layout_of_chain, partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
+from .host import host_name, host_platform
 from .outcome import outcome_of
 from .rates import MOST_STEPS_BETWEEN, steps_between  # noqa: F401 (re-exported)
 from .recycled_arrays import RecycledArrays
@@ -106,20 +106,16 @@ def _version(module: str) -> str:
 
 
 def code_hash() -> str:
-    """SHA-256 over the Python sources of the ``symbolic`` and ``simulation`` packages (sorted by path).
+    """SHA-256 over the Python sources of the ``symbolic`` and ``simulation`` packages (sorted by path),
+    remembered while they are unchanged (:func:`~coordarm.generated.code_identity.sources_digest`).
 
     Returns
     -------
     str
         The digest, 64 hex digits (``generated`` and ``analysis`` are not part of it).
     """
-    digest = hashlib.sha256()
-    root = Path(__file__).resolve().parent.parent
-    for pkg in ("symbolic", "simulation"):
-        for path in sorted((root / pkg).glob("*.py")):
-            digest.update(f"{pkg}/{path.name}\0".encode())
-            digest.update(path.read_bytes())
-    return digest.hexdigest()
+    from coordarm.generated.code_identity import sources_digest
+    return sources_digest(Path(__file__).resolve().parent.parent, ("symbolic", "simulation"))
 
 
 def build_info(scenario: Scenario) -> dict[str, str]:
@@ -301,8 +297,8 @@ class RunLogger:
         self._lock = threading.RLock()  # the worker's idle flush against flush() from the caller
         self.file.add_metadata("run", {
             "command": json.dumps(list(sys.argv if command is None else command)),
-            "started": datetime.now(timezone.utc).isoformat(timespec="seconds"), "host": socket.gethostname(),
-            "platform": platform.platform(), "log_every_steps": str(self.every),
+            "started": datetime.now(timezone.utc).isoformat(timespec="seconds"), "host": host_name(),
+            "platform": host_platform(), "log_every_steps": str(self.every),
             "scene_every_steps": str(self.scene_every), "cond_every_steps": str(self.cond_every),
             "cond": COND_KINDS[self.cond_exact],
             "time_origin": repr(self.origin),

@@ -13,7 +13,8 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 from coordarm.generated import compile as compile_controller
-from coordarm.symbolic import BuildError, ConfigError, CoordinatingController
+from coordarm.generated import compiled_at_hand
+from coordarm.symbolic import BuildError, ConfigError, CoordinatingController, NonFiniteError
 from coordarm.symbolic.checks import is_integer, is_real
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
@@ -270,7 +271,8 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
         ``err.contact`` is the first, ``err.run`` holds the run up to there.
     """
     duration, step, t0, thr = check_settings(ctrl, duration, step, t0, chunk, backend, thresholds)
-    q0, tube = check_start(ctrl, q0, t0, duration, thr, check_every, physical)
+    at_hand = compiled_at_hand(ctrl) if backend != Backend.INTERPRETED else None
+    q0, tube = check_start(ctrl, q0, t0, duration, thr, check_every, physical, law=at_hand)
     backend, compiled, info = select_backend(ctrl, backend, progress=bool(progress))
     check_interrupt()
     n_steps = int(round(duration / step))
@@ -373,8 +375,53 @@ def check_settings(ctrl: CoordinatingController, duration: Any, step: Any, t0: A
     return duration, step, t0, thr
 
 
+#: Margins within this of their thresholds (and deviations within this fraction of a path's tube) at the
+#: start are decided by the controller's own law, not the compiled one (which differs by ~1e-13, a spatial
+#: chain's by ~1e-9): the start check then decides and reports exactly as with the interpreted law [-].
+START_GUARD = 1e-6
+
+
+def start_outputs(ctrl: CoordinatingController, q0: np.ndarray, t0: float, law: Any, thr: dict[str, float],
+                  tube: float) -> dict[str, Any]:
+    """The law's outputs at the start: the compiled ``law``'s when every margin and deviation is clear of its
+    limit by :data:`START_GUARD`, else (or without ``law``) the controller's, evaluated once.
+
+    Parameters
+    ----------
+    ctrl : CoordinatingController
+        The controller.
+    q0 : (dof,) ndarray
+        Start configuration [rad].
+    t0 : float
+        Start time [s].
+    law : CompiledController or None
+        The compiled law at hand.
+    thr : dict
+        Margin thresholds [-].
+    tube : float
+        Tube radius of a path [m] (inf without one).
+
+    Returns
+    -------
+    dict
+        Outputs by name (see :meth:`~coordarm.symbolic.law_face.LawFace.evaluate`).
+    """
+    if law is not None:
+        try:
+            out = law.evaluate(q0, t0)
+        except NonFiniteError:
+            out = None
+        layout = layout_of_chain(ctrl.chain)
+        near = {k: v + START_GUARD for k, v in thr.items()}
+        if out is not None and margin_violation({c.array: np.asarray(out[c.array])[None] for c in layout.margins},
+                                                layout.margins, near) is None and tube_exit(
+                np.asarray(out["e"])[None], tube * (1 - START_GUARD), layout.deviations_per_link) is None:
+            return out
+    return ctrl.evaluate(q0, t0, once=True)
+
+
 def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: float, thr: dict[str, float],
-                check_every: Any, physical: Any) -> tuple[np.ndarray, float]:
+                check_every: Any, physical: Any, law: Any = None) -> tuple[np.ndarray, float]:
     """Check the start of a run: ``q0``, the curve's reach, the margins, the contacts and the tube at ``t0``.
 
     Parameters
@@ -391,6 +438,10 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
         Physical check stride [steps] (checked here, where its error has always been reported).
     physical : Physical or None
         Joint limits, self-collision and obstacles.
+    law : CompiledController, optional
+        The compiled law when it is at hand (:func:`coordarm.generated.compiled_at_hand`): it evaluates
+        the start unless a margin or deviation is near its limit (:func:`start_outputs`); else the
+        controller does, once (:meth:`~coordarm.symbolic.law_face.LawFace.evaluate`).
 
     Returns
     -------
@@ -408,7 +459,8 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
     q0 = ctrl.chain.check_q(q0, "q0")
     if not ctrl.chain.rail:          # a rail carries the base along; its own margin guards it
         check_curve_reaches_base(ctrl, t0, t0 + duration)
-    start = ctrl.evaluate(q0, t0)
+    tube = float(getattr(ctrl.curve, "tube_radius", math.inf))
+    start = start_outputs(ctrl, q0, t0, law, thr, tube)
     layout = layout_of_chain(ctrl.chain)
     bad = margin_violation({c.array: np.asarray(start[c.array])[None] for c in layout.margins}, layout.margins, thr)
     if bad is not None:
@@ -422,7 +474,6 @@ def check_start(ctrl: CoordinatingController, q0: Any, t0: float, duration: floa
         invalid = physical.check(np.array([t0]), q0[None])
         if invalid:
             raise ConfigError(f"q0: start configuration is not physically valid: {invalid[0].describe()}")
-    tube = float(getattr(ctrl.curve, "tube_radius", math.inf))
     start_out = tube_exit(np.asarray(start["e"])[None], tube, layout.deviations_per_link)
     if start_out is not None:
         raise ConfigError(f"q0: the central point of link {start_out[1]} is {start_out[2]:.4g} m from the path, "

@@ -13,7 +13,7 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from coordarm.symbolic import ConfigError, Curve, PlanarChain, SpatialChain, curve_from_spec, motion_from_spec
 from coordarm.symbolic.checks import bounded_motion, is_integer, is_real
@@ -23,10 +23,12 @@ from coordarm.symbolic.laws import LAWS, Law
 
 from .limits import RATE_KEYS, check_bounds, check_gain_step, check_links, rate_limits
 from .obstacles import Obstacle, obstacles_from_spec
-from .obstacles3d import Obstacle3D, obstacles3d_from_spec
 from .run import DEFAULT_THRESHOLDS, check_number
 from .spatial_tables import (BEND_LIMIT, base_args, check_curve_kind, check_joints, check_kind_keys, roll_motion,
                              spatial_curve, spatial_start)
+
+if TYPE_CHECKING:   # a universal chain's obstacles load with its scenario
+    from .obstacles3d import Obstacle3D
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds", "obstacles", "figures"}
 KEYS = {"chain": {"links", "link_length", "joint_limit", "clearance", "base", "joints", "radius", *RATE_KEYS},
@@ -571,7 +573,10 @@ def parse_scenario(data: Any, curve: Curve | None = None) -> ScenarioConfig:
     start = _start(spec["start"], chain)
     run = _run(spec["run"], chain, control)
     thresholds = _thresholds(spec["thresholds"], control)
-    read = obstacles3d_from_spec if chain.universal else obstacles_from_spec
+    if chain.universal:
+        from .obstacles3d import obstacles3d_from_spec as read
+    else:
+        read = obstacles_from_spec
     obstacles = tuple(read(spec.setdefault("obstacles", [])))
     return ScenarioConfig(spec["name"], spec["description"], chain, spec["curve"], control, start, run,
                           thresholds, obstacles, figures, curve_object)

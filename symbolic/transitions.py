@@ -21,6 +21,7 @@ the same operations for every point, so the generated C stays straight-line); th
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import Sequence
 
@@ -38,8 +39,24 @@ NEWTON_STEPS = 3
 #: Default transition length as a fraction of the smaller radius of the two segments it joins.
 DEFAULT_FRACTION = 0.25
 
-_NODES, _WEIGHTS = np.polynomial.legendre.leggauss(GAUSS_NODES)
-_FINE_NODES, _FINE_WEIGHTS = np.polynomial.legendre.leggauss(24)
+
+
+@functools.lru_cache(maxsize=None)
+def gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and weights of ``n``-point Gauss-Legendre quadrature on [-1, 1] (:func:`numpy.polynomial.legendre.leggauss`,
+    imported at the first need: numpy.polynomial takes 3 ms to import).
+
+    Parameters
+    ----------
+    n : int
+        Number of nodes.
+
+    Returns
+    -------
+    nodes, weights : ndarray, shape (n,)
+    """
+    from numpy.polynomial.legendre import leggauss
+    return leggauss(n)
 
 
 def spiral_local(k0: float, c: float, sigma: float) -> tuple[float, float, float]:
@@ -59,9 +76,10 @@ def spiral_local(k0: float, c: float, sigma: float) -> tuple[float, float, float
     tuple of float
         ``X`` along ``d0``, ``Y`` along ``n0`` [m], heading change ``theta`` [rad].
     """
-    tau = 0.5 * sigma * (1.0 + _FINE_NODES)
+    nodes, weights = gauss_legendre(24)
+    tau = 0.5 * sigma * (1.0 + nodes)
     th = k0 * tau + 0.5 * c * tau * tau
-    w = 0.5 * sigma * _FINE_WEIGHTS
+    w = 0.5 * sigma * weights
     return float(w @ np.cos(th)), float(w @ np.sin(th)), k0 * sigma + 0.5 * c * sigma * sigma
 
 
@@ -163,7 +181,7 @@ def split_ramp(k0: float, c: float, length: float) -> list[tuple[float, float]]:
 def _quadrature(k0, c, sigma):
     """``(X, Y)`` of the clothoid at ``sigma`` by :data:`GAUSS_NODES`-node Gauss-Legendre (symbolic)."""
     X, Y = 0, 0
-    for x, w in zip(_NODES, _WEIGHTS):
+    for x, w in zip(*gauss_legendre(GAUSS_NODES)):
         tau = (0.5 * (1.0 + float(x))) * sigma
         th = (k0 + (0.5 * c) * tau) * tau
         X, Y = X + float(w) * ca.cos(th), Y + float(w) * ca.sin(th)
