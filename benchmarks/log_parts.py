@@ -117,19 +117,28 @@ def conds(every):
 
 zstd = zstandard.ZstdCompressor(level=1).compress
 lz4 = lz4_frame().compress
+lz4_fast = lz4_frame().compress
+crc_ng = mcap_file.crc32_function()
 raw = sum(map(len, chunks))
 P = {"scene, /tf, /tracking at 20 Hz (601 each)": scenes, "cond at 1 Hz (31 exact 1-norm values)": lambda: conds(1000),
      "cond at 5 Hz (151 values)": lambda: conds(200),
      f"lz4 of the full-rate chunks ({raw / 2**20:.0f} MiB)": lambda: [lz4(x) for x in chunks],
      "zstd level 1 of the same": lambda: [zstd(x) for x in chunks],
-     "CRC-32 of the same": lambda: [zlib.crc32(x) for x in chunks]}
+     **{f"zstd level {lv} (fast) of the same": (lambda c: lambda: [c(x) for x in chunks])(
+         zstandard.ZstdCompressor(level=lv).compress) for lv in (-5, -10)},
+     "lz4 acceleration 8 (level -8) of the same": lambda: [lz4_fast(x, compression_level=-8) for x in chunks],
+     "CRC-32 of the same (zlib)": lambda: [zlib.crc32(x) for x in chunks],
+     "CRC-32 of the same (zlib-ng, as the log)": lambda: [crc_ng(x) for x in chunks]}
 PT = {k: [] for k in P}
+size = {}
 for r in range(rounds):
     for k, f in P.items():
         t = time.process_time()
-        f()
+        out = f()
         PT[k].append(time.process_time() - t)
-print("\n| part (alone, one thread) | median CPU [s] |")
-print("|---|---|")
+        if isinstance(out, list) and out and isinstance(out[0], bytes):
+            size[k] = sum(map(len, out)) / raw
+print("\n| part (alone, one thread) | median CPU [s] | compressed / raw |")
+print("|---|---|---|")
 for k, v in PT.items():
-    print(f"| {k} | {np.median(v):.3f} |")
+    print(f"| {k} | {np.median(v):.3f} | {f'{size[k]:.3f}' if k in size else ''} |")
