@@ -46,8 +46,8 @@ A spatial chain (``[chain] joints = "universal"``: two angles per joint, q = (a_
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -397,65 +397,10 @@ def load_scenario(name_or_path: str | Path, **overrides: Any) -> Scenario:
             data = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:
             raise ConfigError(f"{path}: cannot read: {exc}") from None
-    return Scenario.from_dict(overridden(parsed_toml(data, source), **overrides), source)
-
-
-def parsed_toml(text: str, source: str) -> Any:
-    """``tomllib.loads(text)``, remembered in the private build cache under the text's SHA-256 when it is
-    plain data (no dates), so that a known file costs neither :mod:`tomllib`'s import (3 ms) nor its parse.
-
-    Parameters
-    ----------
-    text : str
-        The TOML document.
-    source : str
-        Where it came from, named in error messages.
-
-    Returns
-    -------
-    dict
-        The tables, as :func:`tomllib.loads` gives them (JSON keeps every value of plain data as it is).
-
-    Raises
-    ------
-    ConfigError
-        ``source: not valid TOML: ...``.
-    """
-    from coordarm.generated.code_identity import DIGEST_ENTRIES, memo_root
-    from coordarm.generated.compiler_memo import DIGESTS, lookup, remember
-
-    root = memo_root()
-    key = "toml " + hashlib.sha256(text.encode()).hexdigest()
-    known = lookup(root, DIGESTS, key) if root is not None else None
-    if known is not None:
-        return json.loads(known)
-    import tomllib
     try:
-        parsed = tomllib.loads(text)
+        parsed = tomllib.loads(data)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: not valid TOML: {exc}") from None
     except RecursionError:
         raise ConfigError(f"{source}: not valid TOML: arrays or tables nested too deeply") from None
-    if root is not None and plain_data(parsed):
-        remember(root, DIGESTS, key, json.dumps(parsed), DIGEST_ENTRIES)
-    return parsed
-
-
-def plain_data(value: Any) -> bool:
-    """Whether ``value`` is made of tables, arrays, strings, numbers and booleans only (JSON gives it back equal).
-
-    Parameters
-    ----------
-    value : object
-        Parsed TOML.
-
-    Returns
-    -------
-    bool
-        False when a date or time is in it anywhere.
-    """
-    if isinstance(value, dict):
-        return all(isinstance(k, str) and plain_data(v) for k, v in value.items())
-    if isinstance(value, list):
-        return all(plain_data(v) for v in value)
-    return type(value) in (str, int, float, bool)
+    return Scenario.from_dict(overridden(parsed, **overrides), source)

@@ -85,11 +85,11 @@ UNUSED_BY_A_RUN = ('coordarm.simulation.live', 'coordarm.simulation.ws_bridge', 
                    'coordarm.commands.report', 'coordarm.commands.sweep', 'coordarm.analysis.report_outputs',
                    'numpy.ma', 'fractions', 'coordarm.simulation.spatial_scenario', 'coordarm.symbolic.curve3d_specs',
                    'coordarm.generated.spatial_codegen', 'mcap.writer', 'importlib.metadata',
-                   # issue 24, the fixed cost: package data without importlib.resources, a remembered TOML parse,
+                   # issue 24, the fixed cost: package data without importlib.resources,
                    # Gauss-Legendre nodes on first need, no spatial controller, the kernel's host name, the cache
                    # directory without platformdirs, and with the recipe's library remembered no code generator,
                    # no compiler process (subprocess), no group database, no temporary file (all memos known)
-                   'importlib.resources', 'tomllib', 'numpy.polynomial', 'coordarm.symbolic.spatial_controller',
+                   'importlib.resources', 'numpy.polynomial', 'coordarm.symbolic.spatial_controller',
                    'coordarm.symbolic.spatial_dense', 'socket', 'platformdirs', 'coordarm.generated.codegen',
                    'coordarm.generated.link_variants', 'subprocess', 'grp', 'shlex', 'tempfile')
 

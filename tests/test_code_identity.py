@@ -100,36 +100,3 @@ def test_the_one_off_evaluation_gives_the_fast_laws_numbers_bit_for_bit(name):
         assert a.keys() == b.keys()
         for k in a:
             assert np.array_equal(np.asarray(a[k]), np.asarray(b[k]), equal_nan=True), (name, k)
-
-
-def _typed(value):
-    """``value`` with the type of every leaf, so that 1 and 1.0 (and True) differ."""
-    if isinstance(value, dict):
-        return {k: _typed(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_typed(v) for v in value]
-    return (type(value).__name__, repr(value))
-
-
-@pytest.mark.parametrize("name", sorted(presets()))
-def test_a_remembered_toml_parse_is_tomllibs_value_for_value_and_type_for_type(name, build_dir):
-    import tomllib
-
-    from coordarm.simulation.scenario import parsed_toml
-    from coordarm.symbolic.lazy import package_folder
-
-    text = (package_folder("coordarm.simulation", "presets") / f"{name}.toml").read_text()
-    text += "\nextra_float = 1.0\nextra_int = 1\nextra_inf = inf\nextra_neg_zero = -0.0\n"
-    first, again = parsed_toml(text, name), parsed_toml(text, name)
-    assert _typed(first) == _typed(again) == _typed(tomllib.loads(text))
-    assert any(k.startswith("toml ") for k in json.loads((build_dir / DIGESTS).read_text()))
-
-
-def test_a_toml_with_a_date_is_parsed_each_time_and_bad_toml_is_named(build_dir):
-    from coordarm.simulation.scenario import parsed_toml
-    from coordarm.symbolic.errors import ConfigError
-
-    text = "when = 2026-11-26T06:00:00Z\n"
-    assert parsed_toml(text, "f.toml") == parsed_toml(text, "f.toml") and not isinstance(parsed_toml(text, "f")["when"], str)
-    with pytest.raises(ConfigError, match=r"^f\.toml: not valid TOML: "):
-        parsed_toml("x = [", "f.toml")
