@@ -40,7 +40,6 @@ import threading
 import time
 from contextlib import contextmanager
 from datetime import datetime, timezone
-from importlib import import_module
 from pathlib import Path
 from typing import Any
 
@@ -56,7 +55,7 @@ from .cond_channel import default_cond_rate  # noqa: F401 (re-exported)
 from .log_layout import PLANAR, layout_of_chain, partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
-from .host import host_name, host_platform
+from .host import host_name, host_platform, installed_version
 from .outcome import outcome_of
 from .rates import MOST_STEPS_BETWEEN, steps_between  # noqa: F401 (re-exported)
 from .recycled_arrays import RecycledArrays
@@ -96,15 +95,6 @@ def log_time_ns(t: float | np.ndarray, origin: float) -> np.ndarray:
     return np.round((np.asarray(t) - origin) * 1e9).astype(np.uint64)
 
 
-def _version(module: str) -> str:
-    """A module's ``__version__`` (``"unknown"`` when it is not installed): no :mod:`importlib.metadata`
-    (~20 ms to import; ``tests/test_mcap_file_constants.py`` checks the two agree)."""
-    try:
-        return str(import_module(module).__version__)
-    except (ImportError, AttributeError):
-        return "unknown"
-
-
 def code_hash() -> str:
     """SHA-256 over the Python sources of the ``symbolic`` and ``simulation`` packages (sorted by path),
     remembered while they are unchanged (:func:`~coordarm.generated.code_identity.sources_digest`).
@@ -134,8 +124,8 @@ def build_info(scenario: Scenario) -> dict[str, str]:
     """
     import casadi
     return {"code_hash": code_hash(), "scenario_hash": hashlib.sha256(scenario.to_json().encode()).hexdigest(),
-            "coordarm": _version("coordarm.version"), "casadi": casadi.__version__, "numpy": np.__version__,
-            "mcap": _version("mcap"), "zstandard": _version("zstandard"), "lz4": _version("lz4"),
+            "coordarm": installed_version("coordarm.version"), "casadi": casadi.__version__, "numpy": np.__version__,
+            **{name: installed_version(name) for name in ("mcap", "zstandard", "lz4")},
             "python": platform.python_version()}
 
 
