@@ -6,7 +6,7 @@ import threading
 import pytest
 
 import coordarm
-from coordarm.simulation.mcap_file import McapFile, replace_in_background, wait_released
+from coordarm.simulation.mcap_file import McapFile, exchange, replace, replace_in_background, wait_released
 
 from test_session import read_log
 
@@ -67,3 +67,69 @@ def test_run_scenario_over_an_existing_log_leaves_the_new_log_and_no_thread(tmp_
     assert first.exit_status == second.exit_status == 0 and log.stat().st_size > size
     assert abs(states[-1][0] - 0.1) < 1e-9 and meta["outcome"]["status"] == '"completed"'
     assert _releasing() == []
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/fd"), reason="needs /proc")
+@pytest.mark.parametrize("later", [False, True])
+def test_a_regular_file_is_swapped_in_then_its_old_name_removed_with_no_rename_over_it(tmp_path, monkeypatch, later):
+    """On Linux the new log is swapped with the old one (no ``os.replace``, whose rename over a file makes
+    ext4 write the new one out first); the old file is unlinked and freed with its last descriptor."""
+    src, dst = tmp_path / "new.partial", tmp_path / "new"
+    src.write_bytes(b"new log")
+    dst.write_bytes(b"old log " * 10_000)
+    new_inode = os.stat(src).st_ino
+    held = os.open(dst, os.O_RDONLY)                 # our own view of the old file
+    if exchange_supported(tmp_path):
+        def no_rename(*args):
+            raise AssertionError("os.replace called although the swap works here")
+        monkeypatch.setattr(os, "replace", no_rename)
+    before = _open_fds()
+    try:
+        replace(src, dst, free_later=later)
+        assert dst.read_bytes() == b"new log" and os.stat(dst).st_ino == new_inode and not src.exists()
+        assert os.fstat(held).st_nlink == 0 and os.pread(held, 7, 0) == b"old log"   # unlinked, still readable
+        wait_released()
+        assert _releasing() == [] and _open_fds() == before
+    finally:
+        os.close(held)
+
+
+def exchange_supported(folder) -> bool:
+    """Whether ``renameat2(RENAME_EXCHANGE)`` swaps two files in ``folder`` (checked on two files of its own)."""
+    a, b = folder / "probe_a", folder / "probe_b"
+    a.write_bytes(b"a")
+    b.write_bytes(b"b")
+    try:
+        return exchange(a, b) and a.read_bytes() == b"b" and b.read_bytes() == b"a"
+    finally:
+        a.unlink()
+        b.unlink()
+
+
+@pytest.mark.parametrize("later", [False, True])
+def test_a_directory_or_a_symbolic_link_at_the_name_is_treated_as_os_replace_treats_it(tmp_path, later):
+    src = tmp_path / "new.partial"
+    src.write_bytes(b"new log")
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    with pytest.raises(IsADirectoryError):
+        replace(src, folder, free_later=later)
+    assert folder.is_dir() and src.read_bytes() == b"new log"
+    target, link = tmp_path / "target", tmp_path / "link"
+    target.write_bytes(b"the link's target")
+    link.symlink_to(target)
+    replace(src, link, free_later=later)                 # the link itself is replaced, not its target
+    wait_released()
+    assert not link.is_symlink() and link.read_bytes() == b"new log" and target.read_bytes() == b"the link's target"
+
+
+def test_without_the_swap_a_replace_is_os_replace(tmp_path, monkeypatch):
+    import coordarm.simulation.mcap_file as mcap_file
+
+    monkeypatch.setattr(mcap_file, "_renameat2", lambda: None)     # a system without renameat2
+    src, dst = tmp_path / "new.partial", tmp_path / "new"
+    src.write_bytes(b"new log")
+    dst.write_bytes(b"old log")
+    assert not exchange(src, dst)
+    replace(src, dst)
+    assert dst.read_bytes() == b"new log" and not src.exists()
