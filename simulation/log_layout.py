@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import sys
 from pathlib import Path
 
 from dataclasses import dataclass
@@ -149,9 +150,9 @@ def layout_of_chain(chain: object) -> ChainLayout:
     -------
     ChainLayout
     """
-    from coordarm.symbolic.spatial_chain import SpatialChain   # here: the layout tables load without CasADi
-
-    return SPATIAL if isinstance(chain, SpatialChain) else PLANAR
+    # No SpatialChain exists before its module is loaded: a planar run neither loads it nor CasADi here.
+    spatial = sys.modules.get("coordarm.symbolic.spatial_chain")
+    return SPATIAL if spatial is not None and isinstance(chain, spatial.SpatialChain) else PLANAR
 
 
 def layout_of_arrays(names: object) -> ChainLayout:

@@ -15,7 +15,7 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from coordarm.symbolic import ConfigError, Curve, PlanarChain, SpatialChain, curve_from_spec, motion_from_spec
+from coordarm.symbolic import ConfigError, Curve, PlanarChain, curve_from_spec, motion_from_spec
 from coordarm.symbolic.checks import bounded_motion, is_integer, is_real
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
@@ -27,7 +27,9 @@ from .run import DEFAULT_THRESHOLDS, check_number
 from .spatial_tables import (BEND_LIMIT, base_args, check_curve_kind, check_joints, check_kind_keys, roll_motion,
                              spatial_curve, spatial_start)
 
-if TYPE_CHECKING:   # a universal chain's obstacles load with its scenario
+if TYPE_CHECKING:   # a universal chain's model and obstacles load with its scenario
+    from coordarm.symbolic.spatial_chain import SpatialChain
+
     from .obstacles3d import Obstacle3D
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds", "obstacles", "figures"}
@@ -144,6 +146,8 @@ class ChainTable:
             A new chain (clearance 0 when the table leaves it out); a SpatialChain for universal joints.
         """
         if self.universal:
+            from coordarm.symbolic.spatial_chain import SpatialChain       # here: a planar run does not load it
+
             return SpatialChain(self.links, float(self.link_length), **self.base_args)
         return PlanarChain(self.links, float(self.link_length), joint_limit=self.joint_limit,
                            clearance=float(self.clearance or 0.0), **self.base_args)

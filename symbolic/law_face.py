@@ -16,7 +16,6 @@ import casadi as ca
 import numpy as np
 
 from .errors import ConfigError
-from .integrator import rk4
 from .laws import LAWS, Law
 
 
@@ -198,6 +197,8 @@ class LawFace:
         form = form or self.law_form
         key = ("rk4", form, float(h))
         if key not in self._cache:
+            from .integrator import rk4          # here: a compiled run steps in C
+
             law = self.fast_law(form)
             apply_B = self._input_matrix() or (lambda u: u)
             q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")
