@@ -20,13 +20,13 @@ import shutil
 import sys
 import time
 import warnings
-from dataclasses import dataclass
 from pathlib import Path
 
 import casadi as ca
 
 from coordarm.symbolic import BuildError
 from coordarm.symbolic.errors import shown
+from coordarm.symbolic.records import record
 
 from .cache_dir import own_group, root_problem  # noqa: F401 (re-exported)
 from .source import CODEGEN_OPTIONS, Source
@@ -53,7 +53,7 @@ VERSION_TIMEOUT = 30.0
 COMPILE_TIMEOUT = 900.0
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Library:
     """A compiled controller library in the cache.
 

@@ -9,10 +9,9 @@ import json
 import sys
 from pathlib import Path
 
-from dataclasses import dataclass
-
 from coordarm.symbolic.outputs import (LAW_OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS, SPATIAL_LAW_OUTPUTS,
                                        SPATIAL_RUN_OUTPUTS, SPATIAL_SCALAR_OUTPUTS, Output)
+from coordarm.symbolic.records import record
 
 #: The per-sample arrays of a run and of its log: time, state, the law's run outputs, commanded speed.
 ARRAYS = ("t", "q", *RUN_OUTPUTS, "v_star")
@@ -20,7 +19,7 @@ ARRAYS = ("t", "q", *RUN_OUTPUTS, "v_star")
 OPTIONAL = RAIL_OUTPUTS
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MarginCheck:
     """A margin that stops a run when it falls below its threshold.
 
@@ -42,7 +41,7 @@ class MarginCheck:
     first: int | None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ChainLayout:
     """What a run of one kind of chain holds: its arrays, their widths, its stops and its log fields.
 

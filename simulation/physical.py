@@ -6,7 +6,7 @@
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, field
 from typing import Sequence
 
 import numpy as np
@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike
 from coordarm.generated.chain_geometry import chain_joints, self_distances
 from coordarm.symbolic import PlanarChain
 from coordarm.symbolic.geometry import touching
+from coordarm.symbolic.records import record
 
 from .obstacles import Obstacle, link_distances
 
@@ -22,7 +23,7 @@ from .obstacles import Obstacle, link_distances
 KINDS = ("joint_limit", "self", "wall", "rail_limit")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Contact:
     """One violation at one sample.
 
@@ -128,7 +129,7 @@ def joint_limits(links: int, joint_limit: float | Sequence[float]) -> np.ndarray
     return lim
 
 
-@dataclass
+@record
 class Physical:
     """What a run checks at every logged sample.
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import TYPE_CHECKING, Any
 
 from coordarm.symbolic import ConfigError, Curve, PlanarChain, curve_from_spec, motion_from_spec
@@ -20,6 +20,7 @@ from coordarm.symbolic.checks import bounded_motion, is_integer, is_real
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.laws import LAWS, Law
+from coordarm.symbolic.records import record
 
 from .limits import RATE_KEYS, check_bounds, check_gain_step, check_links, rate_limits
 from .obstacles import Obstacle, obstacles_from_spec
@@ -75,7 +76,7 @@ def check_stages(stages: Any, field: str = "figures.stages") -> list[float]:
     return sorted(check_number(v, f"{field}[{i}]", positive=False) for i, v in enumerate(stages))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ChainTable:
     """``[chain]``: the manipulator.
 
@@ -166,7 +167,7 @@ class ChainTable:
                            joints=self.joints if self.universal else None, radius=self.radius)}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ControlTable:
     """``[control]``: the law.
 
@@ -218,7 +219,7 @@ class ControlTable:
                 **_present(speed=self.speed, span=self.span, damping=self.damping, roll=self.roll)}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class StartTable:
     """``[start]``: the start configuration.
 
@@ -264,7 +265,7 @@ class StartTable:
                 **_present(heading=self.heading, curve=self.curve, axis=self.axis, fold=self.fold, roll=self.roll)}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class RunTable:
     """``[run]``: the simulated time.
 
@@ -293,7 +294,7 @@ class RunTable:
         return {"duration": self.duration, "step": self.step, "t0": self.t0}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Thresholds:
     """``[thresholds]``: the singularity margins below which a run stops (dimensionless, in [0, 1)).
 
@@ -319,7 +320,7 @@ class Thresholds:
         return {"link": self.link, "longitudinal": self.longitudinal}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Panel:
     """One labelled panel of the stage figure.
 
@@ -335,7 +336,7 @@ class Panel:
     stages: list[float]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FiguresTable:
     """``[figures]``: the stage figure.
 
@@ -362,7 +363,7 @@ class FiguresTable:
         return _present(stages=self.stages, panels=panels)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ScenarioConfig:
     """A whole scenario file, validated: one typed object per table.
 
