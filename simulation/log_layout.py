@@ -4,11 +4,11 @@ metadata records, the name of a log that is still being written.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import sys
 from pathlib import Path
 
+from coordarm.symbolic.digests import sha256
 from coordarm.symbolic.outputs import (LAW_OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS, SPATIAL_LAW_OUTPUTS,
                                        SPATIAL_RUN_OUTPUTS, SPATIAL_SCALAR_OUTPUTS, Output)
 from coordarm.symbolic.records import record
@@ -186,7 +186,7 @@ def metadata_digest(data: dict[str, str]) -> str:
         The hexadecimal digest.
     """
     body = {k: v for k, v in data.items() if k != DIGEST_KEY}
-    return hashlib.sha256(json.dumps(body, sort_keys=True, ensure_ascii=True).encode()).hexdigest()
+    return sha256(json.dumps(body, sort_keys=True, ensure_ascii=True).encode()).hexdigest()
 
 
 def partial_path(path: str | Path) -> Path:

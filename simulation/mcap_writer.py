@@ -31,7 +31,6 @@ the GIL), which overlaps logging with the simulation when a core is free.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import platform
 import signal
@@ -46,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController, LogError
+from coordarm.symbolic.digests import sha256
 from coordarm.symbolic.interrupts import interruption
 from coordarm.symbolic.task import is_built_in
 
@@ -123,7 +123,7 @@ def build_info(scenario: Scenario) -> dict[str, str]:
         zstandard, lz4 and python (``"unknown"`` for a package that is not installed).
     """
     import casadi
-    return {"code_hash": code_hash(), "scenario_hash": hashlib.sha256(scenario.to_json().encode()).hexdigest(),
+    return {"code_hash": code_hash(), "scenario_hash": sha256(scenario.to_json().encode()).hexdigest(),
             "coordarm": installed_version("coordarm.version"), "casadi": casadi.__version__, "numpy": np.__version__,
             **{name: installed_version(name) for name in ("mcap", "zstandard", "lz4")},
             "python": platform.python_version()}

@@ -8,13 +8,13 @@ Functions' names, the scalar outputs and how the control enters ``q'``.
 """
 from __future__ import annotations
 
-import hashlib
 import math
 from typing import Any, Callable, Sequence
 
 import casadi as ca
 import numpy as np
 
+from .digests import sha256
 from .errors import ConfigError
 from .laws import LAWS, Law
 
@@ -39,7 +39,7 @@ def condition_numbers(M: np.ndarray) -> np.ndarray:
 
 def _array_digest(a: np.ndarray) -> bytes:
     """SHA-256 of an array's values, shape and type (its buffer read in place when contiguous: no copy)."""
-    h = hashlib.sha256(f"{a.dtype.str} {a.shape}".encode())
+    h = sha256(f"{a.dtype.str} {a.shape}".encode())
     try:
         h.update(memoryview(a).cast("B"))
     except (TypeError, ValueError):                     # not contiguous, 0-d, or objects: a copy
