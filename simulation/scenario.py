@@ -296,8 +296,8 @@ class Scenario:
         st = self.config.start
         ctrl = ctrl or self.controller()
         if self.universal:
-            from .spatial_scenario import spatial_start
-            return spatial_start(self.config, ctrl.chain, ctrl.curve)
+            from .spatial_scenario import laid_start
+            return laid_start(self.config, ctrl)
         d0 = max(ctrl.chain.rail_limits[0], 0.0) if ctrl.chain.rail else 0.0
         if st.kind == "follow":
             q = follow_curve(ctrl, float(st.beta), self.t0, d=d0)

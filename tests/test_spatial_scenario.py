@@ -321,3 +321,40 @@ def test_each_spatial_preset_is_valid_and_tracks(name, steps):
         roll_error = first["roll"] - evaluate(ctrl.roll_target, sc.t0)
         assert abs(ev["roll"] - evaluate(ctrl.roll_target, tk) - roll_error * decay) < 1e-6
     assert np.max(np.abs(evs[-1]["e"])) <= np.max(np.abs(first["e"])) + 1e-9
+
+
+@pytest.mark.parametrize("name", ["path3d", "port"])
+def test_the_start_laid_for_the_controller_is_the_start_laid_anew_and_laid_once(name, monkeypatch):
+    """A controller holding the start's roll (these presets command none) lays the start; the scenario's
+    start for that controller is the same configuration laid again from scratch (a new array each time),
+    without laying it twice."""
+    from coordarm.simulation import spatial_scenario
+
+    sc = load_scenario(name)
+    laid = []
+    original = spatial_scenario.spatial_start
+    monkeypatch.setattr(spatial_scenario, "spatial_start", lambda *a: laid.append(a) or original(*a))
+    ctrl = sc.controller()
+    first = sc.start(ctrl)
+    assert len(laid) == 1
+    again = original(sc.config, ctrl.chain, ctrl.curve)
+    np.testing.assert_array_equal(first, again)
+    first[:] = 0.0
+    np.testing.assert_array_equal(sc.start(ctrl), again)
+    other = load_scenario(name)                 # another scenario (an equal one): laid for itself
+    np.testing.assert_array_equal(other.start(ctrl), again)
+    assert len(laid) == 2
+
+
+def test_with_a_commanded_roll_the_start_is_laid_when_asked(monkeypatch):
+    from coordarm.simulation import spatial_scenario
+
+    sc = load_scenario("line3d")
+    assert sc.config.control.roll_motion is not None
+    laid = []
+    original = spatial_scenario.spatial_start
+    monkeypatch.setattr(spatial_scenario, "spatial_start", lambda *a: laid.append(a) or original(*a))
+    ctrl = sc.controller()
+    assert laid == []
+    np.testing.assert_array_equal(sc.start(ctrl), original(sc.config, ctrl.chain, ctrl.curve))
+    assert len(laid) == 1
