@@ -113,3 +113,23 @@ def test_a_frozen_record_is_cheaper_to_define_than_its_dataclass():
     rounds = [(cost(record), cost(dataclasses.dataclass)) for _ in range(15)]
     ours, theirs = (sorted(r[i] for r in rounds)[len(rounds) // 2] for i in (0, 1))
     assert ours < 0.85 * theirs
+
+
+def test_the_layers_a_run_loads_define_records_not_dataclasses():
+    """symbolic/, generated/ and simulation/ (what ``coordarm run`` imports) define their dataclasses with
+    :func:`record`, so that a new one does not bring back the per-class compilation."""
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    found = []
+    for folder in ("symbolic", "generated", "simulation"):
+        for path in sorted((root / folder).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                if isinstance(node, ast.ClassDef):
+                    for deco in node.decorator_list:
+                        target = deco.func if isinstance(deco, ast.Call) else deco
+                        name = target.attr if isinstance(target, ast.Attribute) else getattr(target, "id", "")
+                        if name == "dataclass":
+                            found.append(f"{path.relative_to(root)}:{node.lineno} {node.name}")
+    assert found == []
