@@ -1,6 +1,7 @@
 """coordarm.symbolic.records.record against dataclasses.dataclass itself: the same text, equality, hash,
 frozen errors and dataclass functions, class by class over the options coordarm uses; and cheaper to define."""
 import dataclasses
+import inspect
 import math
 import time
 from dataclasses import field
@@ -25,6 +26,15 @@ def define(decorator, **options):
     @deco
     class Point3(Point):
         z: float = 0.0
+
+    @deco
+    class Made:
+        self: int = 1                                  # a field called self (the generated code renames its own)
+        items: list = field(default_factory=list)
+        total: float = 0.0
+
+        def __post_init__(self):
+            object.__setattr__(self, "total", float(len(self.items)) + self.total)
 
     @deco
     class Empty:
@@ -55,12 +65,12 @@ def define(decorator, **options):
         def __repr__(self):
             return "mine"
 
-    return Point, Point3, Empty, One, OwnEq, OwnHash, OwnRepr
+    return Point, Point3, Empty, One, OwnEq, OwnHash, OwnRepr, Made
 
 
 def behaviour(classes):
     """Everything observable of the classes' instances, as plain data (exceptions by type and text)."""
-    Point, Point3, Empty, One, OwnEq, OwnHash, OwnRepr = classes
+    Point, Point3, Empty, One, OwnEq, OwnHash, OwnRepr, Made = classes
     nan = math.nan
 
     def attempt(fn):
@@ -93,7 +103,14 @@ def behaviour(classes):
         "match": [cls.__match_args__ for cls in classes],
         "init errors": [attempt(lambda: Point()), attempt(lambda: Point(1, 2, 3, 4, 5, 6)), attempt(lambda: Point(1, q=2))],
         "is dataclass": [dataclasses.is_dataclass(cls) for cls in classes],
-        "frozen": [cls.__dataclass_params__.frozen for cls in classes],
+        "params": [[getattr(cls.__dataclass_params__, k) for k in ("init", "repr", "eq", "order", "unsafe_hash", "frozen")]
+                   for cls in classes],
+        "signature": [str(inspect.signature(cls)) for cls in classes],
+        "init annotations": [cls.__init__.__annotations__ for cls in classes],
+        "init name": [cls.__init__.__qualname__ for cls in classes],
+        "made": [repr(Made()), repr(Made(2, [1, 2], 0.5)), Made() == Made(), attempt(lambda: Made(self=3, items=[]).self),
+                 Made().items is not Made().items],
+        "made errors": [attempt(lambda: Made(1, [], 0.0, 4)), attempt(lambda: setattr(Made(), "total", 1.0))],
     }
     return out
 
@@ -133,3 +150,43 @@ def test_the_layers_a_run_loads_define_records_not_dataclasses():
                         if name == "dataclass":
                             found.append(f"{path.relative_to(root)}:{node.lineno} {node.name}")
     assert found == []
+
+
+@pytest.mark.parametrize("frozen", [False, True])
+def test_a_bad_record_fails_as_the_bad_dataclass(frozen):
+    """A field without a default after one with it, and a mutable default: the same errors, when defined."""
+    def bad(decorator, body):
+        try:
+            decorator(frozen=frozen)(type("Bad", (), body))
+        except (TypeError, ValueError) as exc:
+            return type(exc).__name__, str(exc)
+        return None
+
+    for body in ({"__annotations__": {"a": "int", "b": "int"}, "a": 1},
+                 {"__annotations__": {"a": "list"}, "a": []}):
+        assert bad(record, body) == bad(dataclasses.dataclass, body) is not None
+
+
+def test_a_frozen_record_of_fields_that_are_not_plain_parameters_is_refused():
+    with pytest.raises(TypeError, match="plain __init__ parameter"):
+        @record(frozen=True)
+        class Hidden:
+            a: int = field(default=0, init=False)
+
+
+def test_a_frozen_record_subclass_of_a_frozen_record_is_dataclasses_own():
+    @record(frozen=True)
+    class Base:
+        a: int = 0
+
+    @record(frozen=True)
+    class Child(Base):
+        b: int = 1
+
+    assert repr(Child(2, 3)) == "test_a_frozen_record_subclass_of_a_frozen_record_is_dataclasses_own.<locals>.Child(a=2, b=3)"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        Child().a = 1
+    with pytest.raises(TypeError, match="cannot inherit non-frozen dataclass from a frozen one"):
+        @record
+        class Loose(Base):
+            c: int = 2
