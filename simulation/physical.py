@@ -7,10 +7,9 @@
 from __future__ import annotations
 
 from dataclasses import asdict, field
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from coordarm.generated.chain_geometry import chain_joints, self_distances
 from coordarm.symbolic import PlanarChain
@@ -18,6 +17,9 @@ from coordarm.symbolic.geometry import touching
 from coordarm.symbolic.records import record
 
 from .obstacles import Obstacle, link_distances
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 #: Contact kinds, in the order they are reported within one sample.
 KINDS = ("joint_limit", "self", "wall", "rail_limit")

@@ -101,8 +101,8 @@ UNUSED_BY_A_RUN = ('coordarm.simulation.live', 'coordarm.simulation.ws_bridge', 
                    'coordarm.simulation.spatial_view', 'coordarm.symbolic.spatial_chain', 'coordarm.symbolic.vectors3d',
                    'coordarm.symbolic.dense', 'coordarm.symbolic.paths', 'coordarm.symbolic.path_pieces',
                    'coordarm.symbolic.transitions', 'coordarm.symbolic.integrator',
-                   # SHA-256 by the interpreter's own code, without OpenSSL (~3 ms)
-                   '_hashlib')
+                   # SHA-256 by the interpreter's own code, without OpenSSL (~3 ms); ArrayLike for annotations only
+                   '_hashlib', 'numpy.typing')
 
 
 def test_a_run_imports_no_module_it_does_not_use(tmp_path):
