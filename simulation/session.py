@@ -139,6 +139,8 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         [-], starting once a client subscribed if ``live_wait``.
     figures, stages : optional
         Draw the PNG figures beside the log (current matplotlib backend), stages at these times [s].
+        Without figures the run keeps fewer rows in memory (:data:`~.limits.SUMMARY_ROWS`, not
+        :data:`~.limits.KEEP_ROWS`); the log has every step either way.
     allow_contact, progress : bool, optional
         Record contacts instead of stopping; show a progress bar on standard error.
     echo, on_warning : callable, optional
@@ -162,6 +164,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         Ctrl-C or SIGTERM (the log is closed with outcome ``interrupted``).
     """
     from coordarm.simulation.figure_files import write_figures
+    from coordarm.simulation.limits import SUMMARY_ROWS
     from coordarm.simulation.outcome import EXIT_CODES, outcome_of
 
     lines: list[str] = []
@@ -173,6 +176,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     try:     # a log replaced by this one is freed on another thread meanwhile (RunLogger free_replaced_later)
         run, stopped, chosen, compiled = simulate_logged(
             scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
+            keep=None if figures else SUMMARY_ROWS,
             cond_exact=cond_exact, compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
             allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue, log_frames=log_frames)
         status = outcome_of(stopped, None)["status"]
@@ -319,8 +323,8 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
                     backend: str, log_rate: float | None, cond_rate: float | None, compression: str,
                     live: bool, port: int, live_speed: float, live_wait: bool, allow_contact: bool,
                     progress: bool, say: Callable[[str], None], on_warning: Callable[[Warning], None],
-                    cond_exact: bool = False,
-                    log_frames: str = "ends") -> tuple[Run, SingularityError | CollisionError | None, str, Any]:
+                    cond_exact: bool = False, log_frames: str = "ends",
+                    keep: int | None = None) -> tuple[Run, SingularityError | CollisionError | None, str, Any]:
     """Simulate ``scenario`` into the log ``out`` (and the live view); the log is closed with the outcome.
 
     Parameters
@@ -354,6 +358,8 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         Gets the live view's address line.
     log_frames : {"ends", "all"}
         The frames of ``/tf`` (log and live view).
+    keep : int, optional
+        As for :func:`logged_run`.
 
     Returns
     -------
@@ -390,7 +396,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         try:
             run = logged_run(scenario, ctrl, out, view, holder, overwrite=overwrite, log_rate=log_rate,
                              cond_rate=cond_rate, cond_exact=cond_exact, compression=compression, allow_contact=allow_contact,
-                             progress=progress, on_warning=on_warning, log_frames=log_frames)
+                             progress=progress, on_warning=on_warning, log_frames=log_frames, keep=keep)
             stopped = None
         except (SingularityError, CollisionError, JointRateError) as err:
             run, stopped = err.run, err
@@ -400,7 +406,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
 def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view: Any, holder: dict[str, Any], *,
                overwrite: bool, log_rate: float | None, cond_rate: float | None, compression: str,
                allow_contact: bool, progress: bool, on_warning: Callable[[Warning], None],
-               cond_exact: bool = False, log_frames: str = "ends") -> Run:
+               cond_exact: bool = False, log_frames: str = "ends", keep: int | None = None) -> Run:
     """Build or load the law and simulate ``scenario`` into the log ``out``, closed with the outcome.
 
     Parameters
@@ -432,6 +438,9 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
         Gets each warning of building or loading the law.
     log_frames : {"ends", "all"}
         The frames of ``/tf``: ``base`` and ``tip``, or one per link.
+    keep : int, optional
+        Rows to keep in memory, about (default :data:`~.limits.KEEP_ROWS`, for the figures; see
+        :func:`~.run.simulate`); the summary's maxima are over every step either way.
 
     Returns
     -------
@@ -474,7 +483,7 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
                            thresholds=scenario.thresholds, progress=progress, on_chunk=on_chunk,
                            physical=scenario.physical(ctrl.chain),
                            check_every=max(logger.every, round(1.0 / (CHECK_RATE * scenario.step))),
-                           allow_contact=allow_contact)
+                           allow_contact=allow_contact, keep=keep)
         logger.contacts, logger.joint_rates = run.info["contacts"], run.info.get("joint_rates")
     return run
 
