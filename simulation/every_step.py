@@ -61,7 +61,13 @@ class STracking:
             self.max, self.time = float(error[k]), float(t[k])
 
     def info(self) -> dict[str, float]:
-        """``max_s_tracking_error`` [m] and ``max_s_tracking_error_time`` [s] for ``Run.info`` (empty before a row)."""
+        """The entries for ``Run.info``.
+
+        Returns
+        -------
+        dict
+            ``max_s_tracking_error`` [m] and ``max_s_tracking_error_time`` [s] (empty before the first row).
+        """
         return {} if self.time is None else {"max_s_tracking_error": self.max, "max_s_tracking_error_time": self.time}
 
 

@@ -181,7 +181,7 @@ class RunLogger:
         The frames of ``/tf``: ``base`` and ``tip`` (default), or one per link (:mod:`.scene`).
     free_replaced_later : bool
         When the log replaces a file, free that file's storage on a background thread (20-30 ms for a
-        40 MB log on ext4) rather than before :meth:`finish` returns; :func:`.mcap_file.wait_released`
+        40 MB log on ext4) rather than before :meth:`finish` returns; :func:`.file_replace.wait_released`
         waits for it (``coordarm run`` does, once the summary is out). The rename is atomic either way.
 
     Raises

@@ -192,8 +192,14 @@ class Run(ExtraOutputs):
         return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))])
 
     def max_s_tracking_error(self) -> float:
-        """The largest ``|s - s_reference|`` [m]: over every step of a simulated run (``info``, see
-        :class:`~.every_step.STracking`), else over these rows (a replayed log has every logged row)."""
+        """The largest ``|s - s_reference|`` of the run.
+
+        Returns
+        -------
+        float
+            [m]: over every step of a simulated run (``info["max_s_tracking_error"]``, see
+            :class:`~.every_step.STracking`), else over these rows (a replayed log has every logged row).
+        """
         if "max_s_tracking_error" in self.info:
             return float(self.info["max_s_tracking_error"])
         return float(np.max(np.abs(self.s - self.s_reference())))

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
-from coordarm.simulation.choices import DEFAULT_COMPRESSION, DENSE_LINKS
+from coordarm.simulation.choices import DEFAULT_COMPRESSION, DENSE_LINKS, SUMMARY_ROWS
 from coordarm.symbolic.errors import CollisionError, ConfigError, JointRateError, LogError, SingularityError
 from coordarm.symbolic.laws import Law
 
@@ -138,9 +138,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         Serve the run to Foxglove on ``port`` (0 = any) at ``live_speed`` simulated seconds per second
         [-], starting once a client subscribed if ``live_wait``.
     figures, stages : optional
-        Draw the PNG figures beside the log (current matplotlib backend), stages at these times [s].
-        Without figures the run keeps fewer rows in memory (:data:`~.limits.SUMMARY_ROWS`, not
-        :data:`~.limits.KEEP_ROWS`); the log has every step either way.
+        Draw the PNG figures beside the log (else keep :data:`~.choices.SUMMARY_ROWS` rows), stages at these times [s].
     allow_contact, progress : bool, optional
         Record contacts instead of stopping; show a progress bar on standard error.
     echo, on_warning : callable, optional
@@ -164,7 +162,6 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         Ctrl-C or SIGTERM (the log is closed with outcome ``interrupted``).
     """
     from coordarm.simulation.figure_files import write_figures
-    from coordarm.simulation.limits import SUMMARY_ROWS
     from coordarm.simulation.outcome import EXIT_CODES, outcome_of
 
     lines: list[str] = []
@@ -175,10 +172,9 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     ctrl = scenario.controller()
     try:     # a log replaced by this one is freed on another thread meanwhile (RunLogger free_replaced_later)
         run, stopped, chosen, compiled = simulate_logged(
-            scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
-            keep=None if figures else SUMMARY_ROWS,
-            cond_exact=cond_exact, compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
-            allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue, log_frames=log_frames)
+            scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate, cond_exact=cond_exact,
+            compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait, allow_contact=allow_contact,
+            progress=progress, say=say, on_warning=on_warning or reissue, log_frames=log_frames, keep=None if figures else SUMMARY_ROWS)
         status = outcome_of(stopped, None)["status"]
         for line in report_lines(run, scenario, compiled, out):
             say(line)
@@ -186,7 +182,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         for p in drawn:
             say(f"figure        {p}")
     finally:
-        from coordarm.simulation.mcap_file import wait_released
+        from coordarm.simulation.file_replace import wait_released
         wait_released()
     return ScenarioResult(scenario, run, status, EXIT_CODES[status], out, tuple(drawn), chosen,
                           Path(compiled.library.path) if compiled else None, compiled.cache_hit if compiled else None,
@@ -339,7 +335,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         As for :func:`logged_run`.
     backend : {"auto", "compiled", "interpreted"}
         How the law runs.
-    log_rate, cond_rate, cond_exact : float or None, float or None, bool
+    log_rate, cond_rate, cond_exact, keep : float or None, float or None, bool, int or None
         As for :func:`logged_run` [Hz].
     compression : str
         As for :func:`logged_run`.
@@ -358,8 +354,6 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         Gets the live view's address line.
     log_frames : {"ends", "all"}
         The frames of ``/tf`` (log and live view).
-    keep : int, optional
-        As for :func:`logged_run`.
 
     Returns
     -------
@@ -422,25 +416,20 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
     holder : dict
         ``{"backend": requested}`` in; ``backend`` (the one that ran) and ``compiled`` (the compiled
         law or None) are set in it as soon as known, so they survive a stop.
-    overwrite : bool
-        Replace an existing ``out``.
+    overwrite, allow_contact, progress : bool
+        Replace an existing ``out``; record contacts instead of stopping; show a progress bar on standard error.
     log_rate, cond_rate : float or None
         Log samples and condition number samples per simulated second [Hz] (None: the defaults).
     cond_exact : bool
         Log the exact 2-norm condition number (see :class:`~.mcap_writer.RunLogger`).
     compression : str
         Chunk compression of the log (zstd, lz4, none).
-    allow_contact : bool
-        Record contacts instead of stopping.
-    progress : bool
-        Show a progress bar on standard error.
     on_warning : callable
         Gets each warning of building or loading the law.
     log_frames : {"ends", "all"}
         The frames of ``/tf``: ``base`` and ``tip``, or one per link.
     keep : int, optional
-        Rows to keep in memory, about (default :data:`~.limits.KEEP_ROWS`, for the figures; see
-        :func:`~.run.simulate`); the summary's maxima are over every step either way.
+        Rows kept in memory, about (default :data:`~.limits.KEEP_ROWS`; the summary is of every step).
 
     Returns
     -------

@@ -271,8 +271,18 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
 
 
 def governed_steps(part: Run) -> int:
-    """Rows of ``part`` where the governor slowed ``v*`` (``v_scale < 1``); each lasts one step, as in
-    :meth:`Run.governed_time`."""
+    """Rows of ``part`` where the governor slowed ``v*``.
+
+    Parameters
+    ----------
+    part : Run
+        Rows of consecutive steps.
+
+    Returns
+    -------
+    int
+        Rows with ``v_scale < 1`` (each lasts one step, as in :meth:`Run.governed_time`).
+    """
     return int(np.count_nonzero(part.speed_factor() < 1))
 
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from coordarm.simulation.every_step import STracking, summary_rows
-from coordarm.simulation.limits import SUMMARY_ROWS
+from coordarm.simulation.choices import SUMMARY_ROWS
 from coordarm.simulation.run import simulate
 from coordarm.simulation.scenario import load_scenario
 from coordarm.simulation.session import run_scenario
