@@ -17,6 +17,7 @@ messages follow the official Foxglove JSON Schemas shipped in ``foxglove_schemas
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -26,7 +27,9 @@ import numpy as np
 from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
 
+from .frame_transforms import end_frames_json, frame_transforms_json, link_frames, stamp_slots, stamps
 from .json_fill import JsonTemplate, digits_kernel
+from .line_values import MappedBuffer
 from .log_schemas import CDR_HEADER
 from .obstacles import outline
 from .run import Run
@@ -67,11 +70,95 @@ def margin_colours(margins: np.ndarray) -> np.ndarray:
     ndarray, shape (..., m, 3)
         ``(r, g, b)`` in 0..1 per link.
     """
+    x = _padded_margins(margins)
+    return np.stack([np.interp(x, MARGIN_STOPS, _STOPS[:, c]) for c in range(3)], axis=-1)
+
+
+_STOPS = np.array(MARGIN_COLOURS)     # (stop, r/g/b)
+
+
+def _padded_margins(margins: np.ndarray) -> np.ndarray:
+    """The margins (..., m-1) with the first link's (the top stop) first, non-finite ones 0: (..., m)."""
     x = np.asarray(margins, float)
     x = np.concatenate([np.full(x.shape[:-1] + (1,), MARGIN_STOPS[-1]), x], axis=-1)
-    x = np.where(np.isfinite(x), x, 0.0)
-    stops = np.asarray(MARGIN_COLOURS)
-    return np.stack([np.interp(x, MARGIN_STOPS, stops[:, c]) for c in range(3)], axis=-1)
+    return np.where(np.isfinite(x), x, 0.0)
+
+
+def head_slots(m: int, rail: bool) -> int:
+    """How many integer slots of a ``/scene`` message of m links come before the curve's points.
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+    rail : bool
+        The chain is a rail robot (the carriage's centre adds two).
+
+    Returns
+    -------
+    int
+        Stamp (2), target (2), joints (2 (m + 1)), carriage (2 on a rail), links' ends (4 m), colours (6 m).
+    """
+    return 4 + 2 * (m + 1) + 2 * rail + 4 * m + 6 * m
+
+
+def scene_slots(values: np.ndarray, margins: np.ndarray, stamps: np.ndarray, joints: np.ndarray,
+                base: np.ndarray | None, targets: np.ndarray) -> np.ndarray:
+    """Write the integer slots of k ``/scene`` messages before the curve's points into ``values``, in place.
+
+    The order of :meth:`SceneBuilder._scene_template`: stamp, the target [pm], the joints [µm], the carriage
+    (``base``, on a rail) [µm], each link's two ends [µm] and each link's colour [1e-3] twice (once per end),
+    each rounded to the nearest integer (ties to even).
+
+    Parameters
+    ----------
+    values : int64 ndarray, shape (k, slots), slots >= :func:`head_slots`
+        The destination (its first :func:`head_slots` columns are written).
+    margins : ndarray, shape (k, m-1)
+        Link margins of links 2..m [-] (colours: :func:`margin_colours`).
+    stamps : int ndarray, shape (k, 2)
+        ``(sec, nsec)`` of each message.
+    joints : ndarray, shape (k, m+1, 2)
+        Joint positions [m].
+    base : ndarray, shape (k, 2), or None
+        The carriage's centre [m] on a rail robot; None on a fixed base.
+    targets : ndarray, shape (k, 2)
+        The end point's target [m].
+
+    Returns
+    -------
+    ndarray
+        ``values``.
+    """
+    k, m = joints.shape[0], joints.shape[1] - 1
+    rail = base is not None
+    # Every number once, scaled and rounded in one array (target, joints, carriage, r, g, b of each link),
+    # then gathered into the slots' order: a link's ends repeat joints, its colour stands at both ends.
+    numbers = np.empty((k, 2 + 2 * (m + 1) + 2 * rail + 3 * m))
+    np.multiply(targets, 1e12, out=numbers[:, :2])
+    at = 2 + 2 * (m + 1)
+    np.multiply(joints.reshape(k, -1), 1e6, out=numbers[:, 2:at])
+    if rail:
+        np.multiply(base, 1e6, out=numbers[:, at:at + 2])
+        at += 2
+    x = _padded_margins(margins)
+    for c in range(3):
+        np.multiply(np.interp(x, MARGIN_STOPS, _STOPS[:, c]), 1e3, out=numbers[:, at + c * m:at + (c + 1) * m])
+    np.round(numbers, out=numbers)
+    values[:, :2] = stamps
+    values[:, 2:head_slots(m, rail)] = numbers[:, _slot_sources(m, rail)]
+    return values
+
+
+@functools.lru_cache(maxsize=8)
+def _slot_sources(m: int, rail: bool) -> np.ndarray:
+    """Where each slot of :func:`scene_slots` after the stamp takes its number from (a column of its numbers)."""
+    joints = np.arange(2, 2 + 2 * (m + 1))
+    colours = 2 + 2 * (m + 1) + 2 * rail + np.arange(3 * m).reshape(3, m)     # (r/g/b, link)
+    ends = np.concatenate([joints[2 * j:2 * j + 4] for j in range(m)])         # link j: joints j, j+1
+    per_end = np.repeat(colours.T, 2, axis=0).ravel()                          # link j: (r, g, b) twice
+    carriage = np.arange(2 + 2 * (m + 1), 2 + 2 * (m + 1) + 2 * rail)
+    return np.concatenate([[0, 1], joints, carriage, ends, per_end])
 
 
 def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
@@ -196,133 +283,6 @@ def rail_lines(chain: Any, reach: float) -> list[np.ndarray]:
     return out
 
 
-def link_frames(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each link's frame relative to its parent (link j-1; ``world`` for link 1).
-
-    Parameters
-    ----------
-    joints : (..., m+1, 2) array
-        Link end points [m] (``PlanarChain.joints_np``).
-
-    Returns
-    -------
-    translation : (..., m, 2) array
-        Origin of frame j (link j's central point) in frame j-1 [m].
-    angle : (..., m) array
-        Rotation of frame j relative to frame j-1 about z [rad] (``q_j`` for a fixed base).
-    """
-    joints = np.asarray(joints, float)
-    centre = 0.5 * (joints[..., :-1, :] + joints[..., 1:, :])
-    d = joints[..., 1:, :] - joints[..., :-1, :]
-    alpha = np.arctan2(d[..., 1], d[..., 0])
-    parent_c = np.concatenate([np.zeros_like(centre[..., :1, :]), centre[..., :-1, :]], axis=-2)
-    parent_a = np.concatenate([np.zeros_like(alpha[..., :1]), alpha[..., :-1]], axis=-1)
-    rel = centre - parent_c
-    c, s = np.cos(parent_a), np.sin(parent_a)
-    trans = np.stack([c * rel[..., 0] + s * rel[..., 1], -s * rel[..., 0] + c * rel[..., 1]], axis=-1)
-    angle = np.angle(np.exp(1j * (alpha - parent_a)))  # wrapped to (-pi, pi]
-    return trans, angle
-
-
-def _stamp_slots(template: JsonTemplate) -> JsonTemplate:
-    """Append a ``foxglove`` time whose ``sec`` and ``nsec`` are slots of kinds 0 and 1."""
-    return template.text('{"sec":').number(0).text(',"nsec":').number(1).text("}")
-
-
-def _stamps(ns: list[int] | np.ndarray) -> np.ndarray:
-    """``(sec, nsec)`` columns of log times ``ns`` [ns]."""
-    ns = np.asarray(ns, np.int64)
-    return np.column_stack([ns // 10**9, ns % 10**9])
-
-
-_TF_TEMPLATES: dict[int, JsonTemplate] = {}
-
-
-def _tf_template(m: int) -> JsonTemplate:
-    """The ``foxglove.FrameTransforms`` of m links, slots (sec, nsec, x, y [nm], z, w [1e-15]) per link."""
-    if m not in _TF_TEMPLATES:
-        t = JsonTemplate(kinds=4).text('{"transforms":[')
-        for j in range(m):
-            _stamp_slots(t.text("," if j else "").text('{"timestamp":'))
-            t.text(f',"parent_frame_id":"{"world" if j == 0 else f"link{j}"}","child_frame_id":"link{j + 1}",'
-                   '"translation":{"x":').number(2).text('e-9,"y":').number(2)
-            t.text('e-9,"z":0},"rotation":{"x":0,"y":0,"z":').number(3).text('e-15,"w":').number(3).text("e-15}}")
-        _TF_TEMPLATES[m] = t.text("]}")
-    return _TF_TEMPLATES[m]
-
-
-def frame_transforms_json(joints: np.ndarray, ns: list[int] | np.ndarray) -> list[bytes]:
-    """The ``foxglove.FrameTransforms`` of poses ``joints`` (n, m+1, 2) stamped ``ns`` [ns], one JSON each.
-
-    Translations are exact to 1 nm, rotations (quaternions about z) to 1e-15; the numbers are
-    written by :class:`~.json_fill.JsonTemplate` (space-padded, fixed width per batch).
-
-    Parameters
-    ----------
-    joints : ndarray, shape (n, m+1, 2)
-        Joint positions of each pose [m].
-    ns : list of int or ndarray, shape (n,)
-        Time stamp of each pose [ns].
-
-    Returns
-    -------
-    list of bytes
-        One JSON message per pose.
-    """
-    trans, angle = link_frames(joints)
-    n, m = angle.shape
-    values = np.empty((n, m, 6), np.int64)
-    values[..., :2] = _stamps(ns)[:, None, :]
-    values[..., 2:4] = np.round(trans * 1e9)
-    values[..., 4] = np.round(np.sin(0.5 * angle) * 1e15)
-    values[..., 5] = np.round(np.cos(0.5 * angle) * 1e15)
-    return _tf_template(m).fill(values.reshape(n, -1))
-
-
-_END_TEMPLATE = JsonTemplate(kinds=4).text('{"transforms":[')
-for _j, _name in enumerate(("base", "tip")):
-    _stamp_slots(_END_TEMPLATE.text("," if _j else "").text('{"timestamp":'))
-    _END_TEMPLATE.text(f',"parent_frame_id":"world","child_frame_id":"{_name}","translation":{{"x":').number(2)
-    _END_TEMPLATE.text('e-9,"y":').number(2).text('e-9,"z":0},"rotation":{"x":0,"y":0,"z":').number(3)
-    _END_TEMPLATE.text('e-15,"w":').number(3).text("e-15}}")
-_END_TEMPLATE.text("]}")
-
-
-def end_frames_json(base: np.ndarray, base_angle: float, joints: np.ndarray, ns: list[int] | np.ndarray) -> list[bytes]:
-    """The ``foxglove.FrameTransforms`` ``world -> base`` and ``world -> tip`` of poses ``joints``, one JSON each.
-
-    ``base`` sits at the first central point ``y^1`` turned by ``base_angle`` (the rail's direction, 0 on
-    a fixed base); ``tip`` at the last joint (the free end of link m), x along link m.
-
-    Parameters
-    ----------
-    base : ndarray, shape (n, 2)
-        The first central point of each pose [m].
-    base_angle : float
-        Rotation of the base frame about z [rad].
-    joints : ndarray, shape (n, m+1, 2)
-        Joint positions of each pose [m].
-    ns : list of int or ndarray, shape (n,)
-        Time stamp of each pose [ns].
-
-    Returns
-    -------
-    list of bytes
-        One JSON message per pose (translations to 1 nm, quaternions to 1e-15).
-    """
-    joints = np.asarray(joints, float)
-    n = len(joints)
-    d = joints[:, -1] - joints[:, -2]
-    angles = np.column_stack([np.full(n, base_angle), np.arctan2(d[:, 1], d[:, 0])])
-    values = np.empty((n, 2, 6), np.int64)
-    values[..., :2] = _stamps(ns)[:, None, :]
-    values[:, 0, 2:4] = np.round(np.asarray(base, float) * 1e9)
-    values[:, 1, 2:4] = np.round(joints[:, -1] * 1e9)
-    values[..., 4] = np.round(np.sin(0.5 * angles) * 1e15)
-    values[..., 5] = np.round(np.cos(0.5 * angles) * 1e15)
-    return _END_TEMPLATE.fill(values.reshape(n, -1))
-
-
 def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.ndarray:
     """The point ``distance`` [m] along ``polyline`` from the foot of ``start`` on it.
 
@@ -359,15 +319,19 @@ def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.
     return a[i] + (pos - cum[i]) / max(length[i], 1e-300) * ab[i]
 
 
-def _targets(curves: list[np.ndarray], starts: np.ndarray, distances: np.ndarray) -> np.ndarray:
-    """:func:`point_along` for each polyline, in one pass when all are straight segments (a line)."""
-    if all(len(c) == 2 for c in curves):
+def _targets(curves: np.ndarray | list[np.ndarray], starts: np.ndarray, distances: np.ndarray) -> np.ndarray:
+    """:func:`point_along` for each polyline, in one pass when all are straight segments (a line; ``curves``
+    then may be the (k, 2, 2) array of :meth:`SceneBuilder.line_ends`)."""
+    if isinstance(curves, np.ndarray) and curves.shape[1] == 2:
+        a, b = curves[:, 0].copy(), curves[:, 1].copy()
+    elif all(len(c) == 2 for c in curves):
         a, b = np.array([c[0] for c in curves]), np.array([c[1] for c in curves])
-        length = np.hypot(*(b - a).T)
-        d = (b - a) / length[:, None]
-        pos = np.clip(np.clip(np.einsum("ij,ij->i", starts - a, d), 0.0, length) + distances, 0.0, length)
-        return a + pos[:, None] * d
-    return np.array([point_along(c, p, x) for c, p, x in zip(curves, starts, distances)])
+    else:
+        return np.array([point_along(c, p, x) for c, p, x in zip(curves, starts, distances)])
+    length = np.hypot(*(b - a).T)
+    d = (b - a) / length[:, None]
+    pos = np.clip(np.clip(np.einsum("ij,ij->i", starts - a, d), 0.0, length) + distances, 0.0, length)
+    return a + pos[:, None] * d
 
 
 class SceneBuilder:
@@ -399,8 +363,7 @@ class SceneBuilder:
         self._rail_lines = tuple(line_json(p, RAIL_PX, RAIL_COLOR, pixels=True)
                                  for p in rail_lines(ctrl.chain, self.reach))
         self._scene_templates: dict[tuple[int, int], JsonTemplate] = {}
-        self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
-        self._line_maps: dict[int, Any] = {}   # it mapped over k times, by k
+        self._line_params: Any = None  # MappedBuffer t -> (angle, point) of a straight-line curve (False: none)
         self._s0: float | None = None
         self._carry = (0.0, 0.0, 0.0)  # (t, v*, integral of v*) at the last step seen
         self.s_target = np.empty(0)
@@ -437,7 +400,7 @@ class SceneBuilder:
         return self.s_target
 
     def curves(self, times: np.ndarray) -> list[np.ndarray]:
-        """The curve at each of ``times`` as a polyline (a straight line: one CasADi call for all times).
+        """The curve at each of ``times`` as a polyline (a straight line: one CasADi evaluation for all times).
 
         Parameters
         ----------
@@ -450,6 +413,28 @@ class SceneBuilder:
             One polyline [m] per time: its two ends for a straight line, else the curve's
             ``sample(t, n=90, extent=reach)``.
         """
+        lines = self.line_ends(times)
+        if lines is not None:
+            return list(lines)
+        return [self.ctrl.curve.sample(float(t), n=90, extent=self.reach) for t in times]
+
+    def line_ends(self, times: np.ndarray) -> np.ndarray | None:
+        """The two drawn ends of a straight-line curve at each of ``times`` (None for another curve).
+
+        The line's angle and point come from its CasADi Function mapped over the times
+        (:class:`~.line_values.MappedBuffer`), trusted once it reproduces the curve's own sampling.
+
+        Parameters
+        ----------
+        times : ndarray, shape (k,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (k, 2, 2), or None
+            Per time, the points ``point -+ reach (cos, sin)(angle)`` [m]; None when the curve is not a
+            :class:`~coordarm.symbolic.curves.Line` (or its Function does not match its sampling) or no times.
+        """
         curve = self.ctrl.curve
         if self._line_params is None and isinstance(curve, Line) and len(times):
             t = ca.SX.sym("t")
@@ -459,23 +444,12 @@ class SceneBuilder:
             ends = np.array([-self.reach, self.reach])
             first = np.column_stack([px + ends * np.cos(th), py + ends * np.sin(th)])
             ok = np.allclose(first, curve.sample(float(times[0]), n=2, extent=self.reach), rtol=0, atol=1e-12)
-            self._line_params = f if ok else False
-        if self._line_params and len(times):
-            th, px, py = self._line_values(np.asarray(times, float))
-            ends = np.array([-self.reach, self.reach])
-            return list(np.stack([px[:, None] + ends * np.cos(th)[:, None],
-                                  py[:, None] + ends * np.sin(th)[:, None]], -1))
-        return [curve.sample(float(t), n=90, extent=self.reach) for t in times]
-
-    def _line_values(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The straight line's angle and point at ``times``: its CasADi Function mapped over them (one
-        evaluation per time, as the call on a row of times does, ~7x cheaper than that call)."""
-        mapped = self._line_maps.get(len(times))
-        if mapped is None:
-            if len(self._line_maps) > 8:      # block sizes vary little; keep a few
-                self._line_maps.clear()
-            mapped = self._line_maps[len(times)] = self._line_params.map(len(times))
-        return tuple(v.full().ravel() for v in mapped(ca.DM(times[None, :])))
+            self._line_params = MappedBuffer(f) if ok else False
+        if not self._line_params or not len(times):
+            return None
+        th, px, py = self._line_params(np.asarray(times, float))
+        ends = np.array([-self.reach, self.reach])
+        return np.stack([px[:, None] + ends * np.cos(th)[:, None], py[:, None] + ends * np.sin(th)[:, None]], -1)
 
     def messages(self, part: Run, ks: np.ndarray, ns: np.ndarray) -> list[tuple[str, int, bytes]]:
         """``(channel key, log time, data)`` of the scene, frame transforms and tracking at rows ``ks``.
@@ -500,9 +474,10 @@ class SceneBuilder:
         if not len(ks):
             return []
         chain = self.ctrl.chain
-        joints = chain.joints_np(part.q[ks])
-        base = chain.base_point(part.q[ks])               # y^1, the first central point
-        curves = self.curves(part.t[ks])
+        q = part.q[ks]
+        joints, base = chain.joints_np(q), chain.base_point(q)      # base: y^1, the first central point
+        lines = self.line_ends(part.t[ks])
+        curves = lines if lines is not None else self.curves(part.t[ks])
         if self.frames == "all":
             frames = frame_transforms_json(joints, ns)
         else:
@@ -511,34 +486,40 @@ class SceneBuilder:
         s, s_target = part.s[ks], self.s_target[ks]
         targets = _targets(curves, ends, s_target - s)
         tracking = tracking_records(part, ks, s_target, targets)
-        m = joints.shape[1] - 1
-        # The integers of the scene template, rounded once: a segment's ends are joints, a link's colour is
-        # each of its two points' (the same integers as rounding the repeated values).
-        joint_um = np.round(joints * 1e6).astype(np.int64)
-        segment_um = np.stack([joint_um[:, :-1], joint_um[:, 1:]], axis=2).reshape(len(ks), -1)  # link j: ends j, j+1
-        colours = np.repeat(np.round(margin_colours(part.link_margins[ks]) * 1e3).astype(np.int64), 2, axis=1)
-        columns = [_stamps(ns), np.round(targets * 1e12), joint_um.reshape(len(ks), -1),
-                   np.round(base * 1e6) if chain.rail else None, segment_um, colours.reshape(len(ks), -1)]
-        columns = [c for c in columns if c is not None]
-        scenes: list[bytes] = [b""] * len(ks)
-        sizes = np.array([len(c) for c in curves])
-        for size in sorted(set(sizes.tolist())):  # one template per number of curve points (one for a line)
-            rows = np.flatnonzero(sizes == size)
-            template = self._scene_template(m + 1, int(size))
-            curve_um = np.round(np.array([curves[i] for i in rows]).reshape(len(rows), -1) * 1e6)
-            values, at = np.empty((len(rows), template.slots), np.int64), 0
-            for c in [*(c if len(rows) == len(ks) else c[rows] for c in columns), curve_um]:
-                values[:, at:at + c.shape[1]] = c      # (floats hold integers here: cast exactly)
-                at += c.shape[1]
-            assert at == template.slots, (at, template.slots)
-            for i, text in zip(rows, template.fill(values)):
+        scenes = self._scenes(part.link_margins[ks], stamps(ns), joints, base if chain.rail else None, targets,
+                              curves)
+        records = [CDR_HEADER + record.tobytes() for record in tracking.astype("<f8")]
+        return [x for n, scene, tf, record in zip(np.asarray(ns).tolist(), scenes, frames, records)
+                for x in (("scene", n, scene), ("tf", n, tf), ("tracking", n, record))]
+
+    def _scenes(self, margins: np.ndarray, stamps: np.ndarray, joints: np.ndarray, base: np.ndarray | None,
+                targets: np.ndarray, curves: np.ndarray | list[np.ndarray]) -> list[bytes]:
+        """The ``/scene`` messages of k poses: :func:`scene_slots` then the curve's points [µm], filled into the
+        template of each number of curve points (one for a straight line)."""
+        k, m = joints.shape[0], joints.shape[1] - 1
+        head = head_slots(m, base is not None)
+        sizes = [len(c) for c in curves]
+        groups = sorted(set(sizes))
+        if len(groups) == 1:                    # the slots written in place, the curve's after them
+            values = np.empty((k, head + 2 * groups[0]), np.int64)
+            scene_slots(values, margins, stamps, joints, base, targets)
+        else:
+            values = scene_slots(np.empty((k, head), np.int64), margins, stamps, joints, base, targets)
+        scenes: list[bytes] = [b""] * k
+        for size in groups:
+            rows = np.flatnonzero(np.array(sizes) == size)
+            template = self._scene_template(m + 1, size)
+            points = curves if len(groups) == 1 else np.array([curves[i] for i in rows])
+            if len(groups) == 1:
+                group = values
+            else:
+                group = np.empty((len(rows), template.slots), np.int64)
+                group[:, :head] = values[rows]
+            assert template.slots == head + 2 * size, (template.slots, head, size)
+            group[:, head:] = np.round(np.asarray(points, float).reshape(len(rows), -1) * 1e6)
+            for i, text in zip(rows.tolist(), template.fill(group)):
                 scenes[i] = text
-        out = []
-        for n, scene, tf, record in zip(np.asarray(ns).tolist(), scenes, frames, tracking.astype("<f8")):
-            out.append(("scene", n, scene))
-            out.append(("tf", n, tf))
-            out.append(("tracking", n, CDR_HEADER + record.tobytes()))
-        return out
+        return scenes
 
     def _scene_template(self, joints: int, curve_points: int) -> JsonTemplate:
         """The ``foxglove.SceneUpdate`` with slots: stamp (kinds 0, 1), the target sphere's centre [pm] (4),
@@ -549,7 +530,7 @@ class SceneBuilder:
         if key not in self._scene_templates:
             chain = self.ctrl.chain
             xi = chain.xi
-            t = _stamp_slots(JsonTemplate(kinds=6).text('{"deletions":[],"entities":[{"timestamp":'))
+            t = stamp_slots(JsonTemplate(kinds=6).text('{"deletions":[],"entities":[{"timestamp":'))
             t.text(',"frame_id":"world","id":"coordarm","lifetime":{"sec":0,"nsec":0},"frame_locked":false,'
                    '"metadata":[],"arrows":[],"spheres":[')
             head, tail = _sphere("", max(1.2 * xi, 0.05), TARGET_COLOR)

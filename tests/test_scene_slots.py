@@ -1,0 +1,93 @@
+"""The scene's fast paths against the plain ones: the straight line's angle and point through a reused CasADi
+buffer against the mapped Function's call, the scene's integer slots against rounding each group of numbers
+on its own and laying them out one by one, and several curve sizes in one batch against one batch per size."""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from coordarm.simulation import scene
+from coordarm.simulation.frame_transforms import stamps
+from coordarm.simulation.line_values import KEPT_SIZES, MappedBuffer
+from coordarm.simulation.run import simulate
+from coordarm.simulation.scenario import load_scenario
+
+
+def _functions():
+    t = ca.SX.sym("t")
+    return [ca.Function("swing", [t], [0.012 + 0.6 * ca.sin(0.2 * t), 0 * t, 0 * t]),
+            ca.Function("ramp", [t], [ca.atan2(t, 3.0), 0.1 * t - 0.7, ca.exp(-t) * ca.cos(3 * t)])]
+
+
+@pytest.mark.parametrize("function", _functions(), ids=lambda f: f.name())
+def test_the_buffered_line_values_are_the_mapped_functions_bit_for_bit(function, rng):
+    values = MappedBuffer(function)
+    kept = None
+    for k in [1, 40, 40, 7, *range(2, 2 + KEPT_SIZES + 2), 40]:     # sizes again, and more than are kept
+        times = rng.uniform(-50.0, 50.0, k)
+        got = values(times)
+        want = [v.full().ravel() for v in function.map(k)(ca.DM(times[None, :]))]
+        assert len(got) == 3
+        for g, w in zip(got, want):
+            assert g.shape == (k,) and g.tobytes() == w.tobytes()
+        if k == 40 and kept is None:
+            kept = [g.copy() for g in got], got
+    copies, first = kept
+    assert all(a.tobytes() == b.tobytes() for a, b in zip(copies, first))     # later calls left them alone
+
+
+def _plain_slots(margins, stamp, joints, base, targets):
+    """The slots as rounded column by column and stacked: stamp, target [pm], joints [µm], carriage [µm], each
+    link's two ends [µm], each link's colour [1e-3] once per end."""
+    k, m = joints.shape[0], joints.shape[1] - 1
+    joint_um = np.round(joints * 1e6).astype(np.int64)
+    ends = [np.concatenate([joint_um[i, j], joint_um[i, j + 1]]) for i in range(k) for j in range(m)]
+    colours = np.round(scene.margin_colours(margins) * 1e3).astype(np.int64)           # (k, m, 3)
+    rows = []
+    for i in range(k):
+        row = [stamp[i], np.round(targets[i] * 1e12), joint_um[i].ravel()]
+        if base is not None:
+            row.append(np.round(base[i] * 1e6))
+        row += [np.concatenate(ends[i * m:(i + 1) * m]), np.concatenate([np.tile(c, 2) for c in colours[i]])]
+        rows.append(np.concatenate(row).astype(np.int64))
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("rail", [False, True])
+def test_scene_slots_are_the_numbers_rounded_and_laid_out_one_by_one(rail, rng):
+    k, m = 5, 7
+    joints = rng.normal(0.0, 3.0, (k, m + 1, 2))
+    joints[0, 0] = (-0.5e-6, 2.5e-6)               # ties: to even, as np.round
+    margins = rng.uniform(-0.2, 0.8, (k, m - 1))
+    margins[1, 2], margins[2, 0] = np.nan, np.inf
+    base = rng.normal(0.0, 1.0, (k, 2)) if rail else None
+    targets = rng.normal(0.0, 5.0, (k, 2))
+    stamp = stamps(rng.integers(0, 10**11, k))
+    extra = 3                                       # the curve's slots follow; left alone
+    values = np.full((k, scene.head_slots(m, rail) + extra), -7, np.int64)
+    out = scene.scene_slots(values, margins, stamp, joints, base, targets)
+    assert out is values
+    np.testing.assert_array_equal(values[:, :-extra], _plain_slots(margins, stamp, joints, base, targets))
+    assert (values[:, -extra:] == -7).all()
+
+
+def test_curves_of_several_sizes_give_each_size_the_messages_of_its_own_batch():
+    sc = load_scenario("arc").with_overrides(links=6, duration=0.05)
+    ctrl = sc.controller()
+    blocks = []
+    simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, on_chunk=blocks.append)
+    part = blocks[0]
+    builder = scene.SceneBuilder(ctrl, sc.obstacles)
+    ks = np.arange(0, len(part.t), 5)[:6]
+    q = part.q[ks]
+    joints, stamp = ctrl.chain.joints_np(q), stamps(np.round(part.t[ks] * 1e9).astype(np.int64))
+    targets = joints[:, -1] + 0.01
+    curves = [ctrl.curve.sample(float(t), n=2 + i % 2, extent=1.0) for i, t in enumerate(part.t[ks])]
+    got = builder._scenes(part.link_margins[ks], stamp, joints, None, targets, curves)
+    for size in (2, 3):
+        rows = [i for i, c in enumerate(curves) if len(c) == size]
+        alone = builder._scenes(part.link_margins[ks][rows], stamp[rows], joints[rows], None, targets[rows],
+                                np.array([curves[i] for i in rows]))
+        assert [got[i] for i in rows] == alone
+    assert all(b'"points":[' in text for text in got)
