@@ -26,10 +26,10 @@ import numpy as np
 
 from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
+from coordarm.symbolic.function_buffer import BufferedFunction
 
 from .frame_transforms import end_frames_json, frame_transforms_json, link_frames, stamp_slots, stamps
 from .json_fill import JsonTemplate, digits_kernel
-from .line_values import MappedBuffer
 from .log_schemas import CDR_HEADER
 from .obstacles import outline
 from .run import Run
@@ -363,7 +363,8 @@ class SceneBuilder:
         self._rail_lines = tuple(line_json(p, RAIL_PX, RAIL_COLOR, pixels=True)
                                  for p in rail_lines(ctrl.chain, self.reach))
         self._scene_templates: dict[tuple[int, int], JsonTemplate] = {}
-        self._line_params: Any = None  # MappedBuffer t -> (angle, point) of a straight-line curve (False: none)
+        self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve (False: none)
+        self._line_maps: dict[int, BufferedFunction] = {}   # it mapped over k times, by k
         self._s0: float | None = None
         self._carry = (0.0, 0.0, 0.0)  # (t, v*, integral of v*) at the last step seen
         self.s_target = np.empty(0)
@@ -421,8 +422,9 @@ class SceneBuilder:
     def line_ends(self, times: np.ndarray) -> np.ndarray | None:
         """The two drawn ends of a straight-line curve at each of ``times`` (None for another curve).
 
-        The line's angle and point come from its CasADi Function mapped over the times
-        (:class:`~.line_values.MappedBuffer`), trusted once it reproduces the curve's own sampling.
+        The line's angle and point come from its CasADi Function mapped over the times (called through
+        :class:`~coordarm.symbolic.function_buffer.BufferedFunction`), trusted once it reproduces the curve's
+        own sampling.
 
         Parameters
         ----------
@@ -444,10 +446,15 @@ class SceneBuilder:
             ends = np.array([-self.reach, self.reach])
             first = np.column_stack([px + ends * np.cos(th), py + ends * np.sin(th)])
             ok = np.allclose(first, curve.sample(float(times[0]), n=2, extent=self.reach), rtol=0, atol=1e-12)
-            self._line_params = MappedBuffer(f) if ok else False
+            self._line_params = f if ok else False
         if not self._line_params or not len(times):
             return None
-        th, px, py = self._line_params(np.asarray(times, float))
+        mapped = self._line_maps.get(len(times))
+        if mapped is None:
+            if len(self._line_maps) > 8:      # block sizes vary little; keep a few
+                self._line_maps.clear()
+            mapped = self._line_maps[len(times)] = BufferedFunction(self._line_params.map(len(times)))
+        th, px, py = (v.ravel() for v in mapped(np.asarray(times, float)[None, :]))
         ends = np.array([-self.reach, self.reach])
         return np.stack([px[:, None] + ends * np.cos(th)[:, None], py[:, None] + ends * np.sin(th)[:, None]], -1)
 

@@ -1,40 +1,15 @@
-"""The scene's fast paths against the plain ones: the straight line's angle and point through a reused CasADi
-buffer against the mapped Function's call, the scene's integer slots against rounding each group of numbers
-on its own and laying them out one by one, and several curve sizes in one batch against one batch per size."""
+"""The scene's fast paths against the plain ones: the scene's integer slots against rounding each group of
+numbers on its own and laying them out one by one, several curve sizes in one batch against one batch per
+size, and the straight line's ends (its Function called through a buffer) against the curve's sampling."""
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 import pytest
 
 from coordarm.simulation import scene
 from coordarm.simulation.frame_transforms import stamps
-from coordarm.simulation.line_values import KEPT_SIZES, MappedBuffer
 from coordarm.simulation.run import simulate
 from coordarm.simulation.scenario import load_scenario
-
-
-def _functions():
-    t = ca.SX.sym("t")
-    return [ca.Function("swing", [t], [0.012 + 0.6 * ca.sin(0.2 * t), 0 * t, 0 * t]),
-            ca.Function("ramp", [t], [ca.atan2(t, 3.0), 0.1 * t - 0.7, ca.exp(-t) * ca.cos(3 * t)])]
-
-
-@pytest.mark.parametrize("function", _functions(), ids=lambda f: f.name())
-def test_the_buffered_line_values_are_the_mapped_functions_bit_for_bit(function, rng):
-    values = MappedBuffer(function)
-    kept = None
-    for k in [1, 40, 40, 7, *range(2, 2 + KEPT_SIZES + 2), 40]:     # sizes again, and more than are kept
-        times = rng.uniform(-50.0, 50.0, k)
-        got = values(times)
-        want = [v.full().ravel() for v in function.map(k)(ca.DM(times[None, :]))]
-        assert len(got) == 3
-        for g, w in zip(got, want):
-            assert g.shape == (k,) and g.tobytes() == w.tobytes()
-        if k == 40 and kept is None:
-            kept = [g.copy() for g in got], got
-    copies, first = kept
-    assert all(a.tobytes() == b.tobytes() for a, b in zip(copies, first))     # later calls left them alone
 
 
 def _plain_slots(margins, stamp, joints, base, targets):
@@ -91,3 +66,17 @@ def test_curves_of_several_sizes_give_each_size_the_messages_of_its_own_batch():
                                 np.array([curves[i] for i in rows]))
         assert [got[i] for i in rows] == alone
     assert all(b'"points":[' in text for text in got)
+
+
+def test_the_straight_lines_ends_are_the_curves_own_sampling_to_rounding():
+    sc = load_scenario("line").with_overrides(links=6)
+    ctrl = sc.controller()
+    builder = scene.SceneBuilder(ctrl, sc.obstacles)
+    times = np.linspace(0.0, 37.0, 41)
+    ends = builder.line_ends(times)
+    assert ends.shape == (41, 2, 2)
+    want = np.array([ctrl.curve.sample(float(t), n=2, extent=builder.reach) for t in times])
+    np.testing.assert_allclose(ends, want, rtol=0, atol=1e-13)
+    assert np.array_equal(builder.line_ends(times[:7]), ends[:7])       # another block length: the same values
+    assert builder.line_ends(times[:0]) is None
+    assert scene.SceneBuilder(load_scenario("arc").controller(), []).line_ends(times) is None
