@@ -130,6 +130,7 @@ class JsonTemplate:
         self._kind_columns: list[np.ndarray] = []       # the slots of each kind (made again when slots are added)
         self._layouts: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._kind_order, self._kind_starts = np.zeros(0, int), np.zeros(0, int)
+        self._encoded: tuple[list[bytes], np.ndarray] | None = None   # the literals as bytes, where each ends
 
     @property
     def slots(self) -> int:
@@ -150,6 +151,7 @@ class JsonTemplate:
             This template (calls chain).
         """
         self._literals[-1] += literal
+        self._forget_layouts()
         return self
 
     def number(self, kind: int = 0) -> "JsonTemplate":
@@ -174,7 +176,14 @@ class JsonTemplate:
             raise ValueError(f"slot kind {kind} outside 0..{self.kinds - 1}")
         self._slot_kinds.append(kind)
         self._literals.append("")
+        self._forget_layouts()
         return self
+
+    def _forget_layouts(self) -> None:
+        """The text changed: the blank messages made so far no longer hold."""
+        if self._encoded is not None or self._layouts:
+            self._encoded = None
+            self._layouts = {}
 
     def _widths(self, values: np.ndarray) -> tuple[int, ...]:
         """Each kind's width in this batch: :func:`text_width` of the kind's smallest and largest value
@@ -194,14 +203,17 @@ class JsonTemplate:
     def _layout(self, widths: tuple[int, ...]):
         """The blank message (spaces in the slots) and each slot's start and width (int64, for the C kernel)."""
         if widths not in self._layouts:
-            kinds = np.array(self._slot_kinds, int)
-            w = np.array(widths, np.int64)[kinds] if len(kinds) else np.zeros(0, np.int64)
-            lit = [x.encode() for x in self._literals]
-            starts = np.cumsum([len(x) for x in lit[:-1]]) + np.concatenate([[0], np.cumsum(w[:-1])]).astype(np.int64)
-            spaces = [b" " * k for k in range(int(w.max(initial=0)) + 1)]
-            blank = np.frombuffer(b"".join([x for i, wi in enumerate(w.tolist()) for x in (lit[i], spaces[wi])]
-                                           + [lit[-1]]), np.uint8)
-            self._layouts[widths] = blank, starts.astype(np.int64), w
+            if self._encoded is None:                                   # once per template (and change)
+                lit = [x.encode() for x in self._literals]
+                self._encoded = lit, np.cumsum([len(x) for x in lit[:-1]], dtype=np.int64)
+            lit, before = self._encoded
+            w = np.array(widths, np.int64)[self._slot_kinds] if self.slots else np.zeros(0, np.int64)
+            starts = before + np.concatenate([[0], np.cumsum(w[:-1])]).astype(np.int64)
+            spaces = [b" " * k for k in widths]
+            pieces = [b""] * (2 * self.slots + 1)
+            pieces[0::2] = lit
+            pieces[1::2] = [spaces[k] for k in self._slot_kinds]
+            self._layouts[widths] = np.frombuffer(b"".join(pieces), np.uint8), starts, w
         return self._layouts[widths]
 
     def fill(self, values: np.ndarray) -> list[bytes]:

@@ -93,3 +93,14 @@ def test_each_kind_is_as_wide_as_text_width_of_all_its_values(rng):
         want = ["[" + ",".join(f"{v:>{width[k]}d}" for v, k in zip(row, kinds)) + "]" for row in values.tolist()]
         assert [x.decode() for x in t.fill(values)] == want
     assert t.fill(np.zeros((0, 12), np.int64)) == []
+
+
+def test_a_template_extended_after_a_fill_fills_as_one_built_whole():
+    def begun() -> JsonTemplate:
+        return JsonTemplate(kinds=2).text('{"a":').number(0).text(',"b":').number(1)
+    grown = begun()
+    assert grown.fill(np.array([[3, -12], [40, 7]])) == [b'{"a": 3,"b":-12', b'{"a":40,"b":  7']
+    grown.text(',"c":').number(0).text("}")
+    values = np.array([[3, -12, 5], [40, 7, 1]])           # the widths of the first fill again
+    whole = begun().text(',"c":').number(0).text("}")
+    assert grown.fill(values) == whole.fill(values) == [b'{"a": 3,"b":-12,"c": 5}', b'{"a":40,"b":  7,"c": 1}']
