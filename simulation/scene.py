@@ -17,9 +17,8 @@ messages follow the official Foxglove JSON Schemas shipped in ``foxglove_schemas
 """
 from __future__ import annotations
 
-import functools
 import math
-from typing import Any
+from typing import Any, Sequence
 
 import casadi as ca
 import numpy as np
@@ -84,8 +83,8 @@ def _padded_margins(margins: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(x), x, 0.0)
 
 
-def head_slots(m: int, rail: bool) -> int:
-    """How many integer slots of a ``/scene`` message of m links come before the curve's points.
+def head_columns(m: int, rail: bool) -> int:
+    """How many integers of a ``/scene`` message of m links come before the curve's points.
 
     Parameters
     ----------
@@ -97,23 +96,23 @@ def head_slots(m: int, rail: bool) -> int:
     Returns
     -------
     int
-        Stamp (2), target (2), joints (2 (m + 1)), carriage (2 on a rail), links' ends (4 m), colours (6 m).
+        Stamp (2), target (2), joints (2 (m + 1)), carriage (2 on a rail), the links' colours (3 m).
     """
-    return 4 + 2 * (m + 1) + 2 * rail + 4 * m + 6 * m
+    return 4 + 2 * (m + 1) + 2 * rail + 3 * m
 
 
-def scene_slots(values: np.ndarray, margins: np.ndarray, stamps: np.ndarray, joints: np.ndarray,
-                base: np.ndarray | None, targets: np.ndarray) -> np.ndarray:
-    """Write the integer slots of k ``/scene`` messages before the curve's points into ``values``, in place.
+def scene_numbers(values: np.ndarray, margins: np.ndarray, stamps: np.ndarray, joints: np.ndarray,
+                  base: np.ndarray | None, targets: np.ndarray) -> np.ndarray:
+    """Write the integers of k ``/scene`` messages before the curve's points into ``values``, in place.
 
-    The order of :meth:`SceneBuilder._scene_template`: stamp, the target [pm], the joints [µm], the carriage
-    (``base``, on a rail) [µm], each link's two ends [µm] and each link's colour [1e-3] twice (once per end),
-    each rounded to the nearest integer (ties to even).
+    The columns of :meth:`SceneBuilder._scene_template`'s values: stamp, the target [pm], the joints [µm], the
+    carriage (``base``, on a rail) [µm] and each link's colour (r, g, b) [1e-3], each rounded to the nearest
+    integer (ties to even); the template shows a link's two ends and its colour at both ends from them.
 
     Parameters
     ----------
-    values : int64 ndarray, shape (k, slots), slots >= :func:`head_slots`
-        The destination (its first :func:`head_slots` columns are written).
+    values : int64 ndarray, shape (k, columns), columns >= :func:`head_columns`
+        The destination (its first :func:`head_columns` columns are written).
     margins : ndarray, shape (k, m-1)
         Link margins of links 2..m [-] (colours: :func:`margin_colours`).
     stamps : int ndarray, shape (k, 2)
@@ -131,34 +130,18 @@ def scene_slots(values: np.ndarray, margins: np.ndarray, stamps: np.ndarray, joi
         ``values``.
     """
     k, m = joints.shape[0], joints.shape[1] - 1
-    rail = base is not None
-    # Every number once, scaled and rounded in one array (target, joints, carriage, r, g, b of each link),
-    # then gathered into the slots' order: a link's ends repeat joints, its colour stands at both ends.
-    numbers = np.empty((k, 2 + 2 * (m + 1) + 2 * rail + 3 * m))
-    np.multiply(targets, 1e12, out=numbers[:, :2])
-    at = 2 + 2 * (m + 1)
-    np.multiply(joints.reshape(k, -1), 1e6, out=numbers[:, 2:at])
-    if rail:
-        np.multiply(base, 1e6, out=numbers[:, at:at + 2])
+    values[:, :2] = stamps
+    values[:, 2:4] = np.round(targets * 1e12)
+    at = 4 + 2 * (m + 1)
+    values[:, 4:at] = np.round(joints.reshape(k, -1) * 1e6)
+    if base is not None:
+        values[:, at:at + 2] = np.round(base * 1e6)
         at += 2
+    colours = values[:, at:at + 3 * m].reshape(k, m, 3)      # a view of values' columns
     x = _padded_margins(margins)
     for c in range(3):
-        np.multiply(np.interp(x, MARGIN_STOPS, _STOPS[:, c]), 1e3, out=numbers[:, at + c * m:at + (c + 1) * m])
-    np.round(numbers, out=numbers)
-    values[:, :2] = stamps
-    values[:, 2:head_slots(m, rail)] = numbers[:, _slot_sources(m, rail)]
+        colours[:, :, c] = np.round(np.interp(x, MARGIN_STOPS, _STOPS[:, c]) * 1e3)
     return values
-
-
-@functools.lru_cache(maxsize=8)
-def _slot_sources(m: int, rail: bool) -> np.ndarray:
-    """Where each slot of :func:`scene_slots` after the stamp takes its number from (a column of its numbers)."""
-    joints = np.arange(2, 2 + 2 * (m + 1))
-    colours = 2 + 2 * (m + 1) + 2 * rail + np.arange(3 * m).reshape(3, m)     # (r/g/b, link)
-    ends = np.concatenate([joints[2 * j:2 * j + 4] for j in range(m)])         # link j: joints j, j+1
-    per_end = np.repeat(colours.T, 2, axis=0).ravel()                          # link j: (r, g, b) twice
-    carriage = np.arange(2 + 2 * (m + 1), 2 + 2 * (m + 1) + 2 * rail)
-    return np.concatenate([[0, 1], joints, carriage, ends, per_end])
 
 
 def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
@@ -218,10 +201,13 @@ def line_json(points: np.ndarray, thickness: float, color: tuple[float, ...], ki
     return head + ",".join([_POINT] * len(xy)) % tuple(xy.ravel().tolist()) + tail
 
 
-def _point_slots(template: JsonTemplate, points: int, slot_kind: int) -> None:
-    """Append ``points`` comma-separated points whose coordinates [µm] are slots of ``slot_kind``."""
+def _point_slots(template: JsonTemplate, points: int, slot_kind: int,
+                 columns: Sequence[tuple[int, int]] | None = None) -> None:
+    """Append ``points`` comma-separated points whose coordinates [µm] are slots of ``slot_kind``: new columns
+    of the values, or the ``(x, y)`` columns given for each point."""
     for i in range(points):
-        template.text("," if i else "").text('{"x":').number(slot_kind).text('e-6,"y":').number(slot_kind)
+        x, y = columns[i] if columns is not None else (None, None)
+        template.text("," if i else "").text('{"x":').number(slot_kind, x).text('e-6,"y":').number(slot_kind, y)
         template.text('e-6,"z":0}')
 
 
@@ -236,15 +222,20 @@ def _line_slots(template: JsonTemplate, points: int, thickness: float, color: tu
 
 
 def _coloured_segments_slots(template: JsonTemplate, segments: int, thickness: float, point_kind: int,
-                             colour_kind: int) -> None:
-    """Append a line list of ``segments`` segments (2 points each, coordinates [µm] of ``point_kind``) whose
-    per-point colours [1e-3] are slots of ``colour_kind`` (r, g, b per point; alpha 1), ``thickness`` in px."""
+                             colour_kind: int, first_point: int) -> None:
+    """Append a line list of ``segments`` segments, segment j from point j to point j+1 of the points whose
+    coordinates [µm] are the columns ``first_point``, ``first_point + 1``, ... (x, y per point; of
+    ``point_kind``), with per-point colours [1e-3] of ``colour_kind``: new columns r, g, b per segment, shown
+    at both its ends (alpha 1); ``thickness`` in px."""
     template.text(f'{{"type":2,"pose":{_POSE0},"thickness":{thickness},"scale_invariant":true,"points":[')
-    _point_slots(template, 2 * segments, point_kind)
+    ends = [(first_point + 2 * p, first_point + 2 * p + 1) for j in range(segments) for p in (j, j + 1)]
+    _point_slots(template, 2 * segments, point_kind, ends)
     template.text('],"color":{"r":0,"g":0,"b":0,"a":1},"colors":[')
     for i in range(2 * segments):
-        template.text("," if i else "").text('{"r":').number(colour_kind).text('e-3,"g":').number(colour_kind)
-        template.text('e-3,"b":').number(colour_kind).text('e-3,"a":1}')
+        r = None if i % 2 == 0 else template.columns - 3      # the second end: the first end's columns
+        template.text("," if i else "").text('{"r":').number(colour_kind, r)
+        template.text('e-3,"g":').number(colour_kind, None if r is None else r + 1)
+        template.text('e-3,"b":').number(colour_kind, None if r is None else r + 2).text('e-3,"a":1}')
     template.text('],"indices":[]}')
 
 
@@ -501,17 +492,17 @@ class SceneBuilder:
 
     def _scenes(self, margins: np.ndarray, stamps: np.ndarray, joints: np.ndarray, base: np.ndarray | None,
                 targets: np.ndarray, curves: np.ndarray | list[np.ndarray]) -> list[bytes]:
-        """The ``/scene`` messages of k poses: :func:`scene_slots` then the curve's points [µm], filled into the
+        """The ``/scene`` messages of k poses: :func:`scene_numbers` then the curve's points [µm], filled into the
         template of each number of curve points (one for a straight line)."""
         k, m = joints.shape[0], joints.shape[1] - 1
-        head = head_slots(m, base is not None)
+        head = head_columns(m, base is not None)
         sizes = [len(c) for c in curves]
         groups = sorted(set(sizes))
         if len(groups) == 1:                    # the slots written in place, the curve's after them
             values = np.empty((k, head + 2 * groups[0]), np.int64)
-            scene_slots(values, margins, stamps, joints, base, targets)
+            scene_numbers(values, margins, stamps, joints, base, targets)
         else:
-            values = scene_slots(np.empty((k, head), np.int64), margins, stamps, joints, base, targets)
+            values = scene_numbers(np.empty((k, head), np.int64), margins, stamps, joints, base, targets)
         scenes: list[bytes] = [b""] * k
         for size in groups:
             rows = np.flatnonzero(np.array(sizes) == size)
@@ -520,9 +511,9 @@ class SceneBuilder:
             if len(groups) == 1:
                 group = values
             else:
-                group = np.empty((len(rows), template.slots), np.int64)
+                group = np.empty((len(rows), template.columns), np.int64)
                 group[:, :head] = values[rows]
-            assert template.slots == head + 2 * size, (template.slots, head, size)
+            assert template.columns == head + 2 * size, (template.columns, head, size)
             group[:, head:] = np.round(np.asarray(points, float).reshape(len(rows), -1) * 1e6)
             for i, text in zip(rows.tolist(), template.fill(group)):
                 scenes[i] = text
@@ -532,7 +523,8 @@ class SceneBuilder:
         """The ``foxglove.SceneUpdate`` with slots: stamp (kinds 0, 1), the target sphere's centre [pm] (4),
         the joint spheres' centres, the carriage's centre (rail robots) and the links' ends [µm] (2), the
         links' colours [1e-3] (5) and the curve's ``curve_points`` points [µm] (3); the rail and the
-        obstacles are literal."""
+        obstacles are literal. A link's ends show its joints' columns, its second end's colour its first's
+        (the columns of :func:`scene_numbers`, then the curve's)."""
         key = (joints, curve_points)
         if key not in self._scene_templates:
             chain = self.ctrl.chain
@@ -543,6 +535,7 @@ class SceneBuilder:
             head, tail = _sphere("", max(1.2 * xi, 0.05), TARGET_COLOR)
             t.text(head + '{"x":').number(4).text('e-12,"y":').number(4).text('e-12,"z":0}' + tail)
             head, tail = _sphere("", 0.45 * xi, JOINT_COLOR)
+            assert t.columns == 4                   # the joints from column 4 (as scene_numbers writes them)
             for _ in range(joints):
                 t.text("," + head + '{"x":').number(2).text('e-6,"y":').number(2).text('e-6,"z":0}' + tail)
             t.text('],"cubes":[')
@@ -554,7 +547,7 @@ class SceneBuilder:
                        f'"size":{{"x":{1.5 * xi},"y":{xi},"z":{0.5 * xi}}},'
                        f'"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}')
             t.text('],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":[')
-            _coloured_segments_slots(t, joints - 1, ARM_PX, 2, 5)
+            _coloured_segments_slots(t, joints - 1, ARM_PX, 2, 5, first_point=4)
             t.text(",")
             _line_slots(t, curve_points, CURVE_PX, CURVE_COLOR, 3, depth=CURVE_DEPTH * xi)
             extra = "".join("," + x for x in (*self._rail_lines, *self._obstacle_lines))

@@ -104,3 +104,30 @@ def test_a_template_extended_after_a_fill_fills_as_one_built_whole():
     values = np.array([[3, -12, 5], [40, 7, 1]])           # the widths of the first fill again
     whole = begun().text(',"c":').number(0).text("}")
     assert grown.fill(values) == whole.fill(values) == [b'{"a": 3,"b":-12,"c": 5}', b'{"a":40,"b":  7,"c": 1}']
+
+
+def test_slots_showing_earlier_columns_are_the_values_repeated_with_the_kernel_and_with_numpy(rng, monkeypatch):
+    """A template whose slots show columns twice (out of order) fills as the same template with every slot a
+    column of its own, given the values repeated; the widths come from the columns; a bad column is an error."""
+    import coordarm.simulation.json_fill as json_fill
+    shown = [0, 1, 2, 1, 0, 3, 2, 3]                 # the column each slot shows
+    kinds = [0, 1, 0, 1]                              # each column's kind
+    reused, plain = JsonTemplate(kinds=2).text("["), JsonTemplate(kinds=2).text("[")
+    for i, c in enumerate(shown):
+        reused.text("," if i else "").number(kinds[c], c if c in shown[:i] else None)
+        plain.text("," if i else "").number(kinds[c])
+    reused.text("]")
+    plain.text("]")
+    assert (reused.slots, reused.columns, plain.columns) == (8, 4, 8)
+    # the new columns in the order they appear: 0, 1, 2, 3 (slots 0, 1, 2, 5)
+    values = rng.integers(-10 ** 7, 10 ** 7, (9, 4))
+    want = plain.fill(values[:, shown])
+    assert reused.fill(values) == want
+    monkeypatch.setattr(json_fill, "digits_kernel", lambda: None)
+    assert reused.fill(values) == want
+    with pytest.raises(ValueError, match="expected shape"):
+        reused.fill(values[:, :3])
+    with pytest.raises(ValueError, match="column 1: not an existing column of kind 0"):
+        JsonTemplate(kinds=2).number(0).number(1).number(0, 1)
+    with pytest.raises(ValueError, match="column 2: not an existing column"):
+        JsonTemplate(kinds=2).number(0).number(1).number(0, 2)

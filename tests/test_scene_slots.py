@@ -1,7 +1,11 @@
-"""The scene's fast paths against the plain ones: the scene's integer slots against rounding each group of
-numbers on its own and laying them out one by one, several curve sizes in one batch against one batch per
-size, and the straight line's ends (its Function called through a buffer) against the curve's sampling."""
+"""The scene's fast paths against the plain ones: the scene's integers against rounding each group of numbers
+on its own and laying them out one by one, the arm's ends and colours (slots showing the joints' and the links'
+integers) as json.loads reads them, several curve sizes in one batch against one batch per size, and the
+straight line's ends (its Function called through a buffer) against the curve's sampling."""
 from __future__ import annotations
+
+import json
+from decimal import Decimal
 
 import numpy as np
 import pytest
@@ -12,25 +16,23 @@ from coordarm.simulation.run import simulate
 from coordarm.simulation.scenario import load_scenario
 
 
-def _plain_slots(margins, stamp, joints, base, targets):
-    """The slots as rounded column by column and stacked: stamp, target [pm], joints [µm], carriage [µm], each
-    link's two ends [µm], each link's colour [1e-3] once per end."""
-    k, m = joints.shape[0], joints.shape[1] - 1
-    joint_um = np.round(joints * 1e6).astype(np.int64)
-    ends = [np.concatenate([joint_um[i, j], joint_um[i, j + 1]]) for i in range(k) for j in range(m)]
+def _plain_numbers(margins, stamp, joints, base, targets):
+    """The integers rounded group by group and laid out row by row: stamp, target [pm], joints [µm], carriage
+    [µm], each link's colour (r, g, b) [1e-3]."""
+    k = joints.shape[0]
     colours = np.round(scene.margin_colours(margins) * 1e3).astype(np.int64)           # (k, m, 3)
     rows = []
     for i in range(k):
-        row = [stamp[i], np.round(targets[i] * 1e12), joint_um[i].ravel()]
+        row = [stamp[i], np.round(targets[i] * 1e12), np.round(joints[i] * 1e6).ravel()]
         if base is not None:
             row.append(np.round(base[i] * 1e6))
-        row += [np.concatenate(ends[i * m:(i + 1) * m]), np.concatenate([np.tile(c, 2) for c in colours[i]])]
+        row.append(colours[i].ravel())
         rows.append(np.concatenate(row).astype(np.int64))
     return np.array(rows)
 
 
 @pytest.mark.parametrize("rail", [False, True])
-def test_scene_slots_are_the_numbers_rounded_and_laid_out_one_by_one(rail, rng):
+def test_scene_numbers_are_the_numbers_rounded_and_laid_out_one_by_one(rail, rng):
     k, m = 5, 7
     joints = rng.normal(0.0, 3.0, (k, m + 1, 2))
     joints[0, 0] = (-0.5e-6, 2.5e-6)               # ties: to even, as np.round
@@ -39,12 +41,39 @@ def test_scene_slots_are_the_numbers_rounded_and_laid_out_one_by_one(rail, rng):
     base = rng.normal(0.0, 1.0, (k, 2)) if rail else None
     targets = rng.normal(0.0, 5.0, (k, 2))
     stamp = stamps(rng.integers(0, 10**11, k))
-    extra = 3                                       # the curve's slots follow; left alone
-    values = np.full((k, scene.head_slots(m, rail) + extra), -7, np.int64)
-    out = scene.scene_slots(values, margins, stamp, joints, base, targets)
+    extra = 3                                       # the curve's columns follow; left alone
+    values = np.full((k, scene.head_columns(m, rail) + extra), -7, np.int64)
+    out = scene.scene_numbers(values, margins, stamp, joints, base, targets)
     assert out is values
-    np.testing.assert_array_equal(values[:, :-extra], _plain_slots(margins, stamp, joints, base, targets))
+    np.testing.assert_array_equal(values[:, :-extra], _plain_numbers(margins, stamp, joints, base, targets))
     assert (values[:, -extra:] == -7).all()
+
+
+def test_the_scene_shows_each_links_ends_and_colour_from_the_joints_and_the_links_numbers():
+    """The scene's arm as json.loads reads it: segment j from joint j to joint j+1, both ends of link j in its
+    colour, the joint spheres at the joints."""
+    sc = load_scenario("thread").with_overrides(links=5, duration=0.02)
+    ctrl = sc.controller()
+    blocks = []
+    simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, on_chunk=blocks.append)
+    part = blocks[0]
+    builder = scene.SceneBuilder(ctrl, sc.obstacles)
+    builder.advance(part)
+    ks = np.array([0, len(part.t) - 1])
+    got = [json.loads(d, parse_float=Decimal) for key, _, d in builder.messages(part, ks, np.array([0, 10**7]))
+           if key == "scene"]
+    joints = np.round(ctrl.chain.joints_np(part.q[ks]) * 1e6).astype(np.int64)            # [µm]
+    colours = np.round(scene.margin_colours(part.link_margins[ks]) * 1e3).astype(np.int64)  # [1e-3]
+
+    def scaled(items, names, scale):
+        return np.array([[int(x[n] * scale) for n in names] for x in items])
+    for i, doc in enumerate(got):
+        entity = doc["entities"][0]
+        arm = entity["lines"][0]
+        np.testing.assert_array_equal(scaled(arm["points"], "xy", 10**6), np.repeat(joints[i], 2, axis=0)[1:-1])
+        np.testing.assert_array_equal(scaled(arm["colors"], "rgb", 10**3), np.repeat(colours[i], 2, axis=0))
+        centres = scaled([s["pose"]["position"] for s in entity["spheres"][1:]], "xy", 10**6)
+        np.testing.assert_array_equal(centres, joints[i])
 
 
 def test_curves_of_several_sizes_give_each_size_the_messages_of_its_own_batch():
