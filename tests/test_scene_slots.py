@@ -49,15 +49,19 @@ def test_scene_numbers_are_the_numbers_rounded_and_laid_out_one_by_one(rail, rng
     assert (values[:, -extra:] == -7).all()
 
 
-def test_the_scene_shows_each_links_ends_and_colour_from_the_joints_and_the_links_numbers():
-    """The scene's arm as json.loads reads it: segment j from joint j to joint j+1, both ends of link j in its
-    colour, the joint spheres at the joints."""
-    sc = load_scenario("thread").with_overrides(links=5, duration=0.02)
+def _first_block(name, links, duration):
+    """The controller, first block of steps and scene builder of preset ``name``."""
+    sc = load_scenario(name).with_overrides(links=links, duration=duration)
     ctrl = sc.controller()
     blocks = []
     simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, on_chunk=blocks.append)
-    part = blocks[0]
-    builder = scene.SceneBuilder(ctrl, sc.obstacles)
+    return ctrl, blocks[0], scene.SceneBuilder(ctrl, sc.obstacles)
+
+
+def test_the_scene_shows_each_links_ends_and_colour_from_the_joints_and_the_links_numbers():
+    """The scene's arm as json.loads reads it: segment j from joint j to joint j+1, both ends of link j in its
+    colour, the joint spheres at the joints."""
+    ctrl, part, builder = _first_block("thread", 5, 0.02)
     builder.advance(part)
     ks = np.array([0, len(part.t) - 1])
     got = [json.loads(d, parse_float=Decimal) for key, _, d in builder.messages(part, ks, np.array([0, 10**7]))
@@ -77,12 +81,7 @@ def test_the_scene_shows_each_links_ends_and_colour_from_the_joints_and_the_link
 
 
 def test_curves_of_several_sizes_give_each_size_the_messages_of_its_own_batch():
-    sc = load_scenario("arc").with_overrides(links=6, duration=0.05)
-    ctrl = sc.controller()
-    blocks = []
-    simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, on_chunk=blocks.append)
-    part = blocks[0]
-    builder = scene.SceneBuilder(ctrl, sc.obstacles)
+    ctrl, part, builder = _first_block("arc", 6, 0.05)
     ks = np.arange(0, len(part.t), 5)[:6]
     q = part.q[ks]
     joints, stamp = ctrl.chain.joints_np(q), stamps(np.round(part.t[ks] * 1e9).astype(np.int64))
