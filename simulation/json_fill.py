@@ -233,7 +233,7 @@ class JsonTemplate:
             self._layouts[widths] = np.frombuffer(b"".join(pieces), np.uint8), starts, w, columns
         return self._layouts[widths]
 
-    def fill(self, values: np.ndarray) -> list[bytes]:
+    def fill(self, values: np.ndarray, views: bool = False) -> list[bytes] | list[memoryview]:
         """The messages, one per row of ``values``.
 
         Parameters
@@ -241,10 +241,13 @@ class JsonTemplate:
         values : int array, shape (n, columns)
             The integers of each message, in the order of their columns (of the slots, when no slot shows
             an earlier slot's column: see :meth:`number`).
+        views : bool
+            Give the messages as read-only memoryviews of one array instead of ``bytes`` (no copy of each:
+            for a writer that copies them into its records anyway).
 
         Returns
         -------
-        list of bytes
+        list of bytes or list of memoryview
             n UTF-8 JSON texts.
 
         Raises
@@ -269,6 +272,10 @@ class JsonTemplate:
             for width in sorted(set(slot_widths.tolist())):
                 idx = np.flatnonzero(slot_widths == width)
                 out[:, starts[idx, None] + np.arange(width)] = int_text(values[:, idx], width)
+        if views and n:
+            out.flags.writeable = False
+            whole, size = memoryview(out).cast("B"), out.shape[1]
+            return [whole[i:i + size] for i in range(0, n * size, size)]
         return [row.tobytes() for row in out]
 
 

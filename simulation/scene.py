@@ -339,7 +339,17 @@ class SceneBuilder:
         The scenario's obstacles (drawn through :func:`obstacle_outlines`).
     frames : {"ends", "all"}
         ``/tf``: the frames ``base`` and ``tip`` (default), or a frame per link.
+
+    Attributes
+    ----------
+    views : bool
+        Give the ``/scene`` messages of a planar run as read-only memoryviews of one array per block
+        instead of ``bytes`` (:meth:`~.json_fill.JsonTemplate.fill`): no copy of each 26 kB message, for a
+        writer that copies them into its records anyway (the log does); default False.
     """
+
+    #: The ``/scene`` messages as memoryviews (see the class's attributes).
+    views: bool = False
 
     def __init__(self, ctrl: CoordinatingController, obstacles: Any, frames: str = "ends") -> None:
         if frames not in FRAME_SETS:
@@ -467,7 +477,8 @@ class SceneBuilder:
         Returns
         -------
         list of (str, int, bytes)
-            ``("scene" | "tf" | "tracking", log time [ns], message)``, three per row, in row order.
+            ``("scene" | "tf" | "tracking", log time [ns], message)``, three per row, in row order (the
+            scenes as memoryviews when :attr:`views`).
         """
         if not len(ks):
             return []
@@ -491,7 +502,7 @@ class SceneBuilder:
                 for x in (("scene", n, scene), ("tf", n, tf), ("tracking", n, record))]
 
     def _scenes(self, margins: np.ndarray, stamps: np.ndarray, joints: np.ndarray, base: np.ndarray | None,
-                targets: np.ndarray, curves: np.ndarray | list[np.ndarray]) -> list[bytes]:
+                targets: np.ndarray, curves: np.ndarray | list[np.ndarray]) -> list[bytes] | list[memoryview]:
         """The ``/scene`` messages of k poses: :func:`scene_numbers` then the curve's points [µm], filled into the
         template of each number of curve points (one for a straight line)."""
         k, m = joints.shape[0], joints.shape[1] - 1
@@ -503,7 +514,7 @@ class SceneBuilder:
             scene_numbers(values, margins, stamps, joints, base, targets)
         else:
             values = scene_numbers(np.empty((k, head), np.int64), margins, stamps, joints, base, targets)
-        scenes: list[bytes] = [b""] * k
+        scenes: list[Any] = [b""] * k
         for size in groups:
             rows = np.flatnonzero(np.array(sizes) == size)
             template = self._scene_template(m + 1, size)
@@ -515,7 +526,7 @@ class SceneBuilder:
                 group[:, :head] = values[rows]
             assert template.columns == head + 2 * size, (template.columns, head, size)
             group[:, head:] = np.round(np.asarray(points, float).reshape(len(rows), -1) * 1e6)
-            for i, text in zip(rows.tolist(), template.fill(group)):
+            for i, text in zip(rows.tolist(), template.fill(group, self.views)):
                 scenes[i] = text
         return scenes
 

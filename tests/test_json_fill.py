@@ -131,3 +131,12 @@ def test_slots_showing_earlier_columns_are_the_values_repeated_with_the_kernel_a
         JsonTemplate(kinds=2).number(0).number(1).number(0, 1)
     with pytest.raises(ValueError, match="column 2: not an existing column"):
         JsonTemplate(kinds=2).number(0).number(1).number(0, 2)
+
+
+def test_messages_as_views_are_the_bytes_read_only(rng):
+    t = JsonTemplate(kinds=1).text('{"a":').number(0).text(',"b":').number(0).text("}")
+    values = rng.integers(-10 ** 9, 10 ** 9, (6, 2))
+    views = t.fill(values, views=True)
+    assert all(isinstance(v, memoryview) and v.readonly for v in views)
+    assert [bytes(v) for v in views] == t.fill(values)
+    assert t.fill(values[:0], views=True) == []

@@ -108,3 +108,14 @@ def test_the_straight_lines_ends_are_the_curves_own_sampling_to_rounding():
     assert np.array_equal(builder.line_ends(times[:7]), ends[:7])       # another block length: the same values
     assert builder.line_ends(times[:0]) is None
     assert scene.SceneBuilder(load_scenario("arc").controller(), []).line_ends(times) is None
+
+
+def test_scenes_as_views_are_the_scenes_as_bytes():
+    ctrl, part, builder = _first_block("thread", 5, 0.02)
+    builder.advance(part)
+    ks, ns = np.array([0, 3, 7]), np.array([0, 3 * 10**6, 7 * 10**6])
+    plain = builder.messages(part, ks, ns)
+    builder.views = True
+    views = builder.messages(part, ks, ns)
+    assert [(k, n, bytes(d)) for k, n, d in views] == plain
+    assert [type(d) for k, _, d in views if k == "scene"] == [memoryview] * 3
