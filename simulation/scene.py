@@ -7,7 +7,7 @@ at 0; the first link, which has no margin, blue) with a dark sphere at every joi
 current pose (a solid line, 3 px, a quarter link below the arm's plane), the end point's target (a red
 sphere at the point of the curve whose arc length is ``s(0) + integral of v*``), the rail with its end
 stops and the carriage (a cube at ``y^1``) on a rail robot, and the obstacles, each drawn from
-:func:`obstacle_outlines` (4 px). The frame transforms give, by default (``frames="ends"``), the frames
+:func:`obstacle_outlines` (4 px). The frame transforms (built by :mod:`.frame_transforms`) give, by default (``frames="ends"``), the frames
 ``base`` (at the pinned first central point ``y^1``, x along the rail on a rail robot) and ``tip`` (at the
 free end of the last link, x along it), both parented to ``world``; with ``frames="all"`` a frame
 ``link1`` .. ``linkm`` per link (origin at the link's central point, x along the link), each parented to
@@ -27,7 +27,8 @@ from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
 from coordarm.symbolic.function_buffer import BufferedFunction
 
-from .frame_transforms import end_frames_json, frame_transforms_json, link_frames, stamp_slots, stamps
+from .frame_transforms import end_frames_json, frame_transforms_json, stamp_slots, stamps
+from .frame_transforms import link_frames  # noqa: F401 (re-exported: coordarm.simulation.scene.link_frames)
 from .json_fill import JsonTemplate, digits_kernel
 from .log_schemas import CDR_HEADER
 from .obstacles import outline
