@@ -8,9 +8,11 @@ around the writer's parts on the thread that runs them (the ``coordarm-log`` thr
 the ``/tracking`` records), ``cond`` and the chunks' framing (``_write_chunk``, of which ``message_records``).
 Prints the median of each over the rounds (after one warm-up round) and the wall time of a round.
 
-It imports the installed ``coordarm``: to compare two checkouts, run it alternately with each one's venv
-interpreter (the parts are looked up by name, so a part that a checkout does not have reads 0). Run: ``python benchmarks/log_thread_cpu.py [--rounds 5]``;
-results in RESULTS.md ("The log thread's CPU, part by part").
+It imports the ``coordarm`` its interpreter finds: to compare checkouts, run it alternately with each one's
+venv interpreter, or with one interpreter and ``PYTHONPATH`` set to a worktree of each (the parts are looked
+up by name, so a part that a checkout does not have reads 0). Run:
+``python benchmarks/log_thread_cpu.py [--rounds 5]``; results in RESULTS.md ("The log thread's CPU, part by
+part").
 """
 import argparse
 import collections

@@ -7,9 +7,10 @@ at 0; the first link, which has no margin, blue) with a dark sphere at every joi
 current pose (a solid line, 3 px, a quarter link below the arm's plane), the end point's target (a red
 sphere at the point of the curve whose arc length is ``s(0) + integral of v*``), the rail with its end
 stops and the carriage (a cube at ``y^1``) on a rail robot, and the obstacles, each drawn from
-:func:`obstacle_outlines` (4 px). The frame transforms (built by :mod:`.frame_transforms`) give, by default (``frames="ends"``), the frames
-``base`` (at the pinned first central point ``y^1``, x along the rail on a rail robot) and ``tip`` (at the
-free end of the last link, x along it), both parented to ``world``; with ``frames="all"`` a frame
+:func:`obstacle_outlines` (4 px). The frame transforms (built by :mod:`.frame_transforms`) give, by
+default (``frames="ends"``), the frames ``base`` (at the pinned first central point ``y^1``, x along the
+rail on a rail robot) and ``tip`` (at the free end of the last link, x along it), both parented to
+``world``; with ``frames="all"`` a frame
 ``link1`` .. ``linkm`` per link (origin at the link's central point, x along the link), each parented to
 the previous one and ``link1`` to ``world``, so that users can attach their own models to the links. The
 messages follow the official Foxglove JSON Schemas shipped in ``foxglove_schemas/`` (see
