@@ -48,6 +48,11 @@ MESSAGE_HEADER_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel"
                                  ("log_time", "<u8"), ("publish_time", "<u8")])
 
 
+#: A Message record's header, as :data:`MESSAGE_HEADER_DTYPE` (opcode, length, channel, sequence, log time,
+#: publish time), packed one at a time for the few records of the low-rate channels.
+_MESSAGE_HEADER = struct.Struct("<BQHIQQ")
+
+
 def message_records(channels: Sequence[int], sequences: Sequence[int], log_times: Sequence[int],
                     data: Sequence[Any], offset: int = 0) -> tuple[bytes, np.ndarray]:
     """Message records of a few messages of any channels and sizes, back to back (for the low-rate channels).
@@ -69,14 +74,14 @@ def message_records(channels: Sequence[int], sequences: Sequence[int], log_times
         Where each record sits in the chunk: ``offset`` plus its position in ``records`` [bytes].
     """
     n = len(data)
-    sizes = np.fromiter((memoryview(d).nbytes for d in data), np.uint64, n) + np.uint64(MESSAGE_HEADER_SIZE)
-    head = np.empty(n, MESSAGE_HEADER_DTYPE)
-    head["opcode"], head["length"], head["channel"] = rec.MESSAGE, sizes - np.uint64(9), channels
-    head["sequence"], head["log_time"] = sequences, log_times
-    head["publish_time"] = head["log_time"]
-    heads, h = memoryview(head.tobytes()), MESSAGE_HEADER_SIZE
-    records = b"".join([piece for k in range(n) for piece in (heads[k * h:(k + 1) * h], data[k])])
-    return records, np.cumsum(sizes) - sizes + np.uint64(offset)
+    lengths = [len(d) if type(d) is bytes else memoryview(d).nbytes for d in data]
+    pieces: list[Any] = [b""] * (2 * n)          # header, body, header, body, ...
+    pieces[1::2] = data
+    pieces[0::2] = map(_MESSAGE_HEADER.pack, [rec.MESSAGE] * n, [size + MESSAGE_HEADER_SIZE - 9 for size in lengths],
+                       np.asarray(channels, "<u2").tolist(), np.asarray(sequences, "<u4").tolist(),
+                       *[np.asarray(log_times, "<u8").tolist()] * 2)
+    sizes = np.array(lengths, np.uint64) + np.uint64(MESSAGE_HEADER_SIZE)
+    return b"".join(pieces), np.cumsum(sizes) - sizes + np.uint64(offset)
 
 
 def parts_compressor(compression: str) -> Callable[[Sequence[Any], int], list]:

@@ -317,6 +317,7 @@ class RunLogger:
         self._gap = 0.0  # wall time between the last two blocks
         self.scene = scene_builder(self.ctrl, self.scenario.obstacles,
                                    getattr(self.scenario.physical(self.ctrl.chain), "radius", None), self.frames)
+        self.scene.views = True       # the scenes' JSON is copied into the chunks' records: no copy before
         self.outcome: dict[str, Any] | None = None
         #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
         self.contacts: list[dict] = []
