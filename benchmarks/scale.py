@@ -5,7 +5,7 @@ writes the section between the ``scale.py`` markers of ``benchmarks/RESULTS.md``
 into ``benchmarks/scale.json``. Every comparison is interleaved in rounds inside this process (each
 variant once per round, so all see the same machine load); ratios are medians of per-round ratios
 (min-max). Child processes run with bytecode caching on (``PYTHONDONTWRITEBYTECODE`` removed), as in
-a normal installation.
+a normal installation. Each timed item starts once the page cache holds nothing unwritten (:func:`settled`).
 
 * **links**: ``coordarm run line --links m --duration 1 --no-figures`` (new process, library cached)
   at m = 16 .. 16384: wall time, peak memory (``wait4``) against :func:`~coordarm.simulation.limits.estimate`,
@@ -81,11 +81,22 @@ def exponent(ms, times) -> float:
     return float(np.polyfit(np.log(ms), np.log(times), 1)[0])
 
 
+def settled() -> None:
+    """Write out what earlier measurements left to the disk (``os.sync``, untimed) before the next one.
+
+    A log is written to the page cache; the kernel writes it out later, on any core. Without this,
+    the write-out of one measurement's 38 MB log lands in whichever measurement follows it (seen: the
+    bare simulation right after the figures command took 0.176 s instead of 0.14 s)."""
+    os.sync()
+
+
 def child(argv: list[str]) -> tuple[float, int]:
     """Wall time [s] and peak resident memory [bytes] of a child process (fails loudly).
 
     The memory comes from ``/usr/bin/time -f %M``: a child forked from this (large) process would
-    report this process's high-water mark as its own (Linux keeps it across exec)."""
+    report this process's high-water mark as its own (Linux keeps it across exec). Starts
+    :func:`settled`."""
+    settled()
     start = time.perf_counter()
     proc = subprocess.run(["/usr/bin/time", "-f", "%M", *argv], env=ENV, stdout=subprocess.DEVNULL,
                           stderr=subprocess.PIPE, text=True)
@@ -106,6 +117,7 @@ def bare_seconds(m: int, duration: float) -> float:
     sc = load_scenario("line").with_overrides(m, duration, None)
     ctrl = sc.controller()
     q0 = sc.start(ctrl)
+    settled()
     start = time.perf_counter()
     simulate(ctrl, q0, sc.duration, sc.step, sc.t0, backend="compiled", progress=False)
     return time.perf_counter() - start
@@ -152,11 +164,13 @@ def command_part(rounds: int, tmp: Path) -> dict:
     out = {k: [] for k in ("bare", "checked", "full-rate log", "100 Hz log", "--no-figures", "figures")}
     for _ in range(rounds):
         out["bare"].append(bare_seconds(64, 30.0))
+        settled()
         start = time.perf_counter()
         simulate(ctrl, q0, sc.duration, sc.step, sc.t0, backend="compiled", progress=False, thresholds=sc.thresholds,
                  physical=sc.physical(ctrl.chain), check_every=round(1.0 / (CHECK_RATE * sc.step)))
         out["checked"].append(time.perf_counter() - start)
         for key, rate in (("full-rate log", None), ("100 Hz log", 100.0)):
+            settled()
             start = time.perf_counter()
             logged(rate)
             out[key].append(time.perf_counter() - start)

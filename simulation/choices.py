@@ -64,6 +64,10 @@ COMPARE_METHODS = ("coordinating", "pinv", "dls", "ftl")
 COMPARE_BACKENDS = (Backend.COMPILED.value, Backend.INTERPRETED.value)
 #: Links above which the dense law's code generation and compilation take minutes (``coordarm run --yes``).
 DENSE_LINKS = 128
+#: Rows a logged run without figures keeps in memory (about; with figures :data:`~.limits.KEEP_ROWS`): its
+#: summary takes its maxima from every step or from each chunk's extreme rows (:mod:`.every_step`), its
+#: clearances from at most 2000 rows.
+SUMMARY_ROWS = 2_000
 #: Short names accepted by ``coordarm sweep --vary`` (the results column keeps the name as given).
 SWEEP_ALIASES = {"links": "chain.links", "link_length": "chain.link_length", "gain": "control.gain",
                  "speed": "control.speed", "beta": "start.beta", "heading": "start.heading",

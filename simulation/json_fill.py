@@ -133,14 +133,22 @@ class JsonTemplate:
         self.kinds = kinds
         self._literals: list[str] = [""]
         self._slot_kinds: list[int] = []
-        self._kind_columns: list[np.ndarray] = []       # the slots of each kind (made again when slots are added)
-        self._layouts: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._slot_columns: list[int] = []              # the column of ``values`` each slot shows
+        self._column_kinds: list[int] = []              # the kind of each column
+        self._kind_columns: list[np.ndarray] = []       # the columns of each kind (made again when columns are added)
+        self._layouts: dict[tuple[int, ...], tuple[np.ndarray, ...]] = {}
         self._kind_order, self._kind_starts = np.zeros(0, int), np.zeros(0, int)
+        self._encoded: tuple[list[bytes], np.ndarray] | None = None   # the literals as bytes, where each ends
 
     @property
     def slots(self) -> int:
         """Number of integer slots."""
         return len(self._slot_kinds)
+
+    @property
+    def columns(self) -> int:
+        """Number of integers a message takes (columns of :meth:`fill`'s values; slots may show one twice)."""
+        return len(self._column_kinds)
 
     def text(self, literal: str) -> "JsonTemplate":
         """Append literal text.
@@ -156,15 +164,19 @@ class JsonTemplate:
             This template (calls chain).
         """
         self._literals[-1] += literal
+        self._forget_layouts()
         return self
 
-    def number(self, kind: int = 0) -> "JsonTemplate":
-        """Append an integer slot of ``kind``.
+    def number(self, kind: int = 0, column: int | None = None) -> "JsonTemplate":
+        """Append an integer slot of ``kind``, showing a new column of the values or an earlier one.
 
         Parameters
         ----------
         kind : int
             Slot kind, ``0 <= kind < kinds``.
+        column : int, optional
+            The column of :meth:`fill`'s values the slot shows: an earlier slot's (of the same kind), so
+            that a number written twice is given once; default a new column (the next).
 
         Returns
         -------
@@ -174,53 +186,74 @@ class JsonTemplate:
         Raises
         ------
         ValueError
-            ``kind`` out of range.
+            ``kind`` out of range, or ``column`` not an existing column of that kind.
         """
         if not 0 <= kind < self.kinds:
             raise ValueError(f"slot kind {kind} outside 0..{self.kinds - 1}")
+        if column is None:
+            column = len(self._column_kinds)
+            self._column_kinds.append(kind)
+        elif not 0 <= column < len(self._column_kinds) or self._column_kinds[column] != kind:
+            raise ValueError(f"column {column}: not an existing column of kind {kind}")
         self._slot_kinds.append(kind)
+        self._slot_columns.append(column)
         self._literals.append("")
+        self._forget_layouts()
         return self
+
+    def _forget_layouts(self) -> None:
+        """The text changed: the blank messages made so far no longer hold."""
+        if self._encoded is not None or self._layouts:
+            self._encoded = None
+            self._layouts = {}
 
     def _widths(self, values: np.ndarray) -> tuple[int, ...]:
         """Each kind's width in this batch: :func:`text_width` of the kind's smallest and largest value
         (what decides the width of all its values: the largest magnitude and whether one is negative)."""
-        if len(self._kind_columns) != self.kinds or sum(map(len, self._kind_columns)) != self.slots:
-            kinds = np.array(self._slot_kinds, int)
+        if len(self._kind_columns) != self.kinds or sum(map(len, self._kind_columns)) != self.columns:
+            kinds = np.array(self._column_kinds, int)
             self._kind_columns = [np.flatnonzero(kinds == k) for k in range(self.kinds)]
             used = [c for c in self._kind_columns if len(c)]
             self._kind_order = np.concatenate(used) if used else np.zeros(0, int)    # the slots, kind by kind
             self._kind_starts = np.cumsum([0] + [len(c) for c in used])[:-1]
-        if not len(values) or not self.slots:
+        if not len(values) or not self.columns:
             return (1,) * self.kinds
         lo = iter(np.minimum.reduceat(values.min(axis=0)[self._kind_order], self._kind_starts).tolist())
         hi = iter(np.maximum.reduceat(values.max(axis=0)[self._kind_order], self._kind_starts).tolist())
         return tuple(_width(next(lo), next(hi)) if len(c) else 1 for c in self._kind_columns)
 
     def _layout(self, widths: tuple[int, ...]):
-        """The blank message (spaces in the slots) and each slot's start and width (int64, for the C kernel)."""
+        """The blank message (spaces in the slots), each slot's start, width and column (int64, for the C kernel)."""
         if widths not in self._layouts:
-            kinds = np.array(self._slot_kinds, int)
-            w = np.array(widths, np.int64)[kinds] if len(kinds) else np.zeros(0, np.int64)
-            lit = [x.encode() for x in self._literals]
-            starts = np.cumsum([len(x) for x in lit[:-1]]) + np.concatenate([[0], np.cumsum(w[:-1])]).astype(np.int64)
-            spaces = [b" " * k for k in range(int(w.max(initial=0)) + 1)]
-            blank = np.frombuffer(b"".join([x for i, wi in enumerate(w.tolist()) for x in (lit[i], spaces[wi])]
-                                           + [lit[-1]]), np.uint8)
-            self._layouts[widths] = blank, starts.astype(np.int64), w
+            if self._encoded is None:                                   # once per template (and change)
+                lit = [x.encode() for x in self._literals]
+                self._encoded = lit, np.cumsum([len(x) for x in lit[:-1]], dtype=np.int64)
+            lit, before = self._encoded
+            w = np.array(widths, np.int64)[self._slot_kinds] if self.slots else np.zeros(0, np.int64)
+            starts = before + np.concatenate([[0], np.cumsum(w[:-1])]).astype(np.int64)
+            spaces = [b" " * k for k in widths]
+            pieces = [b""] * (2 * self.slots + 1)
+            pieces[0::2] = lit
+            pieces[1::2] = [spaces[k] for k in self._slot_kinds]
+            columns = np.array(self._slot_columns, np.int64)
+            self._layouts[widths] = np.frombuffer(b"".join(pieces), np.uint8), starts, w, columns
         return self._layouts[widths]
 
-    def fill(self, values: np.ndarray) -> list[bytes]:
+    def fill(self, values: np.ndarray, views: bool = False) -> list[bytes] | list[memoryview]:
         """The messages, one per row of ``values``.
 
         Parameters
         ----------
-        values : int array, shape (n, slots)
-            The integers of each message, in slot order.
+        values : int array, shape (n, columns)
+            The integers of each message, in the order of their columns (of the slots, when no slot shows
+            an earlier slot's column: see :meth:`number`).
+        views : bool
+            Give the messages as read-only memoryviews of one array instead of ``bytes`` (no copy of each:
+            for a writer that copies them into its records anyway).
 
         Returns
         -------
-        list of bytes
+        list of bytes or list of memoryview
             n UTF-8 JSON texts.
 
         Raises
@@ -230,20 +263,25 @@ class JsonTemplate:
         """
         values = np.asarray(values, np.int64)
         n = len(values)
-        if values.shape != (n, self.slots):
-            raise ValueError(f"values: expected shape (n, {self.slots}), got {values.shape}")
-        blank, starts, slot_widths = self._layout(self._widths(values))
+        if values.shape != (n, self.columns):
+            raise ValueError(f"values: expected shape (n, {self.columns}), got {values.shape}")
+        blank, starts, slot_widths, columns = self._layout(self._widths(values))
         out = np.empty((n, len(blank)), np.uint8)
         fill = digits_kernel()
         if fill is not None and n:
             values = np.ascontiguousarray(values)
-            fill(blank.ctypes.data, len(blank), starts.ctypes.data, slot_widths.ctypes.data, self.slots,
-                 values.ctypes.data, n, out.ctypes.data)
+            fill(blank.ctypes.data, len(blank), starts.ctypes.data, slot_widths.ctypes.data, columns.ctypes.data,
+                 self.slots, values.ctypes.data, self.columns, n, out.ctypes.data)
         else:
             out[:] = blank
+            values = values[:, columns]
             for width in sorted(set(slot_widths.tolist())):
                 idx = np.flatnonzero(slot_widths == width)
                 out[:, starts[idx, None] + np.arange(width)] = int_text(values[:, idx], width)
+        if views and n:
+            out.flags.writeable = False
+            whole, size = memoryview(out).cast("B"), out.shape[1]
+            return [whole[i:i + size] for i in range(0, n * size, size)]
         return [row.tobytes() for row in out]
 
 
@@ -255,14 +293,14 @@ def digits_kernel() -> Any:
     Returns
     -------
     ctypes function or None
-        ``(blank, size, starts, widths, slots, values, n, out)``; None without a working C compiler (the
-        numpy path then writes the digits).
+        ``(blank, size, starts, widths, columns, slots, values, value_columns, n, out)``; None without a working
+        C compiler (the numpy path then writes the digits).
     """
     from coordarm.generated.kernels import kernel_library    # here: the build machinery loads on first use
     lib = kernel_library("json_digits.c")
     if lib is None:
         return None
     p, i = ctypes.c_void_p, ctypes.c_longlong
-    lib.coordarm_json_fill.argtypes = [p, i, p, p, i, p, i, p]
+    lib.coordarm_json_fill.argtypes = [p, i, p, p, p, i, p, i, i, p]
     lib.coordarm_json_fill.restype = None
     return lib.coordarm_json_fill

@@ -48,7 +48,7 @@ COST_LIMITS = {"steps": 20_000_000, "log_bytes": 4 * 2**30, "memory_bytes": 2 * 
 #: 10 steps peaks at 250 MB; benchmarks/RESULTS.md, "Link counts").
 LAW_BYTES_PER_LINK = 16 * 1024
 #: Rows of a logged run kept in memory for the figures (the rest is streamed to the log).
-KEEP_ROWS = 20_000
+KEEP_ROWS = 20_000   # (without figures: choices.SUMMARY_ROWS)
 
 
 def _rk4_limit() -> float:

@@ -16,7 +16,6 @@ import fcntl
 import functools
 import os
 import queue
-import stat
 import struct
 import threading
 import zlib
@@ -29,6 +28,7 @@ import numpy as np
 
 from . import mcap_records as rec
 from .choices import COMPRESSIONS, DEFAULT_COMPRESSION, Compression, lz4_frame
+from .file_replace import replace
 from .log_layout import DIGEST_KEY, metadata_digest
 
 
@@ -46,6 +46,11 @@ MESSAGE_HEADER_SIZE = 1 + 8 + 2 + 4 + 8 + 8
 #: Packed numpy dtype of a Message record header (the data follows it).
 MESSAGE_HEADER_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"), ("sequence", "<u4"),
                                  ("log_time", "<u8"), ("publish_time", "<u8")])
+
+
+#: A Message record's header, as :data:`MESSAGE_HEADER_DTYPE` (opcode, length, channel, sequence, log time,
+#: publish time), packed one at a time for the few records of the low-rate channels.
+_MESSAGE_HEADER = struct.Struct("<BQHIQQ")
 
 
 def message_records(channels: Sequence[int], sequences: Sequence[int], log_times: Sequence[int],
@@ -69,14 +74,14 @@ def message_records(channels: Sequence[int], sequences: Sequence[int], log_times
         Where each record sits in the chunk: ``offset`` plus its position in ``records`` [bytes].
     """
     n = len(data)
-    sizes = np.fromiter((memoryview(d).nbytes for d in data), np.uint64, n) + np.uint64(MESSAGE_HEADER_SIZE)
-    head = np.empty(n, MESSAGE_HEADER_DTYPE)
-    head["opcode"], head["length"], head["channel"] = rec.MESSAGE, sizes - np.uint64(9), channels
-    head["sequence"], head["log_time"] = sequences, log_times
-    head["publish_time"] = head["log_time"]
-    heads, h = memoryview(head.tobytes()), MESSAGE_HEADER_SIZE
-    records = b"".join([piece for k in range(n) for piece in (heads[k * h:(k + 1) * h], data[k])])
-    return records, np.cumsum(sizes) - sizes + np.uint64(offset)
+    lengths = [len(d) if type(d) is bytes else memoryview(d).nbytes for d in data]
+    pieces: list[Any] = [b""] * (2 * n)          # header, body, header, body, ...
+    pieces[1::2] = data
+    pieces[0::2] = map(_MESSAGE_HEADER.pack, [rec.MESSAGE] * n, [size + MESSAGE_HEADER_SIZE - 9 for size in lengths],
+                       np.asarray(channels, "<u2").tolist(), np.asarray(sequences, "<u4").tolist(),
+                       *[np.asarray(log_times, "<u8").tolist()] * 2)
+    sizes = np.array(lengths, np.uint64) + np.uint64(MESSAGE_HEADER_SIZE)
+    return b"".join(pieces), np.cumsum(sizes) - sizes + np.uint64(offset)
 
 
 def parts_compressor(compression: str) -> Callable[[Sequence[Any], int], list]:
@@ -167,131 +172,6 @@ def open_locked(path: Path) -> BinaryIO:
     return os.fdopen(fd, "wb")
 
 
-#: Threads freeing the storage of files replaced by :func:`replace` with ``free_later`` (see :func:`wait_released`).
-_releasing: list[threading.Thread] = []
-
-
-@functools.cache
-def _renameat2() -> Callable[..., int] | None:
-    """The C library's ``renameat2`` (Linux, glibc 2.28+), or None where there is none."""
-    import ctypes
-
-    try:
-        function = ctypes.CDLL(None, use_errno=True).renameat2
-    except (AttributeError, OSError):
-        return None
-    function.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
-    function.restype = ctypes.c_int
-    return function
-
-
-#: ``renameat2``'s flag that swaps two names atomically, and its "relative to the working directory".
-RENAME_EXCHANGE, AT_FDCWD = 2, -100
-
-
-def exchange(src: str | os.PathLike, dst: str | os.PathLike) -> bool:
-    """Swap the files at ``src`` and ``dst`` in one atomic step (``renameat2(RENAME_EXCHANGE)``).
-
-    Both names exist throughout: ``dst`` names the old file, then the new one. Unlike a rename over
-    ``dst``, this does not make ext4 write the new file's data out before returning (its
-    ``auto_da_alloc``, meant for programs that replace a file without ``fsync``: 20-25 ms for a
-    38 MB log here, ``benchmarks/RESULTS.md``); the data goes out as a new file's does.
-
-    Parameters
-    ----------
-    src, dst : str or path-like
-        Two existing names on one file system.
-
-    Returns
-    -------
-    bool
-        True when swapped; False where the system or file system cannot (nothing changed then).
-    """
-    import ctypes
-
-    rename = _renameat2()
-    if rename is None:
-        return False
-    if rename(AT_FDCWD, os.fsencode(src), AT_FDCWD, os.fsencode(dst), RENAME_EXCHANGE) == 0:
-        return True
-    code = ctypes.get_errno()
-    if code in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP, errno.EXDEV, errno.ENOENT, errno.EPERM):
-        return False
-    raise OSError(code, os.strerror(code), os.fsdecode(src), None, os.fsdecode(dst))
-
-
-def replace(src: str | os.PathLike, dst: str | os.PathLike, *, free_later: bool = False) -> None:
-    """``os.replace(src, dst)``, without ext4's forced write-out, optionally freeing the old file on a thread.
-
-    A regular file at ``dst`` is swapped with ``src`` in one atomic step (:func:`exchange`), then
-    its old name ``src`` is removed; elsewhere (no file there, another kind of file, a system or
-    file system without the swap) it is ``os.replace``. Either way ``dst`` names the old file, then
-    the new one, never nothing.
-
-    Parameters
-    ----------
-    src, dst : str or path-like
-        As for :func:`os.replace`.
-    free_later : bool
-        Free the old file's storage on a daemon thread: the kernel's freeing of its blocks and
-        cached pages, which holding it open defers to the last close (20-30 ms for a 40 MB log on
-        ext4), then runs while the caller goes on (e.g. with the run's summary).
-        :func:`wait_released` waits for it; a process that ends first frees the file as it exits.
-
-    Raises
-    ------
-    OSError
-        As :func:`os.replace` raises it.
-    """
-    try:
-        old = os.open(dst, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOFOLLOW", 0))
-    except OSError:                 # nothing there (or not readable, or a symbolic link): a plain rename
-        old = None
-    try:
-        if old is not None and stat.S_ISREG(os.fstat(old).st_mode) and exchange(src, dst):
-            os.unlink(src)          # the old file's name now; its storage goes with the last close
-        else:
-            os.replace(src, dst)
-    except BaseException:
-        if old is not None:
-            os.close(old)
-        raise
-    if old is None:
-        return
-    if not free_later:
-        os.close(old)
-        return
-    thread = threading.Thread(target=os.close, args=(old,), name="coordarm-release", daemon=True)
-    thread.start()
-    _releasing.append(thread)
-
-
-def replace_in_background(src: str | os.PathLike, dst: str | os.PathLike) -> None:
-    """:func:`replace` with the old file's storage freed on a thread of its own (see :func:`wait_released`).
-
-    Parameters
-    ----------
-    src, dst : str or path-like
-        As for :func:`os.replace`.
-
-    Raises
-    ------
-    OSError
-        As :func:`os.replace` raises it.
-    """
-    replace(src, dst, free_later=True)
-
-
-def wait_released() -> None:
-    """Wait until the files replaced by :func:`replace` with ``free_later`` so far are freed (from any thread)."""
-    while True:
-        try:
-            thread = _releasing.pop()
-        except IndexError:       # none left (another thread may have taken the last one)
-            return
-        thread.join()
-
-
 class Worker:
     """One background thread that applies ``handle`` to queued jobs, in order.
 
@@ -362,6 +242,70 @@ class Worker:
         self._thread.join()
 
 
+#: Threads that compress a background :class:`McapFile`'s chunks side by side (fewer on fewer cores): when the
+#: caller waits for a full queue, or the run has ended and its last chunks are left, the second core compresses too.
+COMPRESS_THREADS = 2
+
+
+class ChunkJob:
+    """One chunk of a background :class:`McapFile`: compressed and checksummed on a compressing thread,
+    then written, in the order the chunks came, by the chunk thread once :attr:`done` is set.
+
+    Parameters
+    ----------
+    parts : list of bytes-like
+        The chunk's records in parts (see :meth:`McapFile.write_chunk`).
+    index : dict
+        Channel id -> ``(log_times, offsets)`` of the chunk's messages.
+    """
+
+    __slots__ = ("parts", "index", "done", "size", "crc", "data", "error")
+
+    def __init__(self, parts: Sequence[Any], index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
+        self.parts, self.index = parts, index
+        self.done = threading.Event()
+        self.size, self.crc, self.data, self.error = 0, 0, None, None
+
+    def compress(self, compress: Callable[[Sequence[Any], int], list]) -> None:
+        """Checksum and compress the parts (with a compressor of this thread's own); never raises: a failure
+        is kept in :attr:`error` for the chunk thread.
+
+        Parameters
+        ----------
+        compress : callable
+            A :func:`parts_compressor`.
+        """
+        try:
+            self.size, self.crc = checksum(self.parts)
+            self.data = compress(self.parts, self.size)
+        except BaseException as exc:       # re-raised where the chunk is written
+            self.error = exc
+        finally:
+            self.done.set()
+
+
+def checksum(parts: Sequence[Any]) -> tuple[int, int]:
+    """Size and CRC-32 of the concatenated ``parts``, part by part (nothing joined).
+
+    Parameters
+    ----------
+    parts : sequence of bytes-like
+        The parts.
+
+    Returns
+    -------
+    size : int
+        Bytes in all.
+    crc : int
+        Their CRC-32 (:func:`crc32_function`).
+    """
+    size, crc, crc32 = 0, 0, crc32_function()
+    for part in parts:
+        crc = crc32(part, crc)
+        size += memoryview(part).nbytes
+    return size, crc
+
+
 class McapFile:
     """Write an MCAP file: header, schemas, channels and metadata, then chunks, then the summary.
 
@@ -406,7 +350,13 @@ class McapFile:
         self._closed = False
         self._stream.write(MCAP0_MAGIC)
         self._write(rec.header_record(profile, LIBRARY_IDENTIFIER))
-        self._worker = Worker(lambda job: self._write_chunk_now(*job), "mcap-chunks", 4) if background else None
+        self._compressors: list[Worker] = []
+        self._worker: Worker | None = None
+        if background:
+            self._compressors = [Worker(functools.partial(ChunkJob.compress, compress=parts_compressor(compression)),
+                                        f"mcap-compress-{i}", 2) for i in range(min(COMPRESS_THREADS, os.cpu_count() or 1))]
+            self._worker = Worker(self._write_job, "mcap-chunks", 4)
+        self._jobs = 0
 
     def _wait(self) -> None:
         """Wait until every queued chunk is written; re-raise a failure of the chunk thread."""
@@ -512,18 +462,24 @@ class McapFile:
         if self._worker is not None:
             if self._worker.error is not None:
                 raise self._worker.error
-            self._worker.put((parts, index))
+            job = ChunkJob(parts, index)
+            self._compressors[self._jobs % len(self._compressors)].put(job)
+            self._jobs += 1
+            self._worker.put(job)
         else:
-            self._write_chunk_now(parts, index)
+            size, crc = checksum(parts)
+            self._write_compressed(index, size, crc, self._compress(parts, size))
 
-    def _write_chunk_now(self, parts: Sequence[Any], index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
+    def _write_job(self, job: ChunkJob) -> None:
+        job.done.wait()
+        if job.error is not None:
+            raise job.error
+        self._write_compressed(job.index, job.size, job.crc, job.data)
+
+    def _write_compressed(self, index: dict[int, tuple[np.ndarray, np.ndarray]], size: int, crc: int,
+                          data: list) -> None:
         times = np.concatenate([lt for lt, _ in index.values()])
         start, end = int(times.min()), int(times.max())
-        size, crc, crc32 = 0, 0, crc32_function()
-        for part in parts:                  # the CRC-32 of the whole, part by part
-            crc = crc32(part, crc)
-            size += memoryview(part).nbytes
-        data = self._compress(parts, size)
         compressed = sum(memoryview(d).nbytes for d in data)
         head = rec.chunk_head(start, end, size, crc, self.compression, compressed)
         chunk_offset = self._write(head)
@@ -558,7 +514,8 @@ class McapFile:
             Final name of the file.
         free_replaced_later : bool
             Free the storage of the file that ``rename_to`` replaces on a background thread
-            (:func:`replace` with ``free_later``; :func:`wait_released` waits for it) instead of before returning.
+            (:func:`.file_replace.replace` with ``free_later``; :func:`.file_replace.wait_released` waits for it)
+            instead of before returning.
         """
         if self._closed:
             return
@@ -595,9 +552,10 @@ class McapFile:
             self._stream.close()
 
     def _stop(self) -> None:
-        if self._worker is not None:
-            self._worker.stop()
-            self._worker = None
+        for worker in (*self._compressors, self._worker):   # the compressors' last jobs first
+            if worker is not None:
+                worker.stop()
+        self._compressors, self._worker = [], None
 
     def _statistics(self) -> bytes:
         return rec.statistics_record(sum(self._counts.values()), len(self._schemas), len(self._channels),

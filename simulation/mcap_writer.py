@@ -181,7 +181,7 @@ class RunLogger:
         The frames of ``/tf``: ``base`` and ``tip`` (default), or one per link (:mod:`.scene`).
     free_replaced_later : bool
         When the log replaces a file, free that file's storage on a background thread (20-30 ms for a
-        40 MB log on ext4) rather than before :meth:`finish` returns; :func:`.mcap_file.wait_released`
+        40 MB log on ext4) rather than before :meth:`finish` returns; :func:`.file_replace.wait_released`
         waits for it (``coordarm run`` does, once the summary is out). The rename is atomic either way.
 
     Raises
@@ -317,6 +317,7 @@ class RunLogger:
         self._gap = 0.0  # wall time between the last two blocks
         self.scene = scene_builder(self.ctrl, self.scenario.obstacles,
                                    getattr(self.scenario.physical(self.ctrl.chain), "radius", None), self.frames)
+        self.scene.views = True       # the scenes' JSON is copied into the chunks' records: no copy before
         self.outcome: dict[str, Any] | None = None
         #: Contact records of an ``--allow-contact`` run, written into the outcome (set by the caller).
         self.contacts: list[dict] = []

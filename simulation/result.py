@@ -193,6 +193,19 @@ class Run(ExtraOutputs):
         v = self.speed_factor() * self.v_star
         return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))])
 
+    def max_s_tracking_error(self) -> float:
+        """The largest ``|s - s_reference|`` of the run.
+
+        Returns
+        -------
+        float
+            [m]: over every step of a simulated run (``info["max_s_tracking_error"]``, see
+            :class:`~.every_step.STracking`), else over these rows (a replayed log has every logged row).
+        """
+        if "max_s_tracking_error" in self.info:
+            return float(self.info["max_s_tracking_error"])
+        return float(np.max(np.abs(self.s - self.s_reference())))
+
     def governed_time(self) -> float:
         """Time the governor slowed ``v*``: samples with ``v_scale < 1`` times the step.
 
@@ -220,7 +233,7 @@ class Run(ExtraOutputs):
         k, j = np.unravel_index(np.argmin(lm), lm.shape)
         return {"duration": float(self.t[-1] - self.t[0]), "steps": int(self.info.get("steps", len(self.t) - 1)),
                 "final_max_abs_e": float(np.max(np.abs(self.e[-1]))),
-                "max_s_tracking_error": float(np.max(np.abs(self.s - self.s_reference()))),
+                "max_s_tracking_error": self.max_s_tracking_error(),
                 "min_link_margin": float(lm[k, j]), "min_link_margin_link": int(j) + 2,
                 "min_link_margin_time": float(self.t[k]),
                 "min_longitudinal_margin": float(np.min(self.longitudinal)),
@@ -245,7 +258,7 @@ class Run(ExtraOutputs):
         roll_error = np.angle(np.exp(1j * (self.extra["roll"] - self.extra["roll_star"])))
         return {"duration": float(self.t[-1] - self.t[0]), "steps": int(self.info.get("steps", len(self.t) - 1)),
                 "final_max_abs_e": float(np.max(deviation_norms(self.e[-1:], 2))),
-                "max_s_tracking_error": float(np.max(np.abs(self.s - self.s_reference()))),
+                "max_s_tracking_error": self.max_s_tracking_error(),
                 "max_roll_tracking_error": float(np.max(np.abs(roll_error))),
                 "min_link_margin": float(lm[k, j]), "min_link_margin_link": int(j) + 2,
                 "min_link_margin_time": float(self.t[k]),

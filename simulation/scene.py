@@ -7,9 +7,10 @@ at 0; the first link, which has no margin, blue) with a dark sphere at every joi
 current pose (a solid line, 3 px, a quarter link below the arm's plane), the end point's target (a red
 sphere at the point of the curve whose arc length is ``s(0) + integral of v*``), the rail with its end
 stops and the carriage (a cube at ``y^1``) on a rail robot, and the obstacles, each drawn from
-:func:`obstacle_outlines` (4 px). The frame transforms give, by default (``frames="ends"``), the frames
-``base`` (at the pinned first central point ``y^1``, x along the rail on a rail robot) and ``tip`` (at the
-free end of the last link, x along it), both parented to ``world``; with ``frames="all"`` a frame
+:func:`obstacle_outlines` (4 px). The frame transforms (built by :mod:`.frame_transforms`) give, by
+default (``frames="ends"``), the frames ``base`` (at the pinned first central point ``y^1``, x along the
+rail on a rail robot) and ``tip`` (at the free end of the last link, x along it), both parented to
+``world``; with ``frames="all"`` a frame
 ``link1`` .. ``linkm`` per link (origin at the link's central point, x along the link), each parented to
 the previous one and ``link1`` to ``world``, so that users can attach their own models to the links. The
 messages follow the official Foxglove JSON Schemas shipped in ``foxglove_schemas/`` (see
@@ -18,14 +19,17 @@ messages follow the official Foxglove JSON Schemas shipped in ``foxglove_schemas
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Sequence
 
 import casadi as ca
 import numpy as np
 
 from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
+from coordarm.symbolic.function_buffer import BufferedFunction
 
+from .frame_transforms import end_frames_json, frame_transforms_json, stamp_slots, stamps
+from .frame_transforms import link_frames  # noqa: F401 (re-exported: coordarm.simulation.scene.link_frames)
 from .json_fill import JsonTemplate, digits_kernel
 from .log_schemas import CDR_HEADER
 from .obstacles import outline
@@ -67,11 +71,79 @@ def margin_colours(margins: np.ndarray) -> np.ndarray:
     ndarray, shape (..., m, 3)
         ``(r, g, b)`` in 0..1 per link.
     """
+    x = _padded_margins(margins)
+    return np.stack([np.interp(x, MARGIN_STOPS, _STOPS[:, c]) for c in range(3)], axis=-1)
+
+
+_STOPS = np.array(MARGIN_COLOURS)     # (stop, r/g/b)
+
+
+def _padded_margins(margins: np.ndarray) -> np.ndarray:
+    """The margins (..., m-1) with the first link's (the top stop) first, non-finite ones 0: (..., m)."""
     x = np.asarray(margins, float)
     x = np.concatenate([np.full(x.shape[:-1] + (1,), MARGIN_STOPS[-1]), x], axis=-1)
-    x = np.where(np.isfinite(x), x, 0.0)
-    stops = np.asarray(MARGIN_COLOURS)
-    return np.stack([np.interp(x, MARGIN_STOPS, stops[:, c]) for c in range(3)], axis=-1)
+    return np.where(np.isfinite(x), x, 0.0)
+
+
+def head_columns(m: int, rail: bool) -> int:
+    """How many integers of a ``/scene`` message of m links come before the curve's points.
+
+    Parameters
+    ----------
+    m : int
+        Number of links.
+    rail : bool
+        The chain is a rail robot (the carriage's centre adds two).
+
+    Returns
+    -------
+    int
+        Stamp (2), target (2), joints (2 (m + 1)), carriage (2 on a rail), the links' colours (3 m).
+    """
+    return 4 + 2 * (m + 1) + 2 * rail + 3 * m
+
+
+def scene_numbers(values: np.ndarray, margins: np.ndarray, stamps: np.ndarray, joints: np.ndarray,
+                  base: np.ndarray | None, targets: np.ndarray) -> np.ndarray:
+    """Write the integers of k ``/scene`` messages before the curve's points into ``values``, in place.
+
+    The columns of :meth:`SceneBuilder._scene_template`'s values: stamp, the target [pm], the joints [µm], the
+    carriage (``base``, on a rail) [µm] and each link's colour (r, g, b) [1e-3], each rounded to the nearest
+    integer (ties to even); the template shows a link's two ends and its colour at both ends from them.
+
+    Parameters
+    ----------
+    values : int64 ndarray, shape (k, columns), columns >= :func:`head_columns`
+        The destination (its first :func:`head_columns` columns are written).
+    margins : ndarray, shape (k, m-1)
+        Link margins of links 2..m [-] (colours: :func:`margin_colours`).
+    stamps : int ndarray, shape (k, 2)
+        ``(sec, nsec)`` of each message.
+    joints : ndarray, shape (k, m+1, 2)
+        Joint positions [m].
+    base : ndarray, shape (k, 2), or None
+        The carriage's centre [m] on a rail robot; None on a fixed base.
+    targets : ndarray, shape (k, 2)
+        The end point's target [m].
+
+    Returns
+    -------
+    ndarray
+        ``values``.
+    """
+    k, m = joints.shape[0], joints.shape[1] - 1
+    values[:, :2] = stamps
+    values[:, 2:4] = np.round(targets * 1e12)
+    at = 4 + 2 * (m + 1)
+    values[:, 4:at] = np.round(joints.reshape(k, -1) * 1e6)
+    if base is not None:
+        values[:, at:at + 2] = np.round(base * 1e6)
+        at += 2
+    colours = values[:, at:at + 3 * m].reshape(k, m, 3)      # a view of values' columns
+    x = _padded_margins(margins)
+    for c in range(3):
+        colours[:, :, c] = np.round(np.interp(x, MARGIN_STOPS, _STOPS[:, c]) * 1e3)
+    return values
 
 
 def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
@@ -131,10 +203,13 @@ def line_json(points: np.ndarray, thickness: float, color: tuple[float, ...], ki
     return head + ",".join([_POINT] * len(xy)) % tuple(xy.ravel().tolist()) + tail
 
 
-def _point_slots(template: JsonTemplate, points: int, slot_kind: int) -> None:
-    """Append ``points`` comma-separated points whose coordinates [µm] are slots of ``slot_kind``."""
+def _point_slots(template: JsonTemplate, points: int, slot_kind: int,
+                 columns: Sequence[tuple[int, int]] | None = None) -> None:
+    """Append ``points`` comma-separated points whose coordinates [µm] are slots of ``slot_kind``: new columns
+    of the values, or the ``(x, y)`` columns given for each point."""
     for i in range(points):
-        template.text("," if i else "").text('{"x":').number(slot_kind).text('e-6,"y":').number(slot_kind)
+        x, y = columns[i] if columns is not None else (None, None)
+        template.text("," if i else "").text('{"x":').number(slot_kind, x).text('e-6,"y":').number(slot_kind, y)
         template.text('e-6,"z":0}')
 
 
@@ -149,15 +224,20 @@ def _line_slots(template: JsonTemplate, points: int, thickness: float, color: tu
 
 
 def _coloured_segments_slots(template: JsonTemplate, segments: int, thickness: float, point_kind: int,
-                             colour_kind: int) -> None:
-    """Append a line list of ``segments`` segments (2 points each, coordinates [µm] of ``point_kind``) whose
-    per-point colours [1e-3] are slots of ``colour_kind`` (r, g, b per point; alpha 1), ``thickness`` in px."""
+                             colour_kind: int, first_point: int) -> None:
+    """Append a line list of ``segments`` segments, segment j from point j to point j+1 of the points whose
+    coordinates [µm] are the columns ``first_point``, ``first_point + 1``, ... (x, y per point; of
+    ``point_kind``), with per-point colours [1e-3] of ``colour_kind``: new columns r, g, b per segment, shown
+    at both its ends (alpha 1); ``thickness`` in px."""
     template.text(f'{{"type":2,"pose":{_POSE0},"thickness":{thickness},"scale_invariant":true,"points":[')
-    _point_slots(template, 2 * segments, point_kind)
+    ends = [(first_point + 2 * p, first_point + 2 * p + 1) for j in range(segments) for p in (j, j + 1)]
+    _point_slots(template, 2 * segments, point_kind, ends)
     template.text('],"color":{"r":0,"g":0,"b":0,"a":1},"colors":[')
     for i in range(2 * segments):
-        template.text("," if i else "").text('{"r":').number(colour_kind).text('e-3,"g":').number(colour_kind)
-        template.text('e-3,"b":').number(colour_kind).text('e-3,"a":1}')
+        r = None if i % 2 == 0 else template.columns - 3      # the second end: the first end's columns
+        template.text("," if i else "").text('{"r":').number(colour_kind, r)
+        template.text('e-3,"g":').number(colour_kind, None if r is None else r + 1)
+        template.text('e-3,"b":').number(colour_kind, None if r is None else r + 2).text('e-3,"a":1}')
     template.text('],"indices":[]}')
 
 
@@ -196,133 +276,6 @@ def rail_lines(chain: Any, reach: float) -> list[np.ndarray]:
     return out
 
 
-def link_frames(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each link's frame relative to its parent (link j-1; ``world`` for link 1).
-
-    Parameters
-    ----------
-    joints : (..., m+1, 2) array
-        Link end points [m] (``PlanarChain.joints_np``).
-
-    Returns
-    -------
-    translation : (..., m, 2) array
-        Origin of frame j (link j's central point) in frame j-1 [m].
-    angle : (..., m) array
-        Rotation of frame j relative to frame j-1 about z [rad] (``q_j`` for a fixed base).
-    """
-    joints = np.asarray(joints, float)
-    centre = 0.5 * (joints[..., :-1, :] + joints[..., 1:, :])
-    d = joints[..., 1:, :] - joints[..., :-1, :]
-    alpha = np.arctan2(d[..., 1], d[..., 0])
-    parent_c = np.concatenate([np.zeros_like(centre[..., :1, :]), centre[..., :-1, :]], axis=-2)
-    parent_a = np.concatenate([np.zeros_like(alpha[..., :1]), alpha[..., :-1]], axis=-1)
-    rel = centre - parent_c
-    c, s = np.cos(parent_a), np.sin(parent_a)
-    trans = np.stack([c * rel[..., 0] + s * rel[..., 1], -s * rel[..., 0] + c * rel[..., 1]], axis=-1)
-    angle = np.angle(np.exp(1j * (alpha - parent_a)))  # wrapped to (-pi, pi]
-    return trans, angle
-
-
-def _stamp_slots(template: JsonTemplate) -> JsonTemplate:
-    """Append a ``foxglove`` time whose ``sec`` and ``nsec`` are slots of kinds 0 and 1."""
-    return template.text('{"sec":').number(0).text(',"nsec":').number(1).text("}")
-
-
-def _stamps(ns: list[int] | np.ndarray) -> np.ndarray:
-    """``(sec, nsec)`` columns of log times ``ns`` [ns]."""
-    ns = np.asarray(ns, np.int64)
-    return np.column_stack([ns // 10**9, ns % 10**9])
-
-
-_TF_TEMPLATES: dict[int, JsonTemplate] = {}
-
-
-def _tf_template(m: int) -> JsonTemplate:
-    """The ``foxglove.FrameTransforms`` of m links, slots (sec, nsec, x, y [nm], z, w [1e-15]) per link."""
-    if m not in _TF_TEMPLATES:
-        t = JsonTemplate(kinds=4).text('{"transforms":[')
-        for j in range(m):
-            _stamp_slots(t.text("," if j else "").text('{"timestamp":'))
-            t.text(f',"parent_frame_id":"{"world" if j == 0 else f"link{j}"}","child_frame_id":"link{j + 1}",'
-                   '"translation":{"x":').number(2).text('e-9,"y":').number(2)
-            t.text('e-9,"z":0},"rotation":{"x":0,"y":0,"z":').number(3).text('e-15,"w":').number(3).text("e-15}}")
-        _TF_TEMPLATES[m] = t.text("]}")
-    return _TF_TEMPLATES[m]
-
-
-def frame_transforms_json(joints: np.ndarray, ns: list[int] | np.ndarray) -> list[bytes]:
-    """The ``foxglove.FrameTransforms`` of poses ``joints`` (n, m+1, 2) stamped ``ns`` [ns], one JSON each.
-
-    Translations are exact to 1 nm, rotations (quaternions about z) to 1e-15; the numbers are
-    written by :class:`~.json_fill.JsonTemplate` (space-padded, fixed width per batch).
-
-    Parameters
-    ----------
-    joints : ndarray, shape (n, m+1, 2)
-        Joint positions of each pose [m].
-    ns : list of int or ndarray, shape (n,)
-        Time stamp of each pose [ns].
-
-    Returns
-    -------
-    list of bytes
-        One JSON message per pose.
-    """
-    trans, angle = link_frames(joints)
-    n, m = angle.shape
-    values = np.empty((n, m, 6), np.int64)
-    values[..., :2] = _stamps(ns)[:, None, :]
-    values[..., 2:4] = np.round(trans * 1e9)
-    values[..., 4] = np.round(np.sin(0.5 * angle) * 1e15)
-    values[..., 5] = np.round(np.cos(0.5 * angle) * 1e15)
-    return _tf_template(m).fill(values.reshape(n, -1))
-
-
-_END_TEMPLATE = JsonTemplate(kinds=4).text('{"transforms":[')
-for _j, _name in enumerate(("base", "tip")):
-    _stamp_slots(_END_TEMPLATE.text("," if _j else "").text('{"timestamp":'))
-    _END_TEMPLATE.text(f',"parent_frame_id":"world","child_frame_id":"{_name}","translation":{{"x":').number(2)
-    _END_TEMPLATE.text('e-9,"y":').number(2).text('e-9,"z":0},"rotation":{"x":0,"y":0,"z":').number(3)
-    _END_TEMPLATE.text('e-15,"w":').number(3).text("e-15}}")
-_END_TEMPLATE.text("]}")
-
-
-def end_frames_json(base: np.ndarray, base_angle: float, joints: np.ndarray, ns: list[int] | np.ndarray) -> list[bytes]:
-    """The ``foxglove.FrameTransforms`` ``world -> base`` and ``world -> tip`` of poses ``joints``, one JSON each.
-
-    ``base`` sits at the first central point ``y^1`` turned by ``base_angle`` (the rail's direction, 0 on
-    a fixed base); ``tip`` at the last joint (the free end of link m), x along link m.
-
-    Parameters
-    ----------
-    base : ndarray, shape (n, 2)
-        The first central point of each pose [m].
-    base_angle : float
-        Rotation of the base frame about z [rad].
-    joints : ndarray, shape (n, m+1, 2)
-        Joint positions of each pose [m].
-    ns : list of int or ndarray, shape (n,)
-        Time stamp of each pose [ns].
-
-    Returns
-    -------
-    list of bytes
-        One JSON message per pose (translations to 1 nm, quaternions to 1e-15).
-    """
-    joints = np.asarray(joints, float)
-    n = len(joints)
-    d = joints[:, -1] - joints[:, -2]
-    angles = np.column_stack([np.full(n, base_angle), np.arctan2(d[:, 1], d[:, 0])])
-    values = np.empty((n, 2, 6), np.int64)
-    values[..., :2] = _stamps(ns)[:, None, :]
-    values[:, 0, 2:4] = np.round(np.asarray(base, float) * 1e9)
-    values[:, 1, 2:4] = np.round(joints[:, -1] * 1e9)
-    values[..., 4] = np.round(np.sin(0.5 * angles) * 1e15)
-    values[..., 5] = np.round(np.cos(0.5 * angles) * 1e15)
-    return _END_TEMPLATE.fill(values.reshape(n, -1))
-
-
 def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.ndarray:
     """The point ``distance`` [m] along ``polyline`` from the foot of ``start`` on it.
 
@@ -359,15 +312,19 @@ def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.
     return a[i] + (pos - cum[i]) / max(length[i], 1e-300) * ab[i]
 
 
-def _targets(curves: list[np.ndarray], starts: np.ndarray, distances: np.ndarray) -> np.ndarray:
-    """:func:`point_along` for each polyline, in one pass when all are straight segments (a line)."""
-    if all(len(c) == 2 for c in curves):
+def _targets(curves: np.ndarray | list[np.ndarray], starts: np.ndarray, distances: np.ndarray) -> np.ndarray:
+    """:func:`point_along` for each polyline, in one pass when all are straight segments (a line; ``curves``
+    then may be the (k, 2, 2) array of :meth:`SceneBuilder.line_ends`)."""
+    if isinstance(curves, np.ndarray) and curves.shape[1] == 2:
+        a, b = curves[:, 0].copy(), curves[:, 1].copy()
+    elif all(len(c) == 2 for c in curves):
         a, b = np.array([c[0] for c in curves]), np.array([c[1] for c in curves])
-        length = np.hypot(*(b - a).T)
-        d = (b - a) / length[:, None]
-        pos = np.clip(np.clip(np.einsum("ij,ij->i", starts - a, d), 0.0, length) + distances, 0.0, length)
-        return a + pos[:, None] * d
-    return np.array([point_along(c, p, x) for c, p, x in zip(curves, starts, distances)])
+    else:
+        return np.array([point_along(c, p, x) for c, p, x in zip(curves, starts, distances)])
+    length = np.hypot(*(b - a).T)
+    d = (b - a) / length[:, None]
+    pos = np.clip(np.clip(np.einsum("ij,ij->i", starts - a, d), 0.0, length) + distances, 0.0, length)
+    return a + pos[:, None] * d
 
 
 class SceneBuilder:
@@ -384,7 +341,17 @@ class SceneBuilder:
         The scenario's obstacles (drawn through :func:`obstacle_outlines`).
     frames : {"ends", "all"}
         ``/tf``: the frames ``base`` and ``tip`` (default), or a frame per link.
+
+    Attributes
+    ----------
+    views : bool
+        Give the ``/scene`` messages of a planar run as read-only memoryviews of one array per block
+        instead of ``bytes`` (:meth:`~.json_fill.JsonTemplate.fill`): no copy of each 26 kB message, for a
+        writer that copies them into its records anyway (the log does); default False.
     """
+
+    #: The ``/scene`` messages as memoryviews (see the class's attributes).
+    views: bool = False
 
     def __init__(self, ctrl: CoordinatingController, obstacles: Any, frames: str = "ends") -> None:
         if frames not in FRAME_SETS:
@@ -399,8 +366,8 @@ class SceneBuilder:
         self._rail_lines = tuple(line_json(p, RAIL_PX, RAIL_COLOR, pixels=True)
                                  for p in rail_lines(ctrl.chain, self.reach))
         self._scene_templates: dict[tuple[int, int], JsonTemplate] = {}
-        self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve
-        self._line_maps: dict[int, Any] = {}   # it mapped over k times, by k
+        self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve (False: none)
+        self._line_maps: dict[int, BufferedFunction] = {}   # it mapped over k times, by k
         self._s0: float | None = None
         self._carry = (0.0, 0.0, 0.0)  # (t, v*, integral of v*) at the last step seen
         self.s_target = np.empty(0)
@@ -437,7 +404,7 @@ class SceneBuilder:
         return self.s_target
 
     def curves(self, times: np.ndarray) -> list[np.ndarray]:
-        """The curve at each of ``times`` as a polyline (a straight line: one CasADi call for all times).
+        """The curve at each of ``times`` as a polyline (a straight line: one CasADi evaluation for all times).
 
         Parameters
         ----------
@@ -450,6 +417,29 @@ class SceneBuilder:
             One polyline [m] per time: its two ends for a straight line, else the curve's
             ``sample(t, n=90, extent=reach)``.
         """
+        lines = self.line_ends(times)
+        if lines is not None:
+            return list(lines)
+        return [self.ctrl.curve.sample(float(t), n=90, extent=self.reach) for t in times]
+
+    def line_ends(self, times: np.ndarray) -> np.ndarray | None:
+        """The two drawn ends of a straight-line curve at each of ``times`` (None for another curve).
+
+        The line's angle and point come from its CasADi Function mapped over the times (called through
+        :class:`~coordarm.symbolic.function_buffer.BufferedFunction`), trusted once it reproduces the curve's
+        own sampling.
+
+        Parameters
+        ----------
+        times : ndarray, shape (k,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (k, 2, 2), or None
+            Per time, the points ``point -+ reach (cos, sin)(angle)`` [m]; None when the curve is not a
+            :class:`~coordarm.symbolic.curves.Line` (or its Function does not match its sampling) or no times.
+        """
         curve = self.ctrl.curve
         if self._line_params is None and isinstance(curve, Line) and len(times):
             t = ca.SX.sym("t")
@@ -460,22 +450,16 @@ class SceneBuilder:
             first = np.column_stack([px + ends * np.cos(th), py + ends * np.sin(th)])
             ok = np.allclose(first, curve.sample(float(times[0]), n=2, extent=self.reach), rtol=0, atol=1e-12)
             self._line_params = f if ok else False
-        if self._line_params and len(times):
-            th, px, py = self._line_values(np.asarray(times, float))
-            ends = np.array([-self.reach, self.reach])
-            return list(np.stack([px[:, None] + ends * np.cos(th)[:, None],
-                                  py[:, None] + ends * np.sin(th)[:, None]], -1))
-        return [curve.sample(float(t), n=90, extent=self.reach) for t in times]
-
-    def _line_values(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The straight line's angle and point at ``times``: its CasADi Function mapped over them (one
-        evaluation per time, as the call on a row of times does, ~7x cheaper than that call)."""
+        if not self._line_params or not len(times):
+            return None
         mapped = self._line_maps.get(len(times))
         if mapped is None:
             if len(self._line_maps) > 8:      # block sizes vary little; keep a few
                 self._line_maps.clear()
-            mapped = self._line_maps[len(times)] = self._line_params.map(len(times))
-        return tuple(v.full().ravel() for v in mapped(ca.DM(times[None, :])))
+            mapped = self._line_maps[len(times)] = BufferedFunction(self._line_params.map(len(times)))
+        th, px, py = (v.ravel() for v in mapped(np.asarray(times, float)[None, :]))
+        ends = np.array([-self.reach, self.reach])
+        return np.stack([px[:, None] + ends * np.cos(th)[:, None], py[:, None] + ends * np.sin(th)[:, None]], -1)
 
     def messages(self, part: Run, ks: np.ndarray, ns: np.ndarray) -> list[tuple[str, int, bytes]]:
         """``(channel key, log time, data)`` of the scene, frame transforms and tracking at rows ``ks``.
@@ -495,14 +479,16 @@ class SceneBuilder:
         Returns
         -------
         list of (str, int, bytes)
-            ``("scene" | "tf" | "tracking", log time [ns], message)``, three per row, in row order.
+            ``("scene" | "tf" | "tracking", log time [ns], message)``, three per row, in row order (the
+            scenes as memoryviews when :attr:`views`).
         """
         if not len(ks):
             return []
         chain = self.ctrl.chain
-        joints = chain.joints_np(part.q[ks])
-        base = chain.base_point(part.q[ks])               # y^1, the first central point
-        curves = self.curves(part.t[ks])
+        q = part.q[ks]
+        joints, base = chain.joints_np(q), chain.base_point(q)      # base: y^1, the first central point
+        lines = self.line_ends(part.t[ks])
+        curves = lines if lines is not None else self.curves(part.t[ks])
         if self.frames == "all":
             frames = frame_transforms_json(joints, ns)
         else:
@@ -511,50 +497,58 @@ class SceneBuilder:
         s, s_target = part.s[ks], self.s_target[ks]
         targets = _targets(curves, ends, s_target - s)
         tracking = tracking_records(part, ks, s_target, targets)
-        m = joints.shape[1] - 1
-        # The integers of the scene template, rounded once: a segment's ends are joints, a link's colour is
-        # each of its two points' (the same integers as rounding the repeated values).
-        joint_um = np.round(joints * 1e6).astype(np.int64)
-        segment_um = np.stack([joint_um[:, :-1], joint_um[:, 1:]], axis=2).reshape(len(ks), -1)  # link j: ends j, j+1
-        colours = np.repeat(np.round(margin_colours(part.link_margins[ks]) * 1e3).astype(np.int64), 2, axis=1)
-        columns = [_stamps(ns), np.round(targets * 1e12), joint_um.reshape(len(ks), -1),
-                   np.round(base * 1e6) if chain.rail else None, segment_um, colours.reshape(len(ks), -1)]
-        columns = [c for c in columns if c is not None]
-        scenes: list[bytes] = [b""] * len(ks)
-        sizes = np.array([len(c) for c in curves])
-        for size in sorted(set(sizes.tolist())):  # one template per number of curve points (one for a line)
-            rows = np.flatnonzero(sizes == size)
-            template = self._scene_template(m + 1, int(size))
-            curve_um = np.round(np.array([curves[i] for i in rows]).reshape(len(rows), -1) * 1e6)
-            values, at = np.empty((len(rows), template.slots), np.int64), 0
-            for c in [*(c if len(rows) == len(ks) else c[rows] for c in columns), curve_um]:
-                values[:, at:at + c.shape[1]] = c      # (floats hold integers here: cast exactly)
-                at += c.shape[1]
-            assert at == template.slots, (at, template.slots)
-            for i, text in zip(rows, template.fill(values)):
+        scenes = self._scenes(part.link_margins[ks], stamps(ns), joints, base if chain.rail else None, targets,
+                              curves)
+        records = [CDR_HEADER + record.tobytes() for record in tracking.astype("<f8")]
+        return [x for n, scene, tf, record in zip(np.asarray(ns).tolist(), scenes, frames, records)
+                for x in (("scene", n, scene), ("tf", n, tf), ("tracking", n, record))]
+
+    def _scenes(self, margins: np.ndarray, stamps: np.ndarray, joints: np.ndarray, base: np.ndarray | None,
+                targets: np.ndarray, curves: np.ndarray | list[np.ndarray]) -> list[bytes] | list[memoryview]:
+        """The ``/scene`` messages of k poses: :func:`scene_numbers` then the curve's points [µm], filled into the
+        template of each number of curve points (one for a straight line)."""
+        k, m = joints.shape[0], joints.shape[1] - 1
+        head = head_columns(m, base is not None)
+        sizes = [len(c) for c in curves]
+        groups = sorted(set(sizes))
+        if len(groups) == 1:                    # the slots written in place, the curve's after them
+            values = np.empty((k, head + 2 * groups[0]), np.int64)
+            scene_numbers(values, margins, stamps, joints, base, targets)
+        else:
+            values = scene_numbers(np.empty((k, head), np.int64), margins, stamps, joints, base, targets)
+        scenes: list[Any] = [b""] * k
+        for size in groups:
+            rows = np.flatnonzero(np.array(sizes) == size)
+            template = self._scene_template(m + 1, size)
+            points = curves if len(groups) == 1 else np.array([curves[i] for i in rows])
+            if len(groups) == 1:
+                group = values
+            else:
+                group = np.empty((len(rows), template.columns), np.int64)
+                group[:, :head] = values[rows]
+            assert template.columns == head + 2 * size, (template.columns, head, size)
+            group[:, head:] = np.round(np.asarray(points, float).reshape(len(rows), -1) * 1e6)
+            for i, text in zip(rows.tolist(), template.fill(group, self.views)):
                 scenes[i] = text
-        out = []
-        for n, scene, tf, record in zip(np.asarray(ns).tolist(), scenes, frames, tracking.astype("<f8")):
-            out.append(("scene", n, scene))
-            out.append(("tf", n, tf))
-            out.append(("tracking", n, CDR_HEADER + record.tobytes()))
-        return out
+        return scenes
 
     def _scene_template(self, joints: int, curve_points: int) -> JsonTemplate:
         """The ``foxglove.SceneUpdate`` with slots: stamp (kinds 0, 1), the target sphere's centre [pm] (4),
         the joint spheres' centres, the carriage's centre (rail robots) and the links' ends [µm] (2), the
         links' colours [1e-3] (5) and the curve's ``curve_points`` points [µm] (3); the rail and the
-        obstacles are literal."""
+        obstacles are literal. A link's ends show its joints' columns, its second end's colour its first's
+        (the columns of :func:`scene_numbers`, then the curve's)."""
         key = (joints, curve_points)
         if key not in self._scene_templates:
             chain = self.ctrl.chain
             xi = chain.xi
-            t = _stamp_slots(JsonTemplate(kinds=6).text('{"deletions":[],"entities":[{"timestamp":'))
+            t = stamp_slots(JsonTemplate(kinds=6).text('{"deletions":[],"entities":[{"timestamp":'))
             t.text(',"frame_id":"world","id":"coordarm","lifetime":{"sec":0,"nsec":0},"frame_locked":false,'
                    '"metadata":[],"arrows":[],"spheres":[')
             head, tail = _sphere("", max(1.2 * xi, 0.05), TARGET_COLOR)
             t.text(head + '{"x":').number(4).text('e-12,"y":').number(4).text('e-12,"z":0}' + tail)
             head, tail = _sphere("", 0.45 * xi, JOINT_COLOR)
+            assert t.columns == 4                   # the joints from column 4 (as scene_numbers writes them)
             for _ in range(joints):
                 t.text("," + head + '{"x":').number(2).text('e-6,"y":').number(2).text('e-6,"z":0}' + tail)
             t.text('],"cubes":[')
@@ -566,7 +560,7 @@ class SceneBuilder:
                        f'"size":{{"x":{1.5 * xi},"y":{xi},"z":{0.5 * xi}}},'
                        f'"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}')
             t.text('],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":[')
-            _coloured_segments_slots(t, joints - 1, ARM_PX, 2, 5)
+            _coloured_segments_slots(t, joints - 1, ARM_PX, 2, 5, first_point=4)
             t.text(",")
             _line_slots(t, curve_points, CURVE_PX, CURVE_COLOR, 3, depth=CURVE_DEPTH * xi)
             extra = "".join("," + x for x in (*self._rail_lines, *self._obstacle_lines))

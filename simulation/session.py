@@ -22,7 +22,7 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
-from coordarm.simulation.choices import DEFAULT_COMPRESSION, DENSE_LINKS
+from coordarm.simulation.choices import DEFAULT_COMPRESSION, DENSE_LINKS, SUMMARY_ROWS
 from coordarm.symbolic.errors import CollisionError, ConfigError, JointRateError, LogError, SingularityError
 from coordarm.symbolic.laws import Law
 from coordarm.symbolic.records import record
@@ -138,7 +138,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         Serve the run to Foxglove on ``port`` (0 = any) at ``live_speed`` simulated seconds per second
         [-], starting once a client subscribed if ``live_wait``.
     figures, stages : optional
-        Draw the PNG figures beside the log (current matplotlib backend), stages at these times [s].
+        Draw the PNG figures beside the log (else keep :data:`~.choices.SUMMARY_ROWS` rows), stages at these times [s].
     allow_contact, progress : bool, optional
         Record contacts instead of stopping; show a progress bar on standard error.
     echo, on_warning : callable, optional
@@ -172,9 +172,9 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
     ctrl = scenario.controller()
     try:     # a log replaced by this one is freed on another thread meanwhile (RunLogger free_replaced_later)
         run, stopped, chosen, compiled = simulate_logged(
-            scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate,
-            cond_exact=cond_exact, compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait,
-            allow_contact=allow_contact, progress=progress, say=say, on_warning=on_warning or reissue, log_frames=log_frames)
+            scenario, ctrl, out, overwrite=overwrite, backend=backend, log_rate=log_rate, cond_rate=cond_rate, cond_exact=cond_exact,
+            compression=compression, live=live, port=port, live_speed=live_speed, live_wait=live_wait, allow_contact=allow_contact,
+            progress=progress, say=say, on_warning=on_warning or reissue, log_frames=log_frames, keep=None if figures else SUMMARY_ROWS)
         status = outcome_of(stopped, None)["status"]
         for line in report_lines(run, scenario, compiled, out):
             say(line)
@@ -182,7 +182,7 @@ def run_scenario(scenario: Scenario | str | os.PathLike, *, links: int | None = 
         for p in drawn:
             say(f"figure        {p}")
     finally:
-        from coordarm.simulation.mcap_file import wait_released
+        from coordarm.simulation.file_replace import wait_released
         wait_released()
     return ScenarioResult(scenario, run, status, EXIT_CODES[status], out, tuple(drawn), chosen,
                           Path(compiled.library.path) if compiled else None, compiled.cache_hit if compiled else None,
@@ -319,8 +319,8 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
                     backend: str, log_rate: float | None, cond_rate: float | None, compression: str,
                     live: bool, port: int, live_speed: float, live_wait: bool, allow_contact: bool,
                     progress: bool, say: Callable[[str], None], on_warning: Callable[[Warning], None],
-                    cond_exact: bool = False,
-                    log_frames: str = "ends") -> tuple[Run, SingularityError | CollisionError | None, str, Any]:
+                    cond_exact: bool = False, log_frames: str = "ends",
+                    keep: int | None = None) -> tuple[Run, SingularityError | CollisionError | None, str, Any]:
     """Simulate ``scenario`` into the log ``out`` (and the live view); the log is closed with the outcome.
 
     Parameters
@@ -335,7 +335,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         As for :func:`logged_run`.
     backend : {"auto", "compiled", "interpreted"}
         How the law runs.
-    log_rate, cond_rate, cond_exact : float or None, float or None, bool
+    log_rate, cond_rate, cond_exact, keep : float or None, float or None, bool, int or None
         As for :func:`logged_run` [Hz].
     compression : str
         As for :func:`logged_run`.
@@ -390,7 +390,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
         try:
             run = logged_run(scenario, ctrl, out, view, holder, overwrite=overwrite, log_rate=log_rate,
                              cond_rate=cond_rate, cond_exact=cond_exact, compression=compression, allow_contact=allow_contact,
-                             progress=progress, on_warning=on_warning, log_frames=log_frames)
+                             progress=progress, on_warning=on_warning, log_frames=log_frames, keep=keep)
             stopped = None
         except (SingularityError, CollisionError, JointRateError) as err:
             run, stopped = err.run, err
@@ -400,7 +400,7 @@ def simulate_logged(scenario: Scenario, ctrl: CoordinatingController, out: Path,
 def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view: Any, holder: dict[str, Any], *,
                overwrite: bool, log_rate: float | None, cond_rate: float | None, compression: str,
                allow_contact: bool, progress: bool, on_warning: Callable[[Warning], None],
-               cond_exact: bool = False, log_frames: str = "ends") -> Run:
+               cond_exact: bool = False, log_frames: str = "ends", keep: int | None = None) -> Run:
     """Build or load the law and simulate ``scenario`` into the log ``out``, closed with the outcome.
 
     Parameters
@@ -416,22 +416,20 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
     holder : dict
         ``{"backend": requested}`` in; ``backend`` (the one that ran) and ``compiled`` (the compiled
         law or None) are set in it as soon as known, so they survive a stop.
-    overwrite : bool
-        Replace an existing ``out``.
+    overwrite, allow_contact, progress : bool
+        Replace an existing ``out``; record contacts instead of stopping; show a progress bar on standard error.
     log_rate, cond_rate : float or None
         Log samples and condition number samples per simulated second [Hz] (None: the defaults).
     cond_exact : bool
         Log the exact 2-norm condition number (see :class:`~.mcap_writer.RunLogger`).
     compression : str
         Chunk compression of the log (zstd, lz4, none).
-    allow_contact : bool
-        Record contacts instead of stopping.
-    progress : bool
-        Show a progress bar on standard error.
     on_warning : callable
         Gets each warning of building or loading the law.
     log_frames : {"ends", "all"}
         The frames of ``/tf``: ``base`` and ``tip``, or one per link.
+    keep : int, optional
+        Rows kept in memory, about (default :data:`~.limits.KEEP_ROWS`; the summary is of every step).
 
     Returns
     -------
@@ -474,7 +472,7 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
                            thresholds=scenario.thresholds, progress=progress, on_chunk=on_chunk,
                            physical=scenario.physical(ctrl.chain),
                            check_every=max(logger.every, round(1.0 / (CHECK_RATE * scenario.step))),
-                           allow_contact=allow_contact)
+                           allow_contact=allow_contact, keep=keep)
         logger.contacts, logger.joint_rates = run.info["contacts"], run.info.get("joint_rates")
     return run
 

@@ -17,6 +17,7 @@ from coordarm.symbolic.outputs import spatial_split, split
 from coordarm.symbolic.records import record
 
 from .base_margin import BASE_THRESHOLD, base_stop
+from .every_step import STracking, summary_rows
 from .joint_rates import JointRates
 from .log_layout import PLANAR, ChainLayout, MarginCheck, layout_of_chain
 from .result import OPTIONAL, Run, deviation_norms
@@ -225,7 +226,8 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
     SingularityError, TubeError, CollisionError
         The run stopped; ``err.run`` holds it up to there.
     """
-    kept = KeptRows(loop)
+    kept, tracking = KeptRows(loop), STracking()
+    governed = 0.0          # simulated time with v_scale < 1, over every step (the kept rows are thinned) [s]
     contacts: list = []
     q, k, wall = q0, 0, _time.perf_counter()
     rates = JointRates(bool(getattr(loop.ctrl.chain, "rail", False)),       # peaks, and the physical's limits
@@ -245,11 +247,16 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
             row, error = stop
             part = part.rows(slice(0, row + 1))
             kept.add(part, k)
+            tracking.add(part)
             if on_chunk:
                 on_chunk(part)
             raise stopped(loop.ctrl, error, kept, dict(info, stopped=_STOPS[type(error)], contacts=_records(contacts),
-                                                       steps=k + row, wall_time=_time.perf_counter() - wall))
+                                                       steps=k + row, wall_time=_time.perf_counter() - wall,
+                                                       governed=governed + governed_steps(part) * loop.step,
+                                                       **tracking.info()))
         kept.add(part, k)
+        tracking.add(part)
+        governed += governed_steps(part) * loop.step
         if on_chunk:
             on_chunk(part)
         check_interrupt()
@@ -259,9 +266,24 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
         if bar:
             bar.update(loop.step * k)
     info = dict(info, contacts=_records(contacts))
-    run = kept.run(dict(info, stopped="completed", steps=loop.n_steps, wall_time=_time.perf_counter() - wall))
-    run.info["governed"] = run.governed_time()
-    return run
+    return kept.run(dict(info, stopped="completed", steps=loop.n_steps, wall_time=_time.perf_counter() - wall,
+                         governed=governed, **tracking.info()))
+
+
+def governed_steps(part: Run) -> int:
+    """Rows of ``part`` where the governor slowed ``v*``.
+
+    Parameters
+    ----------
+    part : Run
+        Rows of consecutive steps.
+
+    Returns
+    -------
+    int
+        Rows with ``v_scale < 1`` (each lasts one step, as in :meth:`Run.governed_time`).
+    """
+    return int(np.count_nonzero(part.speed_factor() < 1))
 
 
 def next_part(loop: Stepping, q: np.ndarray, k: int) -> tuple[Run, np.ndarray | None, int]:
@@ -345,7 +367,6 @@ def stopped(ctrl: CoordinatingController, error: CoordarmError, kept: KeptRows, 
                                  hint="the speed governor ([control] governor = true, --governor) "
                                       "slows v* instead of stopping")
     error.run = kept.run(info)
-    error.run.info["governed"] = error.run.governed_time()
     return error
 
 
@@ -426,7 +447,7 @@ def _advance(ctrl, compiled, q, times, step, layout):
     return Q.T, {a: (v.ravel() if a in scalars else v.T) for a, v in zip(ctrl.run_outputs, outs)}
 
 
-def kept_rows(part: Run, k0: int, every: int) -> np.ndarray | slice:
+def kept_rows(part: Run, k0: int, every: int, chain: Any = None) -> np.ndarray | slice:
     """Rows of ``part`` (steps ``k0, k0+1, ...``) kept in memory: every ``every``-th, the extremes, the last.
 
     Parameters
@@ -437,12 +458,15 @@ def kept_rows(part: Run, k0: int, every: int) -> np.ndarray | slice:
         Global step of its first row.
     every : int
         Keep every this many steps (1: every row).
+    chain : Chain or SpatialChain, optional
+        The run's chain: keep also the rows of :func:`~.every_step.summary_rows` (the largest joint
+        angle against its limit, the largest roll tracking error).
 
     Returns
     -------
     ndarray of int or slice
         Sorted row indices (every row: ``slice(None)``); with the rows of each margin's smallest
-        value and of the largest ``|u|``, and the last row.
+        value and of the largest ``|u|``, the summary's rows, and the last row.
     """
     n = len(part.t)
     if every == 1 or n == 0:
@@ -452,6 +476,8 @@ def kept_rows(part: Run, k0: int, every: int) -> np.ndarray | slice:
         v = np.asarray(getattr(part, c.array))
         keep[np.argmin(np.min(v, axis=1) if v.ndim == 2 else v)] = True
     keep[np.argmax(np.max(np.abs(part.u), axis=1))] = True
+    if chain is not None:
+        keep[summary_rows(part, chain)] = True
     keep[n - 1] = True
     return np.flatnonzero(keep)
 
@@ -471,8 +497,9 @@ class KeptRows:
 
     def __init__(self, loop: Stepping) -> None:
         self.every = loop.every
+        self.chain = loop.ctrl.chain
         chunks = -(-loop.n_steps // loop.chunk) + 1                        # + the final state's row
-        extremes = len(loop.layout.margins) + 2
+        extremes = len(loop.layout.margins) + 3                           # margins, |u|, summary row, last
         self.capacity = (loop.n_steps + 1 if loop.every == 1 else
                          loop.n_steps // loop.every + 1 + chunks * (1 + extremes))
         self.arrays: dict[str, np.ndarray] = {}
@@ -488,7 +515,7 @@ class KeptRows:
         k0 : int
             Global step of its first row.
         """
-        rows = kept_rows(part, k0, self.every)
+        rows = kept_rows(part, k0, self.every, self.chain)
         names = part.array_names()
         if not self.arrays:
             self.arrays = {a: np.empty((self.capacity,) + np.shape(v)[1:], dtype=np.asarray(v).dtype)

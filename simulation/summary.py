@@ -47,7 +47,7 @@ def summary_lines(run: Run, scenario: Scenario) -> list[str]:
              f"max|u|        {s['max_abs_u']:.4g}"]
     lines += rate_lines(run.info.get("joint_rates"))
     if scenario.config.control.governor:
-        lines.append(f"governor      v* slowed during {run.governed_time():.3f} s (final v_scale {run.speed_factor()[-1]:.3g})")
+        lines.append(f"governor      v* slowed during {run.info.get('governed', run.governed_time()):.3f} s (final v_scale {run.speed_factor()[-1]:.3g})")
     if run.sigma is not None:
         lines.append(f"rail          d from {run.q[0, 0]:.4f} to {run.q[-1, 0]:.4f} m, span sigma {run.sigma[0]:.4f} -> "
                      f"{run.sigma[-1]:.4f} m, min rail margin {np.min(run.rail_margin):.4f}")

@@ -79,8 +79,7 @@ class NumericAPI:
             raise ConfigError(f"Q, T: need shapes (N, {n}) and (N,), got {Q.shape} and {T.shape}")
         N = len(Q)
         Y = self.chain.centres_np(Q)                                      # (N, m, 2)
-        geo = self.task.mapped("geometry", N * m)
-        values = geo(Y.reshape(-1, 2).T, np.repeat(T, m)[None])
+        values = self.task.buffered("geometry", N * m)(Y.reshape(-1, 2).T, np.repeat(T, m)[None])
         out = {}
         for name, v in zip(("phi", "gphi", "phit", "psi", "gpsi", "psit"), values):
             v = np.asarray(v)
@@ -101,7 +100,7 @@ class NumericAPI:
             Commanded speeds [m/s].
         """
         T = np.atleast_1d(np.asarray(T, float))
-        return np.asarray(self.task.mapped("speed", len(T))(T[None])).ravel()
+        return self.task.buffered("speed", len(T))(T[None])[0].ravel()
 
     def decoupling_matrices(self, Q, T, geometry: dict[str, np.ndarray] | None = None
                             ) -> tuple[np.ndarray, np.ndarray]:
@@ -157,7 +156,7 @@ class NumericAPI:
         span[:, 0, 0] -= geo["gpsi"][:, 0] @ rail
         M = np.concatenate([M[:, :1], span, M[:, 1:]], axis=1)
         sigma = geo["psi"][:, m - 1] - geo["psi"][:, 0]
-        rate = np.asarray(self.task.mapped("span_rate", len(T))(sigma[None], T[None])).ravel()
+        rate = self.task.buffered("span_rate", len(T))(sigma[None], T[None])[0].ravel()
         rhs = np.concatenate([rhs[:, :1], (rate - geo["psit"][:, m - 1] + geo["psit"][:, 0])[:, None], rhs[:, 1:]],
                              axis=1)
         return M, rhs

@@ -93,3 +93,50 @@ def test_each_kind_is_as_wide_as_text_width_of_all_its_values(rng):
         want = ["[" + ",".join(f"{v:>{width[k]}d}" for v, k in zip(row, kinds)) + "]" for row in values.tolist()]
         assert [x.decode() for x in t.fill(values)] == want
     assert t.fill(np.zeros((0, 12), np.int64)) == []
+
+
+def test_a_template_extended_after_a_fill_fills_as_one_built_whole():
+    def begun() -> JsonTemplate:
+        return JsonTemplate(kinds=2).text('{"a":').number(0).text(',"b":').number(1)
+    grown = begun()
+    assert grown.fill(np.array([[3, -12], [40, 7]])) == [b'{"a": 3,"b":-12', b'{"a":40,"b":  7']
+    grown.text(',"c":').number(0).text("}")
+    values = np.array([[3, -12, 5], [40, 7, 1]])           # the widths of the first fill again
+    whole = begun().text(',"c":').number(0).text("}")
+    assert grown.fill(values) == whole.fill(values) == [b'{"a": 3,"b":-12,"c": 5}', b'{"a":40,"b":  7,"c": 1}']
+
+
+def test_slots_showing_earlier_columns_are_the_values_repeated_with_the_kernel_and_with_numpy(rng, monkeypatch):
+    """A template whose slots show columns twice (out of order) fills as the same template with every slot a
+    column of its own, given the values repeated; the widths come from the columns; a bad column is an error."""
+    import coordarm.simulation.json_fill as json_fill
+    shown = [0, 1, 2, 1, 0, 3, 2, 3]                 # the column each slot shows
+    kinds = [0, 1, 0, 1]                              # each column's kind
+    reused, plain = JsonTemplate(kinds=2).text("["), JsonTemplate(kinds=2).text("[")
+    for i, c in enumerate(shown):
+        reused.text("," if i else "").number(kinds[c], c if c in shown[:i] else None)
+        plain.text("," if i else "").number(kinds[c])
+    reused.text("]")
+    plain.text("]")
+    assert (reused.slots, reused.columns, plain.columns) == (8, 4, 8)
+    # the new columns in the order they appear: 0, 1, 2, 3 (slots 0, 1, 2, 5)
+    values = rng.integers(-10 ** 7, 10 ** 7, (9, 4))
+    want = plain.fill(values[:, shown])
+    assert reused.fill(values) == want
+    monkeypatch.setattr(json_fill, "digits_kernel", lambda: None)
+    assert reused.fill(values) == want
+    with pytest.raises(ValueError, match="expected shape"):
+        reused.fill(values[:, :3])
+    with pytest.raises(ValueError, match="column 1: not an existing column of kind 0"):
+        JsonTemplate(kinds=2).number(0).number(1).number(0, 1)
+    with pytest.raises(ValueError, match="column 2: not an existing column"):
+        JsonTemplate(kinds=2).number(0).number(1).number(0, 2)
+
+
+def test_messages_as_views_are_the_bytes_read_only(rng):
+    t = JsonTemplate(kinds=1).text('{"a":').number(0).text(',"b":').number(0).text("}")
+    values = rng.integers(-10 ** 9, 10 ** 9, (6, 2))
+    views = t.fill(values, views=True)
+    assert all(isinstance(v, memoryview) and v.readonly for v in views)
+    assert [bytes(v) for v in views] == t.fill(values)
+    assert t.fill(values[:0], views=True) == []

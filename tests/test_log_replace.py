@@ -6,7 +6,8 @@ import threading
 import pytest
 
 import coordarm
-from coordarm.simulation.mcap_file import McapFile, exchange, replace, replace_in_background, wait_released
+from coordarm.simulation.file_replace import exchange, replace, replace_in_background, wait_released
+from coordarm.simulation.mcap_file import McapFile
 
 from test_session import read_log
 
@@ -124,9 +125,9 @@ def test_a_directory_or_a_symbolic_link_at_the_name_is_treated_as_os_replace_tre
 
 
 def test_without_the_swap_a_replace_is_os_replace(tmp_path, monkeypatch):
-    import coordarm.simulation.mcap_file as mcap_file
+    import coordarm.simulation.file_replace as file_replace
 
-    monkeypatch.setattr(mcap_file, "_renameat2", lambda: None)     # a system without renameat2
+    monkeypatch.setattr(file_replace, "_renameat2", lambda: None)     # a system without renameat2
     src, dst = tmp_path / "new.partial", tmp_path / "new"
     src.write_bytes(b"new log")
     dst.write_bytes(b"old log")

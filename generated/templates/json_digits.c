@@ -38,15 +38,15 @@ static inline void put_integer(unsigned char *end, long long x) {
   if (negative) *--p = '-';
 }
 
-/* out (n x size): n copies of blank (size bytes) with values (n x slots) written into the slots
- * (start[i], width[i]). */
+/* out (n x size): n copies of blank (size bytes) with, in slot i (start[i], width[i]), the integer in column
+ * column[i] of the message's row of values (n x columns; a column may fill several slots). */
 JSON_EXPORT void coordarm_json_fill(const unsigned char *blank, long long size, const long long *start,
-                                    const long long *width, long long slots, const long long *values, long long n,
-                                    unsigned char *out) {
+                                    const long long *width, const long long *column, long long slots,
+                                    const long long *values, long long columns, long long n, unsigned char *out) {
   for (long long k = 0; k < n; ++k) {
     unsigned char *row = out + k * size;
-    const long long *v = values + k * slots;
+    const long long *v = values + k * columns;
     memcpy(row, blank, (size_t)size);
-    for (long long i = 0; i < slots; ++i) put_integer(row + start[i] + width[i], v[i]);
+    for (long long i = 0; i < slots; ++i) put_integer(row + start[i] + width[i], v[column[i]]);
   }
 }

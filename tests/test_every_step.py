@@ -1,0 +1,91 @@
+"""A run that keeps only some rows in memory still summarises every step: the s tracking error and the
+governed time accumulated chunk by chunk (:mod:`coordarm.simulation.every_step`) against the same run with
+every row kept, and the extreme rows each chunk keeps against brute-force maxima over every row."""
+import numpy as np
+import pytest
+
+from coordarm.simulation.every_step import STracking, summary_rows
+from coordarm.simulation.choices import SUMMARY_ROWS
+from coordarm.simulation.run import simulate
+from coordarm.simulation.scenario import load_scenario
+from coordarm.simulation.session import run_scenario
+from coordarm.simulation.summary import summary_lines
+from coordarm.symbolic import CoordinatingController, Line, PlanarChain
+
+
+def pushed(governor: bool = True) -> CoordinatingController:
+    """10 links pushed at 0.2 m/s along a line: the governor slows v* from about 2.5 s on."""
+    return CoordinatingController(PlanarChain(10, 0.1), Line(angle=0.02), 2.0, 0.2, governor=governor)
+
+
+def every_row_and_thinned(ctrl, q0, duration, keep, chunk=700):
+    """The same simulation twice: every row kept (unlogged), and streamed chunk by chunk (``on_chunk``)
+    keeping about ``keep`` rows; returns both runs and the streamed chunks."""
+    full = simulate(ctrl, q0, duration, 0.001, backend="compiled", chunk=chunk)
+    parts = []
+    thin = simulate(ctrl, q0, duration, 0.001, backend="compiled", chunk=chunk, on_chunk=parts.append, keep=keep)
+    return full, thin, parts
+
+
+def test_the_s_tracking_maximum_over_every_step_is_the_every_row_runs_to_the_bit_and_survives_thinning():
+    ctrl = pushed()
+    full, thin, parts = every_row_and_thinned(ctrl, ctrl.chain.zigzag(1.2), 6.0, keep=300)
+    assert len(thin.t) < len(full.t) // 10 and full.info["kept_every"] == 1
+    brute = np.abs(full.s - full.s_reference())                 # Run.s_reference over every row
+    assert full.speed_factor().min() < 0.5                      # governed: the reference is v_scale v*
+    for run in (full, thin):
+        assert run.info["max_s_tracking_error"] == np.max(brute)       # bitwise
+        assert run.info["max_s_tracking_error_time"] == full.t[np.argmax(brute)]
+        assert run.summary()["max_s_tracking_error"] == np.max(brute)
+    # the thinned rows alone would give another (smaller or inexact) value: the info is what counts
+    assert np.max(np.abs(thin.s - thin.s_reference())) != np.max(brute)
+    tracking = STracking()
+    for part in parts:
+        tracking.add(part)
+    assert tracking.info()["max_s_tracking_error"] == np.max(brute)
+
+
+def test_the_governed_time_is_counted_over_every_step_not_over_the_kept_rows():
+    ctrl = pushed()
+    full, thin, _ = every_row_and_thinned(ctrl, ctrl.chain.zigzag(1.2), 6.0, keep=300)
+    steps = np.count_nonzero(full.speed_factor() < 1)
+    assert steps > 1000
+    assert full.info["governed"] == pytest.approx(0.001 * steps, rel=1e-12)
+    assert thin.info["governed"] == full.info["governed"]
+    assert full.governed_time() == pytest.approx(full.info["governed"], rel=1e-9)   # the rows' own count
+
+
+def test_each_chunk_keeps_the_row_of_the_largest_joint_against_its_limit():
+    sc = load_scenario("thread").with_overrides(None, 4.0, None)
+    ctrl = sc.controller()
+    full, thin, parts = every_row_and_thinned(ctrl, sc.start(ctrl), sc.duration, keep=50)
+    chain = ctrl.chain
+    ratio = lambda q: np.max(np.abs(chain.revolute(q)[:, 1:]) / chain.joint_limits, axis=1)   # noqa: E731
+    assert np.max(ratio(thin.q)) == np.max(ratio(full.q))
+    for part in parts:
+        (row,) = summary_rows(part, chain)
+        assert ratio(part.q)[row] == np.max(ratio(part.q))
+    lines = lambda run: [x for x in summary_lines(run, sc) if x.startswith(("joints", "s tracking"))]  # noqa: E731
+    assert lines(thin) == lines(full)
+
+
+def test_a_spatial_chunk_keeps_the_row_of_its_largest_roll_tracking_error():
+    sc = load_scenario("path3d").with_overrides(8, 1.0, None)
+    ctrl = sc.controller()
+    full, thin, parts = every_row_and_thinned(ctrl, sc.start(ctrl), sc.duration, keep=20, chunk=200)
+    assert thin.summary()["max_roll_tracking_error"] == full.summary()["max_roll_tracking_error"]
+    assert thin.summary()["max_s_tracking_error"] == full.summary()["max_s_tracking_error"]
+    wrapped = np.abs(np.angle(np.exp(1j * (full.extra["roll"] - full.extra["roll_star"]))))
+    assert full.summary()["max_roll_tracking_error"] == np.max(wrapped)
+    for part in parts:
+        (row,) = summary_rows(part, ctrl.chain)
+        err = np.abs(np.angle(np.exp(1j * (part.extra["roll"] - part.extra["roll_star"]))))
+        assert err[row] == np.max(err)
+
+
+def test_a_run_without_figures_keeps_fewer_rows_and_prints_the_same_summary(tmp_path):
+    with_figures = run_scenario("line", duration=3.0, log=tmp_path / "a.mcap", figures=True, stages=[0.0])
+    without = run_scenario("line", duration=3.0, log=tmp_path / "b.mcap", figures=False)
+    assert len(without.run.t) <= SUMMARY_ROWS + 50 < len(with_figures.run.t)
+    keep = [x for x in with_figures.lines if not x.startswith(("log ", "figure", "library"))]
+    assert [x for x in without.lines if not x.startswith(("log ", "figure", "library"))] == keep
