@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 from coordarm.simulation.mcap_writer import log_time_ns  # noqa: E402
 from coordarm.simulation.run import simulate  # noqa: E402
 from coordarm.simulation.scenario import load_scenario  # noqa: E402
-from coordarm.simulation.scene3d import scene_builder  # noqa: E402
+from coordarm.simulation.scene_kind import scene_builder  # noqa: E402
 
 ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 ap.add_argument("--repeats", type=int, default=20)

@@ -11,7 +11,6 @@ processes building the same key both end with a valid library.
 from __future__ import annotations
 
 import functools
-import hashlib
 import json
 import os
 import platform
@@ -20,13 +19,14 @@ import shutil
 import sys
 import time
 import warnings
-from dataclasses import dataclass
 from pathlib import Path
 
 import casadi as ca
 
 from coordarm.symbolic import BuildError
+from coordarm.symbolic.digests import sha256
 from coordarm.symbolic.errors import shown
+from coordarm.symbolic.records import record
 
 from .cache_dir import own_group, root_problem  # noqa: F401 (re-exported)
 from .source import CODEGEN_OPTIONS, Source
@@ -53,7 +53,7 @@ VERSION_TIMEOUT = 30.0
 COMPILE_TIMEOUT = 900.0
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Library:
     """A compiled controller library in the cache.
 
@@ -289,7 +289,7 @@ def cache_key(source: Source, cc: str, flags: tuple[str, ...], memo_dir: Path | 
     BuildError
         The compiler does not run or does not answer ``--version`` in time.
     """
-    h = hashlib.sha256()
+    h = sha256()
     cpu = cpu_identity() if any("native" in f for f in flags) else ""
     # Libraries of such flags were linked with them before compile_and_link: never serve those again.
     link = "linked without " + " ".join(sorted(PROCESS_MODE_FLAGS)) if set(flags) & PROCESS_MODE_FLAGS else ""
@@ -302,7 +302,7 @@ def cache_key(source: Source, cc: str, flags: tuple[str, ...], memo_dir: Path | 
 
 
 def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+    return sha256(path.read_bytes()).hexdigest()
 
 
 def cached(entry: Path, key: str) -> bool:

@@ -12,11 +12,12 @@ does with "racily clean" entries.
 """
 from __future__ import annotations
 
-import hashlib
 import os
 import time
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
+
+from coordarm.symbolic.digests import sha256
 
 from .compiler_memo import DIGESTS, recall
 
@@ -54,7 +55,7 @@ def files_key(paths: Iterable[str], *extra: str) -> tuple[str, bool]:
             continue
         lines.append(f"{path}\0{st.st_dev} {st.st_ino} {st.st_size} {st.st_mtime_ns} {st.st_ctime_ns}")
         newest = max(newest, st.st_mtime_ns, st.st_ctime_ns)
-    digest = hashlib.sha256("\n".join(lines).encode())
+    digest = sha256("\n".join(lines).encode())
     for part in extra:
         digest.update(b"\0" + part.encode())
     return digest.hexdigest(), newest < time.time_ns() - SETTLE_SECONDS * 1e9
@@ -154,7 +155,7 @@ def sources_digest(root: str | os.PathLike, folders: Sequence[str]) -> str:
     files = package_files(root, folders)
 
     def digest() -> str:
-        h = hashlib.sha256()
+        h = sha256()
         for path in files:
             h.update(f"{os.path.basename(os.path.dirname(path))}/{os.path.basename(path)}\0".encode())
             with open(path, "rb") as f:

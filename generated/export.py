@@ -8,7 +8,6 @@ prefix so that the static library links into any program.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import casadi as ca
@@ -16,6 +15,7 @@ import numpy as np
 
 from coordarm.symbolic import BuildError, CoordinatingController, SpatialController
 from coordarm.symbolic.outputs import outputs_of, spatial_outputs_of
+from coordarm.symbolic.records import record
 
 from .build import DEFAULT_FLAGS
 from .codegen import assemble_source, functions, structured_law
@@ -28,7 +28,7 @@ PREFIX = "coordarm_law_"
 FILES = ("coordarm_law.c", "coordarm_law.h", "Makefile", "example.c", "example_rt.c")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Export:
     """What :func:`export_law` wrote.
 

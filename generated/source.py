@@ -2,13 +2,13 @@
 a library's cache key, :func:`coordarm.generated.build.cache_key`), without the code generator's imports."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from coordarm.symbolic.records import record
 
 #: Options of CasADi's CodeGenerator (part of the cache key).
 CODEGEN_OPTIONS = {"with_header": False, "casadi_real": "double", "casadi_int": "long long int"}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Source:
     """Generated C source of one controller.
 

@@ -9,10 +9,11 @@ GIFs (planar and spatial) all draw them with :func:`draw_contact_marks`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
+
+from coordarm.symbolic.records import record
 
 #: Colour of the contact marks (and of the stage at which a run stopped).
 CONTACT_COLOUR = "#d62728"
@@ -22,7 +23,7 @@ CONTACT_STYLE = dict(ls="", marker="o", mfc="none", mec=CONTACT_COLOUR, ms=11, m
 MOST_MARKED = 10
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ContactMark:
     """One recorded contact, placed.
 

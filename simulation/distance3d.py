@@ -15,10 +15,12 @@ hole, where the nearest point is on the rim and the search assumes one minimum p
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 #: Golden-section iterations on a piece of a segment near a plate (interval shrinks by 0.618 each).
 GOLDEN_STEPS = 50

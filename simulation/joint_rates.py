@@ -7,14 +7,15 @@ peaks and stops the run at the first step beyond a limit (:class:`~coordarm.symb
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
 
 from coordarm.symbolic.errors import JointRateError
+from coordarm.symbolic.records import record
 
 
-@dataclass
+@record
 class JointRates:
     """The peaks of ``|u|`` and ``|du/dt|`` over a run, and its optional limits.
 

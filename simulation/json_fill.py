@@ -24,12 +24,18 @@ import numpy as np
 LIMIT = 10 ** 18
 
 
-#: ASCII of "0000" .. "9999", four bytes each as one little-endian uint32 (one gather per group of digits);
-#: built with array operations (formatting 10,000 strings took ~3 ms of every command's start).
-_GROUPS = (np.arange(10000)[:, None] // np.array([1000, 100, 10, 1]) % 10 + ord("0")).astype(np.uint8).view("<u4")[:, 0]
-_GROUPS.flags.writeable = False
 #: 10**0 .. 10**18: the number of these <= |v| is the number of digits of v (v != 0).
 _POWERS = 10 ** np.arange(19, dtype=np.int64)
+
+
+@functools.cache
+def _digit_groups() -> np.ndarray:
+    """ASCII of "0000" .. "9999", four bytes each as one little-endian uint32 (one gather per group of
+    digits), read-only; built with array operations on the first need (~1 ms: the C kernel, when it is
+    built, needs none; formatting 10,000 strings took ~3 ms)."""
+    groups = (np.arange(10000)[:, None] // np.array([1000, 100, 10, 1]) % 10 + ord("0")).astype(np.uint8).view("<u4")[:, 0]
+    groups.flags.writeable = False
+    return groups
 
 
 @functools.lru_cache(maxsize=None)
@@ -67,12 +73,12 @@ def int_text(values: np.ndarray, width: int) -> np.ndarray:
     blanks = np.zeros(v.shape, np.intp)          # leading blanks: width - digits (at least one digit)
     for k in range(1, width):
         blanks += rest < _POWERS[k]
-    groups = -(-width // 4)
+    groups, digit_groups = -(-width // 4), _digit_groups()
     buf = np.empty(v.shape + (groups,), "<u4")
     for j in range(groups - 1, 0, -1):           # four digits per integer division
-        buf[..., j] = _GROUPS[rest % 10000]
+        buf[..., j] = digit_groups[rest % 10000]
         rest //= 10000
-    buf[..., 0] = _GROUPS[rest]
+    buf[..., 0] = digit_groups[rest]
     blanks *= 2
     blanks += v < 0
     buf -= np.take(_padding(width), blanks, axis=0)

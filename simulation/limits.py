@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 import os
 import warnings
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -28,6 +27,7 @@ import numpy as np
 from coordarm.symbolic import ConfigError
 from coordarm.symbolic.checks import is_integer
 from coordarm.symbolic.errors import shown
+from coordarm.symbolic.records import record
 
 from .choices import DENSE_LINKS  # noqa: F401 (re-exported)
 from .log_layout import PLANAR, ChainLayout
@@ -186,7 +186,7 @@ def check_bounds(links: Any, link_length: float, step: float, duration: float, t
             raise ConfigError(f"{label}: need {lo:g} to {hi:g}, got {value:g}")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Cost:
     """What a run will take (upper estimates).
 

@@ -30,7 +30,7 @@ from .cond_channel import cond_plan, cond_values
 from .mcap_writer import SCENE_RATE, log_time_ns, steps_between
 from .run import Run
 from .scenario import Scenario
-from .scene3d import scene_builder
+from .scene_kind import scene_builder
 from .ws_bridge import SubprotocolBridge
 
 #: Default rate of the per-step channels on the live view [Hz].

@@ -4,14 +4,14 @@ metadata records, the name of a log that is still being written.
 """
 from __future__ import annotations
 
-import hashlib
 import json
+import sys
 from pathlib import Path
 
-from dataclasses import dataclass
-
+from coordarm.symbolic.digests import sha256
 from coordarm.symbolic.outputs import (LAW_OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS, SPATIAL_LAW_OUTPUTS,
                                        SPATIAL_RUN_OUTPUTS, SPATIAL_SCALAR_OUTPUTS, Output)
+from coordarm.symbolic.records import record
 
 #: The per-sample arrays of a run and of its log: time, state, the law's run outputs, commanded speed.
 ARRAYS = ("t", "q", *RUN_OUTPUTS, "v_star")
@@ -19,7 +19,7 @@ ARRAYS = ("t", "q", *RUN_OUTPUTS, "v_star")
 OPTIONAL = RAIL_OUTPUTS
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MarginCheck:
     """A margin that stops a run when it falls below its threshold.
 
@@ -41,7 +41,7 @@ class MarginCheck:
     first: int | None
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ChainLayout:
     """What a run of one kind of chain holds: its arrays, their widths, its stops and its log fields.
 
@@ -149,9 +149,9 @@ def layout_of_chain(chain: object) -> ChainLayout:
     -------
     ChainLayout
     """
-    from coordarm.symbolic.spatial_chain import SpatialChain   # here: the layout tables load without CasADi
-
-    return SPATIAL if isinstance(chain, SpatialChain) else PLANAR
+    # No SpatialChain exists before its module is loaded: a planar run neither loads it nor CasADi here.
+    spatial = sys.modules.get("coordarm.symbolic.spatial_chain")
+    return SPATIAL if spatial is not None and isinstance(chain, spatial.SpatialChain) else PLANAR
 
 
 def layout_of_arrays(names: object) -> ChainLayout:
@@ -186,7 +186,7 @@ def metadata_digest(data: dict[str, str]) -> str:
         The hexadecimal digest.
     """
     body = {k: v for k, v in data.items() if k != DIGEST_KEY}
-    return hashlib.sha256(json.dumps(body, sort_keys=True, ensure_ascii=True).encode()).hexdigest()
+    return sha256(json.dumps(body, sort_keys=True, ensure_ascii=True).encode()).hexdigest()
 
 
 def partial_path(path: str | Path) -> Path:

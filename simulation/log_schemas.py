@@ -13,11 +13,11 @@ JSON messages under the official Foxglove JSON Schemas, shipped unchanged in
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
 from typing import Any
 
 from coordarm.symbolic.lazy import package_folder
 from coordarm.symbolic.outputs import LAW_OUTPUTS, by_name, outputs_of, spatial_outputs_of
+from coordarm.symbolic.records import record
 
 from .log_layout import PLANAR, SPATIAL, ChainLayout
 
@@ -25,7 +25,7 @@ from .log_layout import PLANAR, SPATIAL, ChainLayout
 CDR_HEADER = b"\x00\x01\x00\x00"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class NumericChannel:
     """A channel whose message is a flat record of ``float64`` fields.
 

@@ -31,7 +31,6 @@ the GIL), which overlaps logging with the simulation when a core is free.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import platform
 import signal
@@ -46,8 +45,9 @@ from typing import Any
 import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController, LogError
+from coordarm.symbolic.digests import sha256
 from coordarm.symbolic.interrupts import interruption
-from coordarm.symbolic.task import BUILT_IN_CURVES
+from coordarm.symbolic.task import is_built_in
 
 from .choices import DEFAULT_COMPRESSION, Backend
 from .cond_channel import COND_KINDS, COND_LINK_LIMIT, COND_RATE, cond_plan, cond_values  # noqa: F401 (re-exported)
@@ -62,7 +62,7 @@ from .recycled_arrays import RecycledArrays
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
 from .scenario import Scenario
-from .scene3d import scene_builder
+from .scene_kind import scene_builder
 
 #: Wall time between pushes of the log to the operating system [s] (a kill loses at most ~2x this).
 FLUSH_INTERVAL = 0.5
@@ -123,7 +123,7 @@ def build_info(scenario: Scenario) -> dict[str, str]:
         zstandard, lz4 and python (``"unknown"`` for a package that is not installed).
     """
     import casadi
-    return {"code_hash": code_hash(), "scenario_hash": hashlib.sha256(scenario.to_json().encode()).hexdigest(),
+    return {"code_hash": code_hash(), "scenario_hash": sha256(scenario.to_json().encode()).hexdigest(),
             "coordarm": installed_version("coordarm.version"), "casadi": casadi.__version__, "numpy": np.__version__,
             **{name: installed_version(name) for name in ("mcap", "zstandard", "lz4")},
             "python": platform.python_version()}
@@ -243,7 +243,7 @@ class RunLogger:
         """Check the rates and compression, create the file and its channels."""
         self.ctrl = ctrl or scenario.controller()
         self.layout = layout_of_chain(self.ctrl.chain)
-        if self.layout is PLANAR and type(self.ctrl.curve) not in BUILT_IN_CURVES and scenario.curve is not self.ctrl.curve:
+        if self.layout is PLANAR and not is_built_in(self.ctrl.curve) and scenario.curve is not self.ctrl.curve:
             scenario = scenario.with_curve(self.ctrl.curve)      # the log records a user-defined curve
         self.scenario = scenario
         self.step = scenario.step

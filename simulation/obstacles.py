@@ -19,13 +19,13 @@ scene use it); :func:`link_distances` is the one distance (the clearance check).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from coordarm.symbolic import ConfigError
 from coordarm.symbolic.geometry import point_segment_distance, segment_distance
+from coordarm.symbolic.records import record
 
 from .run import check_number
 
@@ -33,7 +33,7 @@ from .run import check_number
 KINDS = {"segment": ("a", "b"), "circle": ("center", "radius"), "polygon": ("points",)}
 
 
-@dataclass(frozen=True, eq=False)
+@record(frozen=True, eq=False)
 class Obstacle:
     """One obstacle.
 

@@ -26,13 +26,14 @@ Holes must lie in the slab, inside the square and apart from each other.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 
 from coordarm.symbolic import ConfigError
 from coordarm.symbolic.errors import shown
+from coordarm.symbolic.records import record
 from coordarm.symbolic.spatial_chain import rotate_about, unit_vector
 
 from .distance3d import point_segment_distance3, segment_box_distance, segment_plate_distance, segment_segment_distance
@@ -45,7 +46,7 @@ KINDS3D = {"plate": (("point", "normal", "thickness"), ("extent", "holes")),
            "box": (("centre", "size"), ("rotation",))}
 
 
-@dataclass(frozen=True, eq=False)
+@record(frozen=True, eq=False)
 class Obstacle3D:
     """One obstacle in space.
 

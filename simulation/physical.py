@@ -6,23 +6,26 @@
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
-from typing import Sequence
+from dataclasses import asdict, field
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from coordarm.generated.chain_geometry import chain_joints, self_distances
 from coordarm.symbolic import PlanarChain
 from coordarm.symbolic.geometry import touching
+from coordarm.symbolic.records import record
 
 from .obstacles import Obstacle, link_distances
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 #: Contact kinds, in the order they are reported within one sample.
 KINDS = ("joint_limit", "self", "wall", "rail_limit")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Contact:
     """One violation at one sample.
 
@@ -128,7 +131,7 @@ def joint_limits(links: int, joint_limit: float | Sequence[float]) -> np.ndarray
     return lim
 
 
-@dataclass
+@record
 class Physical:
     """What a run checks at every logged sample.
 

@@ -12,13 +12,14 @@ onto itself.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
 
 from coordarm.symbolic import SpatialChain
 from coordarm.symbolic.geometry import touching
+from coordarm.symbolic.records import record
 
 from .distance3d import plate_point_distance, segment_segment_distance
 from .obstacles3d import Obstacle3D, capsule_gaps
@@ -116,7 +117,7 @@ def self_gaps(a: np.ndarray, b: np.ndarray, radius: float, clearance: float
     return s, i, j, gap
 
 
-@dataclass
+@record
 class Physical3D:
     """What a run of a universal chain checks at every checked sample.
 

@@ -1,9 +1,11 @@
 """The result of a simulated run: :class:`Run`, its per-sample arrays and summary."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import field, fields
 
 import numpy as np
+
+from coordarm.symbolic.records import record
 
 from .log_layout import ARRAYS, OPTIONAL, ChainLayout, layout_of_arrays
 
@@ -19,7 +21,7 @@ class ExtraOutputs:
         raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
 
 
-@dataclass
+@record
 class Run(ExtraOutputs):
     """A simulated run, sampled at every step (row k is time ``t[k]``).
 

@@ -10,7 +10,7 @@ exactly: ``q_{k+1} = q_k + h B u_k``. This simulator is separate from :mod:`simu
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
 import numpy as np
@@ -18,6 +18,7 @@ import numpy as np
 from coordarm.symbolic import ConfigError, CoordinatingController
 from coordarm.symbolic.checks import is_integer
 from coordarm.symbolic.outputs import OUTPUTS
+from coordarm.symbolic.records import record
 
 from .run import check_number
 
@@ -39,7 +40,7 @@ def check_delay(delay: Any) -> None:
         raise ConfigError(f"delay: need an integer number of samples >= 0, got {delay!r}")
 
 
-@dataclass
+@record
 class SampledRun:
     """Samples of a sampled-data run (row k is time ``t[k]``).
 

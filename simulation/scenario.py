@@ -48,7 +48,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import tomllib
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -56,6 +55,7 @@ import numpy as np
 
 from coordarm.symbolic import ConfigError, CoordinatingController, Curve, PlanarChain, follow_curve, project_onto_curve
 from coordarm.symbolic.lazy import package_folder
+from coordarm.symbolic.records import record
 from coordarm.symbolic.start import check_start
 
 from .choices import presets
@@ -70,7 +70,7 @@ if TYPE_CHECKING:   # a spatial chain's modules load when a universal scenario i
     from .physical3d import Physical3D
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Scenario:
     """A validated scenario; build its parts with :meth:`controller` and :meth:`start`.
 
@@ -296,8 +296,8 @@ class Scenario:
         st = self.config.start
         ctrl = ctrl or self.controller()
         if self.universal:
-            from .spatial_scenario import spatial_start
-            return spatial_start(self.config, ctrl.chain, ctrl.curve)
+            from .spatial_scenario import laid_start
+            return laid_start(self.config, ctrl)
         d0 = max(ctrl.chain.rail_limits[0], 0.0) if ctrl.chain.rail else 0.0
         if st.kind == "follow":
             q = follow_curve(ctrl, float(st.beta), self.t0, d=d0)

@@ -12,14 +12,15 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import TYPE_CHECKING, Any
 
-from coordarm.symbolic import ConfigError, Curve, PlanarChain, SpatialChain, curve_from_spec, motion_from_spec
+from coordarm.symbolic import ConfigError, Curve, PlanarChain, curve_from_spec, motion_from_spec
 from coordarm.symbolic.checks import bounded_motion, is_integer, is_real
 from coordarm.symbolic.controller import check_damping
 from coordarm.symbolic.errors import shown
 from coordarm.symbolic.laws import LAWS, Law
+from coordarm.symbolic.records import record
 
 from .limits import RATE_KEYS, check_bounds, check_gain_step, check_links, rate_limits
 from .obstacles import Obstacle, obstacles_from_spec
@@ -27,7 +28,9 @@ from .run import DEFAULT_THRESHOLDS, check_number
 from .spatial_tables import (BEND_LIMIT, base_args, check_curve_kind, check_joints, check_kind_keys, roll_motion,
                              spatial_curve, spatial_start)
 
-if TYPE_CHECKING:   # a universal chain's obstacles load with its scenario
+if TYPE_CHECKING:   # a universal chain's model and obstacles load with its scenario
+    from coordarm.symbolic.spatial_chain import SpatialChain
+
     from .obstacles3d import Obstacle3D
 
 SECTIONS = {"name", "description", "chain", "curve", "control", "start", "run", "thresholds", "obstacles", "figures"}
@@ -73,7 +76,7 @@ def check_stages(stages: Any, field: str = "figures.stages") -> list[float]:
     return sorted(check_number(v, f"{field}[{i}]", positive=False) for i, v in enumerate(stages))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ChainTable:
     """``[chain]``: the manipulator.
 
@@ -144,6 +147,8 @@ class ChainTable:
             A new chain (clearance 0 when the table leaves it out); a SpatialChain for universal joints.
         """
         if self.universal:
+            from coordarm.symbolic.spatial_chain import SpatialChain       # here: a planar run does not load it
+
             return SpatialChain(self.links, float(self.link_length), **self.base_args)
         return PlanarChain(self.links, float(self.link_length), joint_limit=self.joint_limit,
                            clearance=float(self.clearance or 0.0), **self.base_args)
@@ -162,7 +167,7 @@ class ChainTable:
                            joints=self.joints if self.universal else None, radius=self.radius)}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ControlTable:
     """``[control]``: the law.
 
@@ -214,7 +219,7 @@ class ControlTable:
                 **_present(speed=self.speed, span=self.span, damping=self.damping, roll=self.roll)}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class StartTable:
     """``[start]``: the start configuration.
 
@@ -260,7 +265,7 @@ class StartTable:
                 **_present(heading=self.heading, curve=self.curve, axis=self.axis, fold=self.fold, roll=self.roll)}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class RunTable:
     """``[run]``: the simulated time.
 
@@ -289,7 +294,7 @@ class RunTable:
         return {"duration": self.duration, "step": self.step, "t0": self.t0}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Thresholds:
     """``[thresholds]``: the singularity margins below which a run stops (dimensionless, in [0, 1)).
 
@@ -315,7 +320,7 @@ class Thresholds:
         return {"link": self.link, "longitudinal": self.longitudinal}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Panel:
     """One labelled panel of the stage figure.
 
@@ -331,7 +336,7 @@ class Panel:
     stages: list[float]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class FiguresTable:
     """``[figures]``: the stage figure.
 
@@ -358,7 +363,7 @@ class FiguresTable:
         return _present(stages=self.stages, panels=panels)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ScenarioConfig:
     """A whole scenario file, validated: one typed object per table.
 

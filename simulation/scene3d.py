@@ -360,27 +360,3 @@ class SpatialSceneBuilder(SceneBuilder):
             out.append(("tf", n, tf))
             out.append(("tracking", n, CDR_HEADER + tracking[i].astype("<f8").tobytes()))
         return out
-
-
-def scene_builder(ctrl: Any, obstacles: Any, radius: float | None = None, frames: str = "ends") -> SceneBuilder:
-    """The scene builder of ``ctrl``'s chain kind: :class:`SpatialSceneBuilder` for a spatial chain.
-
-    Parameters
-    ----------
-    ctrl : CoordinatingController or SpatialController
-        The controller of the run.
-    obstacles : list
-        The scenario's obstacles.
-    radius : float, optional
-        A spatial chain's capsule radius [m] (its links drawn as those capsules); unused for a planar chain.
-    frames : {"ends", "all"}
-        The frames of ``/tf``: ``base`` and ``tip``, or one per link.
-
-    Returns
-    -------
-    SceneBuilder
-        A planar :class:`~.scene.SceneBuilder` or a :class:`SpatialSceneBuilder`.
-    """
-    if isinstance(ctrl.chain, SpatialChain):
-        return SpatialSceneBuilder(ctrl, obstacles, radius, frames)
-    return SceneBuilder(ctrl, obstacles, frames)

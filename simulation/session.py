@@ -19,13 +19,13 @@ from __future__ import annotations
 import os
 import warnings
 from contextlib import ExitStack
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Sequence
 
 from coordarm.simulation.choices import DEFAULT_COMPRESSION, DENSE_LINKS, SUMMARY_ROWS
 from coordarm.symbolic.errors import CollisionError, ConfigError, JointRateError, LogError, SingularityError
 from coordarm.symbolic.laws import Law
+from coordarm.symbolic.records import record
 
 if TYPE_CHECKING:   # numpy, CasADi, matplotlib and foxglove load only when a run starts
     from coordarm.simulation.run import Run
@@ -37,7 +37,7 @@ if TYPE_CHECKING:   # numpy, CasADi, matplotlib and foxglove load only when a ru
 DENSE_NOTICE_LINKS = 16
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ScenarioResult:
     """What :func:`run_scenario` did: the run, how it ended, and the files it wrote.
 

@@ -9,6 +9,7 @@ what a run checks (:class:`~coordarm.simulation.physical3d.Physical3D`: bend lim
 """
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
 import numpy as np
@@ -18,6 +19,10 @@ from coordarm.symbolic.start3d import check_bends, follow_curve3d, zigzag_start
 
 from .physical3d import Physical3D
 from .scenario_tables import ScenarioConfig
+
+#: Controller -> (scenario, chain, curve, start) of the start :func:`spatial_controller` laid for it (its roll
+#: held at the start's): :func:`laid_start` gives it again instead of laying it twice (0.17 s for path3d).
+_LAID: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def spatial_start(config: ScenarioConfig, chain: SpatialChain, curve: Any) -> np.ndarray:
@@ -53,6 +58,33 @@ def spatial_start(config: ScenarioConfig, chain: SpatialChain, curve: Any) -> np
     if hits:
         raise ConfigError(f"start: {hits[0].describe().split(': ', 1)[1]}; move the obstacle or the start")
     return q
+
+
+def laid_start(config: ScenarioConfig, ctrl: SpatialController) -> np.ndarray:
+    """:func:`spatial_start` of ``config`` for ``ctrl``'s chain and curve: the start :func:`spatial_controller`
+    laid while building ``ctrl`` from the same ``config`` (a copy), else laid now.
+
+    Parameters
+    ----------
+    config : ScenarioConfig
+        The scenario.
+    ctrl : SpatialController
+        Its controller.
+
+    Returns
+    -------
+    ndarray, shape (dof,)
+        As :func:`spatial_start` returns it (a new array).
+
+    Raises
+    ------
+    ConfigError
+        See :func:`spatial_start`.
+    """
+    laid = _LAID.get(ctrl)
+    if laid is not None and laid[0] is config and laid[1] is ctrl.chain and laid[2] is ctrl.curve:
+        return laid[3].copy()
+    return spatial_start(config, ctrl.chain, ctrl.curve)
 
 
 def spatial_physical(config: ScenarioConfig, chain: SpatialChain) -> Physical3D:
@@ -97,5 +129,8 @@ def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:
     """
     chain, c = config.chain.build(), config.control
     q0 = spatial_start(config, chain, curve) if c.roll_motion is None else None
-    return SpatialController(chain, curve, float(c.gain), c.speed_motion, roll=c.roll_motion, law=c.law,
+    ctrl = SpatialController(chain, curve, float(c.gain), c.speed_motion, roll=c.roll_motion, law=c.law,
                              start=q0, t0=float(config.run.t0), span=c.span_motion)
+    if q0 is not None:
+        _LAID[ctrl] = (config, chain, curve, q0.copy())
+    return ctrl

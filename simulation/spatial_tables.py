@@ -19,7 +19,6 @@ from coordarm.symbolic import ConfigError, motion_from_spec
 from coordarm.symbolic.checks import is_real
 from coordarm.symbolic.chain import DEFAULT_JOINT_LIMIT
 from coordarm.symbolic.errors import shown
-from coordarm.symbolic.spatial_chain import unit_vector
 
 from .run import check_number
 
@@ -182,6 +181,8 @@ def spatial_start(st: dict) -> dict:
     if st["kind"] not in SPATIAL_START_KINDS:
         raise ConfigError(f"start.kind: a universal chain starts as one of {SPATIAL_START_KINDS}, "
                           f"got {shown(st['kind'])}")
+    from coordarm.symbolic.spatial_chain import unit_vector     # here: a planar scenario does not load it
+
     for key in ("axis", "fold"):
         if key in st and not abs(np.linalg.norm(unit_vector(st[key], f"start.{key}")) - 1) < 1e-9:
             raise ConfigError(f"start.{key}: too large or too small to normalise, got {shown(st[key])}")
@@ -251,6 +252,8 @@ def base_args(spec: Any, universal: bool = False) -> dict:
         raise ConfigError(f"chain.base.limits: need [low, high] with low < high [m], got {limits!r}")
     lim = tuple(float(v) for v in limits)
     if universal:
+        from coordarm.symbolic.spatial_chain import unit_vector
+
         direction = unit_vector(spec.get("direction", [1.0, 0.0, 0.0]), "chain.base.direction")
         return {"base": "rail", "rail_direction": tuple(float(v) for v in direction), "rail_limits": lim}
     angle = check_number(spec.get("angle", 0.0), "chain.base.angle", positive=False)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import time as _time
 import weakref
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
@@ -15,6 +14,7 @@ from coordarm.symbolic.curves import unwrap_s
 from coordarm.symbolic.errors import JointRateError
 from coordarm.symbolic.interrupts import check as check_interrupt
 from coordarm.symbolic.outputs import spatial_split, split
+from coordarm.symbolic.records import record
 
 from .base_margin import BASE_THRESHOLD, base_stop
 from .every_step import STracking, summary_rows
@@ -152,7 +152,7 @@ def chunk_function(ctrl: CoordinatingController, step: float, n: int) -> casadi.
     return made[key]
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Stepping:
     """The checked settings of one run's chunk loop (made by :func:`~coordarm.simulation.run.simulate`).
 

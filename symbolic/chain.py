@@ -2,16 +2,18 @@
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import casadi as ca
 import numpy as np
-from numpy.typing import ArrayLike
 
 from .carry import CARRY, Carry
 from .chain_model import ChainModel, check_joint_vector
 from .checks import is_integer, is_real
 from .errors import ConfigError
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 #: Kinds of base: pinned at the origin, or on a rail (introduction axis).
 BASES = ("fixed", "rail")

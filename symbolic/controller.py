@@ -30,7 +30,6 @@ import numpy as np
 from .checks import is_real
 from .chain import PlanarChain
 from .curves import Curve
-from .dense import decoupling_matrix_expr
 from .errors import ConfigError, shown
 from .law import law_function
 from .law_face import LawFace
@@ -39,7 +38,7 @@ from .numeric import NumericAPI
 from .params import as_param
 from .outputs import OUTPUTS, RAIL_OUTPUTS, RUN_OUTPUTS, SCALAR_OUTPUTS
 from .recursion import StructuredRecursion
-from .task import BUILT_IN_CURVES, Task, check_user_curve
+from .task import Task, check_user_curve, is_built_in
 
 #: Default zero point of the governor (the simulator's default longitudinal stop threshold).
 GOVERNOR_THRESHOLD = 0.15
@@ -135,7 +134,7 @@ def check_controller(chain: Any, curve: Any, gain: Any, speed: Any, law: Any, sp
                           f"got {shown(governor_threshold)}")
     checked = {"gain": float(gain), "governor_threshold": float(governor_threshold),
                "damping": check_damping(damping), "speed": as_param(speed, "speed")}
-    if type(curve) not in BUILT_IN_CURVES:
+    if not is_built_in(curve):
         check_user_curve(curve)
     if span is not None and not chain.rail:
         raise ConfigError("span: only a chain on a rail (base = 'rail') has a span output")
@@ -248,6 +247,8 @@ class CoordinatingController(NumericAPI, LawFace):
 
     def _decoupling_expr(self, q: ca.SX, t: ca.SX) -> tuple[ca.SX, ca.SX]:
         """The dense decoupling matrix of eq. 26 (:func:`.dense.decoupling_matrix_expr`) and its right-hand side."""
+        from .dense import decoupling_matrix_expr          # here: the structured law does not load it
+
         return decoupling_matrix_expr(self.chain, self.task, q, t)
 
     def __repr__(self) -> str:

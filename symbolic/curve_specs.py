@@ -2,16 +2,18 @@
 
 Scenario files describe a curve as a table, ``{"kind": "line", "point": [0, 0], "angle": 0.3}``;
 this module maps the kinds to the moving curves of :mod:`.curves` and the composite paths of
-:mod:`.paths` (it imports both; neither imports it).
+:mod:`.paths` (it imports both, :mod:`.paths` when a path is asked for; neither imports it).
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .curves import Arc, Circle, Curve, Line
 from .errors import ConfigError, shown
 from .motions import motion_from_spec
-from .paths import Path
+
+if TYPE_CHECKING:
+    from .paths import Path
 
 #: Curve kind -> its class of :mod:`.curves` and that class's keys.
 CURVES = {"line": (Line, ("point", "angle")), "circle": (Circle, ("center", "radius", "reference")),
@@ -45,6 +47,8 @@ def path_from_spec(spec: dict, field: str = "curve") -> Path:
     ConfigError
         An unknown or missing key, or a bad value (named with ``field``).
     """
+    from .paths import Path          # here: a scenario without a path does not load it (nor its pieces)
+
     kind = spec["kind"]
     keys = PATH_KINDS[kind]
     unknown = set(spec) - set(keys) - {"kind"}

@@ -5,8 +5,12 @@ Used by the start construction (no self-intersection) and by the physical checks
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 def cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:

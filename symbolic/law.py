@@ -11,7 +11,6 @@ from typing import Sequence
 
 import casadi as ca
 
-from .dense import dense_controls
 from .laws import Law
 from .recursion import StructuredRecursion
 
@@ -41,5 +40,7 @@ def law_function(recursion: StructuredRecursion, form: str, damping: dict | None
     q, t = ca.MX.sym("q", chain.dof), ca.MX.sym("t")
     outs = recursion.outputs(q, t)
     if form == Law.DENSE or damping:
+        from .dense import dense_controls          # here: the structured law without damping does not load it
+
         outs["u"] = dense_controls(chain, recursion.task, outs, q, t, form == Law.DENSE, damping)
     return ca.Function(f"coordinating_law_{form}", [q, t], [outs[n] for n in names], ["q", "t"], list(names))

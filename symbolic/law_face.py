@@ -8,15 +8,14 @@ Functions' names, the scalar outputs and how the control enters ``q'``.
 """
 from __future__ import annotations
 
-import hashlib
 import math
 from typing import Any, Callable, Sequence
 
 import casadi as ca
 import numpy as np
 
+from .digests import sha256
 from .errors import ConfigError
-from .integrator import rk4
 from .laws import LAWS, Law
 
 
@@ -40,7 +39,7 @@ def condition_numbers(M: np.ndarray) -> np.ndarray:
 
 def _array_digest(a: np.ndarray) -> bytes:
     """SHA-256 of an array's values, shape and type (its buffer read in place when contiguous: no copy)."""
-    h = hashlib.sha256(f"{a.dtype.str} {a.shape}".encode())
+    h = sha256(f"{a.dtype.str} {a.shape}".encode())
     try:
         h.update(memoryview(a).cast("B"))
     except (TypeError, ValueError):                     # not contiguous, 0-d, or objects: a copy
@@ -198,6 +197,8 @@ class LawFace:
         form = form or self.law_form
         key = ("rk4", form, float(h))
         if key not in self._cache:
+            from .integrator import rk4          # here: a compiled run steps in C
+
             law = self.fast_law(form)
             apply_B = self._input_matrix() or (lambda u: u)
             q, t = ca.MX.sym("q", self.chain.dof), ca.MX.sym("t")

@@ -7,13 +7,14 @@ primitives, so nothing read from a file is ever evaluated as code.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import fields
 from typing import Any, Callable
 
 import casadi as ca
 
 from .checks import is_real
 from .errors import ConfigError, shown
+from .records import record
 
 
 def _finite(value: Any, field: str) -> float:
@@ -25,7 +26,7 @@ def _finite(value: Any, field: str) -> float:
     return float(value)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Constant:
     """``value``.
 
@@ -40,7 +41,7 @@ class Constant:
         return self.value + 0 * t
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Ramp:
     """``start + rate * t``.
 
@@ -58,7 +59,7 @@ class Ramp:
         return self.start + self.rate * t
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Sinusoid:
     """``offset + amplitude * sin(omega * t + phase)``.
 
@@ -82,7 +83,7 @@ class Sinusoid:
         return self.offset + self.amplitude * ca.sin(self.omega * t + self.phase)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Smoothstep:
     """Quintic (C2) transition from ``start`` at ``t0`` to ``end`` at ``t1``.
 
@@ -112,7 +113,7 @@ class Smoothstep:
         return self.start + (self.end - self.start) * x**3 * (10 - 15 * x + 6 * x**2)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Sum:
     """Sum of several motions.
 

@@ -10,20 +10,20 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
 from .curves import Curve
 from .errors import ConfigError
+from .records import record
 
 
 class OrthonormalityWarning(UserWarning):
     """A curve's ``(psi, phi)`` Jacobian is not a rotation on the curve."""
 
 
-@dataclass
+@record
 class OrthonormalityCheck:
     """Result of :func:`check_orthonormal`.
 

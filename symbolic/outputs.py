@@ -10,11 +10,12 @@ Imports nothing (not even numpy), so the command line can read it without loadin
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
+from .records import record
 
-@dataclass(frozen=True)
+
+@record(frozen=True)
 class Output:
     """One output of the control law.
 

@@ -9,7 +9,6 @@ generated C (:mod:`coordarm.generated.path_search`) do.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any, Sequence
 
 import casadi as ca
@@ -17,6 +16,7 @@ import numpy as np
 
 from .checks import is_real
 from .errors import ConfigError
+from .records import record
 from .transitions import spiral_formulas, spiral_local, split_ramp, transition_runs
 
 #: Length of a piece's constants with the derived ones (:func:`piece_parameters`), as the
@@ -52,7 +52,7 @@ def finite_number(value: Any, field: str) -> float:
     return float(value)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Piece:
     """One segment in the path frame: start ``p0``, unit tangent ``d0`` there, curvature ``k``.
 

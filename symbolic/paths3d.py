@@ -19,7 +19,6 @@ choice is unique and ``Phi``, ``psi`` are continuous across junctions.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any, Sequence
 
 import casadi as ca
@@ -29,6 +28,7 @@ from .curves3d import SpatialCurve, as_column
 from .path_pieces import all_hold
 from .piece_formulas3d import piece_formulas3d
 from .errors import ConfigError, shown
+from .records import record
 from .vectors3d import finite, finite_vector, orthogonal_normal, rotate, unit_vector
 from .transitions import segment_transition, spiral_local, transition_length
 from .transitions3d import curvature_vectors, junction_transitions3d, local_piece, ramps, segment_lengths3d, spiral_constants
@@ -41,7 +41,7 @@ MAX_PIECE = 2.0 * math.pi / 3.0
 PIECE3D_CONSTANTS = 28
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Piece3D:
     """One piece of a 3-D path: a line (``radius = 0``) or a banked arc, with its frame at the start.
 

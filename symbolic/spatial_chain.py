@@ -14,16 +14,18 @@ drops ``d``, :meth:`SpatialChain.rail_position` reads it, :attr:`SpatialChain.ra
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import casadi as ca
 import numpy as np
-from numpy.typing import ArrayLike
 
 from .chain_model import KinematicChain, check_joint_vector
 from .checks import is_integer, is_real
 from .errors import ConfigError, shown
 from .vectors3d import vector_norm
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 def rot_z(a: Any) -> Any:

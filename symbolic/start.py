@@ -1,14 +1,18 @@
 """Start configurations: put every central point exactly on the curve, compactly and validly."""
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import casadi as ca
 import numpy as np
-from numpy.typing import ArrayLike
 
 from .chain import direction
 from .controller import CoordinatingController
 from .errors import ConfigError
 from .geometry import self_distances, touching
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 #: Candidate joint angles sampled per link when looking for the curve (then bisected).
 GRID = 721

@@ -9,14 +9,16 @@ so that it follows the bends of a 3-D path (the spatial counterpart of :func:`.s
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from .errors import ConfigError
 from .spatial_chain import SpatialChain, rotate_about, unit_vector
 from .spatial_task import spatial_geometry_function
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 #: Newton iterations per link of :func:`follow_curve3d`.
 MAX_ITER = 60

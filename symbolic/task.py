@@ -7,6 +7,7 @@ gain ``K`` and, on a rail, the commanded span ``sigma*(t)``.
 """
 from __future__ import annotations
 
+import sys
 from typing import Any, Callable, Sequence
 
 import casadi as ca
@@ -14,13 +15,33 @@ import casadi as ca
 from .curves import Arc, Circle, Curve, Line
 from .errors import ConfigError
 from .function_buffer import BufferedFunction
-from .path_pieces import PIECE_CONSTANTS
-from .paths import Path
 
-#: The curve classes of coordarm; any other Curve (a subclass too) is user-defined.
-BUILT_IN_CURVES = (Line, Circle, Arc, Path)
 #: Output names of the geometry Functions, in order.
 GEOMETRY_OUTPUTS = ("phi", "gphi", "phit", "psi", "gpsi", "psit")
+
+
+def is_built_in(curve: Any) -> bool:
+    """Whether ``curve`` is one of coordarm's curves: a Line, Circle, Arc or :class:`~.paths.Path` (not a
+    subclass); any other Curve is user-defined.
+
+    No Path exists before :mod:`.paths` is loaded, so the question does not load it (nor its pieces and
+    transitions, 1.6 ms at the start of a run without a path).
+
+    Parameters
+    ----------
+    curve : Curve
+        The curve.
+
+    Returns
+    -------
+    bool
+        True for coordarm's own curve classes.
+    """
+    kind = type(curve)
+    if kind in (Line, Circle, Arc):
+        return True
+    paths = sys.modules.get(f"{__package__}.paths")
+    return paths is not None and kind is paths.Path
 
 
 def check_user_curve(curve: Curve, times: Sequence[float] = (0.0, 1.0)) -> None:
@@ -108,7 +129,7 @@ class Task:
                  span: Callable[[Any], Any] | None = None) -> None:
         self.curve, self.speed, self.gain, self.span = curve, speed, gain, span
         self._cache: dict = {}
-        if type(curve) not in BUILT_IN_CURVES:
+        if not is_built_in(curve):
             self._cache["geometry"] = geometry_function(curve)
 
     @property
@@ -135,6 +156,8 @@ class Task:
         """
         key = ("piece_geometry", kind)
         if key not in self._cache:
+            from .path_pieces import PIECE_CONSTANTS
+
             y, t, sel = ca.SX.sym("y", 2), ca.SX.sym("t"), ca.SX.sym("piece", PIECE_CONSTANTS)
             phi, psi = self.curve.phi_psi_piece(y, t, sel, kind)
             self._cache[key] = ca.Function(

@@ -93,7 +93,16 @@ UNUSED_BY_A_RUN = ('coordarm.simulation.live', 'coordarm.simulation.ws_bridge', 
                    'coordarm.symbolic.spatial_dense', 'socket', 'platformdirs', 'coordarm.generated.codegen',
                    'coordarm.generated.link_variants', 'subprocess', 'grp', 'shlex', 'tempfile',
                    # zstandard's version for the build metadata is remembered (an lz4 log does not load it)
-                   'zstandard')
+                   'zstandard',
+                   # a planar run loads no spatial module (scene, obstacles, distances, views, the chain model,
+                   # vectors), no dense law (the structured one runs), no path (a line's scenario), no RK4 in
+                   # CasADi (the compiled law steps)
+                   'coordarm.simulation.scene3d', 'coordarm.simulation.obstacles3d', 'coordarm.simulation.distance3d',
+                   'coordarm.simulation.spatial_view', 'coordarm.symbolic.spatial_chain', 'coordarm.symbolic.vectors3d',
+                   'coordarm.symbolic.dense', 'coordarm.symbolic.paths', 'coordarm.symbolic.path_pieces',
+                   'coordarm.symbolic.transitions', 'coordarm.symbolic.integrator',
+                   # SHA-256 by the interpreter's own code, without OpenSSL (~3 ms); ArrayLike for annotations only
+                   '_hashlib', 'numpy.typing')
 
 
 def test_a_run_imports_no_module_it_does_not_use(tmp_path):

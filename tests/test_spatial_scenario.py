@@ -321,3 +321,68 @@ def test_each_spatial_preset_is_valid_and_tracks(name, steps):
         roll_error = first["roll"] - evaluate(ctrl.roll_target, sc.t0)
         assert abs(ev["roll"] - evaluate(ctrl.roll_target, tk) - roll_error * decay) < 1e-6
     assert np.max(np.abs(evs[-1]["e"])) <= np.max(np.abs(first["e"])) + 1e-9
+
+
+@pytest.mark.parametrize("name", ["path3d", "port"])
+def test_the_start_laid_for_the_controller_is_the_start_laid_anew_and_laid_once(name, monkeypatch):
+    """A controller holding the start's roll (these presets command none) lays the start; the scenario's
+    start for that controller is the same configuration laid again from scratch (a new array each time),
+    without laying it twice."""
+    from coordarm.simulation import spatial_scenario
+
+    sc = load_scenario(name)
+    laid = []
+    original = spatial_scenario.spatial_start
+    monkeypatch.setattr(spatial_scenario, "spatial_start", lambda *a: laid.append(a) or original(*a))
+    ctrl = sc.controller()
+    first = sc.start(ctrl)
+    assert len(laid) == 1
+    again = original(sc.config, ctrl.chain, ctrl.curve)
+    np.testing.assert_array_equal(first, again)
+    first[:] = 0.0
+    np.testing.assert_array_equal(sc.start(ctrl), again)
+    other = load_scenario(name)                 # another scenario (an equal one): laid for itself
+    np.testing.assert_array_equal(other.start(ctrl), again)
+    assert len(laid) == 2
+
+
+def test_with_a_commanded_roll_the_start_is_laid_when_asked(monkeypatch):
+    from coordarm.simulation import spatial_scenario
+
+    sc = load_scenario("line3d")
+    assert sc.config.control.roll_motion is not None
+    laid = []
+    original = spatial_scenario.spatial_start
+    monkeypatch.setattr(spatial_scenario, "spatial_start", lambda *a: laid.append(a) or original(*a))
+    ctrl = sc.controller()
+    assert laid == []
+    np.testing.assert_array_equal(sc.start(ctrl), original(sc.config, ctrl.chain, ctrl.curve))
+    assert len(laid) == 1
+
+
+def test_a_built_in_curves_geometry_is_built_on_first_use_and_a_user_curves_at_once():
+    """coordarm's 3-D curves: the task's geometry and roll Functions are made when first asked for (a compiled
+    run never asks), equal to those made directly; a user's curve (here a subclass) gets them with the
+    controller, so that its errors surface there."""
+    import casadi as ca
+
+    from coordarm.symbolic.curves3d import Line3D
+    from coordarm.symbolic.spatial_task import SpatialTask, is_built_in3d, roll_function, spatial_geometry_function
+
+    line = Line3D([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    task = SpatialTask(line, lambda t: 0.1, 1.0, lambda t: 0.0)
+    assert is_built_in3d(line) and task._cache == {}
+    y, d, t = [0.3, 0.2, -0.1], [0.0, 1.0, 0.0], 0.7
+    assert [np.asarray(v).tolist() for v in task.geometry(y, t)] == \
+        [np.asarray(v).tolist() for v in spatial_geometry_function(line)(y, t)]
+    assert [np.asarray(v).tolist() for v in task.roll_geometry(y, d, t)] == \
+        [np.asarray(v).tolist() for v in roll_function(line)(y, d, t)]
+    assert task.geometry is task.geometry
+
+    class Bent(Line3D):
+        def Phi(self, y, t):
+            return ca.vertcat(y[0], y[1], y[2])
+
+    assert not is_built_in3d(Bent([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]))
+    with pytest.raises(ConfigError, match="Phi must be a 2-vector"):
+        SpatialController(SpatialChain(4, 0.1), Bent([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]), 1.0, 0.1, roll=0.0)
