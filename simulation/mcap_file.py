@@ -242,70 +242,6 @@ class Worker:
         self._thread.join()
 
 
-#: Threads that compress a background :class:`McapFile`'s chunks side by side (fewer on fewer cores): when the
-#: caller waits for a full queue, or the run has ended and its last chunks are left, the second core compresses too.
-COMPRESS_THREADS = 2
-
-
-class ChunkJob:
-    """One chunk of a background :class:`McapFile`: compressed and checksummed on a compressing thread,
-    then written, in the order the chunks came, by the chunk thread once :attr:`done` is set.
-
-    Parameters
-    ----------
-    parts : list of bytes-like
-        The chunk's records in parts (see :meth:`McapFile.write_chunk`).
-    index : dict
-        Channel id -> ``(log_times, offsets)`` of the chunk's messages.
-    """
-
-    __slots__ = ("parts", "index", "done", "size", "crc", "data", "error")
-
-    def __init__(self, parts: Sequence[Any], index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
-        self.parts, self.index = parts, index
-        self.done = threading.Event()
-        self.size, self.crc, self.data, self.error = 0, 0, None, None
-
-    def compress(self, compress: Callable[[Sequence[Any], int], list]) -> None:
-        """Checksum and compress the parts (with a compressor of this thread's own); never raises: a failure
-        is kept in :attr:`error` for the chunk thread.
-
-        Parameters
-        ----------
-        compress : callable
-            A :func:`parts_compressor`.
-        """
-        try:
-            self.size, self.crc = checksum(self.parts)
-            self.data = compress(self.parts, self.size)
-        except BaseException as exc:       # re-raised where the chunk is written
-            self.error = exc
-        finally:
-            self.done.set()
-
-
-def checksum(parts: Sequence[Any]) -> tuple[int, int]:
-    """Size and CRC-32 of the concatenated ``parts``, part by part (nothing joined).
-
-    Parameters
-    ----------
-    parts : sequence of bytes-like
-        The parts.
-
-    Returns
-    -------
-    size : int
-        Bytes in all.
-    crc : int
-        Their CRC-32 (:func:`crc32_function`).
-    """
-    size, crc, crc32 = 0, 0, crc32_function()
-    for part in parts:
-        crc = crc32(part, crc)
-        size += memoryview(part).nbytes
-    return size, crc
-
-
 class McapFile:
     """Write an MCAP file: header, schemas, channels and metadata, then chunks, then the summary.
 
@@ -350,13 +286,7 @@ class McapFile:
         self._closed = False
         self._stream.write(MCAP0_MAGIC)
         self._write(rec.header_record(profile, LIBRARY_IDENTIFIER))
-        self._compressors: list[Worker] = []
-        self._worker: Worker | None = None
-        if background:
-            self._compressors = [Worker(functools.partial(ChunkJob.compress, compress=parts_compressor(compression)),
-                                        f"mcap-compress-{i}", 2) for i in range(min(COMPRESS_THREADS, os.cpu_count() or 1))]
-            self._worker = Worker(self._write_job, "mcap-chunks", 4)
-        self._jobs = 0
+        self._worker = Worker(lambda job: self._write_chunk_now(*job), "mcap-chunks", 4) if background else None
 
     def _wait(self) -> None:
         """Wait until every queued chunk is written; re-raise a failure of the chunk thread."""
@@ -462,24 +392,18 @@ class McapFile:
         if self._worker is not None:
             if self._worker.error is not None:
                 raise self._worker.error
-            job = ChunkJob(parts, index)
-            self._compressors[self._jobs % len(self._compressors)].put(job)
-            self._jobs += 1
-            self._worker.put(job)
+            self._worker.put((parts, index))
         else:
-            size, crc = checksum(parts)
-            self._write_compressed(index, size, crc, self._compress(parts, size))
+            self._write_chunk_now(parts, index)
 
-    def _write_job(self, job: ChunkJob) -> None:
-        job.done.wait()
-        if job.error is not None:
-            raise job.error
-        self._write_compressed(job.index, job.size, job.crc, job.data)
-
-    def _write_compressed(self, index: dict[int, tuple[np.ndarray, np.ndarray]], size: int, crc: int,
-                          data: list) -> None:
+    def _write_chunk_now(self, parts: Sequence[Any], index: dict[int, tuple[np.ndarray, np.ndarray]]) -> None:
         times = np.concatenate([lt for lt, _ in index.values()])
         start, end = int(times.min()), int(times.max())
+        size, crc, crc32 = 0, 0, crc32_function()
+        for part in parts:                  # the CRC-32 of the whole, part by part
+            crc = crc32(part, crc)
+            size += memoryview(part).nbytes
+        data = self._compress(parts, size)
         compressed = sum(memoryview(d).nbytes for d in data)
         head = rec.chunk_head(start, end, size, crc, self.compression, compressed)
         chunk_offset = self._write(head)
@@ -552,10 +476,9 @@ class McapFile:
             self._stream.close()
 
     def _stop(self) -> None:
-        for worker in (*self._compressors, self._worker):   # the compressors' last jobs first
-            if worker is not None:
-                worker.stop()
-        self._compressors, self._worker = [], None
+        if self._worker is not None:
+            self._worker.stop()
+            self._worker = None
 
     def _statistics(self) -> bytes:
         return rec.statistics_record(sum(self._counts.values()), len(self._schemas), len(self._channels),
