@@ -1,7 +1,7 @@
-"""The spatial task: a 3-D curve's geometry to task outputs, and the commands on them (DESIGN.md section 10).
+"""The spatial task: a 3-D curve's geometry to task outputs, and the commands on them (the spatial law, docs/guide/spatial.md).
 
 A :class:`SpatialCurve`-like object (``psi(y, t)``, ``Phi(y, t)``, ``frame(y, t)``, see
-/work/wt/SPATIAL.md and ``symbolic/curves3d.py``) gives, at the closest point of a centre ``y``, the
+``symbolic/curves3d.py``) gives, at the closest point of a centre ``y``, the
 arc length ``psi`` and the normal coordinates ``Phi = (phi_1, phi_2)`` in the transported frame
 ``(t, n_1, n_2)``. The outputs of a spatial chain are ``s = psi(y^m)``, ``e^j = Phi(y^j)`` (j = 2..m)
 and the roll ``theta = atan2(n_2 . d_1, n_1 . d_1)`` with the frame at the closest point of ``y^1``.
