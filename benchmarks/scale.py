@@ -148,14 +148,14 @@ def links_part(rounds: int, tmp: Path) -> dict:
 def command_part(rounds: int, tmp: Path) -> dict:
     """64 links, 30 s: bare, logged at full rate and at 100 Hz (as the command logs), the command."""
     from coordarm.simulation.mcap_writer import RunLogger
-    from coordarm.simulation.run import CHECK_RATE, simulate
+    from coordarm.simulation.run import check_stride, simulate
     sc = load_scenario("line").with_overrides(64, 30.0, None)
     ctrl = sc.controller()
     q0 = sc.start(ctrl)
 
     def logged(rate):
         with RunLogger(tmp / "l.mcap", sc, ctrl, log_rate=rate, command=["bench"], threaded=True) as log:
-            every = max(log.every, round(1.0 / (CHECK_RATE * sc.step)))     # as coordarm run checks
+            every = check_stride(sc.step)           # as coordarm run checks, whatever the log's rate
             simulate(ctrl, q0, sc.duration, sc.step, sc.t0, backend="compiled", progress=False,
                      thresholds=sc.thresholds, physical=sc.physical(ctrl.chain), check_every=every,
                      on_chunk=log.on_chunk)
@@ -167,7 +167,7 @@ def command_part(rounds: int, tmp: Path) -> dict:
         settled()
         start = time.perf_counter()
         simulate(ctrl, q0, sc.duration, sc.step, sc.t0, backend="compiled", progress=False, thresholds=sc.thresholds,
-                 physical=sc.physical(ctrl.chain), check_every=round(1.0 / (CHECK_RATE * sc.step)))
+                 physical=sc.physical(ctrl.chain), check_every=check_stride(sc.step))
         out["checked"].append(time.perf_counter() - start)
         for key, rate in (("full-rate log", None), ("100 Hz log", 100.0)):
             settled()
@@ -290,7 +290,7 @@ def report(data: dict, load: list[float], rounds: int) -> list[str]:
         labels = {"bare": "bare simulation (compiled, unlogged, no checks)",
                   "checked": "checked run: bare + the physical checks `coordarm run` makes (200 Hz), unlogged",
                   "full-rate log": "simulation + full-rate log (threaded writer) + physical checks at 200 Hz",
-                  "100 Hz log": "simulation + 100 Hz log + physical checks at 100 Hz",
+                  "100 Hz log": "simulation + 100 Hz log + physical checks at 200 Hz",
                   "--no-figures": "`coordarm run line --duration 30 --no-figures` (new process)",
                   "figures": "`coordarm run line --duration 30` with figures (new process)"}
         for key, label in labels.items():

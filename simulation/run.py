@@ -28,18 +28,34 @@ from .stepping import Stepping, chunk_function, first_violation, integrate, marg
 if TYPE_CHECKING:
     from .progress import Progress
 
-__all__ = ["ARRAYS", "CHECK_RATE", "DEFAULT_CHUNK", "DEFAULT_THRESHOLDS", "OPTIONAL", "BackendFallbackWarning",
+__all__ = ["ARRAYS", "CHECK_RATE", "DEFAULT_CHUNK", "check_stride", "DEFAULT_THRESHOLDS", "OPTIONAL", "BackendFallbackWarning",
            "ExtraOutputs", "Run", "check_curve_reaches_base", "check_number", "check_settings", "check_start",
            "chunk_function", "even_indices", "first_violation", "kept_every", "progress_bar", "select_backend",
            "simulate", "tube_exit"]
 
 #: Default singularity thresholds on the dimensionless margins (0 = singular).
 DEFAULT_THRESHOLDS = {"link": 0.02, "longitudinal": 0.15}
-#: Most physical checks per simulated second in ``coordarm run`` (fewer when the log rate is lower);
-#: a contact found is located to the step (``simulate(check_every=...)``).
+#: Physical checks per simulated second in ``coordarm run`` and a sweep, whatever the log's rate (every
+#: step when the step is longer); a contact found is located to the step (``simulate(check_every=...)``).
 CHECK_RATE = 200.0
 #: Steps integrated per call of the closed-loop chunk Function.
 DEFAULT_CHUNK = 2000
+
+
+def check_stride(step: float) -> int:
+    """Steps between two physical checks at :data:`CHECK_RATE` (``simulate(check_every=...)``).
+
+    Parameters
+    ----------
+    step : float
+        The RK4 step [s].
+
+    Returns
+    -------
+    int
+        ``round(1 / (CHECK_RATE * step))``, at least 1.
+    """
+    return max(1, round(1.0 / (CHECK_RATE * step)))
 
 
 class BackendFallbackWarning(UserWarning):

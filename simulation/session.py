@@ -449,7 +449,7 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
     """
     from coordarm.simulation.limits import GainStepWarning, check_gain_step
     from coordarm.simulation.mcap_writer import RunLogger
-    from coordarm.simulation.run import CHECK_RATE, BackendFallbackWarning, select_backend, simulate
+    from coordarm.simulation.run import BackendFallbackWarning, check_stride, select_backend, simulate
 
     # The log is closed with its outcome however the run ends (singularity, collision, error, Ctrl-C).
     # With a second core, encoding and compression overlap the simulation (RESULTS_logging.md).
@@ -471,7 +471,7 @@ def logged_run(scenario: Scenario, ctrl: CoordinatingController, out: Path, view
             run = simulate(ctrl, q0, scenario.duration, scenario.step, scenario.t0, backend=backend,
                            thresholds=scenario.thresholds, progress=progress, on_chunk=on_chunk,
                            physical=scenario.physical(ctrl.chain),
-                           check_every=max(logger.every, round(1.0 / (CHECK_RATE * scenario.step))),
+                           check_every=check_stride(scenario.step),      # whatever the log's rate
                            allow_contact=allow_contact, keep=keep)
         logger.contacts, logger.joint_rates = run.info["contacts"], run.info.get("joint_rates")
     return run

@@ -27,7 +27,7 @@ from coordarm.symbolic.errors import shown
 
 from .choices import SWEEP_ALIASES, Backend, Outcome
 from .result import deviation_norms
-from .run import CHECK_RATE, even_indices, simulate
+from .run import check_stride, even_indices, simulate
 from .scenario import Scenario
 
 #: Short names accepted by ``--vary`` (the results column keeps the name as given).
@@ -380,7 +380,7 @@ def run_point(spec: dict, point: dict, log_path: str | None = None) -> dict:
         ctrl = _controller(sc)
         q0 = sc.start(ctrl)
         kw = dict(backend=Backend.AUTO.value, thresholds=sc.thresholds, progress=False, physical=sc.physical(ctrl.chain),
-                  check_every=max(1, round(1.0 / (CHECK_RATE * sc.step))))
+                  check_every=check_stride(sc.step))
         try:
             if log_path:
                 from .mcap_writer import RunLogger

@@ -89,3 +89,22 @@ def test_a_run_without_figures_keeps_fewer_rows_and_prints_the_same_summary(tmp_
     assert len(without.run.t) <= SUMMARY_ROWS + 50 < len(with_figures.run.t)
     keep = [x for x in with_figures.lines if not x.startswith(("log ", "figure", "library"))]
     assert [x for x in without.lines if not x.startswith(("log ", "figure", "library"))] == keep
+
+
+@pytest.mark.parametrize("log_rate", [None, 100.0, 1.0])
+def test_a_run_checks_the_arm_at_200_hz_whatever_the_log_rate(tmp_path, monkeypatch, log_rate):
+    """The physical checks' stride is CHECK_RATE's, not the log's (a 1 Hz log once meant 1 Hz checks,
+    between which a passing contact went unseen)."""
+    import coordarm.simulation.run as run_module
+    from coordarm.simulation.run import CHECK_RATE, check_stride
+
+    strides, real = [], run_module.simulate
+
+    def observed(*args, **kwargs):
+        strides.append(kwargs["check_every"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(run_module, "simulate", observed)
+    result = run_scenario("line", duration=0.5, log=tmp_path / "c.mcap", figures=False, log_rate=log_rate)
+    assert result.exit_status == 0 and strides == [check_stride(0.001)] == [round(1 / (CHECK_RATE * 0.001))]
+    assert check_stride(0.1) == 1           # a step longer than the check period: every step
