@@ -8,6 +8,7 @@ largest joint angle against the limit (planar) and its largest roll tracking err
 """
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -25,7 +26,7 @@ class STracking:
     Attributes
     ----------
     max : float
-        The largest error so far [m] (0 before the first row).
+        The largest error so far [m] (0 before the first row; NaN from a row where it is not finite on).
     time : float or None
         When it occurred [s].
     """
@@ -47,15 +48,20 @@ class STracking:
         if not len(t):
             return
         v = part.speed_factor() * np.asarray(part.v_star, float)
-        if self._s0 is None:
-            self._s0 = float(part.s[0])
-            integral = np.cumsum(np.concatenate([[0.0], 0.5 * np.diff(t) * (v[1:] + v[:-1])]))
-        else:
-            t_prev, v_prev, acc = self._carry
-            tt, vv = np.concatenate([[t_prev], t]), np.concatenate([[v_prev], v])
-            integral = np.cumsum(np.concatenate([[acc], 0.5 * np.diff(tt) * (vv[1:] + vv[:-1])]))[1:]
+        with np.errstate(over="ignore", invalid="ignore"):    # a state turned non-finite: said below
+            if self._s0 is None:
+                self._s0 = float(part.s[0])
+                integral = np.cumsum(np.concatenate([[0.0], 0.5 * np.diff(t) * (v[1:] + v[:-1])]))
+            else:
+                t_prev, v_prev, acc = self._carry
+                tt, vv = np.concatenate([[t_prev], t]), np.concatenate([[v_prev], v])
+                integral = np.cumsum(np.concatenate([[acc], 0.5 * np.diff(tt) * (vv[1:] + vv[:-1])]))[1:]
+            error = np.abs(np.asarray(part.s, float) - (self._s0 + integral))
         self._carry = (float(t[-1]), float(v[-1]), float(integral[-1]))
-        error = np.abs(np.asarray(part.s, float) - (self._s0 + integral))
+        bad = ~np.isfinite(error)
+        if bad.any() and not math.isnan(self.max):   # the first non-finite error is the run's (and stays)
+            self.max, self.time = float("nan"), float(t[np.argmax(bad)])
+            return
         k = int(np.argmax(error))
         if self.time is None or error[k] > self.max:
             self.max, self.time = float(error[k]), float(t[k])

@@ -108,3 +108,16 @@ def test_a_run_checks_the_arm_at_200_hz_whatever_the_log_rate(tmp_path, monkeypa
     result = run_scenario("line", duration=0.5, log=tmp_path / "c.mcap", figures=False, log_rate=log_rate)
     assert result.exit_status == 0 and strides == [check_stride(0.001)] == [round(1 / (CHECK_RATE * 0.001))]
     assert check_stride(0.1) == 1           # a step longer than the check period: every step
+
+
+def test_a_tracking_error_that_turns_non_finite_is_kept_as_nan_from_its_row_on():
+    ctrl = pushed(False)
+    full = simulate(ctrl, ctrl.chain.zigzag(1.2), 1.0, 0.001, backend="compiled")
+    first, second = full.rows(slice(0, 400)), full.rows(slice(400, 800))
+    second.s = second.s.copy()
+    second.s[50] = np.inf
+    tracking = STracking()
+    with np.errstate(all="raise"):                     # and no floating-point warning on the way
+        for part in (first, second, full.rows(slice(800, None))):
+            tracking.add(part)
+    assert np.isnan(tracking.max) and tracking.time == second.t[50]
