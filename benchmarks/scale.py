@@ -112,15 +112,23 @@ def run_argv(tmp: Path, m: int, duration: float, *extra: str) -> list[str]:
 
 
 def bare_seconds(m: int, duration: float) -> float:
-    """The bare simulation (compiled, unlogged, no physical checks) of the ``line`` preset [s]."""
+    """The bare simulation (compiled, unlogged, no physical checks) of the ``line`` preset [s]: the faster
+    of two runs in a row.
+
+    One run alone came out slower than the checked run (the bare one plus the checks) in 7 of 9 rounds
+    at 09:42 UTC on 2026-11-26 (0.176 s against 0.162 s): the bare simulation is the denominator of
+    the command's ratio, and a slow outlier there flatters the command."""
     from coordarm.simulation.run import simulate
     sc = load_scenario("line").with_overrides(m, duration, None)
     ctrl = sc.controller()
     q0 = sc.start(ctrl)
-    settled()
-    start = time.perf_counter()
-    simulate(ctrl, q0, sc.duration, sc.step, sc.t0, backend="compiled", progress=False)
-    return time.perf_counter() - start
+    best = float("inf")
+    for _ in range(2):
+        settled()
+        start = time.perf_counter()
+        simulate(ctrl, q0, sc.duration, sc.step, sc.t0, backend="compiled", progress=False)
+        best = min(best, time.perf_counter() - start)
+    return best
 
 
 def links_part(rounds: int, tmp: Path) -> dict:
@@ -263,7 +271,7 @@ def report(data: dict, load: list[float], rounds: int) -> list[str]:
         out += ["### Link counts: `coordarm run line --links m --duration 1 --no-figures` (1000 RK4 steps)", "",
                 "| m | " + " | ".join(str(m) for m in SIZES) + " |", "|---|" + "---|" * len(SIZES),
                 "| command, new process [s] | " + " | ".join(f"{med['wall'][m]:.3g}" for m in SIZES) + " |",
-                "| bare simulation (unlogged, in process) [s] | " + " | ".join(f"{med['bare'][m]:.3g}" for m in SIZES)
+                "| bare simulation (unlogged, in process, the faster of two runs) [s] | " + " | ".join(f"{med['bare'][m]:.3g}" for m in SIZES)
                 + " |",
                 "| peak memory of the command [MiB] | " + " | ".join(f"{med['rss'][m] / 2**20:.0f}" for m in SIZES) + " |",
                 "| `estimate()` memory [MiB] | " + " | ".join(f"{d['estimate_bytes'][str(m)] / 2**20:.0f}" for m in SIZES)
@@ -287,7 +295,7 @@ def report(data: dict, load: list[float], rounds: int) -> list[str]:
                 "|---|---|---|---|---|"]
         targets = {"full-rate log": "≤ 2.5× the checked run", "100 Hz log": "≤ 1.3× the checked run",
                    "--no-figures": "≤ 3× the bare simulation", "figures": ""}
-        labels = {"bare": "bare simulation (compiled, unlogged, no checks)",
+        labels = {"bare": "bare simulation (compiled, unlogged, no checks; the faster of two runs in a row)",
                   "checked": "checked run: bare + the physical checks `coordarm run` makes (200 Hz), unlogged",
                   "full-rate log": "simulation + full-rate log (threaded writer) + physical checks at 200 Hz",
                   "100 Hz log": "simulation + 100 Hz log + physical checks at 200 Hz",
