@@ -16,6 +16,61 @@ import numpy as np
 from .result import Run
 
 
+class RunningIntegral:
+    """``integral of v dt`` from a run's first row, by the trapezoidal rule on its rows, fed block by block.
+
+    The blocks are summed on in one running order, :meth:`Run.s_reference`'s, so they give the bits one
+    call on all the rows gives (what both the summary's s tracking, :class:`STracking`, and the scene's
+    target, :meth:`~.scene.SceneBuilder.advance`, rely on).
+    """
+
+    def __init__(self) -> None:
+        self._carry: tuple[float, float, float] | None = None    # (t, v, integral) at the last row seen
+
+    def add(self, t: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """The integral at each row of the next block.
+
+        Parameters
+        ----------
+        t : ndarray, shape (N,)
+            Times of consecutive rows, following the previous block's [s] (N >= 1).
+        v : ndarray, shape (N,)
+            The integrand at them.
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            The integral from the first row of the first block [v's unit times s]; a non-finite ``v`` makes
+            it non-finite from there on, without a floating-point warning.
+        """
+        t, v = np.asarray(t, float), np.asarray(v, float)
+        with np.errstate(over="ignore", invalid="ignore"):
+            if self._carry is None:
+                integral = np.cumsum(np.concatenate([[0.0], 0.5 * np.diff(t) * (v[1:] + v[:-1])]))
+            else:
+                t_prev, v_prev, acc = self._carry
+                tt, vv = np.concatenate([[t_prev], t]), np.concatenate([[v_prev], v])
+                integral = np.cumsum(np.concatenate([[acc], 0.5 * np.diff(tt) * (vv[1:] + vv[:-1])]))[1:]
+        self._carry = (float(t[-1]), float(v[-1]), float(integral[-1]))
+        return integral
+
+
+def governed_steps(part: Run) -> int:
+    """Rows of ``part`` where the governor slowed ``v*``.
+
+    Parameters
+    ----------
+    part : Run
+        Rows of consecutive steps.
+
+    Returns
+    -------
+    int
+        Rows with ``v_scale < 1`` (each lasts one step, as in :meth:`Run.governed_time`).
+    """
+    return int(np.count_nonzero(part.speed_factor() < 1))
+
+
 class STracking:
     """The largest ``|s - (s(0) + integral of v_scale v*)|`` over every step of a run, fed chunk by chunk.
 
@@ -34,7 +89,7 @@ class STracking:
     def __init__(self) -> None:
         self.max, self.time = 0.0, None
         self._s0: float | None = None
-        self._carry = (0.0, 0.0, 0.0)       # (t, v_scale v*, integral) at the last row seen
+        self._integral = RunningIntegral()
 
     def add(self, part: Run) -> None:
         """Take the next rows of the run (consecutive steps, following the previous ones).
@@ -47,17 +102,11 @@ class STracking:
         t = np.asarray(part.t, float)
         if not len(t):
             return
-        v = part.speed_factor() * np.asarray(part.v_star, float)
-        with np.errstate(over="ignore", invalid="ignore"):    # a state turned non-finite: said below
-            if self._s0 is None:
-                self._s0 = float(part.s[0])
-                integral = np.cumsum(np.concatenate([[0.0], 0.5 * np.diff(t) * (v[1:] + v[:-1])]))
-            else:
-                t_prev, v_prev, acc = self._carry
-                tt, vv = np.concatenate([[t_prev], t]), np.concatenate([[v_prev], v])
-                integral = np.cumsum(np.concatenate([[acc], 0.5 * np.diff(tt) * (vv[1:] + vv[:-1])]))[1:]
+        if self._s0 is None:
+            self._s0 = float(part.s[0])
+        integral = self._integral.add(t, part.speed_factor() * np.asarray(part.v_star, float))
+        with np.errstate(invalid="ignore"):              # a state turned non-finite: said below
             error = np.abs(np.asarray(part.s, float) - (self._s0 + integral))
-        self._carry = (float(t[-1]), float(v[-1]), float(integral[-1]))
         bad = ~np.isfinite(error)
         if bad.any() and not math.isnan(self.max):   # the first non-finite error is the run's (and stays)
             self.max, self.time = float("nan"), float(t[np.argmax(bad)])

@@ -109,22 +109,6 @@ def replace(src: str | os.PathLike, dst: str | os.PathLike, *, free_later: bool 
     _releasing.append(thread)
 
 
-def replace_in_background(src: str | os.PathLike, dst: str | os.PathLike) -> None:
-    """:func:`replace` with the old file's storage freed on a thread of its own (see :func:`wait_released`).
-
-    Parameters
-    ----------
-    src, dst : str or path-like
-        As for :func:`os.replace`.
-
-    Raises
-    ------
-    OSError
-        As :func:`os.replace` raises it.
-    """
-    replace(src, dst, free_later=True)
-
-
 def wait_released() -> None:
     """Wait until the files replaced by :func:`replace` with ``free_later`` so far are freed (from any thread)."""
     while True:

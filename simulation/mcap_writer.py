@@ -52,6 +52,7 @@ from coordarm.symbolic.task import is_built_in
 from .choices import DEFAULT_COMPRESSION, Backend
 from .cond_channel import COND_KINDS, COND_LINK_LIMIT, COND_RATE, cond_plan, cond_values  # noqa: F401 (re-exported)
 from .cond_channel import default_cond_rate  # noqa: F401 (re-exported)
+from .every_step import governed_steps
 from .log_layout import PLANAR, layout_of_chain, partial_path
 from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChannel, foxglove_schema_bytes,
                           numeric_channels)
@@ -405,8 +406,7 @@ class RunLogger:
         n = len(part.t)
         g = self._seen + np.arange(n)
         self._seen += n
-        slowed = int(np.count_nonzero(part.speed_factor() < 1)) if n else 0
-        self._governed += self.step * slowed   # each step lasts self.step (as Run.governed_time)
+        self._governed += self.step * governed_steps(part)   # each step lasts self.step (as Run.governed_time)
         self._last = part
         rows = np.flatnonzero(g % self.every == 0)
         if len(rows):

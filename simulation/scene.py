@@ -28,6 +28,7 @@ from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
 from coordarm.symbolic.function_buffer import BufferedFunction
 
+from .every_step import RunningIntegral
 from .frame_transforms import end_frames_json, frame_transforms_json, stamp_slots, stamps
 from .frame_transforms import link_frames  # noqa: F401 (re-exported: coordarm.simulation.scene.link_frames)
 from .json_fill import JsonTemplate, digits_kernel
@@ -369,14 +370,15 @@ class SceneBuilder:
         self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve (False: none)
         self._line_maps: dict[int, BufferedFunction] = {}   # it mapped over k times, by k
         self._s0: float | None = None
-        self._carry = (0.0, 0.0, 0.0)  # (t, v*, integral of v*) at the last step seen
+        self._integral = RunningIntegral()      # of v* over the steps seen
         self.s_target = np.empty(0)
 
     def advance(self, part: Run) -> np.ndarray:
         """Take the next block of steps; returns (and keeps in :attr:`s_target`) ``s(0) + integral of v*``.
 
         The integral is the trapezoidal rule on the step grid, summed in the same order as
-        :meth:`simulation.run.Run.s_reference`, so the two agree to the last bit.
+        :meth:`simulation.run.Run.s_reference` (:class:`~.every_step.RunningIntegral`), so the two agree
+        to the last bit.
 
         Parameters
         ----------
@@ -388,18 +390,9 @@ class SceneBuilder:
         ndarray, shape (N,)
             The target arc length at each row of ``part`` [m].
         """
-        t, v = np.asarray(part.t, float), np.asarray(part.v_star, float)
         if self._s0 is None:
             self._s0 = float(part.s[0])
-            t_prev, v_prev, acc = t[0], v[0], 0.0
-            inc = 0.5 * np.diff(t) * (v[1:] + v[:-1])
-            integral = np.cumsum(np.concatenate([[acc], inc]))
-        else:
-            t_prev, v_prev, acc = self._carry
-            tt, vv = np.concatenate([[t_prev], t]), np.concatenate([[v_prev], v])
-            inc = 0.5 * np.diff(tt) * (vv[1:] + vv[:-1])
-            integral = np.cumsum(np.concatenate([[acc], inc]))[1:]
-        self._carry = (float(t[-1]), float(v[-1]), float(integral[-1]))
+        integral = self._integral.add(part.t, part.v_star)
         self.s_target = self._s0 + integral
         return self.s_target
 

@@ -17,7 +17,7 @@ from coordarm.symbolic.outputs import spatial_split, split
 from coordarm.symbolic.records import record
 
 from .base_margin import BASE_THRESHOLD, base_stop
-from .every_step import STracking, summary_rows
+from .every_step import STracking, governed_steps, summary_rows
 from .joint_rates import JointRates
 from .log_layout import PLANAR, ChainLayout, MarginCheck, layout_of_chain
 from .result import OPTIONAL, Run, deviation_norms
@@ -269,21 +269,6 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
     return kept.run(dict(info, stopped="completed", steps=loop.n_steps, wall_time=_time.perf_counter() - wall,
                          governed=governed, **tracking.info()))
 
-
-def governed_steps(part: Run) -> int:
-    """Rows of ``part`` where the governor slowed ``v*``.
-
-    Parameters
-    ----------
-    part : Run
-        Rows of consecutive steps.
-
-    Returns
-    -------
-    int
-        Rows with ``v_scale < 1`` (each lasts one step, as in :meth:`Run.governed_time`).
-    """
-    return int(np.count_nonzero(part.speed_factor() < 1))
 
 
 def next_part(loop: Stepping, q: np.ndarray, k: int) -> tuple[Run, np.ndarray | None, int]:

@@ -6,7 +6,7 @@ import threading
 import pytest
 
 import coordarm
-from coordarm.simulation.file_replace import exchange, replace, replace_in_background, wait_released
+from coordarm.simulation.file_replace import exchange, replace, wait_released
 from coordarm.simulation.mcap_file import McapFile
 
 from test_session import read_log
@@ -22,14 +22,14 @@ def _releasing() -> list[threading.Thread]:
 
 @pytest.mark.skipif(not os.path.isdir("/proc/self/fd"), reason="needs /proc")
 @pytest.mark.parametrize("old", [b"old log " * 100_000, None])
-def test_replace_in_background_renames_at_once_and_frees_the_old_file_on_a_thread(tmp_path, old):
+def test_a_replace_freeing_later_renames_at_once_and_frees_the_old_file_on_a_thread(tmp_path, old):
     src, dst = tmp_path / "new.partial", tmp_path / "new"
     src.write_bytes(b"new log")
     if old is not None:
         dst.write_bytes(old)
         inode = os.stat(dst).st_ino
     before = _open_fds()
-    replace_in_background(src, dst)
+    replace(src, dst, free_later=True)
     assert dst.read_bytes() == b"new log" and not src.exists()      # renamed before the call returns
     if old is not None:
         assert os.stat(dst).st_ino != inode
@@ -43,7 +43,7 @@ def test_a_failed_replace_raises_like_os_replace_and_keeps_the_old_file_and_no_d
     dst.write_bytes(b"keep me")
     before = _open_fds()
     with pytest.raises(FileNotFoundError):
-        replace_in_background(tmp_path / "missing", dst)
+        replace(tmp_path / "missing", dst, free_later=True)
     assert dst.read_bytes() == b"keep me" and _open_fds() == before and _releasing() == []
 
 
