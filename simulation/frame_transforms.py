@@ -69,6 +69,32 @@ def stamps(ns: list[int] | np.ndarray) -> np.ndarray:
     return np.column_stack([ns // 10**9, ns % 10**9])
 
 
+def frame_values(ns: list[int] | np.ndarray, translations: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """The integers of frame transforms about z, as the ``/tf`` templates take them.
+
+    Parameters
+    ----------
+    ns : list of int or ndarray, shape (n,)
+        Time stamp of each pose [ns].
+    translations : ndarray, shape (n, k, 2)
+        Origin of each of the k frames of each pose [m].
+    angles : ndarray, shape (n, k)
+        Rotation of each frame about z [rad].
+
+    Returns
+    -------
+    int64 ndarray, shape (n, 6 k)
+        Per frame: sec, nsec, x, y [nm], the quaternion's z, w [1e-15].
+    """
+    n, k = np.shape(angles)
+    values = np.empty((n, k, 6), np.int64)
+    values[..., :2] = stamps(ns)[:, None, :]
+    values[..., 2:4] = np.round(translations * 1e9)
+    values[..., 4] = np.round(np.sin(0.5 * angles) * 1e15)
+    values[..., 5] = np.round(np.cos(0.5 * angles) * 1e15)
+    return values.reshape(n, -1)
+
+
 _TF_TEMPLATES: dict[int, JsonTemplate] = {}
 
 
@@ -104,13 +130,7 @@ def frame_transforms_json(joints: np.ndarray, ns: list[int] | np.ndarray) -> lis
         One JSON message per pose.
     """
     trans, angle = link_frames(joints)
-    n, m = angle.shape
-    values = np.empty((n, m, 6), np.int64)
-    values[..., :2] = stamps(ns)[:, None, :]
-    values[..., 2:4] = np.round(trans * 1e9)
-    values[..., 4] = np.round(np.sin(0.5 * angle) * 1e15)
-    values[..., 5] = np.round(np.cos(0.5 * angle) * 1e15)
-    return _tf_template(m).fill(values.reshape(n, -1))
+    return _tf_template(angle.shape[1]).fill(frame_values(ns, trans, angle))
 
 
 _END_TEMPLATE = JsonTemplate(kinds=4).text('{"transforms":[')
@@ -145,13 +165,6 @@ def end_frames_json(base: np.ndarray, base_angle: float, joints: np.ndarray, ns:
         One JSON message per pose (translations to 1 nm, quaternions to 1e-15).
     """
     joints = np.asarray(joints, float)
-    n = len(joints)
     d = joints[:, -1] - joints[:, -2]
-    angles = np.column_stack([np.full(n, base_angle), np.arctan2(d[:, 1], d[:, 0])])
-    values = np.empty((n, 2, 6), np.int64)
-    values[..., :2] = stamps(ns)[:, None, :]
-    values[:, 0, 2:4] = np.round(np.asarray(base, float) * 1e9)
-    values[:, 1, 2:4] = np.round(joints[:, -1] * 1e9)
-    values[..., 4] = np.round(np.sin(0.5 * angles) * 1e15)
-    values[..., 5] = np.round(np.cos(0.5 * angles) * 1e15)
-    return _END_TEMPLATE.fill(values.reshape(n, -1))
+    angles = np.column_stack([np.full(len(joints), base_angle), np.arctan2(d[:, 1], d[:, 0])])
+    return _END_TEMPLATE.fill(frame_values(ns, np.stack([np.asarray(base, float), joints[:, -1]], axis=1), angles))
