@@ -162,8 +162,8 @@ def _nothing_to_clean_up() -> bool:
 def _idle_logging_callbacks() -> int:
     """1 when :mod:`logging` is imported and no logger has a handler, else 0.
 
-    ``import logging`` registers one ``atexit`` callback, ``logging.shutdown`` (tqdm, which formats the
-    progress bar, imports logging); with no handler it would only flush logging's last-resort handler,
+    ``import logging`` registers one ``atexit`` callback, ``logging.shutdown`` (a caller or a
+    library may import logging); with no handler it would only flush logging's last-resort handler,
     standard error, which :func:`console` flushes itself.
     """
     logging = sys.modules.get("logging")

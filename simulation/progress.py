@@ -1,11 +1,10 @@
-"""The one-line progress bar of long runs, sweeps and animations, rendered by tqdm.
+"""The one-line progress bar of long runs, sweeps and animations.
 
 ``run [###############               ]  50.0%  t = 0.25/0.50 s  0.1 s wall`` on stderr: redrawn in
 place on a terminal, and a new line every tenth of the way elsewhere (a pipe, a log file,
-CI). tqdm formats the line (:meth:`tqdm.tqdm.format_meter`: the bar, the percentage and the
-text after them); a tqdm bar object is not used because it always redraws with a carriage
-return (one ever-growing line in a log file, no line per tenth), draws itself when created and
-starts a monitor thread. tqdm is imported when the first bar is made, not with this module.
+CI). :func:`bar_line` formats the line; it writes what tqdm's ``format_meter`` writes for
+:data:`LINE` (``tests/test_simulation.py`` compares the two), without tqdm's 30 ms of imports
+(importlib.metadata, logging), a tenth of a 64-link, 30 s command (benchmarks/RESULTS.md, issue 24).
 """
 from __future__ import annotations
 
@@ -13,8 +12,34 @@ import sys
 import time
 from typing import TextIO
 
-#: The line: label, a 30-character bar of ``#``, the percentage and :meth:`Progress.status`.
-LINE = "{desc} [{bar:30}] {percentage:5.1f}%  {status}"
+#: Characters in the bar.
+WIDTH = 30
+
+#: The line: label, a :data:`WIDTH`-character bar of ``#``, the percentage and :meth:`Progress.status`
+#: (a format string that tqdm's ``bar_format`` reads the same way).
+LINE = "{desc} [{bar:%d}] {percentage:5.1f}%%  {status}" % WIDTH
+
+
+def bar_line(label: str, done: float, total: float, status: str) -> str:
+    """The progress line: ``label``, a bar of ``#`` filled to ``done / total``, the percentage, ``status``.
+
+    Parameters
+    ----------
+    label : str
+        Text before the bar.
+    done, total : float
+        Work done and work at 100 % (same unit; the fraction is clipped to [0, 1]).
+    status : str
+        Text after the percentage.
+
+    Returns
+    -------
+    str
+        E.g. ``"run [###############               ]  50.0%  t = 0.25/0.50 s  0.1 s wall"``:
+        ``floor(30 * fraction)`` characters ``#``, the percentage to one decimal.
+    """
+    frac = min(max(done / total, 0.0), 1.0)
+    return LINE.format(desc=label, bar="#" * int(frac * WIDTH), percentage=frac * 100, status=status)
 
 
 class Progress:
@@ -34,12 +59,9 @@ class Progress:
 
     def __init__(self, total: float, label: str = "run", stream: TextIO | None = None,
                  unit: str = "t = {done:.2f}/{total:.2f} s") -> None:
-        from tqdm.std import tqdm    # here: about 50 ms of imports, only when a bar is shown
-
         self.total, self.label, self.stream, self.unit = total, label, stream or sys.stderr, unit
         self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
         self.start, self.last = time.perf_counter(), -1
-        self.format_meter = tqdm.format_meter
 
     def update(self, done: float) -> None:
         """Show the progress ``done`` of ``total`` (on a pipe only when it reaches a new tenth).
@@ -55,9 +77,7 @@ class Progress:
             return
         self.last = decile
         elapsed = time.perf_counter() - self.start
-        shown = min(max(done, 0.0), self.total)         # the bar's fraction: frac, to the last bit
-        msg = self.format_meter(shown, self.total, elapsed, prefix=self.label, ascii=" #",
-                                bar_format=LINE, status=self.status(done, elapsed))
+        msg = bar_line(self.label, done, self.total, self.status(done, elapsed))
         self.stream.write(("\r" + msg) if self.tty else msg + "\n")
         self.stream.flush()
 

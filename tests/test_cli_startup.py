@@ -180,8 +180,8 @@ console(sys.argv[2:])
 
 @pytest.mark.parametrize("case", ["bar", "logging", "handler"])
 def test_an_imported_logging_without_handlers_keeps_the_short_exit_and_a_handler_the_usual_one(case, tmp_path):
-    """``import logging`` registers ``logging.shutdown`` with atexit (tqdm, which formats the progress bar,
-    imports it): without a handler on any logger the console still ends with ``os._exit`` (no teardown),
+    """``import logging`` registers ``logging.shutdown`` with atexit (a caller or a library may import
+    it): without a handler on any logger the console still ends with ``os._exit`` (no teardown),
     the progress bar and the summary complete; a handler on a logger keeps the usual exit (teardown)."""
     log = tmp_path / "x.mcap"
     res = subprocess.run([sys.executable, "-c", LOGGING, case, "run", "line", "--links", "4", "--duration", "0.05",
