@@ -107,7 +107,9 @@ def child(argv: list[str]) -> tuple[float, int]:
 
 
 def run_argv(tmp: Path, m: int, duration: float, *extra: str) -> list[str]:
-    return [*COORDARM, "run", "line", "--links", str(m), "--duration", str(duration), "--quiet", "--overwrite",
+    """The command as a user types it (summary on stdout, progress bar on stderr: not ``--quiet``), into
+    ``tmp``, replacing the log of the round before."""
+    return [*COORDARM, "run", "line", "--links", str(m), "--duration", str(duration), "--overwrite",
             "--out", str(tmp / f"r{m}.mcap"), *extra]
 
 
