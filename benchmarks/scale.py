@@ -393,7 +393,7 @@ def targets_block(data: dict) -> list[str]:
     c = links["cond"]
     return [f"The last run of `benchmarks/scale.py` (command part {data['when']['command']}, links part "
             f"{data['when']['links']}; load {min(loads):.1f}–{max(loads):.1f} on 2 cores; "
-            f"{data['rounds']['command']} interleaved rounds):", "",
+            f"interleaved rounds: command {data['rounds']['command']}, links {data['rounds']['links']}):", "",
             "| | measured | target (issue 24) |", "| --- | --- | --- |",
             f"| full-rate log / checked run | {per_round(cmd['full-rate log'], cmd['checked'])} | ≤ 2.5× |",
             f"| 100 Hz log / checked run | {per_round(cmd['100 Hz log'], cmd['checked'])} | ≤ 1.3× |",
