@@ -1,6 +1,7 @@
 """Issue 24: every size, the cost of the command, the exported law and its real-time loop, in one run.
 
-Run: ``python benchmarks/scale.py [--rounds 5] [--no-write] [--parts links,command,export,rt]``. It
+Run: ``python benchmarks/scale.py [--rounds 5] [--no-write] [--parts links,command,export,rt]
+[--label TEXT] [--also-python PATH --also-label TEXT]``. It
 writes the section between the ``scale.py`` markers of ``benchmarks/RESULTS.md`` and every raw number
 into ``benchmarks/scale.json``. Every comparison is interleaved in rounds inside this process (each
 variant once per round, so all see the same machine load); ratios are medians of per-round ratios
@@ -13,7 +14,11 @@ a normal installation. Each timed item starts once the page cache holds nothing 
   with the default (estimated) ``cond`` and with ``--cond-rate 0``.
 * **command**: 64 links, 30 s: the bare simulation, the same with the threaded full-rate log and
   with a 100 Hz log (as ``coordarm run`` writes them, physical checks included), and the command with
-  ``--no-figures`` and with figures (new process).
+  ``--no-figures`` and with figures (new process). With ``--also-python PATH`` (an interpreter with
+  coordarm and its dependencies installed, e.g. a venv of the distribution's Python: ``/usr/bin/python3
+  -m venv /tmp/v && /tmp/v/bin/pip install -c constraints.txt -e .``) each round also times the bare
+  simulation (in a process of that interpreter) and the ``--no-figures`` command under it: the command's
+  cost depends on how the interpreter was built (profile-guided and link-time optimised or not).
 * **export**: ``coordarm export line`` at m = 64 and 1024, the law per call from a C driver linked
   with the static library (the Makefile's flags), the shared library (``-fvisibility=hidden``), a
   plain ``-fPIC -shared`` build and a static build in ISO ``-std=c99``.
@@ -155,8 +160,16 @@ def links_part(rounds: int, tmp: Path) -> dict:
     return {"wall": wall, "rss": rss, "bare": bare, "cond": cond, "estimate_bytes": est}
 
 
-def command_part(rounds: int, tmp: Path) -> dict:
-    """64 links, 30 s: bare, logged at full rate and at 100 Hz (as the command logs), the command."""
+def other_bare_seconds(python: str) -> float:
+    """:func:`bare_seconds` (64 links, 30 s) in a new process of the interpreter ``python`` [s]."""
+    out = subprocess.run([python, str(Path(__file__).resolve()), "--bare-only"], env=ENV, check=True,
+                         capture_output=True, text=True).stdout
+    return float(out.split()[-1])
+
+
+def command_part(rounds: int, tmp: Path, also: str | None = None) -> dict:
+    """64 links, 30 s: bare, logged at full rate and at 100 Hz (as the command logs), the command (and,
+    with ``also``, the bare simulation and the ``--no-figures`` command under that interpreter)."""
     from coordarm.simulation.mcap_writer import RunLogger
     from coordarm.simulation.run import check_stride, simulate
     sc = load_scenario("line").with_overrides(64, 30.0, None)
@@ -171,7 +184,10 @@ def command_part(rounds: int, tmp: Path) -> dict:
                      on_chunk=log.on_chunk)
 
     child(run_argv(tmp, 64, 30.0, "--no-figures"))
-    out = {k: [] for k in ("bare", "checked", "full-rate log", "100 Hz log", "--no-figures", "figures")}
+    keys = ("bare", "checked", "full-rate log", "100 Hz log", "--no-figures", "figures")
+    out = {k: [] for k in keys + (("other bare", "other --no-figures") if also else ())}
+    if also:
+        child([also, *run_argv(tmp, 64, 30.0, "--no-figures")[1:]])     # its bytecode cached, as for this one
     for _ in range(rounds):
         out["bare"].append(bare_seconds(64, 30.0))
         settled()
@@ -186,6 +202,9 @@ def command_part(rounds: int, tmp: Path) -> dict:
             out[key].append(time.perf_counter() - start)
         out["--no-figures"].append(child(run_argv(tmp, 64, 30.0, "--no-figures"))[0])
         out["figures"].append(child([*run_argv(tmp, 64, 30.0)])[0])
+        if also:
+            out["other bare"].append(other_bare_seconds(also))
+            out["other --no-figures"].append(child([also, *run_argv(tmp, 64, 30.0, "--no-figures")[1:]])[0])
     return out
 
 
@@ -241,6 +260,18 @@ def rt_part(tmp: Path) -> dict:
                 for ln in lines for what in ("law", "wake-up") if ln.startswith(what + " ")},
                 "late": int(re.search(r"late cycles +(\d+)", run.stdout).group(1))}
     return res
+
+
+def interpreter(python: str, label: str = "") -> dict[str, str]:
+    """What an interpreter is: ``{"short": "Python 3.11.7, libpython shared", "long": ... its path too}``.
+
+    ``label`` (how it was built, e.g. "Debian's, PGO + LTO") replaces the libpython note in ``short``."""
+    version = subprocess.run([python, "-c", "import platform; print(platform.python_version())"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+    linked = subprocess.run(["ldd", os.path.realpath(python)], capture_output=True, text=True).stdout
+    lib = "libpython shared" if "libpython" in linked else "libpython linked in"
+    return {"short": f"Python {version}, {label or lib}",
+            "long": f"Python {version} ({python}; {lib}{'; ' + label if label else ''})"}
 
 
 def link_medians(links: dict, key: str) -> dict[int, float]:
@@ -307,6 +338,16 @@ def report(data: dict, load: list[float], rounds: int) -> list[str]:
             ratio = "1" if key == "bare" else per_round(d[key], d["bare"])
             checked = "" if key == "bare" else "1" if key == "checked" else per_round(d[key], d["checked"])
             out.append(f"| {label} | {np.median(d[key]):.3f} | {ratio} | {checked} | {targets.get(key, '')} |")
+        runs = data["interpreters"]
+        if "other bare" in d:
+            other = runs["other"]["short"]
+            out += [f"| bare simulation, in a process of {other} | {np.median(d['other bare']):.3f} | "
+                    f"1 (its own) | | |",
+                    f"| `coordarm run line --duration 30 --no-figures` under {other} (new process) | "
+                    f"{np.median(d['other --no-figures']):.3f} | {per_round(d['other --no-figures'], d['other bare'])} "
+                    f"(to its own bare simulation) | | ≤ 3× the bare simulation |"]
+        out += ["", f"The rows above the last two: {runs['this']['long']}."
+                + (f" The last two: {runs['other']['long']}." if "other bare" in d else "")]
         out.append("")
     if "export" in data:
         out += ["### The exported law: static, shared and ISO C builds (ns per call, C driver, fastest of 7 "
@@ -361,7 +402,9 @@ def readme_block(data: dict) -> list[str]:
             f"{law['1024']:.3g} µs at 1024.",
             f"* **A run** of 64 links for 30 s (30,000 RK4 steps): the bare simulation {np.median(cmd['bare']):.3g} s; "
             f"`coordarm run --no-figures` (start-up, physical checks, full-rate log) {per_round(cmd['--no-figures'], cmd['bare'])} "
-            f"of it; the 100 Hz log {per_round(cmd['100 Hz log'], cmd['checked'])} and the full-rate log "
+            f"of it with {data['interpreters']['this']['short']}"
+            + (f", {per_round(cmd['other --no-figures'], cmd['other bare'])} with {data['interpreters']['other']['short']}"
+               if "other bare" in cmd else "") + f"; the 100 Hz log {per_round(cmd['100 Hz log'], cmd['checked'])} and the full-rate log "
             f"{per_round(cmd['full-rate log'], cmd['checked'])} the checked, unlogged run.",
             f"* **Any size**: a 1 s run of 16 to 16384 links takes {wall[0]:.3g} to {wall[-1]:.3g} s "
             f"(time ∝ m^{exponent(ms, wall):.2f}); 1024 links cost "
@@ -397,7 +440,10 @@ def targets_block(data: dict) -> list[str]:
             "| | measured | target (issue 24) |", "| --- | --- | --- |",
             f"| full-rate log / checked run | {per_round(cmd['full-rate log'], cmd['checked'])} | ≤ 2.5× |",
             f"| 100 Hz log / checked run | {per_round(cmd['100 Hz log'], cmd['checked'])} | ≤ 1.3× |",
-            f"| `coordarm run --no-figures` / bare simulation | {per_round(cmd['--no-figures'], cmd['bare'])} | ≤ 3× |",
+            f"| `coordarm run --no-figures` / bare simulation ({data['interpreters']['this']['short']}) | "
+            f"{per_round(cmd['--no-figures'], cmd['bare'])} | ≤ 3× |",
+            *([f"| the same under {data['interpreters']['other']['short']} | "
+               f"{per_round(cmd['other --no-figures'], cmd['other bare'])} | ≤ 3× |"] if "other bare" in cmd else []),
             f"| `coordarm run` with figures / bare simulation | {per_round(cmd['figures'], cmd['bare'])} | — |",
             f"| 1 s run: 1024 / 4096 links | {per_round(c['1024'], c['4096'])} | about 0.25× |",
             f"| the same, each beyond the 16-link run (the fixed start-up) | "
@@ -436,14 +482,24 @@ def main() -> None:
     ap.add_argument("--parts", default="links,command,export,rt",
                     help="comma-separated parts to measure; `none` rewrites the report from scale.json")
     ap.add_argument("--no-write", action="store_true")
+    ap.add_argument("--label", default="", metavar="TEXT",
+                    help="how this interpreter was built, for the report (e.g. \"pyenv's build, no PGO\")")
+    ap.add_argument("--also-python", metavar="PATH",
+                    help="command part: also time the bare simulation and the --no-figures command under this interpreter")
+    ap.add_argument("--also-label", default="", metavar="TEXT",
+                    help="how that interpreter was built, for the report (e.g. \"Debian's, PGO + LTO\")")
+    ap.add_argument("--bare-only", action="store_true", help=argparse.SUPPRESS)   # other_bare_seconds' child
     args = ap.parse_args()
+    if args.bare_only:
+        print(bare_seconds(64, 30.0))
+        return
     parts = args.parts.split(",")
     tmp = Path(tempfile.mkdtemp(prefix="coordarm-scale-"))
     load = [os.getloadavg()[0]]
     data: dict = {}
     stamps: dict[str, str] = {}
     started = time.perf_counter()
-    for name, fn in (("links", lambda: links_part(args.rounds, tmp)), ("command", lambda: command_part(args.rounds, tmp)),
+    for name, fn in (("links", lambda: links_part(args.rounds, tmp)), ("command", lambda: command_part(args.rounds, tmp, args.also_python)),
                      ("export", lambda: export_part(args.rounds, tmp)), ("rt", lambda: rt_part(tmp))):
         if name in parts:
             data[name] = fn()
@@ -455,6 +511,10 @@ def main() -> None:
     merged["rounds"] = {**saved.get("rounds", {}), **{name: args.rounds for name in data if name != "rt"}}
     loads = {**saved.get("loads", {}), **{name: load for name in data}}
     merged["when"] = {**saved.get("when", {}), **stamps}     # when each part finished
+    if "command" in data:
+        merged["interpreters"] = {"this": interpreter(sys.executable, args.label)}
+        if args.also_python:
+            merged["interpreters"]["other"] = interpreter(args.also_python, args.also_label)
     lines = report(merged, [x for v in loads.values() for x in v], args.rounds)
     print("\n".join(lines))
     if not args.no_write:
