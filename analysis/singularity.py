@@ -4,7 +4,7 @@ Every margin is dimensionless and 0 exactly at its singularity:
 
 ``links``
     ``|grad phi(y^j) . n(alpha_j)| / |grad phi(y^j)|`` for links 2..m: the link pivots of
-    the structured solve (DESIGN.md section 3), 0 when link j stands perpendicular to the
+    the structured solve (docs/model.md, *The O(m) solve*), 0 when link j stands perpendicular to the
     curve. Computed here from the chain and curve geometry, independently of the law.
 ``longitudinal``
     How far the end point can still be pushed along the curve: with ``n`` a null vector of

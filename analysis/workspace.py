@@ -3,7 +3,7 @@
 The configurations are *zig-zags on the curve*: the first link at angle ``beta`` to the
 tangent at the base, and every next centre the other intersection of the curve with the
 circle of radius ``xi/2`` about the free joint, so that every centre lies exactly on the
-curve (for a line this is the uniform zig-zag of DESIGN.md section 2). The curves are arcs
+curve (for a line this is the uniform zig-zag of docs/model.md). The curves are arcs
 through the base, tangent to the x axis there, of curvature ``kappa`` (``kappa = 0``: the
 line). Each (link count, curvature, fold angle) is one point of a :func:`coordarm.simulation.sweep.sweep`
 (in this process, on a local Dask cluster with ``--workers N`` or a cluster with ``--scheduler``),

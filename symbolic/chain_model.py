@@ -2,7 +2,7 @@
 
 :class:`KinematicChain` is the kinematic part every kind implements (the planar
 :class:`~coordarm.symbolic.chain.PlanarChain` and the spatial
-:class:`~coordarm.symbolic.spatial_chain.SpatialChain`, DESIGN.md section 10): joint layout, the
+:class:`~coordarm.symbolic.spatial_chain.SpatialChain`, docs/guide/spatial.md): joint layout, the
 check of ``q`` and the link centres. :class:`ChainModel` adds the pieces of the planar law (the link
 frames, the first carry, link rates to controls), so the planar task outputs, the law's assembly,
 the numeric API and the code generator need no copy of their own.

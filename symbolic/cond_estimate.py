@@ -4,7 +4,7 @@
 (:func:`onenorm_estimate`, the algorithm of LAPACK's ``dlacon``), which needs only products with the
 matrix and its transpose. Here those products are O(m) each (:class:`DecouplingOperator`):
 
-* ``C x`` and ``C^T y`` from the chain's structure (DESIGN.md section 3): with ``w = L B x`` (prefix
+* ``C x`` and ``C^T y`` from the chain's structure (docs/model.md, *The O(m) solve*): with ``w = L B x`` (prefix
   sums of the joint rates) the centre velocities are ``ydot^j = ydot^{j-1} + xi/2 (n_{j-1} w_{j-1}
   + n_j w_j)``, and the rows are ``grad psi(y^m) . ydot^m`` and ``grad phi(y^j) . ydot^j``; the
   transpose runs the same prefix sums backwards;

@@ -5,7 +5,7 @@ sets ``u_s = v*(t) - dpsi/dt``, ``u_e^j = -K e^j - dphi/dt`` and solves
 ``C(q) u = (u_s, u_e)`` with the decoupling matrix of eq. 26, whose rows are ordered
 ``(s^m, e^2, ..., e^m)`` here. Two forms agree to rounding:
 
-* ``"structured"`` (default): the O(m) recursion of DESIGN.md section 3 (:mod:`.recursion`), a
+* ``"structured"`` (default): the O(m) recursion (docs/model.md, *The O(m) solve*; :mod:`.recursion`), a
   CasADi ``mapaccum`` over links, which also yields the singularity margins;
 * ``"dense"``: the decoupling matrix from AD Jacobians ``C^j = dc^j/dq`` and a dense
   linear solve (the reference, O(m^3); :mod:`.dense`).

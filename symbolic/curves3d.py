@@ -1,4 +1,4 @@
-"""Spatial curves: arc length and two normal coordinates in a frame transported without twist (DESIGN.md §10).
+"""Spatial curves: arc length and two normal coordinates in a frame transported without twist (docs/guide/spatial.md).
 
 A :class:`SpatialCurve` gives, at the closest point of ``y`` at time ``t``, the arc length
 ``psi(y, t)``, the normal coordinates ``Phi(y, t) = (phi_1, phi_2)`` and the frame

@@ -1,4 +1,4 @@
-"""Check that a curve description is orthonormalised (DESIGN.md section 1, paper eqs. 10-11).
+"""Check that a curve description is orthonormalised (docs/model.md, *The curve*; paper eqs. 10-11).
 
 On the curve, the Jacobian of ``(psi, phi)`` with respect to ``y`` must be a rotation
 ``T(alpha*) = [[cos a, sin a], [-sin a, cos a]]``: ``grad psi`` and ``grad phi`` of unit length,

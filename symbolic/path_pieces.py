@@ -1,4 +1,4 @@
-"""The pieces of a composite path (DESIGN.md section 6): per-segment closed forms in the path frame.
+"""The pieces of a composite path (docs/guide/curves.md): per-segment closed forms in the path frame.
 
 A :class:`Piece` is one line or arc (long arcs split into pieces of at most :data:`MAX_PIECE`);
 :func:`build_pieces` lays them from a start, a heading and segments; :func:`closest_piece_formulas`

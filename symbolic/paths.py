@@ -1,4 +1,4 @@
-"""Composite paths of straight lines and circular arcs, exact and in closed form (DESIGN.md section 6).
+"""Composite paths of straight lines and circular arcs, exact and in closed form (docs/guide/curves.md).
 
 A :class:`Path` is a start point, a start heading and segments, each a straight line of
 given length or a circular arc of given turning angle (+ = left, counter-clockwise) and

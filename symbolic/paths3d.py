@@ -1,4 +1,4 @@
-"""Composite 3-D paths of lines and banked circular arcs, exact and in closed form (DESIGN.md §10).
+"""Composite 3-D paths of lines and banked circular arcs, exact and in closed form (docs/guide/spatial.md).
 
 A :class:`Path3D` is a start point, a start direction, a first normal ``n_1`` and segments:
 straight lines of given length and circular arcs turning by ``A > 0`` with radius ``R``

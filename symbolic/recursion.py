@@ -1,4 +1,4 @@
-"""The O(m) structured solve of the coordinating law (DESIGN.md section 3) as CasADi Functions.
+"""The O(m) structured solve of the coordinating law (docs/model.md, *The O(m) solve*) as CasADi Functions.
 
 One link of the recursion maps the carry (:data:`~coordarm.symbolic.carry.CARRY`) of link ``j-1``
 to that of link ``j`` and the link's row of the law; a CasADi ``mapaccum`` runs it over the links,

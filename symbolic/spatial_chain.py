@@ -1,4 +1,4 @@
-"""Spatial chain of m equal links with universal (two-axis) joints (DESIGN.md section 10): a :class:`.KinematicChain`.
+"""Spatial chain of m equal links with universal (two-axis) joints (docs/guide/spatial.md): a :class:`.KinematicChain`.
 
 Joint j has the angles ``(a_j, b_j)``; ``q = (a_1, b_1, ..., a_m, b_m)``. Link frames ``R_0 = I``,
 ``R_j = R_{j-1} Rz(a_j) Ry(b_j)``, link directions ``d_j = R_j e_x``, centres ``y^1 = 0`` (the base,

@@ -1,4 +1,4 @@
-"""The coordinating law of a spatial chain (universal joints) along a 3-D curve: a thin face (DESIGN.md section 10).
+"""The coordinating law of a spatial chain (universal joints) along a 3-D curve: a thin face (docs/guide/spatial.md).
 
 Outputs ``s = psi(y^m)``, ``e^j = Phi(y^j)`` (j = 2..m) and the roll ``theta = atan2(n_2 . d_1,
 n_1 . d_1)``; law ``s' = v*``, ``e' = -K e``, ``theta' = theta*' - K (theta - theta*)``. Two forms

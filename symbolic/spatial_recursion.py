@@ -1,4 +1,4 @@
-"""The O(m) structured solve of the spatial law (DESIGN.md section 10), as CasADi ``mapaccum`` loops.
+"""The O(m) structured solve of the spatial law (docs/guide/spatial.md), as CasADi ``mapaccum`` loops.
 
 Link rates: ``d_j' = E_j w_j`` with ``E_j = [R_j e_y, R_j e_z]`` (3x2), ``w_j`` in R^2, so
 ``y^j' = y^{j-1}' + xi/2 (E_{j-1} w_{j-1} + E_j w_j)`` and ``y^1' = 0`` (fixed base). With

@@ -1,4 +1,4 @@
-"""The spatial chain (universal joints, DESIGN.md section 10): kinematics against independent computations."""
+"""The spatial chain (universal joints, docs/guide/spatial.md): kinematics against independent computations."""
 import math
 import sys
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""The spatial coordinating law (DESIGN.md section 10): O(m) solve vs dense AD, finite differences of the
+"""The spatial coordinating law (docs/guide/spatial.md): O(m) solve vs dense AD, finite differences of the
 task outputs, margins, the closed loop and the planar task stated in 3-D."""
 import math
 import sys
@@ -23,7 +23,7 @@ AXIS = np.array([1.0, 0.2, 0.1]) / np.linalg.norm([1.0, 0.2, 0.1])
 
 def moving_turning_line():
     """A line through the base whose point drifts slowly and which turns about a tilted axis (a line that drifts
-    far from a fixed base soon makes the first link stand across it: a singularity, DESIGN.md section 10)."""
+    far from a fixed base soon makes the first link stand across it: a singularity, docs/guide/spatial.md)."""
     return Line3D((0.0, lambda t: 0.003 * t, lambda t: 0.002 * ca.sin(t)), AXIS, (0.0, 1.0, 0.0),
                   rotation=((0.0, 0.3, 1.0), Sinusoid(0.3, 0.7)))
 
