@@ -224,6 +224,59 @@ def _size(n: float) -> str:
     return f"{n} B"
 
 
+def kept_every(keep: int | None, logged: bool, n_steps: int) -> int:
+    """Keep every this many steps of a run in memory, to keep about ``keep`` rows.
+
+    ``keep`` defaults to :data:`KEEP_ROWS` when the run is logged, else to every row.
+
+    Parameters
+    ----------
+    keep : int or None
+        Asked for by the caller.
+    logged : bool
+        The run streams every row to a log (``on_chunk`` given).
+    n_steps : int
+        Steps of the run.
+
+    Returns
+    -------
+    int
+        The stride, >= 1.
+    """
+    if keep is None:
+        keep = KEEP_ROWS if logged else n_steps + 1
+    return max(1, -(-n_steps // max(1, int(keep))))
+
+
+def kept_capacity(n_steps: int, every: int, chunk: int, margins: int) -> int:
+    """Rows a run keeps in memory at most (:class:`~.stepping.KeptRows` allocates them once).
+
+    Every ``every``-th step and the final state; per chunk, beside them, the row of each margin's
+    smallest value, of the largest ``|u|``, the summary's row (:func:`~.every_step.summary_rows`), the
+    chunk's last row and one row of slack (the stride's phase at the chunk's start).
+
+    Parameters
+    ----------
+    n_steps : int
+        Steps of the run.
+    every : int
+        Stride of the kept steps (:func:`kept_every`; 1: every row, nothing else).
+    chunk : int
+        Steps per chunk.
+    margins : int
+        Margins checked per row (``len(layout.margins)``).
+
+    Returns
+    -------
+    int
+        Rows.
+    """
+    if every == 1:
+        return n_steps + 1
+    chunks = -(-n_steps // chunk) + 1                        # + the final state's row
+    return n_steps // every + 1 + chunks * (margins + 4)
+
+
 def estimate(links: int, step: float, duration: float, log_rate: float | None = None, logged: bool = True,
              block: int = 2000, layout: ChainLayout = PLANAR) -> Cost:
     """Cost of a run of ``links`` links for ``duration`` s at ``step`` (see :class:`Cost`).
@@ -255,7 +308,7 @@ def estimate(links: int, step: float, duration: float, log_rate: float | None = 
     record = row + len(PER_STEP) * (31 + 4)                    # + message headers and CDR headers
     every = max(1, int(round(1.0 / (log_rate * step)))) if log_rate else 1
     log_bytes = (steps // every + 1) * record if logged else 0
-    kept = min(steps + 1, KEEP_ROWS + 4 * (steps // block + 1)) if logged else steps + 1
+    kept = min(steps + 1, kept_capacity(steps, kept_every(None, logged, steps), block, len(layout.margins)))
     memory = 2 * kept * row + 4 * min(block, steps) * row      # a block copied into the kept rows doubles, one block in flight
     return Cost(steps, log_bytes, memory + LAW_BYTES_PER_LINK * links)
 

@@ -20,7 +20,7 @@ from coordarm.symbolic.errors import shown
 from coordarm.symbolic.interrupts import check as check_interrupt
 
 from .choices import BACKENDS, Backend
-from .limits import KEEP_ROWS, check_gain_step
+from .limits import check_gain_step, kept_every
 from .result import ARRAYS, OPTIONAL, ExtraOutputs, Run
 from .log_layout import layout_of_chain
 from .stepping import Stepping, chunk_function, first_violation, integrate, margin_violation, tube_exit
@@ -300,30 +300,6 @@ def simulate(ctrl: CoordinatingController, q0, duration: float, step: float = 0.
     finally:
         if bar:
             bar.close()
-
-
-def kept_every(keep: int | None, logged: bool, n_steps: int) -> int:
-    """Keep every this many steps of a run in memory, to keep about ``keep`` rows.
-
-    ``keep`` defaults to :data:`KEEP_ROWS` when the run is logged, else to every row.
-
-    Parameters
-    ----------
-    keep : int or None
-        Asked for by the caller.
-    logged : bool
-        The run streams every row to a log (``on_chunk`` given).
-    n_steps : int
-        Steps of the run.
-
-    Returns
-    -------
-    int
-        The stride, >= 1.
-    """
-    if keep is None:
-        keep = KEEP_ROWS if logged else n_steps + 1
-    return max(1, -(-n_steps // max(1, int(keep))))
 
 
 def progress_bar(duration: float, n_steps: int, shown: bool | None) -> Progress | None:

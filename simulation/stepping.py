@@ -19,6 +19,7 @@ from coordarm.symbolic.records import record
 from .base_margin import BASE_THRESHOLD, base_stop
 from .every_step import STracking, governed_steps, summary_rows
 from .joint_rates import JointRates
+from .limits import kept_capacity
 from .log_layout import PLANAR, ChainLayout, MarginCheck, layout_of_chain
 from .result import OPTIONAL, Run, deviation_norms
 
@@ -483,10 +484,7 @@ class KeptRows:
     def __init__(self, loop: Stepping) -> None:
         self.every = loop.every
         self.chain = loop.ctrl.chain
-        chunks = -(-loop.n_steps // loop.chunk) + 1                        # + the final state's row
-        extremes = len(loop.layout.margins) + 3                           # margins, |u|, summary row, last
-        self.capacity = (loop.n_steps + 1 if loop.every == 1 else
-                         loop.n_steps // loop.every + 1 + chunks * (1 + extremes))
+        self.capacity = kept_capacity(loop.n_steps, loop.every, loop.chunk, len(loop.layout.margins))
         self.arrays: dict[str, np.ndarray] = {}
         self.n = 0
 

@@ -62,3 +62,28 @@ def test_machine_memory_is_what_psutil_reads_and_psutil_is_the_fallback(monkeypa
         raise ValueError(name)
     monkeypatch.setattr(os, "sysconf", missing)
     assert limits.machine_memory() == psutil.virtual_memory().total
+
+
+@pytest.mark.parametrize("preset, duration, keep", [("line", 25.0, None), ("line", 3.0, 500), ("line3d", 3.0, 300)])
+def test_the_rows_a_logged_run_keeps_stay_within_kept_capacity(preset, duration, keep):
+    """A logged run (every chunk handed on) keeps at least its every-th rows and at most
+    :func:`~.limits.kept_capacity` (its extremes per chunk included: the bound the run allocates and the
+    memory estimate counts), counted here from the chunks the run handed on."""
+    import numpy as np
+
+    from coordarm.simulation.limits import kept_capacity, kept_every
+    from coordarm.simulation.log_layout import layout_of_chain
+    from coordarm.simulation.run import simulate
+    from coordarm.simulation.scenario import load_scenario
+
+    sc = load_scenario(preset).with_overrides(None, duration, None)
+    ctrl = sc.controller()
+    chunks = []
+    run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, sc.t0, chunk=400, keep=keep,
+                   on_chunk=lambda part: chunks.append(len(part.t)))
+    n_steps = sum(chunks) - 1                      # every step's row and the final state's
+    every = kept_every(keep, True, n_steps)
+    assert run.info["kept_every"] == every > 1
+    margins = len(layout_of_chain(ctrl.chain).margins)
+    assert n_steps // every + 1 < len(run.t) <= kept_capacity(n_steps, every, 400, margins)
+    assert np.all(np.diff(run.t) > 0)
