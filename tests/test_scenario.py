@@ -118,3 +118,17 @@ def test_random_field_values_load_or_raise_a_config_error(section, key, value):
         Scenario.from_dict(spec).controller()
     except ConfigError:
         pass
+
+
+@pytest.mark.parametrize("name", presets())
+def test_a_presets_description_quotes_its_own_link_count_and_fold_angle(name):
+    """The description ``coordarm init`` copies and the docs list says ``N links`` and ``beta = X`` only as
+    the keys have them (path3d's said 48 links and beta = 0.6 while the keys had 80 and 0.68)."""
+    import re
+
+    sc = load_scenario(name)
+    text = sc.spec["description"]
+    links = [int(n) for n in re.findall(r"(\d+) links", text)]
+    betas = [float(b) for b in re.findall(r"beta = ([0-9.]*[0-9])", text)]
+    assert all(n == sc.spec["chain"]["links"] for n in links), (links, sc.spec["chain"]["links"])
+    assert all(b == sc.spec["start"]["beta"] for b in betas), (betas, sc.spec["start"]["beta"])
