@@ -69,7 +69,8 @@ def write_figures(run: Run, scenario: Scenario, ctrl: CoordinatingController, st
             first = plot_stages(run, ctrl, stages_png, obstacles=scenario.obstacles, times=stages or scenario.stages,
                                 title=f"{title}, stages of the motion", stopped=stopped)
     with writing(tracking_png):
-        return [first, plot_tracking(run, ctrl.gain, tracking_png, thresholds=scenario.thresholds, title=title)]
+        return [first, plot_tracking(run, ctrl.gain, tracking_png, thresholds=scenario.thresholds, title=title,
+                                    speeds=getattr(ctrl, "speeds", None))]
 
 
 @contextmanager

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import matplotlib.pyplot as plt
 from matplotlib.ticker import LogFormatter, NullFormatter
@@ -134,7 +134,7 @@ def target_points(run: Run, ctrl: CoordinatingController, idx: np.ndarray) -> np
     ndarray, shape (k, 2), or None
         The target points [m].
     """
-    s_ref = run.s_reference()
+    s_ref = run.s_reference(getattr(ctrl, "speeds", None))
     try:
         return np.array([ctrl.curve.point_at(float(s_ref[k]), float(run.t[k])) for k in idx])
     except NotImplementedError:
@@ -508,7 +508,7 @@ def decay_reference(t: np.ndarray, e0: float, gain: float, floor: float = FLOOR)
 
 
 def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str, float] | None = None,
-                  title: str = "") -> Path:
+                  title: str = "", speeds: Any = None) -> Path:
     """Three panels over time: ``max|e|`` vs ``e(0) exp(-K t)``, ``s`` tracking error, margins.
 
     Each line is drawn from its :func:`envelope_indices` (a few thousand samples), not every step.
@@ -525,6 +525,9 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
         Margin thresholds [-] drawn as dotted lines, by name.
     title : str
         Title of the top panel (empty: a default).
+    speeds : callable, optional
+        ``v*`` at an array of times [m/s] (``ctrl.speeds``): the s reference by Simpson's rule, as the
+        summary's (:meth:`~.result.Run.s_reference`); None: the trapezoidal rule on the rows.
 
     Returns
     -------
@@ -532,7 +535,7 @@ def plot_tracking(run: Run, gain: float, path: str | Path, thresholds: dict[str,
         The file written.
     """
     emax = np.max(np.abs(run.e), axis=1)
-    s_err = run.s - run.s_reference()
+    s_err = run.s - run.s_reference(speeds)
     link, longitudinal = np.min(run.link_margins, axis=1), run.longitudinal
     keep = envelope_indices(np.column_stack([np.log10(np.maximum(emax, FLOOR)), s_err, link, longitudinal]))
     t = run.t[keep]

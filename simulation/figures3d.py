@@ -28,13 +28,17 @@ PROJECTIONS = (("top view (x-y)", (0, 1)), ("side view (x-z)", (0, 2)))
 AXIS_NAMES = ("x", "y", "z")
 
 
-def reference_arc_length(run: Any) -> np.ndarray:
-    """``s(0) + integral of v*`` on the run's sample grid (trapezoidal rule; times ``v_scale`` when the run has it).
+def reference_arc_length(run: Any, speeds: Any = None) -> np.ndarray:
+    """``s(0) + integral of v*`` on the run's sample grid (times ``v_scale`` when the run has it).
 
     Parameters
     ----------
     run : Run or namespace
-        ``t`` (N+1,) [s], ``s`` (N+1,) [m], ``v_star`` (N+1,) [m/s]; a :class:`~.result.Run` answers itself.
+        ``t`` (N+1,) [s], ``s`` (N+1,) [m], ``v_star`` (N+1,) [m/s]; a :class:`~.result.Run` answers itself
+        (:meth:`~.result.Run.s_reference`).
+    speeds : callable, optional
+        ``v*`` at an array of times [m/s] (``ctrl.speeds``): Simpson's rule for a Run, as its summary;
+        None (and for a namespace): the trapezoidal rule.
 
     Returns
     -------
@@ -42,7 +46,7 @@ def reference_arc_length(run: Any) -> np.ndarray:
         The arc length the end point should have [m].
     """
     if callable(getattr(run, "s_reference", None)):
-        return run.s_reference()
+        return run.s_reference(speeds)
     t, v = np.asarray(run.t, float), np.asarray(run.v_star, float)
     scale = getattr(run, "v_scale", None)
     if scale is not None:
@@ -140,7 +144,7 @@ def stage_scene(run: Any, ctrl: Any, idx: np.ndarray, obstacles: Sequence[Any] =
     lo, hi = view_box(np.concatenate(frame), chain.xi)
     reach = float(np.linalg.norm(hi - lo)) + float(np.max(np.abs(np.concatenate([lo, hi]))))
     curves = [clip_to_box(curve_points(curve, float(run.t[k]), reach), lo, hi) for k in idx]
-    targets = target_points3d(ctrl, reference_arc_length(run)[idx], run.t[idx])
+    targets = target_points3d(ctrl, reference_arc_length(run, getattr(ctrl, "speeds", None))[idx], run.t[idx])
     ends = rail_ends(chain, reach)
     names = [(ob.name, np.concatenate([clip_to_box(densified(p), lo, hi).reshape(-1, 3) for p in wireframe(ob)]))
              for ob in obstacles]
@@ -402,7 +406,8 @@ def tracking_series(run: Any, ctrl: Any) -> dict[str, np.ndarray]:
     """
     roll = np.asarray(run.roll, float)
     roll_star = roll_command(ctrl, run.t)
-    out = dict(emax=np.max(np.abs(run.e), axis=1), s_err=run.s - reference_arc_length(run), roll=roll,
+    s_err = run.s - reference_arc_length(run, getattr(ctrl, "speeds", None))
+    out = dict(emax=np.max(np.abs(run.e), axis=1), s_err=s_err, roll=roll,
                roll_star=roll_star, roll_err=np.angle(np.exp(1j * (roll - roll_star))),
                link=np.min(run.link_margins, axis=1), end=np.asarray(run.end_margin, float),
                joint=np.min(run.joint_margins, axis=1))

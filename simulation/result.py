@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import field, fields
+from typing import Callable
 
 import numpy as np
 
@@ -181,17 +182,27 @@ class Run(ExtraOutputs):
         scale = np.asarray(self.extra["v_scale"], dtype=float)
         return np.where(np.isfinite(scale), scale, 1.0)
 
-    def s_reference(self) -> np.ndarray:
-        """``s(0) + integral of v_scale v*`` on the sample grid (trapezoidal rule).
+    def s_reference(self, speeds: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
+        """``s(0) + integral of v_scale v*`` on the sample grid.
+
+        Parameters
+        ----------
+        speeds : callable, optional
+            ``v*`` at an array of times [m/s] (``ctrl.speeds``): Simpson's rule with ``v*`` at the middle
+            of each interval the governor left whole (as the summary's s tracking,
+            :class:`~.every_step.STracking`); None: the trapezoidal rule (its own error, O(step^2) where
+            ``v*`` is not affine, e.g. 3e-8 m on a smoothstep ramp at 2 ms steps).
 
         Returns
         -------
         ndarray, shape (N+1,)
             The arc length the end point should have [m] (the governed speed when governed).
         """
-        dt = np.diff(self.t)
-        v = self.speed_factor() * self.v_star
-        return self.s[0] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[1:] + v[:-1]))])
+        from .every_step import RunningIntegral, middle_speeds
+
+        scale = self.speed_factor()
+        middle = middle_speeds(np.asarray(self.t, float), scale, speeds)
+        return self.s[0] + RunningIntegral().add(self.t, scale * self.v_star, middle)
 
     def max_s_tracking_error(self) -> float:
         """The largest ``|s - s_reference|`` of the run.

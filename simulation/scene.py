@@ -28,7 +28,7 @@ from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
 from coordarm.symbolic.function_buffer import BufferedFunction
 
-from .every_step import RunningIntegral
+from .every_step import RunningIntegral, middle_speeds
 from .frame_transforms import end_frames_json, frame_transforms_json, stamp_slots, stamps
 from .frame_transforms import link_frames  # noqa: F401 (re-exported: coordarm.simulation.scene.link_frames)
 from .json_fill import JsonTemplate, digits_kernel
@@ -371,14 +371,16 @@ class SceneBuilder:
         self._line_maps: dict[int, BufferedFunction] = {}   # it mapped over k times, by k
         self._s0: float | None = None
         self._integral = RunningIntegral()      # of v* over the steps seen
+        self._last: tuple[float, float] | None = None         # (t, 1) of the last step seen
         self.s_target = np.empty(0)
 
     def advance(self, part: Run) -> np.ndarray:
         """Take the next block of steps; returns (and keeps in :attr:`s_target`) ``s(0) + integral of v*``.
 
-        The integral is the trapezoidal rule on the step grid, summed in the same order as
-        :meth:`simulation.run.Run.s_reference` (:class:`~.every_step.RunningIntegral`), so the two agree
-        to the last bit.
+        The integral is Simpson's rule on the step grid with ``v*`` at each step's middle, summed in
+        the same order as :meth:`~.result.Run.s_reference` given ``ctrl.speeds``
+        (:class:`~.every_step.RunningIntegral`), so the two agree to the last bit on an ungoverned run
+        (the target is of the commanded ``v*``, not the governed one).
 
         Parameters
         ----------
@@ -392,7 +394,10 @@ class SceneBuilder:
         """
         if self._s0 is None:
             self._s0 = float(part.s[0])
-        integral = self._integral.add(part.t, part.v_star)
+        t = np.asarray(part.t, float)
+        middle = middle_speeds(t, np.ones(len(t)), self.ctrl.speeds, self._last)
+        self._last = (float(t[-1]), 1.0)
+        integral = self._integral.add(t, part.v_star, middle)
         self.s_target = self._s0 + integral
         return self.s_target
 

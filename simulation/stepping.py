@@ -227,7 +227,7 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
     SingularityError, TubeError, CollisionError
         The run stopped; ``err.run`` holds it up to there.
     """
-    kept, tracking = KeptRows(loop), STracking()
+    kept, tracking = KeptRows(loop), STracking(getattr(loop.ctrl, "speeds", None))
     governed = 0.0          # simulated time with v_scale < 1, over every step (the kept rows are thinned) [s]
     contacts: list = []
     q, k, wall = q0, 0, _time.perf_counter()

@@ -179,3 +179,18 @@ def test_the_validity_block_finds_the_self_contacts():
     ns: dict = {}
     exec(block.text, ns)
     assert [(c.kind, c.links) for c in ns["contacts"]] == [("self", (1, 3)), ("self", (1, 4)), ("self", (2, 4))]
+
+
+def test_the_getting_started_transcript_is_what_make_demo_prints(tmp_path):
+    """The summary shown on the getting-started page is the command's output, line for line (the library's
+    cache folder, which differs per machine, stands as ``~/.cache/coordarm/<key>``)."""
+    import re
+
+    page = (ROOT / "docs" / "getting-started.md").read_text()
+    shown = re.search(r"```text\n(scenario      line .*?)```", page, re.S).group(1).splitlines()
+    out = subprocess.run([os.path.join(BIN, "coordarm"), "run", "line", "--out", "logs/line.mcap", "--overwrite"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr
+    printed = [re.sub(r"/\S*/[0-9a-f]{16}/libcoordarm\.so \([^)]*\)",      # (tests build into their own cache)
+                      "~/.cache/coordarm/<key>/libcoordarm.so (cache hit)", line) for line in out.stdout.splitlines()]
+    assert printed == shown

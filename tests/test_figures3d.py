@@ -141,7 +141,7 @@ def test_the_top_projection_of_a_planar_run_is_the_planar_figure(tmp_path, recor
     planar_figs = []
     monkeypatch.setattr(figures, "save_figure", lambda fig, path, **kw: planar_figs.append(fig))
     ctrl2 = CoordinatingController(PlanarChain(M, XI), Line(), 2.0, 0.0)
-    run2 = SimpleNamespace(q=qp, s_reference=lambda: np.zeros(5), **common)
+    run2 = SimpleNamespace(q=qp, s_reference=lambda speeds=None: np.zeros(5), **common)
     figures.plot_stages(run2, ctrl2, tmp_path / "s2.png", stages=5)
     planar = [np.column_stack(line.get_data()) for line in planar_figs[0].axes[0].get_lines()
               if line.get_linestyle() == "-" and len(line.get_xdata()) == M + 1]
