@@ -1,4 +1,4 @@
-"""The base margin of a planar robot on a rail: is its base still where the law can drive the body?
+"""The base margin of a robot on a rail, planar or spatial: is its base still where the law can drive the body?
 
 Where a path leaves the rail's line the base ``y^1`` (on the rail) leaves the path. Link 1 then
 turns towards the path's normal at link 2's centre; as it comes to stand across it, the free
@@ -12,6 +12,18 @@ vanishing factor) and the rail margin stay healthy. The base margin
 the path, relative to link 2's own: 1 on a zig-zag laid along the path, 0 when link 1 stands
 across it. :data:`BASE_THRESHOLD` stops a run before ``|u|`` passes 10 times its value on the
 path (evidence: ``tests/test_base_margin.py``).
+
+A spatial chain (two-axis joints) fails otherwise: link 1 turns towards the path's *tangent*, and the
+roll of the fold plane, held and measured from link 1 (``atan2(n_2 . d_1, n_1 . d_1)``), spins the
+whole body once the base's offset takes the lateral reach link 1 needs to sit in the zig-zag (its
+link margins stay above 0.8; the end margin falls late). Its base margin is
+
+``1 - |Phi(y^1)| / (xi/2 |d_2 - (d_2 . t) t|)``, at least 0
+
+(``t`` the path's tangent at link 2's centre): 1 with the base on the path, 0 when the base's offset
+equals link 2's half-width across the path. On four bends (up and to the side, ``beta`` 0.3 to 0.9,
+links of 0.05 and 0.1 m) it falls below :data:`BASE_THRESHOLD` at 2 to 4.4 times the nominal ``|u|``,
+before 10 times (``tests/test_base_margin.py``).
 """
 from __future__ import annotations
 
@@ -33,21 +45,24 @@ def base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, n
 
     Parameters
     ----------
-    ctrl : CoordinatingController
-        A planar chain on a rail and its curve.
+    ctrl : CoordinatingController or SpatialController
+        A chain on a rail and its curve.
     t : (N,) ndarray
         Times [s].
     q : (N, dof) ndarray
-        Joint coordinates (``d`` [m] first, then the link angles [rad]).
+        Joint coordinates (``d`` [m] first, then the joint angles [rad]).
 
     Returns
     -------
     margin : (N,) ndarray
-        ``min(1, |n_1 . grad phi(y^2)| / |n_2 . grad phi(y^2)|)`` [-].
+        Planar: ``min(1, |n_1 . grad phi(y^2)| / |n_2 . grad phi(y^2)|)``; spatial:
+        ``max(0, 1 - |Phi(y^1)| / (xi/2 |d_2 - (d_2 . t) t|))`` [-].
     offset : (N,) ndarray
-        ``|phi(y^1)|`` [m].
+        The base's distance from the path, ``|phi(y^1)|`` (spatial: ``|Phi(y^1)|``) [m].
     """
     chain = ctrl.chain
+    if not isinstance(chain, PlanarChain):
+        return _spatial_base_margins(ctrl, t, q)
     y = chain.centres_np(q)                              # (N, m, 2)
     geometry = ctrl.task.geometry.map(len(t))
     g = np.asarray(geometry(y[:, 1, :].T, t[None, :])[1])               # grad phi at y^2, (2, N)
@@ -62,14 +77,29 @@ def base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, n
     return margin, offset
 
 
+def _spatial_base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`base_margins` of a spatial chain (see the module's docstring)."""
+    chain, n = ctrl.chain, len(t)
+    d2 = chain.directions_np(q)[:, 1, :]                               # (N, 3)
+    y = chain.centres_np(q)                                            # (N, m, 3)
+    geometry = ctrl.task.geometry.map(n)
+    offset = np.linalg.norm(np.asarray(geometry(y[:, 0, :].T, t[None, :])[0]), axis=0)   # |Phi(y^1)|
+    tangent = np.asarray(geometry(y[:, 1, :].T, t[None, :])[4]).T     # grad psi at y^2, (N, 3)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tangent = tangent / np.linalg.norm(tangent, axis=1)[:, None]
+        across = np.linalg.norm(d2 - np.sum(d2 * tangent, axis=1)[:, None] * tangent, axis=1)
+        margin = 1.0 - offset / (0.5 * chain.xi * across)
+    return np.maximum(margin, 0.0), offset          # (NaN stays NaN: a non-finite state stops the run)
+
+
 def base_stop(ctrl: Any, t: np.ndarray, q: np.ndarray,
               threshold: float = BASE_THRESHOLD) -> tuple[int, BaseOffPathError] | None:
     """The first row whose base margin is below ``threshold`` while the base leaves the path (or not finite).
 
     Parameters
     ----------
-    ctrl : CoordinatingController
-        The closed loop; anything but a planar chain on a rail has no base margin (None).
+    ctrl : CoordinatingController or SpatialController
+        The closed loop; a chain without a rail has no base margin (None).
     t : (N,) ndarray
         Times [s].
     q : (N, dof) ndarray
@@ -83,7 +113,7 @@ def base_stop(ctrl: Any, t: np.ndarray, q: np.ndarray,
         The row and the error to stop with, or None.
     """
     chain = ctrl.chain
-    if not isinstance(chain, PlanarChain) or not chain.rail or chain.m < 2 or not len(t):
+    if not getattr(chain, "rail", False) or chain.m < 2 or not len(t):
         return None
     margin, offset = base_margins(ctrl, t, q)
     # the base is leaving the path (its offset grows: the path leaves the rail's line); a base kept at a
@@ -94,4 +124,5 @@ def base_stop(ctrl: Any, t: np.ndarray, q: np.ndarray,
     if not len(low):
         return None
     row = int(low[0])
-    return row, BaseOffPathError(t[row], float(margin[row]), threshold, float(q[row, 0]), float(offset[row]))
+    return row, BaseOffPathError(t[row], float(margin[row]), threshold, float(q[row, 0]), float(offset[row]),
+                                 spatial=not isinstance(chain, PlanarChain))

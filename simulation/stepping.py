@@ -376,15 +376,15 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
     if bad is not None:
         row, kind, link, margin = bad
         stop = row, SingularityError(part.t[row], link, margin, kind, thr[loop.layout.threshold_key(kind)])
-    if part.rail_margin is not None:
-        low = np.flatnonzero(~(part.rail_margin >= thr["link"]))
-        if len(low) and (stop is None or low[0] < stop[0]):
-            row = int(low[0])
-            stop = row, SingularityError(part.t[row], 1, float(part.rail_margin[row]), "rail", thr["link"])
     stops_on = any(v > 0 for v in thr.values())        # NO_STOP (report, threshold study): none of them either
     base = base_stop(loop.ctrl, part.t, part.q, thr.get("base", BASE_THRESHOLD if stops_on else 0.0))
-    if base is not None and (stop is None or base[0] <= stop[0]):
+    if base is not None and (stop is None or base[0] <= stop[0]):     # (the cause of a margin's fall there)
         stop = base
+    if part.rail_margin is not None:   # a rail across the path puts the base off it: the rail is the cause
+        low = np.flatnonzero(~(part.rail_margin >= thr["link"]))
+        if len(low) and (stop is None or low[0] < stop[0] or (low[0] == stop[0] and stop is base)):
+            row = int(low[0])
+            stop = row, SingularityError(part.t[row], 1, float(part.rail_margin[row]), "rail", thr["link"])
     out = tube_exit(part.e, tube, loop.layout.deviations_per_link)
     if out is not None and (stop is None or out[0] <= stop[0]):
         row, link, dist = out

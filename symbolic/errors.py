@@ -119,14 +119,16 @@ class TubeError(SingularityError):
 
 
 class BaseOffPathError(SingularityError):
-    """The base of a robot on a rail left the path and its first link stands across the path.
+    """The base of a robot on a rail left the path, and the law can no longer drive the body from it.
 
     Where the path leaves the rail's line, the base (``y^1``, on the rail) can no longer be on
-    the path. Link 1 then turns towards the path's normal at link 2's centre; once it stands
-    across it, the free rate (link 1's) no longer moves the body and every rate blows up, while
+    the path. In the plane, link 1 then turns towards the path's normal at link 2's centre; once it
+    stands across it, the free rate (link 1's) no longer moves the body and every rate blows up, while
     the link, longitudinal and rail margins stay healthy (the longitudinal margin is scaled by
     the same vanishing factor). The base margin is ``|n_1 . grad phi(y^2)| / |n_2 . grad phi(y^2)|``
-    (at most 1; 1 on a zig-zag along the path).
+    (at most 1; 1 on a zig-zag along the path). In space, link 1 turns towards the path's tangent and
+    the roll held from it spins the body; the base margin is ``1 - |Phi(y^1)| / (xi/2 |d_2 across|)``
+    (``coordarm.simulation.base_margin``).
 
     Parameters
     ----------
@@ -139,25 +141,32 @@ class BaseOffPathError(SingularityError):
     d : float
         The rail position [m].
     offset : float
-        The base's distance from the path, ``|phi(y^1)|`` [m].
+        The base's distance from the path, ``|phi(y^1)|`` (spatial: ``|Phi(y^1)|``) [m].
     run : object, optional
         The run up to (and including) that state.
+    spatial : bool
+        A spatial chain (the message says what its base margin measures).
 
     Notes
     -----
-    Attributes as :class:`SingularityError` (``kind`` is ``"base"``, ``link`` 1), plus ``d`` and ``offset``.
+    Attributes as :class:`SingularityError` (``kind`` is ``"base"``, ``link`` 1), plus ``d``, ``offset`` and
+    ``spatial``.
     """
 
     def __init__(self, time: float, margin: float, threshold: float, d: float, offset: float,
-                 run: object | None = None) -> None:
+                 run: object | None = None, spatial: bool = False) -> None:
         super().__init__(time, 1, margin, "base", threshold, run)
-        self.d, self.offset = float(d), float(offset)
+        self.d, self.offset, self.spatial = float(d), float(offset), bool(spatial)
+        what = ("more than half of link 2's reach across the path" if self.spatial
+                else "link 1 stands almost across it")
+        shown = next(f"{self.margin:.{n}g}" for n in (3, 4, 6, 17) if float(f"{self.margin:.{n}g}") < self.threshold
+                     or n == 17)                   # digits enough to show it below the threshold
         self.args = (f"the base left the path at t = {self.time:.4f} s: at d = {self.d:.4f} m on the rail the base is "
-                     f"{self.offset:.3g} m off the path and link 1 stands almost across it (base margin "
-                     f"{self.margin:.3g} < {self.threshold:.3g}); run stopped",)
+                     f"{self.offset:.3g} m off the path and {what} (base margin "
+                     f"{shown} < {self.threshold:.3g}); run stopped",)
 
     def __reduce__(self):
-        return (BaseOffPathError, (self.time, self.margin, self.threshold, self.d, self.offset, None))
+        return (BaseOffPathError, (self.time, self.margin, self.threshold, self.d, self.offset, None, self.spatial))
 
 
 class CollisionError(CoordarmError):

@@ -99,18 +99,86 @@ BEND3D = {"name": "bend3d", "chain": {"links": 12, "link_length": 0.1, "joints":
           "curve": {"kind": "waypoints", "points": [[-0.5, 0.0, 0.0], [1.5, 0.0, 0.0], [5.5, 0.0, 4.0]], "radius": 1.5},
           "control": {"gain": 2.0, "speed": 0.25}, "start": {"kind": "follow", "beta": 0.6},
           "run": {"duration": 5.0, "step": 0.002}}
+#: Bends up and to the side, fold angles 0.3 to 0.9, links of 0.05 and 0.1 m.
+VARIANTS3D = [({}, {}), ({"points": [[-0.5, 0.0, 0.0], [1.5, 0.0, 0.0], [5.5, 4.0, 0.0]]}, {}),
+              ({}, {"beta": 0.9, "links": 20, "link_length": 0.05}), ({"points": [[-0.5, 0.0, 0.0], [1.5, 0.0, 0.0],
+                                                                                   [5.5, 4.0, 0.0]]}, {"beta": 0.3})]
 
 
-@pytest.mark.xfail(strict=True, reason="known gap: no base margin for a spatial chain on a rail. The base leaves "
-                   "the path, link 1 turns towards the tangent (d_1 . t from 0.83 to 0.96), the held roll, measured "
-                   "from link 1, spins the whole body: |u| passes 10x nominal at t = 4.48 s with the link margins "
-                   ">= 0.82 and the end margin 0.26, and the end margin stops the run at 0.147 < 0.15 with |u| 28x "
-                   "nominal (docs/guide/spatial-arm.md, 'What a rail run logs, checks and reports')")
-def test_a_spatial_rail_whose_path_bends_away_is_stopped_before_u_passes_ten_times_nominal():
-    sc = Scenario.from_dict(BEND3D)
+def _spatial(curve: dict, other: dict) -> dict:
+    chain = {**BEND3D["chain"], **{k: v for k, v in other.items() if k in ("links", "link_length")}}
+    start = {**BEND3D["start"], **{k: v for k, v in other.items() if k == "beta"}}
+    return {**BEND3D, "chain": chain, "curve": {**BEND3D["curve"], **curve}, "start": start,
+            "run": {"duration": 8.0, "step": 0.002}}
+
+
+def _run3d(spec, thresholds=None):
+    sc = Scenario.from_dict(spec)
     ctrl = sc.controller()
     try:
-        run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted", thresholds=sc.thresholds)
+        return ctrl, simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="interpreted",
+                              thresholds=sc.thresholds if thresholds is None else thresholds), None
     except SingularityError as err:
-        run = err.run
+        return ctrl, err.run, err
+
+
+@pytest.mark.parametrize("curve, other", VARIANTS3D)
+def test_a_spatial_rail_whose_path_bends_away_is_stopped_before_u_passes_ten_times_nominal(curve, other):
+    """Without the base margin these runs pass 10x the nominal |u| with the link margins above 0.6 (link 1
+    turns towards the tangent, the roll held from it spins the body); with it they stop as base_off_path."""
+    ctrl, run, err = _run3d(_spatial(curve, other))
+    assert isinstance(err, BaseOffPathError) and err.spatial, err
     assert np.max(np.abs(run.u)) < 10 * NOMINAL_U
+    assert "half of link 2's reach" in str(err) and err.offset > 0
+    assert outcome_of(err, float(run.t[-1]))["status"] == "base_off_path"
+
+
+def test_without_it_a_spatial_run_spins_while_the_link_margins_stay_healthy(monkeypatch):
+    monkeypatch.setattr("coordarm.simulation.stepping.base_stop", lambda *a, **k: None)
+    ctrl, run, err = _run3d(_spatial({}, {}), thresholds={"link": 0.0, "longitudinal": 0.0})
+    u = np.abs(run.u).max(1)
+    first = int(np.argmax(u > 10 * NOMINAL_U))
+    assert first > 0 and run.link_margins[:first + 1].min() > 0.8
+    margin, offset = bm.base_margins(ctrl, run.t[:first + 1], run.q[:first + 1])
+    assert margin[0] == 1.0 and offset[0] == 0.0 and margin[-1] < bm.BASE_THRESHOLD
+
+
+def test_the_spatial_base_margin_is_the_offset_against_link_twos_reach_by_independent_geometry(rng):
+    """The base's distance from the path by a bounded search along the path's own points (not its closest-point
+    coordinates), the tangent at link 2's centre by central differences of those points."""
+    from scipy.optimize import minimize_scalar
+
+    ctrl, run, _ = _run3d(_spatial({}, {}), thresholds={"link": 0.0, "longitudinal": 0.0, "base": 0.0})
+    chain, path = ctrl.chain, ctrl.curve
+    rows = np.r_[0, rng.choice(len(run.t), 6, replace=False), len(run.t) - 1]
+
+    def closest(y):
+        grid = np.linspace(0.0, 6.0, 6001)
+        k = int(np.argmin([np.linalg.norm(path.point_at(s) - y) for s in grid]))
+        best = minimize_scalar(lambda s: np.linalg.norm(path.point_at(s) - y), bounds=(grid[max(k - 1, 0)], grid[k + 1]),
+                               method="bounded", options={"xatol": 1e-12})
+        return best.x, best.fun
+
+    for i in rows:
+        y, d = chain.centres_np(run.q[i]), chain.directions_np(run.q[i])
+        _, offset = closest(y[0])
+        s2, _ = closest(y[1])
+        h = 1e-6
+        tangent = (path.point_at(s2 + h) - path.point_at(s2 - h)) / (2 * h)
+        tangent /= np.linalg.norm(tangent)
+        across = np.linalg.norm(d[1] - (d[1] @ tangent) * tangent)
+        margin, got = bm.base_margins(ctrl, run.t[i:i + 1], run.q[i:i + 1])
+        assert got[0] == pytest.approx(offset, abs=1e-8)
+        assert margin[0] == pytest.approx(max(0.0, 1 - offset / (0.5 * chain.xi * across)), abs=1e-6)
+
+
+def test_spatial_rail_presets_keep_their_base_on_the_path():
+    """pipe3d and port feed the body from a rail inside the path's first straight part: margin 1 throughout."""
+    from coordarm.simulation.scenario import load_scenario
+
+    for name in ("pipe3d", "port"):
+        sc = load_scenario(name).with_overrides(None, 2.0, None)
+        ctrl = sc.controller()
+        run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, backend="compiled", thresholds=sc.thresholds)
+        margin, offset = bm.base_margins(ctrl, run.t, run.q)
+        assert np.all(margin == 1.0) and np.all(offset < 1e-12), name
