@@ -85,8 +85,8 @@ def explain(error: SingularityError | CollisionError) -> list[str]:
     t, v, thr = f"t = {error.time:.3f} s", f"{error.margin:.3g}", f"{error.threshold:.3g}"
     if isinstance(error, BaseOffPathError):
         return [f"the base left the path at {t}: at d = {error.d:.4f} m on the rail the base is {error.offset:.3g} m "
-                f"off the path (the path leaves the rail's line) and link 1 stands almost across the path at link 2 "
-                f"(base margin {v}, threshold {thr}): the body can no longer follow (|u| would blow up)",
+                f"off the path (the path leaves the rail's line) and {error.what()} "
+                f"(base margin {error.margin_text()}, threshold {thr}): the body can no longer follow (|u| would blow up)",
                 "advice: end the rail's feed before the path leaves its line (chain.base.limits), put the first "
                 "bend further along the path, or grow the span (control.span) so the base stays on the straight part"]
     if error.kind == "longitudinal":

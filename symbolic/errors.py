@@ -157,13 +157,19 @@ class BaseOffPathError(SingularityError):
                  run: object | None = None, spatial: bool = False) -> None:
         super().__init__(time, 1, margin, "base", threshold, run)
         self.d, self.offset, self.spatial = float(d), float(offset), bool(spatial)
-        what = ("more than half of link 2's reach across the path" if self.spatial
-                else "link 1 stands almost across it")
-        shown = next(f"{self.margin:.{n}g}" for n in (3, 4, 6, 17) if float(f"{self.margin:.{n}g}") < self.threshold
-                     or n == 17)                   # digits enough to show it below the threshold
         self.args = (f"the base left the path at t = {self.time:.4f} s: at d = {self.d:.4f} m on the rail the base is "
-                     f"{self.offset:.3g} m off the path and {what} (base margin "
-                     f"{shown} < {self.threshold:.3g}); run stopped",)
+                     f"{self.offset:.3g} m off the path and {self.what()} (base margin "
+                     f"{self.margin_text()} < {self.threshold:.3g}); run stopped",)
+
+    def what(self) -> str:
+        """What the base margin saw: link 1 across the path (planar), the offset eating link 2's reach (spatial)."""
+        return ("the offset takes more than half of link 2's reach across the path" if self.spatial
+                else "link 1 stands almost across the path")
+
+    def margin_text(self) -> str:
+        """The margin with the digits that show it below the threshold (3 significant digits when they do)."""
+        return next(f"{self.margin:.{n}g}" for n in (3, 4, 6, 17)
+                    if float(f"{self.margin:.{n}g}") < self.threshold or n == 17)
 
     def __reduce__(self):
         return (BaseOffPathError, (self.time, self.margin, self.threshold, self.d, self.offset, None, self.spatial))
