@@ -20,7 +20,7 @@ from matplotlib.lines import Line2D
 import numpy as np
 
 from coordarm.simulation.contact_marks import CONTACT_STYLE, contact_marks, draw_contact_marks
-from coordarm.simulation.every_step import interval_integrals
+from coordarm.simulation.s_reference import interval_integrals
 from coordarm.simulation.figures import stage_indices
 from coordarm.simulation.figures3d import curve_points, draw_view3d, target_points3d
 from coordarm.simulation.obstacles3d import densified, wireframe

@@ -9,6 +9,7 @@ import numpy as np
 from coordarm.symbolic.records import record
 
 from .log_layout import ARRAYS, OPTIONAL, ChainLayout, layout_of_arrays
+from .s_reference import RunningIntegral, middle_speeds
 
 
 class ExtraOutputs:
@@ -198,8 +199,6 @@ class Run(ExtraOutputs):
         ndarray, shape (N+1,)
             The arc length the end point should have [m] (the governed speed when governed).
         """
-        from .every_step import RunningIntegral, middle_speeds
-
         scale = self.speed_factor()
         middle = middle_speeds(np.asarray(self.t, float), scale, speeds)
         return self.s[0] + RunningIntegral().add(self.t, scale * self.v_star, middle)

@@ -28,7 +28,7 @@ from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
 from coordarm.symbolic.function_buffer import BufferedFunction
 
-from .every_step import RunningIntegral, middle_speeds
+from .s_reference import RunningIntegral, middle_speeds
 from .frame_transforms import end_frames_json, frame_transforms_json, stamp_slots, stamps
 from .frame_transforms import link_frames  # noqa: F401 (re-exported: coordarm.simulation.scene.link_frames)
 from .json_fill import JsonTemplate, digits_kernel
@@ -379,7 +379,7 @@ class SceneBuilder:
 
         The integral is Simpson's rule on the step grid with ``v*`` at each step's middle, summed in
         the same order as :meth:`~.result.Run.s_reference` given ``ctrl.speeds``
-        (:class:`~.every_step.RunningIntegral`), so the two agree to the last bit on an ungoverned run
+        (:class:`~.s_reference.RunningIntegral`), so the two agree to the last bit on an ungoverned run
         (the target is of the commanded ``v*``, not the governed one).
 
         Parameters

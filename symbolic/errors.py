@@ -162,12 +162,22 @@ class BaseOffPathError(SingularityError):
                      f"{self.margin_text()} < {self.threshold:.3g}); run stopped",)
 
     def what(self) -> str:
-        """What the base margin saw: link 1 across the path (planar), the offset eating link 2's reach (spatial)."""
+        """What the base margin saw: link 1 across the path (planar), the offset eating link 2's reach (spatial).
+
+        Returns
+        -------
+        str
+        """
         return ("the offset takes more than half of link 2's reach across the path" if self.spatial
                 else "link 1 stands almost across the path")
 
     def margin_text(self) -> str:
-        """The margin with the digits that show it below the threshold (3 significant digits when they do)."""
+        """The margin with the digits that show it below the threshold (3 significant digits when they do).
+
+        Returns
+        -------
+        str
+        """
         return next(f"{self.margin:.{n}g}" for n in (3, 4, 6, 17)
                     if float(f"{self.margin:.{n}g}") < self.threshold or n == 17)
 
