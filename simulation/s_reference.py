@@ -21,8 +21,8 @@ class RunningIntegral:
     middle is given (exact for a cubic ``v``: a smoothstep speed ramp; what RK4's stages give ``s`` when
     the law makes ``s' = v*`` exactly), else by the trapezoidal rule (exact for an affine ``v``, e.g. a
     constant speed). The blocks are summed on in one running order, so they give the bits one call on
-    all the rows gives (:meth:`Run.s_reference`, the summary's s tracking :class:`STracking` and the
-    scene's target :meth:`~.scene.SceneBuilder.advance` rely on it).
+    all the rows gives (:meth:`~.result.Run.s_reference`, the summary's s tracking
+    :class:`~.every_step.STracking` and the scene's target :meth:`~.scene.SceneBuilder.advance` rely on it).
     """
 
     def __init__(self) -> None:
@@ -91,7 +91,7 @@ def middle_speeds(t: np.ndarray, scale: np.ndarray, speeds: Callable[[np.ndarray
     t : ndarray, shape (N,)
         Rows [s].
     scale : ndarray, shape (N,)
-        The governor's factor on ``v*`` at them (:meth:`Run.speed_factor`).
+        The governor's factor on ``v*`` at them (:meth:`~.result.Run.speed_factor`).
     speeds : callable or None
         ``v*`` at an array of times [m/s] (``ctrl.speeds``); None: no middles (trapezoids).
     before : (float, float), optional
