@@ -118,8 +118,10 @@ def base_stop(ctrl: Any, t: np.ndarray, q: np.ndarray,
     margin, offset = base_margins(ctrl, t, q)
     # the base is leaving the path (its offset grows: the path leaves the rail's line); a base kept at a
     # constant distance beside a path (a rail parallel to it) can turn link 1 steeply for a while and the
-    # body still follows (tests/test_near_singular.py: margin 0.19, |u| < 1.2), so it is not stopped
-    leaving = np.gradient(offset, t) > LEAVING_RATE if len(t) > 1 else np.ones(len(t), bool)
+    # body still follows (tests/test_near_singular.py: margin 0.19, |u| < 1.2), so it is not stopped. A part
+    # of one row (the final state, a step after the last chunk's rows, which were judged) has no trend: not
+    # leaving (it was taken as leaving, which stopped a run beside the path at its very last row)
+    leaving = np.gradient(offset, t) > LEAVING_RATE if len(t) > 1 else np.zeros(len(t), bool)
     low = np.flatnonzero(~(margin >= threshold) & (leaving | ~np.isfinite(margin)))
     if not len(low):
         return None
