@@ -16,7 +16,7 @@ path (evidence: ``tests/test_base_margin.py``).
 A spatial chain (two-axis joints) fails otherwise: link 1 turns towards the path's *tangent*, and the
 roll of the fold plane, held and measured from link 1 (``atan2(n_2 . d_1, n_1 . d_1)``), spins the
 whole body once the base's offset takes the lateral reach link 1 needs to sit in the zig-zag (its
-link margins stay above 0.8; the end margin falls late). Its base margin is
+link margins stay above 0.6; the end margin falls late). Its base margin is
 
 ``1 - |Phi(y^1)| / (xi/2 |d_2 - (d_2 . t) t|)``, at least 0
 
