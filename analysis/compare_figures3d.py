@@ -20,7 +20,7 @@ from matplotlib.lines import Line2D
 import numpy as np
 
 from coordarm.simulation.contact_marks import CONTACT_STYLE, contact_marks, draw_contact_marks
-from coordarm.simulation.s_reference import interval_integrals
+from coordarm.simulation.s_reference import ArcReference
 from coordarm.simulation.figures import stage_indices
 from coordarm.simulation.figures3d import curve_points, draw_view3d, target_points3d
 from coordarm.simulation.obstacles3d import densified, wireframe
@@ -126,8 +126,7 @@ def reference_arc_length(ctrl: Any, t: np.ndarray, s0: float) -> np.ndarray:
     t = np.asarray(t, float)
     if len(t) < 2:
         return np.full(len(t), float(s0))
-    v, mid = ctrl.speeds(t), ctrl.speeds(0.5 * (t[1:] + t[:-1]))
-    return s0 + np.concatenate([[0.0], np.cumsum(interval_integrals(t, v, mid))])
+    return ArcReference(ctrl.speeds).add(t, s0, ctrl.speeds(t))
 
 
 def time_series(run: Any, ctrl: Any, s0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

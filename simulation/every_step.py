@@ -14,7 +14,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .result import Run
-from .s_reference import RunningIntegral, middle_speeds
+from .s_reference import ArcReference
 
 
 def governed_steps(part: Run) -> int:
@@ -37,7 +37,7 @@ class STracking:
     """The largest ``|s - (s(0) + integral of v_scale v*)|`` over every step of a run, fed chunk by chunk.
 
     The reference is :meth:`Run.s_reference`'s on the step grid (Simpson's rule with ``v*`` at each step's
-    middle where the governor left ``v*`` whole, :class:`RunningIntegral`), continued across chunks in the
+    middle where the governor left ``v*`` whole, :class:`~.s_reference.ArcReference`), continued across chunks in the
     same order of summation, so over a run whose every row is kept the two agree to the last bit
     (``tests/test_every_step.py``). The trapezoidal rule alone would report its own error, not the law's:
     3e-8 m on path3d's speed ramp (2 ms steps) against 2e-14 m.
@@ -57,10 +57,7 @@ class STracking:
 
     def __init__(self, speeds: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
         self.max, self.time = 0.0, None
-        self._s0: float | None = None
-        self._integral = RunningIntegral()
-        self._speeds = speeds
-        self._last: tuple[float, float] | None = None       # (t, v_scale) of the last row seen
+        self._reference = ArcReference(speeds)
 
     def add(self, part: Run) -> None:
         """Take the next rows of the run (consecutive steps, following the previous ones).
@@ -73,14 +70,9 @@ class STracking:
         t = np.asarray(part.t, float)
         if not len(t):
             return
-        if self._s0 is None:
-            self._s0 = float(part.s[0])
-        scale = part.speed_factor()
-        middle = middle_speeds(t, scale, self._speeds, self._last)
-        self._last = (float(t[-1]), float(scale[-1]))
-        integral = self._integral.add(t, scale * np.asarray(part.v_star, float), middle)
+        reference = self._reference.add(t, part.s[0], part.v_star, part.speed_factor())
         with np.errstate(invalid="ignore"):              # a state turned non-finite: said below
-            error = np.abs(np.asarray(part.s, float) - (self._s0 + integral))
+            error = np.abs(np.asarray(part.s, float) - reference)
         bad = ~np.isfinite(error)
         if bad.any() and not math.isnan(self.max):   # the first non-finite error is the run's (and stays)
             self.max, self.time = float("nan"), float(t[np.argmax(bad)])

@@ -21,6 +21,7 @@ import numpy as np
 from .contact_marks import contact_marks, draw_contact_marks, ended_note, recorded_contacts
 from .figures import FLOOR, decay_reference, envelope_indices, legend_beside, stage_indices
 from .obstacles3d import densified, wireframe
+from .s_reference import ArcReference
 from .spatial_view import clip_to_box, rail_ends, roll_command, span_command, spatial_joints, view_box
 
 #: Projections drawn beside the 3-D view: (title, the two coordinates shown).
@@ -47,11 +48,9 @@ def reference_arc_length(run: Any, speeds: Any = None) -> np.ndarray:
     """
     if callable(getattr(run, "s_reference", None)):
         return run.s_reference(speeds)
-    t, v = np.asarray(run.t, float), np.asarray(run.v_star, float)
     scale = getattr(run, "v_scale", None)
-    if scale is not None:
-        v = np.where(np.isfinite(scale), scale, 1.0) * v
-    return float(run.s[0]) + np.concatenate([[0.0], np.cumsum(0.5 * np.diff(t) * (v[1:] + v[:-1]))])
+    scale = None if scale is None else np.where(np.isfinite(scale), scale, 1.0)
+    return ArcReference().add(run.t, run.s[0], run.v_star, scale)
 
 
 def target_points3d(ctrl: Any, s_ref: np.ndarray, times: np.ndarray) -> np.ndarray | None:

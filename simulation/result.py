@@ -9,7 +9,7 @@ import numpy as np
 from coordarm.symbolic.records import record
 
 from .log_layout import ARRAYS, OPTIONAL, ChainLayout, layout_of_arrays
-from .s_reference import RunningIntegral, middle_speeds
+from .s_reference import ArcReference
 
 
 class ExtraOutputs:
@@ -199,9 +199,7 @@ class Run(ExtraOutputs):
         ndarray, shape (N+1,)
             The arc length the end point should have [m] (the governed speed when governed).
         """
-        scale = self.speed_factor()
-        middle = middle_speeds(np.asarray(self.t, float), scale, speeds)
-        return self.s[0] + RunningIntegral().add(self.t, scale * self.v_star, middle)
+        return ArcReference(speeds).add(self.t, self.s[0], self.v_star, self.speed_factor())
 
     def max_s_tracking_error(self) -> float:
         """The largest ``|s - s_reference|`` of the run.

@@ -116,3 +116,50 @@ def middle_speeds(t: np.ndarray, scale: np.ndarray, speeds: Callable[[np.ndarray
     return out
 
 
+
+
+class ArcReference:
+    """``s(0) + integral of scale v*`` on a run's rows, fed block by block: the one reference of the summary's s
+    tracking, :meth:`~.result.Run.s_reference`, the scene's target and the figures.
+
+    Simpson's rule with ``v*`` at the middle of each step where ``scale`` (the governor's factor) is 1 at both
+    ends (``speeds`` given), else the trapezoidal rule (:class:`RunningIntegral`, :func:`middle_speeds`).
+
+    Parameters
+    ----------
+    speeds : callable, optional
+        ``v*`` at an array of times [m/s] (``ctrl.speeds``); None: the trapezoidal rule.
+    """
+
+    def __init__(self, speeds: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+        self.s0: float | None = None
+        self._speeds = speeds
+        self._integral = RunningIntegral()
+        self._last: tuple[float, float] | None = None       # (t, scale) of the last row seen
+
+    def add(self, t: np.ndarray, s0: float, v_star: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
+        """The reference at each row of the next block (consecutive rows, following the previous block's).
+
+        Parameters
+        ----------
+        t : ndarray, shape (N,)
+            Times [s] (N >= 1).
+        s0 : float
+            ``s`` at the first row of the run [m] (read from the first block only).
+        v_star : ndarray, shape (N,)
+            Commanded speed at the rows [m/s].
+        scale : ndarray, shape (N,), optional
+            The governor's factor on ``v*`` at the rows (default 1: the commanded ``v*``).
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            ``s(0) + integral of scale v*`` [m].
+        """
+        t = np.asarray(t, float)
+        scale = np.ones(len(t)) if scale is None else np.asarray(scale, float)
+        if self.s0 is None:
+            self.s0 = float(s0)
+        middle = middle_speeds(t, scale, self._speeds, self._last)
+        self._last = (float(t[-1]), float(scale[-1]))
+        return self.s0 + self._integral.add(t, scale * np.asarray(v_star, float), middle)

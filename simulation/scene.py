@@ -28,7 +28,7 @@ from coordarm.symbolic import CoordinatingController
 from coordarm.symbolic.curves import Line
 from coordarm.symbolic.function_buffer import BufferedFunction
 
-from .s_reference import RunningIntegral, middle_speeds
+from .s_reference import ArcReference
 from .frame_transforms import end_frames_json, frame_transforms_json, stamp_slots, stamps
 from .frame_transforms import link_frames  # noqa: F401 (re-exported: coordarm.simulation.scene.link_frames)
 from .json_fill import JsonTemplate, digits_kernel
@@ -369,9 +369,7 @@ class SceneBuilder:
         self._scene_templates: dict[tuple[int, int], JsonTemplate] = {}
         self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve (False: none)
         self._line_maps: dict[int, BufferedFunction] = {}   # it mapped over k times, by k
-        self._s0: float | None = None
-        self._integral = RunningIntegral()      # of v* over the steps seen
-        self._last: tuple[float, float] | None = None         # (t, 1) of the last step seen
+        self._reference: ArcReference = ArcReference(ctrl.speeds)     # of v* over the steps seen
         self.s_target = np.empty(0)
 
     def advance(self, part: Run) -> np.ndarray:
@@ -379,7 +377,7 @@ class SceneBuilder:
 
         The integral is Simpson's rule on the step grid with ``v*`` at each step's middle, summed in
         the same order as :meth:`~.result.Run.s_reference` given ``ctrl.speeds``
-        (:class:`~.s_reference.RunningIntegral`), so the two agree to the last bit on an ungoverned run
+        (:class:`~.s_reference.ArcReference`), so the two agree to the last bit on an ungoverned run
         (the target is of the commanded ``v*``, not the governed one).
 
         Parameters
@@ -392,13 +390,7 @@ class SceneBuilder:
         ndarray, shape (N,)
             The target arc length at each row of ``part`` [m].
         """
-        if self._s0 is None:
-            self._s0 = float(part.s[0])
-        t = np.asarray(part.t, float)
-        middle = middle_speeds(t, np.ones(len(t)), self.ctrl.speeds, self._last)
-        self._last = (float(t[-1]), 1.0)
-        integral = self._integral.add(t, part.v_star, middle)
-        self.s_target = self._s0 + integral
+        self.s_target = self._reference.add(part.t, part.s[0], part.v_star)
         return self.s_target
 
     def curves(self, times: np.ndarray) -> list[np.ndarray]:

@@ -178,8 +178,11 @@ class BaseOffPathError(SingularityError):
         -------
         str
         """
-        return next(f"{self.margin:.{n}g}" for n in (3, 4, 6, 17)
-                    if float(f"{self.margin:.{n}g}") < self.threshold or n == 17)
+        for digits in (3, 4, 6):
+            text = f"{self.margin:.{digits}g}"
+            if float(text) < self.threshold:
+                return text
+        return repr(self.margin)
 
     def __reduce__(self):
         return (BaseOffPathError, (self.time, self.margin, self.threshold, self.d, self.offset, None, self.spatial))
