@@ -142,7 +142,9 @@ def crc32_function() -> Callable[..., int]:
 def open_locked(path: Path) -> BinaryIO:
     """Open ``path`` for writing, emptied, holding an exclusive lock (``flock``) until it is closed.
 
-    The lock goes with the process: a killed writer leaves no stale lock behind.
+    The lock goes with the process: a killed writer leaves no stale lock behind. Only a file that is not
+    empty is truncated: ext4 (its ``auto_da_alloc``) writes a truncated file out as it is closed, which made
+    the close of a 41 MB log take 18-30 ms (``strace -T``) at the end of ``coordarm run``, against 0-3 ms.
 
     Parameters
     ----------
@@ -168,7 +170,8 @@ def open_locked(path: Path) -> BinaryIO:
     except BaseException:
         os.close(fd)
         raise
-    os.ftruncate(fd, 0)
+    if os.fstat(fd).st_size:
+        os.ftruncate(fd, 0)
     return os.fdopen(fd, "wb")
 
 

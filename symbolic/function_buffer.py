@@ -78,3 +78,58 @@ class BufferedFunction:
                 buffer.set_res(i, memoryview(r))
             bound = self._local.bound = (evaluate, args, results, buffer)
         return bound[:3]
+
+
+#: Points per evaluation of a :class:`PointwiseFunction`: its expanded map is built once (about 1 ms for a
+#: speed profile of 20 operations) and a 2000-step chunk takes eight calls of it.
+POINTWISE_BLOCK = 256
+
+
+class PointwiseFunction:
+    """A Function of one point (one column per input) evaluated at any number of points, a block at a time.
+
+    ``function.map(n)`` costs a new Function for each ``n`` and about 0.1 us of overhead a point (the
+    speed at a 2000-step chunk's times: 0.27 ms, on a spatial chain 0.7-1.1 ms with the map made anew). Here one
+    map of :data:`POINTWISE_BLOCK` points, expanded into one SX Function, is built once and called through a :class:`BufferedFunction` on the points in blocks (the last block
+    padded with copies of the last point): the same operations on each point, the same bits as
+    ``function.map(n)`` (``tests/test_function_buffer.py``), 4-9x faster (0.04-0.12 ms).
+
+    Parameters
+    ----------
+    function : casadi.Function
+        Dense inputs of one column each (``size_in(i) == (rows_i, 1)``) and dense outputs of one column.
+    block : int
+        Points per evaluation.
+    """
+
+    def __init__(self, function: ca.Function, block: int = POINTWISE_BLOCK) -> None:
+        self.function, self.block = function, int(block)
+        # expanded: one SX Function, no per-point call inside the map (what SX cannot hold, e.g. a Python
+        # callback, stays a call node in it)
+        self._evaluate = BufferedFunction(function.map(self.block).expand())
+        self._rows_in = [function.size1_in(i) for i in range(function.n_in())]
+
+    def __call__(self, *inputs: Any) -> list[np.ndarray]:
+        """The outputs at ``n`` points: ``[np.asarray(v) for v in function.map(n).call(inputs)]``.
+
+        Parameters
+        ----------
+        *inputs : array_like
+            One per input of the Function, of shape ``(rows_i, n)`` (a 1-D array: one row).
+
+        Returns
+        -------
+        list of ndarray
+            One float array per output, of shape ``(rows_j, n)``.
+        """
+        arrays = [np.asarray(x, float).reshape(rows, -1) for x, rows in zip(inputs, self._rows_in)]
+        n, block = arrays[0].shape[1], self.block
+        if n == 0:
+            return [np.empty((self.function.size1_out(j), 0)) for j in range(self.function.n_out())]
+        padded = []
+        for a in arrays:
+            p = np.empty((a.shape[0], -(-n // block) * block))
+            p[:, :n], p[:, n:] = a, a[:, -1:]
+            padded.append(p)
+        pieces = [self._evaluate(*(p[:, i:i + block] for p in padded)) for i in range(0, padded[0].shape[1], block)]
+        return [np.concatenate([piece[j] for piece in pieces], axis=1)[:, :n] for j in range(len(pieces[0]))]

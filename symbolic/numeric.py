@@ -100,7 +100,7 @@ class NumericAPI:
             Commanded speeds [m/s].
         """
         T = np.atleast_1d(np.asarray(T, float))
-        return self.task.buffered("speed", len(T))(T[None])[0].ravel()
+        return self.task.pointwise("speed")(T)[0].ravel()
 
     def decoupling_matrices(self, Q, T, geometry: dict[str, np.ndarray] | None = None
                             ) -> tuple[np.ndarray, np.ndarray]:

@@ -21,6 +21,7 @@ import numpy as np
 
 from .checks import is_real
 from .errors import ConfigError
+from .function_buffer import PointwiseFunction
 from .law_face import LawFace, condition_numbers
 from .laws import LAWS
 from .motions import Constant
@@ -171,9 +172,11 @@ class SpatialController(LawFace):
         return self._cache[key]
 
     def _commands(self, name: str, T: Any) -> np.ndarray:
-        """The command ``name`` (``"speed"`` or ``"roll"``) at each of the times ``T``, in one mapped call."""
-        T = np.atleast_1d(np.asarray(T, float))
-        return np.asarray(self._command_function(name).map(len(T))(T[None])).ravel()
+        """The command ``name`` (``"speed"`` or ``"roll"``) at each of the times ``T`` (a :class:`PointwiseFunction`)."""
+        key = ("pointwise", name)
+        if key not in self._cache:
+            self._cache[key] = PointwiseFunction(self._command_function(name))
+        return self._cache[key](np.atleast_1d(np.asarray(T, float)))[0].ravel()
 
     def speeds(self, T: Any) -> np.ndarray:
         """``v*(t)`` at each of the times ``T``, in one call.

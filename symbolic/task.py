@@ -14,7 +14,7 @@ import casadi as ca
 
 from .curves import Arc, Circle, Curve, Line
 from .errors import ConfigError
-from .function_buffer import BufferedFunction
+from .function_buffer import BufferedFunction, PointwiseFunction
 
 #: Output names of the geometry Functions, in order.
 GEOMETRY_OUTPUTS = ("phi", "gphi", "phit", "psi", "gpsi", "psit")
@@ -232,6 +232,24 @@ class Task:
                     "span_rate": self.span_rate_function}[name]
             fn = make()
             self._cache[key] = fn.map(n) if n > 1 else fn
+        return self._cache[key]
+
+    def pointwise(self, name: str) -> PointwiseFunction:
+        """One of the Functions of :meth:`mapped` evaluated at any number of points, a block at a time (cached).
+
+        Parameters
+        ----------
+        name : {"geometry", "speed", "span_rate"}
+            The Function (see :meth:`mapped`).
+
+        Returns
+        -------
+        PointwiseFunction
+            Called with arrays of ``n`` columns; returns the outputs at the ``n`` points, as ``mapped(name, n)``.
+        """
+        key = ("pointwise", name)
+        if key not in self._cache:
+            self._cache[key] = PointwiseFunction(self.mapped(name, 1))
         return self._cache[key]
 
     def buffered(self, name: str, n: int) -> BufferedFunction:

@@ -1,6 +1,7 @@
 """A CasADi Function called through a reused buffer against its plain call, bit for bit: mapped and unmapped,
 several inputs and outputs, the geometry Function of a controller, the fallbacks (sparse outputs, other input
-shapes), results that later calls leave alone, two threads at once and a pickled copy."""
+shapes), results that later calls leave alone, two threads at once and a pickled copy; a one-point Function
+evaluated a block at a time (PointwiseFunction) against its map over all the points."""
 from __future__ import annotations
 
 import pickle
@@ -11,7 +12,8 @@ import numpy as np
 import pytest
 
 from coordarm.simulation.scenario import load_scenario
-from coordarm.symbolic.function_buffer import BufferedFunction
+from coordarm.simulation.choices import presets
+from coordarm.symbolic.function_buffer import BufferedFunction, PointwiseFunction
 
 
 def plain(function, *inputs):
@@ -93,3 +95,66 @@ def test_a_pickled_copy_calls_like_the_original():
     buffered(y, t)
     copy = pickle.loads(pickle.dumps(buffered))
     assert_same(copy(y, t), plain(function, y, t))
+
+
+def mapped_call(function, n, *inputs):
+    """``function.map(n)`` called as CasADi calls it (DM in, DM out)."""
+    return plain(function.map(n) if n > 1 else function, *inputs)
+
+
+@pytest.mark.parametrize("name", ["swing", "two"])
+@pytest.mark.parametrize("n", [1, 2, 7, 255, 256, 257, 2000])
+def test_a_pointwise_function_is_its_map_over_every_point_bit_for_bit(name, n, rng):
+    """Blocks of 16 points (full, partial, one) and the padded last block give what one map over the n points
+    gives, to the last bit, for one and two inputs and outputs of several rows."""
+    function, shapes = _functions()[name]
+    inputs = [rng.uniform(-3, 3, (rows, n)) for rows, _ in shapes]
+    got = PointwiseFunction(function, block=16)(*inputs)
+    want = mapped_call(function, n, *inputs)
+    assert [g.shape for g in got] == [w.shape for w in want]
+    for g, w in zip(got, want):
+        assert g.tobytes() == np.ascontiguousarray(w).tobytes()
+
+
+class Squared(ca.Callback):
+    """A Python callback: an operation SX cannot hold (the expanded map calls it)."""
+
+    def __init__(self):
+        ca.Callback.__init__(self)
+        self.construct("squared", {})
+
+    def get_n_in(self):
+        return 1
+
+    def get_n_out(self):
+        return 1
+
+    def eval(self, args):
+        return [args[0] ** 2]
+
+
+def test_a_pointwise_function_of_a_python_callback_is_its_map(rng):
+    """An MX Function calling a Python callback: its expanded map keeps the call, with the map's results."""
+    callback = Squared()
+    t = ca.MX.sym("t")
+    function = ca.Function("called_back", [t], [callback(t) * 2 + ca.sin(t)])
+    times = rng.uniform(0, 10, 37)
+    got = PointwiseFunction(function, block=8)(times)[0]
+    assert got.tobytes() == np.ascontiguousarray(mapped_call(function, 37, times[None])[0]).tobytes()
+    assert PointwiseFunction(function, block=8)(np.empty(0))[0].shape == (1, 0)
+
+
+@pytest.mark.parametrize("preset", presets())
+def test_every_presets_commands_are_their_functions_map(preset):
+    """``speeds`` (and a spatial chain's ``roll_targets``) at a chunk's 2000 step times and 1999 middles are the
+    command Function mapped over them, bit for bit: the s reference and the log's ``v_star`` do not move."""
+    ctrl = load_scenario(preset).controller()
+    times = 0.3 + 0.001 * np.arange(2000)
+    for points in (times, 0.5 * (times[1:] + times[:-1])):
+        if hasattr(ctrl, "roll_targets"):
+            pairs = [(ctrl.speeds, ctrl._command_function("speed")), (ctrl.roll_targets, ctrl._command_function("roll"))]
+        else:
+            pairs = [(ctrl.speeds, ctrl.task.mapped("speed", 1))]
+        for evaluate, function in pairs:
+            want = np.asarray(mapped_call(function, len(points), points[None])[0]).ravel()
+            assert evaluate(points).tobytes() == want.tobytes()

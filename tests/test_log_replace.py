@@ -7,7 +7,7 @@ import pytest
 
 import coordarm
 from coordarm.simulation.file_replace import exchange, replace, wait_released
-from coordarm.simulation.mcap_file import McapFile
+from coordarm.simulation.mcap_file import McapFile, open_locked
 
 from test_session import read_log
 
@@ -93,6 +93,24 @@ def test_a_regular_file_is_swapped_in_then_its_old_name_removed_with_no_rename_o
         assert _releasing() == [] and _open_fds() == before
     finally:
         os.close(held)
+
+
+def test_a_new_log_is_not_truncated_and_a_left_over_one_is_emptied(tmp_path, monkeypatch):
+    """A new file is opened as it is (a truncation makes ext4 write the whole log out when it is closed); the
+    partial file a killed run left behind is emptied under the lock before anything is written."""
+    left = tmp_path / "left.partial"
+    left.write_bytes(b"a killed run's records " * 1000)
+    with open_locked(left) as f:
+        assert os.fstat(f.fileno()).st_size == 0
+        f.write(b"new")
+    assert left.read_bytes() == b"new"
+
+    def no_truncate(*args):
+        raise AssertionError("a new, empty file truncated")
+    monkeypatch.setattr(os, "ftruncate", no_truncate)
+    with open_locked(tmp_path / "new.partial") as f:
+        f.write(b"new")
+    assert (tmp_path / "new.partial").read_bytes() == b"new"
 
 
 def exchange_supported(folder) -> bool:
