@@ -363,7 +363,7 @@ class CompiledController:
             self._fail(rc, t)
         return self._qn.copy()
 
-    def chunk(self, q0, times: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    def chunk(self, q0, times: np.ndarray, h: float, *, with_start: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """RK4 steps of length ``h`` starting at each of ``times``, all in one call of C.
 
         Parameters
@@ -374,11 +374,14 @@ class CompiledController:
             Start time of each step [s] (step k runs from ``times[k]`` to ``times[k] + h``).
         h : float
             Step length [s].
+        with_start : bool
+            Return the states with ``q0`` as their first row, ``(N + 1, n)``: ``Q[:-1]`` are the states at
+            the steps' starts and ``Q[1:]`` after them, both views (no copy of a chunk's states).
 
         Returns
         -------
         Q : (N, n) ndarray
-            State after each step.
+            State after each step (``with_start``: ``(N + 1, n)``, ``q0`` first).
         D : (N, n_out) ndarray
             The law at each step's start, packed (split it with
             :func:`coordarm.symbolic.outputs.split`; a spatial law's with
@@ -395,12 +398,13 @@ class CompiledController:
         self._load_q(q0)
         times, h = chunk_grid(times, h)
         n = len(times)
-        Q, D = np.empty((n, self.n)), np.empty((n, self.n_out))
+        S, D = np.empty((n + 1, self.n)), np.empty((n, self.n_out))
         p = self._ptr
-        rc = self._chunk_c(p[0], times.ctypes.data, h, n, Q.ctypes.data, D.ctypes.data, p[2], p[3])
+        S[0] = self._q                 # q0 as C reads it
+        rc = self._chunk_c(p[0], times.ctypes.data, h, n, S[1:].ctypes.data, D.ctypes.data, p[2], p[3])
         if rc:      # h and the times are checked above: only a failing generated Function is left
             self._fail(rc, float(times[0]) if n else 0.0)
-        return Q, D
+        return (S if with_start else S[1:]), D
 
     def __repr__(self) -> str:
         return (f"CompiledController({self.ctrl!r}, form={self.form!r}, library={str(self.library.path)!r}, "

@@ -54,8 +54,31 @@ def first_violation(link_margins: np.ndarray, longitudinal: np.ndarray,
     return margin_violation({"link_margins": link_margins, "longitudinal": longitudinal}, PLANAR.margins, thresholds)
 
 
-def margin_violation(arrays: Any, checks: tuple[MarginCheck, ...],
-                     thresholds: dict[str, float]) -> tuple[int, str, int | None, float] | None:
+def margin_lows(arrays: Any, checks: tuple[MarginCheck, ...]) -> dict[str, np.ndarray]:
+    """Each margin's smallest value at each row (NaN where a value of the row is NaN), by array name.
+
+    Parameters
+    ----------
+    arrays : mapping of str to ndarray
+        The margin arrays by name, ``(n,)`` or ``(n, k)`` [-] (a Run's attributes or a dict).
+    checks : tuple of MarginCheck
+        The margins (:attr:`~.log_layout.ChainLayout.margins`).
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n,)
+        ``np.min(values, axis=1)`` of a 2-D margin, the values themselves of a 1-D one [-].
+    """
+    get = arrays.get if isinstance(arrays, dict) else lambda name: getattr(arrays, name)
+    out = {}
+    for c in checks:
+        values = np.asarray(get(c.array))
+        out[c.array] = np.min(values, axis=1) if values.ndim == 2 else values
+    return out
+
+
+def margin_violation(arrays: Any, checks: tuple[MarginCheck, ...], thresholds: dict[str, float],
+                     lows: dict[str, np.ndarray] | None = None) -> tuple[int, str, int | None, float] | None:
     """First row where a margin of ``checks`` is below its threshold or not finite: ``(row, kind, index, margin)``.
 
     Parameters
@@ -67,6 +90,8 @@ def margin_violation(arrays: Any, checks: tuple[MarginCheck, ...],
         first bad one in this order is reported.
     thresholds : dict
         ``{"link": .., "longitudinal": ..}`` margin thresholds [-].
+    lows : dict, optional
+        :func:`margin_lows` of ``arrays`` (computed here when not given).
 
     Returns
     -------
@@ -76,16 +101,13 @@ def margin_violation(arrays: Any, checks: tuple[MarginCheck, ...],
         is above every threshold.
     """
     get = arrays.get if isinstance(arrays, dict) else lambda name: getattr(arrays, name)
-    lows = []
-    for c in checks:
-        values = np.asarray(get(c.array))
-        low = np.min(values, axis=1) if values.ndim == 2 else values
-        lows.append((c, values, ~(low >= thresholds[c.threshold])))
-    bad = np.logical_or.reduce([b for _, _, b in lows])
+    lows = margin_lows(arrays, checks) if lows is None else lows
+    below = [(c, np.asarray(get(c.array)), ~(lows[c.array] >= thresholds[c.threshold])) for c in checks]
+    bad = np.logical_or.reduce([b for _, _, b in below])
     if not bad.any():
         return None
     k = int(np.argmax(bad))
-    c, values, _ = next(x for x in lows if x[2][k])
+    c, values, _ = next(x for x in below if x[2][k])
     if values.ndim == 1:
         return k, c.kind, None, float(values[k])
     j = int(np.nanargmin(values[k])) if np.isfinite(values[k]).any() else 0
@@ -238,7 +260,8 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
         part, Q, n = next_part(loop, q, k)
         part.s = unwrap_s(loop.ctrl.curve, part.t, part.s, prev)
         prev = (float(part.t[-1]), float(part.s[-1]))
-        stop = _first_stop(part, k, loop, contacts)
+        lows = margin_lows(part, loop.layout.margins)     # each margin's smallest value per row, once
+        stop = _first_stop(part, k, loop, contacts, lows)
         fast = rates.update(part.t[:len(part.t) if stop is None else stop[0] + 1],
                             part.u[:len(part.t) if stop is None else stop[0] + 1])
         if fast is not None and (stop is None or fast[0] < stop[0]):
@@ -255,7 +278,7 @@ def integrate(loop: Stepping, q0: np.ndarray, info: dict, on_chunk: Callable[[Ru
                                                        steps=k + row, wall_time=_time.perf_counter() - wall,
                                                        governed=governed + governed_steps(part) * loop.step,
                                                        **tracking.info()))
-        kept.add(part, k)
+        kept.add(part, k, lows)
         tracking.add(part)
         governed += governed_steps(part) * loop.step
         if on_chunk:
@@ -297,8 +320,8 @@ def next_part(loop: Stepping, q: np.ndarray, k: int) -> tuple[Run, np.ndarray | 
     if k < loop.n_steps:
         n = min(loop.chunk, loop.n_steps - k)
         times = loop.t0 + loop.step * np.arange(k, k + n)
-        Q, outs = _advance(ctrl, loop.compiled, q, times, loop.step, loop.layout)
-        return Run.from_arrays(dict(outs, t=times, q=np.vstack([q[None], Q[:-1]]), **commands(ctrl, times))), Q, n
+        S, outs = _advance(ctrl, loop.compiled, q, times, loop.step, loop.layout)
+        return Run.from_arrays(dict(outs, t=times, q=S[:-1], **commands(ctrl, times))), S[1:], n
     t_end = loop.t0 + loop.step * loop.n_steps
     final = (loop.compiled or ctrl).evaluate(q, t_end)
     return Run.from_arrays({a: np.asarray(v)[None] for a, v in
@@ -364,15 +387,17 @@ def _records(contacts: list) -> list[dict]:
     return [c.to_dict() for c in contacts]
 
 
-def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int, CoordarmError] | None:
-    """The first row of ``part`` (global step ``k`` at row 0) where the run must stop, and why.
+def _first_stop(part: Run, k: int, loop: Stepping, contacts: list,
+                lows: dict[str, np.ndarray] | None = None) -> tuple[int, CoordarmError] | None:
+    """The first row of ``part`` (global step ``k`` at row 0) where the run must stop, and why (``lows``:
+    :func:`margin_lows` of ``part``).
 
     A contact at or before the first singular row wins. With ``allow_contact`` the first
     contact of every (kind, links, obstacle) is appended to ``contacts`` instead.
     """
     thr, tube, physical = loop.thresholds, loop.tube, loop.physical
     stop = None
-    bad = margin_violation(part, loop.layout.margins, thr)
+    bad = margin_violation(part, loop.layout.margins, thr, lows)
     if bad is not None:
         row, kind, link, margin = bad
         stop = row, SingularityError(part.t[row], link, margin, kind, thr[loop.layout.threshold_key(kind)])
@@ -422,18 +447,19 @@ def _first_stop(part: Run, k: int, loop: Stepping, contacts: list) -> tuple[int,
 
 
 def _advance(ctrl, compiled, q, times, step, layout):
-    """RK4 steps from ``q`` at each of ``times``: states after each step (rows) and the law's
-    run outputs (``layout.run_outputs``) at each start (dict of row blocks)."""
+    """RK4 steps from ``q`` at each of ``times``: the states, ``q`` then after each step (rows, ``(n + 1, dof)``),
+    and the law's run outputs (``layout.run_outputs``) at each start (dict of row blocks)."""
     if compiled is not None:
-        Q, D = compiled.chunk(q, times, step)
+        S, D = compiled.chunk(q, times, step, with_start=True)
         d = split(D, ctrl.chain.m, ctrl.chain.rail) if layout is PLANAR else spatial_split(D, ctrl.chain.m, ctrl.chain.rail)
-        return Q, {a: d[a] for a in ctrl.run_outputs}
+        return S, {a: d[a] for a in ctrl.run_outputs}
     Q, *outs = (np.asarray(x) for x in chunk_function(ctrl, step, len(times))(q, times))
     scalars = getattr(ctrl, "SCALAR_OUTPUTS", layout.scalars)          # a spatial rail adds sigma, rail_margin
-    return Q.T, {a: (v.ravel() if a in scalars else v.T) for a, v in zip(ctrl.run_outputs, outs)}
+    return np.vstack([q[None], Q.T]), {a: (v.ravel() if a in scalars else v.T) for a, v in zip(ctrl.run_outputs, outs)}
 
 
-def kept_rows(part: Run, k0: int, every: int, chain: Any = None) -> np.ndarray | slice:
+def kept_rows(part: Run, k0: int, every: int, chain: Any = None,
+              lows: dict[str, np.ndarray] | None = None) -> np.ndarray | slice:
     """Rows of ``part`` (steps ``k0, k0+1, ...``) kept in memory: every ``every``-th, the extremes, the last.
 
     Parameters
@@ -447,6 +473,8 @@ def kept_rows(part: Run, k0: int, every: int, chain: Any = None) -> np.ndarray |
     chain : Chain or SpatialChain, optional
         The run's chain: keep also the rows of :func:`~.every_step.summary_rows` (the largest joint
         angle against its limit, the largest roll tracking error).
+    lows : dict, optional
+        :func:`margin_lows` of ``part`` (computed here when not given).
 
     Returns
     -------
@@ -458,9 +486,8 @@ def kept_rows(part: Run, k0: int, every: int, chain: Any = None) -> np.ndarray |
     if every == 1 or n == 0:
         return slice(None)
     keep = (k0 + np.arange(n)) % every == 0
-    for c in part.layout.margins:
-        v = np.asarray(getattr(part, c.array))
-        keep[np.argmin(np.min(v, axis=1) if v.ndim == 2 else v)] = True
+    for low in (margin_lows(part, part.layout.margins) if lows is None else lows).values():
+        keep[np.argmin(low)] = True
     keep[np.argmax(np.max(np.abs(part.u), axis=1))] = True
     if chain is not None:
         keep[summary_rows(part, chain)] = True
@@ -488,7 +515,7 @@ class KeptRows:
         self.arrays: dict[str, np.ndarray] = {}
         self.n = 0
 
-    def add(self, part: Run, k0: int) -> None:
+    def add(self, part: Run, k0: int, lows: dict[str, np.ndarray] | None = None) -> None:
         """Keep the rows of ``part`` (global steps ``k0, k0+1, ...``) that :func:`kept_rows` selects.
 
         Parameters
@@ -497,8 +524,10 @@ class KeptRows:
             One chunk's rows (or the final state's one row).
         k0 : int
             Global step of its first row.
+        lows : dict, optional
+            :func:`margin_lows` of ``part`` (computed when not given).
         """
-        rows = kept_rows(part, k0, self.every, self.chain)
+        rows = kept_rows(part, k0, self.every, self.chain, lows)
         names = part.array_names()
         if not self.arrays:
             self.arrays = {a: np.empty((self.capacity,) + np.shape(v)[1:], dtype=np.asarray(v).dtype)

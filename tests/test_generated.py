@@ -138,6 +138,10 @@ def test_compiled_rk4_step_and_chunk_agree_with_the_interpreted_step(kind, rng):
             np.testing.assert_allclose(np.atleast_1d(d[name]), ref, rtol=1e-12, atol=1e-12, err_msg=name)
         x = res[0]
         np.testing.assert_allclose(Q[k], x, rtol=1e-12, atol=1e-12)
+    S, D2 = comp.chunk(q, times, h, with_start=True)     # the start first, then the same states, no copy
+    assert S.shape == (len(times) + 1, len(q)) and S[0].tobytes() == np.asarray(q, float).tobytes()
+    assert S[1:].tobytes() == Q.tobytes() and D2.tobytes() == D.tobytes()
+    assert np.shares_memory(S[:-1], S[1:])
 
 
 def test_generated_code_does_not_grow_with_the_number_of_links():

@@ -110,6 +110,28 @@ def test_kept_rows_of_a_logged_run_are_the_rows_the_rule_picks_from_the_full_run
     np.testing.assert_array_equal(kept.speed_factor(), full.speed_factor()[index])
 
 
+def test_margin_lows_are_each_rows_smallest_margin_and_decide_like_the_arrays(rng):
+    """``margin_lows`` against a row-by-row Python minimum (NaN where the row has one); the first violation
+    found from them is the one found from the arrays alone, at random thresholds, with NaNs and infinities."""
+    from coordarm.simulation.log_layout import PLANAR
+    from coordarm.simulation.stepping import margin_lows, margin_violation
+    checks = PLANAR.margins
+    for _ in range(50):
+        n = int(rng.integers(1, 40))
+        arrays = {"link_margins": rng.uniform(0, 1, (n, 7)), "longitudinal": rng.uniform(0, 1, n)}
+        for a in arrays.values():
+            a.flat[rng.integers(0, a.size, int(rng.integers(0, 3)))] = rng.choice([np.nan, np.inf, -np.inf])
+        lows = margin_lows(arrays, checks)
+        rows = [float("nan") if any(v != v for v in r) else min(r) for r in arrays["link_margins"].tolist()]
+        np.testing.assert_array_equal(lows["link_margins"], rows)
+        assert lows["longitudinal"] is arrays["longitudinal"]
+        thr = {"link": float(rng.uniform(0, 0.3)), "longitudinal": float(rng.uniform(0, 0.3))}
+        got, want = margin_violation(arrays, checks, thr, lows), margin_violation(arrays, checks, thr)
+        assert (got is None) == (want is None)
+        if got is not None:       # (row, kind, link, margin): the margin compared as bits (NaN equals NaN)
+            assert got[:3] == want[:3] and np.float64(got[3]).tobytes() == np.float64(want[3]).tobytes()
+
+
 def test_link_singularity_stops_naming_the_link():
     chain = PlanarChain(8, 0.1)
     ctrl = CoordinatingController(chain, Line(angle=lambda t: 0.3 * ca.sin(t)), 2.0, -0.05)
