@@ -39,6 +39,7 @@ class JointRates:
     per_joint: int = 1
     peaks: dict = field(default_factory=dict)
     _last = None                 # the previous update's last row (t, u): not a field
+    _acc = None                  # the accelerations' array, kept from block to block: not a field
 
     def update(self, t: np.ndarray, u: np.ndarray) -> tuple[int, JointRateError] | None:
         """Take the next rows ``(t, u)`` of the run; the first row beyond a limit, and its error.
@@ -57,20 +58,20 @@ class JointRates:
         """
         if len(t) == 0:
             return None
-        tt, uu = (np.r_[self._last[0], t], np.vstack([self._last[1], u])) if self._last else (t, u)
-        shift = 1 if self._last else 0
-        self._last = (t[-1:], u[-1:])
+        last, self._last = self._last, (t[-1:], u[-1:])
+        tt = np.r_[last[0], t] if last else t           # the previous block's last row first: its step ends here
+        shift = 1 if last else 0
         r = int(self.rail)
-        rev = uu[:, r:]
+        rev = u[:, r:]
         stop = None
-        if self.rate_limit is not None:
+        if self.rate_limit is not None:                 # (the previous last row was checked with its block)
             bad = np.argwhere(np.abs(rev) > self.rate_limit)
             if len(bad):
                 k, j = bad[0]
-                stop = (int(k), JointRateError(float(tt[k]), int(j) // self.per_joint + 1, float(abs(rev[k, j])),
-                                               self.rate_limit, "rate"))
-        acc = np.subtract(rev[1:], rev[:-1])                             # step k ends at row k + 1
-        np.divide(np.abs(acc, out=acc), np.diff(tt)[:, None], out=acc)  # (in place: no fresh pages per block)
+                stop = (int(k) + shift, JointRateError(float(t[k]), int(j) // self.per_joint + 1, float(abs(rev[k, j])),
+                                                       self.rate_limit, "rate"))
+        acc = self._steps(last[1][:, r:] if last else None, rev)        # step k ends at row k + 1 of tt
+        np.divide(np.abs(acc, out=acc), np.diff(tt)[:, None], out=acc)
         if self.accel_limit is not None:
             bad = np.argwhere(acc > self.accel_limit)
             if len(bad) and (stop is None or bad[0][0] + 1 < stop[0]):
@@ -78,11 +79,25 @@ class JointRates:
                 stop = (int(k) + 1, JointRateError(float(tt[k + 1]), int(j) // self.per_joint + 1, float(acc[k, j]),
                                                    self.accel_limit, "accel"))
         end = len(tt) if stop is None else stop[0] + 1                   # the peaks up to the stop only
-        self._peaks(tt[:end], uu[:end], acc[:end - 1])
+        rail = (np.r_[last[1][:, 0], u[:, 0]] if last else u[:, 0])[:end] if self.rail else None
+        self._peaks(tt[:end], rail, acc[:end - 1])
         return None if stop is None else (stop[0] - shift, stop[1])
 
-    def _peaks(self, tt: np.ndarray, uu: np.ndarray, acc: np.ndarray) -> None:
-        """Raise the peaks with the steps between the rows ``tt`` (``acc`` their revolute accelerations)."""
+    def _steps(self, before: np.ndarray | None, rows: np.ndarray) -> np.ndarray:
+        """``rows[k+1] - rows[k]`` (``before``: the row before ``rows[0]`` first), into an array kept from block to
+        block (no fresh pages, no copy of the block with its previous row in front)."""
+        n = len(rows) - (before is None)
+        if self._acc is None or len(self._acc) < n or self._acc.shape[1] != rows.shape[1]:
+            self._acc = np.empty((n, rows.shape[1]))
+        acc = self._acc[:n]
+        if before is not None:
+            np.subtract(rows[:1], before, out=acc[:1])
+        np.subtract(rows[1:], rows[:-1], out=acc[n - len(rows) + 1:])
+        return acc
+
+    def _peaks(self, tt: np.ndarray, rail: np.ndarray | None, acc: np.ndarray) -> None:
+        """Raise the peaks with the steps between the rows ``tt`` (``acc`` their revolute accelerations, ``rail``
+        the rail's rates ``d'`` at the rows, None without a rail)."""
         if len(acc) == 0:
             return
         k, j = np.unravel_index(np.argmax(acc), acc.shape)
@@ -90,7 +105,7 @@ class JointRates:
             self.peaks.update(du_dt=float(acc[k, j]), du_dt_joint=int(j) // self.per_joint + 1,
                               du_dt_time=float(tt[k + 1]))
         if self.rail:
-            dd = np.abs(np.diff(uu[:, 0])) / np.diff(tt)
+            dd = np.abs(np.diff(rail)) / np.diff(tt)
             i = int(np.argmax(dd))
             if dd[i] > self.peaks.get("rail_accel", -1.0):
                 self.peaks.update(rail_accel=float(dd[i]), rail_accel_time=float(tt[i + 1]))
