@@ -59,6 +59,7 @@ from .log_schemas import (CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, NumericChanne
 from .host import host_name, host_platform, installed_version
 from .outcome import outcome_of
 from .rates import MOST_STEPS_BETWEEN, steps_between  # noqa: F401 (re-exported)
+from .record_packing import RecordPacker
 from .recycled_arrays import RecycledArrays
 from .mcap_file import COMPRESSIONS, MESSAGE_HEADER_DTYPE, MESSAGE_HEADER_SIZE, McapFile, Worker, message_records
 from .run import Run
@@ -308,6 +309,7 @@ class RunLogger:
         self.samples_per_chunk = max(1, (chunk_size or CHUNK_SIZE) // self.sample_dtype.itemsize)
         self._pending = np.empty(0, self.sample_dtype)
         self._arrays = RecycledArrays(self.sample_dtype, self._constant_fields)   # the blocks' records
+        self._packer = RecordPacker(self.sample_dtype, self.channels, PER_STEP)
         self._extras: list[tuple[str, int, bytes]] = []  # (channel key, log time, data) at reduced rates
         self._sequence = {key: 0 for key in self.ids}
         self._seen = 0          # steps received so far (the global index of the next one)
@@ -444,13 +446,10 @@ class RunLogger:
             rows = slice(int(rows[0]), int(rows[-1]) + 1)   # every step: no gathered copies
         whole = self._arrays.take(held + n, self.samples_per_chunk)   # the samples not yet in a chunk, then these
         whole[:held] = self._pending
-        rec, ns = whole[held:], self._ns(part.t[rows])
-        for key in PER_STEP:         # (opcode, length, channel and CDR header: _constant_fields)
-            hdr = rec[key + "_hdr"]
-            hdr["sequence"] = (self._sequence[key] + np.arange(n)) & 0xFFFFFFFF
-            hdr["log_time"] = hdr["publish_time"] = ns
+        # (opcode, length, channel and CDR header: _constant_fields)
+        self._packer.pack(whole[held:], part, rows, [self._sequence[key] for key in PER_STEP], self._ns(part.t[rows]))
+        for key in PER_STEP:
             self._sequence[key] += n
-            self.channels[key].fill(rec[key], part, rows)
         self._pending = whole
 
     def _constant_fields(self, records: np.ndarray) -> None:
