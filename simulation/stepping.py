@@ -540,8 +540,9 @@ class KeptRows:
             if isinstance(rows, slice):
                 self.arrays[a][self.n:self.n + size] = v
             else:
-                # rows are valid indices, so "clip" changes nothing; "raise" would buffer the copy
-                np.take(v, rows, axis=0, out=self.arrays[a][self.n:self.n + size], mode="clip")
+                # indexing, not np.take: take first copies a source that is not C-contiguous whole (the law's
+                # outputs are column blocks of one array), 45 us against 7.5 us for 137 of 2000 rows of u
+                self.arrays[a][self.n:self.n + size] = v[rows]
         self.n += size
 
     def run(self, info: dict) -> Run:
