@@ -80,30 +80,49 @@ class BufferedFunction:
         return bound[:3]
 
 
-#: Points per evaluation of a :class:`PointwiseFunction`: its expanded map is built once (about 1 ms for a
-#: speed profile of 20 operations) and a 2000-step chunk takes eight calls of it.
-POINTWISE_BLOCK = 256
+#: Operations of a :class:`PointwiseFunction`'s expanded map: its points per evaluation are this many over the
+#: Function's operations, from 256 to 2048 (a constant speed: 2048 points, one call for a 2000-step chunk; a
+#: speed profile of 20 operations: 256). Larger maps of such a profile were slower a point (862 points:
+#: 0.18 ms for 2000 points against 0.12 ms) and took longer to build (5.6 ms against 1.2 ms).
+POINTWISE_OPERATIONS = 4096
+
+
+def pointwise_block(function: ca.Function) -> int:
+    """Points per evaluation of ``function``'s :class:`PointwiseFunction` (:data:`POINTWISE_OPERATIONS`).
+
+    Parameters
+    ----------
+    function : casadi.Function
+        The Function of one point.
+
+    Returns
+    -------
+    int
+        From 256 to 2048.
+    """
+    return max(256, min(2048, POINTWISE_OPERATIONS // max(1, function.n_instructions())))
 
 
 class PointwiseFunction:
     """A Function of one point (one column per input) evaluated at any number of points, a block at a time.
 
     ``function.map(n)`` costs a new Function for each ``n`` and about 0.1 us of overhead a point (the
-    speed at a 2000-step chunk's times: 0.27 ms, on a spatial chain 0.7-1.1 ms with the map made anew). Here one
-    map of :data:`POINTWISE_BLOCK` points, expanded into one SX Function, is built once and called through a :class:`BufferedFunction` on the points in blocks (the last block
-    padded with copies of the last point): the same operations on each point, the same bits as
-    ``function.map(n)`` (``tests/test_function_buffer.py``), 4-9x faster (0.04-0.12 ms).
+    speed at a 2000-step chunk's times: 0.27 ms, on a spatial chain 0.7-1.1 ms with the map made anew). Here
+    one map of ``block`` points (:func:`pointwise_block`), expanded into one SX Function, is built once and
+    called through a :class:`BufferedFunction` on the points in blocks (the last block padded with copies
+    of the last point): the same operations on each point, the same bits as ``function.map(n)``
+    (``tests/test_function_buffer.py``), 4-9x faster (0.04-0.12 ms).
 
     Parameters
     ----------
     function : casadi.Function
         Dense inputs of one column each (``size_in(i) == (rows_i, 1)``) and dense outputs of one column.
-    block : int
-        Points per evaluation.
+    block : int, optional
+        Points per evaluation (default :func:`pointwise_block`).
     """
 
-    def __init__(self, function: ca.Function, block: int = POINTWISE_BLOCK) -> None:
-        self.function, self.block = function, int(block)
+    def __init__(self, function: ca.Function, block: int | None = None) -> None:
+        self.function, self.block = function, int(pointwise_block(function) if block is None else block)
         # expanded: one SX Function, no per-point call inside the map (what SX cannot hold, e.g. a Python
         # callback, stays a call node in it)
         self._evaluate = BufferedFunction(function.map(self.block).expand())
