@@ -115,5 +115,6 @@ def summary_rows(part: Run, chain: Any) -> list[int]:
     limits = getattr(chain, "joint_limits", None)
     if limits is None or part.q.shape[1] != chain.dof or chain.m < 2:
         return []
-    ratio = np.abs(chain.revolute(part.q)[:, 1:]) / np.asarray(limits, float)
+    ratio = np.abs(chain.revolute(part.q)[:, 1:])
+    ratio /= np.asarray(limits, float)                  # (in place: one array of the chunk's size, not two)
     return [int(np.argmax(np.max(ratio, axis=1)))]
