@@ -3,7 +3,7 @@
 Each round logs the ``line`` run as ``coordarm run`` does (``RunLogger(threaded=True)``, lz4, the 20 Hz scene,
 ``cond`` at 1 Hz) while the compiled simulation runs on the main thread, and adds up ``time.thread_time()``
 around the writer's parts on the thread that runs them (the ``coordarm-log`` thread): the whole
-``RunLogger._process``, the per-step records (``_add_samples``, of which ``NumericChannel.fill``), the scene
+``RunLogger._process``, the per-step records (``_add_samples``, of which ``RecordPacker.pack``), the scene
 (``SceneBuilder.advance`` and ``messages``, of which the JSON templates' ``fill``, ``/tf``, the targets and
 the ``/tracking`` records), ``cond`` and the chunks' framing (``_write_chunk``, of which ``message_records``).
 Prints the median of each over the rounds (after one warm-up round) and the wall time of a round.
@@ -22,13 +22,18 @@ import tempfile
 import time
 from pathlib import Path
 
-from coordarm.simulation import json_fill, log_schemas, mcap_writer, scene
+from coordarm.simulation import json_fill, mcap_writer, scene
 from coordarm.simulation.mcap_writer import RunLogger
 from coordarm.simulation.run import simulate
 from coordarm.simulation.scenario import load_scenario
 
+try:
+    from coordarm.simulation.record_packing import RecordPacker
+except ImportError:     # a checkout from before the records' kernel (its part reads 0)
+    RecordPacker = None
+
 PARTS = [(RunLogger, "_process", "RunLogger._process (all)"), (RunLogger, "_add_samples", "records: _add_samples"),
-         (log_schemas.NumericChannel, "fill", "  NumericChannel.fill"),
+         (RecordPacker, "pack", "  RecordPacker.pack"),
          (scene.SceneBuilder, "advance", "scene: SceneBuilder.advance"),
          (scene.SceneBuilder, "messages", "scene: SceneBuilder.messages"),
          (json_fill.JsonTemplate, "fill", "  JsonTemplate.fill"), (scene, "end_frames_json", "  end_frames_json"),
