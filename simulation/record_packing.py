@@ -63,12 +63,12 @@ class RecordPacker:
         self._at = [header[name][1] for name in ("sequence", "log_time", "publish_time")]
         self._hdr_at = np.array([self.dtype.fields[key + "_hdr"][1] for key in self.keys], np.int64)
         # each field: (its Run array's name, where it starts in the record [bytes], its columns)
-        self._fields = []
+        self._field_copies = []
         for key in self.keys:
             start = self.dtype.fields[key][1]
             for name, cols in channels[key].slices().items():
                 first, width = (cols.start, cols.stop - cols.start) if isinstance(cols, slice) else (cols, 1)
-                self._fields.append((name, start + 8 * first, width))
+                self._field_copies.append((name, start + 8 * first, width))
 
     def pack(self, records: np.ndarray, part: Any, rows: slice | np.ndarray, sequences: Sequence[int],
              log_times: np.ndarray) -> None:
@@ -91,11 +91,11 @@ class RecordPacker:
         if not n:
             return
         kernel = packing_kernel() if isinstance(rows, slice) else None
-        sources = [getattr(part, name)[rows] for name, _, _ in self._fields] if kernel is not None else []
-        if kernel is not None and all(_packable(a, n, width) for a, (_, _, width) in zip(sources, self._fields)):
+        sources = [getattr(part, name)[rows] for name, _, _ in self._field_copies] if kernel is not None else []
+        if kernel is not None and all(_packable(a, n, width) for a, (_, _, width) in zip(sources, self._field_copies)):
             times = np.ascontiguousarray(log_times, np.uint64)
             copies = np.array([[a.ctypes.data, a.strides[0], at, 8 * width]
-                               for a, (_, at, width) in zip(sources, self._fields)], np.int64).T.copy()
+                               for a, (_, at, width) in zip(sources, self._field_copies)], np.int64).T.copy()
             seq0 = np.array(sequences, np.int64)
             kernel(records.ctypes.data, n, self.dtype.itemsize, len(sources), copies[0].ctypes.data,
                    copies[1].ctypes.data, copies[2].ctypes.data, copies[3].ctypes.data, len(self.keys),
