@@ -3,8 +3,8 @@
  *
  * As RunLogger's numpy path: each of n records (size bytes apart in out) gets, for each of its messages,
  * the sequence number (seq0 + k, modulo 2^32) and the log and publish times, and the bytes of each field
- * copied from its source row k. Nothing is computed: the same bytes. The caller holds the GIL released
- * (ctypes) while this runs, so the simulation's thread goes on meanwhile.
+ * copied from its source row k. Nothing is computed: the same bytes. ctypes releases the GIL during the
+ * call, so the simulation's thread goes on meanwhile.
  */
 #include <stdint.h>
 #include <string.h>
