@@ -64,9 +64,8 @@ def base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, n
     if not isinstance(chain, PlanarChain):
         return _spatial_base_margins(ctrl, t, q)
     y = chain.centres_np(q)                              # (N, m, 2)
-    geometry = ctrl.task.geometry.map(len(t))
-    g = np.asarray(geometry(y[:, 1, :].T, t[None, :])[1])               # grad phi at y^2, (2, N)
-    offset = np.abs(np.asarray(geometry(y[:, 0, :].T, t[None, :])[0]).ravel())
+    phi, g = _geometry_at_base(ctrl, y, t)                              # phi(y^1), grad phi at y^2 (2, N)
+    offset = np.abs(phi.ravel())
     rail = chain.rail_direction
     a1 = np.arctan2(rail[1], rail[0]) + q[:, 1]
     a2 = a1 + q[:, 2]
@@ -79,17 +78,27 @@ def base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, n
 
 def _spatial_base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`base_margins` of a spatial chain (see the module's docstring)."""
-    chain, n = ctrl.chain, len(t)
+    chain = ctrl.chain
     d2 = chain.directions_np(q)[:, 1, :]                               # (N, 3)
     y = chain.centres_np(q)                                            # (N, m, 3)
-    geometry = ctrl.task.geometry.map(n)
-    offset = np.linalg.norm(np.asarray(geometry(y[:, 0, :].T, t[None, :])[0]), axis=0)   # |Phi(y^1)|
-    tangent = np.asarray(geometry(y[:, 1, :].T, t[None, :])[4]).T     # grad psi at y^2, (N, 3)
+    Phi, grad_psi = _geometry_at_base(ctrl, y, t)
+    offset = np.linalg.norm(Phi, axis=0)                               # |Phi(y^1)|
+    tangent = grad_psi.T                                               # grad psi at y^2, (N, 3)
     with np.errstate(divide="ignore", invalid="ignore"):
         tangent = tangent / np.linalg.norm(tangent, axis=1)[:, None]
         across = np.linalg.norm(d2 - np.sum(d2 * tangent, axis=1)[:, None] * tangent, axis=1)
         margin = 1.0 - offset / (0.5 * chain.xi * across)
     return np.maximum(margin, 0.0), offset          # (NaN stays NaN: a non-finite state stops the run)
+
+
+def _geometry_at_base(ctrl: Any, y: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The curve's distance output at ``y^1`` and its gradient output at ``y^2`` of each row, in one evaluation.
+
+    The task's ``base_geometry`` (the two outputs of its geometry Function, bit for bit, without the work of
+    the others): a new ``map(N)`` of the whole Function at every chunk, twice, took 70-80 ms a chunk of 1000-2000
+    rows on thread and pipe3d, 5-10x the law's own time.
+    """
+    return tuple(ctrl.task.base_geometry()(y[:, 0, :].T, y[:, 1, :].T, t))
 
 
 def base_stop(ctrl: Any, t: np.ndarray, q: np.ndarray,

@@ -87,6 +87,12 @@ class BufferedFunction:
 POINTWISE_OPERATIONS = 4096
 
 
+#: Most operations of an expanded map (a block's points times the Function's operations): a Function of more
+#: operations a point than this over 256 is mapped as it is (its own work dwarfs the map's overhead, and an
+#: expanded map of it would take long to build).
+POINTWISE_EXPANDED = 65536
+
+
 def pointwise_block(function: ca.Function) -> int:
     """Points per evaluation of ``function``'s :class:`PointwiseFunction` (:data:`POINTWISE_OPERATIONS`).
 
@@ -123,9 +129,12 @@ class PointwiseFunction:
 
     def __init__(self, function: ca.Function, block: int | None = None) -> None:
         self.function, self.block = function, int(pointwise_block(function) if block is None else block)
-        # expanded: one SX Function, no per-point call inside the map (what SX cannot hold, e.g. a Python
-        # callback, stays a call node in it)
-        self._evaluate = BufferedFunction(function.map(self.block).expand())
+        mapped = function.map(self.block)
+        if function.n_instructions() * self.block <= POINTWISE_EXPANDED:
+            # expanded: one SX Function, no per-point call inside the map (what SX cannot hold, e.g. a Python
+            # callback, stays a call node in it)
+            mapped = mapped.expand()
+        self._evaluate = BufferedFunction(mapped)
         self._rows_in = [function.size1_in(i) for i in range(function.n_in())]
 
     def __call__(self, *inputs: Any) -> list[np.ndarray]:
@@ -152,3 +161,29 @@ class PointwiseFunction:
             padded.append(p)
         pieces = [self._evaluate(*(p[:, i:i + block] for p in padded)) for i in range(0, padded[0].shape[1], block)]
         return [np.concatenate([piece[j] for piece in pieces], axis=1)[:, :n] for j in range(len(pieces[0]))]
+
+
+def two_point_function(function: ca.Function, first: int, second: int) -> ca.Function:
+    """``(y_a, y_b, t) -> (function(y_a, t)[first], function(y_b, t)[second])``: two outputs of a Function of a
+    point and a time at two points, with only the operations they need.
+
+    The Function's graph called on new symbols keeps its operations in their order; the new Function drops
+    those no output uses, so its values are the Function's own, bit for bit (``tests/test_function_buffer.py``).
+
+    Parameters
+    ----------
+    function : casadi.Function
+        Inputs: a point and a time; an SX Function gives an SX Function.
+    first, second : int
+        The outputs taken at ``y_a`` and at ``y_b``.
+
+    Returns
+    -------
+    casadi.Function
+        Inputs ``y_a``, ``y_b`` (the point's shape) and ``t``; outputs the two outputs.
+    """
+    sym = ca.SX if function.is_a("SXFunction") else ca.MX
+    y_a, y_b = sym.sym("y_a", function.sparsity_in(0)), sym.sym("y_b", function.sparsity_in(0))
+    t = sym.sym("t", function.sparsity_in(1))
+    return ca.Function(f"{function.name()}_at_two_points", [y_a, y_b, t],
+                       [function(y_a, t)[first], function(y_b, t)[second]])

@@ -17,6 +17,7 @@ from typing import Any, Callable
 import casadi as ca
 
 from .errors import ConfigError
+from .function_buffer import PointwiseFunction, two_point_function
 
 #: Output names of :func:`spatial_geometry_function`, in order.
 SPATIAL_GEOMETRY_OUTPUTS = ("Phi", "JPhi", "Phit", "psi", "gpsi", "psit")
@@ -152,7 +153,7 @@ class SpatialTask:
     def __init__(self, curve: Any, speed: Callable[[Any], Any], gain: float, roll: Callable[[Any], Any],
                  span: Callable[[Any], Any] | None = None) -> None:
         self.curve, self.speed, self.gain, self.roll, self.span = curve, speed, gain, roll, span
-        self._cache: dict[str, ca.Function] = {}
+        self._cache: dict[str, Any] = {}
         if not is_built_in3d(curve):
             self._cache.update(geometry=spatial_geometry_function(curve), roll_geometry=roll_function(curve))
 
@@ -162,6 +163,19 @@ class SpatialTask:
         if "geometry" not in self._cache:
             self._cache["geometry"] = spatial_geometry_function(self.curve)
         return self._cache["geometry"]
+
+    def base_geometry(self) -> PointwiseFunction:
+        """``Phi`` at ``y^1`` and ``grad psi`` at ``y^2`` of many rows, in one evaluation (the base margin's).
+
+        Returns
+        -------
+        PointwiseFunction
+            Called with ``y^1`` and ``y^2`` (each ``(3, N)``, [m]) and ``t`` (``(N,)``, [s]); returns ``Phi(y^1)``
+            ``(2, N)`` [m] and ``grad psi(y^2)`` ``(3, N)``: :attr:`geometry`'s outputs, bit for bit.
+        """
+        if "base geometry" not in self._cache:
+            self._cache["base geometry"] = PointwiseFunction(two_point_function(self.geometry, 0, 4))
+        return self._cache["base geometry"]
 
     @property
     def roll_geometry(self) -> ca.Function:

@@ -14,7 +14,7 @@ import casadi as ca
 
 from .curves import Arc, Circle, Curve, Line
 from .errors import ConfigError
-from .function_buffer import BufferedFunction, PointwiseFunction
+from .function_buffer import BufferedFunction, PointwiseFunction, two_point_function
 
 #: Output names of the geometry Functions, in order.
 GEOMETRY_OUTPUTS = ("phi", "gphi", "phit", "psi", "gpsi", "psit")
@@ -251,6 +251,19 @@ class Task:
         if key not in self._cache:
             self._cache[key] = PointwiseFunction(self.mapped(name, 1))
         return self._cache[key]
+
+    def base_geometry(self) -> PointwiseFunction:
+        """``phi`` at ``y^1`` and ``grad phi`` at ``y^2`` of many rows, in one evaluation (the base margin's).
+
+        Returns
+        -------
+        PointwiseFunction
+            Called with ``y^1`` and ``y^2`` (each ``(2, N)``, [m]) and ``t`` (``(N,)``, [s]); returns ``phi(y^1)``
+            ``(1, N)`` [m] and ``grad phi(y^2)`` ``(2, N)``: :attr:`geometry`'s outputs, bit for bit.
+        """
+        if "base geometry" not in self._cache:
+            self._cache["base geometry"] = PointwiseFunction(two_point_function(self.geometry, 0, 1))
+        return self._cache["base geometry"]
 
     def buffered(self, name: str, n: int) -> BufferedFunction:
         """:meth:`mapped` called through a reused buffer (cached): the same values, ~5x cheaper a call.

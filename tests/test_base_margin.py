@@ -196,3 +196,24 @@ def test_a_spatial_rail_beside_the_path_is_not_stopped_though_its_margin_is_low(
     margin, offset = bm.base_margins(ctrl, run.t, run.q)
     assert margin.max() < bm.BASE_THRESHOLD and np.ptp(offset) < 1e-12
     assert np.abs(run.u[-1, 1:]).max() < 1e-3 and np.abs(run.e[-1]).max() < 1e-6
+
+
+@pytest.mark.parametrize("preset", ["thread", "pipe", "pipe3d", "port"])
+def test_the_base_geometry_is_the_curves_geometry_at_the_two_centres_bit_for_bit(preset, rng):
+    """The task's two-output evaluation (``base_geometry``) gives the geometry Function's own outputs: its
+    distance output at ``y^1`` and its gradient output at ``y^2`` (planar ``grad phi``, spatial ``grad psi``), at
+    states around the start, as the Function's ``map`` over every row gives them."""
+    from coordarm.simulation.scenario import load_scenario
+    ctrl = load_scenario(preset).controller()
+    chain = ctrl.chain
+    q0 = load_scenario(preset).start(ctrl)
+    q = q0 + rng.normal(0, 0.01, (300, len(q0)))
+    t = np.linspace(0.0, 5.0, 300)
+    y = chain.centres_np(q)
+    got_1, got_2 = bm._geometry_at_base(ctrl, y, t)
+    whole = ctrl.task.geometry.map(len(t))
+    gradient = 1 if y.shape[2] == 2 else 4
+    want_1 = np.asarray(whole(y[:, 0, :].T, t[None, :])[0])
+    want_2 = np.asarray(whole(y[:, 1, :].T, t[None, :])[gradient])
+    assert got_1.tobytes() == np.ascontiguousarray(want_1).tobytes()
+    assert got_2.tobytes() == np.ascontiguousarray(want_2).tobytes()

@@ -158,3 +158,24 @@ def test_every_presets_commands_are_their_functions_map(preset):
         for evaluate, function in pairs:
             want = np.asarray(mapped_call(function, len(points), points[None])[0]).ravel()
             assert evaluate(points).tobytes() == want.tobytes()
+
+
+def test_two_outputs_at_two_points_are_the_functions_own_and_a_big_function_is_mapped_unexpanded(rng):
+    """``two_point_function`` keeps only two outputs' operations, with the Function's values bit for bit;
+    a Function too big to expand (more than POINTWISE_EXPANDED / 256 operations a point) is mapped as it is."""
+    from coordarm.symbolic.function_buffer import POINTWISE_EXPANDED, two_point_function
+    y, t = ca.SX.sym("y", 2), ca.SX.sym("t")
+    big = ca.sin(y[0] * t)
+    for k in range(POINTWISE_EXPANDED // 256):          # enough operations a point not to be expanded
+        big = ca.cos(big + k * y[1])
+    f = ca.Function("f", [y, t], [big, ca.vertcat(y[0] * t, ca.exp(-y[1])), big * y[0]])
+    two = two_point_function(f, 0, 1)
+    assert two.n_instructions() < f.n_instructions() * 2
+    pointwise = PointwiseFunction(two, block=64)
+    assert not pointwise._evaluate.function.is_a("SXFunction")       # the map itself, not expanded
+    a, b, times = rng.uniform(-1, 1, (2, 70)), rng.uniform(-1, 1, (2, 70)), rng.uniform(0, 2, 70)
+    got = pointwise(a, b, times)
+    want_a = mapped_call(f, 70, a, times[None])[0]
+    want_b = mapped_call(f, 70, b, times[None])[1]
+    assert got[0].tobytes() == np.ascontiguousarray(want_a).tobytes()
+    assert got[1].tobytes() == np.ascontiguousarray(want_b).tobytes()
