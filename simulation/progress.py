@@ -38,7 +38,7 @@ def bar_line(label: str, done: float, total: float, status: str) -> str:
         E.g. ``"run [###############               ]  50.0%  t = 0.25/0.50 s  0.1 s wall"``:
         ``floor(30 * fraction)`` characters ``#``, the percentage to one decimal.
     """
-    frac = min(max(done / total, 0.0), 1.0)
+    frac = min(max(0.0, done / total), 1.0)     # (0.0 first: a fraction of -0.0, e.g. -5e-324 / 2, shows as 0.0 %)
     return LINE.format(desc=label, bar="#" * int(frac * WIDTH), percentage=frac * 100, status=status)
 
 
