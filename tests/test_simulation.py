@@ -193,7 +193,7 @@ def test_the_progress_line_is_the_line_tqdm_formats(done, total, label):
     from tqdm.std import tqdm
 
     for d in (done, 0.0, -5e-324, total, total * (1 - 1e-12), total / 30 * 7, total / 3, done * total / 10):
-        shown = min(max(d, 0.0), total)
+        shown = min(max(0.0, d), total)          # (0.0 first: a -0.0 is shown as 0.0 %)
         expected = tqdm.format_meter(shown, total, 0.0, prefix=label, ascii=" #", bar_format=LINE, status="S")
         assert bar_line(label, d, total, "S") == expected
 
