@@ -110,5 +110,8 @@ class RecordPacker:
 
 def _packable(array: np.ndarray, n: int, width: int) -> bool:
     """Whether the kernel can copy ``array``'s rows as they are: float64 (native), n rows, ``width`` adjacent columns."""
-    return (array.dtype == np.float64 and len(array) == n
-            and (array.shape[1:] == (width,) and array.strides[1] == 8 if array.ndim == 2 else array.ndim == 1 and width == 1))
+    if array.dtype != np.float64 or len(array) != n:
+        return False
+    if array.ndim == 1:
+        return width == 1
+    return array.ndim == 2 and array.shape[1] == width and array.strides[1] == 8

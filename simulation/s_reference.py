@@ -116,8 +116,6 @@ def middle_speeds(t: np.ndarray, scale: np.ndarray, speeds: Callable[[np.ndarray
     return out
 
 
-
-
 class ArcReference:
     """``s(0) + integral of scale v*`` on a run's rows, fed block by block: the one reference of the summary's s
     tracking, :meth:`~.result.Run.s_reference`, the scene's target and the figures.
