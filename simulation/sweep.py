@@ -349,9 +349,9 @@ def _open_client(client: Any, workers: int | None):
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                                    silence_logs=logging.ERROR)
         local = Client(cluster)
-        from .sweep_plugin import IgnoreCtrlC
+        from .sweep_plugin import QuietLocalWorker
 
-        local.register_plugin(IgnoreCtrlC(), name="coordarm-ignore-ctrl-c")
+        local.register_plugin(QuietLocalWorker(), name="coordarm-quiet-local-worker")
         return local, True
     if isinstance(client, str):
         try:

@@ -313,3 +313,78 @@ def test_a_bad_scheduler_address_is_a_config_error_and_writes_nothing(tmp_path):
     with pytest.raises(ConfigError, match="--scheduler nonsense: cannot connect"):
         sweep("line", {"gain": [1.0]}, client="nonsense", out=tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+def _heartbeat_to_a_gone_scheduler() -> list:
+    """A real worker's heartbeat when nothing listens at its scheduler's address any more (as when the sweep's
+    process has closed its scheduler first); returns the records of ``distributed.worker`` at WARNING or above."""
+    import asyncio
+    import logging
+    import socket
+
+    import dask
+    from distributed import Scheduler, Worker
+
+    records = []
+
+    class Keep(logging.Handler):
+        def emit(self, record):
+            if record.levelno >= logging.WARNING:
+                records.append(record)
+
+    with socket.socket() as s:                        # a port nothing listens on
+        s.bind(("127.0.0.1", 0))
+        gone = f"tcp://127.0.0.1:{s.getsockname()[1]}"
+
+    async def beat():
+        with dask.config.set({"distributed.comm.timeouts.connect": "0.3s"}):
+            async with Scheduler(dashboard_address=None, port=0, host="127.0.0.1") as s:
+                async with Worker(s.address, nthreads=1, heartbeat_interval="1h") as w:
+                    w.scheduler = w.rpc(gone)
+                    await w.heartbeat()
+
+    log = logging.getLogger("distributed.worker")
+    keep = Keep()
+    log.addHandler(keep)
+    try:
+        asyncio.run(beat())
+    finally:
+        log.removeHandler(keep)
+    return records
+
+
+def test_a_local_worker_drops_only_the_heartbeat_record_of_a_gone_scheduler():
+    """The record a worker logs when its heartbeat finds the scheduler closed (a loaded machine's Ctrl-C) is dropped
+    by the plugin's filter; other records of the worker, and the same message without a lost connection, pass."""
+    import logging
+    import signal
+
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    from coordarm.simulation.sweep_plugin import QuietLocalWorker, SchedulerGone
+
+    log = logging.getLogger("distributed.worker")
+    saved, sigint = list(log.filters), signal.getsignal(signal.SIGINT)
+    try:
+        for f in saved:
+            log.removeFilter(f)
+        records = _heartbeat_to_a_gone_scheduler()
+        beats = [r for r in records if r.getMessage().startswith(SchedulerGone.MESSAGE)]
+        assert len(beats) == 1 and isinstance(beats[0].exc_info[1], OSError), [r.getMessage() for r in records]
+        assert SchedulerGone().filter(beats[0]) is False
+        other = logging.LogRecord("distributed.worker", logging.ERROR, __file__, 1, "Compute failed", (), None)
+        same_text = logging.LogRecord("distributed.worker", logging.ERROR, __file__, 1, SchedulerGone.MESSAGE, (), None)
+        assert SchedulerGone().filter(other) is True and SchedulerGone().filter(same_text) is True
+        plugin = QuietLocalWorker()
+        assert isinstance(plugin, WorkerPlugin)
+        plugin.setup(None)
+        plugin.setup(None)                             # installed once
+        assert sum(isinstance(f, SchedulerGone) for f in log.filters) == 1
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        assert not [r for r in _heartbeat_to_a_gone_scheduler() if r.getMessage().startswith(SchedulerGone.MESSAGE)]
+    finally:
+        signal.signal(signal.SIGINT, sigint)
+        for f in list(log.filters):
+            log.removeFilter(f)
+        for f in saved:
+            log.addFilter(f)
