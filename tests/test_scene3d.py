@@ -192,3 +192,31 @@ def test_a_path_is_drawn_whole_in_3d():
     assert np.ptp(pts[:, 2]) > 0.1                        # the banked arc leaves the plane z = 0
     dist = np.min(np.linalg.norm(pts[:, None] - curve.sample(0.0, 40, extent=0.0)[None], axis=2), axis=0)
     assert dist.max() < 0.02                              # every part of the path is drawn
+
+
+@pytest.mark.parametrize("obstacles", [[], [{"kind": "sphere", "centre": [0.3, 0.1, 0.0], "radius": 0.05},
+                                            {"kind": "cylinder", "a": [0.0, 0.3, 0.0], "b": [0.4, 0.3, 0.1], "radius": 0.02}]])
+def test_a_scene_message_is_the_json_of_its_whole_entity_the_walls_encoded_once(ctrl, obstacles):
+    """The walls' text, encoded once and put in place of a placeholder, gives exactly the bytes of encoding the
+    whole entity (walls as dicts) at every message; the walls are the lines between the curve and the axes."""
+    from coordarm.simulation.obstacles3d import obstacle3d_from_spec, wireframe
+    from coordarm.simulation.scene import margin_colours
+
+    obs = [obstacle3d_from_spec(o, i) for i, o in enumerate(obstacles)]
+    builder = SpatialSceneBuilder(ctrl, obs)
+    part = block(9, seed=3)
+    builder.advance(part)
+    ks = np.array([0, 4, 8])
+    ns = (part.t[ks] * 1e9).round().astype(np.int64)
+    scenes = [d for k, _, d in builder.messages(part, ks, ns) if k == "scene"]
+    poses, curves, targets = builder.poses(part.q[ks]), builder.curves(part.t[ks]), builder.targets(part, ks)
+    for pose, rgb in zip(poses, margin_colours(part.link_margins[ks])):
+        pose["colours"] = rgb
+    for scene, pose, curve, target, n in zip(scenes, poses, curves, targets, ns.tolist()):
+        whole = {"deletions": [], "entities": [builder.scene_entity(pose, curve, target, n)]}
+        assert scene == json.dumps(whole, separators=(",", ":")).encode()
+        lines = json.loads(scene)["entities"][0]["lines"]
+        walls = [p for ob in obs for p in wireframe(ob)]
+        assert len(lines) == 2 + len(walls) and lines[-1]["type"] == 2
+        for line, points in zip(lines[1:-1], walls):
+            np.testing.assert_array_equal([xyz(p) for p in line["points"]], points)

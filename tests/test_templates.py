@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: Any leftover ``@name@`` (the renderer's placeholder syntax), written out here independently.
 LEFTOVER = re.compile(r"@[A-Za-z_][A-Za-z0-9_]*@")
 #: The hand-written kernel libraries (coordarm.generated.kernels).
-KERNELS = ("chain_geometry.c", "json_digits.c", "log_records.c")
+KERNELS = ("chain_geometry.c", "json_digits.c", "log_records.c", "segment_distance.c")
 
 
 def template_files() -> set[str]:
