@@ -19,6 +19,8 @@ import numpy as np
 
 from coordarm.symbolic.spatial_chain import SpatialChain
 
+from .frame_transforms import stamp_slots, stamps
+from .json_fill import JsonTemplate
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
 from .scene import CURVE_COLOR, CURVE_PX, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder, margin_colours
@@ -33,9 +35,10 @@ RAIL_COLOR = (0.45, 0.45, 0.45, 0.8)
 #: cylinders are thinner than a few pixels) and of the obstacles' wireframes (thin: a cage of rods
 #: around the body must not hide it).
 ARM_AXIS_PX, WIREFRAME_PX = 4.0, 1.5
-#: Stands for the walls in a scene's ``lines`` while it is encoded (a string no drawn value holds); its JSON text
-#: is then replaced by the walls' text, encoded once (:meth:`SpatialSceneBuilder.messages`).
-_WALLS = "\u0000coordarm-walls"
+#: The decimal exponents of the integers a ``/scene`` message writes (:meth:`SpatialSceneBuilder.messages`):
+#: positions in micrometres, the end point's target in picometres, orientations (quaternion components) in
+#: 1e-9 and colours in 1e-3, as the planar scene (:mod:`.scene`) writes its numbers.
+SCENE_EXPONENTS = {"position": 6, "target": 12, "orientation": 9, "colour": 3}
 #: The quaternion (x, y, z, w) of ``Ry(pi/2)``: it turns a cylinder's axis (z) onto the link's x axis.
 _Z_TO_X = np.array([0.0, np.sin(np.pi / 4), 0.0, np.cos(np.pi / 4)])
 
@@ -185,8 +188,7 @@ class SpatialSceneBuilder(SceneBuilder):
         ends = rail_ends(ctrl.chain, self.reach)
         if ends is not None:                             # the rail between its limits, under the walls
             self._walls = [_line(ends, 0.02 * ctrl.chain.xi + 0.004, RAIL_COLOR)] + self._walls
-        # The walls' JSON in a scene's lines (they do not move: encoded here, not in every message).
-        self._walls_json = json.dumps(self._walls, separators=(",", ":"))[1:-1].encode()
+        self._templates3d: dict[tuple[int, int], tuple[JsonTemplate, dict[str, list[int]]]] = {}
 
     def curves(self, times: np.ndarray) -> list[np.ndarray]:
         """The curve at each of ``times`` as a 3-D polyline (a line: its two ends; a path, which does not
@@ -234,7 +236,7 @@ class SpatialSceneBuilder(SceneBuilder):
             return self.ctrl.chain.centres_np(part.q[ks])[:, -1]
 
     def scene_entity(self, pose: dict[str, np.ndarray], curve: np.ndarray, target: np.ndarray,
-                     ns: int, walls: bool = True) -> dict[str, Any]:
+                     ns: int) -> dict[str, Any]:
         """The ``foxglove.SceneEntity`` of one pose.
 
         Parameters
@@ -248,9 +250,6 @@ class SpatialSceneBuilder(SceneBuilder):
             The end point's target [m].
         ns : int
             Time stamp [ns].
-        walls : bool
-            The rail and the obstacles' wireframes in ``lines`` (default); False: one placeholder string in
-            their place (:meth:`messages` puts their JSON text there).
 
         Returns
         -------
@@ -270,10 +269,122 @@ class SpatialSceneBuilder(SceneBuilder):
         return {"timestamp": {"sec": int(ns // 10**9), "nsec": int(ns % 10**9)}, "frame_id": "world",
                 "id": "coordarm", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
                 "arrows": [], "cubes": [base], "spheres": spheres, "cylinders": cylinders,
-                "lines": [_line(curve, CURVE_PX, CURVE_COLOR, pixels=True), *(self._walls if walls else [_WALLS]),
-                          _axis_line(pose)],
+                "lines": [_line(curve, CURVE_PX, CURVE_COLOR, pixels=True)] + self._walls + [_axis_line(pose)],
                 "triangles": [], "texts": [],
                 "models": []}
+
+    def _scenes(self, poses: list[dict[str, np.ndarray]], colours: np.ndarray, curves: list[np.ndarray],
+                targets: np.ndarray, ns: np.ndarray) -> list[bytes]:
+        """The ``/scene`` messages of k poses: the integers of each (:data:`SCENE_EXPONENTS`) filled into one
+        template (:class:`~.json_fill.JsonTemplate`; the walls are literal text in it). Poses whose curves differ
+        in length, or with a number that is not finite, are encoded from :meth:`scene_entity` instead."""
+        m = self.ctrl.chain.m
+        sizes = {len(c) for c in curves}
+        every = np.concatenate([np.stack([p[key] for p in poses]).reshape(len(poses), -1)
+                                for key in ("base", "joints", "centres", "axes")] +
+                               [colours.reshape(len(poses), -1), np.asarray(targets).reshape(len(poses), -1),
+                                np.asarray([np.asarray(c, float).ravel() for c in curves]) if len(sizes) == 1
+                                else np.zeros((len(poses), 0))], axis=1)
+        if len(sizes) != 1 or not np.isfinite(every).all():
+            for pose, rgb in zip(poses, colours):
+                pose["colours"] = rgb
+            return [json.dumps({"deletions": [], "entities": [self.scene_entity(p, c, x, n)]},
+                               separators=(",", ":")).encode() for p, c, x, n in zip(poses, curves, targets, np.asarray(ns).tolist())]
+        template, columns = self._scene_template(m, sizes.pop())
+        values = np.empty((len(poses), template.columns), np.int64)
+        values[:, columns["stamp"]] = stamps(ns)
+        scaled = {"position": 10.0 ** SCENE_EXPONENTS["position"], "target": 10.0 ** SCENE_EXPONENTS["target"],
+                  "orientation": 10.0 ** SCENE_EXPONENTS["orientation"], "colour": 10.0 ** SCENE_EXPONENTS["colour"]}
+        for key, unit, data in (("base", "position", [p["base"] for p in poses]),
+                                ("joints", "position", [p["joints"] for p in poses]),
+                                ("centres", "position", [p["centres"] for p in poses]),
+                                ("axes", "orientation", [p["axes"] for p in poses]),
+                                ("colours", "colour", colours), ("target", "target", targets),
+                                ("curve", "position", curves)):
+            values[:, columns[key]] = np.round(np.asarray(data, float).reshape(len(poses), -1) * scaled[unit])
+        return template.fill(values)
+
+    def _scene_template(self, m: int, curve_points: int) -> tuple[JsonTemplate, dict[str, list[int]]]:
+        """The ``foxglove.SceneUpdate`` of :meth:`scene_entity` with integer slots (:data:`SCENE_EXPONENTS`) and
+        the columns of each quantity: ``stamp`` (sec, nsec), ``base``, ``joints``, ``centres`` (x, y, z each),
+        ``axes`` (x, y, z, w each), ``colours`` (r, g, b each), ``target``, ``curve`` (x, y, z each); the axis line
+        shows the joints' and the colours' columns again, the walls are literal."""
+        key = (m, curve_points)
+        if key in self._templates3d:
+            return self._templates3d[key]
+        xi, r, d = self.ctrl.chain.xi, self.radius, self._joint_size
+        exp = SCENE_EXPONENTS
+        t = stamp_slots(JsonTemplate(kinds=6).text('{"deletions":[],"entities":[{"timestamp":'))
+        columns: dict[str, list[int]] = {"stamp": [0, 1]}
+
+        def dumps(value: Any) -> str:
+            return json.dumps(value, separators=(",", ":"))
+
+        def numbers(names: str, kind: int, exponent: int, shown: list[int] | None = None, end: str = "}") -> list[int]:
+            """``{"x":<slot>e-<exponent>,...`` and ``end`` for each of ``names``: new columns, or the ``shown`` ones."""
+            out = []
+            for i, name in enumerate(names):
+                t.text(("{" if i == 0 else ",") + f'"{name}":')
+                t.number(kind, None if shown is None else shown[i])
+                out.append(t.columns - 1 if shown is None else shown[i])
+                t.text(f"e-{exponent}")
+            t.text(end)
+            return out
+
+        def sphere(size: float, colour: tuple[float, ...], kind: int, exponent: int) -> list[int]:
+            t.text('{"pose":{"position":')
+            cols = numbers("xyz", kind, exponent)
+            t.text(',"orientation":' + dumps(dict(zip("xyzw", (0.0, 0.0, 0.0, 1.0)))) + '},"size":' +
+                   dumps({"x": size, "y": size, "z": size}) + ',"color":' + dumps(_colour(colour)) + "}")
+            return cols
+
+        t.text(',"frame_id":"world","id":"coordarm","lifetime":{"sec":0,"nsec":0},"frame_locked":false,'
+               '"metadata":[],"arrows":[],"cubes":[')
+        columns["base"] = sphere(2 * d, JOINT_COLOR, 2, exp["position"])
+        t.text('],"spheres":[')
+        columns["joints"] = []
+        for j in range(m + 1):
+            columns["joints"] += sphere(d, JOINT_COLOR, 2, exp["position"])
+            t.text(",")
+        big = max(1.2 * xi, 0.05)
+        columns["target"] = sphere(big, TARGET_COLOR, 4, exp["target"])
+        t.text('],"cylinders":[')
+        columns["centres"], columns["axes"], columns["colours"] = [], [], []
+        for j in range(m):
+            t.text(("," if j else "") + '{"pose":{"position":')
+            columns["centres"] += numbers("xyz", 2, exp["position"])
+            t.text(',"orientation":')
+            columns["axes"] += numbers("xyzw", 3, exp["orientation"])
+            t.text('},"size":' + dumps({"x": 2 * r, "y": 2 * r, "z": xi}) + ',"bottom_scale":1,"top_scale":1,"color":')
+            columns["colours"] += numbers("rgb", 5, exp["colour"], end=',"a":1.0}}')
+        t.text('],"lines":[')
+        curve = _line(np.zeros((0, 3)), CURVE_PX, CURVE_COLOR, pixels=True)
+        head, tail = dumps(curve).split('"points":[]')
+        t.text(head + '"points":[')
+        columns["curve"] = []
+        for i in range(curve_points):
+            t.text("," if i else "")
+            columns["curve"] += numbers("xyz", 2, exp["position"])
+        t.text("]" + tail)
+        t.text("".join("," + dumps(w) for w in self._walls) + ",")
+        axis = _axis_line({"joints": np.zeros((1, 3)), "colours": np.zeros((0, 3))})
+        head, tail = dumps(axis).split('"points":[]')
+        middle, tail = tail.split('"colors":[]')
+        t.text(head + '"points":[')
+        joints = columns["joints"]
+        for j in range(m):
+            for end in (j, j + 1):
+                t.text("," if (j or end) else "")
+                numbers("xyz", 2, exp["position"], joints[3 * end:3 * end + 3])
+        t.text("]" + middle + '"colors":[')
+        rgb = columns["colours"]
+        for j in range(2 * m):
+            t.text("," if j else "")
+            t.text('{"r":').number(5, rgb[3 * (j // 2)]).text(f'e-{exp["colour"]},"g":').number(5, rgb[3 * (j // 2) + 1])
+            t.text(f'e-{exp["colour"]},"b":').number(5, rgb[3 * (j // 2) + 2]).text(f'e-{exp["colour"]},"a":1.0}}')
+        t.text("]" + tail + '],"triangles":[],"texts":[],"models":[]}]}')
+        self._templates3d[key] = t, columns
+        return t, columns
 
     def poses(self, q: np.ndarray) -> list[dict[str, np.ndarray]]:
         """The chain's drawn geometry at each row of ``q`` (computed for all rows at once).
@@ -360,16 +471,11 @@ class SpatialSceneBuilder(SceneBuilder):
         tracking = np.column_stack([t, part.s[ks], self.s_target[ks], targets, max_e,
                                     np.min(part.link_margins[ks], axis=1), np.linalg.norm(part.u[ks], axis=1),
                                     part.roll[ks], roll_target, log10_floored(max_e), s_error, log10_floored(s_error)])
-        for pose, rgb in zip(poses, margin_colours(part.link_margins[ks])):
-            pose["colours"] = rgb
+        colours = margin_colours(part.link_margins[ks])
+        scenes = self._scenes(poses, colours, curves, targets, ns)
         out = []
-        walls = json.dumps(_WALLS).encode()      # the placeholder as encoded: replaced by the walls' text
-        if not self._walls_json:
-            walls += b","
         for i, (n, tf) in enumerate(zip(np.asarray(ns).tolist(), self.frame_transforms(q, ns))):
-            scene = {"deletions": [], "entities": [self.scene_entity(poses[i], curves[i], targets[i], n, walls=False)]}
-            text = json.dumps(scene, separators=(",", ":")).encode()
-            out.append(("scene", n, text.replace(walls, self._walls_json, 1)))
+            out.append(("scene", n, scenes[i]))
             out.append(("tf", n, tf))
             out.append(("tracking", n, CDR_HEADER + tracking[i].astype("<f8").tobytes()))
         return out

@@ -8,7 +8,7 @@ import pytest
 
 from coordarm.simulation.log_schemas import CDR_HEADER, foxglove_schema
 from coordarm.simulation.scene import link_frames
-from coordarm.simulation.scene3d import SpatialSceneBuilder, quaternions, spatial_link_frames
+from coordarm.simulation.scene3d import SCENE_EXPONENTS, SpatialSceneBuilder, quaternions, spatial_link_frames
 from coordarm.symbolic.chain import PlanarChain
 from coordarm.symbolic.curves3d import Line3D
 from coordarm.symbolic.motions import Sinusoid
@@ -17,6 +17,10 @@ from coordarm.symbolic.spatial_chain import SpatialChain
 from coordarm.symbolic.spatial_controller import SpatialController
 
 M, XI = 5, 0.1
+#: How far a scene's position or orientation component may lie from its value: half of its unit
+#: (SCENE_EXPONENTS: positions in micrometres, quaternion components in 1e-9; a direction turned by a
+#: quaternion written so is within a few of those).
+POSITION, TURNED = 0.5e-6 * (1 + 1e-9), 4e-9
 
 
 def rotate(quat, v):
@@ -84,13 +88,13 @@ def test_link_cylinders_sit_on_the_centres_along_the_link_directions(ctrl, drawn
         cylinders = entity["cylinders"]
         assert len(cylinders) == M
         for j, cyl in enumerate(cylinders):
-            np.testing.assert_allclose(xyz(cyl["pose"]["position"]), c[j], atol=1e-15)
+            np.testing.assert_allclose(xyz(cyl["pose"]["position"]), c[j], rtol=0, atol=POSITION)
             np.testing.assert_allclose(rotate(xyzw(cyl["pose"]["orientation"]), np.array([0.0, 0, 1])), d[j],
-                                       atol=1e-14)
+                                       rtol=0, atol=TURNED)
             assert cyl["size"]["z"] == XI
         joints = np.array([xyz(s["pose"]["position"]) for s in entity["spheres"][:-1]])
-        np.testing.assert_allclose(joints[:-1], c - 0.5 * XI * d, atol=1e-15)
-        np.testing.assert_allclose(joints[1:], c + 0.5 * XI * d, atol=1e-15)
+        np.testing.assert_allclose(joints[:-1], c - 0.5 * XI * d, rtol=0, atol=POSITION)
+        np.testing.assert_allclose(joints[1:], c + 0.5 * XI * d, rtol=0, atol=POSITION)
 
 
 def test_the_axis_line_joins_the_link_ends_in_the_cylinders_colours_after_the_curve(ctrl, drawn):
@@ -104,8 +108,8 @@ def test_the_axis_line_joins_the_link_ends_in_the_cylinders_colours_after_the_cu
         curve, *_, axis = entity["lines"]
         assert curve["color"]["g"] == 0.5 and axis["type"] == 2 and axis["scale_invariant"]   # curve first
         ends = np.array([xyz(p) for p in axis["points"]])
-        np.testing.assert_allclose(ends[0::2], c - 0.5 * XI * d, atol=1e-14)
-        np.testing.assert_allclose(ends[1::2], c + 0.5 * XI * d, atol=1e-14)
+        np.testing.assert_allclose(ends[0::2], c - 0.5 * XI * d, rtol=0, atol=POSITION)
+        np.testing.assert_allclose(ends[1::2], c + 0.5 * XI * d, rtol=0, atol=POSITION)
         colours = [[k["r"], k["g"], k["b"]] for k in axis["colors"]]
         cylinders = [[k["color"]["r"], k["color"]["g"], k["color"]["b"]] for k in entity["cylinders"]]
         assert colours[0::2] == cylinders and colours[1::2] == cylinders
@@ -194,11 +198,33 @@ def test_a_path_is_drawn_whole_in_3d():
     assert dist.max() < 0.02                              # every part of the path is drawn
 
 
+def same_numbers(got, want, path=""):
+    """``got`` (a parsed message) is ``want`` (the entity's dicts) with each number written to its unit
+    (:data:`SCENE_EXPONENTS`: colours 1e-3, orientations 1e-9, the target 1e-12, positions 1e-6): the same
+    structure and keys, every number within half a unit (ties to even), strings and booleans equal."""
+    if isinstance(want, dict):
+        assert isinstance(got, dict) and list(got) == list(want), path
+        for k in want:
+            same_numbers(got[k], want[k], f"{path}.{k}")
+    elif isinstance(want, list):
+        assert isinstance(got, list) and len(got) == len(want), path
+        for i, (g, w) in enumerate(zip(got, want)):
+            same_numbers(g, w, f"{path}[{i}]")
+    elif isinstance(want, (bool, str)) or want is None:
+        assert got == want and type(got) is type(want), path
+    else:
+        unit = ("colour" if ".color" in path or ".colors" in path else "orientation" if ".orientation" in path
+                else "target" if path.startswith(".spheres[-1]") else "position")
+        half = 0.5 * 10.0 ** -SCENE_EXPONENTS[unit]
+        assert abs(got - want) <= half * (1 + 1e-9) + 1e-16 * abs(want), (path, got, want)
+
+
 @pytest.mark.parametrize("obstacles", [[], [{"kind": "sphere", "centre": [0.3, 0.1, 0.0], "radius": 0.05},
                                             {"kind": "cylinder", "a": [0.0, 0.3, 0.0], "b": [0.4, 0.3, 0.1], "radius": 0.02}]])
-def test_a_scene_message_is_the_json_of_its_whole_entity_the_walls_encoded_once(ctrl, obstacles):
-    """The walls' text, encoded once and put in place of a placeholder, gives exactly the bytes of encoding the
-    whole entity (walls as dicts) at every message; the walls are the lines between the curve and the axes."""
+def test_a_scene_message_is_its_whole_entity_written_to_the_units_the_walls_literal(ctrl, obstacles):
+    """The template's message parses to the entity of :meth:`scene_entity` (walls as dicts, floats) with each
+    number written to its unit; the walls, sizes and colours that do not move are its text exactly, the
+    walls are the lines between the curve and the axes; a pose that is not finite is encoded from the dicts."""
     from coordarm.simulation.obstacles3d import obstacle3d_from_spec, wireframe
     from coordarm.simulation.scene import margin_colours
 
@@ -207,16 +233,26 @@ def test_a_scene_message_is_the_json_of_its_whole_entity_the_walls_encoded_once(
     part = block(9, seed=3)
     builder.advance(part)
     ks = np.array([0, 4, 8])
-    ns = (part.t[ks] * 1e9).round().astype(np.int64)
+    ns = (part.t[ks] * 1e9).round().astype(np.int64) + 3 * 10**9
     scenes = [d for k, _, d in builder.messages(part, ks, ns) if k == "scene"]
     poses, curves, targets = builder.poses(part.q[ks]), builder.curves(part.t[ks]), builder.targets(part, ks)
     for pose, rgb in zip(poses, margin_colours(part.link_margins[ks])):
         pose["colours"] = rgb
+    walls = [p for ob in obs for p in wireframe(ob)]
     for scene, pose, curve, target, n in zip(scenes, poses, curves, targets, ns.tolist()):
-        whole = {"deletions": [], "entities": [builder.scene_entity(pose, curve, target, n)]}
-        assert scene == json.dumps(whole, separators=(",", ":")).encode()
-        lines = json.loads(scene)["entities"][0]["lines"]
-        walls = [p for ob in obs for p in wireframe(ob)]
+        whole = builder.scene_entity(pose, curve, target, n)
+        got = json.loads(scene)
+        assert got["deletions"] == [] and len(got["entities"]) == 1
+        entity = got["entities"][0]
+        same_numbers({**entity, "spheres[-1]": entity["spheres"][-1]}, {**whole, "spheres[-1]": whole["spheres"][-1]})
+        assert entity["timestamp"] == {"sec": 3, "nsec": n - 3 * 10**9}
+        lines = entity["lines"]
         assert len(lines) == 2 + len(walls) and lines[-1]["type"] == 2
+        assert lines[1:-1] == whole["lines"][1:-1]                  # the walls: their text, encoded once
         for line, points in zip(lines[1:-1], walls):
             np.testing.assert_array_equal([xyz(p) for p in line["points"]], points)
+        assert [c["size"] for c in entity["cylinders"]] == [c["size"] for c in whole["cylinders"]]
+    part.q[4, 3] = np.nan                                            # not finite: the dicts' JSON (NaN)
+    builder.advance(part)
+    nan_scenes = [d for k, _, d in builder.messages(part, ks, ns) if k == "scene"]
+    assert b"NaN" in nan_scenes[1]

@@ -162,7 +162,7 @@ def test_the_stage_figure_and_the_scene_draw_the_rail_and_the_base_on_it(logged)
     for entity, k in zip(scenes, ks):
         base = entity["cubes"][0]["pose"]["position"]
         np.testing.assert_allclose([base["x"], base["y"], base["z"]], run.q[k, 0] * ctrl.chain.rail_direction,
-                                   atol=1e-15)
+                                   rtol=0, atol=0.5e-6 * (1 + 1e-9))    # positions in the scene: micrometres
         ends = [[p["x"], p["y"], p["z"]] for p in entity["lines"][1]["points"]]
         np.testing.assert_allclose(ends, np.outer([0.1, 1.0], ctrl.chain.rail_direction), atol=1e-15)
     # with the capsule radius the links are drawn as the checked capsules: cylinders and caps of that radius
