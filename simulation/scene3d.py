@@ -149,6 +149,34 @@ def _axis_line(pose: dict[str, np.ndarray]) -> dict[str, Any]:
             "colors": [_colour((*c, 1.0)) for c in colours.tolist()], "indices": []}
 
 
+def _dumps(value: Any) -> str:
+    return json.dumps(value, separators=(",", ":"))
+
+
+def _numbers(t: JsonTemplate, names: str, kind: int, exponent: int, shown: list[int] | None = None,
+             end: str = "}") -> list[int]:
+    """Append ``{"x":<slot>e-<exponent>,...`` and ``end`` for each of ``names`` (slots of ``kind``: new columns,
+    or the ``shown`` ones); returns their columns."""
+    out = []
+    for i, name in enumerate(names):
+        t.text(("{" if i == 0 else ",") + f'"{name}":')
+        t.number(kind, None if shown is None else shown[i])
+        out.append(t.columns - 1 if shown is None else shown[i])
+        t.text(f"e-{exponent}")
+    t.text(end)
+    return out
+
+
+def _sphere_slots(t: JsonTemplate, size: float, colour: tuple[float, ...], kind: int, exponent: int) -> list[int]:
+    """Append a sphere (or a cube: the same fields) whose position is three slots of ``kind``; returns their
+    columns. The rest is :func:`_pose`'s, :func:`_colour`'s text."""
+    t.text('{"pose":{"position":')
+    cols = _numbers(t, "xyz", kind, exponent)
+    t.text(',"orientation":' + _dumps(dict(zip("xyzw", (0.0, 0.0, 0.0, 1.0)))) + '},"size":' +
+           _dumps({"x": size, "y": size, "z": size}) + ',"color":' + _dumps(_colour(colour)) + "}")
+    return cols
+
+
 class SpatialSceneBuilder(SceneBuilder):
     """Builds the ``/scene``, ``/tf`` and ``/tracking`` messages of a spatial run, block by block.
 
@@ -317,65 +345,44 @@ class SpatialSceneBuilder(SceneBuilder):
         t = stamp_slots(JsonTemplate(kinds=6).text('{"deletions":[],"entities":[{"timestamp":'))
         columns: dict[str, list[int]] = {"stamp": [0, 1]}
 
-        def dumps(value: Any) -> str:
-            return json.dumps(value, separators=(",", ":"))
-
-        def numbers(names: str, kind: int, exponent: int, shown: list[int] | None = None, end: str = "}") -> list[int]:
-            """``{"x":<slot>e-<exponent>,...`` and ``end`` for each of ``names``: new columns, or the ``shown`` ones."""
-            out = []
-            for i, name in enumerate(names):
-                t.text(("{" if i == 0 else ",") + f'"{name}":')
-                t.number(kind, None if shown is None else shown[i])
-                out.append(t.columns - 1 if shown is None else shown[i])
-                t.text(f"e-{exponent}")
-            t.text(end)
-            return out
-
-        def sphere(size: float, colour: tuple[float, ...], kind: int, exponent: int) -> list[int]:
-            t.text('{"pose":{"position":')
-            cols = numbers("xyz", kind, exponent)
-            t.text(',"orientation":' + dumps(dict(zip("xyzw", (0.0, 0.0, 0.0, 1.0)))) + '},"size":' +
-                   dumps({"x": size, "y": size, "z": size}) + ',"color":' + dumps(_colour(colour)) + "}")
-            return cols
-
         t.text(',"frame_id":"world","id":"coordarm","lifetime":{"sec":0,"nsec":0},"frame_locked":false,'
                '"metadata":[],"arrows":[],"cubes":[')
-        columns["base"] = sphere(2 * d, JOINT_COLOR, 2, exp["position"])
+        columns["base"] = _sphere_slots(t, 2 * d, JOINT_COLOR, 2, exp["position"])
         t.text('],"spheres":[')
         columns["joints"] = []
         for j in range(m + 1):
-            columns["joints"] += sphere(d, JOINT_COLOR, 2, exp["position"])
+            columns["joints"] += _sphere_slots(t, d, JOINT_COLOR, 2, exp["position"])
             t.text(",")
         big = max(1.2 * xi, 0.05)
-        columns["target"] = sphere(big, TARGET_COLOR, 4, exp["target"])
+        columns["target"] = _sphere_slots(t, big, TARGET_COLOR, 4, exp["target"])
         t.text('],"cylinders":[')
         columns["centres"], columns["axes"], columns["colours"] = [], [], []
         for j in range(m):
             t.text(("," if j else "") + '{"pose":{"position":')
-            columns["centres"] += numbers("xyz", 2, exp["position"])
+            columns["centres"] += _numbers(t, "xyz", 2, exp["position"])
             t.text(',"orientation":')
-            columns["axes"] += numbers("xyzw", 3, exp["orientation"])
-            t.text('},"size":' + dumps({"x": 2 * r, "y": 2 * r, "z": xi}) + ',"bottom_scale":1,"top_scale":1,"color":')
-            columns["colours"] += numbers("rgb", 5, exp["colour"], end=',"a":1.0}}')
+            columns["axes"] += _numbers(t, "xyzw", 3, exp["orientation"])
+            t.text('},"size":' + _dumps({"x": 2 * r, "y": 2 * r, "z": xi}) + ',"bottom_scale":1,"top_scale":1,"color":')
+            columns["colours"] += _numbers(t, "rgb", 5, exp["colour"], end=',"a":1.0}}')
         t.text('],"lines":[')
         curve = _line(np.zeros((0, 3)), CURVE_PX, CURVE_COLOR, pixels=True)
-        head, tail = dumps(curve).split('"points":[]')
+        head, tail = _dumps(curve).split('"points":[]')
         t.text(head + '"points":[')
         columns["curve"] = []
         for i in range(curve_points):
             t.text("," if i else "")
-            columns["curve"] += numbers("xyz", 2, exp["position"])
+            columns["curve"] += _numbers(t, "xyz", 2, exp["position"])
         t.text("]" + tail)
-        t.text("".join("," + dumps(w) for w in self._walls) + ",")
+        t.text("".join("," + _dumps(w) for w in self._walls) + ",")
         axis = _axis_line({"joints": np.zeros((1, 3)), "colours": np.zeros((0, 3))})
-        head, tail = dumps(axis).split('"points":[]')
+        head, tail = _dumps(axis).split('"points":[]')
         middle, tail = tail.split('"colors":[]')
         t.text(head + '"points":[')
         joints = columns["joints"]
         for j in range(m):
             for end in (j, j + 1):
                 t.text("," if (j or end) else "")
-                numbers("xyz", 2, exp["position"], joints[3 * end:3 * end + 3])
+                _numbers(t, "xyz", 2, exp["position"], joints[3 * end:3 * end + 3])
         t.text("]" + middle + '"colors":[')
         rgb = columns["colours"]
         for j in range(2 * m):
