@@ -270,6 +270,33 @@ def obstacles3d_from_spec(specs: Any) -> list[Obstacle3D]:
     return obs
 
 
+def bounding_box(obstacle: Obstacle3D) -> tuple[np.ndarray, np.ndarray]:
+    """The obstacle's axis-aligned bounding box: its lowest and highest corner [m].
+
+    A sphere's centre -+ radius; a cylinder's ends -+ radius; a box's centre -+ the sum of its half edges
+    along each axis; a square plate's centre -+ its half-size along ``u, v`` and half thickness along ``n``;
+    an unbounded plate's box is infinite across its plane (an axis-aligned plate's thickness still bounds it).
+
+    Parameters
+    ----------
+    obstacle : Obstacle3D
+        The obstacle.
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (3,)
+        The corners [m] (``-inf``/``inf`` where unbounded).
+    """
+    if obstacle.kind == "sphere":
+        return obstacle.centre - obstacle.radius, obstacle.centre + obstacle.radius
+    if obstacle.kind == "cylinder":
+        ends = np.array([obstacle.centre, obstacle.end])
+        return ends.min(axis=0) - obstacle.radius, ends.max(axis=0) + obstacle.radius
+    with np.errstate(invalid="ignore"):      # an unbounded plate: inf * 0 along an axis it is flat on
+        reach = np.nan_to_num(np.abs(obstacle.axes).T * obstacle.half, nan=0.0, posinf=np.inf).sum(axis=1)
+    return obstacle.centre - reach, obstacle.centre + reach
+
+
 def capsule_gaps(a: np.ndarray, b: np.ndarray, radius: float, obstacle: Obstacle3D,
                  within: float = math.inf) -> np.ndarray:
     """Gap [m] between capsules (axis ``ab``, ``radius``) and an obstacle: axis distance minus ``radius``.

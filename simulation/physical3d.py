@@ -22,7 +22,7 @@ from coordarm.symbolic.geometry import touching
 from coordarm.symbolic.records import record
 
 from .distance3d import plate_point_distance, segment_segment_distance
-from .obstacles3d import Obstacle3D, capsule_gaps
+from .obstacles3d import Obstacle3D, bounding_box, capsule_gaps
 from .physical import Contact
 
 
@@ -179,10 +179,16 @@ class Physical3D:
         hit = touching(gap, c)
         for k, la, lb, g in zip(s[hit], i[hit], j[hit], gap[hit]):
             found.append((k, 1, Contact("self", float(t[k]), (int(la) + 1, int(lb) + 1), float(g), c)))
+        if self.obstacles:      # each link's box, widened by what still counts as touching (a broad phase)
+            reach = (self.radius + c) * (1 + 1e-9) + 1e-12
+            lo, hi = np.minimum(a, b) - reach, np.maximum(a, b) + reach
         for ob in self.obstacles:
-            g = capsule_gaps(a, b, self.radius, ob, within=c)
-            for k, j in zip(*np.nonzero(touching(g, c))):
-                found.append((k, 2, Contact("wall", float(t[k]), (int(j) + 1,), float(g[k, j]), c, ob.name)))
+            ob_lo, ob_hi = bounding_box(ob)
+            k, j = np.nonzero(np.all((lo <= ob_hi) & (hi >= ob_lo), axis=-1))   # only links whose boxes meet its
+            g = capsule_gaps(a[k, j], b[k, j], self.radius, ob, within=c)
+            hit = touching(g, c)
+            for k_, j_, g_ in zip(k[hit], j[hit], g[hit]):
+                found.append((k_, 2, Contact("wall", float(t[k_]), (int(j_) + 1,), float(g_), c, ob.name)))
         found.sort(key=lambda x: (int(x[0]), x[1], x[2].links))
         return [x[2] for x in found]
 

@@ -9,7 +9,7 @@ from scipy.spatial import cKDTree
 
 from coordarm.cli import main
 from coordarm.simulation.distance3d import segment_segment_distance
-from coordarm.simulation.obstacles3d import capsule_gaps, obstacle3d_from_spec, plate_axes
+from coordarm.simulation.obstacles3d import bounding_box, capsule_gaps, obstacle3d_from_spec, plate_axes
 from coordarm.simulation.physical3d import close_pairs, link_ends, self_gaps
 from coordarm.simulation.run import simulate
 from coordarm.simulation.scenario import Scenario
@@ -385,3 +385,56 @@ def test_a_spatial_scenario_with_obstacles_round_trips_through_its_spec():
     with pytest.raises(ConfigError, match=r"^bad.toml: chain.radius: only a universal chain"):
         Scenario.from_dict({**data, "chain": {"links": 6, "link_length": 0.1, "radius": 0.01}, "obstacles": []},
                            "bad.toml")
+
+
+# ------------------------------------------------------------------------------------- broad phase
+BROAD = [{"kind": "sphere", "centre": [0.45, 0.05, 0.0], "radius": 0.06},
+         {"kind": "cylinder", "a": [0.7, -1.0, 0.03], "b": [0.72, 1.0, -0.02], "radius": 0.02},
+         {"kind": "box", "centre": [0.25, -0.1, 0.05], "size": [0.1, 0.12, 0.08],
+          "rotation": {"axis": [1.0, 2.0, 0.5], "angle": 0.7}},
+         {"kind": "plate", "point": [0.95, 0.0, 0.0], "normal": [1.0, 0.2, 0.1], "thickness": 0.02, "extent": 0.3,
+          "holes": [{"centre": [0.95, 0.0, 0.05], "radius": 0.06}]},
+         {"kind": "plate", "point": [0.0, 0.0, -0.12], "normal": [0.0, 0.0, 1.0], "thickness": 0.01}]
+
+
+def test_an_obstacles_bounding_box_holds_its_sampled_surface():
+    obs = [obstacle3d_from_spec(o, i) for i, o in enumerate(BROAD)]
+    sphere, cylinder, box, plate, floor = obs
+    R = box.axes
+    clouds = {"sphere": sphere_points(sphere.centre, sphere.radius),
+              "cylinder": np.vstack([sphere_points(c, cylinder.radius, 4000) for c in sampled(cylinder.centre, cylinder.end, 201)]),
+              "box": box_points(box.centre, 2 * box.half, R, 60),
+              "plate": box_points(plate.centre, 2 * plate.half, plate.axes, 60)}
+    for ob in obs[:4]:
+        lo, hi = bounding_box(ob)
+        cloud = clouds[ob.kind]
+        assert np.all(cloud >= lo - 1e-12) and np.all(cloud <= hi + 1e-12), ob.kind
+        assert np.allclose(cloud.min(axis=0), lo, atol=2e-3) and np.allclose(cloud.max(axis=0), hi, atol=2e-3), ob.kind
+    lo, hi = bounding_box(floor)                          # unbounded in its plane, its thickness along z
+    assert np.all(np.isinf(lo[:2])) and np.all(np.isinf(hi[:2])) and np.allclose([lo[2], hi[2]], [-0.125, -0.115])
+
+
+def test_the_broad_phase_keeps_every_contact_of_all_pairs():
+    """Physical3D.check measures only the links whose boxes meet an obstacle's: the same contacts, with the same
+    gaps, as measuring every link against every obstacle, on folded and stretched poses among five obstacles."""
+    from coordarm.simulation.physical import Contact
+    from coordarm.simulation.physical3d import Physical3D
+    from coordarm.symbolic.geometry import touching
+
+    obs = [obstacle3d_from_spec(o, i) for i, o in enumerate(BROAD)]
+    chain = SpatialChain(12, 0.1)
+    rng = np.random.default_rng(11)
+    q = rng.normal(scale=0.35, size=(300, chain.dof))
+    t = np.arange(300) * 0.01
+    for clearance in (0.0, 0.01):
+        phys = Physical3D(chain, math.pi, 0.015, clearance, obs)
+        got = [x for x in phys.check(t, q) if x.kind == "wall"]
+        a, b, _ = link_ends(chain, q)
+        want = []
+        for ob in obs:
+            g = capsule_gaps(a, b, 0.015, ob, within=clearance)
+            want += [(k, Contact("wall", float(t[k]), (int(j) + 1,), float(g[k, j]), clearance, ob.name))
+                     for k, j in zip(*np.nonzero(touching(g, clearance)))]
+        want = [c for _, c in sorted(want, key=lambda x: (int(x[0]), x[1].links))]
+        assert len({c.obstacle for c in got}) == 5 and len(got) > 100
+        assert got == want
