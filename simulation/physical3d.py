@@ -184,7 +184,7 @@ class Physical3D:
             lo, hi = np.minimum(a, b) - reach, np.maximum(a, b) + reach
         for ob in self.obstacles:
             ob_lo, ob_hi = bounding_box(ob)
-            k, j = np.nonzero(np.all((lo <= ob_hi) & (hi >= ob_lo), axis=-1))   # only links whose boxes meet its
+            k, j = np.nonzero(np.all((lo <= ob_hi) & (hi >= ob_lo), axis=-1))   # the links whose boxes meet its box
             g = capsule_gaps(a[k, j], b[k, j], self.radius, ob, within=c)
             hit = touching(g, c)
             for k_, j_, g_ in zip(k[hit], j[hit], g[hit]):

@@ -39,6 +39,9 @@ ARM_AXIS_PX, WIREFRAME_PX = 4.0, 1.5
 #: positions in micrometres, the end point's target in picometres, orientations (quaternion components) in
 #: 1e-9 and colours in 1e-3, as the planar scene (:mod:`.scene`) writes its numbers.
 SCENE_EXPONENTS = {"position": 6, "target": 12, "orientation": 9, "colour": 3}
+#: The unit (a key of :data:`SCENE_EXPONENTS`) of each quantity a ``/scene`` template's slots show.
+_SLOT_UNITS = {"base": "position", "joints": "position", "centres": "position", "axes": "orientation",
+               "colours": "colour", "target": "target", "curve": "position"}
 #: The quaternion (x, y, z, w) of ``Ry(pi/2)``: it turns a cylinder's axis (z) onto the link's x axis.
 _Z_TO_X = np.array([0.0, np.sin(np.pi / 4), 0.0, np.cos(np.pi / 4)])
 
@@ -306,30 +309,21 @@ class SpatialSceneBuilder(SceneBuilder):
         """The ``/scene`` messages of k poses: the integers of each (:data:`SCENE_EXPONENTS`) filled into one
         template (:class:`~.json_fill.JsonTemplate`; the walls are literal text in it). Poses whose curves differ
         in length, or with a number that is not finite, are encoded from :meth:`scene_entity` instead."""
-        m = self.ctrl.chain.m
-        sizes = {len(c) for c in curves}
-        every = np.concatenate([np.stack([p[key] for p in poses]).reshape(len(poses), -1)
-                                for key in ("base", "joints", "centres", "axes")] +
-                               [colours.reshape(len(poses), -1), np.asarray(targets).reshape(len(poses), -1),
-                                np.asarray([np.asarray(c, float).ravel() for c in curves]) if len(sizes) == 1
-                                else np.zeros((len(poses), 0))], axis=1)
-        if len(sizes) != 1 or not np.isfinite(every).all():
+        k, sizes = len(poses), {len(c) for c in curves}
+        data = {"base": [p["base"] for p in poses], "joints": [p["joints"] for p in poses],
+                "centres": [p["centres"] for p in poses], "axes": [p["axes"] for p in poses], "colours": colours,
+                "target": targets, "curve": curves}
+        blocks = {key: np.asarray(v, float).reshape(k, -1) for key, v in data.items()} if len(sizes) == 1 else {}
+        if not blocks or not all(np.isfinite(b).all() for b in blocks.values()):
             for pose, rgb in zip(poses, colours):
                 pose["colours"] = rgb
             return [json.dumps({"deletions": [], "entities": [self.scene_entity(p, c, x, n)]},
                                separators=(",", ":")).encode() for p, c, x, n in zip(poses, curves, targets, np.asarray(ns).tolist())]
-        template, columns = self._scene_template(m, sizes.pop())
-        values = np.empty((len(poses), template.columns), np.int64)
+        template, columns = self._scene_template(self.ctrl.chain.m, sizes.pop())
+        values = np.empty((k, template.columns), np.int64)
         values[:, columns["stamp"]] = stamps(ns)
-        scaled = {"position": 10.0 ** SCENE_EXPONENTS["position"], "target": 10.0 ** SCENE_EXPONENTS["target"],
-                  "orientation": 10.0 ** SCENE_EXPONENTS["orientation"], "colour": 10.0 ** SCENE_EXPONENTS["colour"]}
-        for key, unit, data in (("base", "position", [p["base"] for p in poses]),
-                                ("joints", "position", [p["joints"] for p in poses]),
-                                ("centres", "position", [p["centres"] for p in poses]),
-                                ("axes", "orientation", [p["axes"] for p in poses]),
-                                ("colours", "colour", colours), ("target", "target", targets),
-                                ("curve", "position", curves)):
-            values[:, columns[key]] = np.round(np.asarray(data, float).reshape(len(poses), -1) * scaled[unit])
+        for key, block in blocks.items():
+            values[:, columns[key]] = np.round(block * 10.0 ** SCENE_EXPONENTS[_SLOT_UNITS[key]])
         return template.fill(values)
 
     def _scene_template(self, m: int, curve_points: int) -> tuple[JsonTemplate, dict[str, list[int]]]:
