@@ -304,19 +304,17 @@ class SpatialSceneBuilder(SceneBuilder):
                 "triangles": [], "texts": [],
                 "models": []}
 
-    def _scenes(self, poses: list[dict[str, np.ndarray]], colours: np.ndarray, curves: list[np.ndarray],
+    def _scenes(self, drawn: dict[str, np.ndarray], colours: np.ndarray, curves: list[np.ndarray],
                 targets: np.ndarray, ns: np.ndarray) -> list[bytes]:
-        """The ``/scene`` messages of k poses: the integers of each (:data:`SCENE_EXPONENTS`) filled into one
-        template (:class:`~.json_fill.JsonTemplate`; the walls are literal text in it). Poses whose curves differ
-        in length, or with a number that is not finite, are encoded from :meth:`scene_entity` instead."""
-        k, sizes = len(poses), {len(c) for c in curves}
-        data = {"base": [p["base"] for p in poses], "joints": [p["joints"] for p in poses],
-                "centres": [p["centres"] for p in poses], "axes": [p["axes"] for p in poses], "colours": colours,
-                "target": targets, "curve": curves}
+        """The ``/scene`` messages of k poses (``drawn``: :meth:`pose_arrays`): the integers of each
+        (:data:`SCENE_EXPONENTS`) filled into one template (:class:`~.json_fill.JsonTemplate`; the walls are literal
+        text in it). Poses whose curves differ in length, or with a number that is not finite, are encoded from
+        :meth:`scene_entity` instead."""
+        k, sizes = len(colours), {len(c) for c in curves}
+        data = {**drawn, "colours": colours, "target": targets, "curve": curves}
         blocks = {key: np.asarray(v, float).reshape(k, -1) for key, v in data.items()} if len(sizes) == 1 else {}
         if not blocks or not all(np.isfinite(b).all() for b in blocks.values()):
-            for pose, rgb in zip(poses, colours):
-                pose["colours"] = rgb
+            poses = [{**dict(zip(drawn, row)), "colours": rgb} for *row, rgb in zip(*drawn.values(), colours)]
             return [json.dumps({"deletions": [], "entities": [self.scene_entity(p, c, x, n)]},
                                separators=(",", ":")).encode() for p, c, x, n in zip(poses, curves, targets, np.asarray(ns).tolist())]
         template, columns = self._scene_template(self.ctrl.chain.m, sizes.pop())
@@ -379,10 +377,9 @@ class SpatialSceneBuilder(SceneBuilder):
                 _numbers(t, "xyz", 2, exp["position"], joints[3 * end:3 * end + 3])
         t.text("]" + middle + '"colors":[')
         rgb = columns["colours"]
-        for j in range(2 * m):
+        for j in range(2 * m):                  # both ends of link j in its cylinder's colour
             t.text("," if j else "")
-            t.text('{"r":').number(5, rgb[3 * (j // 2)]).text(f'e-{exp["colour"]},"g":').number(5, rgb[3 * (j // 2) + 1])
-            t.text(f'e-{exp["colour"]},"b":').number(5, rgb[3 * (j // 2) + 2]).text(f'e-{exp["colour"]},"a":1.0}}')
+            _numbers(t, "rgb", 5, exp["colour"], rgb[3 * (j // 2):3 * (j // 2) + 3], end=',"a":1.0}')
         t.text("]" + tail + '],"triangles":[],"texts":[],"models":[]}]}')
         self._templates3d[key] = t, columns
         return t, columns
@@ -400,13 +397,29 @@ class SpatialSceneBuilder(SceneBuilder):
         list of dict
             Per row: ``centres`` (m, 3) [m] (the cylinders' centres ``y^j``), ``axes`` (m, 4) (quaternions
             ``(x, y, z, w)`` of ``R_j Ry(pi/2)``: the cylinder's z axis along ``d_j``), ``joints`` (m+1, 3) [m]
-            and ``base`` (3,) [m] (the origin, or ``d`` along the rail); ``colours`` (m, 3) is added by
-            :meth:`messages` (:func:`~.scene.margin_colours`).
+            and ``base`` (3,) [m] (the origin, or ``d`` along the rail); the caller adds ``colours`` (m, 3)
+            (:func:`~.scene.margin_colours`) before :meth:`scene_entity`.
+        """
+        drawn = self.pose_arrays(q)
+        return [dict(zip(drawn, row)) for row in zip(*drawn.values())]
+
+    def pose_arrays(self, q: np.ndarray) -> dict[str, np.ndarray]:
+        """:meth:`poses` as arrays over the rows: ``base`` (k, 3), ``joints`` (k, m+1, 3), ``centres`` (k, m, 3)
+        [m] and ``axes`` (k, m, 4).
+
+        Parameters
+        ----------
+        q : ndarray, shape (k, dof)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+
+        Returns
+        -------
+        dict of str to ndarray
+            The chain's drawn geometry, the rows first.
         """
         chain = self.ctrl.chain
-        centres, axes = chain.centres_np(q), quaternion_product(quaternions(chain.frames_np(q)), _Z_TO_X)
-        joints, bases = spatial_joints(chain, q), chain.base_point(q)
-        return [{"centres": c, "axes": a, "joints": j, "base": b} for c, a, j, b in zip(centres, axes, joints, bases)]
+        return {"base": chain.base_point(q), "joints": spatial_joints(chain, q), "centres": chain.centres_np(q),
+                "axes": quaternion_product(quaternions(chain.frames_np(q)), _Z_TO_X)}
 
     def frame_transforms(self, q: np.ndarray, ns: np.ndarray) -> list[bytes]:
         """The ``foxglove.FrameTransforms`` of poses ``q`` (k, 2m) stamped ``ns`` [ns], one JSON each.
@@ -466,14 +479,14 @@ class SpatialSceneBuilder(SceneBuilder):
         if not len(ks):
             return []
         q, t = part.q[ks], np.asarray(part.t, float)[ks]
-        curves, targets, poses = self.curves(t), self.targets(part, ks), self.poses(q)
+        curves, targets = self.curves(t), self.targets(part, ks)
         roll_target = roll_command(self.ctrl, t)
         max_e, s_error = np.max(np.abs(part.e[ks]), axis=1), part.s[ks] - self.s_target[ks]
         tracking = np.column_stack([t, part.s[ks], self.s_target[ks], targets, max_e,
                                     np.min(part.link_margins[ks], axis=1), np.linalg.norm(part.u[ks], axis=1),
                                     part.roll[ks], roll_target, log10_floored(max_e), s_error, log10_floored(s_error)])
         colours = margin_colours(part.link_margins[ks])
-        scenes = self._scenes(poses, colours, curves, targets, ns)
+        scenes = self._scenes(self.pose_arrays(q), colours, curves, targets, ns)
         out = []
         for i, (n, tf) in enumerate(zip(np.asarray(ns).tolist(), self.frame_transforms(q, ns))):
             out.append(("scene", n, scenes[i]))
