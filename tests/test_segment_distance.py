@@ -5,7 +5,6 @@ import pytest
 
 from coordarm.generated import segment_distance
 from coordarm.generated.segment_distance import distance_library
-from coordarm.simulation import distance3d
 from coordarm.simulation.distance3d import (point_segment_distance3, point_segment_distance3_numpy,
                                             segment_segment_distance, segment_segment_distance_numpy)
 
@@ -80,4 +79,3 @@ def test_without_a_compiler_a_spatial_run_checks_the_same_contacts(monkeypatch):
     assert segment_distance.segment_segment(np.zeros(3), np.ones(3), np.zeros(3), np.ones(3)) is None
     assert {c.kind for c in compiled} >= {"wall", "self"}
     assert phys.check(t, q) == compiled
-    assert distance3d.segment_segment_distance is segment_segment_distance
