@@ -1,7 +1,10 @@
-"""Distances between 3-D segments and from points to segments in C, many per call (a spatial chain's capsules).
+"""Distances in 3-D from segments to segments, points, boxes and plates with holes in C, many per call (a
+spatial chain's capsules against each other and the obstacles).
 
-``templates/segment_distance.c`` repeats :func:`~coordarm.simulation.distance3d.segment_segment_distance_numpy`
-and :func:`~coordarm.simulation.distance3d.point_segment_distance3_numpy` operation by operation; compiled as a
+``templates/segment_distance.c`` repeats :func:`~coordarm.simulation.distance3d.segment_segment_distance_numpy`,
+:func:`~coordarm.simulation.distance3d.point_segment_distance3_numpy`,
+:func:`~coordarm.simulation.distance3d.segment_box_distance_numpy` and
+:func:`~coordarm.simulation.distance3d.plate_search_numpy` operation by operation; compiled as a
 :mod:`~coordarm.generated.kernels` library (fixed flags, no contraction), its distances are the numpy
 reference's to the last bit. Each function returns None where no C compiler works (the caller then runs
 the reference) or where the operands are not 3-vectors.
@@ -38,6 +41,10 @@ def distance_library() -> ctypes.CDLL | None:
     lib.coordarm_segment_segment.restype = None
     lib.coordarm_point_segment.argtypes = [_I] + [_P, _I] * 3 + [_P]
     lib.coordarm_point_segment.restype = None
+    lib.coordarm_segment_box.argtypes = [_I, _P, _P, _P, _P]
+    lib.coordarm_segment_box.restype = None
+    lib.coordarm_segment_plate.argtypes = [_I, _P, _P, ctypes.c_double, ctypes.c_double, _I, _P, _P, _I, _P, _P]
+    lib.coordarm_segment_plate.restype = None
     return lib
 
 
@@ -100,3 +107,100 @@ def point_segment(p: Any, a: Any, b: Any) -> np.ndarray | None:
         As :func:`segment_segment`.
     """
     return _call("coordarm_point_segment", (p, a, b))
+
+
+def _frame_operands(pa: Any, pd: Any) -> tuple[np.ndarray, np.ndarray] | None:
+    """``pa`` and ``pd`` as C-contiguous float64 arrays of one shape ``(..., 3)``, or None."""
+    pa, pd = np.asarray(pa, dtype=np.float64), np.asarray(pd, dtype=np.float64)
+    if pa.shape != pd.shape or not pa.shape or pa.shape[-1] != 3:
+        return None
+    return np.ascontiguousarray(pa), np.ascontiguousarray(pd)
+
+
+def segment_box(pa: Any, pd: Any, half: Any) -> np.ndarray | None:
+    """Distance [m] from segments to a solid box, in C, the segments given in the box's frame.
+
+    Parameters
+    ----------
+    pa : array_like, shape (..., 3)
+        The first ends minus the box's centre, along the box's axes [m].
+    pd : array_like, shape (..., 3)
+        The segments (second end minus first), along the box's axes [m].
+    half : array_like, shape (3,)
+        The box's half edges along its axes [m].
+
+    Returns
+    -------
+    ndarray, shape (...), or None
+        The reference's distances to the last bit (0 when a segment touches or enters the box); None
+        without the library or for operands that are not 3-vectors of one shape.
+    """
+    lib = distance_library()
+    operands = _frame_operands(pa, pd) if lib is not None else None
+    if operands is None:
+        return None
+    pa, pd = operands
+    h = np.ascontiguousarray(half, dtype=np.float64)
+    if h.shape != (3,):
+        return None
+    out = np.empty(pa.shape[:-1])
+    lib.coordarm_segment_box(out.size, pa.ctypes.data, pd.ctypes.data, h.ctypes.data, out.ctypes.data)
+    return out
+
+
+def plate_break_count(extent: float, holes: tuple) -> int:
+    """How many parameters a segment is cut at near a plate (faces, square edges, holes' rims and diagonals).
+
+    Parameters
+    ----------
+    extent : float
+        Half-size of the square plate [m] (``inf``: unbounded).
+    holes : tuple of (kind, cu, cv, p, q)
+        The holes (``"circle"`` or ``"rectangle"``).
+
+    Returns
+    -------
+    int
+        2 (the slab's faces), 4 more for a finite square, 2 per circle, 8 per rectangle.
+    """
+    return 2 + 4 * math.isfinite(extent) + sum(2 if kind == "circle" else 8 for kind, *_ in holes)
+
+
+def segment_plate(pa: Any, pd: Any, half_thickness: float, extent: float, holes: tuple,
+                  steps: int) -> np.ndarray | None:
+    """Distance [m] from segments to a plate with holes, in C, the segments given in the plate's frame.
+
+    Parameters
+    ----------
+    pa : array_like, shape (..., 3)
+        The first ends minus the plate's centre, along its axes ``u, v, n`` [m].
+    pd : array_like, shape (..., 3)
+        The segments (second end minus first), along the same axes [m].
+    half_thickness : float
+        Half the plate's thickness [m].
+    extent : float
+        Half-size of the square plate [m] (``inf``: unbounded).
+    holes : tuple of (kind, cu, cv, p, q)
+        ``("circle", cu, cv, radius, 0)`` or ``("rectangle", cu, cv, half_width, half_height)`` [m].
+    steps : int
+        Golden-section iterations on each piece.
+
+    Returns
+    -------
+    ndarray, shape (...), or None
+        The reference's distances to the last bit; None without the library or for operands that are not
+        3-vectors of one shape.
+    """
+    lib = distance_library()
+    operands = _frame_operands(pa, pd) if lib is not None else None
+    if operands is None:
+        return None
+    pa, pd = operands
+    kinds = np.array([0 if kind == "circle" else 1 for kind, *_ in holes], dtype=np.int64)
+    numbers = np.array([x[1:] for x in holes], dtype=np.float64).reshape(-1, 4)
+    work = np.empty(2 + plate_break_count(extent, holes))
+    out = np.empty(pa.shape[:-1])
+    lib.coordarm_segment_plate(out.size, pa.ctypes.data, pd.ctypes.data, float(half_thickness), float(extent),
+                               len(holes), kinds.ctypes.data, numbers.ctypes.data, int(steps), work.ctypes.data,
+                               out.ctypes.data)
+    return out

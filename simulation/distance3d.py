@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from coordarm.generated.segment_distance import point_segment, segment_segment
+from coordarm.generated.segment_distance import point_segment, segment_box, segment_plate, segment_segment
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -122,7 +122,8 @@ def segment_segment_distance_numpy(p1: ArrayLike, p2: ArrayLike, q1: ArrayLike, 
 
 
 def segment_box_distance(a: ArrayLike, b: ArrayLike, centre: ArrayLike, axes: ArrayLike, half: ArrayLike) -> np.ndarray:
-    """Distance [m] from segments ``ab`` to a solid box (0 when they touch or enter it), in closed form.
+    """Distance [m] from segments ``ab`` to a solid box (0 when they touch or enter it), in closed form:
+    :func:`segment_box_distance_numpy`, computed in C where a compiler works (the same values to the last bit).
 
     Parameters
     ----------
@@ -140,9 +141,60 @@ def segment_box_distance(a: ArrayLike, b: ArrayLike, centre: ArrayLike, axes: Ar
     ndarray, shape (...)
         Distances [m].
     """
-    R, h = np.asarray(axes, float), np.asarray(half, float)
-    pa = (np.asarray(a, float) - centre) @ R.T
-    pd = (np.asarray(b, float) - np.asarray(a, float)) @ R.T
+    pa, pd = box_frame(a, b, centre, axes)
+    out = segment_box(pa, pd, half)
+    return _box_distance_numpy(pa, pd, half) if out is None else out
+
+
+def box_frame(a: ArrayLike, b: ArrayLike, centre: ArrayLike, axes: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Segments ``ab`` in a frame (a box's or a plate's): the first end from its centre and the segment, along its axes.
+
+    Parameters
+    ----------
+    a, b : array_like, shape (..., 3)
+        Segment ends [m].
+    centre : array_like, shape (3,)
+        The frame's origin [m].
+    axes : array_like, shape (3, 3)
+        Its unit axes, one per row.
+
+    Returns
+    -------
+    pa, pd : ndarray, shape (..., 3)
+        ``(a - centre) R^T`` and ``(b - a) R^T`` [m].
+    """
+    R = np.asarray(axes, float)
+    a = np.asarray(a, float)
+    return (a - centre) @ R.T, (np.asarray(b, float) - a) @ R.T
+
+
+def segment_box_distance_numpy(a: ArrayLike, b: ArrayLike, centre: ArrayLike, axes: ArrayLike,
+                               half: ArrayLike) -> np.ndarray:
+    """:func:`segment_box_distance` in numpy (the reference of the C kernel).
+
+    Parameters
+    ----------
+    a, b : array_like, shape (..., 3)
+        Segment ends [m].
+    centre : array_like, shape (3,)
+        The box's centre [m].
+    axes : array_like, shape (3, 3)
+        Its unit edge directions, one per row.
+    half : array_like, shape (3,)
+        Its half edge lengths [m] along those rows.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Distances [m].
+    """
+    pa, pd = box_frame(a, b, centre, axes)
+    return _box_distance_numpy(pa, pd, half)
+
+
+def _box_distance_numpy(pa: np.ndarray, pd: np.ndarray, half: ArrayLike) -> np.ndarray:
+    """The box distance from the segments in its frame (:func:`box_frame`)."""
+    h = np.asarray(half, float)
     with np.errstate(divide="ignore", invalid="ignore"):
         br = np.concatenate([(h - pa) / pd, (-h - pa) / pd], axis=-1)
     br = np.clip(np.nan_to_num(br, nan=0.0, posinf=0.0, neginf=0.0), 0.0, 1.0)
@@ -254,11 +306,8 @@ def segment_plate_distance(a: ArrayLike, b: ArrayLike, plate: Any, within: float
     ndarray, shape (...)
         Distances [m].
     """
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    R, (_, _, ht) = plate.axes, plate.half
-    ext = plate.extent
-    pa = (a - plate.centre) @ R.T
-    pd = (b - a) @ R.T
+    (_, _, ht), ext = plate.half, plate.extent
+    pa, pd = box_frame(a, b, plate.centre, plate.axes)
     wa, wb = pa[..., 2], pa[..., 2] + pd[..., 2]
     across = np.sign(wa - ht) != np.sign(wb - ht)
     bound = np.where(across | (np.sign(wa + ht) != np.sign(wb + ht)), 0.0,
@@ -268,12 +317,39 @@ def segment_plate_distance(a: ArrayLike, b: ArrayLike, plate: Any, within: float
     if not np.any(sel):
         return out
     pa, pd = pa[sel], pd[sel]
+    near = segment_plate(pa, pd, ht, ext, plate.holes, GOLDEN_STEPS)
+    out[sel] = plate_search_numpy(pa, pd, ht, ext, plate.holes) if near is None else near
+    return out
 
+
+def plate_search_numpy(pa: np.ndarray, pd: np.ndarray, half_thickness: float, extent: float,
+                       holes: tuple) -> np.ndarray:
+    """Distance [m] from segments in a plate's frame to the plate: the pieces' ends and a golden-section
+    minimum inside each piece (:data:`GOLDEN_STEPS` iterations), in numpy (the reference of the C kernel).
+
+    Parameters
+    ----------
+    pa : ndarray, shape (n, 3)
+        First ends from the plate's centre, along its axes ``u, v, n`` [m] (:func:`box_frame`).
+    pd : ndarray, shape (n, 3)
+        The segments along the same axes [m].
+    half_thickness : float
+        Half the thickness [m].
+    extent : float
+        Half-size of the square plate [m] (``inf``: unbounded).
+    holes : tuple of (kind, cu, cv, p, q)
+        As :func:`plate_point_distance`.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Distances [m].
+    """
     def dist(s: np.ndarray) -> np.ndarray:
-        return plate_point_distance(pa[:, None, :] + s[..., None] * pd[:, None, :], ht, ext, plate.holes)
+        return plate_point_distance(pa[:, None, :] + s[..., None] * pd[:, None, :], half_thickness, extent, holes)
 
     S = np.sort(np.concatenate([np.zeros((len(pa), 1)), np.ones((len(pa), 1)),
-                                _plate_breaks(pa, pd, ht, ext, plate.holes)], axis=-1), axis=-1)
+                                _plate_breaks(pa, pd, half_thickness, extent, holes)], axis=-1), axis=-1)
     best = np.min(dist(S), axis=-1)
     lo, hi = S[:, :-1].copy(), S[:, 1:].copy()
     g = 0.5 * (math.sqrt(5.0) - 1.0)
@@ -284,5 +360,4 @@ def segment_plate_distance(a: ArrayLike, b: ArrayLike, plate: Any, within: float
         lo, hi = np.where(left, lo, x1), np.where(left, x2, hi)
         x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
         f1, f2 = dist(x1), dist(x2)
-    out[sel] = np.minimum(best, np.min(np.minimum(f1, f2), axis=-1))
-    return out
+    return np.minimum(best, np.min(np.minimum(f1, f2), axis=-1))
