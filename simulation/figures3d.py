@@ -70,12 +70,9 @@ def target_points3d(ctrl: Any, s_ref: np.ndarray, times: np.ndarray) -> np.ndarr
     ndarray, shape (k, 3), or None
         The target points [m].
     """
-    point_at = getattr(ctrl.curve, "point_at", None)
-    if point_at is None:
-        return None
     try:
-        return np.array([point_at(float(s), float(t)) for s, t in zip(s_ref, times)])
-    except NotImplementedError:
+        return ctrl.curve.points_at(s_ref, times)
+    except (AttributeError, NotImplementedError):
         return None
 
 

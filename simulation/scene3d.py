@@ -236,8 +236,9 @@ class SpatialSceneBuilder(SceneBuilder):
             One polyline [m] per time.
         """
         curve = self.ctrl.curve
-        if getattr(curve, "kind", "") == "line":
-            return [curve.sample(float(t), n=2, extent=self.reach) for t in times]
+        if getattr(curve, "kind", "") == "line":         # its two ends, as sample(t, n=2, extent=reach) draws them
+            ends = curve.points_at(np.tile([-self.reach, self.reach], len(times)), np.repeat(times, 2))
+            return list(ends.reshape(-1, 2, 3))
         if getattr(curve, "kind", "") in ("path", "waypoints"):
             if self._path_points is None:
                 self._path_points = curve.sample(0.0, n=300, extent=0.25 * self.reach)
@@ -260,10 +261,9 @@ class SpatialSceneBuilder(SceneBuilder):
         ndarray, shape (k, 3)
             The target points [m].
         """
-        point_at = getattr(self.ctrl.curve, "point_at", None)
         try:
-            return np.array([point_at(float(self.s_target[k]), float(part.t[k])) for k in ks]).reshape(-1, 3)
-        except (TypeError, NotImplementedError):
+            return self.ctrl.curve.points_at(self.s_target[ks], part.t[ks])
+        except (AttributeError, TypeError, NotImplementedError):
             return self.ctrl.chain.centres_np(part.q[ks])[:, -1]
 
     def scene_entity(self, pose: dict[str, np.ndarray], curve: np.ndarray, target: np.ndarray,

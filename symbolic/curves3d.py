@@ -17,7 +17,7 @@ import numpy as np
 
 from .errors import ConfigError, shown
 from .motions import motion_to_spec
-from .params import Param, as_param, evaluate
+from .params import Param, as_param, evaluate, evaluate_many
 from .vectors3d import any_normal, as_point3, orthogonal_normal, rotate, unit_vector
 
 
@@ -151,6 +151,31 @@ class SpatialCurve:
             Points [m].
         """
         raise NotImplementedError
+
+    def points_at(self, s: Any, times: Any) -> np.ndarray:
+        """The points of arc lengths ``s`` at ``times`` (``point_at`` pair by pair; a line does it at once).
+
+        Parameters
+        ----------
+        s : array_like, shape (k,) or scalar
+            Arc lengths [m].
+        times : array_like, shape (k,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (k, 3)
+            The points [m].
+
+        Raises
+        ------
+        AttributeError
+            The curve has no ``point_at`` (it cannot map an arc length to a point).
+        """
+        t = np.asarray(times, dtype=float).ravel()
+        s = np.broadcast_to(np.asarray(s, dtype=float), t.shape)
+        point_at = self.point_at
+        return np.array([point_at(a, b) for a, b in zip(s.tolist(), t.tolist())], dtype=float).reshape(-1, 3)
 
     def to_spec(self) -> dict:
         """The curve as data (for parameters built from motion primitives).
@@ -296,6 +321,33 @@ class Line3D(SpatialCurve):
         """
         p = np.array([evaluate(c, t) for c in self.point])
         return p + s * self.numeric_basis(t)[0]
+
+    def points_at(self, s: Any, times: Any) -> np.ndarray:
+        """:meth:`point_at` at many pairs ``(s_i, t_i)`` at once (the same values, bit for bit).
+
+        Parameters
+        ----------
+        s : array_like, shape (k,) or scalar
+            Arc lengths [m].
+        times : array_like, shape (k,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (k, 3)
+            The points [m].
+        """
+        t = np.asarray(times, dtype=float).ravel()
+        s = np.broadcast_to(np.asarray(s, dtype=float), t.shape)
+        p = np.stack([evaluate_many(c, t) for c in self.point], axis=-1)
+        if self.axis is None:
+            return p + s[:, None] * self.direction
+        angle = evaluate_many(self.angle, t)
+        c = np.array([math.cos(a) for a in angle.tolist()])[:, None]     # math's, as rotate's: the same bits
+        sn = np.array([math.sin(a) for a in angle.tolist()])[:, None]
+        v = self.direction
+        tangent = v * c + np.cross(self.axis, v) * sn + self.axis * float(self.axis @ v) * (1 - c)
+        return p + s[:, None] * tangent
 
     def to_spec(self) -> dict:
         spec = {"kind": "line", "point": [motion_to_spec(c) for c in self.point],

@@ -93,3 +93,33 @@ def evaluate(param: Callable, t: float) -> float:
     """
     v = param(ca.DM(t))
     return float(ca.DM(v)) if not isinstance(v, (int, float)) else float(v)
+
+
+def evaluate_many(param: Callable, times: Any) -> np.ndarray:
+    """Numeric values of a parameter callable at many times, in one call on a row of times.
+
+    The motions (:mod:`.motions`) are elementwise, so the values are :func:`evaluate`'s, bit for bit; a
+    callable that does not take a row (it fails, or gives one value for several times) is evaluated
+    time by time.
+
+    Parameters
+    ----------
+    param : callable
+        ``p(t)``, as returned by :func:`as_param`.
+    times : array_like, shape (k,)
+        Times [s].
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        ``p(t)`` at each time (unit of the parameter).
+    """
+    t = np.asarray(times, dtype=float).ravel()
+    try:
+        v = param(ca.DM(t).T)
+        out = np.full(t.shape, float(v)) if isinstance(v, (int, float)) else np.asarray(ca.DM(v), dtype=float).ravel()
+    except Exception:   # noqa: BLE001 - a user's callable of one time: the loop below
+        out = None
+    if out is None or out.shape != t.shape:
+        out = np.array([evaluate(param, x) for x in t.tolist()], dtype=float)
+    return out

@@ -218,3 +218,30 @@ def test_unwrap_s_makes_psi_continuous_around_a_circle_in_3d():
     s = np.array([evaluate(f, curve.point_at(0.8 * a), 0.0)[0][0, 0] for a in angles])
     assert np.max(np.abs(np.diff(s))) > 4.0                    # psi jumps by 2 pi R at the cut
     np.testing.assert_allclose(unwrap_s(curve, np.zeros_like(s), s), 0.8 * angles, atol=1e-9)
+
+
+def test_points_at_many_times_are_point_at_pair_by_pair_bit_for_bit():
+    """A line does it at once (its motions on a row of times); a circle and a path pair by pair."""
+    from coordarm.symbolic.paths3d import Path3D
+    t = np.linspace(0.0, 12.0, 97)
+    s = np.linspace(-1.0, 2.5, 97)
+    still = Line3D(point=(0.1, -0.2, 0.3), direction=(0.0, 1.0, 1.0), normal=(1.0, 0.0, 0.0))
+    scalar_only = Line3D(point=(lambda t: 0.1 * float(t), 0.0, 0.0), rotation=((0, 0, 1), lambda t: 0.2 * float(t)))
+    path = Path3D((0, 0, 0), (1, 0, 0), (0, 1, 0), [("line", 0.3), ("arc", 1.5, 0.4, 1.2)])
+    for curve in (moving_line(), still, scalar_only, moving_circle(), path):
+        got = curve.points_at(s, t)
+        assert got.shape == (len(t), 3)
+        np.testing.assert_array_equal(got, [curve.point_at(a, b) for a, b in zip(s, t)])
+    p, tan, _, _ = line_reference(3.0)                   # and against scipy's rotation
+    np.testing.assert_allclose(moving_line().points_at([0.7], [3.0])[0], p + 0.7 * tan, rtol=0, atol=1e-15)
+
+
+def test_evaluate_many_is_evaluate_at_each_time_for_every_motion():
+    from coordarm.symbolic.motions import Constant, Ramp, Smoothstep, Sum
+    from coordarm.symbolic.params import evaluate, evaluate_many
+    t = np.linspace(-1.0, 6.0, 141)
+    motions = [Constant(0.3), Ramp(0.1, -0.05), Sinusoid(0.6, 0.2, 0.1, 0.4), Smoothstep(0.0, 2.0, 1.0, 4.0),
+               Sum((Smoothstep(0.0, 1.0, 0.5, 2.0), Sinusoid(0.1, 3.0))), lambda t: 0.25,
+               lambda t: math.exp(float(t)) / 100]                 # a callable of one number: time by time
+    for m in motions:
+        np.testing.assert_array_equal(evaluate_many(m, t), [evaluate(m, x) for x in t])

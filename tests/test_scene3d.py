@@ -256,3 +256,15 @@ def test_a_scene_message_is_its_whole_entity_written_to_the_units_the_walls_lite
     builder.advance(part)
     nan_scenes = [d for k, _, d in builder.messages(part, ks, ns) if k == "scene"]
     assert b"NaN" in nan_scenes[1]
+
+
+def test_a_lines_drawn_ends_and_the_targets_are_sample_and_point_at_time_by_time(ctrl):
+    part = block(9)
+    builder = SpatialSceneBuilder(ctrl, [])
+    builder.advance(part)
+    ks = np.arange(9)
+    drawn = builder.curves(part.t)
+    want = [ctrl.curve.sample(float(t), n=2, extent=builder.reach) for t in part.t]
+    assert len(drawn) == 9 and all(np.array_equal(d, w) for d, w in zip(drawn, want))
+    np.testing.assert_array_equal(builder.targets(part, ks),
+                                  [ctrl.curve.point_at(float(builder.s_target[k]), float(part.t[k])) for k in ks])
