@@ -50,6 +50,10 @@ ARM_PX, CURVE_PX, WALL_PX, RAIL_PX = 6.0, 3.0, 4.0, 5.0
 #: How far the curve is drawn below the arm's plane [link lengths]: the arm runs along the curve, and a
 #: viewer draws the later of two lines at the same depth on top (the curve would hide the links' colours).
 CURVE_DEPTH = 0.25
+#: Decimal places of the lengths a scene writes as literal text [m] (sizes, the curve's depth, the 3-D
+#: walls' corners): micrometres, as its position slots; a sphere of 0.45 x 0.05 m is written 0.0225, not
+#: 0.022500000000000003.
+LENGTH_DECIMALS = 6
 #: The link margin colour scale: margins (stops) and their colours (r, g, b); linear in between. The
 #: violet stop keeps the colours saturated between orange and blue (a straight blend passes through grey,
 #: which reads as "no colour" in a viewer).
@@ -167,12 +171,28 @@ def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
     return [outline(ob) for ob in obstacles]
 
 
+def length_literal(x: float) -> float:
+    """A length as a scene writes it as text: rounded to :data:`LENGTH_DECIMALS` places (its shortest repr).
+
+    Parameters
+    ----------
+    x : float
+        The length [m].
+
+    Returns
+    -------
+    float
+        ``round(x, LENGTH_DECIMALS)`` [m].
+    """
+    return round(float(x), LENGTH_DECIMALS)
+
+
 def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0, pixels: bool = False,
                 depth: float = 0.0) -> tuple[str, str]:
     """The text of a ``foxglove.LinePrimitive`` before and after its points (``pixels``: thickness in px;
     ``depth`` [m]: the line's pose lies that far below the plane z = 0)."""
     r, g, b, a = color
-    pose = _POSE0 if depth == 0 else _POSE0.replace('"z":0}', f'"z":{-depth!r}}}', 1)
+    pose = _POSE0 if depth == 0 else _POSE0.replace('"z":0}', f'"z":{-length_literal(depth)!r}}}', 1)
     return (f'{{"type":{kind},"pose":{pose},"thickness":{thickness},"scale_invariant":{str(pixels).lower()},'
             '"points":[', f'],"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}},"colors":[],"indices":[]}}')
 
@@ -245,8 +265,9 @@ def _coloured_segments_slots(template: JsonTemplate, segments: int, thickness: f
 def _sphere(position: str, diameter: float, color: tuple[float, ...]) -> tuple[str, str]:
     """The text of a ``foxglove.SpherePrimitive`` before and after its position's ``x, y`` text."""
     r, g, b, a = color
+    d = length_literal(diameter)
     return ('{"pose":{"position":', f',"orientation":{{"x":0,"y":0,"z":0,"w":1}}}},'
-            f'"size":{{"x":{diameter},"y":{diameter},"z":{diameter}}},"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}')
+            f'"size":{{"x":{d},"y":{d},"z":{d}}},"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}')
 
 
 def rail_lines(chain: Any, reach: float) -> list[np.ndarray]:
@@ -547,7 +568,8 @@ class SceneBuilder:
                 c, s_ = math.cos(0.5 * chain.rail_angle), math.sin(0.5 * chain.rail_angle)
                 t.text('{"pose":{"position":{"x":').number(2).text('e-6,"y":').number(2)
                 t.text(f'e-6,"z":0}},"orientation":{{"x":0,"y":0,"z":{s_!r},"w":{c!r}}}}},'
-                       f'"size":{{"x":{1.5 * xi},"y":{xi},"z":{0.5 * xi}}},'
+                       f'"size":{{"x":{length_literal(1.5 * xi)},"y":{length_literal(xi)},'
+                       f'"z":{length_literal(0.5 * xi)}}},'
                        f'"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}')
             t.text('],"cylinders":[],"triangles":[],"texts":[],"models":[],"lines":[')
             _coloured_segments_slots(t, joints - 1, ARM_PX, 2, 5, first_point=4)

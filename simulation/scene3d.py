@@ -23,7 +23,8 @@ from .frame_transforms import stamp_slots, stamps
 from .json_fill import JsonTemplate
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
-from .scene import CURVE_COLOR, CURVE_PX, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder, margin_colours
+from .scene import (CURVE_COLOR, CURVE_PX, LENGTH_DECIMALS, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder,
+                    length_literal, margin_colours)
 from .spatial_view import rail_ends, roll_command, spatial_joints
 from .tracking_record import log10_floored
 
@@ -119,8 +120,10 @@ def spatial_link_frames(chain: SpatialChain, q: np.ndarray) -> tuple[np.ndarray,
     return trans, quaternions(np.swapaxes(parent_R, -1, -2) @ R)
 
 
-def _vec(v: Any) -> dict[str, float]:
-    return {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
+def _vec(v: Any, decimals: int | None = None) -> dict[str, float]:
+    if decimals is None:
+        return {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
+    return {"x": round(float(v[0]), decimals), "y": round(float(v[1]), decimals), "z": round(float(v[2]), decimals)}
 
 
 def _pose(p: Any, quat: Any = (0.0, 0.0, 0.0, 1.0)) -> dict[str, Any]:
@@ -131,13 +134,15 @@ def _colour(c: tuple[float, ...]) -> dict[str, float]:
     return dict(zip("rgba", c))
 
 
-def _line(points: np.ndarray, thickness: float, colour: tuple[float, ...], pixels: bool = False) -> dict[str, Any]:
-    """A ``foxglove.LinePrimitive`` line strip through ``points`` (k, 3) [m] (non-finite points dropped),
-    ``thickness`` in px if ``pixels`` (the same at any zoom), else in metres."""
+def _line(points: np.ndarray, thickness: float, colour: tuple[float, ...], pixels: bool = False,
+          decimals: int | None = None) -> dict[str, Any]:
+    """A ``foxglove.LinePrimitive`` line strip through ``points`` (k, 3) [m] (non-finite points dropped, the
+    coordinates rounded to ``decimals`` places if given), ``thickness`` in px if ``pixels`` (the same at any
+    zoom), else in metres."""
     pts = np.asarray(points, float)
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     return {"type": 0, "pose": _pose((0, 0, 0)), "thickness": thickness, "scale_invariant": pixels,
-            "points": [_vec(p) for p in pts], "color": _colour(colour), "colors": [], "indices": []}
+            "points": [_vec(p, decimals) for p in pts], "color": _colour(colour), "colors": [], "indices": []}
 
 
 def _axis_line(pose: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -212,13 +217,19 @@ class SpatialSceneBuilder(SceneBuilder):
 
     def __init__(self, ctrl: Any, obstacles: Any, radius: float | None = None, frames: str = "ends") -> None:
         super().__init__(ctrl, [], frames)
-        self._walls = [_line(p, WIREFRAME_PX, WALL_COLOR, pixels=True) for ob in obstacles for p in wireframe(ob)]
-        self.radius = 0.12 * ctrl.chain.xi if radius is None else float(radius)     # of the link cylinders [m]
-        self._joint_size = 2.6 * self.radius if radius is None else 2 * self.radius  # capsules: caps of the radius
+        xi = ctrl.chain.xi
+        self._walls = [_line(p, WIREFRAME_PX, WALL_COLOR, pixels=True, decimals=LENGTH_DECIMALS)
+                       for ob in obstacles for p in wireframe(ob)]
+        self.radius = 0.12 * xi if radius is None else float(radius)     # of the link cylinders [m]
+        d = 2.6 * self.radius if radius is None else 2 * self.radius  # capsules: caps of the radius
+        self._sizes = {"joint": length_literal(d), "base": length_literal(2 * d),      # as the scene writes them
+                       "target": length_literal(max(1.2 * xi, 0.05)),
+                       "cylinder": {"x": length_literal(2 * self.radius), "y": length_literal(2 * self.radius),
+                                    "z": length_literal(xi)}}
         self._path_points: np.ndarray | None = None     # a path's polyline (it does not move)
         ends = rail_ends(ctrl.chain, self.reach)
         if ends is not None:                             # the rail between its limits, under the walls
-            self._walls = [_line(ends, 0.02 * ctrl.chain.xi + 0.004, RAIL_COLOR)] + self._walls
+            self._walls = [_line(ends, length_literal(0.02 * xi + 0.004), RAIL_COLOR, decimals=LENGTH_DECIMALS)] + self._walls
         self._templates3d: dict[tuple[int, int], tuple[JsonTemplate, dict[str, list[int]]]] = {}
 
     def curves(self, times: np.ndarray) -> list[np.ndarray]:
@@ -287,16 +298,15 @@ class SpatialSceneBuilder(SceneBuilder):
         dict
             The entity (id ``"coordarm"``, frame ``world``).
         """
-        xi, r = self.ctrl.chain.xi, self.radius
-        cylinders = [{"pose": _pose(c, a), "size": {"x": 2 * r, "y": 2 * r, "z": xi}, "bottom_scale": 1,
+        sizes = self._sizes
+        cylinders = [{"pose": _pose(c, a), "size": dict(sizes["cylinder"]), "bottom_scale": 1,
                       "top_scale": 1, "color": _colour((*rgb, 1.0))}
                      for c, a, rgb in zip(pose["centres"], pose["axes"], pose["colours"].tolist())]
-        d = self._joint_size
+        d, big, b = sizes["joint"], sizes["target"], sizes["base"]
         spheres = [{"pose": _pose(p), "size": {"x": d, "y": d, "z": d}, "color": _colour(JOINT_COLOR)}
                    for p in pose["joints"]]
-        big = max(1.2 * xi, 0.05)
         spheres.append({"pose": _pose(target), "size": {"x": big, "y": big, "z": big}, "color": _colour(TARGET_COLOR)})
-        base = {"pose": _pose(pose["base"]), "size": {"x": 2 * d, "y": 2 * d, "z": 2 * d}, "color": _colour(JOINT_COLOR)}
+        base = {"pose": _pose(pose["base"]), "size": {"x": b, "y": b, "z": b}, "color": _colour(JOINT_COLOR)}
         return {"timestamp": {"sec": int(ns // 10**9), "nsec": int(ns % 10**9)}, "frame_id": "world",
                 "id": "coordarm", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
                 "arrows": [], "cubes": [base], "spheres": spheres, "cylinders": cylinders,
@@ -332,21 +342,20 @@ class SpatialSceneBuilder(SceneBuilder):
         key = (m, curve_points)
         if key in self._templates3d:
             return self._templates3d[key]
-        xi, r, d = self.ctrl.chain.xi, self.radius, self._joint_size
+        sizes = self._sizes
         exp = SCENE_EXPONENTS
         t = stamp_slots(JsonTemplate(kinds=6).text('{"deletions":[],"entities":[{"timestamp":'))
         columns: dict[str, list[int]] = {"stamp": [0, 1]}
 
         t.text(',"frame_id":"world","id":"coordarm","lifetime":{"sec":0,"nsec":0},"frame_locked":false,'
                '"metadata":[],"arrows":[],"cubes":[')
-        columns["base"] = _sphere_slots(t, 2 * d, JOINT_COLOR, 2, exp["position"])
+        columns["base"] = _sphere_slots(t, sizes["base"], JOINT_COLOR, 2, exp["position"])
         t.text('],"spheres":[')
         columns["joints"] = []
         for j in range(m + 1):
-            columns["joints"] += _sphere_slots(t, d, JOINT_COLOR, 2, exp["position"])
+            columns["joints"] += _sphere_slots(t, sizes["joint"], JOINT_COLOR, 2, exp["position"])
             t.text(",")
-        big = max(1.2 * xi, 0.05)
-        columns["target"] = _sphere_slots(t, big, TARGET_COLOR, 4, exp["target"])
+        columns["target"] = _sphere_slots(t, sizes["target"], TARGET_COLOR, 4, exp["target"])
         t.text('],"cylinders":[')
         columns["centres"], columns["axes"], columns["colours"] = [], [], []
         for j in range(m):
@@ -354,7 +363,7 @@ class SpatialSceneBuilder(SceneBuilder):
             columns["centres"] += _numbers(t, "xyz", 2, exp["position"])
             t.text(',"orientation":')
             columns["axes"] += _numbers(t, "xyzw", 3, exp["orientation"])
-            t.text('},"size":' + _dumps({"x": 2 * r, "y": 2 * r, "z": xi}) + ',"bottom_scale":1,"top_scale":1,"color":')
+            t.text('},"size":' + _dumps(sizes["cylinder"]) + ',"bottom_scale":1,"top_scale":1,"color":')
             columns["colours"] += _numbers(t, "rgb", 5, exp["colour"], end=',"a":1.0}}')
         t.text('],"lines":[')
         curve = _line(np.zeros((0, 3)), CURVE_PX, CURVE_COLOR, pixels=True)

@@ -249,9 +249,12 @@ def test_a_scene_message_is_its_whole_entity_written_to_the_units_the_walls_lite
         lines = entity["lines"]
         assert len(lines) == 2 + len(walls) and lines[-1]["type"] == 2
         assert lines[1:-1] == whole["lines"][1:-1]                  # the walls: their text, encoded once
-        for line, points in zip(lines[1:-1], walls):
-            np.testing.assert_array_equal([xyz(p) for p in line["points"]], points)
+        for line, points in zip(lines[1:-1], walls):                # corners to the micrometre, written short
+            got_points = np.array([xyz(p) for p in line["points"]])
+            np.testing.assert_allclose(got_points, points, rtol=0, atol=POSITION)
+            np.testing.assert_array_equal(got_points, [[round(float(x), 6) for x in p] for p in points])
         assert [c["size"] for c in entity["cylinders"]] == [c["size"] for c in whole["cylinders"]]
+        assert all(len(repr(v)) <= 8 for c in entity["cylinders"] + entity["spheres"] for v in c["size"].values())
     part.q[4, 3] = np.nan                                            # not finite: the dicts' JSON (NaN)
     builder.advance(part)
     nan_scenes = [d for k, _, d in builder.messages(part, ks, ns) if k == "scene"]

@@ -76,9 +76,15 @@ def fixed_line(points, px, colour):
             "points": [literal_point(x, y) for x, y in points], "color": rgba(colour), "colors": [], "indices": []}
 
 
+def length(x):
+    """A size or depth as the scene writes it: to the micrometre, in its shortest form."""
+    return float(f"{x:.6f}")
+
+
 def sphere(x, y, kind, scale, exponent, diameter, colour):
+    d = length(diameter)
     return {"pose": {"position": point(x, y, kind, scale, exponent), "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
-            "size": {"x": diameter, "y": diameter, "z": diameter}, "color": rgba(colour)}
+            "size": {"x": d, "y": d, "z": d}, "color": rgba(colour)}
 
 
 def stamp(ns):
@@ -96,7 +102,7 @@ def reference_scene(ctrl, obstacles, builder, joints, base, t, ns, target, margi
            "indices": []}
     extent = builder.reach
     curve = ctrl.curve.sample(float(t), n=2 if isinstance(ctrl.curve, scene.Line) else 90, extent=extent)
-    depth_pose = {"position": {"x": 0, "y": 0, "z": -(scene.CURVE_DEPTH * xi)},
+    depth_pose = {"position": {"x": 0, "y": 0, "z": -length(scene.CURVE_DEPTH * xi)},
                   "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}}
     curve_line = {"type": 0, "pose": depth_pose, "thickness": scene.CURVE_PX, "scale_invariant": True,
                   "points": [point(x, y, "curve") for x, y in curve], "color": rgba(scene.CURVE_COLOR), "colors": [],
@@ -108,7 +114,8 @@ def reference_scene(ctrl, obstacles, builder, joints, base, t, ns, target, margi
         a = chain.rail_angle
         cubes.append({"pose": {"position": point(*base, "um"),
                                "orientation": {"x": 0, "y": 0, "z": math.sin(0.5 * a), "w": math.cos(0.5 * a)}},
-                      "size": {"x": 1.5 * xi, "y": xi, "z": 0.5 * xi}, "color": rgba(scene.CARRIAGE_COLOR)})
+                      "size": {"x": length(1.5 * xi), "y": length(xi), "z": length(0.5 * xi)},
+                      "color": rgba(scene.CARRIAGE_COLOR)})
     entity = {"timestamp": stamp(ns), "frame_id": "world", "id": "coordarm", "lifetime": {"sec": 0, "nsec": 0},
               "frame_locked": False, "metadata": [], "arrows": [],
               "spheres": [sphere(*target, "target", 1e12, "e-12", max(1.2 * xi, 0.05), scene.TARGET_COLOR)]
