@@ -323,20 +323,8 @@ class Line3D(SpatialCurve):
         return p + s * self.numeric_basis(t)[0]
 
     def points_at(self, s: Any, times: Any) -> np.ndarray:
-        """:meth:`point_at` at many pairs ``(s_i, t_i)`` at once (the same values, bit for bit).
-
-        Parameters
-        ----------
-        s : array_like, shape (k,) or scalar
-            Arc lengths [m].
-        times : array_like, shape (k,)
-            Times [s].
-
-        Returns
-        -------
-        ndarray, shape (k, 3)
-            The points [m].
-        """
+        # at once (the docstring is SpatialCurve's): each motion evaluated on a row of all the times
+        # (params.evaluate_many), point_at's operations on the columns: its values, bit for bit
         t = np.asarray(times, dtype=float).ravel()
         s = np.broadcast_to(np.asarray(s, dtype=float), t.shape)
         p = np.stack([evaluate_many(c, t) for c in self.point], axis=-1)
