@@ -456,7 +456,7 @@ class Arc3D(Circle3D):
 
 
 for _cls in (Line3D, Circle3D):     # the subclasses' implementations carry the base class's documentation
-    for _name in ("coordinates", "sample", "period", "to_spec"):
+    for _name in ("coordinates", "sample", "period", "to_spec", "points_at"):
         _own = vars(_cls).get(_name)
         if _own is not None and not _own.__doc__:
             _own.__doc__ = getattr(SpatialCurve, _name).__doc__
