@@ -1,5 +1,5 @@
-"""Cost of a spatial run's physical checks and 3-D scene: the C capsule distances against numpy, the walls'
-JSON encoded once against in every message, and whole ``coordarm run`` commands of the spatial presets.
+"""Cost of a spatial run's physical checks and 3-D scene: the C capsule distances against numpy, the scene's
+template against ``json.dumps``, and whole ``coordarm run`` commands of the spatial presets.
 
 Parts, each interleaved (A, B, A, B, ...) in one process, medians and the median of the per-round ratios:
 
@@ -7,8 +7,8 @@ Parts, each interleaved (A, B, A, B, ...) in one process, medians and the median
   every ``--every`` step), with the distances from ``coordarm.generated.segment_distance`` and with the
   numpy reference (``distance_library`` switched off): the same contacts are asserted.
 * ``scene``: ``SpatialSceneBuilder.messages`` for every 20 Hz row of the same run (one template filled per
-  block, the walls literal in it), against ``json.dumps`` of each scene's whole entity (walls included) as
-  before: the same items are asserted.
+  block), against ``json.dumps`` of each scene's whole entity: the same items are asserted. (The walls were
+  literal text in the template; since ``/scene/fixed`` they are in none of the ``/scene`` messages.)
 * ``command``: ``coordarm run PRESET --no-figures`` in new processes (the whole command, wall time).
 
 Run: ``python benchmarks/physical3d.py [--rounds N] [--presets pipe3d path3d]``; results in
@@ -84,7 +84,7 @@ def scene(result, rounds: int) -> str:
     def once():
         return [d for k, _, d in builder.messages(run, ks, ns) if k == "scene"]
 
-    def every_message():     # as before: the whole entity, walls included, encoded for each message
+    def every_message():     # the whole entity encoded for each message
         poses, curves, targets = builder.poses(run.q[ks]), builder.curves(run.t[ks]), builder.targets(run, ks)
         for pose, rgb in zip(poses, margin_colours(run.link_margins[ks])):
             pose["colours"] = rgb

@@ -6,6 +6,7 @@ on the public port, which also lets in the viewers that offer the protocol's for
 ``foxglove.websocket.v1`` (Foxglove Studio 1.48, Lichtblick). It carries the same topics, schemas
 and message bytes as the log (:mod:`.mcap_writer`): the per-step channels at a reduced rate
 (default 50 Hz, plenty for a plot), ``/scene``, ``/tf`` and ``/tracking`` at the scene rate,
+``/scene/fixed`` once (and again whenever a viewer subscribes to it),
 ``/margins/cond`` at the log's cond rate. Messages go out paced to the simulated time (``speed``
 simulated seconds per wall second) from a thread of their own; its queue is short, so a
 simulation that runs faster than that waits for the view. A client that stops reading never
@@ -23,7 +24,7 @@ import numpy as np
 from coordarm.symbolic import ConfigError, CoordinatingController
 from coordarm.symbolic.checks import is_real
 
-from .log_schemas import CDR_HEADER, FOXGLOVE_CHANNELS, PER_STEP, foxglove_schema_bytes, numeric_channels
+from .log_schemas import CDR_HEADER, FIXED_TOPIC, FOXGLOVE_CHANNELS, PER_STEP, foxglove_schema_bytes, numeric_channels
 from .log_layout import PLANAR, ChainLayout, layout_of_chain
 from .mcap_file import Worker
 from .cond_channel import cond_plan, cond_values
@@ -84,7 +85,8 @@ def subscription_listener() -> Any:
 
     It subclasses the SDK's listener, so every callback the server makes (``on_unsubscribe`` at each
     disconnect, ...) exists; ``event`` is set at the first subscription, ``last`` holds the
-    ``time.monotonic()`` of the latest one.
+    ``time.monotonic()`` of the latest one, ``fixed`` is set at each subscription to ``/scene/fixed`` (its
+    one message is then sent again).
 
     Returns
     -------
@@ -96,9 +98,12 @@ def subscription_listener() -> Any:
     class Subscriptions(ServerListener):
         def __init__(self) -> None:
             self.event = threading.Event()
+            self.fixed = threading.Event()
             self.last = 0.0
 
         def on_subscribe(self, client: Any, channel: Any) -> None:
+            if channel.topic == FIXED_TOPIC:
+                self.fixed.set()
             self.last = time.monotonic()
             self.event.set()
 
@@ -179,6 +184,7 @@ class LiveView:
         self._seen = 0
         self._clock: tuple[float, int] | None = None  # (wall time, log time) of the first message
         self._drop = False
+        self._fixed: bytes | None = None     # the /scene/fixed message, sent again to each new subscriber
         self._worker = Worker(self._publish, "coordarm-live", 4)
 
     @property
@@ -263,6 +269,12 @@ class LiveView:
                 self._pace(n)
                 self.server.broadcast_time(n)
                 last = n
+            if key == "fixed":
+                self._fixed = bytes(data)
+                self._listener.fixed.clear()
+            elif self._fixed is not None and self._listener.fixed.is_set():   # a viewer subscribed since
+                self._listener.fixed.clear()
+                self.channels["fixed"].log(self._fixed, log_time=n)
             self.channels[key].log(data, log_time=n)
 
     def _pace(self, ns: int) -> None:

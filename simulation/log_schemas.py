@@ -311,8 +311,12 @@ PER_STEP = ("joint_state", "task_state", "margins")
 
 #: Foxglove channels: topic, official schema name (JSON Schema shipped in ``foxglove_schemas/``).
 SCENE_TOPIC, SCENE_SCHEMA_NAME = "/scene", "foxglove.SceneUpdate"
+#: What does not move (the obstacles, the rail): one ``foxglove.SceneUpdate`` at the first scene's time (a
+#: viewer shows the latest message of each topic after a seek; the live view sends it again to a new subscriber).
+FIXED_TOPIC = "/scene/fixed"
 TF_TOPIC, TF_SCHEMA_NAME = "/tf", "foxglove.FrameTransforms"
-FOXGLOVE_CHANNELS = {"scene": (SCENE_TOPIC, SCENE_SCHEMA_NAME), "tf": (TF_TOPIC, TF_SCHEMA_NAME)}
+FOXGLOVE_CHANNELS = {"scene": (SCENE_TOPIC, SCENE_SCHEMA_NAME), "fixed": (FIXED_TOPIC, SCENE_SCHEMA_NAME),
+                     "tf": (TF_TOPIC, TF_SCHEMA_NAME)}
 
 
 def foxglove_schema_bytes(name: str) -> bytes:

@@ -273,9 +273,11 @@ class RunLogger:
             sid = self.file.add_schema(ch.schema_name, "ros2msg", ch.schema_text().encode())
             self.ids[key] = self.file.add_channel(ch.topic, "cdr", sid)
         if self.scene_every:
+            sids: dict[str, int] = {}       # /scene and /scene/fixed share their schema
             for key, (topic, schema) in FOXGLOVE_CHANNELS.items():
-                sid = self.file.add_schema(schema, "jsonschema", foxglove_schema_bytes(schema))
-                self.ids[key] = self.file.add_channel(topic, "json", sid)
+                if schema not in sids:
+                    sids[schema] = self.file.add_schema(schema, "jsonschema", foxglove_schema_bytes(schema))
+                self.ids[key] = self.file.add_channel(topic, "json", sids[schema])
 
     def _write_header(self, command: list[str] | None, backend: str, library_key: str | None) -> None:
         """Write the ``scenario`` and ``run`` metadata (``build`` follows with the first block)."""

@@ -1,13 +1,14 @@
-"""What Foxglove draws: the ``/scene`` (``foxglove.SceneUpdate``), ``/tf`` (``foxglove.FrameTransforms``)
-and ``/tracking`` messages of a run, built from blocks of its steps.
+"""What Foxglove draws: the ``/scene`` and ``/scene/fixed`` (``foxglove.SceneUpdate``), ``/tf``
+(``foxglove.FrameTransforms``) and ``/tracking`` messages of a run, built from blocks of its steps.
 
 The scene, in frame ``world``: the chain as solid segments (a line list, 6 px wide at any zoom) coloured
 by each link's margin (:func:`margin_colours`: blue at 0.5 or more, violet at 0.375, orange at 0.25, red
 at 0; the first link, which has no margin, blue) with a dark sphere at every joint, the whole curve at its
 current pose (a solid line, 3 px, a quarter link below the arm's plane), the end point's target (a red
-sphere at the point of the curve whose arc length is ``s(0) + integral of v*``), the rail with its end
-stops and the carriage (a cube at ``y^1``) on a rail robot, and the obstacles, each drawn from
-:func:`obstacle_outlines` (4 px). The frame transforms (built by :mod:`.frame_transforms`) give, by
+sphere at the point of the curve whose arc length is ``s(0) + integral of v*``) and the carriage (a cube
+at ``y^1``) on a rail robot. What does not move, the rail with its end stops and the obstacles (each drawn
+from :func:`obstacle_outlines`, 4 px), is one ``/scene/fixed`` message before the first scene
+(:func:`fixed_update`, entity ``fixed``). The frame transforms (built by :mod:`.frame_transforms`) give, by
 default (``frames="ends"``), the frames ``base`` (at the pinned first central point ``y^1``, x along the
 rail on a rail robot) and ``tip`` (at the free end of the last link, x along it), both parented to
 ``world``; with ``frames="all"`` a frame
@@ -185,6 +186,28 @@ def length_literal(x: float) -> float:
         ``round(x, LENGTH_DECIMALS)`` [m].
     """
     return round(float(x), LENGTH_DECIMALS)
+
+
+def fixed_update(ns: int, lines: list[str] | tuple[str, ...]) -> bytes:
+    """The ``/scene/fixed`` message: a ``foxglove.SceneUpdate`` of one entity ``"fixed"`` (frame ``world``, kept
+    until replaced) holding ``lines``, the JSON texts of the ``foxglove.LinePrimitive`` s that do not move.
+
+    Parameters
+    ----------
+    ns : int
+        Its time stamp [ns].
+    lines : sequence of str
+        The lines' JSON texts (the rail, the obstacles).
+
+    Returns
+    -------
+    bytes
+        The message.
+    """
+    return ('{"deletions":[],"entities":[{"timestamp":{"sec":%d,"nsec":%d},"frame_id":"world","id":"fixed",'
+            '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],"spheres":[],'
+            '"cylinders":[],"lines":[%s],"triangles":[],"texts":[],"models":[]}]}'
+            % (ns // 10**9, ns % 10**9, ",".join(lines))).encode()
 
 
 def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0, pixels: bool = False,
@@ -387,6 +410,7 @@ class SceneBuilder:
         self._obstacle_lines = tuple(line_json(p, WALL_PX, WALL_COLOR, pixels=True) for p in outlines)
         self._rail_lines = tuple(line_json(p, RAIL_PX, RAIL_COLOR, pixels=True)
                                  for p in rail_lines(ctrl.chain, self.reach))
+        self._fixed_sent = False      # /scene/fixed goes out once, before the first scene
         self._scene_templates: dict[tuple[int, int], JsonTemplate] = {}
         self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve (False: none)
         self._line_maps: dict[int, BufferedFunction] = {}   # it mapped over k times, by k
@@ -491,7 +515,8 @@ class SceneBuilder:
         -------
         list of (str, int, bytes)
             ``("scene" | "tf" | "tracking", log time [ns], message)``, three per row, in row order (the
-            scenes as memoryviews when :attr:`views`).
+            scenes as memoryviews when :attr:`views`), after ``("fixed", ...)`` the first time
+            (:meth:`fixed_first`).
         """
         if not len(ks):
             return []
@@ -511,8 +536,44 @@ class SceneBuilder:
         scenes = self._scenes(part.link_margins[ks], stamps(ns), joints, base if chain.rail else None, targets,
                               curves)
         records = [CDR_HEADER + record.tobytes() for record in tracking.astype("<f8")]
-        return [x for n, scene, tf, record in zip(np.asarray(ns).tolist(), scenes, frames, records)
-                for x in (("scene", n, scene), ("tf", n, tf), ("tracking", n, record))]
+        return self.fixed_first([x for n, scene, tf, record in zip(np.asarray(ns).tolist(), scenes, frames, records)
+                                 for x in (("scene", n, scene), ("tf", n, tf), ("tracking", n, record))], ns)
+
+    def fixed_message(self, ns: int) -> bytes:
+        """The ``/scene/fixed`` message (:func:`fixed_update`): the rail and the obstacles' outlines.
+
+        Parameters
+        ----------
+        ns : int
+            Its time stamp [ns].
+
+        Returns
+        -------
+        bytes
+            The message.
+        """
+        return fixed_update(ns, (*self._rail_lines, *self._obstacle_lines))
+
+    def fixed_first(self, out: list[tuple[str, int, Any]], ns: np.ndarray) -> list[tuple[str, int, Any]]:
+        """``out`` (the messages of rows logged at ``ns``), after :meth:`fixed_message` the first time only.
+
+        Parameters
+        ----------
+        out : list of (str, int, bytes)
+            Messages of :meth:`messages`.
+        ns : ndarray of int
+            Their rows' log times [ns] (the first one stamps the fixed message).
+
+        Returns
+        -------
+        list of (str, int, bytes)
+            ``[("fixed", ns[0], message), *out]`` the first time there is a row, else ``out``.
+        """
+        if self._fixed_sent or not len(ns):
+            return out
+        self._fixed_sent = True
+        first = int(np.asarray(ns)[0])
+        return [("fixed", first, self.fixed_message(first)), *out]
 
     def _scenes(self, margins: np.ndarray, stamps: np.ndarray, joints: np.ndarray, base: np.ndarray | None,
                 targets: np.ndarray, curves: np.ndarray | list[np.ndarray]) -> list[bytes] | list[memoryview]:
@@ -575,6 +636,5 @@ class SceneBuilder:
             _coloured_segments_slots(t, joints - 1, ARM_PX, 2, 5, first_point=4)
             t.text(",")
             _line_slots(t, curve_points, CURVE_PX, CURVE_COLOR, 3, depth=CURVE_DEPTH * xi)
-            extra = "".join("," + x for x in (*self._rail_lines, *self._obstacle_lines))
-            self._scene_templates[key] = t.text(extra + "]}]}")
+            self._scene_templates[key] = t.text("]}]}")
         return self._scene_templates[key]

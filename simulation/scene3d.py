@@ -1,11 +1,11 @@
-"""What Foxglove draws of a spatial run (universal joints): ``/scene``, ``/tf`` and ``/tracking`` messages.
+"""What Foxglove draws of a spatial run (universal joints): ``/scene``, ``/scene/fixed``, ``/tf`` and ``/tracking``.
 
 The scene, in frame ``world``, follows the official ``foxglove.SceneUpdate`` schema as the planar
 one (:mod:`.scene`): each link a cylinder (centre ``y^j``, axis along ``d_j``, length ``xi``), each
-link end a sphere (the joints), the base a cube (on a rail: at ``d`` along it, the rail a grey line
-between its limits), the curve at its current pose a 3-D line strip, the
-end point's target (the point of the curve at arc length ``s(0) + integral of v*``) a red sphere and
-the 3-D obstacles as wireframes (:func:`.obstacles3d.wireframe`). The frame transforms
+link end a sphere (the joints), the base a cube (on a rail: at ``d`` along it), the curve at its current
+pose a 3-D line strip and the end point's target (the point of the curve at arc length
+``s(0) + integral of v*``) a red sphere; ``/scene/fixed``, once, the rail (a grey line between its limits)
+and the 3-D obstacles as wireframes (:func:`.obstacles3d.wireframe`). The frame transforms
 (``foxglove.FrameTransforms``) give a frame ``link1`` .. ``linkm`` per link, origin at the link's
 centre, x along the link and the orientation ``R_j`` of the chain, each parented to the previous one
 (``link1`` to ``world``): link j relative to link j-1 is ``Rz(a_j) Ry(b_j)``.
@@ -24,7 +24,7 @@ from .json_fill import JsonTemplate
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
 from .scene import (CURVE_COLOR, CURVE_PX, LENGTH_DECIMALS, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder,
-                    length_literal, margin_colours)
+                    fixed_update, length_literal, margin_colours)
 from .spatial_view import rail_ends, roll_command, spatial_joints
 from .tracking_record import log10_floored
 
@@ -310,15 +310,14 @@ class SpatialSceneBuilder(SceneBuilder):
         return {"timestamp": {"sec": int(ns // 10**9), "nsec": int(ns % 10**9)}, "frame_id": "world",
                 "id": "coordarm", "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False, "metadata": [],
                 "arrows": [], "cubes": [base], "spheres": spheres, "cylinders": cylinders,
-                "lines": [_line(curve, CURVE_PX, CURVE_COLOR, pixels=True)] + self._walls + [_axis_line(pose)],
+                "lines": [_line(curve, CURVE_PX, CURVE_COLOR, pixels=True), _axis_line(pose)],
                 "triangles": [], "texts": [],
                 "models": []}
 
     def _scenes(self, drawn: dict[str, np.ndarray], colours: np.ndarray, curves: list[np.ndarray],
                 targets: np.ndarray, ns: np.ndarray) -> list[bytes]:
         """The ``/scene`` messages of k poses (``drawn``: :meth:`pose_arrays`): the integers of each
-        (:data:`SCENE_EXPONENTS`) filled into one template (:class:`~.json_fill.JsonTemplate`; the walls are literal
-        text in it). Poses whose curves differ in length, or with a number that is not finite, are encoded from
+        (:data:`SCENE_EXPONENTS`) filled into one template (:class:`~.json_fill.JsonTemplate`). Poses whose curves differ in length, or with a number that is not finite, are encoded from
         :meth:`scene_entity` instead."""
         k, sizes = len(colours), {len(c) for c in curves}
         data = {**drawn, "colours": colours, "target": targets, "curve": curves}
@@ -338,7 +337,7 @@ class SpatialSceneBuilder(SceneBuilder):
         """The ``foxglove.SceneUpdate`` of :meth:`scene_entity` with integer slots (:data:`SCENE_EXPONENTS`) and
         the columns of each quantity: ``stamp`` (sec, nsec), ``base``, ``joints``, ``centres`` (x, y, z each),
         ``axes`` (x, y, z, w each), ``colours`` (r, g, b each), ``target``, ``curve`` (x, y, z each); the axis line
-        shows the joints' and the colours' columns again, the walls are literal."""
+        shows the joints' and the colours' columns again."""
         key = (m, curve_points)
         if key in self._templates3d:
             return self._templates3d[key]
@@ -374,7 +373,7 @@ class SpatialSceneBuilder(SceneBuilder):
             t.text("," if i else "")
             columns["curve"] += _numbers(t, "xyz", 2, exp["position"])
         t.text("]" + tail)
-        t.text("".join("," + _dumps(w) for w in self._walls) + ",")
+        t.text(",")
         axis = _axis_line({"joints": np.zeros((1, 3)), "colours": np.zeros((0, 3))})
         head, tail = _dumps(axis).split('"points":[]')
         middle, tail = tail.split('"colors":[]')
@@ -481,8 +480,9 @@ class SpatialSceneBuilder(SceneBuilder):
         Returns
         -------
         list of (str, int, bytes)
-            ``("scene" | "tf" | "tracking", log time [ns], message)``, three per row, in row order; the
-            tracking record holds :attr:`TRACKING_FIELDS`.
+            ``("scene" | "tf" | "tracking", log time [ns], message)``, three per row, in row order, after
+            ``("fixed", ...)`` the first time (:meth:`fixed_first`); the tracking record holds
+            :attr:`TRACKING_FIELDS`.
         """
         ks = np.asarray(ks, int)
         if not len(ks):
@@ -501,4 +501,19 @@ class SpatialSceneBuilder(SceneBuilder):
             out.append(("scene", n, scenes[i]))
             out.append(("tf", n, tf))
             out.append(("tracking", n, CDR_HEADER + tracking[i].astype("<f8").tobytes()))
-        return out
+        return self.fixed_first(out, ns)
+
+    def fixed_message(self, ns: int) -> bytes:
+        """The ``/scene/fixed`` message (:func:`~.scene.fixed_update`): the rail and the obstacles' wireframes.
+
+        Parameters
+        ----------
+        ns : int
+            Its time stamp [ns].
+
+        Returns
+        -------
+        bytes
+            The message.
+        """
+        return fixed_update(ns, [_dumps(w) for w in self._walls])

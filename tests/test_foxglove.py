@@ -135,13 +135,21 @@ def test_every_scene_message_validates_and_draws_arm_curve_target_and_walls(hole
     chain, ctrl = scenario.chain(), scenario.controller()
     scenes = _messages(path, "/scene")
     assert len(scenes) == len(range(0, len(run.t), 50))
+    (first, fixed), = _messages(path, "/scene/fixed")       # the walls: once, at the first scene's time
+    validator.validate(json.loads(fixed))
+    entity, = json.loads(fixed)["entities"]
+    assert first == scenes[0][0] and entity["id"] == "fixed" and entity["lifetime"] == {"sec": 0, "nsec": 0}
+    walls = entity["lines"]
+    assert len(walls) == len(scenario.obstacles)
+    for wall, ob in zip(walls, scenario.obstacles):
+        np.testing.assert_allclose([[p["x"], p["y"]] for p in wall["points"]], ob.points, atol=1e-6)
     s_ref = run.s_reference()
     for log_time, data in scenes:
         scene = json.loads(data)
         validator.validate(scene)
         k = int(np.flatnonzero(np.round(run.t * 1e9) == log_time)[0])
         entity, = scene["entities"]
-        arm, curve, *walls = entity["lines"]
+        arm, curve = entity["lines"]            # the walls are not drawn again
         # the arm: a line list, one segment per link (its two joints), coloured by the link's margin
         joints = chain.joints_np(run.q[k])
         pts = np.array([[p["x"], p["y"]] for p in arm["points"]])
@@ -155,9 +163,6 @@ def test_every_scene_message_validates_and_draws_arm_curve_target_and_walls(hole
         assert curve["pose"]["position"]["z"] == pytest.approx(-0.25 * chain.xi) and arm["pose"]["position"]["z"] == 0
         line = np.array([[p["x"], p["y"]] for p in curve["points"]])  # evaluated for many times at once
         np.testing.assert_allclose(line, ctrl.curve.sample(run.t[k], n=2, extent=2.2 * LINKS * chain.xi), atol=1e-6)
-        assert len(walls) == len(scenario.obstacles)
-        for wall, ob in zip(walls, scenario.obstacles):
-            np.testing.assert_allclose([[p["x"], p["y"]] for p in wall["points"]], ob.points, atol=1e-6)
         sphere, *markers = entity["spheres"]
         np.testing.assert_allclose([[p["pose"]["position"]["x"], p["pose"]["position"]["y"]] for p in markers],
                                    joints, atol=1e-6)
@@ -254,15 +259,17 @@ def test_the_default_frames_are_base_and_tip_from_world(hole, thread):
 def test_a_rail_robot_s_scene_draws_the_rail_its_stops_and_the_carriage_under_the_base(thread):
     path, run, scenario = thread
     chain = scenario.chain()
+    (_, fixed), = _messages(path, "/scene/fixed")           # the rail and its stops, before the walls
+    rail, low, high, *walls = json.loads(fixed)["entities"][0]["lines"]
+    assert len(walls) == len(scenario.obstacles)
+    np.testing.assert_allclose([[p["x"], p["y"]] for p in rail["points"]], [[-0.1, 0.0], [4.0, 0.0]], atol=1e-6)
+    for stop, d in ((low, -0.1), (high, 4.0)):    # across the rail (along y) at each limit
+        np.testing.assert_allclose([p["x"] for p in stop["points"]], [d, d], atol=1e-6)
+        assert stop["points"][0]["y"] < 0 < stop["points"][1]["y"]
     for log_time, data in _messages(path, "/scene"):
         entity, = json.loads(data)["entities"]
         k = int(np.flatnonzero(np.round(run.t * 1e9) == log_time)[0])
-        arm, curve, rail, low, high, *walls = entity["lines"]
-        assert len(walls) == len(scenario.obstacles)
-        np.testing.assert_allclose([[p["x"], p["y"]] for p in rail["points"]], [[-0.1, 0.0], [4.0, 0.0]], atol=1e-6)
-        for stop, d in ((low, -0.1), (high, 4.0)):    # across the rail (along y) at each limit
-            np.testing.assert_allclose([p["x"] for p in stop["points"]], [d, d], atol=1e-6)
-            assert stop["points"][0]["y"] < 0 < stop["points"][1]["y"]
+        assert len(entity["lines"]) == 2                # the arm and the curve
         carriage, = entity["cubes"]
         d = run.q[k][0]
         np.testing.assert_allclose([carriage["pose"]["position"]["x"], carriage["pose"]["position"]["y"]],

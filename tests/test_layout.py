@@ -96,7 +96,8 @@ def test_the_3d_panel_views_world_in_perspective_where_the_scene_and_the_link_fr
     assert three_d["followTf"] == "world" and camera["perspective"] is True and 20 <= camera["phi"] <= 70
     assert three_d["scene"]["transforms"]["visible"] and 0 < three_d["scene"]["transforms"]["axisSize"] <= 0.1
     for fields, tf, scene in logs.values():
-        assert set(three_d["topics"]) <= set(fields) and three_d["topics"]["/scene"]["visible"]
+        assert set(three_d["topics"]) == {"/scene", "/scene/fixed"} <= set(fields)       # the moving and the fixed
+        assert three_d["topics"]["/scene"]["visible"] and three_d["topics"]["/scene/fixed"]["visible"]
         assert tf["transforms"][0]["parent_frame_id"] == "world"
         assert {e["frame_id"] for e in scene["entities"]} == {"world"}
     # the spatial scene is drawn in 3-D: a cylinder per link, a sphere per joint and one for the target

@@ -16,7 +16,7 @@ SUBPROTOCOL, MESSAGE_DATA, TIME = "foxglove.sdk.v1", 0x01, 0x02
 #: The protocol's former name, which Foxglove Studio 1.48 and Lichtblick send.
 LEGACY_SUBPROTOCOL = "foxglove.websocket.v1"
 #: The topics of a planar run's live view.
-TOPICS = {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene", "/tf", "/tracking"}
+TOPICS = {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene", "/scene/fixed", "/tf", "/tracking"}
 
 
 def _start_live_run(scenario, links, duration, out, speed=3.0):
@@ -116,6 +116,47 @@ def test_a_client_sending_the_former_subprotocol_name_gets_the_whole_run_and_dis
     _check_the_live_messages_are_the_logs(channels, received, times, out)
     assert TOPICS <= set(received) and len(received["/margins/cond"]) >= 2   # 1 Hz (the default) over 1.5 s: t = 0, 1
     assert "Callback failed" not in stderr and "Error" not in stderr, stderr
+
+
+def test_a_viewer_subscribing_to_the_fixed_scene_late_gets_it_at_once(tmp_path):
+    """``/scene/fixed`` (the walls) goes out once; a client that subscribes to it while the run goes on gets it
+    again, as the log holds it, stamped with the run's time then; subscribers from the start get it once."""
+    out = tmp_path / "late.mcap"
+    proc, url = _start_live_run("hole", 5, 3.0, out, speed=1.0)
+    try:
+        with connect(url, subprotocols=[SUBPROTOCOL], open_timeout=60, close_timeout=5) as ws:
+            channels = {}
+            while not {"/scene", "/scene/fixed"} <= {c["topic"] for c in channels.values()}:
+                msg = json.loads(ws.recv(timeout=60))
+                if msg["op"] == "advertise":
+                    channels.update({c["id"]: c for c in msg["channels"]})
+            ids = {c["topic"]: cid for cid, c in channels.items()}
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 0, "channelId": ids["/scene"]}]}))
+            scenes, fixed = [], []
+            while len(scenes) < 5:                       # the run is on: 5 scenes (0.2 s of it) seen
+                data = ws.recv(timeout=60)
+                if isinstance(data, bytes) and data[0] == MESSAGE_DATA:
+                    sub, log_time = struct.unpack_from("<IQ", data, 1)
+                    assert sub == 0
+                    scenes.append(log_time)
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 1, "channelId": ids["/scene/fixed"]}]}))
+            while not fixed:
+                data = ws.recv(timeout=60)
+                if isinstance(data, bytes) and data[0] == MESSAGE_DATA:
+                    sub, log_time = struct.unpack_from("<IQ", data, 1)
+                    (fixed if sub == 1 else scenes).append((log_time, bytes(data[13:])) if sub == 1 else log_time)
+        assert proc.wait(timeout=120) == 0, proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    with open(out, "rb") as f:
+        (logged,) = [(m.log_time, m.data) for _, _, m in make_reader(f).iter_messages(topics=["/scene/fixed"])]
+    (log_time, data), = fixed
+    from coordarm.simulation.scenario import load_scenario
+    walls = len(load_scenario("hole").obstacles)
+    assert data == logged[1] and len(json.loads(data)["entities"][0]["lines"]) == walls > 0     # the hole's walls
+    assert logged[0] == scenes[0] < scenes[4] <= log_time          # the first scene's time in the log; now, live
 
 
 def test_a_live_spatial_run_serves_the_spatial_channels_and_its_3d_scene(tmp_path):

@@ -87,7 +87,7 @@ def test_every_schema_parses_with_its_declared_encoding(preset_log):
         for channel in summary.channels.values():
             expected = {"ros2msg": "cdr", "jsonschema": "json"}[summary.schemas[channel.schema_id].encoding]
             assert channel.message_encoding == expected, channel.topic
-    assert encodings == {"ros2msg": 5, "jsonschema": 2}
+    assert encodings == {"ros2msg": 5, "jsonschema": 2}     # SceneUpdate (/scene, /scene/fixed), FrameTransforms
 
 
 def test_every_json_message_of_each_preset_validates_against_its_channels_schema(preset_log):
@@ -100,4 +100,4 @@ def test_every_json_message_of_each_preset_validates_against_its_channels_schema
         for _, channel, message in reader.iter_messages(topics=[summary.channels[c].topic for c in validators]):
             validators[channel.id].validate(json.loads(message.data))
             seen[channel.topic] += 1
-    assert set(seen) == {"/scene", "/tf"} and seen["/scene"] == seen["/tf"] > 0
+    assert set(seen) == {"/scene", "/scene/fixed", "/tf"} and seen["/scene"] == seen["/tf"] > 0 and seen["/scene/fixed"] == 1

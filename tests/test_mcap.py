@@ -52,9 +52,11 @@ def test_the_plain_mcap_reader_sees_schemas_channels_metadata_and_statistics(log
         reader = make_reader(f)
         summary = reader.get_summary()
         topics = {c.topic: c for c in summary.channels.values()}
-        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene", "/tf", "/tracking"}
+        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene", "/scene/fixed",
+                               "/tf", "/tracking"}
         schemas = {s.id: s for s in summary.schemas.values()}
         scene = topics["/scene"]
+        assert topics["/scene/fixed"].schema_id == scene.schema_id      # one SceneUpdate schema for both
         assert scene.message_encoding == "json"
         assert (schemas[scene.schema_id].name, schemas[scene.schema_id].encoding) == ("foxglove.SceneUpdate",
                                                                                       "jsonschema")
@@ -68,6 +70,7 @@ def test_the_plain_mcap_reader_sees_schemas_channels_metadata_and_statistics(log
         counts = {c.topic: summary.statistics.channel_message_counts[c.id] for c in topics.values()}
         assert counts["/joint_state"] == counts["/task_state"] == counts["/margins"] == n
         assert counts["/scene"] == counts["/tf"] == counts["/tracking"] == len(range(0, n, 50))
+        assert counts["/scene/fixed"] == 1
         assert counts["/margins/cond"] == len(range(0, n, 200))
         assert {c.compression for c in summary.chunk_indexes} == {"lz4"}      # the default compression
         assert summary.statistics.message_end_time == round(DURATION * 1e9)
@@ -246,8 +249,8 @@ def test_lz4_zstd_and_uncompressed_logs_hold_the_same_messages_for_the_plain_rea
             names = {c.compression for c in reader.get_summary().chunk_indexes}
             assert names == {"" if compression == "none" else compression}   # MCAP names no compression ""
             seen[compression] = [(ch.topic, m.log_time, m.data) for _, ch, m in reader.iter_messages()]
-    # 3 per step, 7 x (scene, tf, tracking), 1 cond (1 Hz: at t = 0 only)
-    assert len(seen["lz4"]) == 3 * 301 + 3 * 7 + 1 and seen["lz4"] == seen["zstd"] == seen["none"]
+    # 3 per step, 7 x (scene, tf, tracking), the fixed scene once, 1 cond (1 Hz: at t = 0 only)
+    assert len(seen["lz4"]) == 3 * 301 + 3 * 7 + 1 + 1 and seen["lz4"] == seen["zstd"] == seen["none"]
     assert paths["none"].stat().st_size > paths["zstd"].stat().st_size
     a = load(paths["zstd"])
     for other in ("lz4", "none"):

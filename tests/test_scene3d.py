@@ -160,12 +160,13 @@ def test_a_planar_pose_gives_the_planar_frames():
 
 def test_messages_validate_and_the_tracking_record(ctrl, drawn):
     part, ks, msgs = drawn
-    assert [k for k, _, _ in msgs] == ["scene", "tf", "tracking"] * len(ks)
-    assert [n for _, n, _ in msgs][::3] == (part.t[ks] * 1e9).round().astype(int).tolist()
+    assert [k for k, _, _ in msgs] == ["fixed"] + ["scene", "tf", "tracking"] * len(ks)     # fixed: once, first
+    assert [n for _, n, _ in msgs[1:]][::3] == (part.t[ks] * 1e9).round().astype(int).tolist() and \
+        msgs[0][1] == msgs[1][1]
     scene_v = jsonschema.Draft7Validator(foxglove_schema("foxglove.SceneUpdate"))
     tf_v = jsonschema.Draft7Validator(foxglove_schema("foxglove.FrameTransforms"))
     for key, _, data in msgs:
-        if key == "scene":
+        if key in ("scene", "fixed"):
             scene_v.validate(json.loads(data))
         elif key == "tf":
             tf_v.validate(json.loads(data))
@@ -191,7 +192,7 @@ def test_a_path_is_drawn_whole_in_3d():
     part = block(3)
     builder.advance(part)
     msgs = builder.messages(part, np.array([0, 2]), np.array([0, 10**8]))
-    line = json.loads(msgs[0][2])["entities"][0]["lines"][0]
+    line = json.loads(next(d for k, _, d in msgs if k == "scene"))["entities"][0]["lines"][0]
     pts = np.array([xyz(p) for p in line["points"]])
     assert np.ptp(pts[:, 2]) > 0.1                        # the banked arc leaves the plane z = 0
     dist = np.min(np.linalg.norm(pts[:, None] - curve.sample(0.0, 40, extent=0.0)[None], axis=2), axis=0)
@@ -221,10 +222,11 @@ def same_numbers(got, want, path=""):
 
 @pytest.mark.parametrize("obstacles", [[], [{"kind": "sphere", "centre": [0.3, 0.1, 0.0], "radius": 0.05},
                                             {"kind": "cylinder", "a": [0.0, 0.3, 0.0], "b": [0.4, 0.3, 0.1], "radius": 0.02}]])
-def test_a_scene_message_is_its_whole_entity_written_to_the_units_the_walls_literal(ctrl, obstacles):
-    """The template's message parses to the entity of :meth:`scene_entity` (walls as dicts, floats) with each
-    number written to its unit; the walls, sizes and colours that do not move are its text exactly, the
-    walls are the lines between the curve and the axes; a pose that is not finite is encoded from the dicts."""
+def test_a_scene_message_is_its_whole_entity_written_to_the_units_the_walls_once_in_the_fixed_one(ctrl, obstacles):
+    """The template's message parses to the entity of :meth:`scene_entity` (floats) with each number written to
+    its unit, the sizes and colours that do not move are its text exactly; the walls are not in it but in the
+    one ``/scene/fixed`` message before the first scene, their corners to the micrometre; a pose that is not
+    finite is encoded from the dicts."""
     from coordarm.simulation.obstacles3d import obstacle3d_from_spec, wireframe
     from coordarm.simulation.scene import margin_colours
 
@@ -234,27 +236,32 @@ def test_a_scene_message_is_its_whole_entity_written_to_the_units_the_walls_lite
     builder.advance(part)
     ks = np.array([0, 4, 8])
     ns = (part.t[ks] * 1e9).round().astype(np.int64) + 3 * 10**9
-    scenes = [d for k, _, d in builder.messages(part, ks, ns) if k == "scene"]
+    msgs = builder.messages(part, ks, ns)
+    assert [k for k, _, _ in msgs].count("fixed") == 1 and msgs[0][:2] == ("fixed", int(ns[0]))
+    fixed = json.loads(msgs[0][2])["entities"]
+    assert len(fixed) == 1 and fixed[0]["id"] == "fixed" and fixed[0]["frame_id"] == "world"
+    assert fixed[0]["timestamp"] == {"sec": 3, "nsec": int(ns[0]) - 3 * 10**9} and fixed[0]["lifetime"] == {"sec": 0, "nsec": 0}
+    walls = [p for ob in obs for p in wireframe(ob)]
+    assert len(fixed[0]["lines"]) == len(walls)
+    for line, points in zip(fixed[0]["lines"], walls):               # corners to the micrometre, written short
+        got_points = np.array([xyz(p) for p in line["points"]])
+        np.testing.assert_allclose(got_points, points, rtol=0, atol=POSITION)
+        np.testing.assert_array_equal(got_points, [[round(float(x), 6) for x in p] for p in points])
+    scenes = [d for k, _, d in msgs if k == "scene"]
     poses, curves, targets = builder.poses(part.q[ks]), builder.curves(part.t[ks]), builder.targets(part, ks)
     for pose, rgb in zip(poses, margin_colours(part.link_margins[ks])):
         pose["colours"] = rgb
-    walls = [p for ob in obs for p in wireframe(ob)]
     for scene, pose, curve, target, n in zip(scenes, poses, curves, targets, ns.tolist()):
         whole = builder.scene_entity(pose, curve, target, n)
         got = json.loads(scene)
         assert got["deletions"] == [] and len(got["entities"]) == 1
         entity = got["entities"][0]
         same_numbers({**entity, "spheres[-1]": entity["spheres"][-1]}, {**whole, "spheres[-1]": whole["spheres"][-1]})
-        assert entity["timestamp"] == {"sec": 3, "nsec": n - 3 * 10**9}
-        lines = entity["lines"]
-        assert len(lines) == 2 + len(walls) and lines[-1]["type"] == 2
-        assert lines[1:-1] == whole["lines"][1:-1]                  # the walls: their text, encoded once
-        for line, points in zip(lines[1:-1], walls):                # corners to the micrometre, written short
-            got_points = np.array([xyz(p) for p in line["points"]])
-            np.testing.assert_allclose(got_points, points, rtol=0, atol=POSITION)
-            np.testing.assert_array_equal(got_points, [[round(float(x), 6) for x in p] for p in points])
+        assert entity["timestamp"] == {"sec": 3, "nsec": n - 3 * 10**9} and entity["id"] == "coordarm"
+        assert [line["type"] for line in entity["lines"]] == [0, 2]          # the curve and the axes, no walls
         assert [c["size"] for c in entity["cylinders"]] == [c["size"] for c in whole["cylinders"]]
         assert all(len(repr(v)) <= 8 for c in entity["cylinders"] + entity["spheres"] for v in c["size"].values())
+    assert [k for k, _, _ in builder.messages(part, ks, ns)].count("fixed") == 0     # once per builder
     part.q[4, 3] = np.nan                                            # not finite: the dicts' JSON (NaN)
     builder.advance(part)
     nan_scenes = [d for k, _, d in builder.messages(part, ks, ns) if k == "scene"]

@@ -107,8 +107,6 @@ def reference_scene(ctrl, obstacles, builder, joints, base, t, ns, target, margi
     curve_line = {"type": 0, "pose": depth_pose, "thickness": scene.CURVE_PX, "scale_invariant": True,
                   "points": [point(x, y, "curve") for x, y in curve], "color": rgba(scene.CURVE_COLOR), "colors": [],
                   "indices": []}
-    fixed = [fixed_line(p, scene.RAIL_PX, scene.RAIL_COLOR) for p in scene.rail_lines(chain, extent)]
-    fixed += [fixed_line(p, scene.WALL_PX, scene.WALL_COLOR) for p in scene.obstacle_outlines(obstacles)]
     cubes = []
     if chain.rail:
         a = chain.rail_angle
@@ -121,7 +119,17 @@ def reference_scene(ctrl, obstacles, builder, joints, base, t, ns, target, margi
               "spheres": [sphere(*target, "target", 1e12, "e-12", max(1.2 * xi, 0.05), scene.TARGET_COLOR)]
               + [sphere(x, y, "um", 1e6, "e-6", 0.45 * xi, scene.JOINT_COLOR) for x, y in joints],
               "cubes": cubes, "cylinders": [], "triangles": [], "texts": [], "models": [],
-              "lines": [arm, curve_line, *fixed]}
+              "lines": [arm, curve_line]}
+    return {"deletions": [], "entities": [entity]}
+
+
+def reference_fixed(ctrl, obstacles, builder, ns):
+    """/scene/fixed: the rail and the obstacles in an entity of their own, once."""
+    fixed = [fixed_line(p, scene.RAIL_PX, scene.RAIL_COLOR) for p in scene.rail_lines(ctrl.chain, builder.reach)]
+    fixed += [fixed_line(p, scene.WALL_PX, scene.WALL_COLOR) for p in scene.obstacle_outlines(obstacles)]
+    entity = {"timestamp": stamp(ns), "frame_id": "world", "id": "fixed", "lifetime": {"sec": 0, "nsec": 0},
+              "frame_locked": False, "metadata": [], "arrows": [], "cubes": [], "spheres": [], "cylinders": [],
+              "lines": fixed, "triangles": [], "texts": [], "models": []}
     return {"deletions": [], "entities": [entity]}
 
 
@@ -155,6 +163,9 @@ def test_scene_and_tf_messages_are_a_straightforward_json_rendering_byte_for_byt
         ks = np.arange(0, len(part.t), 3)
         ns = np.round(part.t[ks] * 1e9).astype(np.uint64)
         got = builder.messages(part, ks, ns)
+        if part is blocks[0]:     # /scene/fixed: once, before the first scene, at its time
+            assert got[0][:2] == ("fixed", int(ns[0]))
+            assert got.pop(0)[2] == render([reference_fixed(ctrl, sc.obstacles, builder, int(ns[0]))])[0]
         assert [key for key, _, _ in got] == ["scene", "tf", "tracking"] * len(ks)
         assert [lt for _, lt, _ in got] == np.repeat(ns, 3).tolist()
         joints, base = ctrl.chain.joints_np(part.q[ks]), ctrl.chain.base_point(part.q[ks])

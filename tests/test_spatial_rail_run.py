@@ -159,17 +159,19 @@ def test_the_stage_figure_and_the_scene_draw_the_rail_and_the_base_on_it(logged)
     ks = np.array([0, len(run.t) - 1])
     msgs = builder.messages(run, ks, (run.t[ks] * 1e9).round().astype(np.int64))
     scenes = [json.loads(data)["entities"][0] for key, _, data in msgs if key == "scene"]
+    micrometre = 0.5e-6 * (1 + 1e-9)      # positions in the scene: micrometres
     for entity, k in zip(scenes, ks):
         base = entity["cubes"][0]["pose"]["position"]
         np.testing.assert_allclose([base["x"], base["y"], base["z"]], run.q[k, 0] * ctrl.chain.rail_direction,
-                                   rtol=0, atol=0.5e-6 * (1 + 1e-9))    # positions in the scene: micrometres
-        ends = [[p["x"], p["y"], p["z"]] for p in entity["lines"][1]["points"]]
-        np.testing.assert_allclose(ends, np.outer([0.1, 1.0], ctrl.chain.rail_direction), atol=1e-15)
+                                   rtol=0, atol=micrometre)
+    fixed = json.loads(next(data for key, _, data in msgs if key == "fixed"))["entities"][0]    # the rail, once
+    ends = [[p["x"], p["y"], p["z"]] for p in fixed["lines"][0]["points"]]
+    np.testing.assert_allclose(ends, np.outer([0.1, 1.0], ctrl.chain.rail_direction), rtol=0, atol=micrometre)
     # with the capsule radius the links are drawn as the checked capsules: cylinders and caps of that radius
     r = scenario.physical(ctrl.chain).radius
     capsules = SpatialSceneBuilder(ctrl, [], r)
     capsules.advance(run)
-    entity = json.loads(capsules.messages(run, ks[:1], np.array([0]))[0][2])["entities"][0]
+    entity = json.loads(next(d for key, _, d in capsules.messages(run, ks[:1], np.array([0])) if key == "scene"))["entities"][0]
     assert r == 0.005 and {c["size"]["x"] for c in entity["cylinders"]} == {2 * r}
     assert {s["size"]["x"] for s in entity["spheres"][:-1]} == {2 * r}
 

@@ -221,8 +221,10 @@ def test_the_plain_mcap_reader_sees_the_spatial_channels_and_metadata(logged):
         topics = {c.topic: c for c in summary.channels.values()}
         schemas = {s.id: s for s in summary.schemas.values()}
         # the 3-D scene (/scene, /tf, /tracking) is drawn; /margins/cond declared, off (no message)
-        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene", "/tf", "/tracking"}
+        assert set(topics) == {"/joint_state", "/task_state", "/margins", "/margins/cond", "/scene", "/scene/fixed",
+                               "/tf", "/tracking"}
         assert summary.statistics.channel_message_counts.get(topics["/margins/cond"].id, 0) == 0
+        assert summary.statistics.channel_message_counts[topics["/scene/fixed"].id] == 1
         assert summary.statistics.channel_message_counts[topics["/scene"].id] > 0
         tracking = schemas[topics["/tracking"].schema_id].data.decode()
         assert [x.split()[1] for x in tracking.splitlines() if x and not x.startswith("#")] == [
