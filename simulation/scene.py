@@ -7,8 +7,8 @@ at 0; the first link, which has no margin, blue) with a dark sphere at every joi
 current pose (a solid line, 3 px, a quarter link below the arm's plane), the end point's target (a red
 sphere at the point of the curve whose arc length is ``s(0) + integral of v*``) and the carriage (a cube
 at ``y^1``) on a rail robot. What does not move, the rail with its end stops and the obstacles (each drawn
-from :func:`obstacle_outlines`, 4 px), is one ``/scene/fixed`` message before the first scene
-(:func:`fixed_update`, entity ``fixed``). The frame transforms (built by :mod:`.frame_transforms`) give, by
+from :func:`~.scene_fixed.obstacle_outlines`, 4 px), is one ``/scene/fixed`` message before the first scene
+(:func:`~.scene_fixed.fixed_update`, entity ``fixed``). The frame transforms (built by :mod:`.frame_transforms`) give, by
 default (``frames="ends"``), the frames ``base`` (at the pinned first central point ``y^1``, x along the
 rail on a rail robot) and ``tip`` (at the free end of the last link, x along it), both parented to
 ``world``; with ``frames="all"`` a frame
@@ -34,7 +34,7 @@ from .frame_transforms import end_frames_json, frame_transforms_json, stamp_slot
 from .frame_transforms import link_frames  # noqa: F401 (re-exported: coordarm.simulation.scene.link_frames)
 from .json_fill import JsonTemplate, digits_kernel
 from .log_schemas import CDR_HEADER
-from .obstacles import outline
+from .scene_fixed import fixed_update, length_literal, obstacle_outlines, rail_lines
 from .run import Run
 from .tracking_record import tracking_records
 
@@ -51,10 +51,6 @@ ARM_PX, CURVE_PX, WALL_PX, RAIL_PX = 6.0, 3.0, 4.0, 5.0
 #: How far the curve is drawn below the arm's plane [link lengths]: the arm runs along the curve, and a
 #: viewer draws the later of two lines at the same depth on top (the curve would hide the links' colours).
 CURVE_DEPTH = 0.25
-#: Decimal places of the lengths a scene writes as literal text [m] (sizes, the curve's depth, the 3-D
-#: walls' corners): micrometres, as its position slots; a sphere of 0.45 x 0.05 m is written 0.0225, not
-#: 0.022500000000000003.
-LENGTH_DECIMALS = 6
 #: The link margin colour scale: margins (stops) and their colours (r, g, b); linear in between. The
 #: violet stop keeps the colours saturated between orange and blue (a straight blend passes through grey,
 #: which reads as "no colour" in a viewer).
@@ -152,64 +148,6 @@ def scene_numbers(values: np.ndarray, margins: np.ndarray, stamps: np.ndarray, j
     return values
 
 
-def obstacle_outlines(obstacles: Any) -> list[np.ndarray]:
-    """Each obstacle as the polyline drawn for it [m], a list of (k, 2) arrays.
-
-    The scene draws what :func:`coordarm.simulation.obstacles.outline` gives (as do the
-    figures and the animation): a wall segment is its two ends, a disc and a polygon are
-    closed (they repeat their first point).
-
-    Parameters
-    ----------
-    obstacles : sequence of Obstacle
-        The scenario's obstacles.
-
-    Returns
-    -------
-    list of ndarray, each shape (k, 2)
-        The polylines [m].
-    """
-    return [outline(ob) for ob in obstacles]
-
-
-def length_literal(x: float) -> float:
-    """A length as a scene writes it as text: rounded to :data:`LENGTH_DECIMALS` places (its shortest repr).
-
-    Parameters
-    ----------
-    x : float
-        The length [m].
-
-    Returns
-    -------
-    float
-        ``round(x, LENGTH_DECIMALS)`` [m].
-    """
-    return round(float(x), LENGTH_DECIMALS)
-
-
-def fixed_update(ns: int, lines: list[str] | tuple[str, ...]) -> bytes:
-    """The ``/scene/fixed`` message: a ``foxglove.SceneUpdate`` of one entity ``"fixed"`` (frame ``world``, kept
-    until replaced) holding ``lines``, the JSON texts of the ``foxglove.LinePrimitive`` s that do not move.
-
-    Parameters
-    ----------
-    ns : int
-        Its time stamp [ns].
-    lines : sequence of str
-        The lines' JSON texts (the rail, the obstacles).
-
-    Returns
-    -------
-    bytes
-        The message.
-    """
-    return ('{"deletions":[],"entities":[{"timestamp":{"sec":%d,"nsec":%d},"frame_id":"world","id":"fixed",'
-            '"lifetime":{"sec":0,"nsec":0},"frame_locked":false,"metadata":[],"arrows":[],"cubes":[],"spheres":[],'
-            '"cylinders":[],"lines":[%s],"triangles":[],"texts":[],"models":[]}]}'
-            % (ns // 10**9, ns % 10**9, ",".join(lines))).encode()
-
-
 def _line_parts(thickness: float, color: tuple[float, ...], kind: int = 0, pixels: bool = False,
                 depth: float = 0.0) -> tuple[str, str]:
     """The text of a ``foxglove.LinePrimitive`` before and after its points (``pixels``: thickness in px;
@@ -293,34 +231,6 @@ def _sphere(position: str, diameter: float, color: tuple[float, ...]) -> tuple[s
             f'"size":{{"x":{d},"y":{d},"z":{d}}},"color":{{"r":{r},"g":{g},"b":{b},"a":{a}}}}}')
 
 
-def rail_lines(chain: Any, reach: float) -> list[np.ndarray]:
-    """The rail of a rail robot as polylines [m]: the rail between its limits (cut to ``reach`` where a
-    limit is infinite) and a short stop across it at each finite limit; none on a fixed base.
-
-    Parameters
-    ----------
-    chain : PlanarChain
-        The chain (``rail``, ``rail_angle``, ``rail_limits``, ``xi``).
-    reach : float
-        Half-length drawn of an unbounded rail [m].
-
-    Returns
-    -------
-    list of ndarray, each shape (2, 2)
-        The rail, then the stops.
-    """
-    if not getattr(chain, "rail", False) or len(chain.rail_direction) != 2:
-        return []    # a fixed base; a spatial chain's rail is drawn by scene3d.SpatialSceneBuilder
-    u = chain.rail_direction
-    n = np.array([-u[1], u[0]])
-    low, high = (max(chain.rail_limits[0], -reach), min(chain.rail_limits[1], reach))
-    out = [np.array([low * u, high * u])]
-    for d, limit in zip((low, high), chain.rail_limits):
-        if np.isfinite(limit):
-            out.append(np.array([d * u - 1.5 * chain.xi * n, d * u + 1.5 * chain.xi * n]))
-    return out
-
-
 def point_along(polyline: np.ndarray, start: np.ndarray, distance: float) -> np.ndarray:
     """The point ``distance`` [m] along ``polyline`` from the foot of ``start`` on it.
 
@@ -383,7 +293,7 @@ class SceneBuilder:
     ctrl : CoordinatingController
         The run's controller (chain and curve).
     obstacles : array_like
-        The scenario's obstacles (drawn through :func:`obstacle_outlines`).
+        The scenario's obstacles (drawn through :func:`~.scene_fixed.obstacle_outlines`).
     frames : {"ends", "all"}
         ``/tf``: the frames ``base`` and ``tip`` (default), or a frame per link.
 
@@ -540,7 +450,7 @@ class SceneBuilder:
                                  for x in (("scene", n, scene), ("tf", n, tf), ("tracking", n, record))], ns)
 
     def fixed_message(self, ns: int) -> bytes:
-        """The ``/scene/fixed`` message (:func:`fixed_update`): the rail and the obstacles' outlines.
+        """The ``/scene/fixed`` message (:func:`~.scene_fixed.fixed_update`): the rail and the obstacles' outlines.
 
         Parameters
         ----------

@@ -23,8 +23,8 @@ from .frame_transforms import stamp_slots, stamps
 from .json_fill import JsonTemplate
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
-from .scene import (CURVE_COLOR, CURVE_PX, LENGTH_DECIMALS, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder,
-                    fixed_update, length_literal, margin_colours)
+from .scene import CURVE_COLOR, CURVE_PX, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder, margin_colours
+from .scene_fixed import LENGTH_DECIMALS, fixed_update, length_literal
 from .spatial_view import rail_ends, roll_command, spatial_joints
 from .tracking_record import log10_floored
 
@@ -504,7 +504,7 @@ class SpatialSceneBuilder(SceneBuilder):
         return self.fixed_first(out, ns)
 
     def fixed_message(self, ns: int) -> bytes:
-        """The ``/scene/fixed`` message (:func:`~.scene.fixed_update`): the rail and the obstacles' wireframes.
+        """The ``/scene/fixed`` message (:func:`~.scene_fixed.fixed_update`): the rail and the obstacles' wireframes.
 
         Parameters
         ----------

@@ -46,7 +46,7 @@ def scene_points(scenario: Scenario, poses: np.ndarray | None = None) -> np.ndar
     ndarray, shape (k, 3)
         The points [m].
     """
-    from .scene import obstacle_outlines, rail_lines
+    from .scene_fixed import obstacle_outlines, rail_lines
     from .spatial_view import spatial_joints
 
     ctrl = scenario.controller()
