@@ -315,11 +315,9 @@ class SceneBuilder:
         self.frames = frames
         digits_kernel()           # the JSON digits' C kernel loaded now, not by a log's worker thread
         self.reach = 2.2 * ctrl.chain.m * ctrl.chain.xi
-        outlines = obstacle_outlines(obstacles)
-        # the same in every scene: obstacles and the rail
-        self._obstacle_lines = tuple(line_json(p, WALL_PX, WALL_COLOR, pixels=True) for p in outlines)
-        self._rail_lines = tuple(line_json(p, RAIL_PX, RAIL_COLOR, pixels=True)
-                                 for p in rail_lines(ctrl.chain, self.reach))
+        # what does not move, the lines of /scene/fixed: the rail, then the obstacles
+        self._fixed_lines = (*(line_json(p, RAIL_PX, RAIL_COLOR, pixels=True) for p in rail_lines(ctrl.chain, self.reach)),
+                             *(line_json(p, WALL_PX, WALL_COLOR, pixels=True) for p in obstacle_outlines(obstacles)))
         self._fixed_sent = False      # /scene/fixed goes out once, before the first scene
         self._scene_templates: dict[tuple[int, int], JsonTemplate] = {}
         self._line_params: Any = None  # CasADi Function t -> (angle, point) of a straight-line curve (False: none)
@@ -450,7 +448,8 @@ class SceneBuilder:
                                  for x in (("scene", n, scene), ("tf", n, tf), ("tracking", n, record))], ns)
 
     def fixed_message(self, ns: int) -> bytes:
-        """The ``/scene/fixed`` message (:func:`~.scene_fixed.fixed_update`): the rail and the obstacles' outlines.
+        """The ``/scene/fixed`` message (:func:`~.scene_fixed.fixed_update`): the rail and the obstacles (their
+        outlines; a spatial scene's wireframes).
 
         Parameters
         ----------
@@ -462,7 +461,7 @@ class SceneBuilder:
         bytes
             The message.
         """
-        return fixed_update(ns, (*self._rail_lines, *self._obstacle_lines))
+        return fixed_update(ns, self._fixed_lines)
 
     def fixed_first(self, out: list[tuple[str, int, Any]], ns: np.ndarray) -> list[tuple[str, int, Any]]:
         """``out`` (the messages of rows logged at ``ns``), after :meth:`fixed_message` the first time only.

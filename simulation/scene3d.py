@@ -24,7 +24,7 @@ from .json_fill import JsonTemplate
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
 from .scene import CURVE_COLOR, CURVE_PX, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder, margin_colours
-from .scene_fixed import LENGTH_DECIMALS, fixed_update, length_literal
+from .scene_fixed import LENGTH_DECIMALS, length_literal
 from .spatial_view import rail_ends, roll_command, spatial_joints
 from .tracking_record import log10_floored
 
@@ -218,8 +218,6 @@ class SpatialSceneBuilder(SceneBuilder):
     def __init__(self, ctrl: Any, obstacles: Any, radius: float | None = None, frames: str = "ends") -> None:
         super().__init__(ctrl, [], frames)
         xi = ctrl.chain.xi
-        self._walls = [_line(p, WIREFRAME_PX, WALL_COLOR, pixels=True, decimals=LENGTH_DECIMALS)
-                       for ob in obstacles for p in wireframe(ob)]
         self.radius = 0.12 * xi if radius is None else float(radius)     # of the link cylinders [m]
         d = 2.6 * self.radius if radius is None else 2 * self.radius  # capsules: caps of the radius
         self._sizes = {"joint": length_literal(d), "base": length_literal(2 * d),      # as the scene writes them
@@ -227,9 +225,11 @@ class SpatialSceneBuilder(SceneBuilder):
                        "cylinder": {"x": length_literal(2 * self.radius), "y": length_literal(2 * self.radius),
                                     "z": length_literal(xi)}}
         self._path_points: np.ndarray | None = None     # a path's polyline (it does not move)
-        ends = rail_ends(ctrl.chain, self.reach)
-        if ends is not None:                             # the rail between its limits, under the walls
-            self._walls = [_line(ends, length_literal(0.02 * xi + 0.004), RAIL_COLOR, decimals=LENGTH_DECIMALS)] + self._walls
+        ends = rail_ends(ctrl.chain, self.reach)         # the rail between its limits, under the walls
+        rail = [] if ends is None else [_line(ends, length_literal(0.02 * xi + 0.004), RAIL_COLOR, decimals=LENGTH_DECIMALS)]
+        walls = [_line(p, WIREFRAME_PX, WALL_COLOR, pixels=True, decimals=LENGTH_DECIMALS)
+                 for ob in obstacles for p in wireframe(ob)]
+        self._fixed_lines = tuple(_dumps(line) for line in rail + walls)        # /scene/fixed's
         self._templates3d: dict[tuple[int, int], tuple[JsonTemplate, dict[str, list[int]]]] = {}
 
     def curves(self, times: np.ndarray) -> list[np.ndarray]:
@@ -503,17 +503,3 @@ class SpatialSceneBuilder(SceneBuilder):
             out.append(("tracking", n, CDR_HEADER + tracking[i].astype("<f8").tobytes()))
         return self.fixed_first(out, ns)
 
-    def fixed_message(self, ns: int) -> bytes:
-        """The ``/scene/fixed`` message (:func:`~.scene_fixed.fixed_update`): the rail and the obstacles' wireframes.
-
-        Parameters
-        ----------
-        ns : int
-            Its time stamp [ns].
-
-        Returns
-        -------
-        bytes
-            The message.
-        """
-        return fixed_update(ns, [_dumps(w) for w in self._walls])

@@ -324,18 +324,14 @@ class Line3D(SpatialCurve):
 
     def points_at(self, s: Any, times: Any) -> np.ndarray:
         # at once (the docstring is SpatialCurve's): each motion evaluated on a row of all the times
-        # (params.evaluate_many), point_at's operations on the columns: its values, bit for bit
+        # (params.evaluate_many), the tangent turned by rotate as numeric_basis does: point_at's values, bit for bit
         t = np.asarray(times, dtype=float).ravel()
         s = np.broadcast_to(np.asarray(s, dtype=float), t.shape)
         p = np.stack([evaluate_many(c, t) for c in self.point], axis=-1)
         if self.axis is None:
             return p + s[:, None] * self.direction
-        angle = evaluate_many(self.angle, t)
-        c = np.array([math.cos(a) for a in angle.tolist()])[:, None]     # math's, as rotate's: the same bits
-        sn = np.array([math.sin(a) for a in angle.tolist()])[:, None]
-        v = self.direction
-        tangent = v * c + np.cross(self.axis, v) * sn + self.axis * float(self.axis @ v) * (1 - c)
-        return p + s[:, None] * tangent
+        tangents = [rotate(self.axis, a, self.direction) for a in evaluate_many(self.angle, t).tolist()]
+        return p + s[:, None] * np.array(tangents).reshape(-1, 3)
 
     def to_spec(self) -> dict:
         spec = {"kind": "line", "point": [motion_to_spec(c) for c in self.point],

@@ -328,7 +328,7 @@ def test_wireframes_lie_on_the_obstacles_and_the_scene_and_figure_draw_them(tmp_
                                atol=1e-12)
     sc = Scenario.from_dict(spatial([BALL]))
     ctrl = sc.controller()
-    assert len(SpatialSceneBuilder(ctrl, sc.obstacles)._walls) == 3
+    assert len(SpatialSceneBuilder(ctrl, sc.obstacles)._fixed_lines) == 3
     done = run(Scenario.from_dict(spatial([BALL])), allow_contact=True)
     from coordarm.simulation.figures3d import spatial_figures
     import matplotlib.image
