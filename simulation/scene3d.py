@@ -24,7 +24,7 @@ from .json_fill import JsonTemplate
 from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
 from .scene import CURVE_COLOR, CURVE_PX, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder, margin_colours
-from .scene_fixed import LENGTH_DECIMALS, length_literal
+from .scene_fixed import length_literal
 from .spatial_view import rail_ends, roll_command, spatial_joints
 from .tracking_record import log10_floored
 
@@ -120,10 +120,9 @@ def spatial_link_frames(chain: SpatialChain, q: np.ndarray) -> tuple[np.ndarray,
     return trans, quaternions(np.swapaxes(parent_R, -1, -2) @ R)
 
 
-def _vec(v: Any, decimals: int | None = None) -> dict[str, float]:
-    if decimals is None:
-        return {"x": float(v[0]), "y": float(v[1]), "z": float(v[2])}
-    return {"x": round(float(v[0]), decimals), "y": round(float(v[1]), decimals), "z": round(float(v[2]), decimals)}
+def _vec(v: Any, literal: bool = False) -> dict[str, float]:
+    number = length_literal if literal else float
+    return {"x": number(v[0]), "y": number(v[1]), "z": number(v[2])}
 
 
 def _pose(p: Any, quat: Any = (0.0, 0.0, 0.0, 1.0)) -> dict[str, Any]:
@@ -135,14 +134,14 @@ def _colour(c: tuple[float, ...]) -> dict[str, float]:
 
 
 def _line(points: np.ndarray, thickness: float, colour: tuple[float, ...], pixels: bool = False,
-          decimals: int | None = None) -> dict[str, Any]:
-    """A ``foxglove.LinePrimitive`` line strip through ``points`` (k, 3) [m] (non-finite points dropped, the
-    coordinates rounded to ``decimals`` places if given), ``thickness`` in px if ``pixels`` (the same at any
-    zoom), else in metres."""
+          literal: bool = False) -> dict[str, Any]:
+    """A ``foxglove.LinePrimitive`` line strip through ``points`` (k, 3) [m] (non-finite points dropped; with
+    ``literal``, written as :func:`~.scene_fixed.length_literal` writes lengths), ``thickness`` in px if
+    ``pixels`` (the same at any zoom), else in metres."""
     pts = np.asarray(points, float)
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     return {"type": 0, "pose": _pose((0, 0, 0)), "thickness": thickness, "scale_invariant": pixels,
-            "points": [_vec(p, decimals) for p in pts], "color": _colour(colour), "colors": [], "indices": []}
+            "points": [_vec(p, literal) for p in pts], "color": _colour(colour), "colors": [], "indices": []}
 
 
 def _axis_line(pose: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -226,8 +225,8 @@ class SpatialSceneBuilder(SceneBuilder):
                                     "z": length_literal(xi)}}
         self._path_points: np.ndarray | None = None     # a path's polyline (it does not move)
         ends = rail_ends(ctrl.chain, self.reach)         # the rail between its limits, under the walls
-        rail = [] if ends is None else [_line(ends, length_literal(0.02 * xi + 0.004), RAIL_COLOR, decimals=LENGTH_DECIMALS)]
-        walls = [_line(p, WIREFRAME_PX, WALL_COLOR, pixels=True, decimals=LENGTH_DECIMALS)
+        rail = [] if ends is None else [_line(ends, length_literal(0.02 * xi + 0.004), RAIL_COLOR, literal=True)]
+        walls = [_line(p, WIREFRAME_PX, WALL_COLOR, pixels=True, literal=True)
                  for ob in obstacles for p in wireframe(ob)]
         self._fixed_lines = tuple(_dumps(line) for line in rail + walls)        # /scene/fixed's
         self._templates3d: dict[tuple[int, int], tuple[JsonTemplate, dict[str, list[int]]]] = {}
