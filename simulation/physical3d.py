@@ -48,6 +48,46 @@ def link_ends(chain: SpatialChain, q: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return a, a + 2 * half, d
 
 
+def all3(x: np.ndarray) -> np.ndarray:
+    """``np.all(x, axis=-1)`` for a last axis of 3 (x, y, z), as two ``&``: numpy's reduction over so short
+    an axis costs several times as much.
+
+    Parameters
+    ----------
+    x : ndarray of bool, shape (..., 3)
+        Per axis.
+
+    Returns
+    -------
+    ndarray of bool, shape (...)
+        True where all three are.
+    """
+    return x[..., 0] & x[..., 1] & x[..., 2]
+
+
+def body_box(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each sample's box around the boxes of all its links (a link's box lies inside it).
+
+    ``fmin``/``fmax`` pass over a link whose box is NaN (a sample is NaN from a joint on). The links are
+    reduced as rows of a contiguous copy: numpy's reduction over the middle axis of ``(N, m, 3)`` costs 5x
+    as much.
+
+    Parameters
+    ----------
+    lo, hi : ndarray, each shape (N, m, 3)
+        Corners of the links' axis-aligned boxes [m].
+
+    Returns
+    -------
+    lo, hi : ndarray, each shape (N, 3)
+        Corners of each sample's box [m].
+    """
+    n, m = lo.shape[:2]
+    lows = np.ascontiguousarray(lo.transpose(1, 0, 2)).reshape(m, -1)
+    highs = np.ascontiguousarray(hi.transpose(1, 0, 2)).reshape(m, -1)
+    return np.fmin.reduce(lows, axis=0).reshape(n, 3), np.fmax.reduce(highs, axis=0).reshape(n, 3)
+
+
 def close_pairs(lo: np.ndarray, hi: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pairs of non-adjacent links whose bounding boxes come within ``reach`` of each other (sort and sweep).
 
@@ -79,7 +119,7 @@ def close_pairs(lo: np.ndarray, hi: np.ndarray, reach: float) -> tuple[np.ndarra
     for k in range(1, m):
         if not np.any(klo[:, k:] <= khi[:, :-k] + reach):
             break
-        near = np.all((los[:, k:] <= his[:, :-k] + reach) & (los[:, :-k] <= his[:, k:] + reach), axis=-1)
+        near = all3((los[:, k:] <= his[:, :-k] + reach) & (los[:, :-k] <= his[:, k:] + reach))
         s, i = np.nonzero(near)
         la, lb = order[s, i], order[s, i + k]
         keep = np.abs(la - lb) > 1
@@ -182,9 +222,12 @@ class Physical3D:
         if self.obstacles:      # each link's box, widened by what still counts as touching (a broad phase)
             reach = (self.radius + c) * (1 + 1e-9) + 1e-12
             lo, hi = np.minimum(a, b) - reach, np.maximum(a, b) + reach
+            body_lo, body_hi = body_box(lo, hi)
         for ob in self.obstacles:
             ob_lo, ob_hi = bounding_box(ob)
-            k, j = np.nonzero(np.all((lo <= ob_hi) & (hi >= ob_lo), axis=-1))   # the links whose boxes meet its box
+            rows = np.flatnonzero(all3((body_lo <= ob_hi) & (body_hi >= ob_lo)))   # the body's box meets it
+            k, j = np.nonzero(all3((lo[rows] <= ob_hi) & (hi[rows] >= ob_lo)))   # the links' boxes meet it
+            k = rows[k]
             g = capsule_gaps(a[k, j], b[k, j], self.radius, ob, within=c)
             hit = touching(g, c)
             for k_, j_, g_ in zip(k[hit], j[hit], g[hit]):

@@ -416,7 +416,8 @@ def test_an_obstacles_bounding_box_holds_its_sampled_surface():
 
 def test_the_broad_phase_keeps_every_contact_of_all_pairs():
     """Physical3D.check measures only the links whose boxes meet an obstacle's: the same contacts, with the same
-    gaps, as measuring every link against every obstacle, on folded and stretched poses among five obstacles."""
+    gaps, as measuring every link against every obstacle, on folded and stretched poses among five obstacles;
+    also in samples whose joints are NaN from some joint on (their links up to it still count)."""
     from coordarm.simulation.physical import Contact
     from coordarm.simulation.physical3d import Physical3D
     from coordarm.symbolic.geometry import touching
@@ -425,6 +426,8 @@ def test_the_broad_phase_keeps_every_contact_of_all_pairs():
     chain = SpatialChain(12, 0.1)
     rng = np.random.default_rng(11)
     q = rng.normal(scale=0.35, size=(300, chain.dof))
+    for k in range(0, 300, 7):
+        q[k, rng.integers(4, chain.dof):] = np.nan
     t = np.arange(300) * 0.01
     for clearance in (0.0, 0.01):
         phys = Physical3D(chain, math.pi, 0.015, clearance, obs)
@@ -437,4 +440,5 @@ def test_the_broad_phase_keeps_every_contact_of_all_pairs():
                      for k, j in zip(*np.nonzero(touching(g, clearance)))]
         want = [c for _, c in sorted(want, key=lambda x: (int(x[0]), x[1].links))]
         assert len({c.obstacle for c in got}) == 5 and len(got) > 100
+        assert any(np.isnan(q[round(c.time / 0.01)]).any() for c in got)   # some in a partly NaN sample
         assert got == want
