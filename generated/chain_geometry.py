@@ -1,4 +1,5 @@
-"""The physical checks' geometry in C: a planar chain's joints and its self-distance sweep, many samples per call.
+"""The physical checks' geometry in C: a planar chain's joints and its self-distance sweep, a spatial chain's
+link frames, many samples per call.
 
 ``templates/chain_geometry.c`` repeats :meth:`~coordarm.symbolic.chain.PlanarChain.joints_np` and
 :func:`~coordarm.symbolic.geometry.self_distances` operation by operation; compiled as a
@@ -6,7 +7,9 @@
 the numpy reference's to the last bit (the joints where numpy's ``cos`` and ``sin`` are the C
 library's, as on the machine of the tests, numpy 2.4 on x86-64 without AVX-512; elsewhere to an ulp).
 Where no C compiler works, :func:`chain_joints` and :func:`self_distances` run the numpy reference
-instead (same results, 2.5-6x slower at 64 links).
+instead (same results, 2.5-6x slower at 64 links). :func:`spatial_frames` repeats
+:func:`~coordarm.symbolic.spatial_chain.link_frames` from the cosines and sines numpy computes
+(:meth:`~coordarm.symbolic.spatial_chain.SpatialChain.joint_trig`): the same bits wherever it runs.
 """
 from __future__ import annotations
 
@@ -42,6 +45,8 @@ def geometry_library() -> ctypes.CDLL | None:
     lib.coordarm_chain_joints.restype = None
     lib.coordarm_self_distances.argtypes = [_P, _I, _I, _D, _I, _P, _P, _P, _P, _P, _P]
     lib.coordarm_self_distances.restype = _I
+    lib.coordarm_spatial_frames.argtypes = [_P, _P, _P, _P, _I, _I, _P]
+    lib.coordarm_spatial_frames.restype = None
     return lib
 
 
@@ -74,6 +79,31 @@ def chain_joints(chain: Any, q: np.ndarray) -> np.ndarray:
     lib.coordarm_chain_joints(angles.ctypes.data, base.ctypes.data, n, m, float(chain.xi), scratch.ctypes.data,
                               joints.ctypes.data)
     return joints
+
+
+def spatial_frames(chain: Any, q: np.ndarray) -> np.ndarray:
+    """Link frames of a spatial chain's configurations, as :meth:`~coordarm.symbolic.spatial_chain.SpatialChain.frames_np`.
+
+    Parameters
+    ----------
+    chain : SpatialChain
+        The chain.
+    q : (N, dof) ndarray
+        Configurations [rad] (``d`` [m] first on a rail).
+
+    Returns
+    -------
+    (N, m, 3, 3) ndarray
+        The frames [-] (column 0: each link's direction); the numpy reference's, bit for bit.
+    """
+    lib = geometry_library()
+    q = np.asarray(q, dtype=float)
+    if lib is None or q.ndim != 2 or not len(q):
+        return chain.frames_np(q)
+    trig = [_c_array(x) for x in chain.joint_trig(q)]
+    frames = np.empty((len(q), chain.m, 3, 3))
+    lib.coordarm_spatial_frames(*(x.ctypes.data for x in trig), len(q), chain.m, frames.ctypes.data)
+    return frames
 
 
 def self_distances(joints: np.ndarray, clearance: float = 0.0

@@ -34,6 +34,8 @@ import numpy as np
 from coordarm.symbolic.chain import PlanarChain
 from coordarm.symbolic.errors import BaseOffPathError
 
+from .spatial_view import link_geometry
+
 #: The base margin below which a run on a rail stops (outcome ``base_off_path``).
 BASE_THRESHOLD = 0.5
 #: The base leaves the path when its distance from it grows faster than this [m/s] (rounding: ~1e-15).
@@ -79,8 +81,8 @@ def base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, n
 def _spatial_base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`base_margins` of a spatial chain (see the module's docstring)."""
     chain = ctrl.chain
-    d2 = chain.directions_np(q)[:, 1, :]                               # (N, 3)
-    y = chain.centres_np(q)                                            # (N, m, 3)
+    frames, y = link_geometry(chain, q)                                # (N, m, 3, 3), (N, m, 3)
+    d2 = frames[:, 1, :, 0]                                            # (N, 3)
     Phi, grad_psi = _geometry_at_base(ctrl, y, t)
     offset = np.linalg.norm(Phi, axis=0)                               # |Phi(y^1)|
     tangent = grad_psi.T                                               # grad psi at y^2, (N, 3)

@@ -17,9 +17,11 @@ from typing import Any
 
 import numpy as np
 
+from coordarm.generated.chain_geometry import spatial_frames
 from coordarm.symbolic import SpatialChain
 from coordarm.symbolic.geometry import touching
 from coordarm.symbolic.records import record
+from coordarm.symbolic.start3d import bends_between
 
 from .distance3d import plate_point_distance, segment_segment_distance
 from .obstacles3d import Obstacle3D, bounding_box, capsule_gaps
@@ -41,7 +43,7 @@ def link_ends(chain: SpatialChain, q: np.ndarray) -> tuple[np.ndarray, np.ndarra
     a, b, d : ndarray, each shape (N, m, 3)
         The ends [m] and the unit directions.
     """
-    d = chain.directions_np(q)
+    d = spatial_frames(chain, q)[..., 0]          # in C, numpy's bits
     half = 0.5 * chain.xi * d
     a = np.concatenate([-half[:, :1], np.cumsum(2 * half[:, :-1], axis=1) - half[:, :1]], axis=1)
     a = a + chain.base_point(q)[:, None, :]
@@ -210,7 +212,7 @@ class Physical3D:
                 found.append((k, 0, Contact("rail_limit", float(t[k]), (1,), float(q[k, 0]),
                                             hi if q[k, 0] > hi else lo)))
         a, b, d = link_ends(self.chain, q)
-        bends = np.arccos(np.clip(np.sum(d[:, :-1] * d[:, 1:], axis=-1), -1.0, 1.0))
+        bends = bends_between(d)
         lim = np.broadcast_to(np.asarray(self.limit, float), bends.shape[-1:])
         for k, j in zip(*np.nonzero(~(bends <= lim))):
             found.append((k, 0, Contact("joint_limit", float(t[k]), (int(j) + 1, int(j) + 2), float(bends[k, j]),

@@ -25,7 +25,7 @@ from .log_schemas import CDR_HEADER, SPATIAL_TRACKING_FIELDS
 from .obstacles3d import wireframe
 from .scene import CURVE_COLOR, CURVE_PX, TARGET_COLOR, WALL_COLOR, WALL_PX, SceneBuilder, margin_colours
 from .scene_fixed import length_literal
-from .spatial_view import rail_ends, roll_command, spatial_joints
+from .spatial_view import joints_of, link_geometry, rail_ends, roll_command
 from .tracking_record import log10_floored
 
 #: Colour of the joint spheres and the base (r, g, b, a).
@@ -112,8 +112,7 @@ def spatial_link_frames(chain: SpatialChain, q: np.ndarray) -> tuple[np.ndarray,
     rotation : ndarray, shape (n, m, 4)
         Quaternion ``(x, y, z, w)`` of frame j in frame j-1 (``Rz(a_j) Ry(b_j)``).
     """
-    R = chain.frames_np(q)
-    c = chain.centres_np(q)
+    R, c = link_geometry(chain, q)
     parent_R = np.concatenate([np.broadcast_to(np.eye(3), R[:, :1].shape), R[:, :-1]], axis=1)
     parent_c = np.concatenate([np.zeros_like(c[:, :1]), c[:, :-1]], axis=1)
     trans = np.einsum("nkji,nkj->nki", parent_R, c - parent_c)
@@ -274,7 +273,7 @@ class SpatialSceneBuilder(SceneBuilder):
         try:
             return self.ctrl.curve.points_at(self.s_target[ks], part.t[ks])
         except (AttributeError, TypeError, NotImplementedError):
-            return self.ctrl.chain.centres_np(part.q[ks])[:, -1]
+            return link_geometry(self.ctrl.chain, part.q[ks])[1][:, -1]
 
     def scene_entity(self, pose: dict[str, np.ndarray], curve: np.ndarray, target: np.ndarray,
                      ns: int) -> dict[str, Any]:
@@ -425,8 +424,9 @@ class SpatialSceneBuilder(SceneBuilder):
             The chain's drawn geometry, the rows first.
         """
         chain = self.ctrl.chain
-        return {"base": chain.base_point(q), "joints": spatial_joints(chain, q), "centres": chain.centres_np(q),
-                "axes": quaternion_product(quaternions(chain.frames_np(q)), _Z_TO_X)}
+        frames, centres = link_geometry(chain, q)
+        return {"base": chain.base_point(q), "joints": joints_of(chain, frames[..., 0], centres), "centres": centres,
+                "axes": quaternion_product(quaternions(frames), _Z_TO_X)}
 
     def frame_transforms(self, q: np.ndarray, ns: np.ndarray) -> list[bytes]:
         """The ``foxglove.FrameTransforms`` of poses ``q`` (k, 2m) stamped ``ns`` [ns], one JSON each.
@@ -449,11 +449,11 @@ class SpatialSceneBuilder(SceneBuilder):
             parents = ["world"] + [f"link{j}" for j in range(1, chain.m)]
             children = [f"link{j}" for j in range(1, chain.m + 1)]
         else:   # world -> base (the first central point, unturned), world -> tip (last joint, R_m)
-            joints = spatial_joints(chain, q)
-            base = chain.centres_np(q)[:, 0]
-            trans = np.stack([base, joints[:, -1]], axis=1)
+            frames, centres = link_geometry(chain, q)
+            joints = joints_of(chain, frames[..., 0], centres)
+            trans = np.stack([centres[:, 0], joints[:, -1]], axis=1)
             rot = np.stack([np.broadcast_to([0.0, 0.0, 0.0, 1.0], (len(q), 4)),
-                            quaternions(chain.frames_np(q)[:, -1])], axis=1)
+                            quaternions(frames[:, -1])], axis=1)
             parents, children = ["world", "world"], ["base", "tip"]
         out = []
         for n, tr, ro in zip(np.asarray(ns).tolist(), trans, rot):

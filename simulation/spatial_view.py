@@ -6,7 +6,29 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from coordarm.generated.chain_geometry import spatial_frames
 from coordarm.symbolic.spatial_chain import SpatialChain
+
+
+def link_geometry(chain: SpatialChain, q: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The link frames and centres of a spatial chain, the frames computed once (in C for a stack of poses).
+
+    Parameters
+    ----------
+    chain : SpatialChain
+        The manipulator.
+    q : array_like, shape (..., dof)
+        Joint coordinates [rad] (``d`` [m] first on a rail).
+
+    Returns
+    -------
+    frames : ndarray, shape (..., m, 3, 3)
+        :meth:`~coordarm.symbolic.spatial_chain.SpatialChain.frames_np`, bit for bit (column 0: the directions).
+    centres : ndarray, shape (..., m, 3)
+        :meth:`~coordarm.symbolic.spatial_chain.SpatialChain.centres_np` [m], bit for bit.
+    """
+    frames = spatial_frames(chain, q) if np.ndim(q) == 2 else chain.frames_np(q)
+    return frames, chain.centres_of(frames[..., 0], q)
 
 
 def spatial_joints(chain: SpatialChain, q: Any) -> np.ndarray:
@@ -27,8 +49,25 @@ def spatial_joints(chain: SpatialChain, q: Any) -> np.ndarray:
     ndarray, shape (..., m+1, 3)
         Joint positions [m].
     """
-    d = chain.directions_np(q)
-    y = chain.centres_np(q)
+    frames, y = link_geometry(chain, q)
+    return joints_of(chain, frames[..., 0], y)
+
+
+def joints_of(chain: SpatialChain, d: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """:func:`spatial_joints` from the link directions and centres (:func:`link_geometry`'s).
+
+    Parameters
+    ----------
+    chain : SpatialChain
+        The manipulator (its link length).
+    d, y : ndarray, each shape (..., m, 3)
+        Unit link directions [-] and link centres [m].
+
+    Returns
+    -------
+    ndarray, shape (..., m+1, 3)
+        Joint positions [m].
+    """
     first = y[..., :1, :] - 0.5 * chain.xi * d[..., :1, :]
     return np.concatenate([first, y + 0.5 * chain.xi * d], axis=-2)
 

@@ -137,13 +137,14 @@ def spatial_physical_lines(run: Run, scenario: Scenario) -> list[str]:
     """
     import numpy as np
 
+    from coordarm.generated.chain_geometry import spatial_frames
     from coordarm.simulation.run import even_indices
-    from coordarm.symbolic.start3d import bend_angles
+    from coordarm.symbolic.start3d import bends_between
 
     chain, rows = scenario.chain(), even_indices(len(run.t), 2000)
     lines = []
     if run.q.shape[1] == chain.dof:
-        rel = bend_angles(chain, run.q[rows]) / np.broadcast_to(np.asarray(scenario.config.chain.bend_limit, float),
+        rel = bends_between(spatial_frames(chain, run.q[rows])[..., 0]) / np.broadcast_to(np.asarray(scenario.config.chain.bend_limit, float),
                                                                 (chain.m - 1,))
         k, j = np.unravel_index(int(np.argmax(rel)), rel.shape)
         lim = np.broadcast_to(np.asarray(scenario.config.chain.bend_limit, float), (chain.m - 1,))[j]

@@ -79,6 +79,36 @@ def joint_rotation_np(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
 
 
+def link_frames(ca: np.ndarray, sa: np.ndarray, cb: np.ndarray, sb: np.ndarray) -> np.ndarray:
+    """The link frames ``R_j = R_{j-1} Rz(a_j) Ry(b_j)`` (``R_0 = I``) from the joints' cosines and sines.
+
+    Each entry of a product is ``p_0 q_0 + p_1 q_1 + p_2 q_2``, summed left to right, one rounding per
+    operation (never a fused multiply-add): the same bits on every machine, which the C kernel
+    (:func:`coordarm.generated.chain_geometry.spatial_frames`) repeats. (A BLAS product, as ``@``
+    makes it, rounds as the CPU's kernel does.)
+
+    Parameters
+    ----------
+    ca, sa, cb, sb : ndarray, each shape (..., m)
+        ``cos a_j, sin a_j, cos b_j, sin b_j`` [-].
+
+    Returns
+    -------
+    ndarray, shape (..., m, 3, 3)
+        The frames [-] (column 0: the link's direction).
+    """
+    zero = np.zeros_like(ca)
+    J = np.stack([np.stack(r, axis=-1) for r in
+                  [[ca * cb, -sa, ca * sb], [sa * cb, ca, sa * sb], [-sb, zero, cb]]], axis=-2)
+    R = np.empty_like(J)
+    R[..., 0, :, :] = J[..., 0, :, :]
+    for j in range(1, J.shape[-3]):
+        P, Q = R[..., j - 1, :, :], J[..., j, :, :]
+        R[..., j, :, :] = (P[..., :, 0, None] * Q[..., None, 0, :] + P[..., :, 1, None] * Q[..., None, 1, :]
+                           + P[..., :, 2, None] * Q[..., None, 2, :])
+    return R
+
+
 def joint_angles_of_direction(R_prev: np.ndarray, d: np.ndarray) -> tuple[float, float]:
     """The joint angles ``(a, b)`` that turn the frame ``R_prev`` so that its x axis becomes ``d``.
 
@@ -367,7 +397,7 @@ class SpatialChain(KinematicChain):
                                   else " (a_1, b_1, ..., a_m, b_m)")
 
     def frames_np(self, q: ArrayLike) -> np.ndarray:
-        """Link frames ``R_j``, vectorised over leading axes of ``q``.
+        """Link frames ``R_j``, vectorised over leading axes of ``q`` (:func:`link_frames` of :meth:`joint_trig`).
 
         Parameters
         ----------
@@ -378,13 +408,24 @@ class SpatialChain(KinematicChain):
         -------
         ndarray, shape (..., m, 3, 3)
         """
-        q = self.angles(np.asarray(q, float))
-        J = joint_rotation_np(q[..., 0::2], q[..., 1::2])
-        R = np.empty_like(J)
-        R[..., 0, :, :] = J[..., 0, :, :]
-        for j in range(1, self.m):
-            R[..., j, :, :] = R[..., j - 1, :, :] @ J[..., j, :, :]
-        return R
+        return link_frames(*self.joint_trig(q))
+
+    def joint_trig(self, q: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``cos a_j, sin a_j, cos b_j, sin b_j`` of ``q``'s joint angles, as numpy computes them for the frames.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., dof)
+            Joint coordinates [rad] (``d`` [m] first on a rail).
+
+        Returns
+        -------
+        ca, sa, cb, sb : ndarray, each shape (..., m)
+            [-].
+        """
+        angles = self.angles(np.asarray(q, float))
+        a, b = angles[..., 0::2], angles[..., 1::2]
+        return np.cos(a), np.sin(a), np.cos(b), np.sin(b)
 
     def directions_np(self, q: ArrayLike) -> np.ndarray:
         """Link directions ``d_j``, vectorised over leading axes of ``q``.
@@ -413,7 +454,23 @@ class SpatialChain(KinematicChain):
         ndarray, shape (..., m, 3)
             Link centres [m], the first at the base (the origin, or ``d`` along the rail).
         """
-        d = self.directions_np(q)
+        return self.centres_of(self.directions_np(q), q)
+
+    def centres_of(self, d: np.ndarray, q: ArrayLike) -> np.ndarray:
+        """Link centres from the link directions ``d`` of ``q`` (:meth:`centres_np` without the frames).
+
+        Parameters
+        ----------
+        d : ndarray, shape (..., m, 3)
+            Unit link directions of ``q`` [-].
+        q : array_like, shape (..., dof)
+            Joint coordinates (the rail position ``d`` [m] places the base).
+
+        Returns
+        -------
+        ndarray, shape (..., m, 3)
+            Link centres [m], the first at the base.
+        """
         steps = 0.5 * self.xi * (d[..., :-1, :] + d[..., 1:, :])
         base = self.base_point(q)[..., None, :]
         return np.concatenate([base, base + np.cumsum(steps, axis=-2)], axis=-2)

@@ -245,7 +245,22 @@ def bend_angles(chain: SpatialChain, q: ArrayLike) -> np.ndarray:
     ndarray, shape (..., m - 1)
         Bend angles [rad], in [0, pi].
     """
-    d = chain.directions_np(q)
+    return bends_between(chain.directions_np(q))
+
+
+def bends_between(d: np.ndarray) -> np.ndarray:
+    """:func:`bend_angles` from the link directions.
+
+    Parameters
+    ----------
+    d : ndarray, shape (..., m, 3)
+        Unit link directions [-].
+
+    Returns
+    -------
+    ndarray, shape (..., m - 1)
+        Bend angles [rad], in [0, pi].
+    """
     return np.arccos(np.clip(np.sum(d[..., :-1, :] * d[..., 1:, :], axis=-1), -1.0, 1.0))
 
 

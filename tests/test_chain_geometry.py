@@ -126,3 +126,62 @@ def test_without_a_compiler_the_checks_run_numpy_with_the_same_contacts(monkeypa
         assert [(c.kind, c.time, c.links) for c in fallback] == [(c.kind, c.time, c.links) for c in compiled]
         np.testing.assert_allclose([c.value for c in fallback], [c.value for c in compiled], rtol=0, atol=1e-14)
 
+
+
+# ------------------------------------------------------------------------------------- spatial link frames
+@pytest.mark.parametrize("m, rail", [(2, False), (3, True), (40, True), (257, False)])
+def test_compiled_spatial_frames_are_the_numpy_frames_bit_for_bit(m, rail, rng):
+    """The C frames repeat ``link_frames`` from numpy's own cosines and sines: the same bits (also -0.0), and
+    NaN where numpy has NaN (a NaN or infinite angle from its joint on)."""
+    from coordarm.generated.chain_geometry import spatial_frames
+    from coordarm.symbolic import SpatialChain
+
+    chain = SpatialChain(m, 0.05, base="rail" if rail else "fixed")
+    q = rng.uniform(-3.5, 3.5, size=(60, chain.dof))
+    q[:, -1] = 0.0                                      # exact zeros in the last joint's products
+    got, want = spatial_frames(chain, q), chain.frames_np(q)
+    assert got.shape == (60, m, 3, 3) and got.tobytes() == want.tobytes()
+    q[7, chain.dof // 2] = np.nan
+    q[9, -2] = np.inf
+    with np.errstate(invalid="ignore"):
+        got, want = spatial_frames(chain, q), chain.frames_np(q)
+    np.testing.assert_array_equal(got, want)            # NaN where numpy has NaN
+    link = (chain.dof // 2 - rail) // 2                 # the link of the NaN joint angle
+    assert np.isfinite(got[7, :link]).all() and np.isnan(got[7, link + 1:]).all()
+    assert spatial_frames(chain, q[:0]).shape == (0, m, 3, 3)
+
+
+def test_the_numpy_frames_are_the_matrix_products_and_the_casadi_frames(rng):
+    """``link_frames`` (each entry added left to right, no fused multiply-add) equals the chained matrix products
+    ``Rz(a_j) Ry(b_j)`` as ``@`` makes them and the symbolic chain's frames, to rounding."""
+    import casadi as ca
+
+    from coordarm.symbolic import SpatialChain
+    from coordarm.symbolic.spatial_chain import joint_rotation_np
+
+    chain = SpatialChain(30, 0.1)
+    q = rng.uniform(-3, 3, size=(20, chain.dof))
+    R = chain.frames_np(q)
+    J = joint_rotation_np(q[:, 0::2], q[:, 1::2])
+    product = J[:, 0]
+    for j in range(chain.m):
+        product = J[:, 0] if j == 0 else product @ J[:, j]
+        np.testing.assert_allclose(R[:, j], product, rtol=0, atol=64 * np.finfo(float).eps)
+    qs = ca.SX.sym("q", chain.dof)
+    frames = ca.Function("f", [qs], [ca.horzcat(*[ca.reshape(F.T, 9, 1) for F in chain.frames(qs)])])
+    for k in range(3):
+        np.testing.assert_allclose(np.asarray(frames(q[k])).T.reshape(chain.m, 3, 3), R[k], rtol=0, atol=1e-13)
+
+
+def test_without_a_compiler_the_spatial_checks_run_numpy_with_the_same_contacts(monkeypatch, rng):
+    from coordarm.simulation.physical3d import Physical3D
+    from coordarm.symbolic import SpatialChain
+
+    chain = SpatialChain(16, 0.1)
+    phys = Physical3D(chain, 1.2, 0.02, 0.01)
+    q = chain.zigzag(0.8)[None] + rng.normal(scale=0.5, size=(60, chain.dof))
+    t = np.arange(60) * 0.01
+    compiled = phys.check(t, q)
+    monkeypatch.setattr(chain_geometry, "geometry_library", lambda: None)
+    assert any(c.kind == "self" for c in compiled) and any(c.kind == "joint_limit" for c in compiled)
+    assert phys.check(t, q) == compiled                 # the same frames, so the same contacts to the last bit

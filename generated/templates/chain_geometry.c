@@ -1,7 +1,7 @@
-/* The physical checks' geometry of a planar chain, for many samples at once (loaded by
- * coordarm.generated.chain_geometry). Hand-written, no placeholders.
+/* The physical checks' geometry of a planar chain, and a spatial chain's link frames, for many samples at
+ * once (loaded by coordarm.generated.chain_geometry). Hand-written, no placeholders.
  *
- * Both functions repeat the numpy reference operation by operation, in the same order
+ * The functions repeat the numpy reference operation by operation, in the same order
  * (PlanarChain.joints_np and symbolic.geometry.self_distances): compiled without contraction
  * (-ffp-contract=off) and with the scalar libm, the joints and the distances are the reference's to
  * the last bit; only the sweep's sort key (the principal axis, whose mean and sums numpy adds
@@ -17,6 +17,27 @@
 /* np.minimum and np.maximum of finite numbers (fmin and fmax are library calls without -ffast-math) */
 static inline double MIN(double a, double b) { return a < b ? a : b; }
 static inline double MAX(double a, double b) { return a > b ? a : b; }
+
+/* Link frames of n configurations of a spatial chain, as symbolic.spatial_chain.link_frames: from the
+ * joints' cosines and sines ca, sa, cb, sb (each n x m, numpy's), R_1 = J_1 and R_j = R_{j-1} J_j with
+ * J = Rz(a) Ry(b) = [[ca cb, -sa, ca sb], [sa cb, ca, sa sb], [-sb, 0, cb]], each entry p0 q0 + p1 q1 + p2 q2
+ * added left to right; R is n x m x 3 x 3, row-major. */
+GEOMETRY_EXPORT void coordarm_spatial_frames(const double *ca, const double *sa, const double *cb, const double *sb,
+                                             long long n, long long m, double *R) {
+  for (long long k = 0; k < n * m; ++k) {
+    const long long j = k % m;
+    const double J[9] = {ca[k] * cb[k], -sa[k], ca[k] * sb[k], sa[k] * cb[k], ca[k], sa[k] * sb[k], -sb[k], 0.0, cb[k]};
+    double *Rk = R + 9 * k;
+    if (j == 0) {
+      for (int e = 0; e < 9; ++e) Rk[e] = J[e];
+      continue;
+    }
+    const double *P = Rk - 9;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        Rk[3 * r + c] = P[3 * r] * J[c] + P[3 * r + 1] * J[3 + c] + P[3 * r + 2] * J[6 + c];
+  }
+}
 
 /* Link end points of n configurations: angles q (n x m, the revolute joints), base (n x 2, the first
  * central point), link length xi; joints (n x (m+1) x 2). As PlanarChain.joints_np: alpha = cumsum(q),
