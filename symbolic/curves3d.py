@@ -10,12 +10,14 @@ differentiable by AD in ``y`` and ``t``. Composite paths are in :mod:`.paths3d`.
 from __future__ import annotations
 
 import math
+import weakref
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from .errors import ConfigError, shown
+from .lazy import made_once
 from .motions import motion_to_spec
 from .params import Param, as_param, evaluate, evaluate_many
 from .vectors3d import any_normal, as_point3, orthogonal_normal, rotate, unit_vector
@@ -53,6 +55,10 @@ def as_column(y) -> Any:
     if isinstance(y, (ca.SX, ca.MX, ca.DM)):
         return y
     return ca.DM(np.asarray(y, float).reshape(3, 1))
+
+
+#: :meth:`SpatialCurve.functions` of each curve alive.
+_FUNCTIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 class SpatialCurve:
@@ -208,7 +214,7 @@ class SpatialCurve:
         return None
 
     def functions(self) -> ca.Function:
-        """CasADi Function ``(y, t) -> (psi, Phi, tangent, n1, n2)``.
+        """CasADi Function ``(y, t) -> (psi, Phi, tangent, n1, n2)``, built once per curve (it does not change).
 
         Returns
         -------
@@ -216,6 +222,9 @@ class SpatialCurve:
             Inputs ``y`` (3) [m] and ``t`` [s]; outputs the arc length [m], normal coordinates (2) [m]
             and the frame's three unit vectors (3 each).
         """
+        return made_once(_FUNCTIONS, self, self._frame_function)
+
+    def _frame_function(self) -> ca.Function:
         y, t = ca.SX.sym("y", 3), ca.SX.sym("t")
         psi, Phi, (tan, n1, n2) = self.coordinates(y, t)
         return ca.Function(f"{self.kind}_curve3d", [y, t], [psi, Phi, tan, n1, n2],

@@ -1,10 +1,42 @@
 """Loading on first need, dependency-free: PEP 562 lazy exports (a package's public names load their module on
-first use) and the data folders of coordarm's packages (without :mod:`importlib.resources`)."""
+first use), objects made once per key (:func:`made_once`) and the data folders of coordarm's packages (without
+:mod:`importlib.resources`)."""
 from __future__ import annotations
 
 import os
+import weakref
 from importlib import import_module
 from typing import Any, Callable
+
+
+def made_once(cache: weakref.WeakKeyDictionary, key: Any, make: Callable[[], Any]) -> Any:
+    """``make()`` the first time for ``key``, then the same object while ``key`` lives.
+
+    For what is built from an object that does not change (a curve's CasADi Functions). A key that
+    cannot be weakly referenced or hashed is not remembered (``make()`` each time).
+
+    Parameters
+    ----------
+    cache : weakref.WeakKeyDictionary
+        Where the objects made are kept.
+    key : object
+        What they are made from.
+    make : callable
+        ``make()`` -> the object.
+
+    Returns
+    -------
+    object
+        The object made for ``key``.
+    """
+    try:
+        return cache[key]
+    except KeyError:
+        pass
+    except TypeError:                   # not weakly referable or not hashable
+        return make()
+    made = cache[key] = make()
+    return made
 
 
 def lazy_exports(package: str, exports: dict[str, str],
