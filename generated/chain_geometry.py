@@ -47,6 +47,8 @@ def geometry_library() -> ctypes.CDLL | None:
     lib.coordarm_self_distances.restype = _I
     lib.coordarm_spatial_frames.argtypes = [_P, _P, _P, _P, _I, _I, _P]
     lib.coordarm_spatial_frames.restype = None
+    lib.coordarm_close_pairs3d.argtypes = [_P, _P, _I, _I, _D, _I, _P, _P, _P, _P, _P]
+    lib.coordarm_close_pairs3d.restype = _I
     return lib
 
 
@@ -104,6 +106,41 @@ def spatial_frames(chain: Any, q: np.ndarray) -> np.ndarray:
     frames = np.empty((len(q), chain.m, 3, 3))
     lib.coordarm_spatial_frames(*(x.ctypes.data for x in trig), len(q), chain.m, frames.ctypes.data)
     return frames
+
+
+def box_pairs(lo: np.ndarray, hi: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The pairs of non-adjacent links whose boxes come within ``reach`` along all three axes, in C.
+
+    The set :func:`coordarm.simulation.physical3d.close_pairs_numpy` finds, sorted by sample, then by place
+    along the sweep (not in its order).
+
+    Parameters
+    ----------
+    lo, hi : ndarray, each shape (N, m, 3)
+        Corners of the links' axis-aligned boxes [m].
+    reach : float
+        Gap [m] up to which two boxes count as close.
+
+    Returns
+    -------
+    (sample, link_a, link_b) or None
+        0-based int arrays (``link_a < link_b - 1``); None without a C compiler or with a box that is not
+        finite (the caller runs the numpy sweep).
+    """
+    lib = geometry_library()
+    lo, hi = _c_array(lo), _c_array(hi)
+    if lib is None or lo.ndim != 3 or not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+        return None
+    n, m = lo.shape[:2]
+    scratch, iscratch = np.empty(max(m, 1)), np.empty(2 * max(m, 1), np.int64)
+    cap = 8 * n + 1024                      # pairs (a chain along a path: a few a sample; more: a second call)
+    while True:
+        s, a, b = (np.empty(cap, np.int64) for _ in range(3))
+        found = lib.coordarm_close_pairs3d(lo.ctypes.data, hi.ctypes.data, n, m, float(reach), cap, s.ctypes.data,
+                                           a.ctypes.data, b.ctypes.data, scratch.ctypes.data, iscratch.ctypes.data)
+        if found <= cap:
+            return s[:found], a[:found], b[:found]
+        cap = found
 
 
 def self_distances(joints: np.ndarray, clearance: float = 0.0

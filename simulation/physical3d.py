@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from coordarm.generated.chain_geometry import spatial_frames
+from coordarm.generated.chain_geometry import box_pairs, spatial_frames
 from coordarm.symbolic import SpatialChain
 from coordarm.symbolic.geometry import touching
 from coordarm.symbolic.records import record
@@ -91,7 +91,29 @@ def body_box(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def close_pairs(lo: np.ndarray, hi: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pairs of non-adjacent links whose bounding boxes come within ``reach`` of each other (sort and sweep).
+    """Pairs of non-adjacent links whose bounding boxes come within ``reach`` of each other along all three axes.
+
+    In C (:func:`~coordarm.generated.chain_geometry.box_pairs`), else :func:`close_pairs_numpy`: the same
+    pairs, in another order.
+
+    Parameters
+    ----------
+    lo, hi : ndarray, each shape (N, m, 3)
+        Corners of the links' axis-aligned bounding boxes [m].
+    reach : float
+        Gap [m] up to which two boxes count as close.
+
+    Returns
+    -------
+    sample, link_a, link_b : int ndarray, each shape (K,)
+        0-based sample and 0-based links, ``link_a < link_b - 1``.
+    """
+    found = box_pairs(lo, hi, reach)
+    return found if found is not None else close_pairs_numpy(lo, hi, reach)
+
+
+def close_pairs_numpy(lo: np.ndarray, hi: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`close_pairs` in numpy (sort and sweep).
 
     Per sample the boxes are sorted by their low end along the axis of the body's largest
     extent; the box k places further on is compared while any still overlaps along that axis

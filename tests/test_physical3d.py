@@ -227,6 +227,32 @@ def test_broad_phase_finds_exactly_the_pairs_brute_force_finds():
     assert total > 20
 
 
+@pytest.mark.parametrize("compiled", [True, False])
+def test_the_box_sweep_finds_every_pair_of_boxes_within_reach(compiled):
+    """close_pairs (in C) and close_pairs_numpy give exactly the non-adjacent pairs whose boxes come within
+    reach along x, y and z, compared pair by pair; a NaN sample has none of its NaN links' pairs."""
+    from coordarm.simulation.physical3d import close_pairs_numpy
+
+    sweep, rng = close_pairs if compiled else close_pairs_numpy, np.random.default_rng(12)
+    total = 0
+    for m, scale, reach in ((5, 0.9, 0.0), (17, 0.4, 0.02), (60, 1.2, 0.01), (200, 0.3, 0.05)):
+        chain = SpatialChain(m, 0.1)
+        q = rng.normal(scale=scale, size=(12, 2 * m))
+        q[3, m:] = np.nan if m > 5 else q[3, m:]
+        a, b, _ = link_ends(chain, q)
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        found = set(zip(*[x.tolist() for x in sweep(lo, hi, reach)]))
+        I, J = np.triu_indices(m, 2)
+        near = np.ones((len(q), len(I)), bool)
+        for c in range(3):
+            near &= (lo[:, J, c] <= hi[:, I, c] + reach) & (lo[:, I, c] <= hi[:, J, c] + reach)
+        ks, ps = np.nonzero(near)
+        want = {(int(k), int(I[p]), int(J[p])) for k, p in zip(ks, ps)}
+        assert found == want
+        total += len(want)
+    assert total > 100
+
+
 # ------------------------------------------------------------------------------------------------ runs
 def spatial(obstacles=(), **chain):
     return {"chain": {"links": 8, "link_length": 0.1, "joints": "universal", "joint_limit": 1.4, **chain},

@@ -211,3 +211,50 @@ GEOMETRY_EXPORT long long coordarm_self_distances(const double *joints, long lon
   }
   return found;
 }
+
+/* The pairs of non-adjacent links of n configurations of a spatial chain whose axis-aligned boxes (lo, hi:
+ * n x m x 3, all finite) come within reach of each other along all three axes, the set
+ * simulation.physical3d.close_pairs_numpy finds (the same comparisons; here in the order of a sweep along the
+ * axis of the body's largest extent). Writes up to cap pairs (sample, link a, link b, 0-based, a < b - 1) and
+ * returns how many there are (more than cap: call again with room for them). scratch holds m doubles,
+ * iscratch 2 m long longs. */
+GEOMETRY_EXPORT long long coordarm_close_pairs3d(const double *lo, const double *hi, long long n, long long m,
+                                                 double reach, long long cap, long long *sample, long long *link_a,
+                                                 long long *link_b, double *scratch, long long *iscratch) {
+  double *key = scratch;
+  long long *order = iscratch, *tmp = iscratch + m, found = 0;
+  for (long long i = 0; i < m; ++i) order[i] = i;
+  for (long long s = 0; s < n; ++s) {
+    const double *L = lo + s * m * 3, *H = hi + s * m * 3;
+    double bl[3] = {L[0], L[1], L[2]}, bh[3] = {H[0], H[1], H[2]};
+    for (long long j = 1; j < m; ++j)
+      for (int c = 0; c < 3; ++c) {
+        bl[c] = MIN(bl[c], L[3 * j + c]);
+        bh[c] = MAX(bh[c], H[3 * j + c]);
+      }
+    int ax = 0;
+    for (int c = 1; c < 3; ++c)
+      if (bh[c] - bl[c] > bh[ax] - bl[ax]) ax = c;
+    for (long long j = 0; j < m; ++j) key[j] = L[3 * j + ax];
+    sort_by(key, order, tmp, m);                 /* (the order of the sample before: nearly sorted) */
+    for (long long i = 0; i < m; ++i) {
+      const long long oi = order[i];
+      const double *Li = L + 3 * oi, *Hi = H + 3 * oi;
+      for (long long jj = i + 1; jj < m && key[order[jj]] <= Hi[ax] + reach; ++jj) {
+        const long long oj = order[jj], a = oi < oj ? oi : oj, b = oi < oj ? oj : oi;
+        if (b - a < 2) continue;
+        const double *Lj = L + 3 * oj, *Hj = H + 3 * oj;
+        if (!(Lj[0] <= Hi[0] + reach && Li[0] <= Hj[0] + reach && Lj[1] <= Hi[1] + reach && Li[1] <= Hj[1] + reach
+              && Lj[2] <= Hi[2] + reach && Li[2] <= Hj[2] + reach))
+          continue;
+        if (found < cap) {
+          sample[found] = s;
+          link_a[found] = a;
+          link_b[found] = b;
+        }
+        ++found;
+      }
+    }
+  }
+  return found;
+}
