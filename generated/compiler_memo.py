@@ -24,6 +24,8 @@ MEMO_ENTRIES = 16
 DIGESTS = "digests.json"
 #: Memo file of the libraries of controllers' recipes (:mod:`.source_memo`): ``{recipe key: library key}``.
 SOURCES = "sources.json"
+#: Memo file of values a recipe determines (:func:`.source_memo.remembered_values`): ``{key: float64 bytes as hex}``.
+VALUES = "values.json"
 
 
 def write_atomic(path: Path, data: bytes) -> None:

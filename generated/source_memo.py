@@ -12,6 +12,9 @@ binaries, the interpreter, the C library and the CPU, plus the compiler, its ver
 the library was built from the generated text: a hit loads only a library whose checksum matches
 its metadata under that key, so a key that changes whenever the text would never loads a stale one
 (``tests/test_source_memo.py`` checks it for every preset and changed parameters).
+
+The same key over coordarm's code (:func:`code_key`) remembers other arrays a recipe determines
+(:func:`remembered_values`): a spatial start laid link by link along a path (``simulation.spatial_scenario``).
 """
 from __future__ import annotations
 
@@ -23,12 +26,14 @@ from typing import Any, Callable
 
 from .build import LIBRARY, Library, build, build_root, cache_key, cached, compile_flags, compile_timeout
 from .build import cpu_identity, find_compiler, private_root
-from .code_identity import files_key, package_files
+from .code_identity import files_key, memo_root, package_files
 from .source import Source
-from .compiler_memo import SOURCES, lookup, remember
+from .compiler_memo import SOURCES, VALUES, lookup, remember
 
 #: Most recipes remembered.
 SOURCE_ENTRIES = 64
+#: Most arrays remembered by :func:`remembered_values`.
+VALUE_ENTRIES = 64
 #: The folders whose files the generated C can depend on (recursively).
 CODE_FOLDERS = ("symbolic", "generated", "simulation")
 
@@ -54,6 +59,24 @@ def recipe_key(ctrl: Any, form: str, path_search: bool) -> tuple[str, bool] | No
     recipe = getattr(ctrl, "recipe", None)
     if recipe is None:
         return None
+    return code_key(recipe, form, repr(bool(path_search)))
+
+
+def code_key(*text: str) -> tuple[str, bool]:
+    """A key over ``text`` and everything coordarm's computations depend on: the identity of every file of
+    ``symbolic``, ``generated`` and ``simulation``, CasADi's and numpy's versions and binaries, the
+    interpreter, the C library and the CPU.
+
+    Parameters
+    ----------
+    *text : str
+        What else the value depends on (a recipe, a form).
+
+    Returns
+    -------
+    (key, settled)
+        SHA-256 hex and whether it may be remembered (:func:`.code_identity.files_key`).
+    """
     import casadi
     import numpy
 
@@ -62,8 +85,43 @@ def recipe_key(ctrl: Any, form: str, path_search: bool) -> tuple[str, bool] | No
                 for name in ("casadi.casadi", "casadi._casadi", "numpy._core._multiarray_umath")]
     libc = os.confstr("CS_GNU_LIBC_VERSION") if "CS_GNU_LIBC_VERSION" in os.confstr_names else ""
     return files_key([*package_files(root, CODE_FOLDERS, suffix="", recursive=True), *binaries, sys.executable],
-                     recipe, form, repr(bool(path_search)), casadi.__version__, numpy.__version__, sys.version,
-                     libc or "", cpu_identity())
+                     *text, casadi.__version__, numpy.__version__, sys.version, libc or "", cpu_identity())
+
+
+def remembered_values(name: str, recipe: str, compute: Callable[[], Any]) -> Any:
+    """``compute()``'s float64 array, remembered in :data:`~.compiler_memo.VALUES` under :func:`code_key` of
+    ``name`` and ``recipe`` (its exact bits, as hex), so a computation the recipe determines runs once.
+
+    Parameters
+    ----------
+    name : str
+        What the values are (e.g. ``"spatial start"``).
+    recipe : str
+        Everything they depend on besides coordarm's code and its libraries (a scenario's JSON).
+    compute : callable
+        ``compute()`` -> array_like of floats.
+
+    Returns
+    -------
+    ndarray
+        The values (a new float64 array of ``compute()``'s shape; a remembered one is 1-D).
+    """
+    import numpy as np
+
+    root = memo_root()
+    if root is None:
+        return np.asarray(compute(), float)
+    key, settled = code_key(name, recipe)
+    known = lookup(root, VALUES, key)
+    if known is not None:
+        try:
+            return np.frombuffer(bytes.fromhex(known), np.float64).copy()
+        except ValueError:                          # a damaged entry: computed again
+            pass
+    values = np.asarray(compute(), float)
+    if settled:
+        remember(root, VALUES, key, values.tobytes().hex(), VALUE_ENTRIES)
+    return values
 
 
 def remembered_library(ctrl: Any, form: str, path_search: bool, *, cc: str | None = None, flags=None,

@@ -263,7 +263,7 @@ class Scenario:
         curve = self.curve if self.curve is not None else self.config.curve_object
         if self.universal:
             from .spatial_scenario import spatial_controller
-            ctrl = spatial_controller(self.config, curve)
+            ctrl = spatial_controller(self.config, curve, self.to_json() if self.curve is None else None)
         else:
             ctrl = CoordinatingController(self.chain(), curve, float(c.gain), c.speed_motion, law=c.law,
                                           span=c.span_motion, governor=c.governor,
@@ -299,15 +299,25 @@ class Scenario:
             from .spatial_scenario import laid_start
             return laid_start(self.config, ctrl)
         d0 = max(ctrl.chain.rail_limits[0], 0.0) if ctrl.chain.rail else 0.0
-        if st.kind == "follow":
-            q = follow_curve(ctrl, float(st.beta), self.t0, d=d0)
-        else:
+
+        def laid() -> np.ndarray:
+            if st.kind == "follow":
+                return follow_curve(ctrl, float(st.beta), self.t0, d=d0)
             q = ctrl.chain.zigzag(float(st.beta), float(st.heading), d=d0)
-        if st.kind == "projected":
-            target = ctrl
-            if st.curve_object is not None:
-                target = CoordinatingController(ctrl.chain, st.curve_object, ctrl.gain, 0.0)
-            q = project_onto_curve(target, q, self.t0)
+            if st.kind == "projected":
+                target = ctrl
+                if st.curve_object is not None:
+                    target = CoordinatingController(ctrl.chain, st.curve_object, ctrl.gain, 0.0)
+                q = project_onto_curve(target, q, self.t0)
+            return q
+        # A start laid along the curve or projected onto it (40-220 ms) is remembered under the controller's
+        # recipe (None for a user's curve or a changed controller) and coordarm's code, to the last bit.
+        recipe = getattr(ctrl, "recipe", None)
+        if recipe is not None and st.kind != "zigzag":
+            from coordarm.generated.source_memo import remembered_values
+            q = remembered_values("planar start", recipe, laid)
+        else:
+            q = laid()
         check_start(ctrl, q)
         hits = [c for c in self.physical(ctrl.chain).check(np.array([self.t0]), q[None]) if c.kind == "wall"]
         if hits:

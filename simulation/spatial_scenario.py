@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from coordarm.generated.source_memo import remembered_values
 from coordarm.symbolic import ConfigError, SpatialChain, SpatialController
 from coordarm.symbolic.start3d import check_bends, follow_curve3d, zigzag_start
 
@@ -25,7 +26,7 @@ from .scenario_tables import ScenarioConfig
 _LAID: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def spatial_start(config: ScenarioConfig, chain: SpatialChain, curve: Any) -> np.ndarray:
+def spatial_start(config: ScenarioConfig, chain: SpatialChain, curve: Any, recipe: str | None = None) -> np.ndarray:
     """The start configuration ``q0`` of a universal chain, checked against the bend limit.
 
     Parameters
@@ -36,6 +37,10 @@ def spatial_start(config: ScenarioConfig, chain: SpatialChain, curve: Any) -> np
         The manipulator.
     curve : SpatialCurve
         The goal curve.
+    recipe : str, optional
+        The scenario's JSON when it says all (its chain and curve built from it): a start laid along the
+        curve (``kind = "follow"``, 60-110 ms of CasADi on a path) is then remembered under it and coordarm's
+        code (:func:`~coordarm.generated.source_memo.remembered_values`), its exact bits; checked as a new one.
 
     Returns
     -------
@@ -52,7 +57,9 @@ def spatial_start(config: ScenarioConfig, chain: SpatialChain, curve: Any) -> np
     st, t0 = config.start, float(config.run.t0)
     lay = follow_curve3d if st.kind == "follow" else zigzag_start
     d0 = max(chain.rail_limits[0], 0.0) if chain.rail else 0.0
-    q = lay(chain, curve, float(st.beta), t0, st.axis, st.fold, float(st.roll or 0.0), d=d0)
+    def laid() -> np.ndarray:
+        return lay(chain, curve, float(st.beta), t0, st.axis, st.fold, float(st.roll or 0.0), d=d0)
+    q = remembered_values("spatial start", recipe, laid) if recipe is not None and st.kind == "follow" else laid()
     check_bends(chain, q, config.chain.bend_limit)
     hits = spatial_physical(config, chain).check(np.array([t0]), q[None])
     if hits:
@@ -107,7 +114,7 @@ def spatial_physical(config: ScenarioConfig, chain: SpatialChain) -> Physical3D:
     return Physical3D(chain, ch.bend_limit, radius, float(ch.clearance or 0.0), list(config.obstacles), ch.rates)
 
 
-def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:
+def spatial_controller(config: ScenarioConfig, curve: Any, recipe: str | None = None) -> SpatialController:
     """The spatial coordinating controller of a scenario with ``[chain] joints = "universal"``.
 
     Parameters
@@ -116,6 +123,8 @@ def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:
         The scenario.
     curve : SpatialCurve
         The goal curve.
+    recipe : str, optional
+        The scenario's JSON when it says all (see :func:`spatial_start`).
 
     Returns
     -------
@@ -128,7 +137,7 @@ def spatial_controller(config: ScenarioConfig, curve: Any) -> SpatialController:
         The start cannot be laid (see :func:`spatial_start`).
     """
     chain, c = config.chain.build(), config.control
-    q0 = spatial_start(config, chain, curve) if c.roll_motion is None else None
+    q0 = spatial_start(config, chain, curve, recipe) if c.roll_motion is None else None
     ctrl = SpatialController(chain, curve, float(c.gain), c.speed_motion, roll=c.roll_motion, law=c.law,
                              start=q0, t0=float(config.run.t0), span=c.span_motion)
     if q0 is not None:

@@ -179,3 +179,53 @@ def test_a_singular_start_is_refused_alike_with_the_compiled_law_at_hand(tmp_pat
             simulate(ctrl, q, 0.01, backend=backend)
         errors.append(str(err.value))
     assert errors[0] == errors[1] and "singular" in errors[0]
+
+
+# ------------------------------------------------------------------------------ values a recipe determines
+def test_remembered_values_are_computed_once_with_their_exact_bits(tmp_path, monkeypatch):
+    import numpy as np
+
+    monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path))
+    monkeypatch.setattr(code_identity, "SETTLE_SECONDS", -1e9)
+    calls = []
+
+    def compute(x):
+        calls.append(x)
+        return np.array([x, -0.0, 1 / 3, np.nextafter(1.0, 2.0)])
+
+    first = source_memo.remembered_values("test", "recipe a", lambda: compute(0.1))
+    again = source_memo.remembered_values("test", "recipe a", lambda: compute(0.2))
+    assert calls == [0.1] and again.tobytes() == first.tobytes()      # -0.0 and the last ulp kept
+    assert source_memo.remembered_values("test", "recipe b", lambda: compute(0.3))[0] == 0.3
+    assert source_memo.remembered_values("other", "recipe a", lambda: compute(0.4))[0] == 0.4
+    memo = tmp_path / "values.json"
+    memo.write_text(json.dumps({k: "zz" for k in json.loads(memo.read_text())}))   # damaged entries
+    assert source_memo.remembered_values("test", "recipe a", lambda: compute(0.5))[0] == 0.5
+    monkeypatch.setattr(code_identity, "SETTLE_SECONDS", 1e9)                       # files just changed
+    source_memo.remembered_values("test", "recipe c", lambda: compute(0.6))
+    source_memo.remembered_values("test", "recipe c", lambda: compute(0.7))
+    assert calls[-2:] == [0.6, 0.7]
+
+
+@pytest.mark.parametrize("name, layer", [("path3d", "coordarm.simulation.spatial_scenario.follow_curve3d"),
+                                         ("thread", "coordarm.simulation.scenario.follow_curve"),
+                                         ("arc", "coordarm.simulation.scenario.project_onto_curve")])
+def test_a_start_along_or_onto_the_curve_is_laid_once_and_is_the_one_laid_anew(tmp_path, monkeypatch, name, layer):
+    """A remembered start is the start laid anew (a cache of its own), to the last bit; the second controller of
+    the scenario does not lay it; another scenario does."""
+    monkeypatch.setattr(code_identity, "SETTLE_SECONDS", -1e9)
+    sc = small(name, links=12)
+    monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path / "fresh"))
+    (tmp_path / "fresh").mkdir(mode=0o700)
+    laid = sc.start(sc.controller())
+    monkeypatch.setenv("COORDARM_BUILD_DIR", str(tmp_path))
+    first = sc.start(sc.controller())
+    assert first.tobytes() == laid.tobytes()
+
+    def lay_again(*args, **kwargs):
+        raise RuntimeError("laid again")
+    monkeypatch.setattr(layer, lay_again)
+    assert sc.start(sc.controller()).tobytes() == laid.tobytes()
+    with pytest.raises(RuntimeError, match="laid again"):              # another scenario: laid
+        other = small(name, links=13)
+        other.start(other.controller())
