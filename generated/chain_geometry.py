@@ -49,6 +49,8 @@ def geometry_library() -> ctypes.CDLL | None:
     lib.coordarm_spatial_frames.restype = None
     lib.coordarm_close_pairs3d.argtypes = [_P, _P, _I, _I, _D, _I, _P, _P, _P, _P, _P]
     lib.coordarm_close_pairs3d.restype = _I
+    lib.coordarm_edge_distances.argtypes = [_P, _I, _I, _P, _I, _P, _I, _P]
+    lib.coordarm_edge_distances.restype = None
     return lib
 
 
@@ -106,6 +108,38 @@ def spatial_frames(chain: Any, q: np.ndarray) -> np.ndarray:
     frames = np.empty((len(q), chain.m, 3, 3))
     lib.coordarm_spatial_frames(*(x.ctypes.data for x in trig), len(q), chain.m, frames.ctypes.data)
     return frames
+
+
+def edge_distances(joints: np.ndarray, edges: np.ndarray, polygon: np.ndarray | None = None) -> np.ndarray | None:
+    """Distance from every link to the nearest edge (0 for a link starting inside ``polygon``), in C.
+
+    :func:`coordarm.simulation.obstacles.link_distances` of a segment or polygon obstacle, to the last bit:
+    the smallest of the same segment distances (``symbolic.geometry.segment_distance``'s operations).
+
+    Parameters
+    ----------
+    joints : (N, m+1, 2) array
+        Link end points [m].
+    edges : (E, 2, 2) array
+        The obstacle's edges [m].
+    polygon : (k, 2) array, optional
+        The corners of a closed polygon [m] (its inside counts as contact).
+
+    Returns
+    -------
+    (N, m) ndarray or None
+        The distances [m]; None without a C compiler or with a point that is not finite (the caller runs numpy).
+    """
+    lib = geometry_library()
+    joints, edges = _c_array(joints), _c_array(edges)
+    poly = _c_array(np.zeros((0, 2)) if polygon is None else polygon)
+    if lib is None or joints.ndim != 3 or not all(np.isfinite(x).all() for x in (joints, edges, poly)):
+        return None
+    n, m = joints.shape[0], joints.shape[1] - 1
+    out = np.empty((n, m))
+    lib.coordarm_edge_distances(joints.ctypes.data, n, m, edges.ctypes.data, len(edges), poly.ctypes.data, len(poly),
+                                out.ctypes.data)
+    return out
 
 
 def box_pairs(lo: np.ndarray, hi: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:

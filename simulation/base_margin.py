@@ -34,8 +34,6 @@ import numpy as np
 from coordarm.symbolic.chain import PlanarChain
 from coordarm.symbolic.errors import BaseOffPathError
 
-from .spatial_view import link_geometry
-
 #: The base margin below which a run on a rail stops (outcome ``base_off_path``).
 BASE_THRESHOLD = 0.5
 #: The base leaves the path when its distance from it grows faster than this [m/s] (rounding: ~1e-15).
@@ -80,6 +78,8 @@ def base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, n
 
 def _spatial_base_margins(ctrl: Any, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`base_margins` of a spatial chain (see the module's docstring)."""
+    from .spatial_view import link_geometry          # here: a planar run loads no spatial module
+
     chain = ctrl.chain
     frames, y = link_geometry(chain, q)                                # (N, m, 3, 3), (N, m, 3)
     d2 = frames[:, 1, :, 0]                                            # (N, 3)

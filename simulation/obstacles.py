@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from coordarm.generated.chain_geometry import edge_distances
 from coordarm.symbolic import ConfigError
 from coordarm.symbolic.geometry import point_segment_distance, segment_distance
 from coordarm.symbolic.records import record
@@ -247,6 +248,9 @@ def link_distances(joints: np.ndarray, obstacle: Obstacle) -> np.ndarray:
     a, b = joints[:, :-1], joints[:, 1:]
     if obstacle.kind == "circle":
         return np.maximum(point_segment_distance(obstacle.points[0], a, b) - obstacle.radius, 0.0)
+    found = edge_distances(joints, edges(obstacle), obstacle.points if obstacle.kind == "polygon" else None)
+    if found is not None:                        # in C, the same numbers
+        return found
     d = nearest_edge_distances(a, b, edges(obstacle))
     if obstacle.kind == "polygon":
         d = np.where(inside_polygon(a, obstacle.points), 0.0, d)

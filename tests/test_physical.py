@@ -201,7 +201,10 @@ def loop_over_edges(joints, obstacle):
 
 def test_pruned_link_distances_equal_every_edge_measured_bit_for_bit():
     """The pipe's two wall polygons (28 corners each) and a wall segment, against chains laid through
-    the pipe, shaken (links crossing the walls and lying inside them), plus a NaN sample."""
+    the pipe, shaken (links crossing the walls and lying inside them), plus a NaN sample; the C kernel's
+    distances (the samples without NaN) too."""
+    from coordarm.generated.chain_geometry import edge_distances
+    from coordarm.simulation.obstacles import edges
     from coordarm.simulation.scenario import load_scenario
     sc = load_scenario("pipe")
     ctrl = sc.controller()
@@ -213,6 +216,9 @@ def test_pruned_link_distances_equal_every_edge_measured_bit_for_bit():
     J = chain.joints_np(Q)
     wall = obstacles_from_spec([{"name": "w", "a": [1.0, -0.3], "b": [2.5, 0.4]}])[0]
     for ob in [*sc.obstacles, wall]:
-        ref, new = loop_over_edges(J, ob), link_distances(J, ob)
+        ref, new = loop_over_edges(J, ob), link_distances(J, ob)      # a NaN sample: numpy's pruned search
         np.testing.assert_array_equal(new, ref)
         assert (ref == 0).sum() > 100 and (ref > 0.05).sum() > 100 and np.isnan(ref[-1, 4:]).all()
+        compiled = edge_distances(J[:-1], edges(ob), ob.points if ob.kind == "polygon" else None)
+        if compiled is not None:                                       # all finite: in C, the same bits
+            assert compiled.tobytes() == ref[:-1].tobytes() == link_distances(J[:-1], ob).tobytes()

@@ -258,3 +258,43 @@ GEOMETRY_EXPORT long long coordarm_close_pairs3d(const double *lo, const double 
   }
   return found;
 }
+
+/* Distance from every link of n configurations of a planar chain (joints n x (m+1) x 2, all finite) to the
+ * nearest of e edges (edges e x 2 x 2), as simulation.obstacles.link_distances: the smallest
+ * geometry._segment distance over the edges (an edge whose box is farther from the link's box than the
+ * smallest distance so far, by a margin far above rounding, is skipped: it cannot be nearer), then 0 where the link's first end lies inside the
+ * polygon poly (k corners; k = 0: no polygon), by the same ray casting as obstacles.inside_polygon. out is
+ * n x m. */
+GEOMETRY_EXPORT void coordarm_edge_distances(const double *joints, long long n, long long m, const double *edges,
+                                             long long e, const double *poly, long long k, double *out) {
+  for (long long s = 0; s < n; ++s) {
+    const double *J = joints + s * (m + 1) * 2;
+    for (long long j = 0; j < m; ++j) {
+      const double *a = J + 2 * j, *b = a + 2;
+      const double lox = MIN(a[0], b[0]), hix = MAX(a[0], b[0]), loy = MIN(a[1], b[1]), hiy = MAX(a[1], b[1]);
+      double d = INFINITY;
+      for (long long i = 0; i < e; ++i) {
+        const double *p = edges + 4 * i, *q = p + 2;
+        const double gx = MAX(MAX(MIN(p[0], q[0]) - hix, lox - MAX(p[0], q[0])), 0.0);
+        const double gy = MAX(MAX(MIN(p[1], q[1]) - hiy, loy - MAX(p[1], q[1])), 0.0);
+        if (gx * gx + gy * gy > d * d * (1 + 1e-9)) continue;   /* its box is farther than d: so is the edge */
+        const double di = segment(a[0], a[1], b[0], b[1], p[0], p[1], q[0], q[1]);
+        d = di < d ? di : d;
+      }
+      if (k > 0) {
+        int inside = 0;
+        const double x = a[0], y = a[1];
+        for (long long c = 0; c < k; ++c) {
+          const double x1 = poly[2 * c], y1 = poly[2 * c + 1];
+          const double x2 = poly[2 * ((c + 1) % k)], y2 = poly[2 * ((c + 1) % k) + 1];
+          if (y1 == y2) continue;
+          const int crosses = (y1 > y) != (y2 > y);
+          const double xint = x1 + (y - y1) * (x2 - x1) / (y2 - y1);
+          inside ^= crosses & (x < xint);
+        }
+        if (inside) d = 0.0;
+      }
+      out[s * m + j] = d;
+    }
+  }
+}
