@@ -30,7 +30,7 @@ from coordarm.symbolic.records import record
 
 from .cache_dir import own_group, root_problem  # noqa: F401 (re-exported)
 from .source import CODEGEN_OPTIONS, Source
-from .compiler_memo import DIGESTS, MEMO, SOURCES, compiler_version, write_atomic
+from .compiler_memo import DIGESTS, MEMO, SOURCES, VALUES, compiler_version, write_atomic
 
 #: Optimisation flags (see benchmarks/RESULTS.md); override with COORDARM_CFLAGS. ``-fno-math-errno``
 #: lets the link angles' cosines and sines vectorise (glibc libmvec), ``-march=native`` uses the
@@ -510,7 +510,8 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
     it is not created when missing). Only cache entries (:func:`is_cache_entry`) and the memo files (regular
     files: the compiler versions :data:`~coordarm.generated.compiler_memo.MEMO`, the digests
     :data:`~coordarm.generated.compiler_memo.DIGESTS`, the recipes' libraries
-    :data:`~coordarm.generated.compiler_memo.SOURCES`) are deleted:
+    :data:`~coordarm.generated.compiler_memo.SOURCES` and values
+    :data:`~coordarm.generated.compiler_memo.VALUES`) are deleted:
     nothing else in the directory, no symbolic link and nothing a link points to.
 
     Parameters
@@ -532,7 +533,7 @@ def clean(build_dir: str | os.PathLike | None = None) -> int:
         if is_cache_entry(entry):
             shutil.rmtree(entry, ignore_errors=True)
             n += not entry.exists()
-    for memo in (root / MEMO, root / DIGESTS, root / SOURCES):
+    for memo in (root / MEMO, root / DIGESTS, root / SOURCES, root / VALUES):
         if memo.is_file() and not memo.is_symlink():
             memo.unlink(missing_ok=True)
     return n

@@ -205,6 +205,8 @@ def test_remembered_values_are_computed_once_with_their_exact_bits(tmp_path, mon
     source_memo.remembered_values("test", "recipe c", lambda: compute(0.6))
     source_memo.remembered_values("test", "recipe c", lambda: compute(0.7))
     assert calls[-2:] == [0.6, 0.7]
+    build_mod.clean(tmp_path)                                                       # regen --clean forgets them
+    assert not memo.exists()
 
 
 @pytest.mark.parametrize("name, layer", [("path3d", "coordarm.simulation.spatial_scenario.follow_curve3d"),
