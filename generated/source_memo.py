@@ -14,7 +14,8 @@ its metadata under that key, so a key that changes whenever the text would never
 (``tests/test_source_memo.py`` checks it for every preset and changed parameters).
 
 The same key over coordarm's code (:func:`code_key`) remembers other arrays a recipe determines
-(:func:`remembered_values`): a spatial start laid link by link along a path (``simulation.spatial_scenario``).
+(:func:`remembered_values`): a start laid along the curve or projected onto it (``simulation.scenario``,
+``simulation.spatial_scenario``).
 """
 from __future__ import annotations
 
