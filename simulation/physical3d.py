@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import field
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -23,7 +23,7 @@ from coordarm.symbolic.geometry import touching
 from coordarm.symbolic.records import record
 from coordarm.symbolic.start3d import bends_between
 
-from .distance3d import plate_point_distance, segment_segment_distance
+from .distance3d import plate_point_distance, point_segment_distance3, segment_segment_distance
 from .obstacles3d import Obstacle3D, bounding_box, capsule_gaps
 from .physical import Contact
 
@@ -88,6 +88,102 @@ def body_box(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lows = np.ascontiguousarray(lo.transpose(1, 0, 2)).reshape(m, -1)
     highs = np.ascontiguousarray(hi.transpose(1, 0, 2)).reshape(m, -1)
     return np.fmin.reduce(lows, axis=0).reshape(n, 3), np.fmax.reduce(highs, axis=0).reshape(n, 3)
+
+
+#: Rows per block of :func:`block_spheres` (the summary's clearances).
+CLEARANCE_BLOCK = 32
+
+
+def block_spheres(a: np.ndarray, b: np.ndarray, block: int = CLEARANCE_BLOCK) -> tuple[np.ndarray, np.ndarray]:
+    """A sphere around each link's axis over each block of ``block`` rows (around the box of its ends there).
+
+    Parameters
+    ----------
+    a, b : ndarray, each shape (N, m, 3)
+        Link axis ends [m], finite.
+    block : int
+        Rows per block.
+
+    Returns
+    -------
+    centre : ndarray, shape (ceil(N / block), m, 3)
+        Centres [m].
+    radius : ndarray, shape (ceil(N / block), m)
+        Radii [m].
+    """
+    starts = np.arange(0, len(a), block)
+    lo = np.minimum.reduceat(np.minimum(a, b), starts, axis=0)
+    hi = np.maximum.reduceat(np.maximum(a, b), starts, axis=0)
+    return 0.5 * (lo + hi), 0.5 * np.linalg.norm(hi - lo, axis=-1)
+
+
+def sphere_bound(obstacle: Obstacle3D, centre: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """A lower bound of the distance from any point of each sphere to an obstacle [m] (may be negative).
+
+    The distance from the centre to the sphere's centre or the cylinder's axis less the obstacle's radius,
+    or to a box's or plate's bounding box (:func:`~.obstacles3d.bounding_box`), less the sphere's radius.
+
+    Parameters
+    ----------
+    obstacle : Obstacle3D
+        The obstacle.
+    centre : ndarray, shape (..., 3)
+        Sphere centres [m].
+    radius : ndarray, shape (...)
+        Sphere radii [m].
+
+    Returns
+    -------
+    ndarray, shape (...)
+        The bounds [m].
+    """
+    if obstacle.kind == "sphere":
+        d = np.linalg.norm(centre - obstacle.centre, axis=-1) - obstacle.radius
+    elif obstacle.kind == "cylinder":
+        d = point_segment_distance3(centre, obstacle.centre, obstacle.end) - obstacle.radius
+    else:
+        lo, hi = bounding_box(obstacle)
+        d = np.linalg.norm(np.maximum(np.maximum(lo - centre, centre - hi), 0.0), axis=-1)
+    return d - radius
+
+
+def nearest_candidates(bound: np.ndarray, n: int, gaps: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                       within: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
+    """The (row, link) pairs, row-major, among which the smallest gap lies and every pair that ties it.
+
+    The block and link of the smallest bound is measured; the blocks and links whose bound exceeds the
+    smallest gap found there, or ``within`` (by more than rounding), cannot hold the smallest gap, and are
+    left out. So ``argmin`` over the candidates' gaps finds the pair ``argmin`` over all pairs finds, with its gap.
+
+    Parameters
+    ----------
+    bound : ndarray, shape (blocks, m)
+        A lower bound of every gap in each block and link [m] (:func:`sphere_bound` less the capsule radius).
+    n : int
+        Rows.
+    gaps : callable
+        ``gaps(rows, links)`` -> the gaps of those pairs [m] (above ``within`` a gap may be a lower bound).
+    within : float
+        An upper bound of the smallest gap [m] (a plate's: its nearest link end's distance), else inf.
+
+    Returns
+    -------
+    rows, links : int ndarray, each shape (K,)
+        The candidates, sorted by row, then link.
+    """
+    blocks, m = bound.shape
+    block = -(-n // blocks)
+
+    def pairs(kb: np.ndarray, kj: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rows = (kb[:, None] * block + np.arange(block)).ravel()
+        links = np.repeat(kj, block)
+        inside = rows < n
+        order = np.argsort(rows[inside] * m + links[inside], kind="stable")
+        return rows[inside][order], links[inside][order]
+    first = np.array(np.unravel_index(int(np.argmin(bound)), bound.shape))[:, None]
+    best = min(float(np.min(gaps(*pairs(*first)))), within)      # either is at least the smallest gap
+    kb, kj = np.nonzero(~(bound > best + 1e-9 * (1.0 + abs(best))))             # (a NaN bound is kept)
+    return pairs(kb, kj)
 
 
 def close_pairs(lo: np.ndarray, hi: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -276,13 +372,20 @@ class Physical3D:
         """
         t = np.atleast_1d(np.asarray(t, float))
         a, b, _ = link_ends(self.chain, np.asarray(q, float).reshape(len(t), -1))
+        spheres = block_spheres(a, b) if np.isfinite(a).all() and np.isfinite(b).all() else None
         out = {}
         for ob in self.obstacles:
             within = math.inf
             if ob.kind == "plate":          # an upper bound: the nearest link end's distance
                 ends = plate_point_distance((a - ob.centre) @ ob.axes.T, ob.half[2], ob.extent, ob.holes)
                 within = float(np.min(ends)) - self.radius
-            g = capsule_gaps(a, b, self.radius, ob, within=within)
-            k, j = np.unravel_index(int(np.argmin(g)), g.shape)
-            out[ob.name] = (float(g[k, j]), float(t[k]), int(j) + 1)
+            def gaps(k: np.ndarray, j: np.ndarray) -> np.ndarray:
+                return capsule_gaps(a[k, j], b[k, j], self.radius, ob, within=within)
+            if spheres is None:             # a NaN: every pair (argmin finds the first NaN, as before)
+                k, j = (x.ravel() for x in np.indices(a.shape[:2]))
+            else:
+                k, j = nearest_candidates(sphere_bound(ob, *spheres) - self.radius, len(a), gaps, within)
+            g = gaps(k, j)
+            i = int(np.argmin(g))
+            out[ob.name] = (float(g[i]), float(t[k[i]]), int(j[i]) + 1)
         return out

@@ -468,3 +468,47 @@ def test_the_broad_phase_keeps_every_contact_of_all_pairs():
         assert len({c.obstacle for c in got}) == 5 and len(got) > 100
         assert any(np.isnan(q[round(c.time / 0.01)]).any() for c in got)   # some in a partly NaN sample
         assert got == want
+
+
+def all_pairs_clearances(phys, q, t):
+    """Physical3D.clearances as it was: every (row, link) pair measured, argmin over them all."""
+    from coordarm.simulation.distance3d import plate_point_distance
+    a, b, _ = link_ends(phys.chain, q)
+    out = {}
+    for ob in phys.obstacles:
+        within = math.inf
+        if ob.kind == "plate":
+            within = float(np.min(plate_point_distance((a - ob.centre) @ ob.axes.T, ob.half[2], ob.extent,
+                                                       ob.holes))) - phys.radius
+        g = capsule_gaps(a, b, phys.radius, ob, within=within)
+        k, j = np.unravel_index(int(np.argmin(g)), g.shape)
+        out[ob.name] = (float(g[k, j]), float(t[k]), int(j) + 1)
+    return out
+
+
+@pytest.mark.parametrize("case", ["broad", "broad with a NaN row", "pipe3d", "port"])
+def test_the_summarys_clearances_measure_only_the_blocks_that_may_hold_the_smallest_gap(case):
+    """Physical3D.clearances (links' bounding spheres over blocks of rows bound each obstacle's gaps; only the
+    blocks that may hold the smallest are measured) gives what measuring every pair gives: the same gap, time
+    and link, on random poses among a sphere, a cylinder, a box and two plates (one with a hole) and on the
+    pipe3d (44 cylinders) and port (plate with a hole, sphere, box) runs."""
+    from coordarm.simulation.physical3d import Physical3D
+    from coordarm.simulation.run import even_indices
+    from coordarm.simulation.scenario import load_scenario
+
+    if case.startswith("broad"):
+        chain = SpatialChain(12, 0.1)
+        phys = Physical3D(chain, math.pi, 0.015, 0.0, [obstacle3d_from_spec(o, i) for i, o in enumerate(BROAD)])
+        q = np.random.default_rng(21).normal(scale=0.35, size=(500, chain.dof))
+        if "NaN" in case:
+            q[77, 9] = np.nan
+    else:
+        sc = load_scenario(case)
+        ctrl = sc.controller()
+        run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, sc.t0, backend="compiled", progress=False)
+        phys, q = sc.physical(ctrl.chain), run.q[even_indices(len(run.t), 2000)]
+    t = np.arange(len(q)) * 0.01
+    got = phys.clearances(q, t)
+    want = all_pairs_clearances(phys, q, t)
+    assert list(got) == list(want) and all(np.array_equal(got[k], want[k], equal_nan=True) for k in want)
+    assert len(want) >= 3
