@@ -148,7 +148,7 @@ def sphere_bound(obstacle: Obstacle3D, centre: np.ndarray, radius: np.ndarray) -
 
 
 def nearest_candidates(bound: np.ndarray, n: int, gaps: Callable[[np.ndarray, np.ndarray], np.ndarray],
-                       within: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
+                       within: float = math.inf, block: int = CLEARANCE_BLOCK) -> tuple[np.ndarray, np.ndarray]:
     """The (row, link) pairs, row-major, among which the smallest gap lies and every pair that ties it.
 
     The block and link of the smallest bound is measured; the blocks and links whose bound exceeds the
@@ -158,21 +158,23 @@ def nearest_candidates(bound: np.ndarray, n: int, gaps: Callable[[np.ndarray, np
     Parameters
     ----------
     bound : ndarray, shape (blocks, m)
-        A lower bound of every gap in each block and link [m] (:func:`sphere_bound` less the capsule radius).
+        A lower bound of every gap in each block and link [m] (:func:`sphere_bound` of :func:`block_spheres`
+        less the capsule radius).
     n : int
         Rows.
     gaps : callable
         ``gaps(rows, links)`` -> the gaps of those pairs [m] (above ``within`` a gap may be a lower bound).
     within : float
         An upper bound of the smallest gap [m] (a plate's: its nearest link end's distance), else inf.
+    block : int
+        Rows per block, as :func:`block_spheres` made them (the last block may be shorter).
 
     Returns
     -------
     rows, links : int ndarray, each shape (K,)
         The candidates, sorted by row, then link.
     """
-    blocks, m = bound.shape
-    block = -(-n // blocks)
+    m = bound.shape[1]
 
     def pairs(kb: np.ndarray, kj: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rows = (kb[:, None] * block + np.arange(block)).ravel()

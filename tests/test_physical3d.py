@@ -496,19 +496,23 @@ def test_the_summarys_clearances_measure_only_the_blocks_that_may_hold_the_small
     from coordarm.simulation.run import even_indices
     from coordarm.simulation.scenario import load_scenario
 
-    if case.startswith("broad"):
+    if case.startswith("broad"):         # row counts that are, and are not, whole blocks of 32
         chain = SpatialChain(12, 0.1)
         phys = Physical3D(chain, math.pi, 0.015, 0.0, [obstacle3d_from_spec(o, i) for i, o in enumerate(BROAD)])
-        q = np.random.default_rng(21).normal(scale=0.35, size=(500, chain.dof))
-        if "NaN" in case:
-            q[77, 9] = np.nan
+        poses = []
+        for n, seed in [(500, 21), (33, 0), (33, 2), (100, 1), (1, 3)]:
+            q = np.random.default_rng(seed).normal(scale=0.35, size=(n, chain.dof))
+            if "NaN" in case:
+                q[n // 2, 9] = np.nan
+            poses.append(q)
     else:
         sc = load_scenario(case)
         ctrl = sc.controller()
         run = simulate(ctrl, sc.start(ctrl), sc.duration, sc.step, sc.t0, backend="compiled", progress=False)
-        phys, q = sc.physical(ctrl.chain), run.q[even_indices(len(run.t), 2000)]
-    t = np.arange(len(q)) * 0.01
-    got = phys.clearances(q, t)
-    want = all_pairs_clearances(phys, q, t)
-    assert list(got) == list(want) and all(np.array_equal(got[k], want[k], equal_nan=True) for k in want)
-    assert len(want) >= 3
+        phys, poses = sc.physical(ctrl.chain), [run.q[even_indices(len(run.t), 2000)]]
+    for q in poses:
+        t = np.arange(len(q)) * 0.01
+        got = phys.clearances(q, t)
+        want = all_pairs_clearances(phys, q, t)
+        assert list(got) == list(want) and all(np.array_equal(got[k], want[k], equal_nan=True) for k in want)
+        assert len(want) >= 3
