@@ -93,7 +93,7 @@ def spatial_frames(chain: Any, q: np.ndarray) -> np.ndarray:
     chain : SpatialChain
         The chain.
     q : (N, dof) ndarray
-        Configurations [rad] (``d`` [m] first on a rail).
+        Configurations [rad] (``d`` [m] first on a rail); any other shape (one pose) gets the numpy frames.
 
     Returns
     -------

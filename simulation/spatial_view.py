@@ -27,7 +27,7 @@ def link_geometry(chain: SpatialChain, q: Any) -> tuple[np.ndarray, np.ndarray]:
     centres : ndarray, shape (..., m, 3)
         :meth:`~coordarm.symbolic.spatial_chain.SpatialChain.centres_np` [m], bit for bit.
     """
-    frames = spatial_frames(chain, q) if np.ndim(q) == 2 else chain.frames_np(q)
+    frames = spatial_frames(chain, q)               # (the numpy frames for one pose)
     return frames, chain.centres_of(frames[..., 0], q)
 
 

@@ -73,9 +73,22 @@ def joint_rotation_np(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     ndarray, shape a.shape + (3, 3)
     """
     a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
-    ca_, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
-    zero = np.zeros_like(a)
-    rows = [[ca_ * cb, -sa, ca_ * sb], [sa * cb, ca_, sa * sb], [-sb, zero, cb]]
+    return joint_matrices(np.cos(a), np.sin(a), np.cos(b), np.sin(b))
+
+
+def joint_matrices(ca: np.ndarray, sa: np.ndarray, cb: np.ndarray, sb: np.ndarray) -> np.ndarray:
+    """``Rz(a) Ry(b) = [[ca cb, -sa, ca sb], [sa cb, ca, sa sb], [-sb, 0, cb]]`` from the cosines and sines.
+
+    Parameters
+    ----------
+    ca, sa, cb, sb : ndarray, same shape
+        ``cos a, sin a, cos b, sin b`` [-].
+
+    Returns
+    -------
+    ndarray, shape ca.shape + (3, 3)
+    """
+    rows = [[ca * cb, -sa, ca * sb], [sa * cb, ca, sa * sb], [-sb, np.zeros_like(ca), cb]]
     return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
 
 
@@ -97,9 +110,7 @@ def link_frames(ca: np.ndarray, sa: np.ndarray, cb: np.ndarray, sb: np.ndarray) 
     ndarray, shape (..., m, 3, 3)
         The frames [-] (column 0: the link's direction).
     """
-    zero = np.zeros_like(ca)
-    J = np.stack([np.stack(r, axis=-1) for r in
-                  [[ca * cb, -sa, ca * sb], [sa * cb, ca, sa * sb], [-sb, zero, cb]]], axis=-2)
+    J = joint_matrices(ca, sa, cb, sb)
     R = np.empty_like(J)
     R[..., 0, :, :] = J[..., 0, :, :]
     for j in range(1, J.shape[-3]):
